@@ -1,0 +1,56 @@
+// Per-vertex SH transfer to irradiance, shadowed and interreflected (Sloan et al. 2002).
+// What is computed, with every factor of π: docs/prt-math.md.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "prt/scene.h"
+
+namespace prt::bake {
+
+struct BakeSettings {
+  int bands = 3;          // 1 .. sh::kMaxBands
+  int samples = 1024;     // directions per vertex (hemisphere, cosine-weighted)
+  int bounces = 2;        // 0 = direct shadowed only
+  bool shadowed = true;   // false: unshadowed transfer, closed form, no rays
+  uint64_t seed = 1;
+  int threads = 0;        // 0 = all cores
+  bool progress = false;  // progress bar on stderr
+};
+
+/// Throws prt::Error if a setting is out of range.
+void validate(const BakeSettings& s);
+
+struct StageStats {
+  std::string name;       // "direct", "bounce 1", ...
+  double seconds = 0.0;
+  uint64_t rays = 0;
+};
+
+struct BakeStats {
+  uint64_t vertices = 0;
+  uint64_t rays = 0;
+  uint64_t hitRecords = 0;  // rays that hit a front face (kept for the bounces)
+  double seconds = 0.0;
+  std::vector<StageStats> stages;
+};
+
+struct SurfaceTransfer {
+  int bands = 0;
+  /// Per Scene::meshes entry: vertexCount × bands² RGB (empty for receiver-only instances).
+  std::vector<std::vector<glm::vec3>> perMesh;
+  BakeStats stats;
+};
+
+/// Bakes transfer for every non-receiver instance of the scene. Deterministic: the same seed
+/// gives the same result for any thread count.
+SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings);
+
+/// The settings as the JSON object stored in asset.extras.prt of a baked file.
+std::string settingsJson(const BakeSettings& settings, const std::string& sceneName);
+
+}  // namespace prt::bake

@@ -1,0 +1,38 @@
+// Linear RGB float images: reading environment maps, writing frames.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace prt {
+
+/// A linear RGB image, row-major, row 0 at the top.
+struct ImageRgb {
+  int width = 0;
+  int height = 0;
+  std::vector<glm::vec3> pixels;
+
+  ImageRgb() = default;
+  ImageRgb(int w, int h) : width(w), height(h), pixels(static_cast<size_t>(w) * h, glm::vec3(0)) {}
+  glm::vec3& at(int x, int y) { return pixels[static_cast<size_t>(y) * width + x]; }
+  const glm::vec3& at(int x, int y) const { return pixels[static_cast<size_t>(y) * width + x]; }
+};
+
+/// Reads a linear HDR image: OpenEXR (.exr, R/G/B channels or Y) or Radiance (.hdr), chosen by
+/// the file's magic bytes. Throws prt::Error naming the file on a missing, unreadable or
+/// malformed file, absurd dimensions (> 32768 a side) or non-finite pixels.
+ImageRgb loadHdrImage(const std::string& path);
+
+/// Writes float32 RGB OpenEXR, atomically (temporary file, then rename).
+void writeExr(const std::string& path, const ImageRgb& image);
+
+/// Writes 8-bit sRGB PNG, atomically: value·2^exposure, clamped to [0, 1], sRGB-encoded.
+void writePng(const std::string& path, const ImageRgb& image, float exposure = 0.0f);
+
+/// sRGB transfer function (linear -> encoded) and its inverse, for one channel.
+float linearToSrgb(float v);
+float srgbToLinear(float v);
+
+}  // namespace prt

@@ -1,0 +1,41 @@
+// Distant lighting projected to SH: environment maps, sun disks, coloured sky disks.
+//
+// Orientation of equirectangular maps is Blender's (a map lights a glTF scene exactly as
+// Cycles does with the same file as world texture, after Blender's glTF import). In glTF axes:
+//   d = (x, y, z)  <->  u = 0.5 + atan2(z, x) / (2π),  v = acos(y) / π
+// u runs left to right, v top to bottom; the image centre looks along +X.
+#pragma once
+
+#include <string>
+
+#include <glm/glm.hpp>
+
+#include "prt/image.h"
+#include "prt/sh.h"
+
+namespace prt {
+
+/// Unit direction of texture coordinates (u, v) of an equirectangular map.
+glm::dvec3 equirectDirection(double u, double v);
+/// Texture coordinates of unit direction d: inverse of equirectDirection.
+glm::dvec2 equirectUv(const glm::dvec3& d);
+
+/// Projects an equirectangular radiance map onto n bands, each pixel weighted by its exact
+/// solid angle (2π/W)·(cos θ₀ - cos θ₁) (θ₀, θ₁ the pixel's row edges).
+sh::ShRgb projectEnvironment(const ImageRgb& equirect, int bands);
+
+/// SH of a uniform disk (spherical cap) of angular radius `radius` (radians) around unit
+/// direction `toLight`, with uniform radiance `radiance`. radius = 0 is not allowed here.
+sh::ShRgb projectDiskRadiance(int bands, const glm::dvec3& toLight, double radius,
+                              const glm::dvec3& radiance);
+
+/// SH of a sun: a disk of angular radius `radius` (radians, 0 = a delta direction) whose
+/// irradiance on a surface facing it is `irradiance` (as Blender's sun "strength", W/m²).
+/// Radiance inside the disk is irradiance / (π sin² radius).
+sh::ShRgb projectSun(int bands, const glm::dvec3& toLight, double radius,
+                     const glm::dvec3& irradiance);
+
+/// A uniform environment of the given radiance: only coefficient 0, = 2√π · radiance.
+sh::ShRgb projectUniform(int bands, const glm::dvec3& radiance);
+
+}  // namespace prt

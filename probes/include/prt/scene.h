@@ -1,0 +1,140 @@
+// The scene model: what prt reads from glTF 2.0 (.gltf / .glb) and writes back.
+//
+// A Scene is flat and in world space: one MeshInstance per (node, primitive) pair of the
+// default scene (a mesh used by two nodes gives two instances). Vertices of an instance are
+// the primitive's vertices one to one (same order, same count), so vertex i of an instance is
+// vertex i of the glTF primitive: per-vertex transfer can be written back as attributes.
+// Triangle strips and fans become triangle lists; points and lines are refused or skipped
+// with a warning.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "prt/sh.h"
+
+namespace prt {
+
+/// A texture decoded to linear RGBA (sRGB-decoded when it holds base colour).
+struct Texture {
+  std::string name;
+  int width = 0;
+  int height = 0;
+  std::vector<glm::vec4> texels;  // row-major, row 0 = top of the image (v = 0)
+  int wrapS = 10497;              // glTF sampler wrap modes (REPEAT)
+  int wrapT = 10497;
+  /// Bilinear lookup at glTF texture coordinates (u right, v down), honouring the wrap modes.
+  glm::vec4 sample(const glm::vec2& uv) const;
+};
+
+struct Material {
+  std::string name;
+  glm::vec4 baseColorFactor{1.0f};  // linear
+  int baseColorTexture = -1;        // index into Scene::textures, -1 if none
+  int baseColorTexCoord = 0;        // which TEXCOORD_n the texture uses
+  bool doubleSided = false;
+  bool unlit = false;               // KHR_materials_unlit
+};
+
+/// One glTF primitive placed by one node, in world space.
+struct MeshInstance {
+  std::string name;        // "node name/mesh name/primitive k", for messages
+  int node = -1;           // glTF node index
+  int mesh = -1;           // glTF mesh index
+  int primitive = -1;      // primitive index within the mesh
+  glm::dmat4 world{1.0};   // node's world transform
+
+  std::vector<glm::vec3> positions;  // world space
+  std::vector<glm::vec3> normals;    // world space, unit; computed (area-weighted) if absent
+  std::vector<glm::vec2> texcoords;  // the material's TEXCOORD_n; empty if none
+  std::vector<glm::vec4> colors;     // COLOR_0, linear RGBA; empty if none
+  std::vector<uint32_t> indices;     // triangle list, 3 per triangle
+  int material = -1;                 // index into Scene::materials, -1 = glTF default (white)
+  bool receiverOnly = false;         // excluded from the bake (moving / unbaked object)
+
+  /// Per-vertex transfer when read from a baked file: vertexCount × bands² RGB, vertex-major.
+  int transferBands = 0;
+  std::vector<glm::vec3> transfer;
+
+  size_t vertexCount() const { return positions.size(); }
+  size_t triangleCount() const { return indices.size() / 3; }
+  const glm::vec3* transferOf(size_t vertex) const {
+    return transfer.data() + vertex * static_cast<size_t>(transferBands) * transferBands;
+  }
+};
+
+struct Camera {
+  std::string name;
+  int node = -1;
+  glm::dmat4 world{1.0};       // camera looks down its local -Z, +Y up (glTF)
+  bool perspective = true;
+  double yfov = 0.8;           // radians (perspective)
+  double aspectRatio = 0.0;    // 0 = not given (use the image's)
+  double znear = 0.01;
+  double zfar = 0.0;           // 0 = infinite
+  double xmag = 1.0, ymag = 1.0;  // orthographic
+};
+
+/// KHR_lights_punctual light, in world space.
+struct PunctualLight {
+  enum class Type { Directional, Point, Spot };
+  std::string name;
+  int node = -1;
+  Type type = Type::Directional;
+  glm::vec3 color{1.0f};
+  float intensity = 1.0f;
+  float range = 0.0f;             // 0 = infinite
+  glm::vec3 position{0.0f};
+  glm::vec3 direction{0, 0, -1};  // direction the light travels (world)
+  float innerConeAngle = 0.0f, outerConeAngle = 0.7853982f;
+};
+
+struct Scene {
+  std::string path;
+  std::vector<MeshInstance> meshes;
+  std::vector<Material> materials;
+  std::vector<Texture> textures;
+  std::vector<Camera> cameras;
+  std::vector<PunctualLight> lights;
+  glm::vec3 boundsMin{0.0f}, boundsMax{0.0f};  // of all instances
+  std::vector<std::string> warnings;            // skipped or repaired input, one line each
+  std::string bakeSettingsJson;                 // asset.extras.prt of a baked file, else ""
+  int transferBands = 0;                        // > 0 when read from a baked file
+};
+
+struct LoadOptions {
+  /// Node names (or indices as decimal strings) whose subtrees are receivers only. Nodes whose
+  /// extras hold {"prt": {"receiver": true}} are receivers too.
+  std::vector<std::string> receiverNodes;
+  /// Skip zero-area triangles with a warning instead of refusing the file.
+  bool allowDegenerate = false;
+};
+
+/// Loads .gltf or .glb. Throws prt::Error naming the file and the element on bad input:
+/// missing or malformed file, non-finite positions, out-of-range indices, degenerate
+/// triangles (unless allowed), unsupported required extensions, a scene with no triangles.
+Scene loadScene(const std::string& path, const LoadOptions& options = {});
+
+/// Base colour (linear RGB, baseColorFactor × texture × COLOR_0) at vertex v.
+glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v);
+/// Base colour at a point of triangle `tri` with barycentrics (b1, b2) of its 2nd and 3rd
+/// vertices (Embree's u, v).
+glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2);
+
+/// Writes `inputPath`'s scene as .glb with each baked instance's transfer (scene.meshes[k].
+/// transfer, scene.transferBands) as attributes _PRT_SH_00 .. (VEC3 float, RGB of coefficient
+/// i), meshes duplicated where one is used by several nodes, strips and fans rewritten as
+/// triangle lists, and `settingsJson` stored in asset.extras.prt. Atomic (temp + rename).
+void writeBakedScene(const std::string& inputPath, const Scene& scene,
+                     const std::string& settingsJson, const std::string& outPath);
+
+/// Writes the scene as .glb with per-vertex linear radiance as COLOR_0 (float VEC3,
+/// unclamped), materials replaced by KHR_materials_unlit white so viewers show it as is.
+/// radiance[k] holds instance k's vertex values (empty: the instance is left out). Atomic.
+void writeLitScene(const std::string& inputPath, const Scene& scene,
+                   const std::vector<std::vector<glm::vec3>>& radiance, const std::string& outPath);
+
+}  // namespace prt

@@ -1,0 +1,163 @@
+// SH evaluation and the small algebra on coefficients. Conventions: prt/sh.h.
+#include "prt/sh.h"
+
+#include <array>
+#include <cmath>
+
+#include "prt/error.h"
+
+namespace prt::sh {
+
+namespace {
+
+// Normalisation K_l^m = sqrt((2l+1)/(4π) · (l-m)!/(l+m)!), times √2 for m > 0 (real basis).
+struct Norms {
+  std::array<std::array<double, kMaxBands>, kMaxBands> k{};
+  Norms() {
+    for (int l = 0; l < kMaxBands; ++l)
+      for (int m = 0; m <= l; ++m) {
+        double ratio = 1.0;  // (l-m)!/(l+m)!
+        for (int j = l - m + 1; j <= l + m; ++j) ratio /= j;
+        double v = std::sqrt((2.0 * l + 1.0) / (4.0 * M_PI) * ratio);
+        k[l][m] = m == 0 ? v : std::sqrt(2.0) * v;
+      }
+  }
+};
+const Norms kNorms;
+
+// Derivation. Without the Condon-Shortley phase, P_l^m(cos θ) = sin^m θ · Q_l^m(cos θ) with Q a
+// polynomial obeying
+//   Q_m^m = (2m-1)!!,  Q_{m+1}^m = (2m+1) z Q_m^m,
+//   Q_l^m = ((2l-1) z Q_{l-1}^m - (l+m-1) Q_{l-2}^m) / (l-m),
+// and sin^m θ cos(mφ) = Re (x+iy)^m, sin^m θ sin(mφ) = Im (x+iy)^m. So every basis function is
+// a polynomial in x, y, z: no trigonometry, no division by sin θ, exact at the poles.
+template <class T, class V>
+void evaluateT(int bands, const V& d, T* out) {
+  PRT_CHECK(bands >= 1 && bands <= kMaxBands);
+  const T x = d.x, y = d.y, z = d.z;
+  T cm = 1, sm = 0;  // Re, Im of (x+iy)^m
+  T qmm = 1;         // Q_m^m
+  for (int m = 0; m < bands; ++m) {
+    if (m > 0) {
+      T c = cm * x - sm * y;
+      sm = cm * y + sm * x;
+      cm = c;
+      qmm *= T(2 * m - 1);
+    }
+    T q2 = 0, q1 = qmm;  // Q_{l-2}^m, Q_{l-1}^m as l advances
+    for (int l = m; l < bands; ++l) {
+      T q;
+      if (l == m) {
+        q = qmm;
+      } else if (l == m + 1) {
+        q = T(2 * m + 1) * z * qmm;
+      } else {
+        q = (T(2 * l - 1) * z * q1 - T(l + m - 1) * q2) / T(l - m);
+      }
+      if (l > m) {
+        q2 = q1;
+        q1 = q;
+      }
+      T kq = T(kNorms.k[l][m]) * q;
+      if (m == 0) {
+        out[index(l, 0)] = kq;
+      } else {
+        out[index(l, m)] = kq * cm;
+        out[index(l, -m)] = kq * sm;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+int bandOf(int i) {
+  int l = static_cast<int>(std::sqrt(static_cast<double>(i)));
+  while (l * l > i) --l;
+  while ((l + 1) * (l + 1) <= i) ++l;
+  return l;
+}
+
+void evaluate(int bands, const glm::vec3& d, float* out) { evaluateT<float>(bands, d, out); }
+void evaluate(int bands, const glm::dvec3& d, double* out) { evaluateT<double>(bands, d, out); }
+
+std::vector<float> evaluate(int bands, const glm::vec3& d) {
+  std::vector<float> out(static_cast<size_t>(numCoeffs(bands)));
+  evaluate(bands, d, out.data());
+  return out;
+}
+
+double clampedCosineFactor(int l) {
+  PRT_CHECK_GE(l, 0);
+  if (l == 0) return M_PI;
+  if (l == 1) return 2.0 * M_PI / 3.0;
+  if (l % 2 == 1) return 0.0;
+  // Â_l = 2π (-1)^(l/2-1) / ((l+2)(l-1)) · l! / (2^l ((l/2)!)²)   [Ramamoorthi & Hanrahan 2001]
+  double ratio = 1.0;  // l! / (2^l ((l/2)!)²) = C(l, l/2) / 2^l
+  for (int j = 1; j <= l / 2; ++j) ratio *= double(l / 2 + j) / double(j);
+  ratio /= std::ldexp(1.0, l);
+  double sign = ((l / 2 - 1) % 2 == 0) ? 1.0 : -1.0;
+  return 2.0 * M_PI * sign / double((l + 2) * (l - 1)) * ratio;
+}
+
+ShRgb& ShRgb::operator+=(const ShRgb& o) {
+  PRT_CHECK_EQ(bands, o.bands);
+  for (size_t i = 0; i < c.size(); ++i) c[i] += o.c[i];
+  return *this;
+}
+
+ShRgb& ShRgb::operator*=(const glm::vec3& s) {
+  for (auto& v : c) v *= s;
+  return *this;
+}
+
+ShRgb& ShRgb::operator*=(float s) {
+  for (auto& v : c) v *= s;
+  return *this;
+}
+
+ShRgb resize(const ShRgb& in, int bands) {
+  ShRgb out(bands);
+  int n = std::min(in.size(), out.size());
+  for (int i = 0; i < n; ++i) out.c[i] = in.c[i];
+  return out;
+}
+
+glm::vec3 dot(const glm::vec3* t, const glm::vec3* l, int n) {
+  glm::vec3 s(0.0f);
+  for (int i = 0; i < n; ++i) s += t[i] * l[i];
+  return s;
+}
+
+glm::vec3 dot(const ShRgb& t, const ShRgb& l) {
+  PRT_CHECK_EQ(t.bands, l.bands);
+  return dot(t.c.data(), l.c.data(), t.size());
+}
+
+glm::vec3 reconstruct(const ShRgb& c, const glm::vec3& d) {
+  float y[kMaxBands * kMaxBands];
+  evaluate(c.bands, d, y);
+  glm::vec3 s(0.0f);
+  for (int i = 0; i < c.size(); ++i) s += c.c[i] * y[i];
+  return s;
+}
+
+glm::vec3 irradiance(const ShRgb& c, const glm::vec3& n) {
+  float y[kMaxBands * kMaxBands];
+  evaluate(c.bands, n, y);
+  glm::vec3 s(0.0f);
+  for (int l = 0; l < c.bands; ++l) {
+    float a = static_cast<float>(clampedCosineFactor(l));
+    for (int m = -l; m <= l; ++m) s += a * c.c[index(l, m)] * y[index(l, m)];
+  }
+  return s;
+}
+
+void convolveClampedCosine(ShRgb& c) {
+  for (int l = 0; l < c.bands; ++l) {
+    float a = static_cast<float>(clampedCosineFactor(l));
+    for (int m = -l; m <= l; ++m) c.c[index(l, m)] *= a;
+  }
+}
+
+}  // namespace prt::sh
