@@ -1,1 +1,345 @@
-// Work in progress: filled in by the commit that implements it.
+// Per-vertex transfer to irradiance (docs/prt-math.md):
+//
+//   t⁰_i(x) = ∫ V(x,ω) y_i(ω) max(N·ω, 0) dω
+//   t^k(x)  = ∫ (1 − V(x,ω)) (ρ(h)/π) t^{k−1}(h(ω)) max(N·ω, 0) dω,   t = Σ_k t^k
+//
+// Monte Carlo with cosine-weighted directions (pdf max(N·ω,0)/π), N samples per vertex:
+//   t⁰_i ≈ (π/N) Σ_s V_s y_i(ω_s)
+//   t^k  ≈ (1/N) Σ_{s hits} ρ(h_s) t^{k−1}(h_s)        (π · (ρ/π) = ρ; no y_i: a diffuse hit
+//                                                        point sends the same radiance along ω)
+// The rays of the direct pass are traced once; each hit on a front face is kept as a compact
+// record (triangle, barycentrics), and every bounce is a gather over those records: a sparse
+// matrix-vector product, no new rays. Back-face hits block light and send none (the back of a
+// one-sided surface has no transfer).
+#include "prt/bake/surface_bake.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+#include "prt/bake/ray_scene.h"
+#include "prt/bake/sampling.h"
+#include "prt/error.h"
+#include "prt/progress.h"
+#include "prt/sh.h"
+
+namespace prt::bake {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Rays per Embree stream: enough to amortise the call, small enough to stay in cache.
+constexpr int kStream = 256;
+// Vertices per task: the unit of parallel work and of hit-record storage.
+constexpr size_t kChunk = 64;
+
+// Global numbering of the baked (non-receiver) instances' vertices and triangles.
+struct Layout {
+  std::vector<size_t> vertexOffset;  // per Scene::meshes entry (SIZE_MAX for receivers)
+  std::vector<uint32_t> triOffset;   // per mesh, global index of its first triangle
+  std::vector<uint32_t> meshOfVertex;
+  std::vector<uint32_t> triVerts;    // global triangle -> 3 global vertex indices
+  std::vector<uint32_t> meshOfTri;
+  size_t vertices = 0;
+  size_t triangles = 0;
+};
+
+Layout makeLayout(const Scene& scene) {
+  Layout lay;
+  lay.vertexOffset.assign(scene.meshes.size(), SIZE_MAX);
+  lay.triOffset.assign(scene.meshes.size(), 0);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    lay.triOffset[k] = static_cast<uint32_t>(lay.triangles);
+    if (m.receiverOnly) continue;
+    lay.vertexOffset[k] = lay.vertices;
+    lay.vertices += m.vertexCount();
+    lay.triangles += m.triangleCount();
+  }
+  if (lay.triangles >= std::numeric_limits<uint32_t>::max() ||
+      lay.vertices >= std::numeric_limits<uint32_t>::max())
+    throw Error(cat("scene too large: ", lay.triangles, " triangles, ", lay.vertices,
+                    " vertices (at most 2^32 - 1 each)"));
+  lay.meshOfVertex.resize(lay.vertices);
+  lay.triVerts.resize(lay.triangles * 3);
+  lay.meshOfTri.resize(lay.triangles);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (m.receiverOnly) continue;
+    size_t v0 = lay.vertexOffset[k];
+    std::fill_n(lay.meshOfVertex.begin() + v0, m.vertexCount(), uint32_t(k));
+    for (size_t t = 0; t < m.triangleCount(); ++t) {
+      size_t g = lay.triOffset[k] + t;
+      lay.meshOfTri[g] = uint32_t(k);
+      for (int c = 0; c < 3; ++c) lay.triVerts[3 * g + c] = uint32_t(v0 + m.indices[3 * t + c]);
+    }
+  }
+  return lay;
+}
+
+// Where rays of each vertex start. A vertex lies on its own triangles and, at a corner of a
+// room, on the plane of the next wall too: a ray leaving exactly there can slip through that
+// wall and see the sky. The origin is therefore lifted along the normal *and* pulled towards
+// the centroids of the vertex's triangles, by a small fraction of the scene size.
+std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float extent) {
+  std::vector<glm::vec3> pull(lay.vertices, glm::vec3(0.0f));
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (m.receiverOnly) continue;
+    size_t v0 = lay.vertexOffset[k];
+    for (size_t t = 0; t < m.triangleCount(); ++t) {
+      const uint32_t* ix = &m.indices[3 * t];
+      glm::vec3 c = (m.positions[ix[0]] + m.positions[ix[1]] + m.positions[ix[2]]) / 3.0f;
+      for (int j = 0; j < 3; ++j) {
+        glm::vec3 d = c - m.positions[ix[j]];
+        float len = glm::length(d);
+        if (len > 0.0f) pull[v0 + ix[j]] += d / len;
+      }
+    }
+  }
+  const float eps = 1e-4f * extent;
+  std::vector<glm::vec3> origins(lay.vertices);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (m.receiverOnly) continue;
+    size_t v0 = lay.vertexOffset[k];
+    for (size_t i = 0; i < m.vertexCount(); ++i) {
+      glm::vec3 p = pull[v0 + i];
+      float len = glm::length(p);
+      if (len > 0.0f) p /= len;
+      origins[v0 + i] = m.positions[i] + eps * (m.normals[i] + p);
+    }
+  }
+  return origins;
+}
+
+// A front-face hit kept for the bounces: 8 bytes.
+struct HitRecord {
+  uint32_t tri;     // global triangle
+  uint16_t b1, b2;  // barycentrics of its 2nd and 3rd vertex, 16-bit fixed point
+};
+
+inline uint16_t quantise(float b) {
+  return static_cast<uint16_t>(std::lround(std::clamp(b, 0.0f, 1.0f) * 65535.0f));
+}
+
+// Hit records of one chunk of vertices, CSR: hits of vertex v are [begin[v], begin[v+1]).
+struct ChunkHits {
+  std::vector<HitRecord> hits;
+  std::vector<uint32_t> begin;
+};
+
+// Per-mesh albedo fast path: instances without texture or vertex colours are uniform.
+struct AlbedoLookup {
+  const Scene& scene;
+  std::vector<uint8_t> uniform;
+  std::vector<glm::vec3> constant;
+  explicit AlbedoLookup(const Scene& s) : scene(s) {
+    for (const MeshInstance& m : s.meshes) {
+      bool textured = m.material >= 0 && s.materials[m.material].baseColorTexture >= 0;
+      bool uni = !textured && m.colors.empty();
+      uniform.push_back(uni);
+      constant.push_back(uni && m.triangleCount() ? albedoAtVertex(s, m, m.indices[0]) : glm::vec3(0));
+    }
+  }
+  glm::vec3 at(uint32_t mesh, uint32_t localTri, float b1, float b2) const {
+    if (uniform[mesh]) return constant[mesh];
+    return albedoAt(scene, scene.meshes[mesh], localTri, b1, b2);
+  }
+};
+
+std::vector<glm::vec3> unshadowedTransfer(const MeshInstance& m, int bands) {
+  const int n2 = bands * bands;
+  std::vector<glm::vec3> t(m.vertexCount() * n2);
+  float y[sh::kMaxBands * sh::kMaxBands];
+  for (size_t v = 0; v < m.vertexCount(); ++v) {
+    sh::evaluate(bands, m.normals[v], y);
+    for (int l = 0; l < bands; ++l) {
+      float a = float(sh::clampedCosineFactor(l));
+      for (int mm = -l; mm <= l; ++mm) t[v * n2 + sh::index(l, mm)] = glm::vec3(a * y[sh::index(l, mm)]);
+    }
+  }
+  return t;
+}
+
+}  // namespace
+
+void validate(const BakeSettings& s) {
+  if (s.bands < 1 || s.bands > sh::kMaxBands)
+    throw Error(cat("--bands ", s.bands, ": must be between 1 and ", sh::kMaxBands));
+  if (s.samples < 1 || s.samples > (1 << 24))
+    throw Error(cat("--samples ", s.samples, ": must be between 1 and ", 1 << 24));
+  if (s.bounces < 0 || s.bounces > 64) throw Error(cat("--bounces ", s.bounces, ": must be between 0 and 64"));
+  if (s.threads < 0) throw Error(cat("--threads ", s.threads, ": must be 0 (all cores) or more"));
+}
+
+SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings) {
+  validate(settings);
+  const auto tStart = Clock::now();
+  std::unique_ptr<tbb::global_control> threadLimit;
+  if (settings.threads > 0)
+    threadLimit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                        size_t(settings.threads));
+  const int bands = settings.bands;
+  const int n2 = bands * bands;
+
+  SurfaceTransfer out;
+  out.bands = bands;
+  out.perMesh.resize(scene.meshes.size());
+  Layout lay = makeLayout(scene);
+  out.stats.vertices = lay.vertices;
+
+  if (!settings.shadowed) {
+    auto t0 = Clock::now();
+    for (size_t k = 0; k < scene.meshes.size(); ++k)
+      if (!scene.meshes[k].receiverOnly) out.perMesh[k] = unshadowedTransfer(scene.meshes[k], bands);
+    out.stats.stages.push_back({"unshadowed", secondsSince(t0), 0});
+    out.stats.seconds = secondsSince(tStart);
+    return out;
+  }
+
+  auto tBuild = Clock::now();
+  RayScene rays(scene);
+  std::vector<glm::vec3> origins = rayOrigins(scene, lay, rays.sceneExtent());
+  out.stats.stages.push_back({"bvh", secondsSince(tBuild), 0});
+
+  // ---- Direct pass: visibility-weighted SH, and the hit records for the bounces.
+  const bool keepHits = settings.bounces > 0;
+  const uint32_t N = uint32_t(settings.samples);
+  const size_t chunks = (lay.vertices + kChunk - 1) / kChunk;
+  std::vector<ChunkHits> chunkHits(keepHits ? chunks : 0);
+  std::vector<glm::vec3> direct(lay.vertices * n2);  // colourless, stored RGB for the gather
+  const float tnear = 1e-6f * rays.sceneExtent();
+
+  auto tDirect = Clock::now();
+  {
+    Progress progress("direct", lay.vertices, "vertices", settings.progress);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1), [&](const tbb::blocked_range<size_t>& r) {
+      alignas(64) Ray batch[kStream];
+      double acc[sh::kMaxBands * sh::kMaxBands];
+      float y[sh::kMaxBands * sh::kMaxBands];
+      for (size_t c = r.begin(); c != r.end(); ++c) {
+        size_t vBegin = c * kChunk, vEnd = std::min(lay.vertices, vBegin + kChunk);
+        ChunkHits* ch = keepHits ? &chunkHits[c] : nullptr;
+        if (ch) ch->begin.assign(1, 0);
+        for (size_t v = vBegin; v < vEnd; ++v) {
+          const MeshInstance& m = scene.meshes[lay.meshOfVertex[v]];
+          const glm::vec3 n = m.normals[v - lay.vertexOffset[lay.meshOfVertex[v]]];
+          const Frame frame = Frame::fromNormal(n);
+          const uint64_t h = splitMix64(settings.seed ^ splitMix64(v));
+          const uint32_t s0 = uint32_t(h), s1 = uint32_t(h >> 32);
+          std::fill_n(acc, n2, 0.0);
+          for (uint32_t first = 0; first < N; first += kStream) {
+            const uint32_t count = std::min<uint32_t>(kStream, N - first);
+            for (uint32_t j = 0; j < count; ++j) {
+              Ray& ray = batch[j];
+              ray = Ray{};
+              ray.org = origins[v];
+              ray.tnear = tnear;
+              ray.dir = frame.toWorld(sampleCosineHemisphere({sobol0(first + j, s0), sobol1(first + j, s1)}));
+              ray.tfar = std::numeric_limits<float>::infinity();
+            }
+            if (keepHits)
+              rays.intersect(batch, count);
+            else
+              rays.occluded(batch, count);
+            for (uint32_t j = 0; j < count; ++j) {
+              const Ray& ray = batch[j];
+              const bool blocked = keepHits ? ray.hit() : ray.occludedHit();
+              if (!blocked) {
+                sh::evaluate(bands, ray.dir, y);
+                for (int i = 0; i < n2; ++i) acc[i] += y[i];
+              } else if (keepHits && !ray.backface()) {
+                ch->hits.push_back({lay.triOffset[ray.mesh] + ray.tri, quantise(ray.u), quantise(ray.v)});
+              }
+            }
+          }
+          const double w = M_PI / N;
+          for (int i = 0; i < n2; ++i) direct[v * n2 + i] = glm::vec3(float(acc[i] * w));
+          if (ch) ch->begin.push_back(uint32_t(ch->hits.size()));
+        }
+        if (ch) ch->hits.shrink_to_fit();
+        progress.add(vEnd - vBegin);
+      }
+    });
+    progress.finish();
+  }
+  const uint64_t directRays = uint64_t(lay.vertices) * N;
+  out.stats.rays = directRays;
+  out.stats.stages.push_back({"direct", secondsSince(tDirect), directRays});
+  for (const ChunkHits& ch : chunkHits) out.stats.hitRecords += ch.hits.size();
+
+  // ---- Bounces: t^k = W t^{k-1}, gathered over the hit records.
+  std::vector<glm::vec3> total = direct;
+  if (keepHits) {
+    AlbedoLookup albedo(scene);
+    std::vector<glm::vec3> prev = std::move(direct), cur(lay.vertices * n2);
+    for (int k = 1; k <= settings.bounces; ++k) {
+      auto tBounce = Clock::now();
+      Progress progress(cat("bounce ", k), lay.vertices, "vertices", settings.progress);
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1), [&](const tbb::blocked_range<size_t>& r) {
+        glm::vec3 acc[sh::kMaxBands * sh::kMaxBands];
+        for (size_t c = r.begin(); c != r.end(); ++c) {
+          const ChunkHits& ch = chunkHits[c];
+          size_t vBegin = c * kChunk, vEnd = std::min(lay.vertices, vBegin + kChunk);
+          for (size_t v = vBegin; v < vEnd; ++v) {
+            std::fill_n(acc, n2, glm::vec3(0.0f));
+            for (uint32_t h = ch.begin[v - vBegin]; h < ch.begin[v - vBegin + 1]; ++h) {
+              const HitRecord& rec = ch.hits[h];
+              const float b1 = rec.b1 * (1.0f / 65535.0f), b2 = rec.b2 * (1.0f / 65535.0f);
+              const float b0 = 1.0f - b1 - b2;
+              const uint32_t mesh = lay.meshOfTri[rec.tri];
+              const glm::vec3 rho = albedo.at(mesh, rec.tri - lay.triOffset[mesh], b1, b2);
+              const glm::vec3* t0 = &prev[size_t(lay.triVerts[3 * rec.tri + 0]) * n2];
+              const glm::vec3* t1 = &prev[size_t(lay.triVerts[3 * rec.tri + 1]) * n2];
+              const glm::vec3* t2 = &prev[size_t(lay.triVerts[3 * rec.tri + 2]) * n2];
+              for (int i = 0; i < n2; ++i) acc[i] += rho * (b0 * t0[i] + b1 * t1[i] + b2 * t2[i]);
+            }
+            const float w = 1.0f / float(N);
+            for (int i = 0; i < n2; ++i) cur[v * n2 + i] = acc[i] * w;
+          }
+          progress.add(vEnd - vBegin);
+        }
+      });
+      progress.finish();
+      for (size_t i = 0; i < total.size(); ++i) total[i] += cur[i];
+      std::swap(prev, cur);
+      out.stats.stages.push_back({cat("bounce ", k), secondsSince(tBounce), 0});
+    }
+  }
+
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    if (lay.vertexOffset[k] == SIZE_MAX) continue;
+    auto first = total.begin() + ptrdiff_t(lay.vertexOffset[k] * n2);
+    out.perMesh[k].assign(first, first + ptrdiff_t(scene.meshes[k].vertexCount() * n2));
+  }
+  out.stats.seconds = secondsSince(tStart);
+  return out;
+}
+
+std::string settingsJson(const BakeSettings& s, const std::string& sceneName) {
+  nlohmann::json j;
+  j["version"] = 1;
+  j["scene"] = sceneName;
+  j["bands"] = s.bands;
+  j["samples"] = s.samples;
+  j["bounces"] = s.shadowed ? s.bounces : 0;
+  j["shadowed"] = s.shadowed;
+  j["seed"] = s.seed;
+  j["transfer"] = "irradiance";
+  j["sh_convention"] = "real orthonormal, no Condon-Shortley phase, index l(l+1)+m, glTF axes";
+  j["units"] = "E = transfer . light (irradiance); L_o = albedo / pi * E";
+  return j.dump();
+}
+
+}  // namespace prt::bake

@@ -4,7 +4,6 @@
 
 #include <cstdint>
 #include <memory>
-#include <vector>
 
 #include <glm/glm.hpp>
 
@@ -12,40 +11,48 @@
 
 namespace prt::bake {
 
-/// A batch of rays in structure-of-arrays form, traced together (one Embree stream).
-/// Inputs: org, dir, tnear, tfar. Outputs of intersect(): tfar (hit distance), mesh
-/// (instance index in Scene::meshes or kMiss), tri, u, v (barycentrics of vertices 2 and 3),
-/// backface (geometric normal faces along the ray). Outputs of occluded(): occluded.
-struct RayBatch {
-  static constexpr uint32_t kMiss = 0xffffffffu;
-  std::vector<glm::vec3> org, dir;
-  std::vector<float> tnear, tfar;
-  std::vector<uint32_t> mesh, tri;
-  std::vector<float> u, v;
-  std::vector<uint8_t> backface, occluded;
+/// One ray and its hit. The layout is Embree's RTCRayHit, checked by static_assert in
+/// ray_scene.cpp, so batches are traced in place without copies.
+struct alignas(16) Ray {
+  static constexpr uint32_t kInvalid = 0xffffffffu;
+  // ray
+  glm::vec3 org{0.0f};
+  float tnear = 0.0f;
+  glm::vec3 dir{0.0f, 0.0f, 1.0f};
+  float time = 0.0f;
+  float tfar = 0.0f;  // in: max distance; out (intersect): hit distance; (occluded): -inf if hit
+  uint32_t mask = 0xffffffffu;
+  uint32_t id = 0;
+  uint32_t flags = 0;
+  // hit (intersect only)
+  glm::vec3 ng{0.0f};  // unnormalised geometric normal, cross(v1 - v0, v2 - v0)
+  float u = 0.0f, v = 0.0f;  // barycentrics of the triangle's 2nd and 3rd vertices
+  uint32_t tri = kInvalid;   // triangle index within the instance
+  uint32_t mesh = kInvalid;  // index into Scene::meshes, kInvalid on a miss
+  uint32_t inst = kInvalid;
 
-  size_t size() const { return org.size(); }
-  void resize(size_t n);
+  bool hit() const { return mesh != kInvalid; }
+  bool occludedHit() const { return tfar < 0.0f; }
+  /// True when the ray hit the back of the triangle (geometric normal along the ray).
+  bool backface() const { return glm::dot(ng, dir) > 0.0f; }
 };
 
 class RayScene {
 public:
-  /// Builds a BVH over the scene's non-receiver instances (high quality build).
-  /// `includeReceivers` adds receiver-only instances too (for reference renders in tests).
+  /// Builds a BVH over the scene's non-receiver instances (geometry ids = instance indices).
+  /// `includeReceivers` adds receiver-only instances too.
   explicit RayScene(const Scene& scene, bool includeReceivers = false);
   ~RayScene();
   RayScene(const RayScene&) = delete;
   RayScene& operator=(const RayScene&) = delete;
 
-  /// Closest hits for every ray of the batch. Thread-safe.
-  void intersect(RayBatch& batch) const;
-  /// Any-hit visibility for every ray of the batch. Thread-safe.
-  void occluded(RayBatch& batch) const;
+  /// Closest hits of n rays, traced as one stream. `coherent`: rays share an origin. Thread-safe.
+  void intersect(Ray* rays, size_t n, bool coherent = true) const;
+  /// Any-hit visibility of n rays (sets tfar = -inf where occluded). Thread-safe.
+  void occluded(Ray* rays, size_t n, bool coherent = true) const;
 
-  /// Scene scale (bounding-box diagonal), for ray offsets.
+  /// Bounding-box diagonal of the traced geometry, for ray offsets.
   float sceneExtent() const { return extent_; }
-  /// Bytes of geometry and BVH Embree holds (approximate).
-  uint64_t memoryBytes() const;
 
 private:
   struct Impl;

@@ -1,0 +1,111 @@
+// Sampling helpers, each as a triplet sample / pdf / invert (pbrt-v4 util/sampling.h), tested
+// against each other in tests/test_bake.cpp.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include <glm/glm.hpp>
+
+namespace prt::bake {
+
+constexpr float kPi = 3.14159265358979323846f;
+
+/// SplitMix64: a 64-bit mixer, for per-vertex seeds that do not depend on thread scheduling.
+inline uint64_t splitMix64(uint64_t x) {
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+/// First two dimensions of the Sobol sequence, digit-scrambled by XOR with `scramble` (which
+/// keeps the (0, m, 2)-net property of every power-of-two prefix). Values in [0, 1).
+inline float sobol0(uint32_t i, uint32_t scramble) {
+  uint32_t r = i;
+  r = (r << 16) | (r >> 16);
+  r = ((r & 0x00ff00ffu) << 8) | ((r & 0xff00ff00u) >> 8);
+  r = ((r & 0x0f0f0f0fu) << 4) | ((r & 0xf0f0f0f0u) >> 4);
+  r = ((r & 0x33333333u) << 2) | ((r & 0xccccccccu) >> 2);
+  r = ((r & 0x55555555u) << 1) | ((r & 0xaaaaaaaau) >> 1);
+  return float((r ^ scramble) >> 8) * 0x1p-24f;
+}
+inline float sobol1(uint32_t i, uint32_t scramble) {
+  uint32_t r = 0;
+  for (uint32_t v = 1u << 31; i; i >>= 1, v ^= v >> 1)
+    if (i & 1u) r ^= v;
+  return float((r ^ scramble) >> 8) * 0x1p-24f;
+}
+
+/// Shirley-Chiu concentric map from the unit square to the unit disk (area preserving).
+inline glm::vec2 sampleConcentricDisk(const glm::vec2& u) {
+  glm::vec2 o = 2.0f * u - 1.0f;
+  if (o.x == 0.0f && o.y == 0.0f) return {0.0f, 0.0f};
+  float r, theta;
+  if (std::fabs(o.x) > std::fabs(o.y)) {
+    r = o.x;
+    theta = (kPi / 4.0f) * (o.y / o.x);
+  } else {
+    r = o.y;
+    theta = kPi / 2.0f - (kPi / 4.0f) * (o.x / o.y);
+  }
+  return r * glm::vec2(std::cos(theta), std::sin(theta));
+}
+inline glm::vec2 invertConcentricDisk(const glm::vec2& p) {
+  float r = std::sqrt(p.x * p.x + p.y * p.y);
+  float phi = std::atan2(p.y, p.x);
+  if (phi < -kPi / 4.0f) phi += 2.0f * kPi;  // phi in [-π/4, 7π/4)
+  float a, b;
+  if (phi < kPi / 4.0f) {  // right wedge: r = a, theta = π/4 · b/a
+    a = r;
+    b = phi * a / (kPi / 4.0f);
+  } else if (phi < 3.0f * kPi / 4.0f) {  // top: r = b, theta = π/2 - π/4 · a/b
+    b = r;
+    a = (kPi / 2.0f - phi) * b / (kPi / 4.0f);
+  } else if (phi < 5.0f * kPi / 4.0f) {  // left: r = -a = |a|
+    a = -r;
+    b = (phi - kPi) * a / (kPi / 4.0f);
+  } else {  // bottom: r = -b
+    b = -r;
+    a = (kPi / 2.0f - (phi - kPi)) * b / (kPi / 4.0f);
+  }
+  return (glm::vec2(a, b) + 1.0f) * 0.5f;
+}
+
+/// Cosine-weighted direction about +Z (Malley's method), pdf cos θ / π.
+inline glm::vec3 sampleCosineHemisphere(const glm::vec2& u) {
+  glm::vec2 d = sampleConcentricDisk(u);
+  float z = std::sqrt(std::max(0.0f, 1.0f - d.x * d.x - d.y * d.y));
+  return {d.x, d.y, z};
+}
+inline float cosineHemispherePdf(float cosTheta) { return cosTheta > 0.0f ? cosTheta / kPi : 0.0f; }
+inline glm::vec2 invertCosineHemisphere(const glm::vec3& w) { return invertConcentricDisk({w.x, w.y}); }
+
+/// Uniform direction on the sphere, pdf 1 / (4π).
+inline glm::vec3 sampleUniformSphere(const glm::vec2& u) {
+  float z = 1.0f - 2.0f * u.x;
+  float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+  float phi = 2.0f * kPi * u.y;
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+inline float uniformSpherePdf() { return 1.0f / (4.0f * kPi); }
+inline glm::vec2 invertUniformSphere(const glm::vec3& w) {
+  float phi = std::atan2(w.y, w.x);
+  if (phi < 0.0f) phi += 2.0f * kPi;
+  return {(1.0f - w.z) * 0.5f, phi / (2.0f * kPi)};
+}
+
+/// Orthonormal frame about a unit normal (Duff et al. 2017, branchless).
+struct Frame {
+  glm::vec3 t, b, n;
+  static Frame fromNormal(const glm::vec3& n) {
+    float sign = std::copysign(1.0f, n.z);
+    float a = -1.0f / (sign + n.z);
+    float bb = n.x * n.y * a;
+    return {{1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x}, {bb, sign + n.y * n.y * a, -n.y}, n};
+  }
+  glm::vec3 toWorld(const glm::vec3& v) const { return v.x * t + v.y * b + v.z * n; }
+  glm::vec3 toLocal(const glm::vec3& v) const { return {glm::dot(v, t), glm::dot(v, b), glm::dot(v, n)}; }
+};
+
+}  // namespace prt::bake

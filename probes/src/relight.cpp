@@ -1,0 +1,29 @@
+#include "prt/relight.h"
+
+#include <cmath>
+
+#include "prt/error.h"
+
+namespace prt {
+
+std::vector<std::vector<glm::vec3>> relightVertices(const Scene& scene, const sh::ShRgb& light) {
+  if (scene.transferBands <= 0)
+    throw Error(cat(scene.path, ": holds no baked transfer (run prt bake first)"));
+  const sh::ShRgb l = sh::resize(light, scene.transferBands);
+  const int n2 = l.size();
+  std::vector<std::vector<glm::vec3>> out(scene.meshes.size());
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (m.transferBands == 0) continue;
+    PRT_CHECK_EQ(m.transferBands, scene.transferBands);
+    PRT_CHECK_EQ(m.transfer.size(), m.vertexCount() * size_t(n2));
+    out[k].resize(m.vertexCount());
+    for (size_t v = 0; v < m.vertexCount(); ++v) {
+      glm::vec3 e = sh::dot(m.transferOf(v), l.c.data(), n2);
+      out[k][v] = albedoAtVertex(scene, m, uint32_t(v)) * e * float(1.0 / M_PI);
+    }
+  }
+  return out;
+}
+
+}  // namespace prt
