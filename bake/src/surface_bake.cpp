@@ -172,6 +172,34 @@ std::vector<glm::vec3> unshadowedTransfer(const MeshInstance& m, int bands) {
   return t;
 }
 
+// Ray j of vertex v, exactly as the bake casts it.
+struct VertexSampler {
+  glm::vec3 origin;
+  Frame frame;
+  uint32_t s0, s1;
+  float tnear;
+  VertexSampler(const glm::vec3& org, const glm::vec3& n, uint64_t seed, size_t v, float tn)
+      : origin(org), frame(Frame::fromNormal(n)), tnear(tn) {
+    const uint64_t h = splitMix64(seed ^ splitMix64(v));
+    s0 = uint32_t(h);
+    s1 = uint32_t(h >> 32);
+  }
+  void make(uint32_t j, Ray& ray) const {
+    ray = Ray{};
+    ray.org = origin;
+    ray.tnear = tnear;
+    ray.dir = frame.toWorld(sampleCosineHemisphere({sobol0(j, s0), sobol1(j, s1)}));
+    ray.tfar = std::numeric_limits<float>::infinity();
+  }
+};
+
+const glm::vec3& normalOf(const Scene& scene, const Layout& lay, size_t v) {
+  uint32_t k = lay.meshOfVertex[v];
+  return scene.meshes[k].normals[v - lay.vertexOffset[k]];
+}
+
+float tnearFor(float extent) { return 1e-6f * extent; }
+
 }  // namespace
 
 void validate(const BakeSettings& s) {
@@ -219,7 +247,7 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings) {
   const size_t chunks = (lay.vertices + kChunk - 1) / kChunk;
   std::vector<ChunkHits> chunkHits(keepHits ? chunks : 0);
   std::vector<glm::vec3> direct(lay.vertices * n2);  // colourless, stored RGB for the gather
-  const float tnear = 1e-6f * rays.sceneExtent();
+  const float tnear = tnearFor(rays.sceneExtent());
 
   auto tDirect = Clock::now();
   {
@@ -233,22 +261,11 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings) {
         ChunkHits* ch = keepHits ? &chunkHits[c] : nullptr;
         if (ch) ch->begin.assign(1, 0);
         for (size_t v = vBegin; v < vEnd; ++v) {
-          const MeshInstance& m = scene.meshes[lay.meshOfVertex[v]];
-          const glm::vec3 n = m.normals[v - lay.vertexOffset[lay.meshOfVertex[v]]];
-          const Frame frame = Frame::fromNormal(n);
-          const uint64_t h = splitMix64(settings.seed ^ splitMix64(v));
-          const uint32_t s0 = uint32_t(h), s1 = uint32_t(h >> 32);
+          const VertexSampler sampler(origins[v], normalOf(scene, lay, v), settings.seed, v, tnear);
           std::fill_n(acc, n2, 0.0);
           for (uint32_t first = 0; first < N; first += kStream) {
             const uint32_t count = std::min<uint32_t>(kStream, N - first);
-            for (uint32_t j = 0; j < count; ++j) {
-              Ray& ray = batch[j];
-              ray = Ray{};
-              ray.org = origins[v];
-              ray.tnear = tnear;
-              ray.dir = frame.toWorld(sampleCosineHemisphere({sobol0(first + j, s0), sobol1(first + j, s1)}));
-              ray.tfar = std::numeric_limits<float>::infinity();
-            }
+            for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
             if (keepHits)
               rays.intersect(batch, count);
             else
@@ -324,6 +341,22 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings) {
     out.perMesh[k].assign(first, first + ptrdiff_t(scene.meshes[k].vertexCount() * n2));
   }
   out.stats.seconds = secondsSince(tStart);
+  return out;
+}
+
+std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& settings, float extent,
+                                 size_t vertexBegin, size_t vertexEnd) {
+  Layout lay = makeLayout(scene);
+  std::vector<glm::vec3> origins = rayOrigins(scene, lay, extent);
+  vertexEnd = std::min(vertexEnd, lay.vertices);
+  std::vector<Ray> out;
+  if (vertexBegin >= vertexEnd) return out;
+  out.resize((vertexEnd - vertexBegin) * size_t(settings.samples));
+  for (size_t v = vertexBegin; v < vertexEnd; ++v) {
+    const VertexSampler sampler(origins[v], normalOf(scene, lay, v), settings.seed, v, tnearFor(extent));
+    for (uint32_t j = 0; j < uint32_t(settings.samples); ++j)
+      sampler.make(j, out[(v - vertexBegin) * settings.samples + j]);
+  }
   return out;
 }
 

@@ -8,6 +8,7 @@
 
 #include <glm/glm.hpp>
 
+#include "prt/bake/ray_scene.h"
 #include "prt/scene.h"
 
 namespace prt::bake {
@@ -49,6 +50,13 @@ struct SurfaceTransfer {
 /// Bakes transfer for every non-receiver instance of the scene. Deterministic: the same seed
 /// gives the same result for any thread count.
 SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings);
+
+/// The direct-pass rays of baked vertices [vertexBegin, vertexEnd) (global order: instances in
+/// scene order, receivers skipped), exactly as bakeSurface casts them, `samples` per vertex in
+/// order. For benchmarks (the Embree ceiling on the same rays) and tests. `extent` is
+/// RayScene::sceneExtent() of the scene.
+std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& settings, float extent,
+                                 size_t vertexBegin, size_t vertexEnd);
 
 /// The settings as the JSON object stored in asset.extras.prt of a baked file.
 std::string settingsJson(const BakeSettings& settings, const std::string& sceneName);

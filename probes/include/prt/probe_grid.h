@@ -1,0 +1,98 @@
+// A sparse grid of radiance-transfer probes: the data, its file format (OpenVDB) and the
+// interpolation every consumer uses (the renderer, `prt probe`, the tests).
+//
+// Probe at index (i, j, k) sits at origin + spacing ⊙ (i, j, k) + offset (an offset moves a probe
+// out of geometry within its cell). Each probe holds, per colour channel, the n²×n² matrix M
+// with incident radiance SH c = M · l for distant light SH l (docs/prt-math.md):
+//   M_ji = ∫ y_j(ω) [ V(p,ω) y_i(ω) + (1 − V(p,ω)) (ρ(h)/π) t_i(h(ω)) ] dω.
+// File layout and the leak-prevention method: docs/probes.md.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "prt/sh.h"
+
+namespace prt {
+
+/// Cube faces of a probe's distance moments, in this order.
+enum class Face { PosX, NegX, PosY, NegY, PosZ, NegZ };
+/// The face a direction belongs to (its dominant axis and sign).
+int faceOf(const glm::vec3& d);
+
+struct ProbeGridInfo {
+  int bounces = 0;
+  int samples = 0;
+  uint64_t seed = 0;
+  std::string scene;  // file name of the scene it was baked from
+};
+
+struct ProbeGrid {
+  int bands = 0;
+  glm::dvec3 origin{0.0};   // world position of index (0, 0, 0)
+  glm::dvec3 spacing{1.0};  // distance between neighbouring probes along x, y, z (> 0)
+  glm::ivec3 dims{0};       // indices run over [0, dims)
+  ProbeGridInfo info;
+
+  // Active probes, in any order; arrays below are parallel to `coord`.
+  std::vector<glm::ivec3> coord;
+  std::vector<float> transfer;        // probe p: n⁴ RGB triples, [p][j][i] -> 3 floats (r, g, b)
+  std::vector<float> validity;        // 1 = valid, 0 = inside geometry (never interpolated)
+  std::vector<glm::vec3> offset;      // world offset from the lattice position (0 if not moved)
+  std::vector<float> skyVisibility;   // fraction of all directions that escape to the sky
+  std::vector<std::array<glm::vec2, 6>> moments;  // per Face: mean hit distance, mean squared
+
+  size_t probeCount() const { return coord.size(); }
+  int coeffs() const { return bands * bands; }
+  /// Floats of transfer per probe: n⁴ · 3.
+  size_t transferStride() const { return size_t(coeffs()) * coeffs() * 3; }
+  glm::dvec3 latticePosition(const glm::ivec3& c) const { return origin + spacing * glm::dvec3(c); }
+  glm::dvec3 position(size_t p) const { return latticePosition(coord[p]) + glm::dvec3(offset[p]); }
+
+  /// Builds the index used by find() (call after filling `coord`).
+  void buildIndex();
+  /// Position in `coord` of probe (i, j, k), or -1 if it is inactive or outside dims.
+  int find(const glm::ivec3& c) const;
+
+private:
+  std::vector<int32_t> dense_;  // dims.x·dims.y·dims.z entries, -1 = inactive
+};
+
+/// Incident radiance SH of every probe under distant light `light` (truncated/padded to the
+/// grid's bands): c_p = M_p · l, per channel. Result: probeCount() × n² RGB, probe-major.
+/// This is the per-frame "light update".
+std::vector<glm::vec3> relightProbes(const ProbeGrid& grid, const sh::ShRgb& light);
+
+/// Weights of one interpolation: up to 8 probes and their normalised weights.
+struct ProbeWeights {
+  int count = 0;
+  std::array<int, 8> probe{};
+  std::array<float, 8> weight{};
+};
+
+/// Interpolation weights at world point x (with surface normal n, or none): trilinear, times
+/// validity, times a Chebyshev visibility test against the probe's distance moments (no light
+/// through walls between probe and x), times a soft back-face weight when n is given; then
+/// normalised. Falls back to plain trilinear over valid probes when every weight vanishes.
+/// count == 0 when x is outside the grid or no valid probe surrounds it.
+ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::vec3* normal);
+
+/// Interpolated incident radiance SH at x from relit probes (relightProbes()).
+sh::ShRgb interpolateRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit,
+                              const glm::vec3& x, const glm::vec3* normal);
+
+/// Writes the grid as OpenVDB (standard grid types only), atomically. `half` stores floats
+/// as 16-bit. Layout: docs/probes.md.
+void writeProbeGrid(const ProbeGrid& grid, const std::string& path, bool half = false);
+/// Reads a file written by writeProbeGrid. Throws prt::Error naming the file and the problem
+/// (missing, not VDB, truncated, missing grid, inconsistent metadata).
+ProbeGrid readProbeGrid(const std::string& path);
+/// A human summary of a probe file (prt info): grids, active probes, bounds, spacing, memory,
+/// settings. Throws prt::Error like readProbeGrid.
+std::string describeProbeFile(const std::string& path);
+
+}  // namespace prt
