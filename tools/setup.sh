@@ -1,0 +1,119 @@
+#!/usr/bin/env bash
+# The one set-up script of prt, for a fresh Debian 12 machine:
+#
+#   sudo bash tools/setup.sh demo   # install, build, bake and relight the default scene
+#   sudo bash tools/setup.sh test   # install, build, run the test suite (CI runs this)
+#
+# 1. installs the Debian packages prt needs (skipped when all are installed already);
+# 2. configures and builds Release with Ninja into build/;
+# 3. demo: bakes scenes/cornell_open.gltf and relights it into out/;
+#    test: runs ctest in build/ and exits with its status.
+# Run as root, or as a user with sudo (used for apt-get only). Under sudo, the build and the
+# outputs belong to the user who ran sudo when that user owns the checkout.
+set -euo pipefail
+
+PACKAGES=(
+  cmake ninja-build g++ pkg-config
+  libopenvdb-dev libopenvdb-tools python3-openvdb libboost-iostreams-dev
+  libembree-dev libglm-dev libopenexr-dev libtinygltf-dev nlohmann-json3-dev libstb-dev
+  libtbb-dev libcli11-dev libosmesa6-dev libegl-dev libegl1-mesa-dev libgl1-mesa-dri
+  libgtest-dev
+)
+
+usage() {
+  cat <<'EOF'
+usage: bash tools/setup.sh demo|test
+
+  demo   install dependencies, build, then bake scenes/cornell_open.gltf and relight it
+         with scenes/env/royal_esplanade_128.hdr into out/
+  test   install dependencies, build, then run the test suite (ctest) and exit with its
+         status
+
+Installs Debian 12 packages with apt-get (as root, or through sudo) and builds Release
+with Ninja into build/.
+EOF
+}
+
+say() { printf '==> %s\n' "$*"; }
+die() { printf 'setup.sh: error: %s\n' "$*" >&2; exit 1; }
+
+if [ $# -ne 1 ]; then
+  usage >&2
+  exit 2
+fi
+case "$1" in
+  demo | test) mode=$1 ;;
+  -h | --help) usage; exit 0 ;;
+  *) printf 'setup.sh: unknown command "%s"\n\n' "$1" >&2; usage >&2; exit 2 ;;
+esac
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$root"
+
+# --- 1. Dependencies ---------------------------------------------------------------------
+missing=()
+for p in "${PACKAGES[@]}"; do
+  status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
+  [ "$status" = "install ok installed" ] || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  say "dependencies: all ${#PACKAGES[@]} packages already installed"
+else
+  command -v apt-get >/dev/null 2>&1 ||
+    die "apt-get not found: prt is set up on Debian 12; missing packages: ${missing[*]}"
+  if [ "$(id -u)" -eq 0 ]; then
+    sudo_cmd=()
+  elif command -v sudo >/dev/null 2>&1; then
+    sudo_cmd=(sudo)
+  else
+    die "installing packages needs root: run as root or install sudo (missing: ${missing[*]})"
+  fi
+  say "dependencies: installing ${#missing[@]} missing packages: ${missing[*]}"
+  "${sudo_cmd[@]}" env DEBIAN_FRONTEND=noninteractive apt-get update
+  "${sudo_cmd[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y "${PACKAGES[@]}"
+fi
+
+# Under sudo, build as the invoking user when they own the checkout, so build/ and out/ do
+# not end up owned by root.
+as_user=()
+if [ "$(id -u)" -eq 0 ] && [ -n "${SUDO_USER:-}" ] && [ "$SUDO_USER" != root ] &&
+   [ "$(stat -c %U "$root")" = "$SUDO_USER" ]; then
+  as_user=(sudo -u "$SUDO_USER")
+  say "building as $SUDO_USER (the owner of $root)"
+fi
+run() { "${as_user[@]}" "$@"; }
+
+# --- 2. Build ----------------------------------------------------------------------------
+if [ -f build/CMakeCache.txt ] && ! grep -q '^CMAKE_GENERATOR:INTERNAL=Ninja$' build/CMakeCache.txt; then
+  die "build/ was configured with another generator than Ninja; remove it (rm -rf build) and rerun"
+fi
+say "configuring (Release, Ninja) in build/"
+run cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+say "building"
+run cmake --build build
+
+# --- 3. Demo or tests --------------------------------------------------------------------
+case "$mode" in
+  demo)
+    run mkdir -p out
+    say "baking scenes/cornell_open.gltf"
+    run build/tools/prt bake scenes/cornell_open.gltf -o out/cornell.baked.glb
+    say "relighting with scenes/env/royal_esplanade_128.hdr"
+    run build/tools/prt relight out/cornell.baked.glb --env scenes/env/royal_esplanade_128.hdr \
+      -o out/cornell.lit.glb --csv out/cornell.csv
+    say "done. Outputs in $root/out:"
+    printf '    %s\n' \
+      "out/cornell.baked.glb  the scene with per-vertex SH transfer (input of prt relight)" \
+      "out/cornell.lit.glb    per-vertex radiance as COLOR_0 (open in any glTF viewer)" \
+      "out/cornell.csv        the same per-vertex radiance as a table"
+    ;;
+  test)
+    say "running the tests (ctest)"
+    cd build
+    status=0
+    run ctest --output-on-failure -j2 || status=$?
+    if [ "$status" -eq 0 ]; then say "all tests passed"; else say "tests FAILED (ctest exit status $status)"; fi
+    exit "$status"
+    ;;
+esac
