@@ -21,19 +21,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Run {
+struct CliRun {
   int status = -1;
   std::string out, err;
 };
 
 // Runs `prt ARGS`, capturing stdout and stderr separately.
-Run prt(const std::string& args) {
+CliRun prt(const std::string& args) {
   fs::path dir = fs::path(::testing::TempDir()) / "prt_cli";
   fs::create_directories(dir);
   std::string outFile = (dir / "stdout.txt").string(), errFile = (dir / "stderr.txt").string();
   std::string cmd = std::string(PRT_EXE) + " " + args + " >" + outFile + " 2>" + errFile;
   int rc = std::system(cmd.c_str());
-  Run r;
+  CliRun r;
   r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
   std::ifstream o(outFile), e(errFile);
   std::stringstream so, se;
@@ -69,7 +69,7 @@ bool dirHoldsOnly(const fs::path& dir, const std::vector<std::string>& names) {
   return n == names.size();
 }
 
-void expectCleanFailure(const Run& r, const std::string& mention, const fs::path& dir) {
+void expectCleanFailure(const CliRun& r, const std::string& mention, const fs::path& dir) {
   EXPECT_EQ(r.status, 1) << r.err;
   EXPECT_EQ(lineCount(r.err), 1) << r.err;
   EXPECT_NE(r.err.find(mention), std::string::npos) << r.err;
@@ -81,7 +81,7 @@ TEST(Cli, UsageErrorsExitTwo) {
   EXPECT_EQ(prt("bake").status, 2);
   EXPECT_EQ(prt("bake x.gltf -o y.glb --no-such-option").status, 2);
   EXPECT_EQ(prt("frobnicate").status, 2);
-  Run help = prt("bake --help");
+  CliRun help = prt("bake --help");
   EXPECT_EQ(help.status, 0);
   EXPECT_NE(help.out.find("--samples"), std::string::npos);
   EXPECT_NE(help.out.find("1024"), std::string::npos);  // defaults are shown
@@ -126,13 +126,13 @@ TEST(Cli, NanGeometryIsOneLineAndNoOutput) {
       {"bufferViews", {{{"buffer", 0}, {"byteLength", 36}}}},
       {"accessors", {{{"bufferView", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"}}}}};
   std::ofstream(in) << j.dump();
-  Run r = prt("bake " + in.string() + " -o " + (d / "out.glb").string() + " -q");
+  CliRun r = prt("bake " + in.string() + " -o " + (d / "out.glb").string() + " -q");
   expectCleanFailure(r, "prt_cli_nan.gltf", d);
   EXPECT_NE(r.err.find("finite"), std::string::npos) << r.err;
 }
 
 TEST(Cli, UnwritableOutputFailsBeforeBaking) {
-  Run r = prt("bake " + scene("plane.gltf") + " -o /nonexistent/dir/out.glb -q");
+  CliRun r = prt("bake " + scene("plane.gltf") + " -o /nonexistent/dir/out.glb -q");
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(lineCount(r.err), 1) << r.err;
   EXPECT_NE(r.err.find("/nonexistent/dir/out.glb"), std::string::npos) << r.err;
@@ -142,10 +142,10 @@ TEST(Cli, BakeThenRelightPlaneUnderUniformSkyGivesAlbedo) {
   fs::path d = tempDir("plane");
   std::string baked = (d / "plane.baked.glb").string(), lit = (d / "plane.lit.glb").string(),
               csv = (d / "plane.csv").string();
-  Run b = prt("bake " + scene("plane.gltf") + " -o " + baked + " --samples 64 --bounces 1");
+  CliRun b = prt("bake " + scene("plane.gltf") + " -o " + baked + " --samples 64 --bounces 1");
   ASSERT_EQ(b.status, 0) << b.err;
   EXPECT_NE(b.err.find("rays"), std::string::npos) << "summary expected: " << b.err;
-  Run r = prt("relight " + baked + " --env " + scene("env/white_sky_64.hdr") + " -o " + lit + " --csv " + csv);
+  CliRun r = prt("relight " + baked + " --env " + scene("env/white_sky_64.hdr") + " -o " + lit + " --csv " + csv);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(dirHoldsOnly(d, {"plane.baked.glb", "plane.lit.glb", "plane.csv"}));
 
@@ -174,7 +174,7 @@ TEST(Cli, BakeThenRelightPlaneUnderUniformSkyGivesAlbedo) {
     ++rows;
   }
   EXPECT_EQ(rows, 1089);  // every vertex of the 33×33 grid
-  Run info = prt("info " + baked);
+  CliRun info = prt("info " + baked);
   EXPECT_EQ(info.status, 0) << info.err;
   EXPECT_NE(info.out.find("3 bands"), std::string::npos) << info.out;
 }
@@ -185,13 +185,13 @@ TEST(Cli, RelightRefusesBadMapAndLeavesNothing) {
   ASSERT_EQ(prt("bake " + scene("plane.gltf") + " -o " + baked.string() + " --samples 16 -q").status, 0);
   fs::path map = fs::path(::testing::TempDir()) / "prt_cli_not_a_map.hdr";
   std::ofstream(map) << "this is not an image";
-  Run r = prt("relight " + baked.string() + " --env " + map.string() + " -o " + (d / "lit.glb").string() +
+  CliRun r = prt("relight " + baked.string() + " --env " + map.string() + " -o " + (d / "lit.glb").string() +
               " --csv " + (d / "lit.csv").string());
   expectCleanFailure(r, "prt_cli_not_a_map.hdr", d);
-  Run r2 = prt("relight " + baked.string() + " -o " + (d / "lit.glb").string());
+  CliRun r2 = prt("relight " + baked.string() + " -o " + (d / "lit.glb").string());
   EXPECT_EQ(r2.status, 1);
   EXPECT_NE(r2.err.find("no lighting"), std::string::npos) << r2.err;
-  Run r3 = prt("relight " + baked.string() + " --env " + scene("env/white_sky_64.hdr") + " --window bogus -o " +
+  CliRun r3 = prt("relight " + baked.string() + " --env " + scene("env/white_sky_64.hdr") + " --window bogus -o " +
                (d / "lit.glb").string());
   expectCleanFailure(r3, "bogus", d);
 }
@@ -210,7 +210,7 @@ TEST(Cli, LightOrientationAndRotation) {
   writeExr(exr, map);
   auto coeffs = [&](const std::string& extra) {
     std::string out = (d / "light.json").string();
-    Run r = prt("light " + exr + " --bands 2 -o " + out + " " + extra);
+    CliRun r = prt("light " + exr + " --bands 2 -o " + out + " " + extra);
     EXPECT_EQ(r.status, 0) << r.err;
     nlohmann::json j = nlohmann::json::parse(std::ifstream(out));
     std::array<double, 4> c{};

@@ -15,23 +15,9 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
-// prt_probes links libstb privately, so its symbols are not on this executable's link line:
-// the test compiles its own private (static) copy of the two stb functions it needs, to write
-// .hdr files and to decode PNGs independently of prt.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wpedantic"
-#pragma GCC diagnostic ignored "-Wsign-compare"
-#define STB_IMAGE_STATIC
-#define STB_IMAGE_IMPLEMENTATION
-#define STBI_ONLY_PNG
-#include <stb/stb_image.h>
-#define STB_IMAGE_WRITE_STATIC
-#define STB_IMAGE_WRITE_IMPLEMENTATION
-#include <stb/stb_image_write.h>
-#pragma GCC diagnostic pop
+// stb (libstb, linked into the tests) writes .hdr files and decodes PNGs independently of prt.
+#include <stb_image.h>
+#include <stb_image_write.h>
 
 #include "prt/atomic_file.h"
 #include "prt/error.h"
