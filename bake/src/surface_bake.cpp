@@ -334,18 +334,16 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings) {
 }
 
 std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& settings, float extent,
-                                 size_t vertexBegin, size_t vertexEnd) {
+                                 const std::vector<size_t>& vertices) {
   Layout lay = makeLayout(scene);
   std::vector<glm::vec3> origins = rayOrigins(scene, lay, extent);
-  vertexEnd = std::min(vertexEnd, lay.vertices);
-  std::vector<Ray> out;
-  if (vertexBegin >= vertexEnd) return out;
-  out.resize((vertexEnd - vertexBegin) * size_t(settings.samples));
-  for (size_t v = vertexBegin; v < vertexEnd; ++v) {
+  std::vector<Ray> out(vertices.size() * size_t(settings.samples));
+  tbb::parallel_for(size_t(0), vertices.size(), [&](size_t k) {
+    const size_t v = vertices[k];
+    PRT_CHECK_LT(v, lay.vertices);
     const VertexSampler sampler(origins[v], normalOf(scene, lay, v), settings.seed, v, tnearFor(extent));
-    for (uint32_t j = 0; j < uint32_t(settings.samples); ++j)
-      sampler.make(j, out[(v - vertexBegin) * settings.samples + j]);
-  }
+    for (uint32_t j = 0; j < uint32_t(settings.samples); ++j) sampler.make(j, out[k * settings.samples + j]);
+  });
   return out;
 }
 

@@ -56,12 +56,12 @@ struct SurfaceTransfer {
 /// gives the same result for any thread count.
 SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings);
 
-/// The direct-pass rays of baked vertices [vertexBegin, vertexEnd) (global order: instances in
-/// scene order, receivers skipped), exactly as bakeSurface casts them, `samples` per vertex in
-/// order. For benchmarks (the Embree ceiling on the same rays) and tests. `extent` is
+/// The direct-pass rays of the given baked vertices (global order: instances in scene order,
+/// receivers skipped), exactly as bakeSurface casts them, `samples` per vertex in order. For
+/// benchmarks (the Embree ceiling on the same rays) and tests. `extent` is
 /// RayScene::sceneExtent() of the scene.
 std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& settings, float extent,
-                                 size_t vertexBegin, size_t vertexEnd);
+                                 const std::vector<size_t>& vertices);
 
 /// The settings as the JSON object stored in asset.extras.prt of a baked file.
 std::string settingsJson(const BakeSettings& settings, const std::string& sceneName);
