@@ -22,6 +22,7 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
+#include "albedo_lookup.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
@@ -137,25 +138,6 @@ inline uint16_t quantise(float b) {
 struct ChunkHits {
   std::vector<HitRecord> hits;
   std::vector<uint32_t> begin;
-};
-
-// Per-mesh albedo fast path: instances without texture or vertex colours are uniform.
-struct AlbedoLookup {
-  const Scene& scene;
-  std::vector<uint8_t> uniform;
-  std::vector<glm::vec3> constant;
-  explicit AlbedoLookup(const Scene& s) : scene(s) {
-    for (const MeshInstance& m : s.meshes) {
-      bool textured = m.material >= 0 && s.materials[m.material].baseColorTexture >= 0;
-      bool uni = !textured && m.colors.empty();
-      uniform.push_back(uni);
-      constant.push_back(uni && m.triangleCount() ? albedoAtVertex(s, m, m.indices[0]) : glm::vec3(0));
-    }
-  }
-  glm::vec3 at(uint32_t mesh, uint32_t localTri, float b1, float b2) const {
-    if (uniform[mesh]) return constant[mesh];
-    return albedoAt(scene, scene.meshes[mesh], localTri, b1, b2);
-  }
 };
 
 std::vector<glm::vec3> unshadowedTransfer(const MeshInstance& m, int bands) {
@@ -298,6 +280,7 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings) {
 
   // ---- Bounces: t^k = W t^{k-1}, gathered over the hit records.
   std::vector<glm::vec3> total = direct;
+  std::vector<glm::vec3> lowerOrder;  // Σ_{k<K} t^k
   if (keepHits) {
     AlbedoLookup albedo(scene);
     std::vector<glm::vec3> prev = std::move(direct), cur(lay.vertices * n2);
@@ -329,17 +312,23 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings) {
         }
       });
       progress.finish();
+      if (k == settings.bounces && settings.keepLowerOrder) lowerOrder = total;
       for (size_t i = 0; i < total.size(); ++i) total[i] += cur[i];
       std::swap(prev, cur);
       out.stats.stages.push_back({cat("bounce ", k), secondsSince(tBounce), 0});
     }
   }
 
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    if (lay.vertexOffset[k] == SIZE_MAX) continue;
-    auto first = total.begin() + ptrdiff_t(lay.vertexOffset[k] * n2);
-    out.perMesh[k].assign(first, first + ptrdiff_t(scene.meshes[k].vertexCount() * n2));
-  }
+  auto split = [&](const std::vector<glm::vec3>& all, std::vector<std::vector<glm::vec3>>& perMesh) {
+    perMesh.assign(scene.meshes.size(), {});
+    for (size_t k = 0; k < scene.meshes.size(); ++k) {
+      if (lay.vertexOffset[k] == SIZE_MAX) continue;
+      auto first = all.begin() + ptrdiff_t(lay.vertexOffset[k] * n2);
+      perMesh[k].assign(first, first + ptrdiff_t(scene.meshes[k].vertexCount() * n2));
+    }
+  };
+  split(total, out.perMesh);
+  if (!lowerOrder.empty()) split(lowerOrder, out.perMeshLowerOrder);
   out.stats.seconds = secondsSince(tStart);
   return out;
 }

@@ -1,1 +1,291 @@
-// Work in progress: filled in by the commit that implements it.
+// HDR image I/O: OpenEXR and Radiance .hdr in, float32 OpenEXR and 8-bit sRGB PNG out.
+#include "prt/image.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <exception>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfIO.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <stb_image.h>
+#include <stb_image_write.h>
+
+#include "prt/atomic_file.h"
+#include "prt/error.h"
+
+namespace prt {
+
+namespace {
+
+// Larger sides are refused before anything is allocated: a corrupt header cannot make us ask
+// for gigabytes, and 32768 is far beyond any environment map or frame prt handles.
+constexpr int64_t kMaxSide = 32768;
+
+enum class Format { Exr, Radiance, Unknown };
+
+Format detectFormat(const std::string& data) {
+  static const unsigned char kExrMagic[4] = {0x76, 0x2f, 0x31, 0x01};
+  if (data.size() >= 4 && std::memcmp(data.data(), kExrMagic, 4) == 0) return Format::Exr;
+  if (data.rfind("#?RADIANCE", 0) == 0 || data.rfind("#?RGBE", 0) == 0) return Format::Radiance;
+  return Format::Unknown;
+}
+
+void checkDimensions(const std::string& path, int64_t w, int64_t h) {
+  if (w <= 0 || h <= 0) throw Error(cat(path, ": image ", w, "x", h, " has no pixels"));
+  if (w > kMaxSide || h > kMaxSide)
+    throw Error(cat(path, ": image ", w, "x", h, " is too large (at most ", kMaxSide, " a side)"));
+}
+
+void checkFinite(const std::string& path, const ImageRgb& image) {
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const glm::vec3& p = image.at(x, y);
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+        throw Error(cat(path, ": pixel (", x, ", ", y, ") is not finite"));
+    }
+}
+
+// OpenEXR reads from the bytes already in memory, so the format we detected and the data we
+// decode are the same file even if it changes on disk meanwhile.
+class MemoryIStream : public Imf::IStream {
+public:
+  MemoryIStream(const std::string& data, const std::string& path)
+      : Imf::IStream(path.c_str()), data_(data) {}
+
+  bool read(char c[], int n) override {
+    if (n < 0 || pos_ > data_.size() || static_cast<uint64_t>(n) > data_.size() - pos_)
+      throw std::runtime_error("unexpected end of file");
+    std::memcpy(c, data_.data() + pos_, static_cast<size_t>(n));
+    pos_ += static_cast<uint64_t>(n);
+    return pos_ < data_.size();
+  }
+  uint64_t tellg() override { return pos_; }
+  void seekg(uint64_t pos) override { pos_ = pos; }
+
+private:
+  const std::string& data_;
+  uint64_t pos_ = 0;
+};
+
+ImageRgb loadExr(const std::string& path, const std::string& data) {
+  if (data.size() < 8) throw Error(cat(path, ": corrupt OpenEXR file (no version field)"));
+  ImageRgb image;
+  try {
+    // The size is checked on the header alone, before InputFile allocates anything that
+    // scales with it (line offset tables, then our pixels).
+    {
+      MemoryIStream stream(data, path);
+      stream.seekg(8);  // past the magic number and the version field
+      int version = 0;
+      std::memcpy(&version, data.data() + 4, sizeof(version));  // little-endian, as is x86
+      Imf::Header header;
+      header.readFrom(stream, version);
+      const Imath::Box2i dw = header.dataWindow();
+      checkDimensions(path, int64_t(dw.max.x) - dw.min.x + 1, int64_t(dw.max.y) - dw.min.y + 1);
+    }
+    MemoryIStream stream(data, path);
+    Imf::InputFile file(stream);
+    const Imath::Box2i dw = file.header().dataWindow();
+    const int64_t w = int64_t(dw.max.x) - dw.min.x + 1;
+    const int64_t h = int64_t(dw.max.y) - dw.min.y + 1;
+    checkDimensions(path, w, h);
+
+    const Imf::ChannelList& channels = file.header().channels();
+    const bool rgb = channels.findChannel("R") && channels.findChannel("G") &&
+                     channels.findChannel("B");
+    if (!rgb && !channels.findChannel("Y")) {
+      std::string names;
+      for (auto it = channels.begin(); it != channels.end(); ++it)
+        names += cat(names.empty() ? "" : ", ", it.name());
+      throw Error(cat(path, ": no R, G, B or Y channels (found: ",
+                      names.empty() ? "none" : names, ")"));
+    }
+    const std::vector<const char*> used = rgb ? std::vector<const char*>{"R", "G", "B"}
+                                              : std::vector<const char*>{"Y"};
+    for (const char* name : used) {
+      const Imf::Channel* c = channels.findChannel(name);
+      if (c->xSampling != 1 || c->ySampling != 1)
+        throw Error(cat(path, ": channel ", name, " is subsampled, which is not supported"));
+    }
+
+    image = ImageRgb(static_cast<int>(w), static_cast<int>(h));
+    // Slices of FLOAT: OpenEXR converts HALF (and UINT) channels to float while reading.
+    Imf::FrameBuffer fb;
+    std::vector<float> luminance;
+    if (rgb) {
+      char* base = reinterpret_cast<char*>(image.pixels.data());
+      const size_t xs = sizeof(glm::vec3), ys = xs * static_cast<size_t>(w);
+      fb.insert("R", Imf::Slice::Make(Imf::FLOAT, base + 0 * sizeof(float), dw, xs, ys));
+      fb.insert("G", Imf::Slice::Make(Imf::FLOAT, base + 1 * sizeof(float), dw, xs, ys));
+      fb.insert("B", Imf::Slice::Make(Imf::FLOAT, base + 2 * sizeof(float), dw, xs, ys));
+    } else {
+      luminance.resize(image.pixels.size());
+      fb.insert("Y", Imf::Slice::Make(Imf::FLOAT, luminance.data(), dw, sizeof(float),
+                                      sizeof(float) * static_cast<size_t>(w)));
+    }
+    file.setFrameBuffer(fb);
+    file.readPixels(dw.min.y, dw.max.y);
+    for (size_t i = 0; i < luminance.size(); ++i) image.pixels[i] = glm::vec3(luminance[i]);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    // Iex::BaseExc derives from std::exception in OpenEXR 3; its message is one line.
+    throw Error(cat(path, ": corrupt OpenEXR file (", e.what(), ")"));
+  }
+  return image;
+}
+
+// stb_image reads past the end of a .hdr file as zero bytes, which on run-length encoded scan
+// lines means a run of length 0, forever: a truncated file would hang it. So first walk the
+// pixel data exactly as stb_image will consume it, and report a file that ends too early.
+// Returns false if the data ends before the last pixel; malformed runs are left to stb_image,
+// which reports them itself.
+bool radianceDataComplete(const std::string& data, int w, int h) {
+  const size_t size = data.size();
+  size_t pos = 0;
+  // Header lines up to an empty one, then the resolution line (stb_image tokenises the same).
+  for (bool blankSeen = false;;) {
+    const size_t nl = data.find('\n', pos);
+    if (nl == std::string::npos) return false;
+    const bool blank = nl == pos;  // never the first line: it holds the magic "#?..."
+    pos = nl + 1;
+    if (blankSeen) break;
+    blankSeen = blank;
+  }
+  auto byte = [&](size_t i) { return static_cast<unsigned char>(data[i]); };
+  const uint64_t flatSize = 4ull * static_cast<uint64_t>(w) * static_cast<uint64_t>(h);
+  if (w < 8 || w >= 32768) return size - pos >= flatSize;  // stb_image reads these flat
+  for (int y = 0; y < h; ++y) {
+    if (size - pos < 4) return false;
+    // A scan line without the run-length marker makes stb_image restart and read the whole
+    // image flat from here.
+    if (byte(pos) != 2 || byte(pos + 1) != 2 || (byte(pos + 2) & 0x80))
+      return size - pos >= flatSize;
+    if (((byte(pos + 2) << 8) | byte(pos + 3)) != w) return true;
+    pos += 4;
+    for (int channel = 0; channel < 4; ++channel)
+      for (int x = 0; x < w;) {
+        if (pos >= size) return false;
+        int count = byte(pos++);
+        if (count > 128) {  // a run: one value, count - 128 times
+          if (pos >= size) return false;
+          ++pos;
+          count -= 128;
+        } else if (size - pos < static_cast<size_t>(count)) {  // count literal values
+          return false;
+        } else {
+          pos += static_cast<size_t>(count);
+        }
+        if (count > w - x) return true;
+        x += count;
+      }
+  }
+  return true;
+}
+
+ImageRgb loadRadiance(const std::string& path, const std::string& data) {
+  if (data.size() > static_cast<size_t>(INT32_MAX))
+    throw Error(cat(path, ": file too large for a Radiance HDR image"));
+  const auto* bytes = reinterpret_cast<const stbi_uc*>(data.data());
+  const int len = static_cast<int>(data.size());
+  int w = 0, h = 0, comp = 0;
+  // Header first: the size is checked before stb_image allocates the pixels.
+  if (!stbi_info_from_memory(bytes, len, &w, &h, &comp))
+    throw Error(cat(path, ": corrupt Radiance HDR file (", stbi_failure_reason(), ")"));
+  checkDimensions(path, w, h);
+  if (!radianceDataComplete(data, w, h))
+    throw Error(cat(path, ": corrupt Radiance HDR file (pixel data ends early)"));
+  std::unique_ptr<float, void (*)(void*)> pixels(
+      stbi_loadf_from_memory(bytes, len, &w, &h, &comp, 3), stbi_image_free);
+  if (!pixels)
+    throw Error(cat(path, ": corrupt Radiance HDR file (", stbi_failure_reason(), ")"));
+  ImageRgb image(w, h);
+  std::memcpy(image.pixels.data(), pixels.get(), image.pixels.size() * sizeof(glm::vec3));
+  return image;
+}
+
+void checkWritable(const std::string& path, const ImageRgb& image) {
+  PRT_CHECK_EQ(image.pixels.size(), static_cast<size_t>(image.width) * image.height);
+  if (image.width <= 0 || image.height <= 0)
+    throw Error(cat(path, ": cannot write an image of ", image.width, "x", image.height,
+                    " pixels"));
+}
+
+}  // namespace
+
+ImageRgb loadHdrImage(const std::string& path) {
+  const std::string data = readFile(path);
+  ImageRgb image;
+  switch (detectFormat(data)) {
+    case Format::Exr: image = loadExr(path, data); break;
+    case Format::Radiance: image = loadRadiance(path, data); break;
+    case Format::Unknown: throw Error(cat(path, ": not an OpenEXR or Radiance HDR image"));
+  }
+  checkFinite(path, image);
+  return image;
+}
+
+void writeExr(const std::string& path, const ImageRgb& image) {
+  checkWritable(path, image);
+  AtomicFile out(path);
+  try {
+    Imf::Header header(image.width, image.height);
+    // ZIP: lossless and deterministic; smooth renders and SH reconstructions compress well.
+    header.compression() = Imf::ZIP_COMPRESSION;
+    for (const char* name : {"R", "G", "B"})
+      header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+    // OpenEXR only reads through the frame buffer while writing; the cast does not mutate.
+    char* base = const_cast<char*>(reinterpret_cast<const char*>(image.pixels.data()));
+    const size_t xs = sizeof(glm::vec3), ys = xs * static_cast<size_t>(image.width);
+    Imf::FrameBuffer fb;
+    fb.insert("R", Imf::Slice(Imf::FLOAT, base + 0 * sizeof(float), xs, ys));
+    fb.insert("G", Imf::Slice(Imf::FLOAT, base + 1 * sizeof(float), xs, ys));
+    fb.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xs, ys));
+    Imf::OutputFile file(out.tempPath().c_str(), header);
+    file.setFrameBuffer(fb);
+    file.writePixels(image.height);
+  } catch (const std::exception& e) {
+    throw Error(cat(path, ": cannot write OpenEXR (", e.what(), ")"));
+  }
+  out.commit();
+}
+
+void writePng(const std::string& path, const ImageRgb& image, float exposure) {
+  checkWritable(path, image);
+  const float scale = std::exp2(exposure);
+  std::vector<unsigned char> bytes(image.pixels.size() * 3);
+  for (size_t i = 0; i < image.pixels.size(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      float v = image.pixels[i][c] * scale;
+      v = v > 0.0f ? std::min(v, 1.0f) : 0.0f;  // also maps NaN to 0
+      bytes[3 * i + c] = static_cast<unsigned char>(std::lround(linearToSrgb(v) * 255.0f));
+    }
+  AtomicFile out(path);
+  if (!stbi_write_png(out.tempPath().c_str(), image.width, image.height, 3, bytes.data(),
+                      image.width * 3))
+    throw Error(cat(path, ": cannot write PNG"));
+  out.commit();
+}
+
+// IEC 61966-2-1. The two pieces meet at 0.0031308 (linear) / 0.04045 (encoded).
+float linearToSrgb(float v) {
+  const double x = v;
+  return static_cast<float>(x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055);
+}
+
+float srgbToLinear(float v) {
+  const double x = v;
+  return static_cast<float>(x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4));
+}
+
+}  // namespace prt

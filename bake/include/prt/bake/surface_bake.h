@@ -21,6 +21,7 @@ struct BakeSettings {
   uint64_t seed = 1;
   int threads = 0;        // 0 = all cores
   bool progress = false;  // progress bar on stderr
+  bool keepLowerOrder = false;  // also return the transfer summed to K−1 bounces (for probes)
 };
 
 /// Throws prt::Error if a setting is out of range.
@@ -44,6 +45,10 @@ struct SurfaceTransfer {
   int bands = 0;
   /// Per Scene::meshes entry: vertexCount × bands² RGB (empty for receiver-only instances).
   std::vector<std::vector<glm::vec3>> perMesh;
+  /// Same layout, summed over bounces 0 .. K−1 only (empty when K = 0): what a probe must see
+  /// on the surfaces so that a receiver at a point is lit as a baked vertex there would be
+  /// with K bounces (docs/probes.md). Filled when BakeSettings::keepLowerOrder is set.
+  std::vector<std::vector<glm::vec3>> perMeshLowerOrder;
   BakeStats stats;
 };
 

@@ -1,0 +1,53 @@
+// Probe transfer: at points in space, the matrix M with incident radiance SH c = M · l
+// (docs/prt-math.md, docs/probes.md). Needs the surface transfer of the static scene, since a
+// ray that hits a surface sees that surface's exitant radiance.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "prt/bake/surface_bake.h"
+#include "prt/probe_grid.h"
+#include "prt/scene.h"
+
+namespace prt::bake {
+
+struct ProbeSettings {
+  int bands = 3;
+  int samples = 1024;          // uniform sphere directions per probe
+  int bounces = 2;             // as the surface bake's (recorded in the file)
+  uint64_t seed = 1;
+  double spacing = 0.0;        // > 0: probe spacing in world units
+  glm::ivec3 dims{0};          // or: probe counts per axis (used when spacing == 0)
+  std::optional<glm::dvec3> boundsMin, boundsMax;  // default: the scene's bounds
+  bool progress = false;
+  /// A probe whose rays hit back faces for more than this share is inside geometry.
+  double insideThreshold = 0.25;
+};
+
+/// Throws prt::Error on bad values.
+void validate(const ProbeSettings& s);
+
+/// The lattice (origin, spacing, dims) for these settings and scene bounds. Probes sit at cell
+/// centres of the bounds, so they are never exactly on the bounding walls.
+void layoutGrid(const ProbeSettings& s, const glm::dvec3& lo, const glm::dvec3& hi, ProbeGrid& grid);
+
+struct ProbeStats {
+  uint64_t probes = 0;       // lattice points
+  uint64_t active = 0;       // stored
+  uint64_t invalid = 0;      // inside geometry, not moved out
+  uint64_t moved = 0;        // moved out of geometry within their cell
+  uint64_t rays = 0;
+  double seconds = 0.0;
+};
+
+/// Bakes the probe grid. `lowerOrder[k]` is instance k's surface transfer summed over bounces
+/// 0..K−1 (SurfaceTransfer::perMeshLowerOrder; empty vectors when K = 0), so a receiver at a
+/// point is lit like a baked vertex there with K bounces. Deterministic for any thread count.
+ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3>>& lowerOrder,
+                     const ProbeSettings& settings, ProbeStats* stats = nullptr);
+
+}  // namespace prt::bake

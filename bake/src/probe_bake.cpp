@@ -1,0 +1,272 @@
+// Probe transfer (docs/prt-math.md, docs/probes.md):
+//   M_ji(p) = ∫ y_j(ω) [ V(p,ω) y_i(ω) + (1 − V(p,ω)) (ρ(h)/π) t_i(h(ω)) ] dω
+// estimated with N uniform sphere directions (pdf 1/4π): each ray adds (4π/N) y_j(ω) [...].
+// A ray that hits the back of a surface sends nothing, and counts towards the probe's
+// back-face share: a probe that sees mostly back faces is inside geometry.
+#include "prt/bake/probe_bake.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include <tbb/parallel_for.h>
+
+#include "albedo_lookup.h"
+#include "prt/bake/ray_scene.h"
+#include "prt/bake/sampling.h"
+#include "prt/error.h"
+#include "prt/progress.h"
+#include "prt/sh.h"
+
+namespace prt::bake {
+
+namespace {
+
+constexpr int kStream = 256;
+// Rays of the quick inside/outside test (and of each relocation candidate).
+constexpr uint32_t kProbeTestRays = 64;
+
+struct ProbeAccum {
+  int n2 = 0;
+  std::vector<double> direct;    // n2 × n2, colourless
+  std::vector<glm::dvec3> indirect;  // n2 × n2 RGB
+  uint32_t rays = 0, backfaces = 0, escaped = 0;
+  std::array<double, 6> sumD{}, sumD2{};
+  std::array<uint32_t, 6> count{};
+};
+
+struct Tracer {
+  const Scene& scene;
+  const RayScene& rays;
+  const std::vector<std::vector<glm::vec3>>& lowerOrder;
+  const AlbedoLookup& albedo;
+  int bands;
+  uint64_t seed;
+  float maxDistance;
+
+  // Traces `n` sphere directions from x. full = accumulate M and moments; otherwise only count
+  // back faces (the inside test).
+  void trace(const glm::vec3& x, uint32_t n, uint64_t stream, bool full, ProbeAccum& acc) const {
+    const int n2 = bands * bands;
+    if (full) {
+      acc.n2 = n2;
+      acc.direct.assign(size_t(n2) * n2, 0.0);
+      acc.indirect.assign(size_t(n2) * n2, glm::dvec3(0.0));
+    }
+    const uint64_t h = splitMix64(seed ^ splitMix64(stream));
+    const uint32_t s0 = uint32_t(h), s1 = uint32_t(h >> 32);
+    alignas(64) Ray batch[kStream];
+    float y[sh::kMaxBands * sh::kMaxBands];
+    glm::vec3 g[sh::kMaxBands * sh::kMaxBands];
+    const bool haveTransfer = !lowerOrder.empty();
+    for (uint32_t first = 0; first < n; first += kStream) {
+      const uint32_t count = std::min<uint32_t>(kStream, n - first);
+      for (uint32_t j = 0; j < count; ++j) {
+        Ray& r = batch[j];
+        r = Ray{};
+        r.org = x;
+        r.tnear = 0.0f;
+        r.dir = sampleUniformSphere({sobol0(first + j, s0), sobol1(first + j, s1)});
+        r.tfar = std::numeric_limits<float>::infinity();
+      }
+      rays.intersect(batch, count);
+      for (uint32_t j = 0; j < count; ++j) {
+        const Ray& r = batch[j];
+        ++acc.rays;
+        const bool back = r.hit() && r.backface();
+        acc.backfaces += back;
+        if (!full) continue;
+        const int face = faceOf(r.dir);
+        const double d = r.hit() ? std::min(r.tfar, maxDistance) : maxDistance;
+        acc.sumD[face] += d;
+        acc.sumD2[face] += d * d;
+        ++acc.count[face];
+        sh::evaluate(bands, r.dir, y);
+        if (!r.hit()) {
+          ++acc.escaped;
+          for (int a = 0; a < n2; ++a)
+            for (int b = 0; b < n2; ++b) acc.direct[size_t(a) * n2 + b] += double(y[a]) * y[b];
+        } else if (!back && haveTransfer && !lowerOrder[r.mesh].empty()) {
+          const MeshInstance& m = scene.meshes[r.mesh];
+          const uint32_t* ix = &m.indices[3 * size_t(r.tri)];
+          const glm::vec3* t0 = &lowerOrder[r.mesh][size_t(ix[0]) * n2];
+          const glm::vec3* t1 = &lowerOrder[r.mesh][size_t(ix[1]) * n2];
+          const glm::vec3* t2 = &lowerOrder[r.mesh][size_t(ix[2]) * n2];
+          const float b0 = 1.0f - r.u - r.v;
+          const glm::vec3 rho = albedo.at(r.mesh, r.tri, r.u, r.v) * float(1.0 / M_PI);
+          for (int i = 0; i < n2; ++i) g[i] = rho * (b0 * t0[i] + r.u * t1[i] + r.v * t2[i]);
+          for (int a = 0; a < n2; ++a)
+            for (int b = 0; b < n2; ++b) acc.indirect[size_t(a) * n2 + b] += glm::dvec3(y[a] * g[b]);
+        }
+      }
+    }
+  }
+};
+
+double backShare(const ProbeAccum& a) { return a.rays ? double(a.backfaces) / a.rays : 0.0; }
+
+}  // namespace
+
+void validate(const ProbeSettings& s) {
+  if (s.bands < 1 || s.bands > sh::kMaxBands)
+    throw Error(cat("--bands ", s.bands, ": must be between 1 and ", sh::kMaxBands));
+  if (s.samples < 1 || s.samples > (1 << 24))
+    throw Error(cat("--probe-samples ", s.samples, ": must be between 1 and ", 1 << 24));
+  if (!(s.spacing >= 0.0) || !std::isfinite(s.spacing)) throw Error("--probe-spacing: must be a positive number");
+  if (s.spacing == 0.0 && (s.dims.x < 1 || s.dims.y < 1 || s.dims.z < 1))
+    throw Error("--probe-dims: give three positive counts (or --probe-spacing)");
+  if (s.spacing == 0.0 && double(s.dims.x) * s.dims.y * s.dims.z > 512.0 * 512 * 512)
+    throw Error("--probe-dims: more than 512³ probes");
+  if (s.boundsMin && s.boundsMax) {
+    glm::dvec3 lo = *s.boundsMin, hi = *s.boundsMax;
+    if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z) || !std::isfinite(lo.x + lo.y + lo.z + hi.x + hi.y + hi.z))
+      throw Error("--probe-bounds: MIN must be below MAX on every axis");
+  }
+}
+
+void layoutGrid(const ProbeSettings& s, const glm::dvec3& lo, const glm::dvec3& hi, ProbeGrid& grid) {
+  glm::dvec3 size = glm::max(hi - lo, glm::dvec3(1e-9));
+  if (s.spacing > 0.0) {
+    glm::dvec3 n = glm::ceil(size / s.spacing);
+    if (n.x * n.y * n.z > 512.0 * 512 * 512)
+      throw Error(cat("--probe-spacing ", s.spacing, ": gives ", n.x, "×", n.y, "×", n.z, " probes (at most 512³)"));
+    grid.dims = glm::max(glm::ivec3(n), glm::ivec3(1));
+    grid.spacing = glm::dvec3(s.spacing);
+    // Centre the lattice on the bounds.
+    glm::dvec3 span = glm::dvec3(grid.dims) * s.spacing;
+    grid.origin = lo + (size - span) * 0.5 + 0.5 * s.spacing;
+  } else {
+    grid.dims = s.dims;
+    grid.spacing = size / glm::dvec3(s.dims);
+    grid.origin = lo + 0.5 * grid.spacing;
+  }
+}
+
+ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3>>& lowerOrder,
+                     const ProbeSettings& settings, ProbeStats* statsOut) {
+  validate(settings);
+  const auto t0 = std::chrono::steady_clock::now();
+  ProbeGrid grid;
+  grid.bands = settings.bands;
+  grid.info.bounces = settings.bounces;
+  grid.info.samples = settings.samples;
+  grid.info.seed = settings.seed;
+  glm::dvec3 lo = settings.boundsMin.value_or(glm::dvec3(scene.boundsMin));
+  glm::dvec3 hi = settings.boundsMax.value_or(glm::dvec3(scene.boundsMax));
+  layoutGrid(settings, lo, hi, grid);
+  if (!lowerOrder.empty()) PRT_CHECK_EQ(lowerOrder.size(), scene.meshes.size());
+
+  RayScene rays(scene);
+  AlbedoLookup albedo(scene);
+  const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
+  Tracer tracer{scene, rays, lowerOrder, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing)};
+
+  const glm::ivec3 dims = grid.dims;
+  const size_t total = size_t(dims.x) * dims.y * dims.z;
+  const int n2 = settings.bands * settings.bands;
+  // Relocation candidates, in a fixed order, as fractions of the spacing: along the axes,
+  // then towards the corners; all inside the probe's cell.
+  std::vector<glm::dvec3> candidates;
+  for (double f : {0.25, 0.45})
+    for (int axis = 0; axis < 3; ++axis)
+      for (double sgn : {1.0, -1.0}) {
+        glm::dvec3 o(0.0);
+        o[axis] = sgn * f;
+        candidates.push_back(o);
+      }
+  for (int c = 0; c < 8; ++c)
+    candidates.push_back(glm::dvec3(c & 1 ? 0.3 : -0.3, c & 2 ? 0.3 : -0.3, c & 4 ? 0.3 : -0.3));
+
+  struct Slot {
+    uint8_t valid = 0, moved = 0;
+    glm::vec3 offset{0.0f};
+    ProbeAccum acc;
+  };
+  std::vector<Slot> slots(total);
+  {
+    Progress progress("probes", total, "probes", settings.progress);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, total, 16), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t idx = r.begin(); idx != r.end(); ++idx) {
+        glm::ivec3 c(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
+        glm::dvec3 base = grid.latticePosition(c);
+        Slot& slot = slots[idx];
+        ProbeAccum test;
+        tracer.trace(glm::vec3(base), kProbeTestRays, 2 * idx, false, test);
+        glm::dvec3 offset(0.0);
+        bool ok = backShare(test) <= settings.insideThreshold;
+        for (size_t k = 0; !ok && k < candidates.size(); ++k) {
+          ProbeAccum cand;
+          glm::dvec3 o = candidates[k] * grid.spacing;
+          tracer.trace(glm::vec3(base + o), kProbeTestRays, 2 * idx, false, cand);
+          // A moved probe must be clearly outside: half the threshold.
+          if (backShare(cand) <= 0.5 * settings.insideThreshold) {
+            ok = true;
+            offset = o;
+            slot.moved = 1;
+          }
+        }
+        if (ok) {
+          tracer.trace(glm::vec3(base + offset), uint32_t(settings.samples), 2 * idx + 1, true, slot.acc);
+          // The full set of rays decides too: the quick test can miss a thin enclosure.
+          ok = backShare(slot.acc) <= settings.insideThreshold;
+        }
+        slot.valid = ok;
+        slot.offset = glm::vec3(offset);
+        if (!ok) slot.acc = ProbeAccum{};
+        progress.add(1);
+      }
+    });
+    progress.finish();
+  }
+
+  // Active: valid probes, and invalid ones next to a valid probe (so the file shows where
+  // interpolation must not read); solid interiors far from free space are not stored.
+  auto validAt = [&](const glm::ivec3& c) {
+    if (glm::any(glm::lessThan(c, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(c, dims))) return false;
+    return slots[size_t(c.x) + size_t(dims.x) * (size_t(c.y) + size_t(dims.y) * c.z)].valid != 0;
+  };
+  ProbeStats stats;
+  stats.probes = total;
+  const double w = 4.0 * M_PI / settings.samples;
+  for (int z = 0; z < dims.z; ++z)
+    for (int y = 0; y < dims.y; ++y)
+      for (int x = 0; x < dims.x; ++x) {
+        const glm::ivec3 c(x, y, z);
+        const Slot& slot = slots[size_t(x) + size_t(dims.x) * (size_t(y) + size_t(dims.y) * z)];
+        bool active = slot.valid;
+        for (int d = 0; d < 27 && !active; ++d)
+          active = validAt(c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1));
+        if (!active) continue;
+        grid.coord.push_back(c);
+        grid.validity.push_back(slot.valid ? 1.0f : 0.0f);
+        grid.offset.push_back(slot.offset);
+        std::array<glm::vec2, 6> mom{};
+        const float maxD = tracer.maxDistance;
+        for (int f = 0; f < 6; ++f) {
+          uint32_t n = slot.acc.count[f];
+          mom[f] = n ? glm::vec2(float(slot.acc.sumD[f] / n), float(slot.acc.sumD2[f] / n)) : glm::vec2(maxD, maxD * maxD);
+        }
+        grid.moments.push_back(mom);
+        grid.skyVisibility.push_back(slot.acc.rays ? float(double(slot.acc.escaped) / slot.acc.rays) : 0.0f);
+        for (int j = 0; j < n2; ++j)
+          for (int i = 0; i < n2; ++i) {
+            glm::dvec3 v(0.0);
+            if (slot.valid) v = w * (glm::dvec3(slot.acc.direct[size_t(j) * n2 + i]) + slot.acc.indirect[size_t(j) * n2 + i]);
+            grid.transfer.push_back(float(v.r));
+            grid.transfer.push_back(float(v.g));
+            grid.transfer.push_back(float(v.b));
+          }
+        stats.active += 1;
+        stats.invalid += !slot.valid;
+        stats.moved += slot.valid && slot.moved;
+        stats.rays += slot.acc.rays;
+      }
+  grid.buildIndex();
+  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (statsOut) *statsOut = stats;
+  return grid;
+}
+
+}  // namespace prt::bake
