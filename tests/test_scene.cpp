@@ -1,1 +1,817 @@
-// Work in progress: filled in by the commit that implements it.
+// glTF scene loading and the baked / lit .glb writers. Every test writes its own small glTF
+// (JSON built here, buffers as data: URIs or a .bin beside it) into a fresh temporary folder.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
+
+#include "prt/error.h"
+#include "prt/scene.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+constexpr int kFloat = 5126;
+constexpr int kUnsignedByte = 5121;
+constexpr int kUnsignedInt = 5125;
+// Positions and normals go through float and a double matrix: a few ulps.
+constexpr float kTol = 1e-5f;
+
+std::string base64(const std::string& in) {
+  static const char* digits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (size_t i = 0; i < in.size(); i += 3) {
+    uint32_t n = uint32_t(uint8_t(in[i])) << 16;
+    if (i + 1 < in.size()) n |= uint32_t(uint8_t(in[i + 1])) << 8;
+    if (i + 2 < in.size()) n |= uint32_t(uint8_t(in[i + 2]));
+    out += digits[(n >> 18) & 63];
+    out += digits[(n >> 12) & 63];
+    out += i + 1 < in.size() ? digits[(n >> 6) & 63] : '=';
+    out += i + 2 < in.size() ? digits[n & 63] : '=';
+  }
+  return out;
+}
+
+void appendBigEndian(std::string& s, uint32_t v) {
+  for (int shift = 24; shift >= 0; shift -= 8) s += char((v >> shift) & 0xFF);
+}
+
+uint32_t crc32(const std::string& bytes) {
+  uint32_t crc = 0xFFFFFFFFu;
+  for (unsigned char c : bytes) {
+    crc ^= c;
+    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  return ~crc;
+}
+
+/// A minimal RGBA8 PNG (zlib "stored" block, no compression), enough for stb to decode.
+std::string encodePng(int w, int h, const std::vector<uint8_t>& rgba) {
+  std::string raw;
+  for (int y = 0; y < h; ++y) {
+    raw += '\0';  // filter: none
+    raw.append(reinterpret_cast<const char*>(rgba.data()) + size_t(y) * w * 4, size_t(w) * 4);
+  }
+  std::string z = "\x78\x01\x01";
+  uint16_t len = uint16_t(raw.size());
+  z += char(len & 0xFF);
+  z += char(len >> 8);
+  z += char(~len & 0xFF);
+  z += char((~len >> 8) & 0xFF);
+  z += raw;
+  uint32_t a = 1, b = 0;
+  for (unsigned char c : raw) {
+    a = (a + c) % 65521;
+    b = (b + a) % 65521;
+  }
+  appendBigEndian(z, (b << 16) | a);
+  auto chunk = [](const std::string& type, const std::string& data) {
+    std::string c;
+    appendBigEndian(c, uint32_t(data.size()));
+    std::string body = type + data;
+    c += body;
+    appendBigEndian(c, crc32(body));
+    return c;
+  };
+  std::string ihdr;
+  appendBigEndian(ihdr, uint32_t(w));
+  appendBigEndian(ihdr, uint32_t(h));
+  ihdr += std::string("\x08\x06\x00\x00\x00", 5);  // 8 bits, RGBA
+  return std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) + chunk("IDAT", z) + chunk("IEND", "");
+}
+
+/// Builds a glTF document with one binary buffer.
+class GltfBuilder {
+public:
+  Json doc = {{"asset", {{"version", "2.0"}}}};
+  std::string bin;
+
+  int view(const void* data, size_t size) {
+    bin.resize((bin.size() + 3) / 4 * 4, '\0');
+    doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", size}});
+    bin.append(static_cast<const char*>(data), size);
+    return int(doc["bufferViews"].size()) - 1;
+  }
+  int accessor(const void* data, size_t size, int componentType, size_t count, const char* type,
+               bool normalized = false) {
+    Json a = {{"bufferView", view(data, size)}, {"componentType", componentType}, {"count", count}, {"type", type}};
+    if (normalized) a["normalized"] = true;
+    doc["accessors"].push_back(a);
+    return int(doc["accessors"].size()) - 1;
+  }
+  int floats(const std::vector<float>& v, const char* type, int components) {
+    return accessor(v.data(), v.size() * 4, kFloat, v.size() / size_t(components), type);
+  }
+  int vec3(const std::vector<float>& v) { return floats(v, "VEC3", 3); }
+  int indices(const std::vector<uint32_t>& v) {
+    return accessor(v.data(), v.size() * 4, kUnsignedInt, v.size(), "SCALAR");
+  }
+  int add(const char* array, const Json& value) {
+    doc[array].push_back(value);
+    return int(doc[array].size()) - 1;
+  }
+  int mesh(const Json& primitives) { return add("meshes", {{"primitives", primitives}}); }
+  int node(const Json& node) { return add("nodes", node); }
+  void scene(const std::vector<int>& roots) {
+    doc["scenes"] = Json::array({{{"nodes", roots}}});
+    doc["scene"] = 0;
+  }
+  /// Writes the .gltf; the buffer goes beside it as a .bin file or inline as a data: URI.
+  std::string write(const fs::path& path, bool binBeside = false) {
+    Json d = doc;
+    if (!bin.empty()) {
+      Json buffer = {{"byteLength", bin.size()}};
+      if (binBeside) {
+        std::string name = path.stem().string() + ".bin";
+        std::ofstream(path.parent_path() / name, std::ios::binary) << bin;
+        buffer["uri"] = name;
+      } else {
+        buffer["uri"] = "data:application/octet-stream;base64," + base64(bin);
+      }
+      d["buffers"] = Json::array({buffer});
+    }
+    std::ofstream(path) << d.dump(1);
+    return path.string();
+  }
+  /// Writes a .glb: the JSON chunk, then the buffer as the BIN chunk.
+  std::string writeGlb(const fs::path& path) {
+    Json d = doc;
+    std::string data = bin;
+    data.resize((data.size() + 3) / 4 * 4, '\0');
+    d["buffers"] = Json::array({{{"byteLength", bin.size()}}});
+    std::string json = d.dump();
+    json.resize((json.size() + 3) / 4 * 4, ' ');
+    auto little = [](std::string& s, uint32_t v) { s.append(reinterpret_cast<const char*>(&v), 4); };
+    std::string out = "glTF";
+    little(out, 2);
+    little(out, uint32_t(12 + 8 + json.size() + 8 + data.size()));
+    little(out, uint32_t(json.size()));
+    out += "JSON" + json;
+    little(out, uint32_t(data.size()));
+    out += std::string("BIN\0", 4) + data;
+    std::ofstream(path, std::ios::binary) << out;
+    return path.string();
+  }
+};
+
+const std::vector<float> kTriangle = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+
+Json trianglePrimitive(GltfBuilder& b, const std::vector<float>& positions = kTriangle) {
+  return {{"attributes", {{"POSITION", b.vec3(positions)}}}};
+}
+
+std::string readBytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+uint32_t readLittle32(const std::string& s, size_t at) {
+  uint32_t v;
+  std::memcpy(&v, s.data() + at, 4);
+  return v;
+}
+
+/// The JSON chunk of a .glb file.
+Json glbJson(const fs::path& path) {
+  std::string s = readBytes(path);
+  EXPECT_EQ(s.substr(0, 4), "glTF");
+  return Json::parse(s.substr(20, readLittle32(s, 12)));
+}
+
+/// The BIN chunk of a .glb file.
+std::string glbBin(const fs::path& path) {
+  std::string s = readBytes(path);
+  size_t at = 20 + readLittle32(s, 12);
+  if (at + 8 > s.size()) return "";
+  return s.substr(at + 8, readLittle32(s, at));
+}
+
+void expectNear(const glm::vec3& a, const glm::vec3& b, float tol = kTol) {
+  EXPECT_NEAR(a.x, b.x, tol);
+  EXPECT_NEAR(a.y, b.y, tol);
+  EXPECT_NEAR(a.z, b.z, tol);
+}
+
+double srgbToLinearRef(double c) {
+  return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+}
+
+class SceneTest : public ::testing::Test {
+protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::path(::testing::TempDir()) / (std::string("prt_scene_") + info->test_suite_name() + "_" + info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  /// Loading `path` must throw prt::Error naming the file and containing every `part`.
+  void expectError(const std::string& path, const std::vector<std::string>& parts,
+                   const prt::LoadOptions& options = {}) {
+    try {
+      prt::loadScene(path, options);
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const prt::Error& e) {
+      std::string what = e.what();
+      EXPECT_NE(what.find(fs::path(path).filename().string()), std::string::npos) << what;
+      for (const std::string& part : parts) EXPECT_NE(what.find(part), std::string::npos) << what;
+    }
+  }
+
+  fs::path dir_;
+};
+
+// ---------------------------------------------------------------------------------------------
+
+using SceneLoad = SceneTest;
+
+TEST_F(SceneLoad, NestedTrsAndMatrixGiveWorldPositions) {
+  GltfBuilder b;
+  int mesh = b.mesh(Json::array({trianglePrimitive(b)}));
+  // Child: a matrix translating by +1 in x (column-major, translation in the last column).
+  int child = b.node({{"mesh", mesh}, {"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 1, 0, 0, 1}}});
+  const double s = std::sqrt(0.5);
+  // Parent: T(1,2,3) · R(90° about +Z) · S(2).
+  int parent = b.node({{"children", {child}}, {"translation", {1, 2, 3}}, {"rotation", {0, 0, s, s}},
+                       {"scale", {2, 2, 2}}});
+  b.scene({parent});
+  prt::Scene scene = prt::loadScene(b.write(dir_ / "nested.gltf", /*binBeside=*/true));
+  ASSERT_EQ(scene.meshes.size(), 1u);
+  const prt::MeshInstance& m = scene.meshes[0];
+  EXPECT_EQ(m.node, child);
+  EXPECT_EQ(m.mesh, mesh);
+  // p -> child (+1,0,0) -> scale 2 -> rotate (x,y) -> (-y,x) -> translate (1,2,3).
+  expectNear(m.positions[0], {1, 4, 3});
+  expectNear(m.positions[1], {1, 6, 3});
+  expectNear(m.positions[2], {-1, 4, 3});
+  expectNear(scene.boundsMin, {-1, 4, 3});
+  expectNear(scene.boundsMax, {1, 6, 3});
+  EXPECT_EQ(m.indices, (std::vector<uint32_t>{0, 1, 2}));
+  // Computed normal of a CCW triangle in the XY plane stays +Z under this transform.
+  expectNear(m.normals[0], {0, 0, 1});
+}
+
+TEST_F(SceneLoad, NormalsUseInverseTransposeUnderNonUniformScale) {
+  GltfBuilder b;
+  const float r = std::sqrt(0.5f);
+  Json prim = trianglePrimitive(b);
+  prim["attributes"]["NORMAL"] = b.vec3({r, r, 0, r, r, 0, r, r, 0});
+  int mesh = b.mesh(Json::array({prim}));
+  b.scene({b.node({{"mesh", mesh}, {"scale", {2, 1, 1}}})});
+  prt::Scene scene = prt::loadScene(b.write(dir_ / "scaled.gltf"));
+  ASSERT_EQ(scene.meshes.size(), 1u);
+  // M^-T = diag(1/2, 1, 1): (1,1,0) -> (0.5, 1, 0), normalised.
+  glm::vec3 expected = glm::normalize(glm::vec3(0.5f, 1.0f, 0.0f));
+  for (const glm::vec3& n : scene.meshes[0].normals) expectNear(n, expected);
+  expectNear(scene.meshes[0].positions[1], {2, 0, 0});
+}
+
+TEST_F(SceneLoad, ComputedNormalsAreAreaWeighted) {
+  GltfBuilder b;
+  // Triangle A (area 2, normal +Z) and triangle B (area 0.5, normal +Y) share vertex 0.
+  Json prim = trianglePrimitive(b, {0, 0, 0, 2, 0, 0, 0, 2, 0, 0, 0, 1, 1, 0, 0});
+  prim["indices"] = b.indices({0, 1, 2, 0, 3, 4});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  prt::Scene scene = prt::loadScene(b.write(dir_ / "normals.gltf"));
+  const prt::MeshInstance& m = scene.meshes[0];
+  expectNear(m.normals[0], glm::normalize(glm::vec3(0, 1, 4)));  // weights 2·area: 4 and 1
+  expectNear(m.normals[1], {0, 0, 1});
+  expectNear(m.normals[3], {0, 1, 0});
+}
+
+TEST_F(SceneLoad, StripsAndFansBecomeTriangleLists) {
+  GltfBuilder b;
+  Json strip = trianglePrimitive(b, {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0});
+  strip["mode"] = 5;  // non-indexed
+  Json fan = trianglePrimitive(b, {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, -1, 1, 0});
+  fan["mode"] = 6;
+  fan["indices"] = b.indices({0, 1, 2, 3, 4});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({strip, fan}))}})});
+  prt::Scene scene = prt::loadScene(b.write(dir_ / "strips.gltf"));
+  ASSERT_EQ(scene.meshes.size(), 2u);
+  // Strip: triangle i is (i, i+1, i+2) for even i, (i, i+2, i+1) for odd i.
+  EXPECT_EQ(scene.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2, 1, 3, 2}));
+  // Fan: (i+1, i+2, 0).
+  EXPECT_EQ(scene.meshes[1].indices, (std::vector<uint32_t>{1, 2, 0, 2, 3, 0, 3, 4, 0}));
+  EXPECT_EQ(scene.meshes[1].vertexCount(), 5u);
+  for (const prt::MeshInstance& m : scene.meshes)
+    for (const glm::vec3& n : m.normals) expectNear(n, {0, 0, 1});  // all front-facing
+}
+
+TEST_F(SceneLoad, NonIndexedTrianglesGetSequentialIndices) {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b, {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  prt::Scene scene = prt::loadScene(b.write(dir_ / "flat.gltf"));
+  EXPECT_EQ(scene.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5}));
+  EXPECT_EQ(scene.meshes[0].triangleCount(), 2u);
+}
+
+TEST_F(SceneLoad, MirroringNodeFlipsWindingToStayFrontFacing) {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  prim["attributes"]["NORMAL"] = b.vec3({0, 0, 1, 0, 0, 1, 0, 0, 1});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}, {"scale", {-1, 1, 1}}})});
+  prt::Scene scene = prt::loadScene(b.write(dir_ / "mirror.gltf"));
+  const prt::MeshInstance& m = scene.meshes[0];
+  EXPECT_EQ(m.indices, (std::vector<uint32_t>{0, 2, 1}));
+  glm::vec3 face = glm::cross(m.positions[m.indices[1]] - m.positions[m.indices[0]],
+                              m.positions[m.indices[2]] - m.positions[m.indices[0]]);
+  expectNear(glm::normalize(face), {0, 0, 1});
+  expectNear(m.normals[0], {0, 0, 1});  // the given normal agrees with the flipped winding
+}
+
+/// A textured triangle: 2×2 PNG (red, green / blue, grey 188), baseColorFactor (0.5, 1, 1, 1),
+/// COLOR_0 as normalized bytes. `imageUri` empty: the PNG goes inline as a data: URI.
+std::string writeTexturedScene(const fs::path& dir, const std::string& imageUri, std::string* png) {
+  *png = encodePng(2, 2, {255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 188, 188, 188, 255});
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  prim["attributes"]["TEXCOORD_0"] = b.floats({0.25f, 0.25f, 0.75f, 0.25f, 0.25f, 0.75f}, "VEC2", 2);
+  std::vector<uint8_t> colors = {255, 255, 255, 255, 255, 51, 255, 255, 255, 255, 255, 255};
+  prim["attributes"]["COLOR_0"] = b.accessor(colors.data(), colors.size(), kUnsignedByte, 3, "VEC4", true);
+  prim["material"] = 0;
+  b.doc["materials"] = Json::array(
+      {{{"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 1, 1, 1}}, {"baseColorTexture", {{"index", 0}}}}}}});
+  b.doc["textures"] = Json::array({{{"source", 0}, {"sampler", 0}}});
+  b.doc["samplers"] = Json::array({{{"wrapS", 33071}, {"wrapT", 33648}}});
+  if (imageUri.empty()) {
+    b.doc["images"] = Json::array({{{"uri", "data:image/png;base64," + base64(*png)}}});
+  } else {
+    std::ofstream(dir / imageUri, std::ios::binary) << *png;
+    b.doc["images"] = Json::array({{{"uri", imageUri}}});
+  }
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  return b.write(dir / "textured.gltf");
+}
+
+TEST_F(SceneLoad, MaterialAlbedoCombinesFactorSrgbTextureAndColor) {
+  std::string png;
+  prt::Scene scene = prt::loadScene(writeTexturedScene(dir_, "albedo.png", &png));
+  ASSERT_EQ(scene.textures.size(), 1u);
+  const prt::Texture& tex = scene.textures[0];
+  EXPECT_EQ(tex.width, 2);
+  EXPECT_EQ(tex.height, 2);
+  EXPECT_EQ(tex.wrapS, 33071);
+  EXPECT_EQ(tex.wrapT, 33648);
+  const float grey = float(srgbToLinearRef(188.0 / 255.0));
+  EXPECT_NEAR(tex.texels[3].r, grey, 1e-6f);
+  EXPECT_NEAR(tex.texels[3].a, 1.0f, 1e-6f);
+  const prt::MeshInstance& m = scene.meshes[0];
+  ASSERT_EQ(scene.materials.size(), 1u);
+  EXPECT_EQ(m.material, 0);
+  ASSERT_EQ(m.colors.size(), 3u);
+  EXPECT_NEAR(m.colors[1].g, 0.2f, 1e-6f);  // 51/255
+  // Texel centres: vertex 0 samples red, 1 green, 2 blue.
+  expectNear(prt::albedoAtVertex(scene, m, 0), {0.5f, 0, 0});
+  expectNear(prt::albedoAtVertex(scene, m, 1), {0, 0.2f, 0});
+  expectNear(prt::albedoAtVertex(scene, m, 2), {0, 0, 1});
+  expectNear(prt::albedoAt(scene, m, 0, 0.0f, 0.0f), {0.5f, 0, 0});
+  // Halfway between vertices 1 and 2: uv (0.5, 0.5) is the mean of the four texels, colour
+  // interpolated to (1, 0.6, 1).
+  glm::vec3 mean = (glm::vec3(1, 0, 0) + glm::vec3(0, 1, 0) + glm::vec3(0, 0, 1) + glm::vec3(grey)) / 4.0f;
+  expectNear(prt::albedoAt(scene, m, 0, 0.5f, 0.5f), mean * glm::vec3(0.5f, 0.6f, 1.0f));
+}
+
+/// A .glb whose base colour image lives in a buffer view (2×1: red, green).
+GltfBuilder texturedGlb() {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  prim["attributes"]["TEXCOORD_0"] = b.floats({0.25f, 0.5f, 0.75f, 0.5f, 0.75f, 0.5f}, "VEC2", 2);
+  prim["material"] = 0;
+  std::string png = encodePng(2, 1, {255, 0, 0, 255, 0, 255, 0, 255});
+  b.doc["images"] = Json::array({{{"bufferView", b.view(png.data(), png.size())}, {"mimeType", "image/png"}}});
+  b.doc["textures"] = Json::array({{{"source", 0}}});
+  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  return b;
+}
+
+TEST_F(SceneLoad, GlbWithImageInBufferView) {
+  prt::Scene scene = prt::loadScene(texturedGlb().writeGlb(dir_ / "embedded.glb"));
+  ASSERT_EQ(scene.meshes.size(), 1u);
+  expectNear(prt::albedoAtVertex(scene, scene.meshes[0], 0), {1, 0, 0});
+  expectNear(prt::albedoAtVertex(scene, scene.meshes[0], 1), {0, 1, 0});
+}
+
+TEST_F(SceneLoad, DefaultMaterialIsWhite) {
+  GltfBuilder b;
+  b.scene({b.node({{"mesh", b.mesh(Json::array({trianglePrimitive(b)}))}})});
+  prt::Scene scene = prt::loadScene(b.write(dir_ / "white.gltf"));
+  EXPECT_EQ(scene.meshes[0].material, -1);
+  expectNear(prt::albedoAtVertex(scene, scene.meshes[0], 1), {1, 1, 1});
+}
+
+TEST_F(SceneLoad, CameraAndSpotLightInWorldSpace) {
+  GltfBuilder b;
+  int mesh = b.mesh(Json::array({trianglePrimitive(b)}));
+  b.doc["cameras"] = Json::array(
+      {{{"type", "perspective"}, {"name", "cam"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}, {"aspectRatio", 1.5}}}}});
+  b.doc["extensionsUsed"] = {"KHR_lights_punctual"};
+  b.doc["extensions"]["KHR_lights_punctual"]["lights"] = Json::array(
+      {{{"type", "spot"}, {"name", "lamp"}, {"color", {1, 0.5, 0.25}}, {"intensity", 10},
+        {"spot", {{"innerConeAngle", 0.2}, {"outerConeAngle", 0.6}}}}});
+  const double s = std::sqrt(0.5);
+  int cam = b.node({{"camera", 0}, {"translation", {0, 0, 5}}});
+  int light = b.node({{"translation", {0, 3, 0}}, {"rotation", {-s, 0, 0, s}},  // -90° about X
+                      {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+  b.scene({b.node({{"mesh", mesh}}), b.node({{"children", {cam, light}}, {"translation", {1, 0, 0}}})});
+  prt::Scene scene = prt::loadScene(b.write(dir_ / "camlight.gltf"));
+  ASSERT_EQ(scene.cameras.size(), 1u);
+  const prt::Camera& c = scene.cameras[0];
+  EXPECT_EQ(c.name, "cam");
+  EXPECT_EQ(c.node, cam);
+  EXPECT_TRUE(c.perspective);
+  EXPECT_DOUBLE_EQ(c.yfov, 0.5);
+  EXPECT_DOUBLE_EQ(c.znear, 0.1);
+  EXPECT_DOUBLE_EQ(c.aspectRatio, 1.5);
+  expectNear(glm::vec3(c.world[3]), {1, 0, 5});
+  ASSERT_EQ(scene.lights.size(), 1u);
+  const prt::PunctualLight& l = scene.lights[0];
+  EXPECT_EQ(l.type, prt::PunctualLight::Type::Spot);
+  EXPECT_EQ(l.name, "lamp");
+  expectNear(l.color, {1, 0.5f, 0.25f});
+  EXPECT_FLOAT_EQ(l.intensity, 10.0f);
+  expectNear(l.position, {1, 3, 0});
+  expectNear(l.direction, {0, -1, 0});  // local -Z turned -90° about X points down
+  EXPECT_FLOAT_EQ(l.innerConeAngle, 0.2f);
+  EXPECT_FLOAT_EQ(l.outerConeAngle, 0.6f);
+}
+
+TEST_F(SceneLoad, ReceiversByNameIndexAndExtrasCoverSubtrees) {
+  GltfBuilder b;
+  int mesh = b.mesh(Json::array({trianglePrimitive(b)}));
+  int ball = b.node({{"name", "Ball"}, {"mesh", mesh}});
+  int group = b.node({{"name", "Group"}, {"children", {ball}}});
+  int floor = b.node({{"name", "Floor"}, {"mesh", mesh}});
+  int toy = b.node({{"name", "Toy"}, {"mesh", mesh}});
+  int prop = b.node({{"name", "Prop"}, {"children", {toy}}, {"extras", {{"prt", {{"receiver", true}}}}}});
+  b.scene({group, floor, prop});
+  std::string path = b.write(dir_ / "receivers.gltf");
+  auto receiverOf = [](const prt::Scene& s, int node) {
+    for (const prt::MeshInstance& m : s.meshes)
+      if (m.node == node) return m.receiverOnly;
+    ADD_FAILURE() << "no instance for node " << node;
+    return false;
+  };
+  prt::Scene plain = prt::loadScene(path);
+  EXPECT_FALSE(receiverOf(plain, ball));
+  EXPECT_FALSE(receiverOf(plain, floor));
+  EXPECT_TRUE(receiverOf(plain, toy));  // by extras, inherited from Prop
+
+  prt::LoadOptions options;
+  options.receiverNodes = {"Group", std::to_string(floor)};
+  prt::Scene marked = prt::loadScene(path, options);
+  EXPECT_TRUE(receiverOf(marked, ball));  // by name, inherited from Group
+  EXPECT_TRUE(receiverOf(marked, floor));  // by index
+  EXPECT_TRUE(receiverOf(marked, toy));
+}
+
+TEST_F(SceneLoad, LinesAreSkippedWithAWarning) {
+  GltfBuilder b;
+  Json lines = trianglePrimitive(b);
+  lines["mode"] = 1;
+  b.scene({b.node({{"mesh", b.mesh(Json::array({lines, trianglePrimitive(b)}))}})});
+  std::string path = b.write(dir_ / "lines.gltf");
+  prt::Scene scene = prt::loadScene(path);
+  ASSERT_EQ(scene.meshes.size(), 1u);
+  EXPECT_EQ(scene.meshes[0].primitive, 1);
+  ASSERT_EQ(scene.warnings.size(), 1u);
+  EXPECT_EQ(scene.warnings[0], path + ": mesh 0 / primitive 0: skipping mode LINES (only triangles are baked)");
+}
+
+// ---------------------------------------------------------------------------------------------
+
+using SceneTextureSample = SceneTest;
+
+TEST_F(SceneTextureSample, BilinearWithWrapModes) {
+  prt::Texture t;
+  t.width = 2;
+  t.height = 1;
+  t.texels = {glm::vec4(0.0f), glm::vec4(1.0f)};
+  auto at = [&](float u, int wrap) {
+    t.wrapS = t.wrapT = wrap;
+    return t.sample({u, 0.5f}).r;
+  };
+  const int repeat = 10497, clamp = 33071, mirror = 33648;
+  EXPECT_FLOAT_EQ(at(0.25f, repeat), 0.0f);   // texel centres are exact
+  EXPECT_FLOAT_EQ(at(0.75f, repeat), 1.0f);
+  EXPECT_FLOAT_EQ(at(0.5f, repeat), 0.5f);    // halfway between the centres
+  EXPECT_FLOAT_EQ(at(0.0f, repeat), 0.5f);    // edge: blends with the texel across the seam
+  EXPECT_FLOAT_EQ(at(0.0f, clamp), 0.0f);
+  EXPECT_FLOAT_EQ(at(0.0f, mirror), 0.0f);    // mirrored: the neighbour is itself
+  EXPECT_FLOAT_EQ(at(1.25f, repeat), 0.0f);   // one period on: texel 0 again
+  EXPECT_FLOAT_EQ(at(1.25f, mirror), 1.0f);   // mirrored period: texel 1
+  EXPECT_FLOAT_EQ(at(1.25f, clamp), 1.0f);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+using SceneErrors = SceneTest;
+
+TEST_F(SceneErrors, MissingFile) {
+  expectError((dir_ / "absent.gltf").string(), {"no such file"});
+}
+
+TEST_F(SceneErrors, MalformedJson) {
+  std::ofstream(dir_ / "broken.gltf") << "{ \"asset\": { \"version\": ";
+  expectError((dir_ / "broken.gltf").string(), {"malformed glTF"});
+}
+
+TEST_F(SceneErrors, IndexOutOfRange) {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  prim["indices"] = b.indices({0, 1, 5});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  expectError(b.write(dir_ / "badindex.gltf"), {"mesh 0 / primitive 0 / indices", "index 2 is 5"});
+}
+
+TEST_F(SceneErrors, AccessorPastBufferEnd) {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  b.doc["accessors"][0]["count"] = 4;  // 48 bytes from a 36-byte view
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  expectError(b.write(dir_ / "short.gltf"), {"mesh 0 / primitive 0 / POSITION", "runs past the end"});
+}
+
+TEST_F(SceneErrors, BufferViewPastBufferEnd) {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  b.doc["bufferViews"][0]["byteOffset"] = 1000;
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  expectError(b.write(dir_ / "view.gltf"), {"POSITION", "buffer view 0"});
+}
+
+TEST_F(SceneErrors, ImageBufferViewPastBufferEnd) {
+  GltfBuilder b = texturedGlb();
+  b.doc["bufferViews"][b.doc["images"][0]["bufferView"].get<int>()]["byteLength"] = 100000;
+  expectError(b.writeGlb(dir_ / "image.glb"), {"malformed glTF", "image 0", "outside its buffer"});
+}
+
+TEST_F(SceneErrors, EmptyDataUriImage) {
+  GltfBuilder b;
+  b.doc["images"] = Json::array({{{"uri", "data:image/png;base64,"}}});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({trianglePrimitive(b)}))}})});
+  expectError(b.write(dir_ / "emptyimage.gltf"), {"malformed glTF"});
+}
+
+TEST_F(SceneErrors, NonFinitePosition) {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b, {0, 0, 0, std::numeric_limits<float>::quiet_NaN(), 0, 0, 0, 1, 0});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  expectError(b.write(dir_ / "nan.gltf"), {"mesh 0 / primitive 0 / POSITION: vertex 1 is not finite"});
+}
+
+TEST_F(SceneErrors, DegenerateTriangleRefusedOrDropped) {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b, {0, 0, 0, 1, 0, 0, 0, 1, 0, 2, 0, 0});
+  prim["indices"] = b.indices({0, 1, 2, 0, 1, 3});  // the second one is collinear
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  std::string path = b.write(dir_ / "degenerate.gltf");
+  expectError(path, {"mesh 0 / primitive 0: triangle 1 is degenerate (zero area)"});
+  prt::LoadOptions options;
+  options.allowDegenerate = true;
+  prt::Scene scene = prt::loadScene(path, options);
+  EXPECT_EQ(scene.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2}));
+  EXPECT_EQ(scene.meshes[0].vertexCount(), 4u);  // vertices stay one to one
+  ASSERT_EQ(scene.warnings.size(), 1u);
+  EXPECT_NE(scene.warnings[0].find("dropped 1 degenerate"), std::string::npos) << scene.warnings[0];
+}
+
+TEST_F(SceneErrors, UnknownRequiredExtension) {
+  GltfBuilder b;
+  b.doc["extensionsUsed"] = {"EXT_made_up"};
+  b.doc["extensionsRequired"] = {"EXT_made_up"};
+  b.scene({b.node({{"mesh", b.mesh(Json::array({trianglePrimitive(b)}))}})});
+  expectError(b.write(dir_ / "ext.gltf"), {"required extension EXT_made_up"});
+}
+
+TEST_F(SceneErrors, NodeCycle) {
+  GltfBuilder b;
+  int mesh = b.mesh(Json::array({trianglePrimitive(b)}));
+  b.node({{"children", {1}}});
+  b.node({{"children", {2}}, {"mesh", mesh}});
+  b.node({{"children", {1}}});
+  b.scene({0});
+  expectError(b.write(dir_ / "cycle.gltf"), {"node 1", "cycle"});
+}
+
+TEST_F(SceneErrors, NoTriangles) {
+  GltfBuilder b;
+  Json points = trianglePrimitive(b);
+  points["mode"] = 0;
+  b.scene({b.node({{"mesh", b.mesh(Json::array({points}))}})});
+  expectError(b.write(dir_ / "points.gltf"), {"no triangle geometry in the default scene"});
+}
+
+TEST_F(SceneErrors, UnknownReceiverName) {
+  GltfBuilder b;
+  b.scene({b.node({{"name", "Floor"}, {"mesh", b.mesh(Json::array({trianglePrimitive(b)}))}})});
+  prt::LoadOptions options;
+  options.receiverNodes = {"Nope"};
+  expectError(b.write(dir_ / "receiver.gltf"), {"no node named 'Nope'"}, options);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+using SceneWrite = SceneTest;
+
+/// Two nodes share mesh 0 (a triangle); node 2 holds a strip.
+std::string writeInstancedScene(const fs::path& dir) {
+  GltfBuilder b;
+  int tri = b.mesh(Json::array({trianglePrimitive(b)}));
+  Json strip = trianglePrimitive(b, {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0});
+  strip["mode"] = 5;
+  int stripMesh = b.mesh(Json::array({strip}));
+  b.scene({b.node({{"name", "A"}, {"mesh", tri}}), b.node({{"name", "B"}, {"mesh", tri}, {"translation", {5, 0, 0}}}),
+           b.node({{"name", "S"}, {"mesh", stripMesh}, {"translation", {0, 5, 0}}})});
+  return b.write(dir / "instanced.gltf");
+}
+
+/// Distinct made-up transfer for every instance, vertex and coefficient.
+void fillTransfer(prt::Scene& scene, int bands) {
+  scene.transferBands = bands;
+  size_t k = size_t(bands) * bands;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    prt::MeshInstance& inst = scene.meshes[m];
+    inst.transferBands = bands;
+    inst.transfer.resize(inst.vertexCount() * k);
+    for (size_t v = 0; v < inst.vertexCount(); ++v)
+      for (size_t i = 0; i < k; ++i)
+        inst.transfer[v * k + i] = glm::vec3(float(100 * m + 10 * v + i), -float(m + 1), 0.5f * float(i));
+  }
+}
+
+TEST_F(SceneWrite, BakedRoundTripKeepsTransferPerInstance) {
+  std::string input = writeInstancedScene(dir_);
+  prt::Scene scene = prt::loadScene(input);
+  ASSERT_EQ(scene.meshes.size(), 3u);
+  fillTransfer(scene, 2);
+  const std::string settings = R"({"bands": 2, "samples": 256, "sky": "studio.exr", "bounces": [0, 1]})";
+  fs::path out = dir_ / "baked.glb";
+  prt::writeBakedScene(input, scene, settings, out.string());
+
+  prt::Scene baked = prt::loadScene(out.string());
+  EXPECT_EQ(baked.transferBands, 2);
+  EXPECT_EQ(Json::parse(baked.bakeSettingsJson), Json::parse(settings));
+  ASSERT_EQ(baked.meshes.size(), 3u);
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(baked.meshes[k].node, scene.meshes[k].node);
+    EXPECT_EQ(baked.meshes[k].transferBands, 2);
+    EXPECT_EQ(baked.meshes[k].transfer, scene.meshes[k].transfer) << "instance " << k;
+    EXPECT_EQ(baked.meshes[k].indices, scene.meshes[k].indices);
+    for (size_t v = 0; v < scene.meshes[k].vertexCount(); ++v)
+      expectNear(baked.meshes[k].positions[v], scene.meshes[k].positions[v]);
+  }
+  // Nodes A and B no longer share a mesh.
+  EXPECT_EQ(baked.meshes[0].mesh, 0);
+  EXPECT_NE(baked.meshes[1].mesh, baked.meshes[0].mesh);
+
+  Json doc = glbJson(out);
+  EXPECT_EQ(doc["asset"]["generator"], "prt");
+  EXPECT_EQ(doc["meshes"].size(), 3u);
+  ASSERT_EQ(doc["buffers"].size(), 1u);
+  EXPECT_FALSE(doc["buffers"][0].contains("uri"));
+  for (const Json& mesh : doc["meshes"]) {
+    const Json& prim = mesh["primitives"][0];
+    EXPECT_EQ(prim.value("mode", 4), 4);  // the strip became a list
+    // glTF requires POSITION bounds; the input had none, the writer adds them.
+    const Json& position = doc["accessors"][prim["attributes"]["POSITION"].get<int>()];
+    EXPECT_EQ(position["min"].size(), 3u);
+    EXPECT_EQ(position["max"].size(), 3u);
+    for (const char* name : {"_PRT_SH_00", "_PRT_SH_01", "_PRT_SH_02", "_PRT_SH_03"}) {
+      ASSERT_TRUE(prim["attributes"].contains(name)) << name;
+      const Json& a = doc["accessors"][prim["attributes"][name].get<int>()];
+      EXPECT_EQ(a["type"], "VEC3");
+      EXPECT_EQ(a["componentType"], kFloat);
+    }
+  }
+}
+
+TEST_F(SceneWrite, RebakingReplacesTransfer) {
+  std::string input = writeInstancedScene(dir_);
+  prt::Scene scene = prt::loadScene(input);
+  fillTransfer(scene, 3);
+  fs::path first = dir_ / "first.glb", second = dir_ / "second.glb";
+  prt::writeBakedScene(input, scene, "{}", first.string());
+  prt::Scene again = prt::loadScene(first.string());
+  fillTransfer(again, 2);
+  prt::writeBakedScene(first.string(), again, R"({"pass": 2})", second.string());
+  prt::Scene result = prt::loadScene(second.string());
+  EXPECT_EQ(result.transferBands, 2);
+  EXPECT_EQ(result.meshes[1].transfer, again.meshes[1].transfer);
+  EXPECT_EQ(Json::parse(result.bakeSettingsJson), Json::parse(R"({"pass": 2})"));
+  EXPECT_LT(fs::file_size(second), fs::file_size(first));  // old coefficients are not carried along
+}
+
+TEST_F(SceneWrite, TexturedSceneKeepsItsImageAndAlbedo) {
+  for (const std::string uri : {"tex.png", ""}) {
+    SCOPED_TRACE(uri.empty() ? "data URI image" : "image file");
+    std::string png;
+    std::string input = writeTexturedScene(dir_, uri, &png);
+    prt::Scene scene = prt::loadScene(input);
+    fillTransfer(scene, 1);
+    fs::path out = dir_ / "textured.glb";
+    prt::writeBakedScene(input, scene, "", out.string());
+    prt::Scene baked = prt::loadScene(out.string());
+    EXPECT_EQ(baked.bakeSettingsJson, "");
+    for (uint32_t v = 0; v < 3; ++v)
+      expectNear(prt::albedoAtVertex(baked, baked.meshes[0], v), prt::albedoAtVertex(scene, scene.meshes[0], v));
+    // The image travels as its original PNG bytes in a buffer view.
+    Json doc = glbJson(out);
+    const Json& image = doc["images"][0];
+    EXPECT_FALSE(image.contains("uri"));
+    EXPECT_EQ(image["mimeType"], "image/png");
+    const Json& view = doc["bufferViews"][image["bufferView"].get<int>()];
+    std::string bin = glbBin(out);
+    EXPECT_EQ(bin.substr(view.value("byteOffset", 0), view["byteLength"].get<size_t>()), png);
+    // Writing again from the .glb keeps the image that is now in a buffer view.
+    fs::path again = dir_ / "again.glb";
+    prt::writeBakedScene(out.string(), baked, "", again.string());
+    prt::Scene twice = prt::loadScene(again.string());
+    for (uint32_t v = 0; v < 3; ++v)
+      expectNear(prt::albedoAtVertex(twice, twice.meshes[0], v), prt::albedoAtVertex(scene, scene.meshes[0], v));
+  }
+}
+
+TEST_F(SceneWrite, LitSceneHasColorsUnlitMaterialsAndNoTransfer) {
+  std::string input = writeInstancedScene(dir_);
+  prt::Scene scene = prt::loadScene(input);
+  fillTransfer(scene, 3);
+  fs::path baked = dir_ / "baked.glb", lit = dir_ / "lit.glb";
+  prt::writeBakedScene(input, scene, "{}", baked.string());
+  prt::Scene bakedScene = prt::loadScene(baked.string());
+  std::vector<std::vector<glm::vec3>> radiance(bakedScene.meshes.size());
+  for (size_t k = 0; k < radiance.size(); ++k)
+    for (size_t v = 0; v < bakedScene.meshes[k].vertexCount(); ++v)
+      radiance[k].push_back(glm::vec3(float(k), float(v), 2.5f));  // unclamped on purpose
+  radiance[1].clear();  // node B is left out
+  prt::writeLitScene(baked.string(), bakedScene, radiance, lit.string());
+
+  prt::Scene shown = prt::loadScene(lit.string());
+  EXPECT_EQ(shown.transferBands, 0);
+  ASSERT_EQ(shown.meshes.size(), 2u);
+  EXPECT_EQ(shown.meshes[0].node, bakedScene.meshes[0].node);
+  EXPECT_EQ(shown.meshes[1].node, bakedScene.meshes[2].node);
+  for (size_t k : {0u, 1u}) {
+    const prt::MeshInstance& m = shown.meshes[k];
+    const auto& expected = radiance[k == 0 ? 0 : 2];
+    ASSERT_EQ(m.colors.size(), expected.size());
+    for (size_t v = 0; v < expected.size(); ++v) {
+      expectNear(glm::vec3(m.colors[v]), expected[v]);
+      EXPECT_EQ(m.colors[v].a, 1.0f);
+    }
+    ASSERT_GE(m.material, 0);
+    EXPECT_TRUE(shown.materials[size_t(m.material)].unlit);
+    expectNear(prt::albedoAtVertex(shown, m, 0), expected[0]);
+  }
+  Json doc = glbJson(lit);
+  EXPECT_NE(std::find(doc["extensionsUsed"].begin(), doc["extensionsUsed"].end(), "KHR_materials_unlit"),
+            doc["extensionsUsed"].end());
+  for (const Json& mat : doc["materials"]) {
+    EXPECT_TRUE(mat["extensions"].contains("KHR_materials_unlit"));
+    EXPECT_FALSE(mat.value("pbrMetallicRoughness", Json::object()).contains("baseColorTexture"));
+  }
+  EXPECT_FALSE(doc["nodes"][bakedScene.meshes[1].node].contains("mesh"));
+  EXPECT_EQ(doc["meshes"].size(), 2u);  // B's own copy of the mesh is gone, not left empty
+  for (const Json& mesh : doc["meshes"])
+    for (const Json& prim : mesh["primitives"]) {
+      EXPECT_EQ(doc["accessors"][prim["attributes"]["COLOR_0"].get<int>()]["type"], "VEC3");
+      for (const auto& [name, index] : prim["attributes"].items()) EXPECT_EQ(name.rfind("_PRT_SH_", 0), std::string::npos);
+    }
+  // 9 transfer coefficients per vertex are gone from the binary chunk, not just unreferenced.
+  EXPECT_LT(glbBin(lit).size(), glbBin(baked).size() / 3);
+}
+
+TEST_F(SceneWrite, MissingDirectoryThrowsAndLeavesNoFile) {
+  std::string input = writeInstancedScene(dir_);
+  prt::Scene scene = prt::loadScene(input);
+  fs::path out = dir_ / "no" / "such" / "dir" / "baked.glb";
+  EXPECT_THROW(prt::writeBakedScene(input, scene, "{}", out.string()), prt::Error);
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(dir_ / "no"));
+  std::vector<std::vector<glm::vec3>> radiance(scene.meshes.size());
+  EXPECT_THROW(prt::writeLitScene(input, scene, radiance, out.string()), prt::Error);
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST_F(SceneWrite, BadSettingsJsonIsRefusedWithoutOutput) {
+  std::string input = writeInstancedScene(dir_);
+  prt::Scene scene = prt::loadScene(input);
+  fs::path out = dir_ / "baked.glb";
+  EXPECT_THROW(prt::writeBakedScene(input, scene, "{not json", out.string()), prt::Error);
+  EXPECT_FALSE(fs::exists(out));
+}
+
+}  // namespace

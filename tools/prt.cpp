@@ -1,7 +1,10 @@
 // prt: bake precomputed radiance transfer, relight it, inspect it.
 // Thin on purpose: parse the command line, call the libraries, report. Errors are caught once,
 // here: bad input prints one line and exits 1; usage errors print usage and exit 2.
+#include <array>
+#include <cmath>
 #include <cstdio>
+#include <optional>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -13,9 +16,11 @@
 
 #include "light_options.h"
 #include "prt/atomic_file.h"
+#include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
 #include "prt/progress.h"
+#include "prt/probe_grid.h"
 #include "prt/relight.h"
 #include "prt/scene.h"
 
@@ -31,6 +36,12 @@ void printWarnings(const Scene& scene, bool quiet) {
 // ---- prt bake
 struct BakeArgs {
   std::string scene, output;
+  std::string probes;  // optional .vdb
+  double probeSpacing = 0.0;
+  std::vector<int> probeDims;
+  std::vector<double> probeBounds;
+  int probeSamples = 1024;
+  bool probeHalf = false;
   bake::BakeSettings settings;
   bool unshadowed = false;
   bool quiet = false;
@@ -43,18 +54,45 @@ void runBake(const BakeArgs& a) {
   s.progress = !a.quiet && Progress::terminalDefault();
   bake::validate(s);
   AtomicFile probe(a.output);  // fail on an unwritable output before hours of work
+  std::optional<AtomicFile> probeFile;
+  bake::ProbeSettings ps;
+  if (!a.probes.empty()) {
+    probeFile.emplace(a.probes);
+    ps.bands = s.bands;
+    ps.samples = a.probeSamples;
+    ps.bounces = s.shadowed ? s.bounces : 0;
+    ps.seed = s.seed;
+    ps.progress = s.progress;
+    ps.spacing = a.probeSpacing;
+    if (!a.probeDims.empty()) ps.dims = glm::ivec3(a.probeDims[0], a.probeDims[1], a.probeDims[2]);
+    if (a.probeSpacing == 0.0 && a.probeDims.empty()) ps.dims = glm::ivec3(16);
+    if (!a.probeBounds.empty()) {
+      ps.boundsMin = glm::dvec3(a.probeBounds[0], a.probeBounds[1], a.probeBounds[2]);
+      ps.boundsMax = glm::dvec3(a.probeBounds[3], a.probeBounds[4], a.probeBounds[5]);
+    }
+    bake::validate(ps);
+    if (!s.shadowed) throw Error("--probes needs a shadowed bake (drop --unshadowed)");
+    s.keepLowerOrder = true;
+  }
 
   Scene scene = loadScene(a.scene, a.load);
   printWarnings(scene, a.quiet);
   bake::SurfaceTransfer result = bake::bakeSurface(scene, s);
+  std::string sceneName = std::filesystem::path(a.scene).filename().string();
+  bake::ProbeStats probeStats;
+  if (!a.probes.empty()) {
+    if (result.perMeshLowerOrder.empty()) result.perMeshLowerOrder.assign(scene.meshes.size(), {});
+    ProbeGrid grid = bake::bakeProbes(scene, result.perMeshLowerOrder, ps, &probeStats);
+    grid.info.scene = sceneName;
+    writeProbeGrid(grid, a.probes, a.probeHalf);
+  }
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     scene.meshes[k].transfer = std::move(result.perMesh[k]);
     scene.meshes[k].transferBands = scene.meshes[k].transfer.empty() ? 0 : s.bands;
   }
   scene.transferBands = s.bands;
   auto tWrite = std::chrono::steady_clock::now();
-  writeBakedScene(a.scene, scene, bake::settingsJson(s, std::filesystem::path(a.scene).filename().string()),
-                  a.output);
+  writeBakedScene(a.scene, scene, bake::settingsJson(s, sceneName), a.output);
   double writeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tWrite).count();
 
   if (a.quiet) return;
@@ -77,6 +115,102 @@ void runBake(const BakeArgs& a) {
                formatCount(directSeconds > 0 ? double(st.rays) / directSeconds : 0.0).c_str(),
                formatCount(double(st.hitRecords)).c_str(), stages.str().c_str(), writeSeconds,
                st.seconds + writeSeconds, formatBytes(peakMemoryBytes()).c_str());
+  if (!a.probes.empty())
+    std::fprintf(stderr,
+                 "  probes: %s lattice points, %s active, %s inside geometry, %s moved out; %s rays in %.2f s "
+                 "(%s probes/s, %s rays/s) -> %s\n",
+                 formatCount(double(probeStats.probes)).c_str(), formatCount(double(probeStats.active)).c_str(),
+                 formatCount(double(probeStats.invalid)).c_str(), formatCount(double(probeStats.moved)).c_str(),
+                 formatCount(double(probeStats.rays)).c_str(), probeStats.seconds,
+                 formatCount(probeStats.probes / std::max(probeStats.seconds, 1e-9)).c_str(),
+                 formatCount(probeStats.rays / std::max(probeStats.seconds, 1e-9)).c_str(), a.probes.c_str());
+}
+
+// ---- prt probe
+struct ProbeArgs {
+  std::string file, points, output;
+  std::vector<double> at, normal;
+  tools::LightOptions light;
+};
+
+void runProbe(const ProbeArgs& a) {
+  if (a.points.empty() == a.at.empty()) throw Error("give either --at X,Y,Z or --points IN.csv -o OUT.csv");
+  if (!a.points.empty() && a.output.empty()) throw Error("--points needs -o OUT.csv");
+  std::optional<AtomicFile> outFile;
+  if (!a.output.empty()) outFile.emplace(a.output);
+  ProbeGrid grid = readProbeGrid(a.file);
+  sh::ShRgb light = tools::buildLight(a.light, grid.bands);
+  std::vector<glm::vec3> relit = relightProbes(grid, light);
+  auto finiteVec = [](const std::vector<double>& v, const char* what) {
+    for (double x : v)
+      if (!std::isfinite(x)) throw Error(cat(what, ": values must be finite"));
+    return glm::vec3(float(v[0]), float(v[1]), float(v[2]));
+  };
+  if (!a.at.empty()) {
+    glm::vec3 x = finiteVec(a.at, "--at");
+    nlohmann::json j;
+    j["position"] = {x.x, x.y, x.z};
+    j["bands"] = grid.bands;
+    glm::vec3 n;
+    const glm::vec3* np = nullptr;
+    if (!a.normal.empty()) {
+      n = finiteVec(a.normal, "--normal");
+      if (glm::length(n) == 0.0f) throw Error("--normal: must not be zero");
+      n = glm::normalize(n);
+      np = &n;
+    }
+    ProbeWeights w = probeWeights(grid, x, np);
+    if (w.count == 0) throw Error(cat(a.file, ": point (", x.x, ", ", x.y, ", ", x.z, ") is outside the probe grid or has no valid probe around it"));
+    sh::ShRgb c = interpolateRadiance(grid, relit, x, np);
+    nlohmann::json coeffs = nlohmann::json::array();
+    for (const glm::vec3& v : c.c) coeffs.push_back({v.r, v.g, v.b});
+    j["radiance_sh"] = coeffs;
+    nlohmann::json probes = nlohmann::json::array();
+    for (int i = 0; i < w.count; ++i) {
+      glm::ivec3 ijk = grid.coord[size_t(w.probe[size_t(i)])];
+      probes.push_back({{"index", {ijk.x, ijk.y, ijk.z}}, {"weight", w.weight[size_t(i)]}});
+    }
+    j["probes"] = probes;
+    if (np) {
+      glm::vec3 e = sh::irradiance(c, n);
+      j["normal"] = {n.x, n.y, n.z};
+      j["irradiance"] = {e.r, e.g, e.b};
+    }
+    std::printf("%s\n", j.dump(2).c_str());
+    return;
+  }
+  // --points IN.csv -o OUT.csv
+  std::string text = readFile(a.points);
+  std::istringstream in(text);
+  std::string line;
+  if (!std::getline(in, line)) throw Error(cat(a.points, ": empty file, expected a header x,y,z,nx,ny,nz"));
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  if (line != "x,y,z,nx,ny,nz") throw Error(cat(a.points, ": header is '", line, "', expected 'x,y,z,nx,ny,nz'"));
+  std::ostringstream out;
+  out << "x,y,z,nx,ny,nz,E_r,E_g,E_b\n";
+  out.precision(9);
+  for (int row = 2; std::getline(in, line); ++row) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
+    std::array<float, 6> v{};
+    std::istringstream ls(line);
+    std::string cell;
+    for (int k = 0; k < 6; ++k) {
+      if (!std::getline(ls, cell, ',')) throw Error(cat(a.points, ": line ", row, ": expected 6 values"));
+      char* end = nullptr;
+      v[size_t(k)] = std::strtof(cell.c_str(), &end);
+      if (end == cell.c_str() || !std::isfinite(v[size_t(k)]))
+        throw Error(cat(a.points, ": line ", row, ": '", cell, "' is not a finite number"));
+    }
+    glm::vec3 x(v[0], v[1], v[2]), n(v[3], v[4], v[5]);
+    if (glm::length(n) == 0.0f) throw Error(cat(a.points, ": line ", row, ": normal is zero"));
+    n = glm::normalize(n);
+    glm::vec3 e(0.0f);
+    if (probeWeights(grid, x, &n).count > 0) e = sh::irradiance(interpolateRadiance(grid, relit, x, &n), n);
+    out << v[0] << ',' << v[1] << ',' << v[2] << ',' << v[3] << ',' << v[4] << ',' << v[5] << ',' << e.r << ','
+        << e.g << ',' << e.b << '\n';
+  }
+  writeFileAtomic(a.output, out.str());
 }
 
 // ---- prt relight
@@ -185,7 +319,10 @@ int runInfo(const std::vector<std::string>& files) {
   int status = 0;
   for (const std::string& f : files) {
     try {
-      infoGlb(f);
+      if (std::filesystem::path(f).extension() == ".vdb")
+        std::printf("%s", describeProbeFile(f).c_str());
+      else
+        infoGlb(f);
     } catch (const Error& e) {
       std::fprintf(stderr, "prt: %s\n", e.what());
       status = 1;
@@ -215,6 +352,13 @@ int main(int argc, char** argv) {
   bake->add_option("--receiver", bakeArgs.load.receiverNodes, "Node (name or index) baked as receiver only; repeatable");
   bake->add_flag("--allow-degenerate", bakeArgs.load.allowDegenerate, "Drop zero-area triangles with a warning instead of refusing");
   bake->add_flag("-q,--quiet", bakeArgs.quiet, "No progress bar, no summary");
+  bake->add_option("--probes", bakeArgs.probes, "Also bake a probe grid into this OpenVDB file (.vdb)");
+  bake->add_option("--probe-spacing", bakeArgs.probeSpacing, "Probe spacing in world units (else --probe-dims)");
+  bake->add_option("--probe-dims", bakeArgs.probeDims, "Probe counts X,Y,Z (default 16,16,16)")->delimiter(',')->expected(3);
+  bake->add_option("--probe-bounds", bakeArgs.probeBounds, "Probe grid bounds MINX,MINY,MINZ,MAXX,MAXY,MAXZ (default: scene bounds)")
+      ->delimiter(',')->expected(6);
+  bake->add_option("--probe-samples", bakeArgs.probeSamples, "Sphere directions per probe")->capture_default_str();
+  bake->add_flag("--probe-half", bakeArgs.probeHalf, "Store probe grids as 16-bit floats");
 
   RelightArgs relightArgs;
   CLI::App* relight = app.add_subcommand("relight", "Relight a baked scene: per-vertex exitant radiance as COLOR_0");
@@ -231,9 +375,18 @@ int main(int argc, char** argv) {
   light->add_option("--bands", lightArgs.bands, "SH bands (1-8)")->capture_default_str();
   tools::addLightOptions(*light, lightArgs.light);
 
+  ProbeArgs probeArgs;
+  CLI::App* probeCmd = app.add_subcommand("probe", "Query a probe grid: incident radiance SH and irradiance at points");
+  probeCmd->add_option("probes", probeArgs.file, "Probe grid (.vdb from prt bake --probes)")->required();
+  probeCmd->add_option("--at", probeArgs.at, "Query point X,Y,Z (prints JSON)")->delimiter(',')->expected(3);
+  probeCmd->add_option("--normal", probeArgs.normal, "Surface normal at the point: adds irradiance")->delimiter(',')->expected(3);
+  probeCmd->add_option("--points", probeArgs.points, "CSV of points with header x,y,z,nx,ny,nz");
+  probeCmd->add_option("-o,--output", probeArgs.output, "Output CSV for --points (adds E_r,E_g,E_b)");
+  tools::addLightOptions(*probeCmd, probeArgs.light);
+
   std::vector<std::string> infoFiles;
   CLI::App* info = app.add_subcommand("info", "Describe baked or input files");
-  info->add_option("files", infoFiles, "Files to describe (.gltf, .glb)")->required();
+  info->add_option("files", infoFiles, "Files to describe (.gltf, .glb, .vdb)")->required();
 
   try {
     app.parse(argc, argv);
@@ -244,6 +397,7 @@ int main(int argc, char** argv) {
     if (bake->parsed()) runBake(bakeArgs);
     if (relight->parsed()) runRelight(relightArgs);
     if (light->parsed()) runLight(lightArgs);
+    if (probeCmd->parsed()) runProbe(probeArgs);
     if (info->parsed()) return runInfo(infoFiles);
   } catch (const Error& e) {
     std::fprintf(stderr, "prt: %s\n", e.what());

@@ -1,1 +1,1423 @@
-// Work in progress: filled in by the commit that implements it.
+// glTF 2.0 reading (loadScene) and writing (writeBakedScene, writeLitScene).
+//
+// The only file that sees tinygltf. Reading goes through tinygltf's parser but never trusts
+// it with bounds: every accessor is checked against its buffer view and buffer before a byte
+// is read. Images are kept encoded at load time (keepEncodedImage) and only base-colour
+// textures are decoded, with stb, so a scene full of normal maps costs nothing and the
+// writers can embed the original PNG/JPEG bytes instead of re-encoding them.
+#include "prt/scene.h"
+
+#include <tiny_gltf.h>
+#include <stb_image.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
+
+#include "prt/atomic_file.h"
+#include "prt/error.h"
+
+namespace prt {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+constexpr int kMaxNodeDepth = 1000;
+constexpr const char* kTransferPrefix = "_PRT_SH_";
+constexpr const char* kUnlit = "KHR_materials_unlit";
+constexpr const char* kLights = "KHR_lights_punctual";
+constexpr const char* kTextureTransform = "KHR_texture_transform";
+
+// ---------------------------------------------------------------------------------------------
+// Small helpers
+
+/// A loaded glTF document and the path its messages start with.
+struct Gltf {
+  std::string path;
+  tinygltf::Model model;
+};
+
+[[noreturn]] void fail(const Gltf& g, const std::string& what) {
+  throw Error(cat(g.path, ": ", what));
+}
+
+std::string primitiveWhere(int mesh, int primitive) {
+  return cat("mesh ", mesh, " / primitive ", primitive);
+}
+
+std::string firstLine(const std::string& text) {
+  std::string line = text.substr(0, text.find('\n'));
+  while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+  return line;
+}
+
+bool allDigits(const std::string& s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); });
+}
+
+std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty()) out.push_back(line);
+  return out;
+}
+
+/// The sRGB decoding curve (IEC 61966-2-1), exact. Kept local: the copy in image.h belongs to
+/// another part of the library.
+double srgbDecode(double c) {
+  return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+}
+
+Json toJson(const tinygltf::Value& v) {
+  if (v.IsBool()) return v.Get<bool>();
+  if (v.IsInt()) return v.Get<int>();
+  if (v.IsNumber()) return v.GetNumberAsDouble();
+  if (v.IsString()) return v.Get<std::string>();
+  if (v.IsArray()) {
+    Json out = Json::array();
+    for (size_t i = 0; i < v.ArrayLen(); ++i) out.push_back(toJson(v.Get(static_cast<int>(i))));
+    return out;
+  }
+  if (v.IsObject()) {
+    Json out = Json::object();
+    for (const auto& [key, value] : v.Get<tinygltf::Value::Object>()) out[key] = toJson(value);
+    return out;
+  }
+  return nullptr;
+}
+
+tinygltf::Value toValue(const Json& j) {
+  switch (j.type()) {
+    case Json::value_t::boolean: return tinygltf::Value(j.get<bool>());
+    case Json::value_t::number_integer:
+    case Json::value_t::number_unsigned: {
+      // tinygltf's Value holds 32-bit ints; larger integers survive as doubles.
+      if (j.is_number_unsigned() ? j.get<uint64_t>() <= uint64_t(std::numeric_limits<int>::max())
+                                 : (j.get<int64_t>() >= std::numeric_limits<int>::min() &&
+                                    j.get<int64_t>() <= std::numeric_limits<int>::max()))
+        return tinygltf::Value(static_cast<int>(j.get<int64_t>()));
+      return tinygltf::Value(j.get<double>());
+    }
+    case Json::value_t::number_float: return tinygltf::Value(j.get<double>());
+    case Json::value_t::string: return tinygltf::Value(j.get<std::string>());
+    case Json::value_t::array: {
+      tinygltf::Value::Array a;
+      for (const Json& e : j) a.push_back(toValue(e));
+      return tinygltf::Value(std::move(a));
+    }
+    case Json::value_t::object: {
+      tinygltf::Value::Object o;
+      for (const auto& [key, value] : j.items()) o[key] = toValue(value);
+      return tinygltf::Value(std::move(o));
+    }
+    default: return tinygltf::Value();
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reading the file
+
+/// tinygltf image callback: keeps the encoded bytes (PNG, JPEG, ...) as they are. Decoding
+/// happens later, only for images used as base colour (decodeBaseColorTexture). `model` is
+/// the model being parsed: tinygltf 2.7 passes an image's buffer view bytes without checking
+/// the view against its buffer, so that is done here, before the bytes are touched.
+bool keepEncodedImage(tinygltf::Image* image, const int index, std::string* err, std::string*, int, int,
+                      const unsigned char* bytes, int size, void* model) {
+  if (image->bufferView >= 0) {
+    const auto& m = *static_cast<const tinygltf::Model*>(model);
+    const tinygltf::BufferView* view =
+        size_t(image->bufferView) < m.bufferViews.size() ? &m.bufferViews[size_t(image->bufferView)] : nullptr;
+    bool ok = view && view->buffer >= 0 && size_t(view->buffer) < m.buffers.size() &&
+              view->byteOffset <= m.buffers[size_t(view->buffer)].data.size() &&
+              view->byteLength <= m.buffers[size_t(view->buffer)].data.size() - view->byteOffset;
+    if (!ok) {
+      if (err) *err += cat("image ", index, ": buffer view ", image->bufferView, " lies outside its buffer\n");
+      return false;
+    }
+  }
+  image->image.assign(bytes, bytes + size);
+  image->as_is = true;
+  return true;
+}
+
+/// tinygltf image writer callback that writes nothing: the writers embed every image as a
+/// buffer view first, and an image they could not read keeps its URI as it was.
+bool keepImageUri(const std::string*, const std::string*, const tinygltf::Image*, bool,
+                  std::string*, void*) {
+  return false;
+}
+
+bool looksBinary(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char magic[4] = {};
+  if (in.read(magic, 4) && std::memcmp(magic, "glTF", 4) == 0) return true;
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext == ".glb";
+}
+
+/// Parses .gltf or .glb; tinygltf's warnings go to `warnings`, its errors become one
+/// prt::Error line.
+Gltf readGltf(const std::string& path, std::vector<std::string>* warnings) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw Error(cat(path, ": no such file"));
+  if (fs::is_directory(path, ec)) throw Error(cat(path, ": is a directory, expected a .gltf or .glb file"));
+  Gltf g;
+  g.path = path;
+  tinygltf::TinyGLTF parser;
+  parser.SetImageLoader(&keepEncodedImage, &g.model);
+  std::string err, warn;
+  bool ok = false;
+  try {
+    ok = looksBinary(path) ? parser.LoadBinaryFromFile(&g.model, &err, &warn, path)
+                           : parser.LoadASCIIFromFile(&g.model, &err, &warn, path);
+  } catch (const std::exception& e) {
+    // tinygltf mostly reports through `err`, but a few inputs (an empty data: image) make it
+    // throw from the standard library.
+    err = e.what();
+  }
+  if (!ok) throw Error(cat(path, ": malformed glTF: ", err.empty() ? "unknown error" : firstLine(err)));
+  if (warnings) {
+    for (const std::string& line : lines(warn)) warnings->push_back(cat(path, ": ", line));
+    for (const std::string& line : lines(err)) warnings->push_back(cat(path, ": ", line));
+  }
+  return g;
+}
+
+void checkRequiredExtensions(const Gltf& g, std::vector<std::string>& warnings) {
+  for (const std::string& ext : g.model.extensionsRequired) {
+    if (ext == kUnlit || ext == kLights) continue;
+    if (ext == kTextureTransform) {
+      warnings.push_back(cat(g.path, ": required extension ", ext,
+                             " is ignored (textures are sampled untransformed)"));
+      continue;
+    }
+    fail(g, cat("required extension ", ext, " is not supported"));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Accessors
+
+int componentSize(int componentType) {
+  switch (componentType) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    default: return 0;  // INT and DOUBLE are not glTF 2.0 accessor types
+  }
+}
+
+int componentCount(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
+    case TINYGLTF_TYPE_VEC4: return 4;
+    default: return 0;  // matrices are never vertex data we read
+  }
+}
+
+const char* typeName(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return "SCALAR";
+    case TINYGLTF_TYPE_VEC2: return "VEC2";
+    case TINYGLTF_TYPE_VEC3: return "VEC3";
+    case TINYGLTF_TYPE_VEC4: return "VEC4";
+    default: return "a matrix type";
+  }
+}
+
+/// A validated view of an accessor's elements; every read is within the buffer.
+struct AccessorData {
+  const unsigned char* bytes = nullptr;  // null: no buffer view, all values zero
+  size_t count = 0;
+  size_t stride = 0;
+  int componentType = 0;
+  int components = 0;
+  bool normalized = false;
+
+  /// Component c of element i, with normalized integers mapped as the glTF spec says.
+  double get(size_t i, int c) const {
+    if (!bytes) return 0.0;
+    const unsigned char* p = bytes + i * stride + static_cast<size_t>(c) * componentSize(componentType);
+    switch (componentType) {
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: { float v; std::memcpy(&v, p, 4); return v; }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0 : p[0];
+      case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        int8_t v; std::memcpy(&v, p, 1);
+        return normalized ? std::max(v / 127.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v; std::memcpy(&v, p, 2);
+        return normalized ? v / 65535.0 : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t v; std::memcpy(&v, p, 2);
+        return normalized ? std::max(v / 32767.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t v; std::memcpy(&v, p, 4);
+        return normalized ? v / 4294967295.0 : v;
+      }
+      default: return 0.0;
+    }
+  }
+};
+
+/// Checks accessor `index` (range, types, byte ranges of accessor, buffer view and buffer) and
+/// returns a view on it. `where` names the user of the accessor, e.g. "mesh 0 / primitive 1 /
+/// NORMAL".
+AccessorData openAccessor(const Gltf& g, int index, const std::string& where) {
+  const tinygltf::Model& m = g.model;
+  if (index < 0 || size_t(index) >= m.accessors.size())
+    fail(g, cat(where, ": accessor ", index, " does not exist (the file has ", m.accessors.size(), ")"));
+  const tinygltf::Accessor& a = m.accessors[size_t(index)];
+  if (a.sparse.isSparse) fail(g, cat(where, ": accessor ", index, " is sparse, which prt does not support"));
+  AccessorData d;
+  d.count = a.count;
+  d.componentType = a.componentType;
+  d.components = componentCount(a.type);
+  d.normalized = a.normalized;
+  int size = componentSize(a.componentType);
+  if (size == 0) fail(g, cat(where, ": accessor ", index, " has invalid component type ", a.componentType));
+  if (d.components == 0) fail(g, cat(where, ": accessor ", index, " has type ", typeName(a.type), ", expected a scalar or vector"));
+  size_t elementSize = size_t(size) * size_t(d.components);
+  if (a.bufferView < 0) return d;  // glTF: an accessor without a buffer view reads as zeros
+  if (size_t(a.bufferView) >= m.bufferViews.size())
+    fail(g, cat(where, ": accessor ", index, " uses buffer view ", a.bufferView, ", which does not exist"));
+  const tinygltf::BufferView& view = m.bufferViews[size_t(a.bufferView)];
+  if (view.buffer < 0 || size_t(view.buffer) >= m.buffers.size())
+    fail(g, cat(where, ": buffer view ", a.bufferView, " uses buffer ", view.buffer, ", which does not exist"));
+  const tinygltf::Buffer& buffer = m.buffers[size_t(view.buffer)];
+  if (view.byteOffset > buffer.data.size() || view.byteLength > buffer.data.size() - view.byteOffset)
+    fail(g, cat(where, ": buffer view ", a.bufferView, " (bytes ", view.byteOffset, "..",
+                view.byteOffset + view.byteLength, ") runs past the end of buffer ", view.buffer,
+                " (", buffer.data.size(), " bytes)"));
+  d.stride = view.byteStride ? view.byteStride : elementSize;
+  if (d.stride < elementSize)
+    fail(g, cat(where, ": buffer view ", a.bufferView, " has byteStride ", view.byteStride,
+                ", smaller than one element (", elementSize, " bytes)"));
+  if (d.count > 0) {
+    // The last element ends at byteOffset + (count-1)·stride + elementSize; written so that
+    // nothing overflows whatever count the file claims.
+    bool fits = a.byteOffset <= view.byteLength && elementSize <= view.byteLength - a.byteOffset &&
+                (d.count - 1) <= (view.byteLength - a.byteOffset - elementSize) / d.stride;
+    if (!fits)
+      fail(g, cat(where, ": accessor ", index, " (", d.count, " elements, stride ", d.stride,
+                  ", offset ", a.byteOffset, ") runs past the end of buffer view ", a.bufferView,
+                  " (", view.byteLength, " bytes)"));
+  }
+  d.bytes = buffer.data.data() + view.byteOffset + a.byteOffset;
+  return d;
+}
+
+void requireType(const Gltf& g, const AccessorData& d, const std::string& where,
+                 std::initializer_list<int> componentCounts) {
+  if (std::find(componentCounts.begin(), componentCounts.end(), d.components) == componentCounts.end()) {
+    std::string expected;
+    for (int c : componentCounts)
+      expected += cat(expected.empty() ? "" : " or ", typeName(c == 1 ? TINYGLTF_TYPE_SCALAR : c));
+    fail(g, cat(where, ": accessor has ", d.components, " components, expected ", expected));
+  }
+}
+
+void requireCount(const Gltf& g, const AccessorData& d, const std::string& where, size_t expected) {
+  if (d.count != expected)
+    fail(g, cat(where, ": ", d.count, " values, expected ", expected, " (the POSITION count)"));
+}
+
+template <int N>
+std::vector<glm::vec<N, float>> readVectors(const AccessorData& d) {
+  std::vector<glm::vec<N, float>> out(d.count);
+  for (size_t i = 0; i < d.count; ++i)
+    for (int c = 0; c < N; ++c) out[i][c] = static_cast<float>(d.get(i, c));
+  return out;
+}
+
+/// Index values of a primitive (or 0..n-1 without indices), each checked against the vertex count.
+std::vector<uint32_t> readIndices(const Gltf& g, const tinygltf::Primitive& prim,
+                                  const std::string& where, size_t vertexCount) {
+  std::vector<uint32_t> out;
+  if (prim.indices < 0) {
+    out.resize(vertexCount);
+    for (size_t i = 0; i < vertexCount; ++i) out[i] = static_cast<uint32_t>(i);
+    return out;
+  }
+  std::string here = cat(where, " / indices");
+  AccessorData d = openAccessor(g, prim.indices, here);
+  requireType(g, d, here, {1});
+  if (d.normalized || (d.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+                       d.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+                       d.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT))
+    fail(g, cat(here, ": component type ", d.componentType, ", expected an unsigned integer type"));
+  out.resize(d.count);
+  for (size_t i = 0; i < d.count; ++i) {
+    double v = d.get(i, 0);
+    if (v >= double(vertexCount))
+      fail(g, cat(here, ": index ", i, " is ", uint64_t(v), ", out of range (the primitive has ",
+                  vertexCount, " vertices)"));
+    out[i] = static_cast<uint32_t>(v);
+  }
+  return out;
+}
+
+/// Triangle list from TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN indices, in glTF's winding
+/// (strips alternate: triangle i is p_i, p_{i+1+i%2}, p_{i+2-i%2}; fans are p_{i+1}, p_{i+2}, p_0).
+std::vector<uint32_t> toTriangleList(const Gltf& g, int mode, const std::vector<uint32_t>& in,
+                                     const std::string& where) {
+  std::vector<uint32_t> out;
+  if (mode == TINYGLTF_MODE_TRIANGLES) {
+    if (in.size() % 3 != 0) fail(g, cat(where, ": ", in.size(), " indices, not a multiple of 3"));
+    return in;
+  }
+  size_t n = in.size() < 3 ? 0 : in.size() - 2;
+  out.reserve(3 * n);
+  for (size_t i = 0; i < n; ++i) {
+    if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+      size_t odd = i % 2;
+      out.insert(out.end(), {in[i], in[i + 1 + odd], in[i + 2 - odd]});
+    } else {
+      out.insert(out.end(), {in[i + 1], in[i + 2], in[0]});
+    }
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Primitives (read once per mesh/primitive, in the primitive's own space)
+
+/// A triangle primitive as stored in the file, before any node transform.
+struct PrimitiveData {
+  bool skipped = true;
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;  // empty if absent
+  std::vector<glm::vec2> texcoords;
+  std::vector<glm::vec4> colors;
+  std::vector<uint32_t> indices;   // triangle list, glTF winding, degenerate triangles dropped
+  int material = -1;
+  int transferBands = 0;
+  std::vector<glm::vec3> transfer;
+};
+
+std::string coefficientName(int i) {
+  return cat(kTransferPrefix, i < 10 ? "0" : "", i);
+}
+
+const char* modeName(int mode) {
+  static const char* names[] = {"POINTS", "LINES", "LINE_LOOP", "LINE_STRIP"};
+  return mode >= 0 && mode < 4 ? names[mode] : "?";
+}
+
+std::vector<glm::vec3> readPositions(const Gltf& g, int accessor, const std::string& where) {
+  std::string here = cat(where, " / POSITION");
+  AccessorData d = openAccessor(g, accessor, here);
+  requireType(g, d, here, {3});
+  std::vector<glm::vec3> p = readVectors<3>(d);
+  for (size_t v = 0; v < p.size(); ++v)
+    if (!std::isfinite(p[v].x) || !std::isfinite(p[v].y) || !std::isfinite(p[v].z))
+      fail(g, cat(here, ": vertex ", v, " is not finite"));
+  return p;
+}
+
+/// Drops zero-area and repeated-index triangles, or refuses them. The test is exact (area
+/// computed in double from float inputs): only truly degenerate triangles are caught, the
+/// ones whose normal is undefined.
+void removeDegenerate(const Gltf& g, PrimitiveData& p, const std::string& where,
+                      const LoadOptions& options, std::vector<std::string>& warnings) {
+  std::vector<uint32_t> kept;
+  kept.reserve(p.indices.size());
+  size_t dropped = 0;
+  for (size_t t = 0; t < p.indices.size() / 3; ++t) {
+    uint32_t a = p.indices[3 * t], b = p.indices[3 * t + 1], c = p.indices[3 * t + 2];
+    glm::dvec3 e1 = glm::dvec3(p.positions[b]) - glm::dvec3(p.positions[a]);
+    glm::dvec3 e2 = glm::dvec3(p.positions[c]) - glm::dvec3(p.positions[a]);
+    bool degenerate = a == b || b == c || a == c || glm::dot(glm::cross(e1, e2), glm::cross(e1, e2)) == 0.0;
+    if (!degenerate) {
+      kept.insert(kept.end(), {a, b, c});
+      continue;
+    }
+    if (!options.allowDegenerate)
+      fail(g, cat(where, ": triangle ", t, " is degenerate (zero area)"));
+    ++dropped;
+  }
+  if (dropped)
+    warnings.push_back(cat(g.path, ": ", where, ": dropped ", dropped, " degenerate (zero-area) triangle",
+                           dropped == 1 ? "" : "s"));
+  p.indices = std::move(kept);
+}
+
+/// Reads _PRT_SH_00 .. _PRT_SH_{n²-1} into vertex-major transfer, if the primitive has any.
+void readTransfer(const Gltf& g, const tinygltf::Primitive& prim, PrimitiveData& p, const std::string& where) {
+  std::map<int, int> coefficients;  // coefficient index -> accessor
+  const size_t prefix = std::strlen(kTransferPrefix);
+  for (const auto& [name, accessor] : prim.attributes) {
+    if (name.compare(0, prefix, kTransferPrefix) != 0) continue;
+    std::string digits = name.substr(prefix);
+    if (!allDigits(digits) || digits.size() > 4)
+      fail(g, cat(where, ": attribute ", name, " is not a transfer coefficient (expected ", kTransferPrefix, "NN)"));
+    coefficients[std::stoi(digits)] = accessor;
+  }
+  if (coefficients.empty()) return;
+  int count = static_cast<int>(coefficients.size());
+  int bands = static_cast<int>(std::lround(std::sqrt(double(count))));
+  if (bands * bands != count)
+    fail(g, cat(where, ": ", count, " transfer attributes, expected a square number (bands²)"));
+  for (int i = 0; i < count; ++i)
+    if (!coefficients.count(i))
+      fail(g, cat(where, ": transfer attribute ", coefficientName(i), " is missing (", count, " found)"));
+  size_t n = p.positions.size(), k = size_t(count);
+  p.transferBands = bands;
+  p.transfer.assign(n * k, glm::vec3(0.0f));
+  for (const auto& [i, accessor] : coefficients) {
+    std::string here = cat(where, " / ", coefficientName(i));
+    AccessorData d = openAccessor(g, accessor, here);
+    requireType(g, d, here, {3});
+    requireCount(g, d, here, n);
+    for (size_t v = 0; v < n; ++v)
+      for (int c = 0; c < 3; ++c) p.transfer[v * k + size_t(i)][c] = static_cast<float>(d.get(v, c));
+  }
+}
+
+PrimitiveData readPrimitive(const Gltf& g, const Scene& scene, int meshIndex, int primIndex,
+                            const LoadOptions& options, std::vector<std::string>& warnings) {
+  const tinygltf::Primitive& prim = g.model.meshes[size_t(meshIndex)].primitives[size_t(primIndex)];
+  std::string where = primitiveWhere(meshIndex, primIndex);
+  PrimitiveData p;
+  if (prim.mode >= TINYGLTF_MODE_POINTS && prim.mode <= TINYGLTF_MODE_LINE_STRIP) {
+    warnings.push_back(cat(g.path, ": ", where, ": skipping mode ", modeName(prim.mode),
+                           " (only triangles are baked)"));
+    return p;
+  }
+  if (prim.mode < TINYGLTF_MODE_TRIANGLES || prim.mode > TINYGLTF_MODE_TRIANGLE_FAN)
+    fail(g, cat(where, ": unknown mode ", prim.mode));
+  auto position = prim.attributes.find("POSITION");
+  if (position == prim.attributes.end()) {
+    warnings.push_back(cat(g.path, ": ", where, ": skipping a primitive without POSITION"));
+    return p;
+  }
+  if (prim.material >= 0 && size_t(prim.material) >= g.model.materials.size())
+    fail(g, cat(where, ": material ", prim.material, " does not exist"));
+  p.skipped = false;
+  p.material = prim.material;
+  p.positions = readPositions(g, position->second, where);
+  size_t n = p.positions.size();
+
+  if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) {
+    std::string here = cat(where, " / NORMAL");
+    AccessorData d = openAccessor(g, it->second, here);
+    requireType(g, d, here, {3});
+    requireCount(g, d, here, n);
+    p.normals = readVectors<3>(d);
+  }
+  int texCoord = p.material >= 0 ? scene.materials[size_t(p.material)].baseColorTexCoord : 0;
+  std::string uvName = cat("TEXCOORD_", texCoord);
+  if (auto it = prim.attributes.find(uvName); it != prim.attributes.end()) {
+    std::string here = cat(where, " / ", uvName);
+    AccessorData d = openAccessor(g, it->second, here);
+    requireType(g, d, here, {2});
+    requireCount(g, d, here, n);
+    p.texcoords = readVectors<2>(d);
+  } else if (p.material >= 0 && scene.materials[size_t(p.material)].baseColorTexture >= 0) {
+    warnings.push_back(cat(g.path, ": ", where, ": no ", uvName, " for the base colour texture; texture ignored"));
+  }
+  if (auto it = prim.attributes.find("COLOR_0"); it != prim.attributes.end()) {
+    std::string here = cat(where, " / COLOR_0");
+    AccessorData d = openAccessor(g, it->second, here);
+    requireType(g, d, here, {3, 4});
+    requireCount(g, d, here, n);
+    p.colors.assign(n, glm::vec4(1.0f));
+    for (size_t v = 0; v < n; ++v)
+      for (int c = 0; c < d.components; ++c) p.colors[v][c] = static_cast<float>(d.get(v, c));
+  }
+  p.indices = toTriangleList(g, prim.mode, readIndices(g, prim, where, n), cat(where, " / indices"));
+  removeDegenerate(g, p, where, options, warnings);
+  readTransfer(g, prim, p, where);
+  return p;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Node hierarchy
+
+glm::dmat4 localTransform(const Gltf& g, int index) {
+  const tinygltf::Node& n = g.model.nodes[size_t(index)];
+  auto checkSize = [&](const std::vector<double>& v, size_t expected, const char* what) {
+    if (!v.empty() && v.size() != expected)
+      fail(g, cat("node ", index, ": ", what, " has ", v.size(), " values, expected ", expected));
+    for (double x : v)
+      if (!std::isfinite(x)) fail(g, cat("node ", index, ": ", what, " is not finite"));
+  };
+  checkSize(n.matrix, 16, "matrix");
+  checkSize(n.translation, 3, "translation");
+  checkSize(n.rotation, 4, "rotation");
+  checkSize(n.scale, 3, "scale");
+  if (!n.matrix.empty()) return glm::make_mat4(n.matrix.data());  // both column-major
+  glm::dmat4 t(1.0), r(1.0), s(1.0);
+  if (!n.translation.empty()) t = glm::translate(glm::dmat4(1.0), glm::make_vec3(n.translation.data()));
+  if (!n.rotation.empty()) {
+    glm::dquat q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);  // glTF is x,y,z,w
+    double len = glm::length(q);
+    if (len == 0.0) fail(g, cat("node ", index, ": rotation is a zero quaternion"));
+    r = glm::mat4_cast(q / len);
+  }
+  if (!n.scale.empty()) s = glm::scale(glm::dmat4(1.0), glm::make_vec3(n.scale.data()));
+  return t * r * s;
+}
+
+/// One node of the default scene with its world transform.
+struct NodeVisit {
+  int node = -1;
+  glm::dmat4 world{1.0};
+  bool receiver = false;
+};
+
+struct Traversal {
+  const Gltf& g;
+  const std::vector<char>& receiverRoots;
+  std::vector<char> visited, onPath;
+  std::vector<NodeVisit> out;
+
+  void visit(int node, const glm::dmat4& parent, bool receiver, int depth) {
+    if (node < 0 || size_t(node) >= g.model.nodes.size()) fail(g, cat("node ", node, " does not exist"));
+    if (onPath[size_t(node)]) fail(g, cat("node ", node, ": the node hierarchy has a cycle"));
+    if (visited[size_t(node)]) fail(g, cat("node ", node, " is reached twice (glTF nodes form a tree)"));
+    if (depth > kMaxNodeDepth) fail(g, cat("node ", node, ": node hierarchy deeper than ", kMaxNodeDepth, " levels"));
+    visited[size_t(node)] = onPath[size_t(node)] = 1;
+    const tinygltf::Node& n = g.model.nodes[size_t(node)];
+    NodeVisit v{node, parent * localTransform(g, node), receiver || receiverRoots[size_t(node)]};
+    out.push_back(v);
+    for (int child : n.children) visit(child, v.world, v.receiver, depth + 1);
+    onPath[size_t(node)] = 0;
+  }
+};
+
+std::vector<int> rootNodes(const Gltf& g) {
+  const tinygltf::Model& m = g.model;
+  if (!m.scenes.empty()) {
+    int s = m.defaultScene >= 0 ? m.defaultScene : 0;
+    if (size_t(s) >= m.scenes.size()) fail(g, cat("default scene ", s, " does not exist"));
+    return m.scenes[size_t(s)].nodes;
+  }
+  std::vector<char> isChild(m.nodes.size(), 0);
+  for (const tinygltf::Node& n : m.nodes)
+    for (int c : n.children)
+      if (c >= 0 && size_t(c) < m.nodes.size()) isChild[size_t(c)] = 1;
+  std::vector<int> roots;
+  for (size_t i = 0; i < m.nodes.size(); ++i)
+    if (!isChild[i]) roots.push_back(int(i));
+  return roots;
+}
+
+bool markedReceiver(const tinygltf::Node& n) {
+  if (!n.extras.IsObject() || !n.extras.Has("prt")) return false;
+  const tinygltf::Value& prt = n.extras.Get("prt");
+  if (!prt.IsObject() || !prt.Has("receiver")) return false;
+  const tinygltf::Value& r = prt.Get("receiver");
+  return r.IsBool() && r.Get<bool>();
+}
+
+std::vector<char> receiverRoots(const Gltf& g, const LoadOptions& options) {
+  const auto& nodes = g.model.nodes;
+  std::vector<char> roots(nodes.size(), 0);
+  for (size_t i = 0; i < nodes.size(); ++i) roots[i] = markedReceiver(nodes[i]);
+  for (const std::string& entry : options.receiverNodes) {
+    bool found = false;
+    for (size_t i = 0; i < nodes.size(); ++i)
+      if (nodes[i].name == entry) roots[i] = found = true;
+    bool numeric = allDigits(entry) && entry.size() < 10;
+    if (numeric && size_t(std::stoul(entry)) < nodes.size()) roots[std::stoul(entry)] = found = true;
+    if (!found) fail(g, cat("no node named '", entry, "'"));
+  }
+  return roots;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Instances: a primitive placed in the world by one node
+
+/// Area-weighted vertex normals: each triangle adds its cross product, whose length is twice
+/// its area, to its three vertices.
+std::vector<glm::dvec3> areaWeightedNormals(const MeshInstance& inst) {
+  std::vector<glm::dvec3> sum(inst.positions.size(), glm::dvec3(0.0));
+  for (size_t t = 0; t < inst.triangleCount(); ++t) {
+    const uint32_t* i = &inst.indices[3 * t];
+    glm::dvec3 p0(inst.positions[i[0]]), p1(inst.positions[i[1]]), p2(inst.positions[i[2]]);
+    glm::dvec3 n = glm::cross(p1 - p0, p2 - p0);
+    for (int k = 0; k < 3; ++k) sum[i[k]] += n;
+  }
+  return sum;
+}
+
+glm::vec3 unitOr(const glm::dvec3& v, const glm::vec3& fallback) {
+  double len = glm::length(v);
+  return len > 0.0 && std::isfinite(len) ? glm::vec3(v / len) : fallback;
+}
+
+/// World normals: given ones through the inverse transpose, computed ones where the file has
+/// none or a zero (or non-finite) normal. Returns how many given normals were replaced.
+size_t setNormals(MeshInstance& inst, const PrimitiveData& p, const glm::dmat3& linear) {
+  // cofactor(M) = det(M)·M^-T; scaled by sign(det) it is a positive multiple of M^-T and
+  // stays defined for singular M.
+  glm::dmat3 cof(glm::cross(linear[1], linear[2]), glm::cross(linear[2], linear[0]),
+                 glm::cross(linear[0], linear[1]));
+  if (glm::determinant(linear) < 0.0) cof = -cof;
+  size_t n = inst.positions.size();
+  inst.normals.assign(n, glm::vec3(0.0f));
+  std::vector<glm::dvec3> computed;
+  size_t repaired = 0;
+  for (size_t v = 0; v < n; ++v) {
+    glm::dvec3 world = p.normals.empty() ? glm::dvec3(0.0) : cof * glm::dvec3(p.normals[v]);
+    double len = glm::length(world);
+    if (len > 0.0 && std::isfinite(len)) {
+      inst.normals[v] = glm::vec3(world / len);
+      continue;
+    }
+    if (computed.empty()) computed = areaWeightedNormals(inst);
+    inst.normals[v] = unitOr(computed[v], glm::vec3(0, 1, 0));
+    ++repaired;
+  }
+  return p.normals.empty() ? 0 : repaired;
+}
+
+MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, int primIndex,
+                          const PrimitiveData& p, std::vector<std::string>& warnings) {
+  const tinygltf::Node& node = g.model.nodes[size_t(visit.node)];
+  const tinygltf::Mesh& mesh = g.model.meshes[size_t(meshIndex)];
+  MeshInstance inst;
+  inst.name = cat(node.name.empty() ? cat("node ", visit.node) : node.name, "/",
+                  mesh.name.empty() ? cat("mesh ", meshIndex) : mesh.name, "/primitive ", primIndex);
+  inst.node = visit.node;
+  inst.mesh = meshIndex;
+  inst.primitive = primIndex;
+  inst.world = visit.world;
+  inst.material = p.material;
+  inst.receiverOnly = visit.receiver;
+  inst.positions.resize(p.positions.size());
+  for (size_t v = 0; v < p.positions.size(); ++v) {
+    glm::dvec4 w = visit.world * glm::dvec4(glm::dvec3(p.positions[v]), 1.0);
+    inst.positions[v] = glm::vec3(w);
+    if (!std::isfinite(inst.positions[v].x) || !std::isfinite(inst.positions[v].y) ||
+        !std::isfinite(inst.positions[v].z))
+      fail(g, cat("node ", visit.node, " / ", primitiveWhere(meshIndex, primIndex), " / POSITION: vertex ", v,
+                  " is not finite after the node transform"));
+  }
+  inst.indices = p.indices;
+  glm::dmat3 linear(visit.world);
+  // A mirroring transform turns counter-clockwise triangles clockwise; swapping two corners
+  // keeps them front-facing (the glTF spec asks renderers to do the same).
+  if (glm::determinant(linear) < 0.0)
+    for (size_t t = 0; t < inst.triangleCount(); ++t) std::swap(inst.indices[3 * t + 1], inst.indices[3 * t + 2]);
+  if (size_t repaired = setNormals(inst, p, linear))
+    warnings.push_back(cat(g.path, ": node ", visit.node, " / ", primitiveWhere(meshIndex, primIndex), ": ",
+                           repaired, " zero or non-finite normals replaced by face normals"));
+  inst.texcoords = p.texcoords;
+  inst.colors = p.colors;
+  inst.transferBands = p.transferBands;
+  inst.transfer = p.transfer;
+  return inst;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Materials and textures
+
+bool isWrapMode(int mode) {
+  return mode == TINYGLTF_TEXTURE_WRAP_REPEAT || mode == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE ||
+         mode == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT;
+}
+
+/// Decodes glTF texture `index` as sRGB base colour into linear RGBA.
+Texture decodeBaseColorTexture(const Gltf& g, int index) {
+  const tinygltf::Model& m = g.model;
+  const tinygltf::Texture& t = m.textures[size_t(index)];
+  std::string where = cat("texture ", index);
+  if (t.source < 0 || size_t(t.source) >= m.images.size())
+    fail(g, cat(where, ": image ", t.source, " does not exist"));
+  const tinygltf::Image& image = m.images[size_t(t.source)];
+  where = cat(where, " / image ", t.source, image.uri.empty() ? "" : cat(" ('", image.uri, "')"));
+  if (image.image.empty()) fail(g, cat(where, ": could not be read"));
+  Texture out;
+  out.name = !t.name.empty() ? t.name : !image.name.empty() ? image.name : image.uri;
+  if (t.sampler >= 0) {
+    if (size_t(t.sampler) >= m.samplers.size()) fail(g, cat(where, ": sampler ", t.sampler, " does not exist"));
+    const tinygltf::Sampler& s = m.samplers[size_t(t.sampler)];
+    if (!isWrapMode(s.wrapS) || !isWrapMode(s.wrapT))
+      fail(g, cat("sampler ", t.sampler, ": unknown wrap mode ", isWrapMode(s.wrapS) ? s.wrapT : s.wrapS));
+    out.wrapS = s.wrapS;
+    out.wrapT = s.wrapT;
+  }
+  const auto* bytes = image.image.data();
+  int size = static_cast<int>(std::min<size_t>(image.image.size(), std::numeric_limits<int>::max()));
+  int w = 0, h = 0, comp = 0;
+  bool wide = stbi_is_16_bit_from_memory(bytes, size);
+  void* pixels = wide ? static_cast<void*>(stbi_load_16_from_memory(bytes, size, &w, &h, &comp, 4))
+                      : static_cast<void*>(stbi_load_from_memory(bytes, size, &w, &h, &comp, 4));
+  if (!pixels) fail(g, cat(where, ": cannot decode (", stbi_failure_reason(), ")"));
+  out.width = w;
+  out.height = h;
+  out.texels.resize(size_t(w) * size_t(h));
+  std::array<float, 256> lut8;
+  for (int i = 0; i < 256; ++i) lut8[size_t(i)] = static_cast<float>(srgbDecode(i / 255.0));
+  for (size_t i = 0; i < out.texels.size(); ++i) {
+    for (int c = 0; c < 4; ++c) {
+      float v;
+      if (wide) {
+        double x = static_cast<const uint16_t*>(pixels)[4 * i + size_t(c)] / 65535.0;
+        v = static_cast<float>(c < 3 ? srgbDecode(x) : x);  // alpha is linear
+      } else {
+        unsigned char x = static_cast<const unsigned char*>(pixels)[4 * i + size_t(c)];
+        v = c < 3 ? lut8[x] : x / 255.0f;
+      }
+      out.texels[i][c] = v;
+    }
+  }
+  stbi_image_free(pixels);
+  return out;
+}
+
+void readMaterials(const Gltf& g, Scene& scene, std::vector<std::string>& warnings) {
+  const tinygltf::Model& m = g.model;
+  std::map<int, int> textureSlot;  // glTF texture -> Scene::textures
+  for (size_t i = 0; i < m.materials.size(); ++i) {
+    const tinygltf::Material& src = m.materials[i];
+    Material mat;
+    mat.name = src.name;
+    const std::vector<double>& f = src.pbrMetallicRoughness.baseColorFactor;
+    if (f.size() == 4) mat.baseColorFactor = glm::vec4(f[0], f[1], f[2], f[3]);
+    else if (!f.empty()) fail(g, cat("material ", i, ": baseColorFactor has ", f.size(), " values, expected 4"));
+    mat.doubleSided = src.doubleSided;
+    mat.unlit = src.extensions.count(kUnlit) > 0;
+    const tinygltf::TextureInfo& info = src.pbrMetallicRoughness.baseColorTexture;
+    if (info.index >= 0) {
+      if (size_t(info.index) >= m.textures.size())
+        fail(g, cat("material ", i, ": baseColorTexture ", info.index, " does not exist"));
+      if (!textureSlot.count(info.index)) {
+        textureSlot[info.index] = static_cast<int>(scene.textures.size());
+        scene.textures.push_back(decodeBaseColorTexture(g, info.index));
+      }
+      mat.baseColorTexture = textureSlot[info.index];
+      mat.baseColorTexCoord = info.texCoord;
+      if (info.extensions.count(kTextureTransform))
+        warnings.push_back(cat(g.path, ": material ", i, ": ", kTextureTransform,
+                               " on baseColorTexture is ignored"));
+    }
+    scene.materials.push_back(mat);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Cameras and lights
+
+Camera readCamera(const Gltf& g, const NodeVisit& v) {
+  const tinygltf::Node& n = g.model.nodes[size_t(v.node)];
+  if (size_t(n.camera) >= g.model.cameras.size()) fail(g, cat("node ", v.node, ": camera ", n.camera, " does not exist"));
+  const tinygltf::Camera& src = g.model.cameras[size_t(n.camera)];
+  Camera c;
+  c.name = !src.name.empty() ? src.name : n.name;
+  c.node = v.node;
+  c.world = v.world;
+  c.perspective = src.type != "orthographic";
+  if (c.perspective) {
+    c.yfov = src.perspective.yfov;
+    c.aspectRatio = src.perspective.aspectRatio;
+    c.znear = src.perspective.znear;
+    c.zfar = src.perspective.zfar;
+  } else {
+    c.xmag = src.orthographic.xmag;
+    c.ymag = src.orthographic.ymag;
+    c.znear = src.orthographic.znear;
+    c.zfar = src.orthographic.zfar;
+  }
+  return c;
+}
+
+/// The KHR_lights_punctual light a node carries, if any.
+std::optional<PunctualLight> readLight(const Gltf& g, const NodeVisit& v, std::vector<std::string>& warnings) {
+  const tinygltf::Node& n = g.model.nodes[size_t(v.node)];
+  auto ext = n.extensions.find(kLights);
+  if (ext == n.extensions.end() || !ext->second.IsObject() || !ext->second.Has("light")) return std::nullopt;
+  const tinygltf::Value& index = ext->second.Get("light");
+  if (!index.IsNumber() || index.GetNumberAsInt() < 0 || size_t(index.GetNumberAsInt()) >= g.model.lights.size())
+    fail(g, cat("node ", v.node, ": ", kLights, " light does not exist"));
+  const tinygltf::Light& src = g.model.lights[size_t(index.GetNumberAsInt())];
+  PunctualLight l;
+  if (src.type == "directional") l.type = PunctualLight::Type::Directional;
+  else if (src.type == "point") l.type = PunctualLight::Type::Point;
+  else if (src.type == "spot") l.type = PunctualLight::Type::Spot;
+  else {
+    warnings.push_back(cat(g.path, ": node ", v.node, ": skipping light of unknown type '", src.type, "'"));
+    return std::nullopt;
+  }
+  l.name = !src.name.empty() ? src.name : n.name;
+  l.node = v.node;
+  if (src.color.size() == 3) l.color = glm::vec3(src.color[0], src.color[1], src.color[2]);
+  l.intensity = static_cast<float>(src.intensity);
+  l.range = static_cast<float>(src.range);
+  l.position = glm::vec3(v.world * glm::dvec4(0, 0, 0, 1));
+  l.direction = unitOr(glm::dmat3(v.world) * glm::dvec3(0, 0, -1), glm::vec3(0, 0, -1));
+  l.innerConeAngle = static_cast<float>(src.spot.innerConeAngle);
+  l.outerConeAngle = static_cast<float>(src.spot.outerConeAngle);
+  return l;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Assembling the scene
+
+void addNodeContents(const Gltf& g, const NodeVisit& v, const LoadOptions& options, Scene& scene,
+                     std::map<std::pair<int, int>, PrimitiveData>& cache) {
+  const tinygltf::Node& n = g.model.nodes[size_t(v.node)];
+  if (n.camera >= 0) scene.cameras.push_back(readCamera(g, v));
+  if (auto light = readLight(g, v, scene.warnings)) scene.lights.push_back(*light);
+  if (n.mesh < 0) return;
+  if (size_t(n.mesh) >= g.model.meshes.size()) fail(g, cat("node ", v.node, ": mesh ", n.mesh, " does not exist"));
+  if (n.skin >= 0)
+    scene.warnings.push_back(cat(g.path, ": node ", v.node, ": skin ignored (the mesh is baked in its bind pose)"));
+  const tinygltf::Mesh& mesh = g.model.meshes[size_t(n.mesh)];
+  for (size_t p = 0; p < mesh.primitives.size(); ++p) {
+    auto key = std::make_pair(n.mesh, int(p));
+    auto it = cache.find(key);
+    if (it == cache.end())
+      it = cache.emplace(key, readPrimitive(g, scene, n.mesh, int(p), options, scene.warnings)).first;
+    if (it->second.skipped) continue;
+    scene.meshes.push_back(makeInstance(g, v, n.mesh, int(p), it->second, scene.warnings));
+  }
+}
+
+void checkTransferBands(const Gltf& g, Scene& scene) {
+  for (const MeshInstance& inst : scene.meshes) {
+    if (inst.transferBands == 0) continue;
+    if (scene.transferBands == 0) scene.transferBands = inst.transferBands;
+    if (inst.transferBands != scene.transferBands)
+      fail(g, cat(primitiveWhere(inst.mesh, inst.primitive), ": transfer has ", inst.transferBands,
+                  " bands, other primitives have ", scene.transferBands));
+  }
+  const tinygltf::Value& extras = g.model.asset.extras;
+  if (extras.IsObject() && extras.Has("prt")) scene.bakeSettingsJson = toJson(extras.Get("prt")).dump();
+}
+
+void computeBounds(const Gltf& g, Scene& scene) {
+  size_t triangles = 0;
+  glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-std::numeric_limits<float>::infinity());
+  for (const MeshInstance& inst : scene.meshes) {
+    triangles += inst.triangleCount();
+    for (const glm::vec3& p : inst.positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+  }
+  if (triangles == 0) fail(g, "no triangle geometry in the default scene");
+  scene.boundsMin = lo;
+  scene.boundsMax = hi;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Public: loading
+
+glm::vec4 Texture::sample(const glm::vec2& uv) const {
+  if (width <= 0 || height <= 0 || texels.empty()) return glm::vec4(1.0f);
+  // Texel i covers [i, i+1)/w, its centre at (i+0.5)/w; x is in texel units from the first centre.
+  auto wrap = [](double i, int n, int mode) -> int {
+    if (mode == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE) return static_cast<int>(std::clamp(i, 0.0, double(n - 1)));
+    if (mode == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT) {
+      double m = i - 2.0 * n * std::floor(i / (2.0 * n));  // in [0, 2n)
+      return static_cast<int>(m < n ? m : 2.0 * n - 1.0 - m);
+    }
+    return static_cast<int>(i - n * std::floor(i / n));  // REPEAT
+  };
+  auto axis = [&](float t, int n, int mode, int& i0, int& i1, double& f) {
+    double x = std::isfinite(t) ? std::clamp(double(t), -1e6, 1e6) * n - 0.5 : 0.0;
+    double x0 = std::floor(x);
+    f = x - x0;
+    i0 = std::clamp(wrap(x0, n, mode), 0, n - 1);
+    i1 = std::clamp(wrap(x0 + 1.0, n, mode), 0, n - 1);
+  };
+  int x0, x1, y0, y1;
+  double fx, fy;
+  axis(uv.x, width, wrapS, x0, x1, fx);
+  axis(uv.y, height, wrapT, y0, y1, fy);
+  auto at = [&](int x, int y) { return glm::dvec4(texels[size_t(y) * size_t(width) + size_t(x)]); };
+  glm::dvec4 top = at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx;
+  glm::dvec4 bottom = at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx;
+  return glm::vec4(top * (1.0 - fy) + bottom * fy);
+}
+
+Scene loadScene(const std::string& path, const LoadOptions& options) {
+  Scene scene;
+  scene.path = path;
+  Gltf g = readGltf(path, &scene.warnings);
+  checkRequiredExtensions(g, scene.warnings);
+  readMaterials(g, scene, scene.warnings);
+  std::vector<char> receivers = receiverRoots(g, options);
+  Traversal traversal{g, receivers, std::vector<char>(g.model.nodes.size(), 0),
+                      std::vector<char>(g.model.nodes.size(), 0), {}};
+  for (int root : rootNodes(g)) traversal.visit(root, glm::dmat4(1.0), false, 0);
+  std::map<std::pair<int, int>, PrimitiveData> cache;
+  for (const NodeVisit& v : traversal.out) addNodeContents(g, v, options, scene, cache);
+  checkTransferBands(g, scene);
+  computeBounds(g, scene);
+  return scene;
+}
+
+glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v) {
+  PRT_CHECK_LT(size_t(v), mesh.vertexCount());
+  glm::vec3 albedo(1.0f);
+  if (mesh.material >= 0) {
+    const Material& mat = scene.materials[size_t(mesh.material)];
+    albedo = glm::vec3(mat.baseColorFactor);
+    if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty())
+      albedo *= glm::vec3(scene.textures[size_t(mat.baseColorTexture)].sample(mesh.texcoords[v]));
+  }
+  if (!mesh.colors.empty()) albedo *= glm::vec3(mesh.colors[v]);
+  return albedo;
+}
+
+glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2) {
+  PRT_CHECK_LT(size_t(tri), mesh.triangleCount());
+  const uint32_t* i = &mesh.indices[3 * size_t(tri)];
+  float b0 = 1.0f - b1 - b2;
+  glm::vec3 albedo(1.0f);
+  if (mesh.material >= 0) {
+    const Material& mat = scene.materials[size_t(mesh.material)];
+    albedo = glm::vec3(mat.baseColorFactor);
+    if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty()) {
+      // Interpolate the coordinates, not the texels: the texture varies inside the triangle.
+      glm::vec2 uv = b0 * mesh.texcoords[i[0]] + b1 * mesh.texcoords[i[1]] + b2 * mesh.texcoords[i[2]];
+      albedo *= glm::vec3(scene.textures[size_t(mat.baseColorTexture)].sample(uv));
+    }
+  }
+  if (!mesh.colors.empty())
+    albedo *= glm::vec3(b0 * mesh.colors[i[0]] + b1 * mesh.colors[i[1]] + b2 * mesh.colors[i[2]]);
+  return albedo;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing: edits on the reloaded input model, then one packed buffer and an atomic .glb
+
+namespace {
+
+/// Appends `bytes` as a new buffer view of `buffer` (4-byte aligned, as float data needs).
+int appendBufferView(tinygltf::Model& m, int buffer, const void* bytes, size_t size, int target) {
+  std::vector<unsigned char>& data = m.buffers[size_t(buffer)].data;
+  data.resize((data.size() + 3) / 4 * 4, 0);
+  tinygltf::BufferView view;
+  view.buffer = buffer;
+  view.byteOffset = data.size();
+  view.byteLength = size;
+  view.target = target;
+  const auto* p = static_cast<const unsigned char*>(bytes);
+  data.insert(data.end(), p, p + size);
+  m.bufferViews.push_back(view);
+  return static_cast<int>(m.bufferViews.size() - 1);
+}
+
+/// The buffer new data goes to before packing; created on first use.
+int stagingBuffer(tinygltf::Model& m, int& staging) {
+  if (staging < 0) {
+    m.buffers.emplace_back();
+    staging = static_cast<int>(m.buffers.size() - 1);
+  }
+  return staging;
+}
+
+int addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec3>& values,
+                    const std::string& name) {
+  tinygltf::Accessor a;
+  a.name = name;
+  a.bufferView = appendBufferView(m, stagingBuffer(m, staging), values.data(),
+                                  values.size() * sizeof(glm::vec3), TINYGLTF_TARGET_ARRAY_BUFFER);
+  a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  a.type = TINYGLTF_TYPE_VEC3;
+  a.count = values.size();
+  m.accessors.push_back(a);
+  return static_cast<int>(m.accessors.size() - 1);
+}
+
+/// The instances must still describe the file: same node → mesh, primitive and vertex count.
+void checkMatchesScene(const Gltf& g, const Scene& scene) {
+  const tinygltf::Model& m = g.model;
+  for (const MeshInstance& inst : scene.meshes) {
+    bool ok = inst.node >= 0 && size_t(inst.node) < m.nodes.size() && m.nodes[size_t(inst.node)].mesh == inst.mesh &&
+              inst.mesh >= 0 && size_t(inst.mesh) < m.meshes.size() && inst.primitive >= 0 &&
+              size_t(inst.primitive) < m.meshes[size_t(inst.mesh)].primitives.size();
+    if (ok) {
+      const auto& attrs = m.meshes[size_t(inst.mesh)].primitives[size_t(inst.primitive)].attributes;
+      auto pos = attrs.find("POSITION");
+      ok = pos != attrs.end() && pos->second >= 0 && size_t(pos->second) < m.accessors.size() &&
+           m.accessors[size_t(pos->second)].count == inst.vertexCount();
+    }
+    if (!ok)
+      fail(g, cat("node ", inst.node, " / ", primitiveWhere(inst.mesh, inst.primitive),
+                  " does not match the loaded scene (was the file changed?)"));
+  }
+}
+
+/// Rewrites every strip and fan as a triangle list with its own index accessor.
+void rewriteStripsAndFans(Gltf& g, int& staging) {
+  tinygltf::Model& m = g.model;
+  for (size_t mi = 0; mi < m.meshes.size(); ++mi) {
+    for (size_t pi = 0; pi < m.meshes[mi].primitives.size(); ++pi) {
+      tinygltf::Primitive& prim = m.meshes[mi].primitives[pi];
+      if (prim.mode != TINYGLTF_MODE_TRIANGLE_STRIP && prim.mode != TINYGLTF_MODE_TRIANGLE_FAN) continue;
+      std::string where = primitiveWhere(int(mi), int(pi));
+      auto pos = prim.attributes.find("POSITION");
+      if (pos == prim.attributes.end()) continue;
+      size_t n = openAccessor(g, pos->second, cat(where, " / POSITION")).count;
+      std::vector<uint32_t> list = toTriangleList(g, prim.mode, readIndices(g, prim, where, n), where);
+      tinygltf::Accessor a;
+      a.bufferView = appendBufferView(m, stagingBuffer(m, staging), list.data(), list.size() * 4,
+                                      TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+      a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+      a.type = TINYGLTF_TYPE_SCALAR;
+      a.count = list.size();
+      m.accessors.push_back(a);
+      prim.indices = static_cast<int>(m.accessors.size() - 1);
+      prim.mode = TINYGLTF_MODE_TRIANGLES;
+    }
+  }
+}
+
+/// Per-vertex data belongs to a (node, primitive) pair, but glTF attaches attributes to
+/// meshes: a mesh placed by several nodes gets one copy per extra node.
+void giveEachNodeItsOwnMesh(tinygltf::Model& m, const Scene& scene) {
+  std::map<int, int> owner;  // mesh -> the node that keeps it
+  for (const MeshInstance& inst : scene.meshes) {
+    auto [it, first] = owner.emplace(inst.mesh, inst.node);
+    if (first || it->second == inst.node) continue;
+    tinygltf::Node& node = m.nodes[size_t(inst.node)];
+    if (node.mesh != inst.mesh) continue;  // already given its copy
+    m.meshes.push_back(m.meshes[size_t(inst.mesh)]);
+    node.mesh = static_cast<int>(m.meshes.size() - 1);
+  }
+}
+
+tinygltf::Primitive& primitiveOf(tinygltf::Model& m, const MeshInstance& inst) {
+  return m.meshes[size_t(m.nodes[size_t(inst.node)].mesh)].primitives[size_t(inst.primitive)];
+}
+
+void dropTransferAttributes(tinygltf::Model& m) {
+  for (tinygltf::Mesh& mesh : m.meshes)
+    for (tinygltf::Primitive& prim : mesh.primitives)
+      std::erase_if(prim.attributes, [](const auto& a) { return a.first.rfind(kTransferPrefix, 0) == 0; });
+}
+
+void addTransferAttributes(tinygltf::Model& m, int& staging, const Scene& scene) {
+  size_t k = size_t(scene.transferBands) * size_t(scene.transferBands);
+  for (const MeshInstance& inst : scene.meshes) {
+    if (inst.transfer.empty()) continue;
+    PRT_CHECK_GT(scene.transferBands, 0);
+    PRT_CHECK_EQ(inst.transfer.size(), inst.vertexCount() * k);
+    tinygltf::Primitive& prim = primitiveOf(m, inst);
+    std::vector<glm::vec3> column(inst.vertexCount());
+    for (size_t i = 0; i < k; ++i) {
+      for (size_t v = 0; v < column.size(); ++v) column[v] = inst.transfer[v * k + i];
+      prim.attributes[coefficientName(int(i))] = addVec3Accessor(m, staging, column, coefficientName(int(i)));
+    }
+  }
+}
+
+void storeSettings(const Gltf& g, tinygltf::Model& m, const std::string& settingsJson) {
+  if (settingsJson.empty()) return;
+  Json settings;
+  try {
+    settings = Json::parse(settingsJson);
+  } catch (const Json::exception& e) {
+    fail(g, cat("bake settings are not valid JSON: ", e.what()));
+  }
+  if (!m.asset.extras.IsObject()) m.asset.extras = tinygltf::Value(tinygltf::Value::Object{});
+  m.asset.extras.Get<tinygltf::Value::Object>()["prt"] = toValue(settings);
+}
+
+std::string sniffMimeType(const std::vector<unsigned char>& b) {
+  auto starts = [&](const char* magic, size_t n, size_t at = 0) {
+    return b.size() >= at + n && std::memcmp(b.data() + at, magic, n) == 0;
+  };
+  if (starts("\x89PNG", 4)) return "image/png";
+  if (starts("\xFF\xD8\xFF", 3)) return "image/jpeg";
+  if (starts("RIFF", 4) && starts("WEBP", 4, 8)) return "image/webp";
+  if (starts("\xABKTX 20\xBB", 8)) return "image/ktx2";
+  return "";
+}
+
+/// Moves every image held by URI (file or data:) into a buffer view, with its original
+/// encoded bytes: nothing is re-encoded, and the .glb is self-contained.
+void embedImages(tinygltf::Model& m, int& staging) {
+  for (tinygltf::Image& image : m.images) {
+    if (image.bufferView >= 0 || image.image.empty()) continue;  // unreadable ones keep their URI
+    std::string mime = sniffMimeType(image.image);
+    if (mime.empty()) mime = image.mimeType;
+    if (mime.empty()) continue;
+    image.bufferView = appendBufferView(m, stagingBuffer(m, staging), image.image.data(), image.image.size(), 0);
+    image.mimeType = mime;
+    image.uri.clear();
+    image.image.clear();
+  }
+}
+
+/// True when every extension used is known not to refer to accessors or buffer views, so
+/// unreferenced ones can be dropped without breaking an index hidden in an extension.
+bool onlyKnownExtensions(const tinygltf::Model& m) {
+  for (const std::string& e : m.extensionsUsed) {
+    bool known = e.rfind("KHR_materials_", 0) == 0 || e == kLights || e == kTextureTransform ||
+                 e == "KHR_mesh_quantization" || e == "KHR_texture_basisu" || e == "EXT_texture_webp";
+    if (!known) return false;
+  }
+  return true;
+}
+
+/// Marks the accessors that core glTF objects refer to.
+std::vector<char> usedAccessors(const tinygltf::Model& m) {
+  std::vector<char> used(m.accessors.size(), 0);
+  auto mark = [&](int a) { if (a >= 0 && size_t(a) < used.size()) used[size_t(a)] = 1; };
+  for (const tinygltf::Mesh& mesh : m.meshes) {
+    for (const tinygltf::Primitive& prim : mesh.primitives) {
+      for (const auto& [name, a] : prim.attributes) mark(a);
+      mark(prim.indices);
+      for (const auto& target : prim.targets)
+        for (const auto& [name, a] : target) mark(a);
+    }
+  }
+  for (const tinygltf::Skin& skin : m.skins) mark(skin.inverseBindMatrices);
+  for (const tinygltf::Animation& anim : m.animations)
+    for (const tinygltf::AnimationSampler& s : anim.samplers) { mark(s.input); mark(s.output); }
+  return used;
+}
+
+void remapAccessors(tinygltf::Model& m, const std::vector<char>& keep) {
+  std::vector<int> to(m.accessors.size(), -1);
+  std::vector<tinygltf::Accessor> kept;
+  for (size_t i = 0; i < m.accessors.size(); ++i) {
+    if (!keep[i]) continue;
+    to[i] = static_cast<int>(kept.size());
+    kept.push_back(std::move(m.accessors[i]));
+  }
+  m.accessors = std::move(kept);
+  auto map = [&](int& a) { if (a >= 0 && size_t(a) < to.size()) a = to[size_t(a)]; };
+  for (tinygltf::Mesh& mesh : m.meshes) {
+    for (tinygltf::Primitive& prim : mesh.primitives) {
+      for (auto& [name, a] : prim.attributes) map(a);
+      map(prim.indices);
+      for (auto& target : prim.targets)
+        for (auto& [name, a] : target) map(a);
+    }
+  }
+  for (tinygltf::Skin& skin : m.skins) map(skin.inverseBindMatrices);
+  for (tinygltf::Animation& anim : m.animations)
+    for (tinygltf::AnimationSampler& s : anim.samplers) { map(s.input); map(s.output); }
+}
+
+/// GLB holds one binary buffer: copies every kept buffer view into a new buffer 0, dropping
+/// views (and, with only known extensions, accessors) that nothing refers to any more —
+/// a lit scene then no longer carries the transfer it was made from.
+void packIntoOneBuffer(const Gltf& g, tinygltf::Model& m) {
+  bool prune = onlyKnownExtensions(m);
+  if (prune) remapAccessors(m, usedAccessors(m));
+  std::vector<char> keepView(m.bufferViews.size(), prune ? 0 : 1);
+  auto mark = [&](int v) { if (v >= 0 && size_t(v) < keepView.size()) keepView[size_t(v)] = 1; };
+  for (const tinygltf::Accessor& a : m.accessors) {
+    mark(a.bufferView);
+    if (a.sparse.isSparse) { mark(a.sparse.indices.bufferView); mark(a.sparse.values.bufferView); }
+  }
+  for (const tinygltf::Image& image : m.images) mark(image.bufferView);
+
+  tinygltf::Buffer packed;
+  std::vector<int> to(m.bufferViews.size(), -1);
+  std::vector<tinygltf::BufferView> views;
+  for (size_t i = 0; i < m.bufferViews.size(); ++i) {
+    if (!keepView[i]) continue;
+    tinygltf::BufferView view = m.bufferViews[i];
+    if (view.buffer < 0 || size_t(view.buffer) >= m.buffers.size())
+      fail(g, cat("buffer view ", i, " uses buffer ", view.buffer, ", which does not exist"));
+    const std::vector<unsigned char>& src = m.buffers[size_t(view.buffer)].data;
+    if (view.byteOffset > src.size() || view.byteLength > src.size() - view.byteOffset)
+      fail(g, cat("buffer view ", i, " runs past the end of buffer ", view.buffer));
+    // 4-byte alignment keeps every accessor's offset a multiple of its component size.
+    packed.data.resize((packed.data.size() + 3) / 4 * 4, 0);
+    size_t offset = packed.data.size();
+    packed.data.insert(packed.data.end(), src.begin() + std::ptrdiff_t(view.byteOffset),
+                       src.begin() + std::ptrdiff_t(view.byteOffset + view.byteLength));
+    view.buffer = 0;
+    view.byteOffset = offset;
+    to[i] = static_cast<int>(views.size());
+    views.push_back(std::move(view));
+  }
+  auto map = [&](int& v) { if (v >= 0 && size_t(v) < to.size()) v = to[size_t(v)]; };
+  for (tinygltf::Accessor& a : m.accessors) {
+    map(a.bufferView);
+    if (a.sparse.isSparse) { map(a.sparse.indices.bufferView); map(a.sparse.values.bufferView); }
+  }
+  for (tinygltf::Image& image : m.images) map(image.bufferView);
+  m.bufferViews = std::move(views);
+  m.buffers.assign(1, std::move(packed));
+}
+
+void addExtensionUsed(tinygltf::Model& m, const std::string& name) {
+  if (std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), name) == m.extensionsUsed.end())
+    m.extensionsUsed.push_back(name);
+}
+
+void writeGlb(const Gltf& g, tinygltf::Model& m, int& staging, const std::string& outPath) {
+  m.asset.generator = "prt";
+  embedImages(m, staging);
+  packIntoOneBuffer(g, m);
+  AtomicFile file(outPath);
+  tinygltf::TinyGLTF writer;
+  writer.SetImageWriter(&keepImageUri, nullptr);
+  bool ok = writer.WriteGltfSceneToFile(&m, file.tempPath(), /*embedImages=*/true, /*embedBuffers=*/true,
+                                        /*prettyPrint=*/false, /*writeBinary=*/true);
+  // tinygltf does not check its stream writes; a truncated file shows in its size.
+  std::error_code ec;
+  uintmax_t size = fs::file_size(file.tempPath(), ec);
+  if (!ok || ec || size < 12) throw Error(cat(outPath, ": cannot write the .glb file"));
+  file.commit();
+}
+
+/// glTF requires min/max on POSITION accessors; inputs that lack them get them here, so the
+/// output validates whatever the input did.
+void addPositionBounds(Gltf& g) {
+  for (size_t mi = 0; mi < g.model.meshes.size(); ++mi) {
+    for (size_t pi = 0; pi < g.model.meshes[mi].primitives.size(); ++pi) {
+      const auto& attrs = g.model.meshes[mi].primitives[pi].attributes;
+      auto pos = attrs.find("POSITION");
+      if (pos == attrs.end()) continue;
+      std::string where = cat(primitiveWhere(int(mi), int(pi)), " / POSITION");
+      AccessorData d = openAccessor(g, pos->second, where);
+      tinygltf::Accessor& a = g.model.accessors[size_t(pos->second)];
+      if (d.count == 0 || d.components != 3 || (a.minValues.size() == 3 && a.maxValues.size() == 3)) continue;
+      glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+      for (size_t v = 0; v < d.count; ++v) {
+        glm::dvec3 p(d.get(v, 0), d.get(v, 1), d.get(v, 2));
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+      }
+      a.minValues = {lo.x, lo.y, lo.z};
+      a.maxValues = {hi.x, hi.y, hi.z};
+    }
+  }
+}
+
+/// Loads the input again and makes it ready to carry per-instance vertex data.
+Gltf reloadForWriting(const std::string& inputPath, const Scene& scene, int& staging) {
+  Gltf g = readGltf(inputPath, nullptr);
+  checkMatchesScene(g, scene);
+  addPositionBounds(g);
+  rewriteStripsAndFans(g, staging);
+  giveEachNodeItsOwnMesh(g.model, scene);
+  dropTransferAttributes(g.model);
+  return g;
+}
+
+/// Every material becomes unlit white, so a viewer shows COLOR_0 (the radiance) unchanged.
+void makeMaterialsUnlitWhite(tinygltf::Model& m) {
+  auto unlitWhite = [](const std::string& name, bool doubleSided) {
+    tinygltf::Material mat;
+    mat.name = name;
+    mat.doubleSided = doubleSided;
+    mat.pbrMetallicRoughness.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
+    mat.pbrMetallicRoughness.metallicFactor = 0.0;  // the fallback the unlit spec suggests
+    mat.pbrMetallicRoughness.roughnessFactor = 0.9;
+    mat.extensions[kUnlit] = tinygltf::Value(tinygltf::Value::Object{});
+    return mat;
+  };
+  for (tinygltf::Material& mat : m.materials) mat = unlitWhite(mat.name, mat.doubleSided);
+  int fallback = -1;  // for primitives on the glTF default material, which is lit
+  for (tinygltf::Mesh& mesh : m.meshes) {
+    for (tinygltf::Primitive& prim : mesh.primitives) {
+      if (prim.material >= 0) continue;
+      if (fallback < 0) {
+        m.materials.push_back(unlitWhite("prt unlit", false));
+        fallback = static_cast<int>(m.materials.size() - 1);
+      }
+      prim.material = fallback;
+    }
+  }
+  m.textures.clear();
+  m.images.clear();
+  m.samplers.clear();
+  // Material and texture extensions have nothing left to apply to.
+  auto gone = [](const std::string& e) {
+    return (e.rfind("KHR_materials_", 0) == 0 && e != kUnlit) || e == kTextureTransform ||
+           e == "KHR_texture_basisu" || e == "EXT_texture_webp";
+  };
+  std::erase_if(m.extensionsUsed, gone);
+  std::erase_if(m.extensionsRequired, gone);
+  addExtensionUsed(m, kUnlit);
+}
+
+/// Removes meshes without primitives (glTF requires at least one) and the nodes' references.
+void removeEmptyMeshes(tinygltf::Model& m) {
+  std::vector<int> to(m.meshes.size(), -1);
+  std::vector<tinygltf::Mesh> kept;
+  for (size_t i = 0; i < m.meshes.size(); ++i) {
+    if (m.meshes[i].primitives.empty()) continue;
+    to[i] = static_cast<int>(kept.size());
+    kept.push_back(std::move(m.meshes[i]));
+  }
+  m.meshes = std::move(kept);
+  for (tinygltf::Node& n : m.nodes)
+    if (n.mesh >= 0) n.mesh = size_t(n.mesh) < to.size() ? to[size_t(n.mesh)] : -1;
+}
+
+/// Removes the primitives of instances without radiance; a node left without primitives
+/// loses its mesh.
+void removeUnlitInstances(tinygltf::Model& m, const Scene& scene,
+                          const std::vector<std::vector<glm::vec3>>& radiance) {
+  std::map<int, std::set<int>> drop;  // node -> primitives
+  for (size_t k = 0; k < scene.meshes.size(); ++k)
+    if (radiance[k].empty()) drop[scene.meshes[k].node].insert(scene.meshes[k].primitive);
+  for (const auto& [node, prims] : drop) {
+    auto& list = m.meshes[size_t(m.nodes[size_t(node)].mesh)].primitives;
+    for (auto it = prims.rbegin(); it != prims.rend(); ++it) list.erase(list.begin() + *it);
+  }
+  removeEmptyMeshes(m);
+}
+
+}  // namespace
+
+void writeBakedScene(const std::string& inputPath, const Scene& scene, const std::string& settingsJson,
+                     const std::string& outPath) {
+  int staging = -1;
+  Gltf g = reloadForWriting(inputPath, scene, staging);
+  addTransferAttributes(g.model, staging, scene);
+  storeSettings(g, g.model, settingsJson);
+  writeGlb(g, g.model, staging, outPath);
+}
+
+void writeLitScene(const std::string& inputPath, const Scene& scene,
+                   const std::vector<std::vector<glm::vec3>>& radiance, const std::string& outPath) {
+  PRT_CHECK_EQ(radiance.size(), scene.meshes.size());
+  int staging = -1;
+  // reloadForWriting drops the _PRT_SH_* attributes: a lit file is for looking at, and the
+  // transfer would make it bands² × 12 bytes per vertex larger. packIntoOneBuffer then leaves
+  // their data out.
+  Gltf g = reloadForWriting(inputPath, scene, staging);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    if (radiance[k].empty()) continue;
+    PRT_CHECK_EQ(radiance[k].size(), scene.meshes[k].vertexCount());
+    primitiveOf(g.model, scene.meshes[k]).attributes["COLOR_0"] =
+        addVec3Accessor(g.model, staging, radiance[k], "radiance");
+  }
+  removeUnlitInstances(g.model, scene, radiance);
+  makeMaterialsUnlitWhite(g.model);
+  writeGlb(g, g.model, staging, outPath);
+}
+
+}  // namespace prt
