@@ -1,6 +1,8 @@
 // render/: headless contexts, and frames checked against a CPU evaluation of the same formula
 // at pixel centres (STYLE.md: renders are checked against the formula before any golden).
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <optional>
 #include <random>
@@ -268,6 +270,38 @@ TEST(RenderContext, OpensOnEglDevicePlatform) {
   GlContext c(GlBackend::Egl, kWidth, kHeight, o);
   EXPECT_EQ(c.platform().rfind("EGL device (", 0), 0u) << c.platform();
   expectCore45(c);
+}
+
+// Runs in a child process (below) where GLVND finds no EGL vendor: context creation must fail
+// with one line naming EGL, not crash or print.
+// DISABLED_: gtest runs it only when asked (--gtest_also_run_disabled_tests).
+TEST(RenderContext, DISABLED_EglFailureChild) {
+  ASSERT_NE(std::getenv("PRT_RENDER_TEST_CHILD"), nullptr) << "runs as a child of EglFailureIsOneLine";
+  try {
+    GlContext c(GlBackend::Egl, kWidth, kHeight);
+    ADD_FAILURE() << "a context opened without any EGL vendor";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("EGL: no display", 0), 0u) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+  GlContext osmesa(GlBackend::OSMesa, kWidth, kHeight);  // OSMesa does not need EGL
+  expectCore45(osmesa);
+}
+
+TEST(RenderContext, EglFailureIsOneLine) {
+  // GLVND reads its vendor list once per process, hence the child process.
+  const std::string cmd =
+      "__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json PRT_RENDER_TEST_CHILD=1 /proc/" +
+      std::to_string(::getpid()) + "/exe --gtest_also_run_disabled_tests --gtest_filter=RenderContext.DISABLED_EglFailureChild 2>&1";
+  std::FILE* p = ::popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  std::string out;
+  char buf[256];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  const int status = ::pclose(p);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("[  PASSED  ] 1 test"), std::string::npos) << out;
 }
 
 TEST(RenderContext, RejectsBadFrameSize) {
