@@ -1,0 +1,88 @@
+// Rendering baked static meshes to linear float images with OpenGL (docs/render.md).
+//
+// Per vertex (vertex shader): e = transfer · light, the RGB dot product of the vertex's n²
+// transfer coefficients with the light's. Per pixel (fragment shader): the interpolated e times
+// albedo/π, albedo = baseColorFactor × baseColorTexture(texcoord) × COLOR_0 — the same formula as
+// prt::relightVertices, except that albedo is taken per pixel instead of per vertex.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "prt/image.h"
+#include "prt/render/gl_context.h"
+#include "prt/scene.h"
+#include "prt/sh.h"
+
+namespace prt::render {
+
+/// Where the picture is taken from. The camera looks down its local -Z with +Y up (glTF).
+/// Perspective: `yfov` is the vertical field of view; the horizontal one follows from the
+/// image's aspect ratio (a glTF camera's aspectRatio is ignored, so pixels stay square).
+/// Orthographic: `ymag` is half the visible height; half the width is ymag × image aspect.
+struct CameraView {
+  glm::dmat4 cameraToWorld{1.0};  // rotation and translation only
+  bool perspective = true;
+  double yfov = 0.8;     // radians
+  double ymag = 1.0;
+  double znear = 0.01;
+  double zfar = 0.0;     // 0 = infinite (perspective only)
+};
+
+/// The view of a glTF camera of the scene (scale is removed from its world matrix).
+CameraView cameraView(const Camera& camera);
+
+/// A camera circling the scene: it sits at target + distance·(cos el sin az, sin el, cos el cos az)
+/// and looks at the target with +Y up. Azimuth 0, elevation 0 looks down -Z (glTF's front view).
+struct OrbitCamera {
+  std::optional<glm::vec3> target;  // default: the centre of the scene bounds
+  double distance = 0.0;            // 0 = fit the bounding sphere into the field of view
+  double azimuthDegrees = 0.0;      // about +Y, right-handed
+  double elevationDegrees = 20.0;   // clamped to ±89
+  double yfovDegrees = 45.0;
+};
+
+/// The view of an orbit camera around `scene`'s bounds for an image of aspect `aspect` = w / h.
+CameraView orbitView(const Scene& scene, const OrbitCamera& orbit, double aspect);
+
+/// What the last frame cost, in milliseconds of wall time (GL work is finished before timing).
+struct FrameStats {
+  double drawMs = 0.0;      // clear, draw, glFinish
+  double readbackMs = 0.0;  // glReadPixels and the row flip
+  size_t triangles = 0;
+};
+
+/// The scene's baked instances uploaded to one GlContext; renders frames of them under any SH
+/// light. Receiver-only and unbaked instances (no transfer) are skipped and listed in
+/// warnings(): receivers are lit from the probe grid, which a later slice adds.
+/// The context must outlive the renderer.
+class Renderer {
+public:
+  /// Uploads geometry, transfer and textures. Throws prt::Error if the scene has no baked
+  /// instance or the GL cannot hold it (e.g. a transfer buffer larger than the GL allows).
+  Renderer(GlContext& context, const Scene& scene);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  /// Renders a width × height frame of exitant radiance (background 0), row 0 at the top.
+  /// `light` is truncated or zero-padded to the scene's bands. Makes the context current.
+  ImageRgb render(const CameraView& camera, const sh::ShRgb& light, int width, int height);
+  /// Same, at the context's frame size.
+  ImageRgb render(const CameraView& camera, const sh::ShRgb& light);
+
+  int bands() const;
+  const FrameStats& lastFrame() const;
+  /// One line per skipped instance ("skipping receiver-only instance 'x': ...").
+  const std::vector<std::string>& warnings() const;
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace prt::render
