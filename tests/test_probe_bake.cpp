@@ -123,8 +123,10 @@ MeshInstance makeBox(const glm::vec3& lo, const glm::vec3& hi) {
 }
 
 TEST(ProbeBake, ProbeInsideClosedBoxIsInvalidAndNeverStoredAlone) {
-  Scene s = test::makeScene({makeBox(glm::vec3(-1.0f), glm::vec3(1.0f))}, 0.5f);
-  // Three probes in a row along x: the middle one inside the box, the others outside.
+  // Three probes in a row along x, 3 m apart: the middle one inside the box, deeper than any
+  // relocation candidate reaches (0.45 × 3 m = 1.35 m along x, 0.45 m along y and z), the
+  // others outside.
+  Scene s = test::makeScene({makeBox(glm::vec3(-2.0f, -1.0f, -1.0f), glm::vec3(2.0f, 1.0f, 1.0f))}, 0.5f);
   bake::ProbeSettings ps;
   ps.dims = glm::ivec3(3, 1, 1);
   ps.boundsMin = glm::dvec3(-4.5, -0.5, -0.5);
@@ -134,7 +136,7 @@ TEST(ProbeBake, ProbeInsideClosedBoxIsInvalidAndNeverStoredAlone) {
   ASSERT_EQ(g.probeCount(), 3u);
   int mid = g.find({1, 0, 0});
   ASSERT_GE(mid, 0);
-  EXPECT_EQ(g.validity[size_t(mid)], 0.0f);  // inside, cannot move out within its 3 m cell? see below
+  EXPECT_EQ(g.validity[size_t(mid)], 0.0f);
   EXPECT_EQ(g.validity[size_t(g.find({0, 0, 0}))], 1.0f);
   EXPECT_EQ(g.validity[size_t(g.find({2, 0, 0}))], 1.0f);
   // Interpolation never reads it: at its own position the weight comes from the outer probes.
