@@ -1,0 +1,198 @@
+// The probe grid in memory: index, per-frame relighting and the interpolation with leak
+// prevention. The method and its limits are written up in docs/probes.md; OpenVDB I/O lives in
+// probe_grid_vdb.cpp so that only one translation unit pays for OpenVDB's headers.
+#include "prt/probe_grid.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "prt/error.h"
+
+namespace prt {
+
+namespace {
+
+// Points within this distance (in lattice units) outside the lattice's bounding box still
+// count as inside: a receiver lying exactly on the boundary must not flicker in and out
+// because of float rounding of its world position.
+constexpr double kBoundaryTolerance = 1e-4;
+// Floor of the variance in the Chebyshev test, as a fraction of the smallest spacing. Without
+// it a face whose rays all hit at one distance (σ² = 0, or slightly negative from rounding)
+// would divide by zero; with it the visibility falls to ~1e-6 within 0.1 spacing past μ.
+constexpr double kVarianceFloor = 0.01;
+// Weight kept by a probe that the visibility and back-face tests reject, relative to its
+// trilinear weight. If every probe is rejected, these floors alone remain and normalise to plain
+// trilinear over the valid probes (the fallback), instead of 0/0.
+constexpr double kMinWeight = 1e-6;
+// Per-axis floor of the trilinear factors in the second pass, used only when every probe with
+// a non-zero trilinear weight is invalid (x on a lattice plane whose probes are all inside
+// geometry): the valid probes of the cell then share the weight, nearest first.
+constexpr double kTrilinearFloor = 1e-3;
+
+size_t linearIndex(const glm::ivec3& c, const glm::ivec3& dims) {
+  return (size_t(c.z) * size_t(dims.y) + size_t(c.y)) * size_t(dims.x) + size_t(c.x);
+}
+
+bool insideDims(const glm::ivec3& c, const glm::ivec3& dims) {
+  return c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x < dims.x && c.y < dims.y && c.z < dims.z;
+}
+
+}  // namespace
+
+int faceOf(const glm::vec3& d) {
+  const glm::vec3 a = glm::abs(d);
+  // Ties go to the earlier axis (x, then y), so every direction has exactly one face.
+  if (a.x >= a.y && a.x >= a.z) return d.x >= 0.0f ? int(Face::PosX) : int(Face::NegX);
+  if (a.y >= a.z) return d.y >= 0.0f ? int(Face::PosY) : int(Face::NegY);
+  return d.z >= 0.0f ? int(Face::PosZ) : int(Face::NegZ);
+}
+
+void ProbeGrid::buildIndex() {
+  PRT_CHECK(dims.x >= 0 && dims.y >= 0 && dims.z >= 0);
+  dense_.assign(size_t(dims.x) * size_t(dims.y) * size_t(dims.z), -1);
+  for (size_t p = 0; p < coord.size(); ++p) {
+    PRT_CHECK(insideDims(coord[p], dims));
+    int32_t& slot = dense_[linearIndex(coord[p], dims)];
+    PRT_CHECK_EQ(slot, -1);  // two probes at one lattice point
+    slot = int32_t(p);
+  }
+}
+
+int ProbeGrid::find(const glm::ivec3& c) const {
+  if (!insideDims(c, dims)) return -1;
+  // An empty index here means buildIndex() was not called after filling `coord`.
+  PRT_CHECK_EQ(dense_.size(), size_t(dims.x) * size_t(dims.y) * size_t(dims.z));
+  return dense_[linearIndex(c, dims)];
+}
+
+std::vector<glm::vec3> relightProbes(const ProbeGrid& grid, const sh::ShRgb& light) {
+  const int n2 = grid.coeffs();
+  const size_t stride = grid.transferStride();
+  PRT_CHECK_EQ(grid.transfer.size(), grid.probeCount() * stride);
+  const sh::ShRgb l = sh::resize(light, grid.bands);
+  std::vector<glm::vec3> out(grid.probeCount() * size_t(n2));
+  auto relightOne = [&](size_t p) {
+    const float* m = grid.transfer.data() + p * stride;
+    glm::vec3* c = out.data() + p * size_t(n2);
+    for (int j = 0; j < n2; ++j) {
+      glm::vec3 acc(0.0f);
+      for (int i = 0; i < n2; ++i) {
+        const float* rgb = m + (size_t(j) * n2 + i) * 3;
+        acc += glm::vec3(rgb[0], rgb[1], rgb[2]) * l.c[size_t(i)];
+      }
+      c[j] = acc;
+    }
+  };
+  // Each probe is summed by one thread in a fixed order, so the result does not depend on how
+  // TBB splits the range.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, grid.probeCount(), 256),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t p = r.begin(); p < r.end(); ++p) relightOne(p);
+                    });
+  return out;
+}
+
+ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::vec3* normal) {
+  ProbeWeights out;
+  const size_t count = grid.probeCount();
+  if (count == 0) return out;
+  PRT_CHECK_EQ(grid.validity.size(), count);
+  PRT_CHECK_EQ(grid.offset.size(), count);
+  PRT_CHECK_EQ(grid.moments.size(), count);
+
+  // Cell of x and its fractional position t in it. An axis with one lattice point is a plane:
+  // the cell has zero width there and x must lie on it.
+  const glm::dvec3 u = (glm::dvec3(x) - grid.origin) / grid.spacing;
+  glm::ivec3 base;
+  glm::dvec3 t;
+  for (int a = 0; a < 3; ++a) {
+    const double hi = double(grid.dims[a] - 1);
+    if (!(u[a] >= -kBoundaryTolerance && u[a] <= hi + kBoundaryTolerance)) return out;  // NaN too
+    const double v = std::clamp(u[a], 0.0, hi);
+    base[a] = std::min(int(std::floor(v)), std::max(grid.dims[a] - 2, 0));
+    t[a] = v - base[a];
+  }
+
+  glm::vec3 n(0.0f);
+  const bool useNormal = normal != nullptr && glm::dot(*normal, *normal) > 0.0f;
+  if (useNormal) n = glm::normalize(*normal);
+  const double minSpacing = std::min({grid.spacing.x, grid.spacing.y, grid.spacing.z});
+  const double varianceFloor = (kVarianceFloor * minSpacing) * (kVarianceFloor * minSpacing);
+
+  struct Corner {
+    int probe = -1;
+    glm::dvec3 lerp{0.0};  // per-axis trilinear factors
+  };
+  std::array<Corner, 8> corners;
+  bool anyTrilinear = false;
+  for (int c = 0; c < 8; ++c) {
+    const glm::ivec3 off(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+    const int p = grid.find(base + off);
+    if (p < 0 || !(grid.validity[size_t(p)] > 0.0f)) continue;  // invalid probes are never read
+    corners[c].probe = p;
+    for (int a = 0; a < 3; ++a) corners[c].lerp[a] = off[a] ? t[a] : 1.0 - t[a];
+    anyTrilinear |= corners[c].lerp.x * corners[c].lerp.y * corners[c].lerp.z > 0.0;
+  }
+
+  std::array<double, 8> weight{};
+  double sum = 0.0;
+  for (int c = 0; c < 8; ++c) {
+    const int p = corners[c].probe;
+    if (p < 0) continue;
+    glm::dvec3 f = corners[c].lerp;
+    if (!anyTrilinear) f = glm::max(f, glm::dvec3(kTrilinearFloor));
+    const double wt = f.x * f.y * f.z * double(grid.validity[size_t(p)]);
+    if (wt <= 0.0) continue;
+
+    const glm::dvec3 d = glm::dvec3(x) - grid.position(size_t(p));
+    const double r = glm::length(d);
+    // Chebyshev's inequality bounds the chance that the surface the probe saw in this direction
+    // lies beyond x: P(D ≥ r) ≤ σ² / (σ² + (r − μ)²) for r > μ. The bound is loose (it is an
+    // upper bound, reached only by a two-point distribution), so a wall still lets a fair share
+    // through; cubing it, as DDGI does, turns that soft tail into a sharp cut-off while leaving
+    // w = 1 where x is in front of the mean hit.
+    const glm::vec2 m = grid.moments[size_t(p)][size_t(faceOf(glm::vec3(d)))];
+    const double mu = m.x;
+    double wv = 1.0;
+    if (r > mu) {
+      const double var = std::max(double(m.y) - mu * mu, varianceFloor);
+      const double cheb = var / (var + (r - mu) * (r - mu));
+      wv = cheb * cheb * cheb;
+    }
+    // DDGI's soft back-face weight: probes behind the surface (seen against the normal) count
+    // less but never zero, so thin geometry between x and every probe still gets light.
+    double wb = 1.0;
+    if (useNormal && r > 1e-6 * minSpacing) {
+      const double h = (glm::dot(-d / r, glm::dvec3(n)) + 1.0) * 0.5;
+      wb = h * h + 0.2;
+    }
+    weight[size_t(c)] = wt * std::max(wv * wb, kMinWeight);
+    sum += weight[size_t(c)];
+  }
+  if (!(sum > 0.0)) return out;
+  for (int c = 0; c < 8; ++c) {
+    if (weight[size_t(c)] <= 0.0) continue;
+    out.probe[size_t(out.count)] = corners[c].probe;
+    out.weight[size_t(out.count)] = float(weight[size_t(c)] / sum);
+    ++out.count;
+  }
+  return out;
+}
+
+sh::ShRgb interpolateRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const glm::vec3& x,
+                              const glm::vec3* normal) {
+  const int n2 = grid.coeffs();
+  PRT_CHECK_EQ(relit.size(), grid.probeCount() * size_t(n2));
+  sh::ShRgb out(grid.bands);
+  const ProbeWeights w = probeWeights(grid, x, normal);
+  for (int k = 0; k < w.count; ++k) {
+    const glm::vec3* c = relit.data() + size_t(w.probe[size_t(k)]) * size_t(n2);
+    for (int i = 0; i < n2; ++i) out.c[size_t(i)] += w.weight[size_t(k)] * c[i];
+  }
+  return out;
+}
+
+}  // namespace prt
