@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "light_options.h"
+#include "render_command.h"
 #include "prt/atomic_file.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
@@ -384,6 +385,8 @@ int main(int argc, char** argv) {
   probeCmd->add_option("-o,--output", probeArgs.output, "Output CSV for --points (adds E_r,E_g,E_b)");
   tools::addLightOptions(*probeCmd, probeArgs.light);
 
+  CLI::App* renderCmd = tools::addRenderCommand(app);
+
   std::vector<std::string> infoFiles;
   CLI::App* info = app.add_subcommand("info", "Describe baked or input files");
   info->add_option("files", infoFiles, "Files to describe (.gltf, .glb, .vdb)")->required();
@@ -398,6 +401,7 @@ int main(int argc, char** argv) {
     if (relight->parsed()) runRelight(relightArgs);
     if (light->parsed()) runLight(lightArgs);
     if (probeCmd->parsed()) runProbe(probeArgs);
+    if (renderCmd->parsed()) tools::runRenderCommand();
     if (info->parsed()) return runInfo(infoFiles);
   } catch (const Error& e) {
     std::fprintf(stderr, "prt: %s\n", e.what());
