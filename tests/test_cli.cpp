@@ -228,3 +228,61 @@ TEST(Cli, LightOrientationAndRotation) {
 
 }  // namespace
 }  // namespace prt
+
+namespace prt {
+namespace {
+
+// Probes through the command line: bake, inspect, query. Above the unoccluded plane, under a
+// uniform sky of radiance 1, an upward receiver gets irradiance π (the plane is behind it).
+TEST(CliProbes, BakeInfoAndPointsQuery) {
+  fs::path d = tempDir("probes");
+  std::string baked = (d / "p.glb").string(), vdb = (d / "p.vdb").string();
+  CliRun b = prt("bake " + scene("plane.gltf") + " -o " + baked + " --samples 64 --probes " + vdb +
+                 " --probe-dims 3,3,3 --probe-bounds -0.5,0.2,-0.5,0.5,1.2,0.5 --probe-samples 1024 -q");
+  ASSERT_EQ(b.status, 0) << b.err;
+  CliRun info = prt("info " + vdb);
+  ASSERT_EQ(info.status, 0) << info.err;
+  EXPECT_NE(info.out.find("27 active"), std::string::npos) << info.out;
+  fs::path in = d / "in.csv";
+  std::ofstream(in) << "x,y,z,nx,ny,nz\n0,0.5,0,0,1,0\n0.1,0.9,-0.2,0,1,0\n";
+  CliRun q = prt("probe " + vdb + " --env " + scene("env/white_sky_64.hdr") + " --points " + in.string() + " -o " +
+                 (d / "out.csv").string());
+  ASSERT_EQ(q.status, 0) << q.err;
+  std::ifstream out(d / "out.csv");
+  std::string line;
+  std::getline(out, line);
+  EXPECT_EQ(line, "x,y,z,nx,ny,nz,E_r,E_g,E_b");
+  int rows = 0;
+  while (std::getline(out, line)) {
+    double e = std::stod(line.substr(line.rfind(',') + 1));
+    // The probes' direct part integrates y_j y_i with 1024 Sobol directions (~1e-3); the
+    // 3-band irradiance of a constant sky is exact. 1% bounds it.
+    EXPECT_NEAR(e, M_PI, 0.01 * M_PI) << line;
+    ++rows;
+  }
+  EXPECT_EQ(rows, 2);
+  CliRun bad = prt("probe " + vdb + " --env " + scene("env/white_sky_64.hdr") + " --at 0,100,0");
+  EXPECT_EQ(bad.status, 1);
+  EXPECT_NE(bad.err.find("outside"), std::string::npos) << bad.err;
+}
+
+TEST(CliRender, FramesOnBothBackEndsAndCleanErrors) {
+  fs::path d = tempDir("render");
+  std::string baked = (d / "c.glb").string();
+  ASSERT_EQ(prt("bake " + scene("plane.gltf") + " -o " + baked + " --samples 16 -q").status, 0);
+  for (std::string gl : {"osmesa", "egl"}) {
+    CliRun r = prt("render " + baked + " --env " + scene("env/white_sky_64.hdr") + " --frames 0-1 --size 32x24 --gl " +
+                   gl + " --png -o " + (d / (gl + "_%02d.exr")).string());
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(fs::exists(d / (gl + "_00.exr")));
+    EXPECT_TRUE(fs::exists(d / (gl + "_01.png")));
+  }
+  CliRun bad = prt("render " + baked + " --env " + scene("env/white_sky_64.hdr") + " --gl vulkan -o " +
+                   (d / "x_%02d.exr").string());
+  EXPECT_EQ(bad.status, 1);
+  EXPECT_EQ(lineCount(bad.err), 1) << bad.err;
+  EXPECT_FALSE(fs::exists(d / "x_00.exr"));
+}
+
+}  // namespace
+}  // namespace prt
