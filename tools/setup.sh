@@ -6,7 +6,8 @@
 #
 # 1. installs the Debian packages prt needs (skipped when all are installed already);
 # 2. configures and builds Release with Ninja into build/;
-# 3. demo: bakes scenes/cornell_open.gltf and relights it into out/;
+# 3. demo: bakes scenes/cornell_open.gltf (surface + probes), relights it and renders frames
+#    into out/;
 #    test: runs ctest in build/ and exits with its status.
 # Run as root, or as a user with sudo (used for apt-get only). Under sudo, the build and the
 # outputs belong to the user who ran sudo when that user owns the checkout.
@@ -98,15 +99,24 @@ case "$mode" in
   demo)
     run mkdir -p out
     say "baking scenes/cornell_open.gltf"
-    run build/tools/prt bake scenes/cornell_open.gltf -o out/cornell.baked.glb
+    run build/tools/prt bake scenes/cornell_open.gltf -o out/cornell.baked.glb \
+      --probes out/cornell.probes.vdb --probe-dims 16,16,16
     say "relighting with scenes/env/royal_esplanade_128.hdr"
     run build/tools/prt relight out/cornell.baked.glb --env scenes/env/royal_esplanade_128.hdr \
       -o out/cornell.lit.glb --csv out/cornell.csv
+    say "rendering a turntable of the sky (8 frames)"
+    run mkdir -p out/frames
+    run build/tools/prt render out/cornell.baked.glb --env scenes/env/royal_esplanade_128.hdr \
+      --env-rotate 0 --env-rotate-end 315 --frames 0-7 --size 640x360 --gl osmesa --png --exposure 1 \
+      -o out/frames/frame_%04d.exr
+    run build/tools/prt info out/cornell.probes.vdb
     say "done. Outputs in $root/out:"
     printf '    %s\n' \
       "out/cornell.baked.glb  the scene with per-vertex SH transfer (input of prt relight)" \
       "out/cornell.lit.glb    per-vertex radiance as COLOR_0 (open in any glTF viewer)" \
-      "out/cornell.csv        the same per-vertex radiance as a table"
+      "out/cornell.csv        the same per-vertex radiance as a table" \
+      "out/cornell.probes.vdb the probe grid (OpenVDB: vdb_print, pyopenvdb, Blender)" \
+      "out/frames/            relit frames, linear EXR and tone-mapped PNG"
     ;;
   test)
     say "running the tests (ctest)"
