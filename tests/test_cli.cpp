@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cmath>
@@ -28,7 +29,8 @@ struct CliRun {
 
 // Runs `prt ARGS`, capturing stdout and stderr separately.
 CliRun prt(const std::string& args) {
-  fs::path dir = fs::path(::testing::TempDir()) / "prt_cli";
+  // One capture folder per test process: ctest runs tests in parallel processes.
+  fs::path dir = fs::path(::testing::TempDir()) / ("prt_cli_capture_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   std::string outFile = (dir / "stdout.txt").string(), errFile = (dir / "stderr.txt").string();
   std::string cmd = std::string(PRT_EXE) + " " + args + " >" + outFile + " 2>" + errFile;
