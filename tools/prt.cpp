@@ -1,9 +1,15 @@
 // prt: bake precomputed radiance transfer, relight it, inspect it.
 // Thin on purpose: parse the command line, call the libraries, report. Errors are caught once,
 // here: bad input prints one line and exits 1; usage errors print usage and exit 2.
+#include <unistd.h>
+
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <optional>
 #include <filesystem>
 #include <fstream>
@@ -17,6 +23,8 @@
 #include "light_options.h"
 #include "render_command.h"
 #include "prt/atomic_file.h"
+#include "prt/bake/checkpoint.h"
+#include "prt/bake/memory_estimate.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
@@ -35,6 +43,45 @@ void printWarnings(const Scene& scene, bool quiet) {
 }
 
 // ---- prt bake
+// Signals: the first SIGINT/SIGTERM asks the bake to stop (it saves its checkpoint and unwinds
+// to main); a second one, or one during a stage that cannot stop cleanly (the probe stage, for
+// now), exits at once with a message prepared beforehand. Only async-signal-safe calls here.
+char gHardExitMessage[1024];
+std::atomic<bool> gHardExit{false};
+
+void onSignal(int sig) {
+  if (gHardExit.load() || bake::interruptRequested()) {
+    const char* msg = gHardExit.load() ? gHardExitMessage : "prt: interrupted again: stopping without saving\n";
+    ssize_t ignored = ::write(STDERR_FILENO, msg, std::strlen(msg));
+    (void)ignored;
+    ::_exit(128 + sig);
+  }
+  bake::requestInterrupt(sig);
+}
+
+// Installs the handlers for the lifetime of a bake and restores the previous ones after.
+class SignalScope {
+public:
+  SignalScope() {
+    struct sigaction sa{};
+    sa.sa_handler = onSignal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    sigaction(SIGINT, &sa, &oldInt_);
+    sigaction(SIGTERM, &sa, &oldTerm_);
+  }
+  ~SignalScope() {
+    gHardExit = false;
+    sigaction(SIGINT, &oldInt_, nullptr);
+    sigaction(SIGTERM, &oldTerm_, nullptr);
+  }
+  SignalScope(const SignalScope&) = delete;
+  SignalScope& operator=(const SignalScope&) = delete;
+
+private:
+  struct sigaction oldInt_{}, oldTerm_{};
+};
+
 struct BakeArgs {
   std::string scene, output;
   std::string probes;  // optional .vdb
@@ -47,7 +94,44 @@ struct BakeArgs {
   bool unshadowed = false;
   bool quiet = false;
   LoadOptions load;
+  std::string checkpoint;          // default OUTPUT.prt-checkpoint
+  double checkpointInterval = 60;  // seconds; 0 = only when interrupted
+  bool resume = false;
+  std::string maxMemory;
 };
+
+// What must match for a checkpoint to be resumed: the scene's content and every setting that
+// changes the output bits (not --threads, not -q).
+bake::Fingerprint bakeFingerprint(const Scene& scene, const BakeArgs& a, const bake::BakeSettings& s,
+                                  const bake::ProbeSettings* ps) {
+  bake::Fingerprint fp;
+  fp.add("prt", "0.1.0");
+  bake::addSceneFingerprint(fp, scene);
+  fp.add("bands", std::to_string(s.bands));
+  fp.add("samples", std::to_string(s.samples));
+  fp.add("bounces", std::to_string(s.bounces));
+  fp.add("seed", std::to_string(s.seed));
+  fp.add("probes", ps ? "yes" : "no");
+  if (ps) {
+    fp.add("probe samples", std::to_string(ps->samples));
+    fp.add("probe spacing", cat(std::setprecision(17), ps->spacing));
+    fp.add("probe dims", cat(ps->dims.x, ",", ps->dims.y, ",", ps->dims.z));
+    std::string bounds = "scene";
+    if (!a.probeBounds.empty()) {
+      bounds.clear();
+      for (double v : a.probeBounds) bounds += cat(bounds.empty() ? "" : ",", std::setprecision(17), v);
+    }
+    fp.add("probe bounds", bounds);
+  }
+  return fp;
+}
+
+// The test suite interrupts bakes at chosen points with PRT_TEST_INTERRUPT_AFTER=N (an
+// interrupt once N chunks have finished in this run), as a user's Ctrl-C would.
+uint64_t testInterruptAfter() {
+  const char* v = std::getenv("PRT_TEST_INTERRUPT_AFTER");
+  return v ? std::strtoull(v, nullptr, 10) : 0;
+}
 
 void runBake(const BakeArgs& a) {
   bake::BakeSettings s = a.settings;
@@ -76,14 +160,60 @@ void runBake(const BakeArgs& a) {
     s.keepLowerOrder = true;
   }
 
+  if (!(a.checkpointInterval >= 0.0) || !std::isfinite(a.checkpointInterval))
+    throw Error(cat("--checkpoint-interval ", a.checkpointInterval, ": must be 0 or more seconds"));
+  if (a.resume && !s.shadowed) throw Error("--resume: an unshadowed bake has no checkpoint (it takes no rays)");
+  std::optional<uint64_t> maxMemory;
+  if (!a.maxMemory.empty()) maxMemory = bake::parseByteSize(a.maxMemory, "--max-memory");
+  const bake::ProbeSettings* psp = a.probes.empty() ? nullptr : &ps;
+
+  SignalScope signals;
   Scene scene = loadScene(a.scene, a.load);
   printWarnings(scene, a.quiet);
-  bake::SurfaceTransfer result = bake::bakeSurface(scene, s);
+
+  // Memory guard: first without the hit records (before the BVH is built), then with the
+  // bound the bake measures on a pilot of its own rays (BakeControl::checkMemory).
+  std::optional<bake::MemoryLimit> limit = bake::memoryLimit(maxMemory);
+  bake::MemoryEstimate estimate = bake::estimateBakeMemory(scene, s, psp, 0.0);
+  if (limit) bake::checkMemory(estimate, *limit, scene, s, psp);
+
+  std::optional<bake::Checkpoint> checkpoint;
+  if (s.shadowed) {
+    bake::CheckpointOptions co;
+    co.path = a.checkpoint.empty() ? a.output + ".prt-checkpoint" : a.checkpoint;
+    co.intervalSeconds = a.checkpointInterval;
+    co.resume = a.resume;
+    co.interruptAfterChunks = testInterruptAfter();
+    checkpoint.emplace(co, bakeFingerprint(scene, a, s, psp));
+  }
+  bake::BakeControl control;
+  control.checkpoint = checkpoint ? &*checkpoint : nullptr;
+  control.checkMemory = [&](double share) {
+    estimate = bake::estimateBakeMemory(scene, s, psp, share);
+    if (limit) bake::checkMemory(estimate, *limit, scene, s, psp);
+  };
+  bake::SurfaceTransfer result;
+  try {
+    result = bake::bakeSurface(scene, s, control);
+  } catch (const Interrupted& e) {
+    if (!checkpoint) throw;
+    throw Interrupted(cat("interrupted: checkpoint saved to ", checkpoint->path(), " (",
+                          checkpoint->progressText(), "); rerun with --resume to continue"));
+  }
   std::string sceneName = std::filesystem::path(a.scene).filename().string();
   bake::ProbeStats probeStats;
   if (!a.probes.empty()) {
     if (result.perMeshLowerOrder.empty()) result.perMeshLowerOrder.assign(scene.meshes.size(), {});
+    // The probe bake does not poll the interrupt flag yet: a signal during it exits at once,
+    // and the checkpoint keeps the finished surface stage (saved by bakeSurface).
+    std::snprintf(gHardExitMessage, sizeof gHardExitMessage,
+                  "\nprt: interrupted in the probe stage: checkpoint %s keeps the surface stage; rerun with "
+                  "--resume to continue from there\n",
+                  checkpoint->path().c_str());
+    gHardExit = true;
+    if (bake::interruptRequested()) onSignal(bake::interruptSignal());
     ProbeGrid grid = bake::bakeProbes(scene, result.perMeshLowerOrder, ps, &probeStats);
+    gHardExit = false;
     grid.info.scene = sceneName;
     writeProbeGrid(grid, a.probes, a.probeHalf);
   }
@@ -95,6 +225,8 @@ void runBake(const BakeArgs& a) {
   auto tWrite = std::chrono::steady_clock::now();
   writeBakedScene(a.scene, scene, bake::settingsJson(s, sceneName), a.output);
   double writeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tWrite).count();
+  // The outputs are in place: the checkpoint has served.
+  if (checkpoint) checkpoint->remove();
 
   if (a.quiet) return;
   const bake::BakeStats& st = result.stats;
@@ -108,14 +240,15 @@ void runBake(const BakeArgs& a) {
     if (stage.name == "direct") directSeconds = stage.seconds;
   std::fprintf(stderr,
                "prt bake: %s -> %s\n  %s vertices in %zu instances (%zu receivers skipped), %d bands, "
-               "%d samples, %d bounces%s\n  %s rays (%s rays/s in the direct pass), %s hit records\n"
-               "  time: %s write %.2f s; total %.2f s; peak memory %s\n",
+               "%d samples, %d bounces%s\n  %s rays (%s rays/s in the direct pass), %s hit records%s\n"
+               "  time: %s write %.2f s; total %.2f s\n  memory: estimated %s, peak %s\n",
                a.scene.c_str(), a.output.c_str(), formatCount(double(st.vertices)).c_str(),
                scene.meshes.size() - receivers, receivers, s.bands, s.samples, s.shadowed ? s.bounces : 0,
                s.shadowed ? "" : " (unshadowed)", formatCount(double(st.rays)).c_str(),
                formatCount(directSeconds > 0 ? double(st.rays) / directSeconds : 0.0).c_str(),
-               formatCount(double(st.hitRecords)).c_str(), stages.str().c_str(), writeSeconds,
-               st.seconds + writeSeconds, formatBytes(peakMemoryBytes()).c_str());
+               formatCount(double(st.hitRecords)).c_str(), st.resumed ? "; resumed from the checkpoint" : "",
+               stages.str().c_str(), writeSeconds, st.seconds + writeSeconds, formatBytes(estimate.total).c_str(),
+               formatBytes(peakMemoryBytes()).c_str());
   if (!a.probes.empty())
     std::fprintf(stderr,
                  "  probes: %s lattice points, %s active, %s inside geometry, %s moved out; %s rays in %.2f s "
@@ -360,6 +493,11 @@ int main(int argc, char** argv) {
       ->delimiter(',')->expected(6);
   bake->add_option("--probe-samples", bakeArgs.probeSamples, "Sphere directions per probe")->capture_default_str();
   bake->add_flag("--probe-half", bakeArgs.probeHalf, "Store probe grids as 16-bit floats");
+  bake->add_flag("--resume", bakeArgs.resume, "Continue an interrupted bake from its checkpoint (same scene and settings)");
+  bake->add_option("--checkpoint", bakeArgs.checkpoint, "Checkpoint file (default: OUTPUT.prt-checkpoint)");
+  bake->add_option("--checkpoint-interval", bakeArgs.checkpointInterval,
+                   "Seconds between checkpoint saves (0 = only when interrupted)")->capture_default_str();
+  bake->add_option("--max-memory", bakeArgs.maxMemory, "Refuse bakes estimated above this (e.g. 8G, 500M; default: available memory)");
 
   RelightArgs relightArgs;
   CLI::App* relight = app.add_subcommand("relight", "Relight a baked scene: per-vertex exitant radiance as COLOR_0");
@@ -403,6 +541,9 @@ int main(int argc, char** argv) {
     if (probeCmd->parsed()) runProbe(probeArgs);
     if (renderCmd->parsed()) tools::runRenderCommand();
     if (info->parsed()) return runInfo(infoFiles);
+  } catch (const Interrupted& e) {
+    std::fprintf(stderr, "prt: %s\n", e.what());
+    return 128 + (bake::interruptSignal() ? bake::interruptSignal() : SIGINT);
   } catch (const Error& e) {
     std::fprintf(stderr, "prt: %s\n", e.what());
     return 1;

@@ -14,9 +14,11 @@
 #include "prt/bake/surface_bake.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
@@ -182,6 +184,37 @@ const glm::vec3& normalOf(const Scene& scene, const Layout& lay, size_t v) {
 
 float tnearFor(float extent) { return 1e-6f * extent; }
 
+// An upper bound on the share of direct rays that hit a front face, from a pilot: the first
+// kPilotRays rays (a stratified Sobol prefix of the bake's own rays) of up to kPilotVertices
+// vertices spread evenly over the scene. The bound is the mean share plus 3 standard errors
+// of the per-vertex shares plus 0.02 for the difference between a 64-ray prefix and all N
+// rays, capped at 1: the memory guard needs a bound, not an estimate.
+double pilotFrontHitShare(const Scene& scene, const Layout& lay, const RayScene& rays,
+                          const std::vector<glm::vec3>& origins, const BakeSettings& settings, float tnear) {
+  constexpr size_t kPilotVertices = 2048;
+  constexpr uint32_t kPilotRays = 64;
+  const size_t m = std::min(lay.vertices, kPilotVertices);
+  const uint32_t p = std::min<uint32_t>(uint32_t(settings.samples), kPilotRays);
+  if (m == 0) return 0.0;
+  std::vector<double> share(m);
+  tbb::parallel_for(size_t(0), m, [&](size_t i) {
+    const size_t v = i * lay.vertices / m;
+    const VertexSampler sampler(origins[v], normalOf(scene, lay, v), settings.seed, v, tnear);
+    alignas(64) Ray batch[kPilotRays];
+    for (uint32_t j = 0; j < p; ++j) sampler.make(j, batch[j]);
+    rays.intersect(batch, p);
+    uint32_t front = 0;
+    for (uint32_t j = 0; j < p; ++j) front += batch[j].hit() && !batch[j].backface();
+    share[i] = double(front) / p;
+  });
+  double mean = 0, var = 0;
+  for (double s : share) mean += s;
+  mean /= double(m);
+  for (double s : share) var += (s - mean) * (s - mean);
+  var /= double(std::max<size_t>(m - 1, 1));
+  return std::min(1.0, mean + 3.0 * std::sqrt(var / double(m)) + 0.02);
+}
+
 }  // namespace
 
 void validate(const BakeSettings& s) {
@@ -193,7 +226,12 @@ void validate(const BakeSettings& s) {
   if (s.threads < 0) throw Error(cat("--threads ", s.threads, ": must be 0 (all cores) or more"));
 }
 
-SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings) {
+// Checkpointing (checkpoint.h): the direct pass saves per chunk its transfer and hit records;
+// bounce k saves, once, the state it starts from (t^{k-1} and the running sum) and then per
+// chunk its t^k; the finished surface stage saves the sum (and the lower-order sum) for a
+// probe bake that follows. Restored values are the very floats an uninterrupted bake holds at
+// that point, and every later sum runs in the same order, so the result has the same bits.
+SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, const BakeControl& control) {
   validate(settings);
   const auto tStart = Clock::now();
   std::unique_ptr<tbb::global_control> threadLimit;
@@ -218,80 +256,233 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings) {
     return out;
   }
 
-  auto tBuild = Clock::now();
-  RayScene rays(scene);
-  std::vector<glm::vec3> origins = rayOrigins(scene, lay, rays.sceneExtent());
-  out.stats.stages.push_back({"bvh", secondsSince(tBuild), 0});
+  Checkpoint* cp = control.checkpoint;
+  // The stages' writers point into this function's buffers: forget them however it ends.
+  struct Release {
+    Checkpoint* cp;
+    ~Release() {
+      if (cp) cp->releaseStages();
+    }
+  } release{cp};
+  auto stopIfInterrupted = [&] {
+    if (cp) cp->stopIfInterrupted();
+    if (interruptRequested()) throw Interrupted("interrupted");
+  };
 
-  // ---- Direct pass: visibility-weighted SH, and the hit records for the bounces.
   const bool keepHits = settings.bounces > 0;
+  const int bounces = keepHits ? settings.bounces : 0;
+  const uint32_t stageDone = uint32_t(2 + bounces);
   const uint32_t N = uint32_t(settings.samples);
   const size_t chunks = (lay.vertices + kChunk - 1) / kChunk;
+  const size_t values = lay.vertices * n2;
+  auto chunkRange = [&](size_t c) { return std::pair(c * kChunk, std::min(lay.vertices, (c + 1) * kChunk)); };
   std::vector<ChunkHits> chunkHits(keepHits ? chunks : 0);
-  std::vector<glm::vec3> direct(lay.vertices * n2);  // colourless, stored RGB for the gather
-  const float tnear = tnearFor(rays.sceneExtent());
+  std::vector<uint8_t> chunkDone(chunks, 0);
+  std::vector<glm::vec3> direct, total, lowerOrder, prev, cur;
+  auto readVec3 = [&](ByteReader& r, std::vector<glm::vec3>& v) {
+    v = r.getVector<glm::vec3>();
+    if (v.size() != values && !v.empty()) r.fail("transfer size");
+  };
 
-  auto tDirect = Clock::now();
-  {
-    Progress progress("direct", lay.vertices, "vertices", settings.progress);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1), [&](const tbb::blocked_range<size_t>& r) {
-      alignas(64) Ray batch[kStream];
-      double acc[sh::kMaxBands * sh::kMaxBands];
-      float y[sh::kMaxBands * sh::kMaxBands];
-      for (size_t c = r.begin(); c != r.end(); ++c) {
-        size_t vBegin = c * kChunk, vEnd = std::min(lay.vertices, vBegin + kChunk);
-        ChunkHits* ch = keepHits ? &chunkHits[c] : nullptr;
-        if (ch) ch->begin.assign(1, 0);
-        for (size_t v = vBegin; v < vEnd; ++v) {
-          const VertexSampler sampler(origins[v], normalOf(scene, lay, v), settings.seed, v, tnear);
-          std::fill_n(acc, n2, 0.0);
-          for (uint32_t first = 0; first < N; first += kStream) {
-            const uint32_t count = std::min<uint32_t>(kStream, N - first);
-            for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
-            if (keepHits)
-              rays.intersect(batch, count);
-            else
-              rays.occluded(batch, count);
-            for (uint32_t j = 0; j < count; ++j) {
-              const Ray& ray = batch[j];
-              const bool blocked = keepHits ? ray.hit() : ray.occludedHit();
-              if (!blocked) {
-                sh::evaluate(bands, ray.dir, y);
-                for (int i = 0; i < n2; ++i) acc[i] += y[i];
-              } else if (keepHits && !ray.backface()) {
-                ch->hits.push_back({lay.triOffset[ray.mesh] + ray.tri, quantise(ray.u), quantise(ray.v)});
+  // ---- Where a checkpoint left off: 0 = in (or before) the direct pass, 1 + k = in bounce k,
+  // stageDone = the whole surface stage.
+  uint32_t resumeStage = 0;
+  uint64_t hitCount = 0;
+  if (cp) {
+    resumeStage = std::min(cp->restoredStateStage(), stageDone);
+    out.stats.resumed = cp->exists();
+  }
+  const bool restoredDone = resumeStage == stageDone;
+  if (restoredDone) {
+    cp->restoreState(stageDone, [&](ByteReader& r) {
+      hitCount = r.get<uint64_t>();
+      readVec3(r, total);
+      readVec3(r, lowerOrder);
+      if (total.size() != values) r.fail("transfer size");
+    });
+  } else if (cp) {
+    const bool wantValues = resumeStage == 0;
+    if (wantValues) direct.resize(values);
+    cp->restoreChunks(kSurfaceStageDirect, [&](uint64_t c, ByteReader& r) {
+      if (c >= chunks) r.fail("chunk index");
+      auto [vBegin, vEnd] = chunkRange(c);
+      const bool hasValues = r.get<uint8_t>() != 0;
+      if (wantValues && !hasValues) r.fail("direct chunk without transfer");
+      std::vector<float> v = hasValues ? r.getVector<float>() : std::vector<float>();
+      if (hasValues && v.size() != (vEnd - vBegin) * n2) r.fail("direct chunk size");
+      if (wantValues)
+        for (size_t i = 0; i < v.size(); ++i) direct[vBegin * n2 + i] = glm::vec3(v[i]);
+      if (keepHits) {
+        ChunkHits& ch = chunkHits[c];
+        ch.begin = r.getVector<uint32_t>();
+        ch.hits = r.getVector<HitRecord>();
+        if (ch.begin.size() != vEnd - vBegin + 1 || ch.begin.front() != 0 || ch.begin.back() != ch.hits.size())
+          r.fail("hit records");
+        for (const HitRecord& h : ch.hits)
+          if (h.tri >= lay.triangles) r.fail("hit records");
+      }
+      chunkDone[c] = 1;
+    });
+    if (resumeStage != 0) {
+      if (std::count(chunkDone.begin(), chunkDone.end(), 1) != ptrdiff_t(chunks))
+        throw Error(cat(cp->path(), ": corrupt checkpoint (hit records of the direct pass missing); delete it to "
+                                    "start over"));
+      cp->restoreState(resumeStage, [&](ByteReader& r) {
+        readVec3(r, prev);
+        readVec3(r, total);
+        if (prev.size() != values || total.size() != values) r.fail("transfer size");
+      });
+    }
+  }
+  for (const ChunkHits& ch : chunkHits) hitCount += ch.hits.size();
+  const size_t directLeft = chunks - size_t(std::count(chunkDone.begin(), chunkDone.end(), 1));
+
+  if (resumeStage == 0) {
+    direct.resize(values);
+    // ---- Direct pass: visibility-weighted SH, and the hit records for the bounces.
+    auto tBuild = Clock::now();
+    std::optional<RayScene> rays;
+    std::vector<glm::vec3> origins;
+    float tnear = 0.0f;
+    if (directLeft > 0) {
+      rays.emplace(scene);
+      origins = rayOrigins(scene, lay, rays->sceneExtent());
+      tnear = tnearFor(rays->sceneExtent());
+      out.stats.stages.push_back({"bvh", secondsSince(tBuild), 0});
+    }
+    if (control.checkMemory) {
+      double share = 0.0;
+      if (keepHits && directLeft == 0) share = double(hitCount) / (double(lay.vertices) * N);
+      if (keepHits && directLeft > 0) share = pilotFrontHitShare(scene, lay, *rays, origins, settings, tnear);
+      control.checkMemory(share);
+    }
+    bool directAlive = true;  // direct chunk records carry their transfer while it exists
+    if (cp) {
+      Checkpoint::StageIo io;
+      io.chunksOutliveStage = keepHits;
+      io.writeChunk = [&](uint64_t c, ByteWriter& w) {
+        auto [vBegin, vEnd] = chunkRange(c);
+        w.put<uint8_t>(directAlive);
+        if (directAlive) {
+          std::vector<float> v((vEnd - vBegin) * n2);
+          for (size_t i = 0; i < v.size(); ++i) v[i] = direct[vBegin * n2 + i].r;
+          w.putArray(v.data(), v.size());
+        }
+        if (keepHits) {
+          w.putArray(chunkHits[c].begin.data(), chunkHits[c].begin.size());
+          w.putArray(chunkHits[c].hits.data(), chunkHits[c].hits.size());
+        }
+      };
+      cp->beginStage(kSurfaceStageDirect, "direct pass", chunks, chunks - directLeft, std::move(io));
+    }
+    auto tDirect = Clock::now();
+    std::atomic<uint64_t> raysCast{0};
+    if (directLeft > 0) {
+      Progress progress("direct", lay.vertices, "vertices", settings.progress);
+      progress.add((chunks - directLeft) * kChunk);
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1), [&](const tbb::blocked_range<size_t>& r) {
+        alignas(64) Ray batch[kStream];
+        double acc[sh::kMaxBands * sh::kMaxBands];
+        float y[sh::kMaxBands * sh::kMaxBands];
+        for (size_t c = r.begin(); c != r.end(); ++c) {
+          if (chunkDone[c] || interruptRequested()) continue;
+          auto [vBegin, vEnd] = chunkRange(c);
+          ChunkHits* ch = keepHits ? &chunkHits[c] : nullptr;
+          if (ch) ch->begin.assign(1, 0);
+          bool abandoned = false;
+          for (size_t v = vBegin; v < vEnd; ++v) {
+            if (interruptRequested()) {  // a chunk can take long at huge --samples
+              abandoned = true;
+              break;
+            }
+            const VertexSampler sampler(origins[v], normalOf(scene, lay, v), settings.seed, v, tnear);
+            std::fill_n(acc, n2, 0.0);
+            for (uint32_t first = 0; first < N; first += kStream) {
+              const uint32_t count = std::min<uint32_t>(kStream, N - first);
+              for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
+              if (keepHits)
+                rays->intersect(batch, count);
+              else
+                rays->occluded(batch, count);
+              for (uint32_t j = 0; j < count; ++j) {
+                const Ray& ray = batch[j];
+                const bool blocked = keepHits ? ray.hit() : ray.occludedHit();
+                if (!blocked) {
+                  sh::evaluate(bands, ray.dir, y);
+                  for (int i = 0; i < n2; ++i) acc[i] += y[i];
+                } else if (keepHits && !ray.backface()) {
+                  ch->hits.push_back({lay.triOffset[ray.mesh] + ray.tri, quantise(ray.u), quantise(ray.v)});
+                }
               }
             }
+            const double w = M_PI / N;
+            for (int i = 0; i < n2; ++i) direct[v * n2 + i] = glm::vec3(float(acc[i] * w));
+            if (ch) ch->begin.push_back(uint32_t(ch->hits.size()));
           }
-          const double w = M_PI / N;
-          for (int i = 0; i < n2; ++i) direct[v * n2 + i] = glm::vec3(float(acc[i] * w));
-          if (ch) ch->begin.push_back(uint32_t(ch->hits.size()));
+          if (abandoned) {
+            if (ch) *ch = ChunkHits{};
+            continue;
+          }
+          if (ch) ch->hits.shrink_to_fit();
+          chunkDone[c] = 1;
+          raysCast += uint64_t(vEnd - vBegin) * N;
+          if (cp) cp->complete(c);
+          progress.add(vEnd - vBegin);
         }
-        if (ch) ch->hits.shrink_to_fit();
-        progress.add(vEnd - vBegin);
-      }
-    });
-    progress.finish();
+      });
+      progress.finish();
+    }
+    stopIfInterrupted();
+    if (cp) cp->endStage();
+    out.stats.rays = raysCast.load();
+    if (directLeft > 0) out.stats.stages.push_back({"direct", secondsSince(tDirect), out.stats.rays});
+    hitCount = 0;
+    for (const ChunkHits& ch : chunkHits) hitCount += ch.hits.size();
+    total = direct;
+    prev = std::move(direct);
+    directAlive = false;
+    resumeStage = 2;  // bounce 1 starts from the direct pass
+  } else if (control.checkMemory) {
+    control.checkMemory(keepHits ? double(hitCount) / (double(lay.vertices) * N) : 0.0);
   }
-  const uint64_t directRays = uint64_t(lay.vertices) * N;
-  out.stats.rays = directRays;
-  out.stats.stages.push_back({"direct", secondsSince(tDirect), directRays});
-  for (const ChunkHits& ch : chunkHits) out.stats.hitRecords += ch.hits.size();
+  out.stats.hitRecords = hitCount;
 
   // ---- Bounces: t^k = W t^{k-1}, gathered over the hit records.
-  std::vector<glm::vec3> total = direct;
-  std::vector<glm::vec3> lowerOrder;  // Σ_{k<K} t^k
-  if (keepHits) {
+  if (resumeStage < stageDone) {
     AlbedoLookup albedo(scene);
-    std::vector<glm::vec3> prev = std::move(direct), cur(lay.vertices * n2);
-    for (int k = 1; k <= settings.bounces; ++k) {
+    cur.resize(values);
+    for (int k = int(resumeStage) - 1; k <= bounces; ++k) {
+      const uint32_t stage = uint32_t(1 + k);
       auto tBounce = Clock::now();
+      std::fill(chunkDone.begin(), chunkDone.end(), 0);
+      uint64_t restored = 0;
+      if (cp)
+        restored = cp->restoreChunks(stage, [&](uint64_t c, ByteReader& r) {
+          if (c >= chunks) r.fail("chunk index");
+          auto [vBegin, vEnd] = chunkRange(c);
+          r.getArray(&cur[vBegin * n2], (vEnd - vBegin) * n2);
+          chunkDone[c] = 1;
+        });
+      if (cp) {
+        Checkpoint::StageIo io;
+        io.writeState = [&](ByteWriter& w) {
+          w.putArray(prev.data(), prev.size());
+          w.putArray(total.data(), total.size());
+        };
+        io.writeChunk = [&](uint64_t c, ByteWriter& w) {
+          auto [vBegin, vEnd] = chunkRange(c);
+          w.putArray(&cur[vBegin * n2], (vEnd - vBegin) * n2);
+        };
+        cp->beginStage(stage, cat("bounce ", k), chunks, restored, std::move(io));
+      }
       Progress progress(cat("bounce ", k), lay.vertices, "vertices", settings.progress);
+      progress.add(restored * kChunk);
       tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1), [&](const tbb::blocked_range<size_t>& r) {
         glm::vec3 acc[sh::kMaxBands * sh::kMaxBands];
         for (size_t c = r.begin(); c != r.end(); ++c) {
+          if (chunkDone[c] || interruptRequested()) continue;
           const ChunkHits& ch = chunkHits[c];
-          size_t vBegin = c * kChunk, vEnd = std::min(lay.vertices, vBegin + kChunk);
+          auto [vBegin, vEnd] = chunkRange(c);
           for (size_t v = vBegin; v < vEnd; ++v) {
             std::fill_n(acc, n2, glm::vec3(0.0f));
             for (uint32_t h = ch.begin[v - vBegin]; h < ch.begin[v - vBegin + 1]; ++h) {
@@ -308,15 +499,35 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings) {
             const float w = 1.0f / float(N);
             for (int i = 0; i < n2; ++i) cur[v * n2 + i] = acc[i] * w;
           }
+          if (cp) cp->complete(c);
           progress.add(vEnd - vBegin);
         }
       });
       progress.finish();
-      if (k == settings.bounces && settings.keepLowerOrder) lowerOrder = total;
+      stopIfInterrupted();
+      if (cp) cp->endStage();
+      if (k == bounces && settings.keepLowerOrder) lowerOrder = total;
       for (size_t i = 0; i < total.size(); ++i) total[i] += cur[i];
       std::swap(prev, cur);
       out.stats.stages.push_back({cat("bounce ", k), secondsSince(tBounce), 0});
     }
+  }
+  // Free what the bounces needed before the per-instance copies below.
+  std::vector<glm::vec3>().swap(prev);
+  std::vector<glm::vec3>().swap(cur);
+  std::vector<ChunkHits>().swap(chunkHits);
+  // A probe bake follows: keep the finished surface stage, so that resuming an interrupted
+  // probe stage does not redo it.
+  if (cp && settings.keepLowerOrder && !restoredDone) {
+    cp->releaseStages();
+    Checkpoint::StageIo io;
+    io.writeState = [&](ByteWriter& w) {
+      w.put(hitCount);
+      w.putArray(total.data(), total.size());
+      w.putArray(lowerOrder.data(), lowerOrder.size());
+    };
+    cp->beginStage(stageDone, "surface stage", 0, 0, std::move(io));
+    cp->save();
   }
 
   auto split = [&](const std::vector<glm::vec3>& all, std::vector<std::vector<glm::vec3>>& perMesh) {

@@ -3,11 +3,13 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
 
+#include "prt/bake/checkpoint.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/scene.h"
 
@@ -35,7 +37,8 @@ struct StageStats {
 
 struct BakeStats {
   uint64_t vertices = 0;
-  uint64_t rays = 0;
+  uint64_t rays = 0;        // cast by this run (a resumed bake casts only what was left)
+  bool resumed = false;     // continued from a checkpoint
   uint64_t hitRecords = 0;  // rays that hit a front face (kept for the bounces)
   double seconds = 0.0;
   std::vector<StageStats> stages;
@@ -52,9 +55,26 @@ struct SurfaceTransfer {
   BakeStats stats;
 };
 
+/// Checkpoint stage ids of the surface bake: direct pass 1, bounce k is 1 + k, and the finished
+/// surface stage (kept for a probe bake that follows) 2 + bounces. Below kProbeStageFirst.
+constexpr uint32_t kSurfaceStageDirect = 1;
+constexpr uint32_t kProbeStageFirst = 1000;
+
+struct BakeControl {
+  /// Saves progress into it and restores what it holds (null: none). Without one the bake
+  /// still stops on interruptRequested(), throwing prt::Interrupted.
+  Checkpoint* checkpoint = nullptr;
+  /// Called once, before the direct pass, with an upper bound on the share of direct rays
+  /// that hit a front face (what the hit records will take; exact when the checkpoint already
+  /// holds the direct pass). May throw prt::Error to refuse the bake (memory guard).
+  std::function<void(double frontHitShare)> checkMemory;
+};
+
 /// Bakes transfer for every non-receiver instance of the scene. Deterministic: the same seed
-/// gives the same result for any thread count.
-SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings);
+/// gives the same result for any thread count, and a bake resumed from a checkpoint (any
+/// thread count, interrupted anywhere) gives the same bits as an uninterrupted one.
+/// Throws prt::Interrupted when interruptRequested() (after saving the checkpoint, if any).
+SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, const BakeControl& control = {});
 
 /// The direct-pass rays of the given baked vertices (global order: instances in scene order,
 /// receivers skipped), exactly as bakeSurface casts them, `samples` per vertex in order. For

@@ -1,0 +1,196 @@
+// Interruption and resume of long bakes (docs/bake.md, "Interrupting and resuming").
+//
+// A bake is split into stages (the direct pass, each bounce pass, the probe pass), and each
+// stage into chunks whose results are deterministic functions of the settings and the seed.
+// The checkpoint is an append-only log of checksummed records, written from the bake's own
+// buffers:
+//   chunk records  the result of one finished chunk of a stage;
+//   state records  what a stage starts from (e.g. the previous bounce and the running sum),
+//                  written once, before the first chunk record of that stage;
+//   commit marks   everything before a commit mark belongs to one consistent flush.
+// On resume, records after the last valid commit mark (a torn write after kill -9 or a power
+// cut) are dropped, the stage restores its state and finished chunks, and computes only the
+// others: the result is bit-identical to an uninterrupted bake.
+//
+// Interruption: a signal handler calls requestInterrupt(); work loops poll
+// interruptRequested() between chunks and call Checkpoint::stopIfInterrupted(), which saves
+// the checkpoint and throws prt::Interrupted. The library never installs handlers or exits.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <cstring>
+#include <functional>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "prt/scene.h"
+
+namespace prt::bake {
+
+/// Sets the process-wide interrupt flag. Async-signal-safe: meant for signal handlers.
+void requestInterrupt(int signal) noexcept;
+/// True once requestInterrupt() was called (and until clearInterrupt()).
+bool interruptRequested() noexcept;
+/// The signal passed to requestInterrupt(), 0 if none.
+int interruptSignal() noexcept;
+/// Resets the flag (tests; a tool that runs several bakes).
+void clearInterrupt() noexcept;
+
+/// 64-bit hash of bytes, streamed (for checksums and fingerprints; not cryptographic).
+class Hasher {
+public:
+  explicit Hasher(uint64_t seed = 0);
+  void add(const void* data, size_t bytes);
+  template <class T>
+  void addVector(const std::vector<T>& v) {
+    uint64_t n = v.size();
+    add(&n, sizeof n);
+    add(v.data(), v.size() * sizeof(T));
+  }
+  uint64_t digest() const;
+
+private:
+  uint64_t h_;
+  uint64_t tail_ = 0;
+  int tailBytes_ = 0;
+  uint64_t length_ = 0;
+};
+
+/// What must match for a checkpoint to be resumed: named values in a fixed order
+/// ("samples" = "1024", "scene geometry" = "9f3a..."). Thread counts do not belong here.
+struct Fingerprint {
+  std::vector<std::pair<std::string, std::string>> entries;
+  void add(const std::string& key, const std::string& value) { entries.emplace_back(key, value); }
+};
+
+/// Adds "scene geometry" and "scene materials": hashes of everything the bake reads from the
+/// loaded scene (instances, receivers, positions, normals, indices, texture coordinates,
+/// colours, materials, texels). A scene file, a buffer or a texture edited since the
+/// checkpoint, or other --receiver nodes, change them.
+void addSceneFingerprint(Fingerprint& fp, const Scene& scene);
+
+/// Appends plain data to a record payload.
+class ByteWriter {
+public:
+  virtual ~ByteWriter() = default;
+  virtual void write(const void* data, size_t bytes) = 0;
+  template <class T>
+  void put(const T& v) { write(&v, sizeof v); }
+  /// Writes count, then the elements (trivially copyable T).
+  template <class T>
+  void putArray(const T* data, size_t count) {
+    put(uint64_t(count));
+    write(data, count * sizeof(T));
+  }
+};
+
+/// Reads a record payload back; throws prt::Error (naming the checkpoint) past its end.
+class ByteReader {
+public:
+  ByteReader(const std::string& data, std::string where) : data_(data), where_(std::move(where)) {}
+  void read(void* out, size_t bytes);
+  template <class T>
+  T get() {
+    T v;
+    read(&v, sizeof v);
+    return v;
+  }
+  /// Reads an array written by putArray into `out`, which must hold exactly `count` elements.
+  template <class T>
+  void getArray(T* out, size_t count) {
+    uint64_t n = get<uint64_t>();
+    if (n != count) fail("array size");
+    read(out, count * sizeof(T));
+  }
+  /// Reads an array written by putArray, whatever its size (at most what the record holds).
+  template <class T>
+  std::vector<T> getVector() {
+    uint64_t n = get<uint64_t>();
+    if (n > (data_.size() - pos_) / sizeof(T)) fail("array size");
+    std::vector<T> v(n);
+    read(v.data(), n * sizeof(T));
+    return v;
+  }
+  bool atEnd() const { return pos_ == data_.size(); }
+  [[noreturn]] void fail(const std::string& what) const;
+
+private:
+  const std::string& data_;
+  size_t pos_ = 0;
+  std::string where_;
+};
+
+struct CheckpointOptions {
+  std::string path;
+  /// Seconds between periodic saves (at most one interval of work is lost to kill -9 or a
+  /// power cut); 0: save only when interrupted and when a stage asks for it.
+  double intervalSeconds = 60.0;
+  /// Continue the checkpoint at `path` (it must exist and match); otherwise there must be none.
+  bool resume = false;
+  /// Tests: request an interrupt (SIGINT) once this many chunks have finished in this run.
+  uint64_t interruptAfterChunks = 0;
+};
+
+/// One bake's checkpoint. Created before the bake; the file appears at the first save.
+class Checkpoint {
+public:
+  /// Without resume: throws prt::Error if a file exists at options.path (it may hold hours of
+  /// work: --resume continues it). With resume: reads and validates it, and throws prt::Error
+  /// naming what differs when it was made with another fingerprint, or when there is none.
+  Checkpoint(CheckpointOptions options, Fingerprint fingerprint);
+  ~Checkpoint();
+  Checkpoint(const Checkpoint&) = delete;
+  Checkpoint& operator=(const Checkpoint&) = delete;
+
+  const std::string& path() const;
+  /// Is there a file (made by this run or resumed)?
+  bool exists() const;
+
+  // ---- What was restored (empty when not resuming).
+  /// The latest stage with a state record, or 0 if none. Stage ids grow with the bake.
+  uint32_t restoredStateStage() const;
+  /// Calls fn(reader) with the state record of `stage`; false if there is none.
+  bool restoreState(uint32_t stage, const std::function<void(ByteReader&)>& fn) const;
+  /// Calls fn(chunk, reader) for every restored chunk record of `stage`, in file order.
+  /// Returns how many there were.
+  uint64_t restoreChunks(uint32_t stage, const std::function<void(uint64_t, ByteReader&)>& fn) const;
+
+  // ---- Used by a running stage.
+  struct StageIo {
+    /// Serialises a finished chunk (called later, from whichever thread saves).
+    std::function<void(uint64_t chunk, ByteWriter&)> writeChunk;
+    /// Serialises the state the stage starts from; empty if it has none.
+    std::function<void(ByteWriter&)> writeState;
+    /// True: finished chunks stay needed after the stage (their records are saved even when
+    /// the stage is over). False: a later stage's state supersedes them.
+    bool chunksOutliveStage = false;
+  };
+  /// Starts stage `id` (> every earlier id) of `chunks` chunks, `restored` of them already
+  /// done. `label` names it in messages ("direct pass").
+  void beginStage(uint32_t id, const std::string& label, uint64_t chunks, uint64_t restored, StageIo io);
+  /// A chunk of the current stage finished; may save (interval), from the calling thread.
+  /// Thread-safe.
+  void complete(uint64_t chunk);
+  /// Ends the current stage. Pending chunk records are kept or dropped (chunksOutliveStage).
+  void endStage();
+  /// Saves every pending record and the current stage's state, and syncs the file.
+  void save();
+  /// If an interrupt was requested: saves, then throws prt::Interrupted.
+  void stopIfInterrupted();
+  /// Forgets every stage's writers and the records not yet saved: call when the function
+  /// that owns the stages' buffers returns or unwinds (they would dangle).
+  void releaseStages();
+  /// "direct pass 37% done" (the current stage).
+  std::string progressText() const;
+  /// Deletes the file (after the outputs are in place).
+  void remove();
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace prt::bake

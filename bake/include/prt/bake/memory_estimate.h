@@ -1,0 +1,58 @@
+// Memory guard for `prt bake`: an upper bound on the peak resident memory of a bake, from the
+// loaded scene and the settings, checked against the memory available before the work starts
+// (docs/bake.md, "Memory"). The model and its measured constants are in memory_estimate.cpp.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "prt/bake/probe_bake.h"
+#include "prt/bake/surface_bake.h"
+#include "prt/scene.h"
+
+namespace prt::bake {
+
+struct MemoryEstimate {
+  // Parts of the peak, in bytes (the peak is the largest phase, not the sum of the parts).
+  uint64_t base = 0;       // the process itself: code, libraries, thread stacks
+  uint64_t scene = 0;      // the loaded scene (geometry, textures)
+  uint64_t bvh = 0;        // Embree's copy of the geometry and its BVH
+  uint64_t hits = 0;       // hit records of the direct pass (for the bounces)
+  uint64_t transfer = 0;   // one per-vertex transfer buffer (vertices × bands² × 12)
+  uint64_t probes = 0;     // probe bake: per-probe accumulators and the grid
+  double frontHitShare = 1.0;  // share of direct rays assumed to hit a front face
+  // Peaks of the phases.
+  uint64_t surfacePeak = 0, probePeak = 0, writePeak = 0;
+  uint64_t total = 0;      // max of the phase peaks
+
+  /// "1.2 GiB (hit records 900 MiB, transfer 3 × 40 MiB, BVH 80 MiB, scene 30 MiB, ...)".
+  std::string describe() const;
+};
+
+/// The bound for this scene and these settings; `probes` null when no probe grid is baked.
+/// `frontHitShare` bounds the share of direct rays that hit a front face (1 = worst case:
+/// every ray leaves a hit record).
+MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& settings,
+                                  const ProbeSettings* probes, double frontHitShare);
+
+struct MemoryLimit {
+  uint64_t bytes = 0;
+  std::string source;  // "--max-memory", "the available memory (MemAvailable)", "the cgroup limit (memory.max)"
+};
+
+/// The memory this process may use: `maxMemory` if given, else what the system has available
+/// (MemAvailable from /proc/meminfo, and the cgroup v2/v1 limit if one is set) plus what
+/// this process already holds. nullopt when nothing can be read.
+std::optional<MemoryLimit> memoryLimit(std::optional<uint64_t> maxMemory);
+
+/// Parses "8G", "500M", "64k", "1.5GiB", "123456" (bytes; k/M/G/T are powers of 1024).
+/// Throws prt::Error naming `option` on anything else.
+uint64_t parseByteSize(const std::string& text, const std::string& option);
+
+/// Throws prt::Error when the estimate exceeds the limit: one line with the estimate, the
+/// limit and a concrete suggestion (fewer samples, coarser probes, or a higher limit).
+void checkMemory(const MemoryEstimate& estimate, const MemoryLimit& limit, const Scene& scene,
+                 const BakeSettings& settings, const ProbeSettings* probes);
+
+}  // namespace prt::bake

@@ -1,0 +1,256 @@
+// Peak memory of `prt bake`, phase by phase (sizes in bytes; V vertices, T triangles of the
+// baked instances, n2 = bands², N samples, B = V·n2·12 one transfer buffer):
+//
+//   surface  scene + layout + BVH + hit records + 3B (t^{k-1}, t^k, running sum)
+//            (+ B for the lower-order sum when probes follow)
+//   probes   scene + 2B (transfer and lower-order sum) + BVH + per-probe accumulators and grid;
+//            then the grid, its OpenVDB copy and OpenVDB's own buffers while writing
+//   write    scene + B (transfer in the scene) [+ B lower-order sum] + the glTF writer: copies
+//            of the input's buffers (reloaded, packed, serialised) and of the transfer (staging,
+//            packed, serialised), as measured
+//
+// Hit records: 8 bytes per front-face hit, bounded by share·V·N; the share comes from a pilot
+// (surface_bake.cpp) or is 1. Embree's bytes per triangle were measured on this machine
+// (Embree 3.13, high-quality build, robust flag): see kBvhBytesPerTriangle. Everything is
+// rounded up and the sum gets kSlack on top, so the estimate is a bound, not a guess: the
+// table in docs/bake.md compares it with measured peaks.
+#include "prt/bake/memory_estimate.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "prt/error.h"
+#include "prt/progress.h"
+
+namespace prt::bake {
+
+namespace {
+
+// Measured: `prt bake` of the 1089-vertex plane peaks at 84-94 MiB before any real work (code
+// and data of the linked libraries, TBB and Embree threads, allocator arenas); rounded up.
+constexpr uint64_t kBaseBytes = uint64_t(100) << 20;
+// Measured with RayScene on 146k- and 582k-triangle scenes: Embree's vertex/index copies and
+// BVH take 67-71 bytes per triangle once built and 99-103 at the peak of the build; rounded
+// up for less regular meshes than those boxes.
+constexpr uint64_t kBvhBytesPerTriangle = 128;
+// The glTF writer (writeBakedScene: reloaded input, staging buffer, packed buffer, tinygltf's
+// serialisation) measured at 4.7 transfer buffers and 2.5 input copies on top of the scene.
+constexpr uint64_t kWriteTransferCopies = 5, kWriteInputCopies = 3;
+// Layout tables of the surface bake: per vertex mesh id, origin and pull (4 + 12 + 12), per
+// triangle three vertex ids and a mesh id (16).
+constexpr uint64_t kLayoutPerVertex = 28, kLayoutPerTriangle = 16;
+// One hit record, and the CSR offset per vertex.
+constexpr uint64_t kHitBytes = 8, kHitOffsetBytes = 4;
+// Probe bake (probe_bake.cpp): a slot per lattice point, accumulators (n2² doubles and n2²
+// double RGB) per valid probe, and per active probe the grid's n2²·3 floats, attributes (80)
+// and the OpenVDB copy written out (about the same again).
+constexpr uint64_t kProbeSlotBytes = 224, kProbeAttributeBytes = 80, kAllocOverhead = 32;
+// Writing the .vdb: measured ~46 MiB on top of the grid whatever its size (OpenVDB's
+// registries, Blosc and stream buffers), rounded up.
+constexpr uint64_t kVdbWriteBytes = uint64_t(56) << 20;
+// On top of the sum: allocator rounding, vector growth of the hit records per thread.
+constexpr double kSlack = 1.10;
+
+uint64_t sceneBytes(const Scene& scene) {
+  uint64_t b = 0;
+  for (const MeshInstance& m : scene.meshes)
+    b += m.positions.capacity() * 12 + m.normals.capacity() * 12 + m.texcoords.capacity() * 8 +
+         m.colors.capacity() * 16 + m.indices.capacity() * 4 + m.transfer.capacity() * 12 + 256;
+  for (const Texture& t : scene.textures) b += t.texels.capacity() * 16;
+  return b;
+}
+
+// The glTF input as the loader and the writer read it: the buffers (the vertex data in the
+// file's types, at most as large as the float copies) and images (encoded and RGBA8).
+uint64_t gltfInputBytes(const Scene& scene) {
+  uint64_t b = 0;
+  for (const MeshInstance& m : scene.meshes)
+    b += m.positions.size() * 12 + m.normals.size() * 12 + m.texcoords.size() * 8 + m.colors.size() * 16 +
+         m.indices.size() * 4;
+  for (const Texture& t : scene.textures) b += uint64_t(t.width) * t.height * 4 * 2;  // encoded + decoded
+  return b;
+}
+
+std::string mib(uint64_t b) { return formatBytes(b); }
+
+}  // namespace
+
+MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, const ProbeSettings* probes,
+                                  double frontHitShare) {
+  MemoryEstimate e;
+  uint64_t vertices = 0, triangles = 0;
+  for (const MeshInstance& m : scene.meshes) {
+    if (m.receiverOnly) continue;
+    vertices += m.vertexCount();
+    triangles += m.triangleCount();
+  }
+  const uint64_t n2 = uint64_t(s.bands) * s.bands;
+  e.base = kBaseBytes;
+  e.scene = sceneBytes(scene);
+  e.transfer = vertices * n2 * 12;
+  const bool shadowed = s.shadowed;
+  const bool bounces = shadowed && s.bounces > 0;
+  e.frontHitShare = bounces ? std::clamp(frontHitShare, 0.0, 1.0) : 0.0;
+  e.bvh = shadowed ? triangles * kBvhBytesPerTriangle : 0;
+  e.hits = bounces ? uint64_t(std::ceil(e.frontHitShare * double(vertices) * s.samples)) * kHitBytes +
+                         vertices * kHitOffsetBytes
+                   : 0;
+  const uint64_t layout = shadowed ? vertices * kLayoutPerVertex + triangles * kLayoutPerTriangle : 0;
+  const uint64_t lower = probes ? e.transfer : 0;
+  // Surface stage: during the last bounce (or the direct pass and its copy without bounces),
+  // then the per-instance copies of the sums.
+  e.surfacePeak = e.scene + std::max(layout + e.bvh + e.hits + 3 * e.transfer + lower, 2 * (e.transfer + lower));
+  if (probes) {
+    ProbeGrid grid;
+    glm::dvec3 lo = probes->boundsMin.value_or(glm::dvec3(scene.boundsMin));
+    glm::dvec3 hi = probes->boundsMax.value_or(glm::dvec3(scene.boundsMax));
+    layoutGrid(*probes, lo, hi, grid);
+    const uint64_t lattice = uint64_t(grid.dims.x) * grid.dims.y * grid.dims.z;
+    const uint64_t pn2 = uint64_t(probes->bands) * probes->bands;
+    const uint64_t accum = pn2 * pn2 * (8 + 24) + 2 * kAllocOverhead;
+    const uint64_t stored = pn2 * pn2 * 12 + kProbeAttributeBytes;
+    // Every lattice point may be valid and active (the bound); the grid is built while the
+    // accumulators live, and copied to OpenVDB after they are gone.
+    e.probes = lattice * (kProbeSlotBytes + accum + stored + 4);
+    e.probePeak = e.scene + 2 * e.transfer + triangles * kBvhBytesPerTriangle + e.probes;
+    e.probePeak = std::max(e.probePeak, e.scene + 2 * e.transfer + lattice * 2 * stored + kVdbWriteBytes);
+  }
+  e.writePeak = e.scene + e.transfer + lower + kWriteInputCopies * gltfInputBytes(scene) +
+                kWriteTransferCopies * e.transfer;
+  e.total = e.base + uint64_t(double(std::max({e.surfacePeak, e.probePeak, e.writePeak})) * kSlack);
+  return e;
+}
+
+std::string MemoryEstimate::describe() const {
+  std::ostringstream os;
+  os << mib(total) << " (";
+  if (hits) os << "hit records " << mib(hits) << ", ";
+  os << "transfer " << mib(transfer) << " per buffer, ";
+  if (bvh) os << "BVH " << mib(bvh) << ", ";
+  if (probes) os << "probes " << mib(probes) << ", ";
+  os << "scene " << mib(scene) << ")";
+  return os.str();
+}
+
+uint64_t parseByteSize(const std::string& text, const std::string& option) {
+  auto bad = [&] {
+    return Error(cat(option, " ", text, ": expected a size such as 8G, 500M or 64k (bytes without a suffix)"));
+  };
+  size_t pos = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &pos);
+  } catch (const std::exception&) {
+    throw bad();
+  }
+  std::string unit = text.substr(pos);
+  if (!unit.empty() && (unit.back() == 'B' || unit.back() == 'b')) unit.pop_back();
+  if (unit.size() == 2 && (unit[1] == 'i' || unit[1] == 'I')) unit.pop_back();
+  double mult = 1;
+  if (unit.empty()) mult = 1;
+  else if (unit == "k" || unit == "K") mult = 1024.0;
+  else if (unit == "m" || unit == "M") mult = 1024.0 * 1024;
+  else if (unit == "g" || unit == "G") mult = 1024.0 * 1024 * 1024;
+  else if (unit == "t" || unit == "T") mult = 1024.0 * 1024 * 1024 * 1024;
+  else throw bad();
+  if (!std::isfinite(v) || v <= 0 || v * mult > 1.8e19) throw bad();
+  return uint64_t(v * mult);
+}
+
+namespace {
+
+std::optional<uint64_t> readNumber(const std::string& path) {
+  std::ifstream in(path);
+  std::string s;
+  if (!(in >> s) || s == "max") return std::nullopt;
+  try {
+    return std::stoull(s);
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+uint64_t residentBytes() {
+  std::ifstream in("/proc/self/statm");
+  uint64_t size = 0, rss = 0;
+  in >> size >> rss;
+  return rss * uint64_t(::sysconf(_SC_PAGESIZE));
+}
+
+}  // namespace
+
+std::optional<MemoryLimit> memoryLimit(std::optional<uint64_t> maxMemory) {
+  if (maxMemory) return MemoryLimit{*maxMemory, "--max-memory"};
+  std::optional<MemoryLimit> best;
+  auto consider = [&](uint64_t free, const std::string& source) {
+    // What this process holds already counts towards its peak, so it is available to it.
+    uint64_t bytes = free + residentBytes();
+    if (!best || bytes < best->bytes) best = MemoryLimit{bytes, source};
+  };
+  {
+    std::ifstream in("/proc/meminfo");
+    std::string key;
+    uint64_t kb = 0;
+    std::string unit;
+    while (in >> key >> kb) {
+      std::getline(in, unit);
+      if (key == "MemAvailable:") consider(kb * 1024, "the available memory (MemAvailable)");
+    }
+  }
+  // cgroup v2, then v1: the limit minus what the group already uses.
+  if (auto max = readNumber("/sys/fs/cgroup/memory.max")) {
+    uint64_t used = readNumber("/sys/fs/cgroup/memory.current").value_or(0);
+    consider(*max > used ? *max - used : 0, "the cgroup limit (memory.max)");
+  } else if (auto max1 = readNumber("/sys/fs/cgroup/memory/memory.limit_in_bytes");
+             max1 && *max1 < (uint64_t(1) << 60)) {
+    uint64_t used = readNumber("/sys/fs/cgroup/memory/memory.usage_in_bytes").value_or(0);
+    consider(*max1 > used ? *max1 - used : 0, "the cgroup limit (memory.limit_in_bytes)");
+  }
+  return best;
+}
+
+void checkMemory(const MemoryEstimate& e, const MemoryLimit& limit, const Scene& scene, const BakeSettings& s,
+                 const ProbeSettings* probes) {
+  if (e.total <= limit.bytes) return;
+  // A concrete way out: the largest power-of-two sample count that fits, else a coarser probe
+  // lattice, else fewer bands.
+  std::vector<std::string> ways;
+  if (e.hits > 0) {
+    for (int n = 1 << 20; n >= 16; n /= 2) {
+      if (n >= s.samples) continue;
+      BakeSettings t = s;
+      t.samples = n;
+      if (estimateBakeMemory(scene, t, probes, e.frontHitShare).total <= limit.bytes) {
+        ways.push_back(cat("--samples ", n));
+        break;
+      }
+    }
+  }
+  if (probes && e.probePeak >= e.surfacePeak) {
+    ProbeSettings p = *probes;
+    for (int step = 0; step < 6; ++step) {
+      if (p.spacing > 0)
+        p.spacing *= 1.5;
+      else
+        p.dims = glm::max(glm::ivec3(1), (p.dims * 2 + 2) / 3);
+      if (estimateBakeMemory(scene, s, &p, e.frontHitShare).total <= limit.bytes) {
+        ways.push_back(p.spacing > 0 ? cat("--probe-spacing ", p.spacing)
+                                     : cat("--probe-dims ", p.dims.x, ",", p.dims.y, ",", p.dims.z));
+        break;
+      }
+    }
+  }
+  if (ways.empty() && s.bands > 1) ways.push_back(cat("--bands ", s.bands - 1, " or fewer"));
+  std::string how;
+  for (const std::string& w : ways) how += (how.empty() ? "" : " or ") + w;
+  how += how.empty() ? "raise --max-memory" : ", or raise --max-memory";
+  throw Error(cat("not enough memory: the bake needs up to ", e.describe(), ", more than the ",
+                  formatBytes(limit.bytes), " allowed by ", limit.source, "; use ", how));
+}
+
+}  // namespace prt::bake

@@ -1,0 +1,490 @@
+// Interruption, checkpoints and resume (bake/checkpoint.h), and the memory guard
+// (bake/memory_estimate.h): in process through the library, and end to end through `prt bake`
+// with the test interrupt hook, real signals and kill -9.
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <thread>
+
+#include "prt/bake/checkpoint.h"
+#include "prt/bake/memory_estimate.h"
+#include "prt/bake/surface_bake.h"
+#include "prt/error.h"
+#include "test_scenes.h"
+
+namespace prt {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace prt::bake;
+
+fs::path freshDir(const std::string& name) {
+  fs::path d = fs::path(::testing::TempDir()) / ("prt_resume_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// A cavity (2561 vertices, 41 chunks of 64) above a plane: occlusion, bounces, two instances.
+Scene resumeScene() {
+  return test::makeScene({test::makeCavity(0.6, 40, 64), test::makePlane({0, -1.2f, 0}, 4.0f, 12)}, 0.7f);
+}
+
+BakeSettings resumeSettings() {
+  BakeSettings s;
+  s.samples = 64;
+  s.bounces = 2;
+  s.bands = 3;
+  s.keepLowerOrder = true;
+  return s;
+}
+
+bool sameBits(const std::vector<std::vector<glm::vec3>>& a, const std::vector<std::vector<glm::vec3>>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t k = 0; k < a.size(); ++k)
+    if (a[k].size() != b[k].size() ||
+        (!a[k].empty() && std::memcmp(a[k].data(), b[k].data(), a[k].size() * sizeof(glm::vec3)) != 0))
+      return false;
+  return true;
+}
+
+Fingerprint fingerprintOf(const Scene& scene, const BakeSettings& s) {
+  Fingerprint fp;
+  addSceneFingerprint(fp, scene);
+  fp.add("samples", std::to_string(s.samples));
+  fp.add("bounces", std::to_string(s.bounces));
+  return fp;
+}
+
+// Bakes with a checkpoint that raises an interrupt after `after` chunks; expects the bake to
+// stop with prt::Interrupted.
+void bakeUntilInterrupted(const Scene& scene, BakeSettings s, const std::string& path, bool resume, uint64_t after,
+                          double interval) {
+  CheckpointOptions o;
+  o.path = path;
+  o.resume = resume;
+  o.interruptAfterChunks = after;
+  o.intervalSeconds = interval;
+  Checkpoint cp(o, fingerprintOf(scene, s));
+  BakeControl control;
+  control.checkpoint = &cp;
+  EXPECT_THROW(bakeSurface(scene, s, control), Interrupted);
+  clearInterrupt();
+}
+
+SurfaceTransfer bakeResumed(const Scene& scene, BakeSettings s, const std::string& path) {
+  CheckpointOptions o;
+  o.path = path;
+  o.resume = true;
+  Checkpoint cp(o, fingerprintOf(scene, s));
+  BakeControl control;
+  control.checkpoint = &cp;
+  SurfaceTransfer t = bakeSurface(scene, s, control);
+  EXPECT_TRUE(t.stats.resumed);
+  cp.remove();
+  return t;
+}
+
+TEST(Resume, InterruptedAnywhereResumesToTheSameBits) {
+  const Scene scene = resumeScene();
+  const BakeSettings s = resumeSettings();
+  const SurfaceTransfer ref = bakeSurface(scene, s);
+  const uint64_t chunks = (2561 + 169 + 63) / 64;  // cavity + plane vertices, 64 per chunk
+  fs::path dir = freshDir("points");
+  // In the direct pass (first chunk, middle), in bounce 1, in bounce 2, after the last chunk;
+  // with saves only at the interrupt, and with a save after every chunk.
+  for (uint64_t after : {uint64_t(1), chunks / 2, chunks + 3, 2 * chunks + chunks / 2, 3 * chunks}) {
+    for (double interval : {0.0, 1e-9}) {
+      SCOPED_TRACE(::testing::Message() << "interrupt after " << after << " chunks, interval " << interval);
+      const std::string path = (dir / "a.ckpt").string();
+      bakeUntilInterrupted(scene, s, path, false, after, interval);
+      ASSERT_TRUE(fs::exists(path));
+      BakeSettings r = s;
+      r.threads = 1;  // another thread count on resume
+      SurfaceTransfer t = bakeResumed(scene, r, path);
+      EXPECT_TRUE(sameBits(ref.perMesh, t.perMesh));
+      EXPECT_TRUE(sameBits(ref.perMeshLowerOrder, t.perMeshLowerOrder));
+      EXPECT_EQ(ref.stats.hitRecords, t.stats.hitRecords);
+      EXPECT_FALSE(fs::exists(path));
+    }
+  }
+}
+
+TEST(Resume, InterruptedTwiceAndWithoutBouncesStillTheSameBits) {
+  const Scene scene = resumeScene();
+  for (int bounces : {0, 3}) {
+    BakeSettings s = resumeSettings();
+    s.bounces = bounces;
+    s.keepLowerOrder = bounces > 0;
+    SCOPED_TRACE(bounces);
+    const SurfaceTransfer ref = bakeSurface(scene, s);
+    const std::string path = (freshDir("twice") / "a.ckpt").string();
+    bakeUntilInterrupted(scene, s, path, false, 7, 1e-9);
+    bakeUntilInterrupted(scene, s, path, true, 20, 0.0);  // the resumed bake interrupted again
+    bakeUntilInterrupted(scene, s, path, true, 11, 1e-9);
+    SurfaceTransfer t = bakeResumed(scene, s, path);
+    EXPECT_TRUE(sameBits(ref.perMesh, t.perMesh));
+    EXPECT_TRUE(sameBits(ref.perMeshLowerOrder, t.perMeshLowerOrder));
+  }
+}
+
+TEST(Resume, TornTailOfTheLogIsDropped) {
+  // A kill -9 or power cut in the middle of a save leaves a partial last record: resume keeps
+  // what the last complete save committed and redoes the rest.
+  const Scene scene = resumeScene();
+  const BakeSettings s = resumeSettings();
+  const SurfaceTransfer ref = bakeSurface(scene, s);
+  const std::string path = (freshDir("torn") / "a.ckpt").string();
+  bakeUntilInterrupted(scene, s, path, false, 60, 1e-9);
+  const uintmax_t full = fs::file_size(path);
+  for (uintmax_t cut : {full - 1, full - 30, full * 2 / 3}) {
+    SCOPED_TRACE(cut);
+    std::string bytes = slurp(path);
+    {
+      std::ofstream out(path, std::ios::binary | std::ios::trunc);
+      out.write(bytes.data(), std::streamsize(cut));
+      out << "garbage after a torn write";
+    }
+    // Resume from the damaged copy, interrupt again (so the checkpoint survives), then check
+    // the final result once below.
+    bakeUntilInterrupted(scene, s, path, true, 1, 0.0);
+  }
+  SurfaceTransfer t = bakeResumed(scene, s, path);
+  EXPECT_TRUE(sameBits(ref.perMesh, t.perMesh));
+}
+
+TEST(Resume, CheckpointOfAnotherBakeIsRefusedNamingTheDifference) {
+  const Scene scene = resumeScene();
+  BakeSettings s = resumeSettings();
+  fs::path dir = freshDir("mismatch");
+  const std::string path = (dir / "a.ckpt").string();
+  bakeUntilInterrupted(scene, s, path, false, 5, 0.0);
+  auto messageFor = [&](const Scene& sc, const BakeSettings& st) {
+    CheckpointOptions o;
+    o.path = path;
+    o.resume = true;
+    try {
+      Checkpoint cp(o, fingerprintOf(sc, st));
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  BakeSettings more = s;
+  more.samples = 128;
+  EXPECT_NE(messageFor(scene, more).find("samples 64 (checkpoint) vs 128 (now)"), std::string::npos)
+      << messageFor(scene, more);
+  Scene edited = scene;
+  edited.meshes[1].positions[3].y += 1e-3f;
+  EXPECT_NE(messageFor(edited, s).find("scene geometry differs"), std::string::npos) << messageFor(edited, s);
+  Scene recoloured = scene;
+  recoloured.materials[0].baseColorFactor.r = 0.5f;
+  EXPECT_NE(messageFor(recoloured, s).find("scene materials differs"), std::string::npos);
+  EXPECT_EQ(messageFor(scene, s), "accepted");
+  // Without --resume an existing checkpoint is not silently replaced.
+  CheckpointOptions fresh;
+  fresh.path = path;
+  EXPECT_THROW(Checkpoint(fresh, fingerprintOf(scene, s)), Error);
+  // --resume with nothing to resume, and a file that is not a checkpoint.
+  CheckpointOptions none;
+  none.path = (dir / "none.ckpt").string();
+  none.resume = true;
+  try {
+    Checkpoint cp(none, fingerprintOf(scene, s));
+    ADD_FAILURE() << "resumed from nothing";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no checkpoint to resume"), std::string::npos) << e.what();
+  }
+  std::ofstream(dir / "bad.ckpt") << "not a checkpoint at all";
+  none.path = (dir / "bad.ckpt").string();
+  EXPECT_THROW(Checkpoint(none, fingerprintOf(scene, s)), Error);
+}
+
+TEST(Resume, NoCheckpointStillStopsOnInterrupt) {
+  const Scene scene = resumeScene();
+  requestInterrupt(SIGINT);
+  EXPECT_THROW(bakeSurface(scene, resumeSettings()), Interrupted);
+  clearInterrupt();
+}
+
+TEST(Hasher, StreamingEqualsOneShotAndDetectsChanges) {
+  std::string data(1000, '\0');
+  for (size_t i = 0; i < data.size(); ++i) data[i] = char(i * 7 + 3);
+  Hasher whole;
+  whole.add(data.data(), data.size());
+  for (size_t split : {size_t(1), size_t(3), size_t(8), size_t(13), size_t(999)}) {
+    Hasher parts;
+    for (size_t at = 0; at < data.size(); at += split) parts.add(data.data() + at, std::min(split, data.size() - at));
+    EXPECT_EQ(parts.digest(), whole.digest()) << split;
+  }
+  data[500] ^= 1;
+  Hasher flipped;
+  flipped.add(data.data(), data.size());
+  EXPECT_NE(flipped.digest(), whole.digest());
+  Hasher shorter;
+  shorter.add(data.data(), data.size() - 1);
+  EXPECT_NE(shorter.digest(), flipped.digest());
+}
+
+// ---- Memory guard
+TEST(Memory, ParsesSizes) {
+  EXPECT_EQ(parseByteSize("8G", "--max-memory"), uint64_t(8) << 30);
+  EXPECT_EQ(parseByteSize("500M", "--max-memory"), uint64_t(500) << 20);
+  EXPECT_EQ(parseByteSize("1.5GiB", "--max-memory"), uint64_t(3) << 29);
+  EXPECT_EQ(parseByteSize("64k", "--max-memory"), uint64_t(64) << 10);
+  EXPECT_EQ(parseByteSize("12345", "--max-memory"), uint64_t(12345));
+  for (const char* bad : {"", "G", "8X", "-1G", "0", "nan", "1e30T"}) EXPECT_THROW(parseByteSize(bad, "--max-memory"), Error) << bad;
+}
+
+TEST(Memory, PilotBoundsTheHitRecordsAndTheRefusalSuggestsAWayOut) {
+  const Scene scene = resumeScene();
+  BakeSettings s = resumeSettings();
+  s.samples = 256;
+  double share = -1;
+  BakeControl control;
+  control.checkMemory = [&](double sh) { share = sh; };
+  SurfaceTransfer t = bakeSurface(scene, s, control);
+  ASSERT_GE(share, 0.0);
+  const double actual = double(t.stats.hitRecords) / (double(t.stats.vertices) * s.samples);
+  // An upper bound, and not a uselessly loose one (the pilot adds 3 standard errors + 0.02).
+  EXPECT_GE(share, actual);
+  EXPECT_LE(share, actual + 0.1);
+  MemoryEstimate e = estimateBakeMemory(scene, s, nullptr, share);
+  EXPECT_GE(e.hits, t.stats.hitRecords * 8);
+  // Refused under a limit just below the estimate, with a sample count that fits.
+  MemoryLimit limit{e.total - e.hits / 2, "--max-memory"};
+  try {
+    checkMemory(e, limit, scene, s, nullptr);
+    ADD_FAILURE() << "not refused";
+  } catch (const Error& err) {
+    std::string msg = err.what();
+    EXPECT_NE(msg.find("not enough memory"), std::string::npos) << msg;
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(msg, m, std::regex("--samples ([0-9]+)"))) << msg;
+    BakeSettings fewer = s;
+    fewer.samples = std::stoi(m[1]);
+    EXPECT_LT(fewer.samples, s.samples);
+    EXPECT_LE(estimateBakeMemory(scene, fewer, nullptr, share).total, limit.bytes);
+  }
+  EXPECT_NO_THROW(checkMemory(e, MemoryLimit{e.total, "--max-memory"}, scene, s, nullptr));
+  // The system's limit is readable here (Linux) and positive.
+  std::optional<MemoryLimit> sys = memoryLimit(std::nullopt);
+  ASSERT_TRUE(sys.has_value());
+  EXPECT_GT(sys->bytes, uint64_t(0));
+}
+
+// ---- End to end through `prt bake`
+struct ChildRun {
+  int status = -1;  // exit status, or 128 + signal when killed
+  std::string err;
+  double seconds = 0;
+};
+
+std::string scenePath(const std::string& name) { return std::string(PRT_SOURCE_DIR) + "/scenes/" + name; }
+
+// Starts `prt ARGS...` with stderr to a file and an optional extra environment variable.
+pid_t spawn(const std::vector<std::string>& args, const fs::path& errFile, const std::string& env = "") {
+  pid_t pid = ::fork();
+  if (pid == 0) {
+    int fd = ::open(errFile.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, STDERR_FILENO);
+    int nul = ::open("/dev/null", O_WRONLY);
+    ::dup2(nul, STDOUT_FILENO);
+    if (!env.empty()) ::putenv(const_cast<char*>(env.c_str()));
+    std::vector<char*> argv;
+    argv.push_back(const_cast<char*>(PRT_EXE));
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    ::execv(PRT_EXE, argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+ChildRun finish(pid_t pid, const fs::path& errFile, std::chrono::steady_clock::time_point t0) {
+  int st = 0;
+  ::waitpid(pid, &st, 0);
+  ChildRun r;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+  r.err = slurp(errFile);
+  return r;
+}
+
+ChildRun prtBake(const std::vector<std::string>& args, const fs::path& dir, const std::string& env = "") {
+  fs::path errFile = dir.parent_path() / (dir.filename().string() + "_stderr.txt");
+  auto t0 = std::chrono::steady_clock::now();
+  return finish(spawn(args, errFile, env), errFile, t0);
+}
+
+int lines(const std::string& s) { return int(std::count(s.begin(), s.end(), '\n')); }
+
+std::vector<std::string> dirNames(const fs::path& dir) {
+  std::vector<std::string> n;
+  for (const auto& e : fs::directory_iterator(dir)) n.push_back(e.path().filename().string());
+  std::sort(n.begin(), n.end());
+  return n;
+}
+
+TEST(CliResume, InterruptedBakeResumesByteIdenticalWithOtherThreads) {
+  fs::path dir = freshDir("cli_points");
+  const std::string scene = scenePath("cornell_open.gltf");
+  const std::string ref = (dir / "ref.glb").string(), out = (dir / "out" / "b.glb").string();
+  fs::create_directories(dir / "out");
+  std::vector<std::string> common = {"bake", scene, "--samples", "64", "--bands", "2", "-q"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = common;
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  ASSERT_EQ(prtBake(with({"-o", ref}), dir).status, 0);
+  const std::string refBytes = slurp(ref);
+  // cornell_open has 12.5 k baked vertices: 196 chunks per pass. Interrupt in the direct pass,
+  // in bounce 1 and in bounce 2.
+  for (int after : {20, 250, 500}) {
+    SCOPED_TRACE(after);
+    ChildRun r = prtBake(with({"-o", out}), dir, "PRT_TEST_INTERRUPT_AFTER=" + std::to_string(after));
+    EXPECT_EQ(r.status, 130) << r.err;
+    EXPECT_EQ(lines(r.err), 1) << r.err;
+    EXPECT_NE(r.err.find("interrupted: checkpoint saved to " + out + ".prt-checkpoint ("), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("rerun with --resume"), std::string::npos);
+    EXPECT_EQ(dirNames(dir / "out"), std::vector<std::string>{"b.glb.prt-checkpoint"});  // no output yet
+    ChildRun again = prtBake(with({"-o", out}), dir);  // forgetting --resume does not lose it
+    EXPECT_EQ(again.status, 1);
+    EXPECT_NE(again.err.find("add --resume"), std::string::npos) << again.err;
+    ChildRun resumed = prtBake(with({"-o", out, "--resume", "--threads", "1"}), dir);
+    ASSERT_EQ(resumed.status, 0) << resumed.err;
+    EXPECT_TRUE(slurp(out) == refBytes) << "resumed output differs from the uninterrupted bake";
+    EXPECT_EQ(dirNames(dir / "out"), std::vector<std::string>{"b.glb"});  // checkpoint removed
+    fs::remove(out);
+  }
+}
+
+TEST(CliResume, SignalThenKillNineThenResume) {
+  // A real SIGTERM stops the bake within two seconds with a checkpoint; a resumed bake killed
+  // with -9 leaves the previous output untouched; the next resume finishes byte-identically.
+  fs::path dir = freshDir("cli_kill");
+  fs::create_directories(dir / "out");
+  const std::string scene = scenePath("cornell_open.gltf");
+  const std::string ref = (dir / "ref.glb").string(), out = (dir / "out" / "b.glb").string();
+  const std::string ckpt = out + ".prt-checkpoint";
+  std::vector<std::string> common = {"bake", scene, "-o", out, "--samples", "256", "--bands", "2", "--bounces", "1",
+                                     "-q", "--checkpoint-interval", "0.1"};
+  std::vector<std::string> refArgs = common;
+  refArgs[3] = ref;
+  ASSERT_EQ(prtBake(refArgs, dir).status, 0);
+  const std::string refBytes = slurp(ref);
+  // The previous good output at the path: some other bake.
+  ASSERT_EQ(prtBake({"bake", scenePath("plane.gltf"), "-o", out, "--samples", "16", "-q"}, dir).status, 0);
+  const std::string previous = slurp(out);
+
+  fs::path errFile = dir / "child_stderr.txt";
+  auto t0 = std::chrono::steady_clock::now();
+  pid_t pid = spawn(common, errFile);
+  // Wait for the first periodic save, then stop it.
+  for (int i = 0; i < 200 && !fs::exists(ckpt); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(25));
+  ASSERT_TRUE(fs::exists(ckpt)) << "no periodic checkpoint after 5 s";
+  auto tSignal = std::chrono::steady_clock::now();
+  ::kill(pid, SIGTERM);
+  ChildRun r = finish(pid, errFile, t0);
+  const double stopSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tSignal).count();
+  ASSERT_EQ(r.status, 143) << r.err;  // 128 + SIGTERM: it finished before the signal otherwise
+  EXPECT_LT(stopSeconds, 2.0);
+  EXPECT_NE(r.err.find("checkpoint saved"), std::string::npos) << r.err;
+  EXPECT_EQ(slurp(out), previous);
+
+  std::vector<std::string> resumeArgs = common;
+  resumeArgs.push_back("--resume");
+  resumeArgs.push_back("--threads");
+  resumeArgs.push_back("1");
+  const uintmax_t before = fs::file_size(ckpt);
+  pid = spawn(resumeArgs, errFile);
+  for (int i = 0; i < 400 && fs::file_size(ckpt) <= before; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_GT(fs::file_size(ckpt), before) << "the resumed bake saved nothing in 4 s";
+  ::kill(pid, SIGKILL);
+  ChildRun killed = finish(pid, errFile, t0);
+  ASSERT_EQ(killed.status, 128 + SIGKILL) << "finished before kill -9: " << killed.err;
+  EXPECT_EQ(slurp(out), previous);  // never a partial output
+
+  ChildRun done = prtBake(resumeArgs, dir);
+  ASSERT_EQ(done.status, 0) << done.err;
+  EXPECT_TRUE(slurp(out) == refBytes) << "output after kill -9 and resume differs";
+  EXPECT_FALSE(fs::exists(ckpt));
+}
+
+TEST(CliResume, MismatchingCheckpointIsRefused) {
+  fs::path dir = freshDir("cli_mismatch");
+  // A private copy of the scene, to edit it between the runs.
+  fs::copy_file(scenePath("cornell_open.gltf"), dir / "s.gltf");
+  fs::copy_file(scenePath("cornell_open.bin"), dir / "cornell_open.bin");
+  const std::string out = (dir / "b.glb").string();
+  std::vector<std::string> args = {"bake", (dir / "s.gltf").string(), "-o", out, "--samples", "64", "-q"};
+  ASSERT_EQ(prtBake(args, dir, "PRT_TEST_INTERRUPT_AFTER=10").status, 130);
+  std::vector<std::string> other = args;
+  other[5] = "128";
+  other.push_back("--resume");
+  ChildRun r = prtBake(other, dir);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("samples 64 (checkpoint) vs 128 (now)"), std::string::npos) << r.err;
+  // Edit one byte of the vertex data (the buffer the .gltf references).
+  {
+    std::fstream f(dir / "cornell_open.bin", std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(40);
+    f.put('\x7f');
+  }
+  args.push_back("--resume");
+  r = prtBake(args, dir);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("scene geometry differs"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  // --resume without a checkpoint.
+  fs::remove(out + ".prt-checkpoint");
+  r = prtBake(args, dir);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("no checkpoint to resume"), std::string::npos) << r.err;
+}
+
+TEST(CliMemory, RefusalWritesNothingAndEstimateBoundsThePeak) {
+  fs::path dir = freshDir("cli_memory");
+  fs::create_directories(dir / "out");
+  const std::string out = (dir / "out" / "b.glb").string();
+  ChildRun r = prtBake({"bake", scenePath("cornell_open.gltf"), "-o", out, "--max-memory", "1M"}, dir);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("not enough memory"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--max-memory"), std::string::npos) << r.err;
+  EXPECT_TRUE(dirNames(dir / "out").empty());
+  r = prtBake({"bake", scenePath("cornell_open.gltf"), "-o", out, "--max-memory", "lots"}, dir);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("--max-memory lots"), std::string::npos) << r.err;
+
+  // A moderate bake: the estimate printed is at least the measured peak, and not far above.
+  r = prtBake({"bake", scenePath("cornell_open.gltf"), "-o", out, "--samples", "256"}, dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.err, m, std::regex("memory: estimated ([0-9.]+) MiB, peak ([0-9.]+) MiB"))) << r.err;
+  const double estimated = std::stod(m[1]), peak = std::stod(m[2]);
+  EXPECT_GE(estimated, peak);
+  EXPECT_LE(estimated, 2.0 * peak);
+}
+
+}  // namespace
+}  // namespace prt
