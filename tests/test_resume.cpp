@@ -145,6 +145,30 @@ TEST(Resume, InterruptedTwiceAndWithoutBouncesStillTheSameBits) {
   }
 }
 
+TEST(Resume, FinishedSurfaceStageIsKeptForTheProbeStage) {
+  // With keepLowerOrder (a probe bake follows) the finished surface stage is saved, so that a
+  // bake interrupted in the probe stage resumes without redoing the surface.
+  const Scene scene = resumeScene();
+  const BakeSettings s = resumeSettings();
+  const SurfaceTransfer ref = bakeSurface(scene, s);
+  const std::string path = (freshDir("done") / "a.ckpt").string();
+  {
+    CheckpointOptions o;
+    o.path = path;
+    o.intervalSeconds = 0.0;
+    Checkpoint cp(o, fingerprintOf(scene, s));
+    BakeControl control;
+    control.checkpoint = &cp;
+    bakeSurface(scene, s, control);
+  }
+  ASSERT_TRUE(fs::exists(path));
+  SurfaceTransfer t = bakeResumed(scene, s, path);
+  EXPECT_EQ(t.stats.rays, 0u);  // nothing traced again
+  EXPECT_TRUE(sameBits(ref.perMesh, t.perMesh));
+  EXPECT_TRUE(sameBits(ref.perMeshLowerOrder, t.perMeshLowerOrder));
+  EXPECT_EQ(ref.stats.hitRecords, t.stats.hitRecords);
+}
+
 TEST(Resume, TornTailOfTheLogIsDropped) {
   // A kill -9 or power cut in the middle of a save leaves a partial last record: resume keeps
   // what the last complete save committed and redoes the rest.

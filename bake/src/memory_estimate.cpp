@@ -245,10 +245,17 @@ void checkMemory(const MemoryEstimate& e, const MemoryLimit& limit, const Scene&
       }
     }
   }
-  if (ways.empty() && s.bands > 1) ways.push_back(cat("--bands ", s.bands - 1, " or fewer"));
+  for (int b = s.bands - 1; ways.empty() && b >= 1; --b) {
+    BakeSettings t = s;
+    t.bands = b;
+    ProbeSettings p = probes ? *probes : ProbeSettings{};
+    p.bands = b;
+    if (estimateBakeMemory(scene, t, probes ? &p : nullptr, e.frontHitShare).total <= limit.bytes)
+      ways.push_back(cat("--bands ", b));
+  }
   std::string how;
   for (const std::string& w : ways) how += (how.empty() ? "" : " or ") + w;
-  how += how.empty() ? "raise --max-memory" : ", or raise --max-memory";
+  how += how.empty() ? cat("raise --max-memory above ", formatBytes(e.total)) : ", or raise --max-memory";
   throw Error(cat("not enough memory: the bake needs up to ", e.describe(), ", more than the ",
                   formatBytes(limit.bytes), " allowed by ", limit.source, "; use ", how));
 }
