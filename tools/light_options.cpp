@@ -60,7 +60,7 @@ bool given(const CLI::Option* o) { return o && o->count() > 0; }
 
 void addLightOptions(CLI::App& app, LightOptions& o, bool animated) {
   o.animated = animated;
-  const char* angleForm = animated ? "DEG or START:END across the frames" : "DEG";
+  const char* angleForm = animated ? "DEG or START:END (linear across --frames)" : "DEG";
   o.shortcutOptions.clear();
   app.add_option("--rig", o.rig, "Light rig (JSON, keyframed lights; docs/lights.md) instead of --env/--sun-*");
   if (!animated) app.add_option("--frame", o.frame, "Frame of the --rig to use (fractional allowed)")->capture_default_str();
@@ -70,7 +70,7 @@ void addLightOptions(CLI::App& app, LightOptions& o, bool animated) {
   };
   shortcut(app.add_option("--env", o.env, "Environment map, equirectangular (.exr or .hdr), linear radiance"));
   shortcut(app.add_option("--env-rotate", o.envRotate,
-                          cat("Turn the environment by ", angleForm, " degrees about --env-axis (right-handed)")));
+                          cat("Turn the environment about --env-axis (right-handed), degrees: ", angleForm)));
   if (animated)
     shortcut(app.add_option("--env-rotate-end", o.envRotateEnd,
                             "Rotation at the last frame (same as --env-rotate START:END)"));
@@ -81,9 +81,9 @@ void addLightOptions(CLI::App& app, LightOptions& o, bool animated) {
   shortcut(app.add_option("--sun-dir", o.sunDir, "Direction towards the sun X,Y,Z (world, glTF axes)")
                ->delimiter(',')->expected(3));
   shortcut(app.add_option("--sun-azimuth", o.sunAzimuth,
-                          cat("Sun azimuth, ", angleForm, " (0 = towards +Z, 90 = +X; with --sun-elevation)")));
+                          cat("Sun azimuth, degrees: ", angleForm, "; 0 = towards +Z, 90 = +X")));
   shortcut(app.add_option("--sun-elevation", o.sunElevation,
-                          cat("Sun elevation above the horizon, ", angleForm, " (instead of --sun-dir)")));
+                          cat("Sun elevation, degrees: ", angleForm, "; instead of --sun-dir")));
   shortcut(app.add_option("--sun-irradiance", o.sunIrradiance,
                           "Sun irradiance on a surface facing it, R,G,B or one value (W/m², as Blender's strength)")
                ->delimiter(',')->expected(1, 3)->capture_default_str());

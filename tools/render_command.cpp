@@ -148,10 +148,13 @@ void runRenderCommand() {
   if (!a.contactSheet.empty()) sheet.emplace(width, height, n, a.sheetColumns, a.sheetTile);
   if (video) video->start(width, height, fps);
 
+  // Maps are projected once, here; a frame then costs a rotation and the analytic lights.
+  const auto tPrepare = std::chrono::steady_clock::now();
+  rig->prepare(bands);
+  const double prepareMs = msSince(tPrepare);
   double lightMs = 0.0, drawMs = 0.0, readbackMs = 0.0, writeMs = 0.0, encodeMs = 0.0;
   for (int f = first; f <= last; ++f) {
     auto t0 = std::chrono::steady_clock::now();
-    // Maps were projected once (the rig's cache); a frame costs a rotation and the analytic lights.
     sh::ShRgb light = rig->evaluate(f, bands);
     const double frameLightMs = msSince(t0);
     ImageRgb image = renderer.render(view, light, width, height);
@@ -179,12 +182,12 @@ void runRenderCommand() {
   if (sheet) sheet->write(a.contactSheet, float(a.exposure));
   if (a.quiet) return;
   std::fprintf(stderr,
-               "prt render: %d frames %dx%d written (%s .. %s)%s on %s\n"
+               "prt render: %d frame%s %dx%d written (%s .. %s)%s on %s\n"
                "  %.2f ms/frame draw + %.2f ms/frame readback, %.3f ms per light update (%zu lights, %d bands, "
-               "window %s), %.2f ms/frame writing\n",
-               n, width, height, framePath(a.output, first).c_str(), framePath(a.output, last).c_str(),
+               "window %s; maps projected once in %.1f ms), %.2f ms/frame writing\n",
+               n, n == 1 ? "" : "s", width, height, framePath(a.output, first).c_str(), framePath(a.output, last).c_str(),
                a.png ? " + PNG" : "", context.description().c_str(), drawMs / n, readbackMs / n, lightMs / n,
-               rig->lights.size(), bands, sh::windowName(rig->window), writeMs / n);
+               rig->lights.size(), bands, sh::windowName(rig->window), prepareMs, writeMs / n);
   if (video)
     std::fprintf(stderr, "  video %s: %d frames at %g fps, %.2f ms/frame encoding (%s)\n", a.mp4.c_str(), n, fps,
                  encodeMs / n, video->ffmpeg().c_str());

@@ -216,6 +216,30 @@ void LightRig::validate() {
   }
 }
 
+namespace {
+
+// The projection of `file` on `bands` bands, from the cache or computed into it.
+// Precondition: the caller holds cache.mutex.
+template <class Cache>
+const sh::ShRgb& projected(Cache& cache, const std::string& file, int bands) {
+  auto key = std::make_pair(file, bands);
+  auto it = cache.projected.find(key);
+  if (it == cache.projected.end()) {
+    auto image = cache.images.find(file);
+    if (image == cache.images.end()) image = cache.images.emplace(file, loadHdrImage(file)).first;
+    it = cache.projected.emplace(key, projectEnvironment(image->second, bands)).first;
+  }
+  return it->second;
+}
+
+}  // namespace
+
+void LightRig::prepare(int bands) const {
+  std::lock_guard<std::mutex> lock(cache_->mutex);
+  for (const RigLight& light : lights)
+    if (light.type == RigLight::Type::Environment) projected(*cache_, light.file, bands);
+}
+
 sh::ShRgb LightRig::evaluate(double frame, int bands) const {
   sh::ShRgb sum(bands);
   for (const RigLight& light : lights) {
@@ -224,14 +248,7 @@ sh::ShRgb LightRig::evaluate(double frame, int bands) const {
         sh::ShRgb base;
         {
           std::lock_guard<std::mutex> lock(cache_->mutex);
-          auto key = std::make_pair(light.file, bands);
-          auto it = cache_->projected.find(key);
-          if (it == cache_->projected.end()) {
-            auto image = cache_->images.find(light.file);
-            if (image == cache_->images.end()) image = cache_->images.emplace(light.file, loadHdrImage(light.file)).first;
-            it = cache_->projected.emplace(key, projectEnvironment(image->second, bands)).first;
-          }
-          base = it->second;
+          base = projected(*cache_, light.file, bands);
         }
         const double angle = light.rotation.scalarAt(frame);
         // A zero angle skips the rotation, so an unrotated map is bit-identical to its projection.

@@ -108,6 +108,10 @@ public:
   /// allowed range is convex. Normalises direction keys.
   void validate();
 
+  /// Projects every environment map onto `bands` bands now (evaluate() would on first use), so
+  /// per-frame costs can be measured apart from this one-time cost.
+  void prepare(int bands) const;
+
   /// The rig's SH radiance at `frame` on `bands` bands (sum of all lights, window last).
   /// Precondition: validate() succeeded. Projects each map once per band count (cached).
   sh::ShRgb evaluate(double frame, int bands) const;
