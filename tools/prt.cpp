@@ -261,9 +261,10 @@ void runRelight(const RelightArgs& a) {
       ++vertices;
     }
   glm::vec3 mean = vertices ? sum / float(vertices) : glm::vec3(0);
-  std::fprintf(stderr, "prt relight: %s -> %s%s%s\n  %zu vertices, %d bands, mean exitant radiance (%.4g, %.4g, %.4g)\n",
+  std::string lighting = a.light.rig.empty() ? std::string() : cat(", lit by ", a.light.rig, " at frame ", a.light.frame);
+  std::fprintf(stderr, "prt relight: %s -> %s%s%s\n  %zu vertices, %d bands%s, mean exitant radiance (%.4g, %.4g, %.4g)\n",
                a.baked.c_str(), a.output.c_str(), a.csv.empty() ? "" : " + ", a.csv.c_str(), vertices,
-               scene.transferBands, mean.r, mean.g, mean.b);
+               scene.transferBands, lighting.c_str(), mean.r, mean.g, mean.b);
 }
 
 // ---- prt light
