@@ -288,3 +288,226 @@ TEST(CliRender, FramesOnBothBackEndsAndCleanErrors) {
 
 }  // namespace
 }  // namespace prt
+
+// ---- Light rigs, videos and contact sheets through `prt render` (docs/lights.md, docs/render.md)
+#include <stb_image.h>
+
+#include "prt/error.h"
+
+namespace prt {
+namespace {
+
+// The bundled Cornell scene baked once per test process (16 samples, 1 bounce: about a second).
+const std::string& bakedCornell() {
+  static const std::string path = [] {
+    fs::path d = tempDir(cat("rig_cornell_", ::getpid()));
+    std::string out = (d / "cornell.glb").string();
+    CliRun r = prt("bake " + scene("cornell_open.gltf") + " -o " + out + " --samples 16 --bounces 1 -q");
+    EXPECT_EQ(r.status, 0) << r.err;
+    return out;
+  }();
+  return path;
+}
+
+std::string esplanade() { return scene("env/royal_esplanade_128.hdr"); }
+
+// Largest |a - b| over all pixels and channels, and the peak of a.
+std::pair<double, double> frameDiff(const std::string& a, const std::string& b) {
+  ImageRgb x = loadHdrImage(a), y = loadHdrImage(b);
+  EXPECT_EQ(x.width, y.width);
+  EXPECT_EQ(x.height, y.height);
+  double diff = 0.0, peak = 0.0;
+  for (size_t i = 0; i < std::min(x.pixels.size(), y.pixels.size()); ++i)
+    for (int c = 0; c < 3; ++c) {
+      diff = std::max(diff, double(std::fabs(x.pixels[i][c] - y.pixels[i][c])));
+      peak = std::max(peak, double(x.pixels[i][c]));
+    }
+  return {diff, peak};
+}
+
+bool onPath(const std::string& program) {
+  return std::system(("command -v " + program + " >/dev/null 2>&1").c_str()) == 0;
+}
+
+// A full turn of the sky about a tilted axis: the last frame is the first one again. Given by
+// the shortcuts and by a rig file, which must agree frame by frame (one code path).
+TEST(CliRig, FullTurnRendersTheFirstFrameAgain) {
+  fs::path d = tempDir("rig_turn");
+  CliRun s = prt("render " + bakedCornell() + " --env " + esplanade() +
+                 " --env-rotate 0:360 --env-axis 1,2,-0.5 --frames 0-4 --size 64x36 -o " + (d / "s_%d.exr").string());
+  ASSERT_EQ(s.status, 0) << s.err;
+  // The summary: frames written, per-frame and per-light-update cost, total.
+  EXPECT_NE(s.err.find("5 frames 64x36 written"), std::string::npos) << s.err;
+  EXPECT_NE(s.err.find("ms per light update"), std::string::npos) << s.err;
+  EXPECT_NE(s.err.find("total"), std::string::npos) << s.err;
+  // D(R(360°)) is the identity to ~1e-15 and its float output equals the unrotated light (the
+  // library test measures 0 difference); the same light through the same GL pipeline gives the
+  // same frame. 1e-6 of the peak allows for nothing more than float rounding.
+  auto [diff, peak] = frameDiff((d / "s_0.exr").string(), (d / "s_4.exr").string());
+  EXPECT_GT(peak, 0.0);
+  EXPECT_LE(diff, 1e-6 * peak);
+  auto [half, peak2] = frameDiff((d / "s_0.exr").string(), (d / "s_2.exr").string());
+  EXPECT_GT(half, 0.01 * peak2);  // half a turn does change the picture
+
+  fs::path rig = d / "turn.json";
+  std::ofstream(rig) << R"({"version": 1, "lights": [{"type": "environment", "file": ")" << esplanade()
+                     << R"(", "axis": [1, 2, -0.5], "rotation": [{"frame": 0, "value": 0}, {"frame": 4, "value": 360}]}]})";
+  // No --frames: the rig's keyframe range, 0-4.
+  CliRun r = prt("render " + bakedCornell() + " --rig " + rig.string() + " --size 64x36 -o " + (d / "r_%d.exr").string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (int f = 0; f <= 4; ++f) {
+    auto [df, pf] = frameDiff((d / cat("s_", f, ".exr")).string(), (d / cat("r_", f, ".exr")).string());
+    EXPECT_LE(df, 1e-6 * pf) << f;
+  }
+  EXPECT_FALSE(fs::exists(d / "r_5.exr"));
+}
+
+TEST(CliRig, LightAtAFrameEqualsTheShortcut) {
+  fs::path d = tempDir("rig_light");
+  fs::path rig = d / "turn.json";
+  std::ofstream(rig) << R"({"version": 1, "window": "hann", "lights": [{"type": "environment", "file": ")" << esplanade()
+                     << R"(", "axis": [1, 2, -0.5], "rotation": [{"frame": 0, "value": 0}, {"frame": 4, "value": 360}]},
+                          {"type": "sun", "azimuth": 90, "elevation": [{"frame": 0, "value": 0}, {"frame": 2, "value": 90}]}]})";
+  auto coeffs = [&](const std::string& args) {
+    std::string out = (d / "light.json").string();
+    CliRun r = prt("light " + args + " --bands 4 -o " + out);
+    EXPECT_EQ(r.status, 0) << r.err;
+    nlohmann::json j = nlohmann::json::parse(std::ifstream(out));
+    std::vector<double> c;
+    for (const auto& v : j["coefficients"])
+      for (const auto& x : v) c.push_back(x.get<double>());
+    return c;
+  };
+  // Frame 1 of the rig: a 90° turn, the sun at elevation 45 towards +X.
+  std::vector<double> a = coeffs("--rig " + rig.string() + " --frame 1");
+  std::vector<double> b = coeffs(esplanade() + " --env-rotate 90 --env-axis 1,2,-0.5 --sun-elevation 45 "
+                                 "--sun-azimuth 90 --window hann");
+  ASSERT_EQ(a.size(), b.size());
+  double peak = 0;
+  for (double x : a) peak = std::max(peak, std::fabs(x));
+  // The same rig built two ways: equal up to the float output (and 9-digit JSON).
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-6 * peak) << i;
+}
+
+TEST(CliRig, BadRigMapCameraOrBackEndIsOneLineAndWritesNothing) {
+  fs::path d = tempDir("rig_errors");
+  fs::path out = d / "out";
+  fs::create_directories(out);
+  fs::path bad = d / "bad.json", missingMap = d / "missing_map.json";
+  std::ofstream(bad) << R"({"version": 1, "lights": [{"type": "environment", "file": "x.hdr", "rotaton": 3}]})";
+  std::ofstream(missingMap) << R"({"version": 1, "lights": [{"type": "environment", "file": "missing.hdr"}]})";
+  const std::string render = "render " + bakedCornell() + " --size 16x16 --frames 0-1 -o " + (out / "f_%d.exr").string();
+  expectCleanFailure(prt(render + " --rig /nonexistent/rig.json"), "/nonexistent/rig.json", out);
+  expectCleanFailure(prt(render + " --rig " + bad.string()), "bad.json: lights[0].rotaton: unknown key", out);
+  expectCleanFailure(prt(render + " --rig " + missingMap.string()), "lights[0].file: " + (d / "missing.hdr").string(),
+                     out);
+  expectCleanFailure(prt(render + " --env /nonexistent/sky.hdr"), "/nonexistent/sky.hdr", out);
+  expectCleanFailure(prt(render + " --env " + esplanade() + " --camera nope"), "no camera named 'nope'", out);
+  expectCleanFailure(prt(render + " --env " + esplanade() + " --gl vulkan"), "vulkan", out);
+  expectCleanFailure(prt(render + " --rig " + bad.string() + " --env " + esplanade()), "--rig and --env", out);
+  // A GL back end that cannot start: libglvnd finds no EGL vendor library.
+  ::setenv("__EGL_VENDOR_LIBRARY_FILENAMES", "/nonexistent/vendor.json", 1);
+  CliRun noEgl = prt(render + " --env " + esplanade() + " --gl egl");
+  ::unsetenv("__EGL_VENDOR_LIBRARY_FILENAMES");
+  expectCleanFailure(noEgl, "EGL: no display", out);
+  expectCleanFailure(prt(render + " --env " + esplanade() + " --env-rotate 1:x"), "--env-rotate 1:x", out);
+  expectCleanFailure(prt(render + " --sun-elevation 100"), "--sun-elevation: elevation must be in [-90, 90]", out);
+  expectCleanFailure(prt(render + " --env " + esplanade() + " --env-axis 0,0,0"), "--env-axis: direction is zero", out);
+  // Stills: --frame without a rig, and START:END without a frame range.
+  expectCleanFailure(prt("light --env " + esplanade() + " --frame 2 -o " + (out / "l.json").string()), "--frame", out);
+  expectCleanFailure(prt("light --env " + esplanade() + " --env-rotate 0:90 -o " + (out / "l.json").string()),
+                     "START:END needs a frame range", out);
+}
+
+TEST(CliRender, Mp4ThroughFfmpeg) {
+  if (!onPath("ffmpeg") || !onPath("ffprobe")) GTEST_SKIP() << "ffmpeg/ffprobe not installed";
+  fs::path d = tempDir("mp4");
+  // An odd width: yuv420p needs even sizes, so ffmpeg pads to 34.
+  CliRun r = prt("render " + bakedCornell() + " --rig " + scene("rigs/sun_day.json") +
+                 " --frames 0-5 --size 33x24 --fps 12 --exposure 1 -o " + (d / "f_%d.exr").string() + " --mp4 " +
+                 (d / "day.mp4").string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("video"), std::string::npos) << r.err;
+  std::vector<std::string> expected = {"day.mp4"};
+  for (int f = 0; f <= 5; ++f) expected.push_back(cat("f_", f, ".exr"));
+  EXPECT_TRUE(dirHoldsOnly(d, expected));  // no temporary file left
+  fs::path probe = d / "probe.json";
+  ASSERT_EQ(std::system(("ffprobe -v error -select_streams v:0 -count_frames -show_entries "
+                         "stream=codec_name,pix_fmt,width,height,nb_read_frames,r_frame_rate -of json " +
+                         (d / "day.mp4").string() + " > " + probe.string())
+                            .c_str()),
+            0);
+  nlohmann::json j = nlohmann::json::parse(std::ifstream(probe));
+  const nlohmann::json& s = j["streams"][0];
+  EXPECT_EQ(s["codec_name"], "h264");
+  EXPECT_EQ(s["pix_fmt"], "yuv420p");
+  EXPECT_EQ(s["width"], 34);
+  EXPECT_EQ(s["height"], 24);
+  EXPECT_EQ(s["nb_read_frames"], "6");
+  EXPECT_EQ(s["r_frame_rate"], "12/1");
+}
+
+TEST(CliRender, Mp4WithoutFfmpegIsAClearErrorBeforeRendering) {
+  fs::path d = tempDir("mp4_missing"), out = d / "out";
+  fs::create_directories(out);
+  // prt is started by its absolute path, with a PATH that holds no ffmpeg.
+  const std::string cmd = "env PATH=/nonexistent " + std::string(PRT_EXE) + " render " + bakedCornell() + " --env " +
+                          esplanade() + " --frames 0-2 --size 16x16 -o " + (out / "f_%d.exr").string() + " --mp4 " +
+                          (out / "v.mp4").string() + " 2>" + (d / "err.txt").string();
+  int rc = std::system(cmd.c_str());
+  EXPECT_EQ(WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, 1);
+  std::ifstream e(d / "err.txt");
+  std::stringstream err;
+  err << e.rdbuf();
+  EXPECT_EQ(lineCount(err.str()), 1) << err.str();
+  EXPECT_NE(err.str().find("--mp4 " + (out / "v.mp4").string() + ": ffmpeg not found on PATH"), std::string::npos)
+      << err.str();
+  EXPECT_TRUE(dirHoldsOnly(out, {})) << "frames rendered before the error";
+}
+
+TEST(CliRender, ContactSheetTilesAreTheDownscaledFrames) {
+  fs::path d = tempDir("sheet");
+  const float exposure = 1.5f;
+  CliRun r = prt("render " + bakedCornell() + " --rig " + scene("rigs/colored_disks.json") +
+                 " --frames 0-4 --size 40x30 --exposure 1.5 --contact-sheet " + (d / "sheet.png").string() +
+                 " --sheet-tile 16 --sheet-columns 2 -o " + (d / "f_%d.exr").string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  // 40x30 into tiles of at most 16: factor k = 3, tiles ceil(40/3) x ceil(30/3) = 14 x 10;
+  // 2 columns, 3 rows, 2-pixel gaps: 30 x 34.
+  const int k = 3, tw = 14, th = 10, gap = 2;
+  int w = 0, h = 0, channels = 0;
+  unsigned char* png = stbi_load((d / "sheet.png").c_str(), &w, &h, &channels, 3);
+  ASSERT_NE(png, nullptr);
+  EXPECT_EQ(w, 2 * tw + gap);
+  EXPECT_EQ(h, 3 * th + 2 * gap);
+  int worst = 0;
+  for (int f = 0; f < 5 && w == 2 * tw + gap && h == 3 * th + 2 * gap; ++f) {
+    ImageRgb frame = loadHdrImage((d / cat("f_", f, ".exr")).string());
+    const int x0 = (f % 2) * (tw + gap), y0 = (f / 2) * (th + gap);
+    for (int ty = 0; ty < th; ++ty)
+      for (int tx = 0; tx < tw; ++tx) {
+        // The mean over the k × k box (cut at the frame's edge), tone-mapped as --png does.
+        glm::dvec3 sum(0.0);
+        int count = 0;
+        for (int y = ty * k; y < std::min((ty + 1) * k, 30); ++y)
+          for (int x = tx * k; x < std::min((tx + 1) * k, 40); ++x, ++count) sum += glm::dvec3(frame.at(x, y));
+        glm::vec3 mean(sum / double(count));
+        for (int c = 0; c < 3; ++c) {
+          float v = std::clamp(mean[c] * std::exp2(exposure), 0.0f, 1.0f);
+          int expected = int(std::lround(linearToSrgb(v) * 255.0f));
+          int got = png[3 * ((y0 + ty) * w + x0 + tx) + c];
+          worst = std::max(worst, std::abs(got - expected));
+        }
+      }
+  }
+  // The same double mean rounded to float, the same tone curve: equal bytes; 1 allows for a
+  // different summation order landing on the other side of a rounding boundary.
+  EXPECT_LE(worst, 1);
+  // Gaps and the empty sixth cell are black.
+  EXPECT_EQ(png[3 * (0 * w + tw)], 0);
+  EXPECT_EQ(png[3 * ((2 * (th + gap) + 1) * w + tw + gap + 1)], 0);
+  stbi_image_free(png);
+}
+
+}  // namespace
+}  // namespace prt

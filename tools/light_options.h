@@ -1,31 +1,52 @@
-// Command-line lighting shared by `prt relight`, `prt light` (and later `prt render`).
+// Command-line lighting shared by `prt relight`, `prt light`, `prt probe` and `prt render`.
+//
+// Either a rig file (--rig, docs/lights.md) or shortcuts (--env..., --sun-...), never both.
+// The shortcuts build an in-memory prt::LightRig, so every command lights through one path:
+// LightRig::evaluate.
 #pragma once
 
-#include <optional>
+#include <limits>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
-#include <glm/glm.hpp>
 
+#include "prt/light_rig.h"
 #include "prt/sh.h"
 
 namespace prt::tools {
 
 struct LightOptions {
-  std::string env;               // equirectangular .exr / .hdr, "" = none
-  double envRotate = 0.0;        // degrees about +Y, right-handed
-  double envIntensity = 1.0;
-  std::vector<double> sunDir;    // towards the sun, world (normalised here)
+  std::string rig;                // light rig file (JSON), "" = shortcuts
+  double frame = 0.0;             // stills (relight, light, probe): the frame of the rig to use
+  std::string env;                // equirectangular .exr / .hdr, "" = none
+  std::string envRotate;          // "DEG" or "START:END" (render: across the frame range)
+  double envRotateEnd = std::numeric_limits<double>::quiet_NaN();  // render: older form of START:END
+  std::vector<double> envAxis{0.0, 1.0, 0.0};
+  std::vector<double> envIntensity{1.0};  // one value or R,G,B
+  std::vector<double> sunDir;             // towards the sun, world
+  std::string sunAzimuth, sunElevation;   // "DEG" or "START:END", degrees
   std::vector<double> sunIrradiance{1.0, 1.0, 1.0};  // W/m² on a surface facing it
-  double sunRadius = 0.265;      // degrees (the real sun's angular radius)
-  std::string window = "none";
+  double sunRadius = 0.265;               // degrees (the real sun's angular radius)
+  std::string window;                     // none, hann, lanczos; "" = none (or the rig's)
+  bool animated = false;                  // START:END allowed (prt render)
+  std::vector<CLI::Option*> shortcutOptions;  // filled by addLightOptions
+  CLI::Option* windowOption = nullptr;
 };
 
-/// Adds --env, --env-rotate, --env-intensity, --sun-dir, --sun-irradiance, --sun-radius, --window.
-void addLightOptions(CLI::App& app, LightOptions& o);
+/// Adds --rig, --env, --env-rotate, --env-axis, --env-intensity, --sun-dir, --sun-azimuth,
+/// --sun-elevation, --sun-irradiance, --sun-radius, --window; with `animated` (prt render)
+/// START:END ranges and --env-rotate-end, otherwise --frame.
+void addLightOptions(CLI::App& app, LightOptions& o, bool animated = false);
 
-/// Projects the lighting onto `bands` bands (sum of all lights, window applied last).
-/// Throws prt::Error on bad values or unreadable maps; requires at least one light.
+/// The lighting as a validated rig. START:END ranges become keys at firstFrame and lastFrame.
+/// Throws prt::Error (one line naming the option or file) on bad or conflicting options.
+LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame);
+
+/// Stills (relight, light, probe): the rig to evaluate at o.frame. Refuses --frame without --rig.
+LightRig buildStillRig(const LightOptions& o);
+
+/// Stills: the rig's SH at o.frame on `bands` bands.
 sh::ShRgb buildLight(const LightOptions& o, int bands);
 
 }  // namespace prt::tools

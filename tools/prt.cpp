@@ -28,6 +28,7 @@
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
+#include "prt/light_rig.h"
 #include "prt/progress.h"
 #include "prt/probe_grid.h"
 #include "prt/relight.h"
@@ -393,9 +394,10 @@ void runRelight(const RelightArgs& a) {
       ++vertices;
     }
   glm::vec3 mean = vertices ? sum / float(vertices) : glm::vec3(0);
-  std::fprintf(stderr, "prt relight: %s -> %s%s%s\n  %zu vertices, %d bands, mean exitant radiance (%.4g, %.4g, %.4g)\n",
+  std::string lighting = a.light.rig.empty() ? std::string() : cat(", lit by ", a.light.rig, " at frame ", a.light.frame);
+  std::fprintf(stderr, "prt relight: %s -> %s%s%s\n  %zu vertices, %d bands%s, mean exitant radiance (%.4g, %.4g, %.4g)\n",
                a.baked.c_str(), a.output.c_str(), a.csv.empty() ? "" : " + ", a.csv.c_str(), vertices,
-               scene.transferBands, mean.r, mean.g, mean.b);
+               scene.transferBands, lighting.c_str(), mean.r, mean.g, mean.b);
 }
 
 // ---- prt light
@@ -408,14 +410,20 @@ struct LightArgs {
 void runLight(const LightArgs& a) {
   if (a.bands < 1 || a.bands > sh::kMaxBands) throw Error(cat("--bands ", a.bands, ": must be between 1 and ", sh::kMaxBands));
   AtomicFile probe(a.output);
-  sh::ShRgb light = tools::buildLight(a.light, a.bands);
+  LightRig rig = tools::buildStillRig(a.light);
+  sh::ShRgb light = rig.evaluate(a.light.frame, a.bands);
   nlohmann::json j;
   j["bands"] = a.bands;
   j["convention"] = "real orthonormal SH, no Condon-Shortley phase, index l(l+1)+m, glTF axes (+Y up)";
   j["quantity"] = "radiance";
-  j["window"] = a.light.window;
-  j["env"] = a.light.env;
-  j["env_rotate_deg"] = a.light.envRotate;
+  j["window"] = sh::windowName(rig.window);
+  j["rig"] = a.light.rig;
+  j["frame"] = a.light.frame;
+  j["lights"] = rig.lights.size();
+  // The shortcut environment's map and rotation (for a rig, its file says).
+  const bool shortcutEnv = a.light.rig.empty() && !a.light.env.empty();
+  j["env"] = shortcutEnv ? a.light.env : "";
+  j["env_rotate_deg"] = shortcutEnv ? rig.lights[0].rotation.scalarAt(a.light.frame) : 0.0;
   nlohmann::json coeffs = nlohmann::json::array();
   for (const glm::vec3& c : light.c) coeffs.push_back({c.r, c.g, c.b});
   j["coefficients"] = coeffs;

@@ -1,0 +1,138 @@
+// Light rigs: several distant lights whose every parameter may change from frame to frame.
+//
+// A rig is a list of lights (environment maps, suns, disks on the sky, a uniform sky), a
+// ringing window and an optional frame rate. Every numeric parameter is a Track: a constant or
+// keyframes interpolated per frame. evaluate(frame, bands) sums the lights' SH for a frame:
+// environment maps are loaded once and projected once per band count (cached), then rotated
+// exactly per frame with sh::Rotation and scaled; analytic lights are projected per frame in
+// closed form (prt/light.h). The JSON format is in docs/lights.md ("Light rigs").
+//
+// Conventions are those of `prt relight`: glTF axes (+Y up), a direction points towards the
+// light, rotating the environment by θ about an axis is the right-handed turn of the lighting
+// (at +90° about +Y, light that came from +X comes from -Z), and azimuth/elevation place a
+// direction as the orbit camera does: (cos el · sin az, sin el, cos el · cos az).
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "prt/sh.h"
+
+namespace prt {
+
+/// A parameter over frames: one key is a constant, several keys are interpolated.
+/// Before the first key the first value holds, after the last key the last value holds.
+/// Scalars use value.x (and the CLI and JSON reader store them in all three components).
+struct Track {
+  enum class Interp {
+    Linear,  // straight line between neighbouring keys (directions: slerp, see `direction`)
+    Step     // the value of the last key at or before the frame
+  };
+  struct Key {
+    double frame = 0.0;
+    glm::dvec3 value{0.0};
+  };
+  std::vector<Key> keys;  // frames strictly increasing, at least one key
+  Interp interp = Interp::Linear;
+  /// Unit vectors interpolated along the great circle (slerp) instead of straight lines.
+  bool direction = false;
+  /// Where the track was written, for messages: "lights[1].radius" (a plain value),
+  /// "lights[1].radius.keys" (a key list, then `keyList`), "--sun-radius". Empty: the light's
+  /// label and the field name.
+  std::string origin;
+  bool keyList = false;
+
+  /// A constant track.
+  static Track constant(const glm::dvec3& value);
+  static Track constant(double value) { return constant(glm::dvec3(value)); }
+  /// Linear from v0 at frame f0 to v1 at frame f1 (f0 < f1), or the constant v0 when f0 == f1.
+  static Track ramp(double f0, double v0, double f1, double v1);
+
+  /// The value at a (possibly fractional) frame. Precondition: valid (see LightRig::validate).
+  glm::dvec3 at(double frame) const;
+  double scalarAt(double frame) const { return at(frame).x; }
+  bool animated() const { return keys.size() > 1; }
+};
+
+/// One distant light of a rig. Which tracks matter depends on the type.
+struct RigLight {
+  enum class Type { Environment, Sun, Disk, Uniform };
+  Type type = Type::Uniform;
+  std::string label;  // where it came from, for messages: "rig.json: lights[2]", "--env"
+
+  // Environment: an equirectangular map (docs/lights.md for its orientation), turned by
+  // `rotation` degrees about `axis` (right-handed) and multiplied by `intensity` (RGB).
+  std::string file;
+  Track axis = Track::constant(glm::dvec3(0.0, 1.0, 0.0));  // direction track
+  Track rotation = Track::constant(0.0);                     // degrees
+  Track intensity = Track::constant(1.0);                    // RGB factor
+
+  // Sun and disk: the direction towards the light, either a direction track or
+  // azimuth/elevation tracks in degrees (used when `useAzimuthElevation`).
+  Track direction = Track::constant(glm::dvec3(0.0, 1.0, 0.0));
+  bool useAzimuthElevation = false;
+  Track azimuth = Track::constant(0.0);
+  Track elevation = Track::constant(90.0);
+  Track radius = Track::constant(0.265);  // angular radius, degrees
+  // Sun: irradiance on a surface facing it (RGB). Disk: radiance inside the disk, or the
+  // irradiance on a surface facing it when `colorIsIrradiance`. Uniform: radiance.
+  Track color = Track::constant(1.0);
+  bool colorIsIrradiance = false;
+
+  /// Unit direction towards a sun or disk at a frame.
+  glm::dvec3 directionAt(double frame) const;
+};
+
+/// Unit direction of azimuth/elevation in degrees: (cos el · sin az, sin el, cos el · cos az).
+glm::dvec3 azimuthElevationDirection(double azimuthDegrees, double elevationDegrees);
+
+/// A set of lights summed, windowed against ringing, with an optional frame rate.
+/// Copies share the cache of environment maps. evaluate() may be called from several threads.
+class LightRig {
+public:
+  std::vector<RigLight> lights;
+  sh::Window window = sh::Window::None;  // applied to the sum, after every light is added
+  std::optional<double> fps;             // frames per second, for videos
+  std::string source;                    // the rig file, or "" for a rig built in memory
+
+  LightRig();
+
+  /// Checks every light and track: keys present and increasing, values finite and in range
+  /// (radius, intensities >= 0, elevation in [-90, 90], non-zero directions, no opposite
+  /// neighbouring direction keys), and loads every environment map not yet loaded. Throws
+  /// prt::Error "LABEL.field: problem". Interpolated values then stay in range, because every
+  /// allowed range is convex. Normalises direction keys.
+  void validate();
+
+  /// Projects every environment map onto `bands` bands now (evaluate() would on first use), so
+  /// per-frame costs can be measured apart from this one-time cost.
+  void prepare(int bands) const;
+
+  /// The rig's SH radiance at `frame` on `bands` bands (sum of all lights, window last).
+  /// Precondition: validate() succeeded. Projects each map once per band count (cached).
+  sh::ShRgb evaluate(double frame, int bands) const;
+
+  /// Whether any parameter changes over frames.
+  bool animated() const;
+  /// The first and last keyframe over all tracks (0, 0 for a rig without keyframes).
+  std::pair<double, double> keyRange() const;
+
+private:
+  struct Cache;
+  std::shared_ptr<Cache> cache_;
+};
+
+/// Reads and validates a rig file (JSON, docs/lights.md). Relative map paths are resolved
+/// against the rig file's folder. Throws prt::Error with one line naming the file and the
+/// JSON path of the problem, e.g. "rig.json: lights[1].radius.keys[2].frame: frames must
+/// increase (10 after 12)".
+LightRig loadLightRig(const std::string& path);
+
+/// Same from JSON text; `name` is used in messages, `baseDir` resolves relative map paths.
+LightRig parseLightRig(const std::string& json, const std::string& name, const std::string& baseDir);
+
+}  // namespace prt

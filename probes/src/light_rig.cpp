@@ -1,0 +1,545 @@
+// Light rigs: keyframed distant lights (prt/light_rig.h); the JSON format is in docs/lights.md.
+#include "prt/light_rig.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <initializer_list>
+#include <map>
+#include <mutex>
+#include <utility>
+
+#include <nlohmann/json.hpp>
+
+#include "prt/atomic_file.h"
+#include "prt/error.h"
+#include "prt/image.h"
+#include "prt/light.h"
+
+namespace prt {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kRigVersion = 1;
+
+using Json = nlohmann::json;
+
+// Spherical interpolation of unit vectors a, b (not opposite) at t in [0, 1]. The angle comes
+// from atan2(|a×b|, a·b), accurate at every angle; below 1e-9 rad the chord is the arc to
+// rounding, so a normalised lerp is used there.
+glm::dvec3 slerp(const glm::dvec3& a, const glm::dvec3& b, double t) {
+  const double angle = std::atan2(glm::length(glm::cross(a, b)), glm::dot(a, b));
+  if (angle < 1e-9) return glm::normalize((1.0 - t) * a + t * b);
+  const double s = std::sin(angle);
+  return glm::normalize(std::sin((1.0 - t) * angle) / s * a + std::sin(t * angle) / s * b);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Tracks
+
+Track Track::constant(const glm::dvec3& value) {
+  Track t;
+  t.keys.push_back({0.0, value});
+  return t;
+}
+
+Track Track::ramp(double f0, double v0, double f1, double v1) {
+  if (f1 <= f0) return constant(v0);
+  Track t;
+  t.keys.push_back({f0, glm::dvec3(v0)});
+  t.keys.push_back({f1, glm::dvec3(v1)});
+  return t;
+}
+
+glm::dvec3 Track::at(double frame) const {
+  PRT_CHECK(!keys.empty());
+  // The first key after `frame`; the segment is [it - 1, it]. A frame equal to a key's frame
+  // selects that key as the segment's start, so keys are reproduced exactly.
+  auto it = std::upper_bound(keys.begin(), keys.end(), frame,
+                             [](double f, const Key& k) { return f < k.frame; });
+  if (it == keys.begin()) return keys.front().value;  // before the first key: hold it
+  if (it == keys.end()) return keys.back().value;     // after the last key: hold it
+  const Key& k0 = *(it - 1);
+  const Key& k1 = *it;
+  if (interp == Interp::Step) return k0.value;
+  const double t = (frame - k0.frame) / (k1.frame - k0.frame);
+  if (direction) return slerp(k0.value, k1.value, t);
+  return (1.0 - t) * k0.value + t * k1.value;
+}
+
+glm::dvec3 azimuthElevationDirection(double azimuthDegrees, double elevationDegrees) {
+  const double az = azimuthDegrees * kPi / 180.0, el = elevationDegrees * kPi / 180.0;
+  return {std::cos(el) * std::sin(az), std::sin(el), std::cos(el) * std::cos(az)};
+}
+
+glm::dvec3 RigLight::directionAt(double frame) const {
+  if (useAzimuthElevation) return azimuthElevationDirection(azimuth.scalarAt(frame), elevation.scalarAt(frame));
+  return direction.at(frame);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation. Every message is "SOURCE: PATH: problem", PATH being where the value was written
+// (Track::origin): "lights[1].radius.keys[2].frame" in a file, "--sun-radius" on the command line.
+
+namespace {
+
+enum class Range { Any, NonNegative, Elevation, SunRadius, DiskRadius, DiskIrradianceRadius };
+
+struct Checker {
+  std::string prefix;  // "rig.json: " or ""
+
+  [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
+    throw Error(cat(prefix, path, ": ", problem));
+  }
+
+  // Where key k of a track was written.
+  static std::string keyPath(const Track& t, const std::string& origin, size_t k, const char* field) {
+    return t.keyList ? cat(origin, "[", k, "].", field) : origin;
+  }
+
+  void frames(const Track& t, const std::string& origin) const {
+    if (t.keys.empty()) fail(origin, "no keyframes");
+    for (size_t k = 0; k < t.keys.size(); ++k) {
+      if (!std::isfinite(t.keys[k].frame)) fail(keyPath(t, origin, k, "frame"), "frame is not a finite number");
+      if (k > 0 && !(t.keys[k].frame > t.keys[k - 1].frame))
+        fail(keyPath(t, origin, k, "frame"),
+             cat("frames must increase (", t.keys[k].frame, " after ", t.keys[k - 1].frame, ")"));
+    }
+  }
+
+  void values(const Track& t, const std::string& origin, Range range, int components) const {
+    frames(t, origin);
+    for (size_t k = 0; k < t.keys.size(); ++k) {
+      const std::string where = keyPath(t, origin, k, "value");
+      for (int c = 0; c < components; ++c) {
+        const double x = t.keys[k].value[c];
+        if (!std::isfinite(x)) fail(where, "not a finite number");
+        switch (range) {
+          case Range::Any: break;
+          case Range::NonNegative:
+            if (x < 0) fail(where, cat("must be >= 0 (got ", x, ")"));
+            break;
+          case Range::Elevation:
+            if (x < -90 || x > 90) fail(where, cat("elevation must be in [-90, 90] degrees (got ", x, ")"));
+            break;
+          case Range::SunRadius:
+            if (!(x >= 0 && x < 90)) fail(where, cat("sun radius must be in [0, 90) degrees (got ", x, ")"));
+            break;
+          case Range::DiskRadius:
+            if (!(x > 0 && x <= 180)) fail(where, cat("disk radius must be in (0, 180] degrees (got ", x, ")"));
+            break;
+          case Range::DiskIrradianceRadius:
+            if (!(x > 0 && x < 90))
+              fail(where, cat("a disk given by irradiance needs a radius in (0, 90) degrees (got ", x, ")"));
+            break;
+        }
+      }
+    }
+  }
+
+  // Directions: non-zero, normalised here; neighbouring keys must not be opposite, where the
+  // great circle between them (slerp) is undefined.
+  void directions(Track& t, const std::string& origin) const {
+    values(t, origin, Range::Any, 3);
+    t.direction = true;
+    for (size_t k = 0; k < t.keys.size(); ++k) {
+      const double len = glm::length(t.keys[k].value);
+      if (!(len > 1e-12)) fail(keyPath(t, origin, k, "value"), "direction is zero");
+      t.keys[k].value /= len;
+      if (k > 0 && t.interp == Track::Interp::Linear && glm::dot(t.keys[k].value, t.keys[k - 1].value) < -1.0 + 1e-12)
+        fail(keyPath(t, origin, k, "value"),
+             "opposite to the previous key: the path between them is undefined (add a key in between)");
+    }
+  }
+};
+
+std::string originOf(const RigLight& light, const Track& t, const char* field) {
+  if (!t.origin.empty()) return t.origin;
+  return light.label.empty() ? std::string(field) : cat(light.label, ".", field);
+}
+
+}  // namespace
+
+struct LightRig::Cache {
+  std::mutex mutex;
+  std::map<std::string, ImageRgb> images;                      // by file path
+  std::map<std::pair<std::string, int>, sh::ShRgb> projected;  // by (file, bands)
+};
+
+LightRig::LightRig() : cache_(std::make_shared<Cache>()) {}
+
+void LightRig::validate() {
+  Checker check{source.empty() ? std::string() : source + ": "};
+  if (lights.empty()) check.fail("lights", "no lights");
+  if (fps && !(std::isfinite(*fps) && *fps > 0)) check.fail("fps", "must be a positive number");
+  for (RigLight& light : lights) {
+    auto origin = [&](const Track& t, const char* field) { return originOf(light, t, field); };
+    switch (light.type) {
+      case RigLight::Type::Environment: {
+        check.directions(light.axis, origin(light.axis, "axis"));
+        check.values(light.rotation, origin(light.rotation, "rotation"), Range::Any, 1);
+        check.values(light.intensity, origin(light.intensity, "intensity"), Range::NonNegative, 3);
+        std::lock_guard<std::mutex> lock(cache_->mutex);
+        if (!cache_->images.count(light.file)) {
+          try {
+            cache_->images.emplace(light.file, loadHdrImage(light.file));
+          } catch (const Error& e) {
+            if (light.label.empty()) throw Error(cat(check.prefix, e.what()));
+            check.fail(light.label + ".file", e.what());
+          }
+        }
+        break;
+      }
+      case RigLight::Type::Sun:
+      case RigLight::Type::Disk: {
+        if (light.useAzimuthElevation) {
+          check.values(light.azimuth, origin(light.azimuth, "azimuth"), Range::Any, 1);
+          check.values(light.elevation, origin(light.elevation, "elevation"), Range::Elevation, 1);
+        } else {
+          check.directions(light.direction, origin(light.direction, "direction"));
+        }
+        Range r = light.type == RigLight::Type::Sun ? Range::SunRadius
+                  : light.colorIsIrradiance          ? Range::DiskIrradianceRadius
+                                                     : Range::DiskRadius;
+        check.values(light.radius, origin(light.radius, "radius"), r, 1);
+        const char* colorName = light.type == RigLight::Type::Sun || light.colorIsIrradiance ? "irradiance" : "radiance";
+        check.values(light.color, origin(light.color, colorName), Range::NonNegative, 3);
+        break;
+      }
+      case RigLight::Type::Uniform:
+        check.values(light.color, origin(light.color, "radiance"), Range::NonNegative, 3);
+        break;
+    }
+  }
+}
+
+namespace {
+
+// The projection of `file` on `bands` bands, from the cache or computed into it.
+// Precondition: the caller holds cache.mutex.
+template <class Cache>
+const sh::ShRgb& projected(Cache& cache, const std::string& file, int bands) {
+  auto key = std::make_pair(file, bands);
+  auto it = cache.projected.find(key);
+  if (it == cache.projected.end()) {
+    auto image = cache.images.find(file);
+    if (image == cache.images.end()) image = cache.images.emplace(file, loadHdrImage(file)).first;
+    it = cache.projected.emplace(key, projectEnvironment(image->second, bands)).first;
+  }
+  return it->second;
+}
+
+}  // namespace
+
+void LightRig::prepare(int bands) const {
+  std::lock_guard<std::mutex> lock(cache_->mutex);
+  for (const RigLight& light : lights)
+    if (light.type == RigLight::Type::Environment) projected(*cache_, light.file, bands);
+}
+
+sh::ShRgb LightRig::evaluate(double frame, int bands) const {
+  sh::ShRgb sum(bands);
+  for (const RigLight& light : lights) {
+    switch (light.type) {
+      case RigLight::Type::Environment: {
+        sh::ShRgb base;
+        {
+          std::lock_guard<std::mutex> lock(cache_->mutex);
+          base = projected(*cache_, light.file, bands);
+        }
+        const double angle = light.rotation.scalarAt(frame);
+        // A zero angle skips the rotation, so an unrotated map is bit-identical to its projection.
+        sh::ShRgb env = angle == 0.0 ? base : sh::Rotation(bands, sh::rotationAxis(light.axis.at(frame), angle)).apply(base);
+        env *= glm::vec3(light.intensity.at(frame));
+        sum += env;
+        break;
+      }
+      case RigLight::Type::Sun:
+        sum += projectSun(bands, light.directionAt(frame), glm::radians(light.radius.scalarAt(frame)),
+                          light.color.at(frame));
+        break;
+      case RigLight::Type::Disk: {
+        const double r = glm::radians(light.radius.scalarAt(frame));
+        const glm::dvec3 d = light.directionAt(frame);
+        sum += light.colorIsIrradiance ? projectSun(bands, d, r, light.color.at(frame))
+                                       : projectDiskRadiance(bands, d, r, light.color.at(frame));
+        break;
+      }
+      case RigLight::Type::Uniform:
+        sum += projectUniform(bands, light.color.at(frame));
+        break;
+    }
+  }
+  sh::applyWindow(sum, window);
+  return sum;
+}
+
+bool LightRig::animated() const {
+  for (const RigLight& l : lights)
+    for (const Track* t : {&l.axis, &l.rotation, &l.intensity, &l.direction, &l.azimuth, &l.elevation, &l.radius, &l.color})
+      if (t->animated()) return true;
+  return false;
+}
+
+std::pair<double, double> LightRig::keyRange() const {
+  bool any = false;
+  double lo = 0.0, hi = 0.0;
+  for (const RigLight& l : lights)
+    for (const Track* t : {&l.axis, &l.rotation, &l.intensity, &l.direction, &l.azimuth, &l.elevation, &l.radius, &l.color})
+      if (t->animated()) {
+        lo = any ? std::min(lo, t->keys.front().frame) : t->keys.front().frame;
+        hi = any ? std::max(hi, t->keys.back().frame) : t->keys.back().frame;
+        any = true;
+      }
+  return {lo, hi};
+}
+
+// ---------------------------------------------------------------------------------------------
+// The JSON reader: structure here (types, shapes, unknown keys), values in validate().
+
+namespace {
+
+size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diag = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string quoteList(const std::vector<std::string>& names) {
+  std::string s;
+  for (const std::string& n : names) s += (s.empty() ? "" : ", ") + n;
+  return s;
+}
+
+enum class Shape { Scalar, Color, Direction };
+
+// A JSON value for a message: compact, and cut short so the message stays one readable line.
+std::string shortDump(const nlohmann::json& j) {
+  std::string s = j.dump();
+  return s.size() > 48 ? s.substr(0, 45) + "..." : s;
+}
+
+class Reader {
+public:
+  Reader(std::string name, std::filesystem::path baseDir) : name_(std::move(name)), baseDir_(std::move(baseDir)) {}
+
+  LightRig read(const std::string& text) {
+    Json root;
+    try {
+      root = Json::parse(text);
+    } catch (const Json::exception& e) {
+      // nlohmann's message starts with "[json.exception.parse_error.101] "; keep what follows.
+      std::string what = e.what();
+      size_t close = what.find("] ");
+      if (close != std::string::npos) what = what.substr(close + 2);
+      std::replace(what.begin(), what.end(), '\n', ' ');
+      throw Error(cat(name_, ": invalid JSON: ", what));
+    }
+    if (!root.is_object()) fail("", "expected a JSON object {\"version\": 1, \"lights\": [...]}");
+    keys(root, "", {"version", "description", "window", "fps", "lights"});
+    if (!root.contains("version")) fail("version", cat("missing (this prt reads version ", kRigVersion, ")"));
+    const Json& version = root["version"];
+    if (!version.is_number_integer() || version.get<long long>() != kRigVersion)
+      fail("version", cat(shortDump(version), " is not supported (this prt reads version ", kRigVersion, ")"));
+    if (root.contains("description") && !root["description"].is_string()) fail("description", "expected a string");
+
+    LightRig rig;
+    rig.source = name_;
+    if (root.contains("window")) {
+      if (!root["window"].is_string()) fail("window", "expected \"none\", \"hann\" or \"lanczos\"");
+      std::string w = root["window"].get<std::string>();
+      if (w != "none" && w != "hann" && w != "lanczos") fail("window", cat("'", w, "': expected none, hann or lanczos"));
+      rig.window = sh::parseWindow(w);
+    }
+    if (root.contains("fps")) {
+      if (!root["fps"].is_number() || !(root["fps"].get<double>() > 0)) fail("fps", "expected a positive number");
+      rig.fps = root["fps"].get<double>();
+    }
+    if (!root.contains("lights")) fail("lights", "missing (a list of lights)");
+    const Json& lights = root["lights"];
+    if (!lights.is_array()) fail("lights", "expected a list of lights");
+    if (lights.empty()) fail("lights", "empty: a rig needs at least one light");
+    for (size_t i = 0; i < lights.size(); ++i) rig.lights.push_back(readLight(lights[i], cat("lights[", i, "]")));
+    // Values (ranges, directions) and map files are checked by validate(), which names the
+    // paths stored in each track's origin.
+    rig.validate();
+    return rig;
+  }
+
+private:
+  std::string name_;
+  std::filesystem::path baseDir_;
+
+  [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
+    throw Error(path.empty() ? cat(name_, ": ", problem) : cat(name_, ": ", path, ": ", problem));
+  }
+
+  // Refuses keys that are not in `allowed` (typos would otherwise be silently ignored).
+  void keys(const Json& obj, const std::string& path, std::vector<std::string> allowed) const {
+    for (auto it = obj.begin(); it != obj.end(); ++it) {
+      if (std::find(allowed.begin(), allowed.end(), it.key()) != allowed.end()) continue;
+      std::string best;
+      size_t bestDistance = 3;
+      for (const std::string& a : allowed) {
+        size_t d = editDistance(it.key(), a);
+        if (d < bestDistance) bestDistance = d, best = a;
+      }
+      std::string where = path.empty() ? it.key() : cat(path, ".", it.key());
+      fail(where, best.empty() ? cat("unknown key (expected one of: ", quoteList(allowed), ")")
+                               : cat("unknown key (did you mean '", best, "'?)"));
+    }
+  }
+
+  double number(const Json& j, const std::string& path) const {
+    if (!j.is_number()) fail(path, cat("expected a number, got ", shortDump(j)));
+    double v = j.get<double>();
+    if (!std::isfinite(v)) fail(path, "not a finite number");
+    return v;
+  }
+
+  glm::dvec3 value(const Json& j, const std::string& path, Shape shape) const {
+    if (j.is_number() && shape != Shape::Direction) return glm::dvec3(number(j, path));
+    if (j.is_array() && j.size() == 3 && shape != Shape::Scalar && j[0].is_number())
+      return {number(j[0], path + "[0]"), number(j[1], path + "[1]"), number(j[2], path + "[2]")};
+    switch (shape) {
+      case Shape::Scalar: fail(path, cat("expected a number, got ", shortDump(j)));
+      case Shape::Color: fail(path, cat("expected a number or [R, G, B], got ", shortDump(j)));
+      case Shape::Direction: fail(path, cat("expected a direction [X, Y, Z], got ", shortDump(j)));
+    }
+    return {};
+  }
+
+  static bool isKeyList(const Json& j) { return j.is_array() && !j.empty() && j[0].is_object(); }
+
+  // A track: a plain value, a list of keys [{"frame": F, "value": V}, ...], or
+  // {"keys": [...], "interpolation": "linear" | "step"}.
+  Track track(const Json& j, const std::string& path, Shape shape) {
+    Track t;
+    t.origin = path;
+    const Json* list = nullptr;
+    std::string listPath = path;
+    if (j.is_object()) {
+      keys(j, path, {"keys", "interpolation"});
+      if (!j.contains("keys")) fail(path, "keyframes need \"keys\": [{\"frame\": F, \"value\": V}, ...]");
+      listPath = path + ".keys";
+      list = &j["keys"];
+      if (!list->is_array()) fail(listPath, "expected a list [{\"frame\": F, \"value\": V}, ...]");
+      if (list->empty()) fail(listPath, "empty: give at least one key");
+      if (j.contains("interpolation")) {
+        const Json& in = j["interpolation"];
+        std::string s = in.is_string() ? in.get<std::string>() : shortDump(in);
+        if (s == "linear") t.interp = Track::Interp::Linear;
+        else if (s == "step") t.interp = Track::Interp::Step;
+        else fail(path + ".interpolation", cat("'", s, "': expected linear or step"));
+      }
+    } else if (isKeyList(j)) {
+      list = &j;
+    }
+    if (!list) {
+      t.keys.push_back({0.0, value(j, path, shape)});
+      return t;
+    }
+    for (size_t k = 0; k < list->size(); ++k) {
+      const Json& key = (*list)[k];
+      std::string keyPath = cat(listPath, "[", k, "]");
+      if (!key.is_object()) fail(keyPath, "expected {\"frame\": F, \"value\": V}");
+      keys(key, keyPath, {"frame", "value"});
+      if (!key.contains("frame")) fail(keyPath + ".frame", "missing");
+      if (!key.contains("value")) fail(keyPath + ".value", "missing");
+      t.keys.push_back({number(key["frame"], keyPath + ".frame"), value(key["value"], keyPath + ".value", shape)});
+    }
+    t.origin = listPath;
+    t.keyList = true;
+    return t;
+  }
+
+  RigLight readLight(const Json& j, const std::string& path) {
+    if (!j.is_object()) fail(path, "expected a light object {\"type\": ..., ...}");
+    if (!j.contains("type")) fail(path + ".type", "missing (environment, sun, disk or uniform)");
+    if (!j["type"].is_string()) fail(path + ".type", "expected a string (environment, sun, disk or uniform)");
+    const std::string type = j["type"].get<std::string>();
+    RigLight light;
+    light.label = path;
+    if (type == "environment") {
+      light.type = RigLight::Type::Environment;
+      keys(j, path, {"type", "name", "file", "axis", "rotation", "intensity"});
+      if (!j.contains("file") || !j["file"].is_string() || j["file"].get<std::string>().empty())
+        fail(path + ".file", "missing (the path of an .exr or .hdr map)");
+      std::filesystem::path file = j["file"].get<std::string>();
+      light.file = (file.is_relative() ? baseDir_ / file : file).lexically_normal().string();
+      if (j.contains("axis")) light.axis = track(j["axis"], path + ".axis", Shape::Direction);
+      if (j.contains("rotation")) light.rotation = track(j["rotation"], path + ".rotation", Shape::Scalar);
+      if (j.contains("intensity")) light.intensity = track(j["intensity"], path + ".intensity", Shape::Color);
+    } else if (type == "sun" || type == "disk") {
+      const bool sun = type == "sun";
+      light.type = sun ? RigLight::Type::Sun : RigLight::Type::Disk;
+      if (sun)
+        keys(j, path, {"type", "name", "direction", "azimuth", "elevation", "radius", "irradiance"});
+      else
+        keys(j, path, {"type", "name", "direction", "azimuth", "elevation", "radius", "radiance", "irradiance"});
+      const bool vec = j.contains("direction"), azel = j.contains("azimuth") || j.contains("elevation");
+      if (vec == azel)
+        fail(path, vec ? "give either \"direction\" or \"azimuth\" + \"elevation\", not both"
+                       : "missing \"direction\" [X, Y, Z] (or \"azimuth\" + \"elevation\" in degrees)");
+      if (vec) {
+        light.direction = track(j["direction"], path + ".direction", Shape::Direction);
+      } else {
+        if (!j.contains("azimuth")) fail(path + ".azimuth", "missing (degrees; \"elevation\" needs it)");
+        if (!j.contains("elevation")) fail(path + ".elevation", "missing (degrees; \"azimuth\" needs it)");
+        light.useAzimuthElevation = true;
+        light.azimuth = track(j["azimuth"], path + ".azimuth", Shape::Scalar);
+        light.elevation = track(j["elevation"], path + ".elevation", Shape::Scalar);
+      }
+      if (j.contains("radius")) light.radius = track(j["radius"], path + ".radius", Shape::Scalar);
+      else if (!sun) fail(path + ".radius", "missing (angular radius of the disk, degrees)");
+      if (sun) {
+        if (j.contains("irradiance")) light.color = track(j["irradiance"], path + ".irradiance", Shape::Color);
+        light.colorIsIrradiance = true;
+      } else {
+        const bool radiance = j.contains("radiance"), irradiance = j.contains("irradiance");
+        if (radiance == irradiance)
+          fail(path, radiance ? "give either \"radiance\" or \"irradiance\", not both"
+                              : "missing \"radiance\" (or \"irradiance\" on a surface facing the disk)");
+        light.colorIsIrradiance = irradiance;
+        light.color = track(j[radiance ? "radiance" : "irradiance"], path + (radiance ? ".radiance" : ".irradiance"),
+                            Shape::Color);
+      }
+    } else if (type == "uniform") {
+      light.type = RigLight::Type::Uniform;
+      keys(j, path, {"type", "name", "radiance"});
+      if (!j.contains("radiance")) fail(path + ".radiance", "missing (sky radiance, a number or [R, G, B])");
+      light.color = track(j["radiance"], path + ".radiance", Shape::Color);
+    } else {
+      fail(path + ".type", cat("'", type, "' is not a light type (environment, sun, disk or uniform)"));
+    }
+    if (j.contains("name") && !j["name"].is_string()) fail(path + ".name", "expected a string");
+    return light;
+  }
+
+};
+
+}  // namespace
+
+LightRig parseLightRig(const std::string& json, const std::string& name, const std::string& baseDir) {
+  Reader reader(name, baseDir);
+  return reader.read(json);
+}
+
+LightRig loadLightRig(const std::string& path) {
+  std::string text = readFile(path);
+  return parseLightRig(text, path, std::filesystem::path(path).parent_path().string());
+}
+
+}  // namespace prt
