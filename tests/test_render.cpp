@@ -3,13 +3,17 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <optional>
 #include <random>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "prt/bake/probe_bake.h"
@@ -502,6 +506,20 @@ TEST(RenderShading, TexturedQuadAlbedoPerPixel) {
   EXPECT_LT(img.at(20, 10).y, img.at(20, kHeight - 11).y);  // green grows downwards (v)
 }
 
+TEST(RenderShading, MirroringWorldTransformKeepsFrontFaces) {
+  // The loader leaves every instance wound counter-clockwise in world space, also under a
+  // mirroring node transform (it swaps two corners), so such an instance must render exactly
+  // like the same world-space triangles without the mirror.
+  Scene s = tiltedQuad(2);
+  s.meshes[0].world = glm::scale(glm::dmat4(1.0), glm::dvec3(-1.0, 1.0, 1.0));
+  const sh::ShRgb light = randomLight(2, 6);
+  GlContext ctx(GlBackend::OSMesa, kWidth, kHeight);
+  Renderer r(ctx, s);
+  const Comparison c = compare(r.render(frontCamera(), light), s, frontCamera(), light);
+  EXPECT_GT(c.compared, 600);
+  EXPECT_LT(c.maxError, shadingTolerance(ctx));
+}
+
 TEST(RenderShading, BackFacesCulledUnlessDoubleSided) {
   Scene s = tiltedQuad(2);
   for (size_t i = 0; i < s.meshes[0].indices.size(); i += 3)
@@ -590,33 +608,40 @@ TEST(RenderShading, SceneWithoutTransferIsAnError) {
   EXPECT_THROW(Renderer(ctx, s), Error);
 }
 
+// The demo scene with unshadowed diffuse transfer on its baked instances (t_i = Â_l y_i(N), so
+// t · l is the irradiance of the light at the vertex normal).
+Scene unshadowedCornell(const std::string& input, int bands) {
+  Scene scene = loadScene(input);
+  for (MeshInstance& m : scene.meshes) {
+    if (m.receiverOnly) continue;
+    m.transferBands = bands;
+    m.transfer.clear();
+    for (const glm::vec3& n : m.normals) {
+      std::vector<float> y(size_t(bands) * bands);
+      sh::evaluate(bands, n, y.data());
+      for (int i = 0; i < bands * bands; ++i)
+        m.transfer.push_back(glm::vec3(float(sh::clampedCosineFactor(sh::bandOf(i))) * y[size_t(i)]));
+    }
+  }
+  scene.transferBands = bands;
+  return scene;
+}
+
 TEST(RenderShading, BakedFileOfTheDemoSceneMatchesOracle) {
   // The path bake → file → render: the Cornell scene with unshadowed diffuse transfer
   // (t_i = Â_l y_i(N), so t · l is the irradiance of the light at the vertex normal) written as
   // a baked .glb, loaded back and seen through the scene's own camera. Checks that world
   // transforms, materials and the baked attributes reach the renderer as the loader means them.
   const std::string input = std::string(PRT_SOURCE_DIR) + "/scenes/cornell_open.gltf";
-  Scene scene = loadScene(input);
-  ASSERT_FALSE(scene.cameras.empty());
   const int bands = 3;
-  for (MeshInstance& m : scene.meshes) {
-    if (m.receiverOnly) continue;
-    m.transferBands = bands;
-    m.transfer.clear();
-    for (const glm::vec3& n : m.normals) {
-      float y[bands * bands];
-      sh::evaluate(bands, n, y);
-      for (int i = 0; i < bands * bands; ++i)
-        m.transfer.push_back(glm::vec3(float(sh::clampedCosineFactor(sh::bandOf(i))) * y[i]));
-    }
-  }
-  scene.transferBands = bands;
+  Scene scene = unshadowedCornell(input, bands);
   const std::filesystem::path out =
       std::filesystem::temp_directory_path() / cat("prt_test_render_", ::getpid(), ".glb");
   writeBakedScene(input, scene, "{}", out.string());
   const Scene baked = loadScene(out.string());
   std::filesystem::remove(out);
   ASSERT_EQ(baked.transferBands, bands);
+  ASSERT_FALSE(baked.cameras.empty());
 
   sh::ShRgb light(bands);  // a sky brighter overhead, warmer from +X
   light.c[0] = glm::vec3(1.0f, 0.9f, 0.8f);
@@ -1109,6 +1134,60 @@ TEST(RenderReceivers, MovingReceiverFollowsItsAnimation) {
     EXPECT_GT(r.lastFrame().lightMs, 0.0);
   }
   EXPECT_GT(maxDifference(frames[0], frames[1]), 0.05);
+}
+
+// The command line: `prt render --probes --fps` on the demo scene written as a baked file, with a
+// probe grid file. Without --probes: one warning and the receiver is not drawn.
+struct Command {
+  int status = -1;
+  std::string err;
+};
+
+Command runPrt(const std::string& args, const std::filesystem::path& dir) {
+  const std::filesystem::path errFile = dir / "stderr.txt";
+  Command c;
+  const int raw = std::system(cat(PRT_EXE, " ", args, " 2> ", errFile.string()).c_str());
+  c.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  std::ifstream in(errFile);
+  c.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return c;
+}
+
+TEST(RenderCommand, ProbesLightTheMovingReceiver) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / cat("prt_test_render_cmd_", ::getpid());
+  fs::create_directories(dir);
+  const std::string input = std::string(PRT_SOURCE_DIR) + "/scenes/cornell_open.gltf";
+  const std::string baked = (dir / "c.glb").string(), probes = (dir / "p.vdb").string();
+  writeBakedScene(input, unshadowedCornell(input, 3), "{}", baked);
+  writeProbeGrid(identityGrid(3, glm::ivec3(5), glm::dvec3(-1.0, 0.0, -1.0), glm::dvec3(0.5)), probes);
+  const Scene file = loadScene(baked);
+  ASSERT_EQ(file.animations.size(), 1u);  // the receiver's path survives the baked file
+  ASSERT_GT(animationDuration(file), 2.0);
+
+  const std::string common = cat("render ", baked, " --env ", PRT_SOURCE_DIR, "/scenes/env/white_sky_64.hdr --size 64x36 ");
+  const Command none = runPrt(common + "--frames 0-0 -o " + (dir / "n_%02d.exr").string(), dir);
+  EXPECT_EQ(none.status, 0) << none.err;
+  size_t warnings = 0;
+  for (size_t p = none.err.find("warning"); p != std::string::npos; p = none.err.find("warning", p + 1)) ++warnings;
+  EXPECT_EQ(warnings, 1u) << none.err;
+  EXPECT_NE(none.err.find("receiver instance ('Receiver"), std::string::npos) << none.err;
+
+  // --fps 0.5: frame 1 is at t = 2 s, where the receiver has moved up and right.
+  const Command lit = runPrt(common + "--probes " + probes + " --fps 0.5 --frames 0-1 -o " + (dir / "f_%02d.exr").string(), dir);
+  EXPECT_EQ(lit.status, 0) << lit.err;
+  EXPECT_EQ(lit.err.find("warning"), std::string::npos) << lit.err;
+  const ImageRgb unlit = loadHdrImage((dir / "n_00.exr").string());
+  const ImageRgb f0 = loadHdrImage((dir / "f_00.exr").string());
+  const ImageRgb f1 = loadHdrImage((dir / "f_01.exr").string());
+  EXPECT_GT(maxDifference(f0, unlit), 0.1);  // the receiver is drawn
+  EXPECT_GT(maxDifference(f0, f1), 0.1);     // and moves
+
+  const Command bad = runPrt(common + "--fps 0 -o " + (dir / "b_%02d.exr").string(), dir);
+  EXPECT_EQ(bad.status, 1);
+  EXPECT_NE(bad.err.find("--fps"), std::string::npos) << bad.err;
+  EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
+  fs::remove_all(dir);
 }
 
 }  // namespace

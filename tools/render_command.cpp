@@ -9,6 +9,7 @@
 #include "light_options.h"
 #include "prt/error.h"
 #include "prt/image.h"
+#include "prt/probe_grid.h"
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
 #include "prt/scene.h"
@@ -25,6 +26,8 @@ struct RenderArgs {
   double exposure = 0.0;
   double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitYfov = 45.0;
   bool quiet = false;
+  std::string probes;  // probe grid (.vdb) lighting the receivers
+  double fps = 24.0;   // frame f is at time f / fps of the scene's animations
 };
 
 RenderArgs args;
@@ -55,6 +58,9 @@ CLI::App* addRenderCommand(CLI::App& app) {
   r->add_option("--orbit-azimuth", args.orbitAzimuth, "Orbit camera azimuth, degrees about +Y")->capture_default_str();
   r->add_option("--orbit-elevation", args.orbitElevation, "Orbit camera elevation, degrees")->capture_default_str();
   r->add_option("--gl", args.gl, "OpenGL back end: osmesa or egl")->capture_default_str();
+  r->add_option("--probes", args.probes, "Probe grid (.vdb from prt bake --probes) lighting the receivers");
+  r->add_option("--fps", args.fps, "Frames per second: frame f shows the scene's animations at time f/fps")
+      ->capture_default_str();
   addLightOptions(*r, args.light);
   r->add_option("--env-rotate-end", args.envRotateEnd,
                 "Environment rotation at the last frame, degrees (linear from --env-rotate)");
@@ -72,6 +78,7 @@ void runRenderCommand() {
   if (std::sscanf(a.size.c_str(), "%dx%d", &width, &height) != 2 || width < 1 || height < 1 || width > 16384 ||
       height > 16384)
     throw Error(cat("--size ", a.size, ": expected WxH, each 1..16384"));
+  if (!(a.fps > 0.0) || !std::isfinite(a.fps)) throw Error(cat("--fps ", a.fps, ": expected a positive number"));
   render::GlBackend backend = render::parseGlBackend(a.gl);
   std::filesystem::path dir = std::filesystem::path(framePath(a.output, first)).parent_path();
   if (!dir.empty() && !std::filesystem::is_directory(dir))
@@ -108,6 +115,11 @@ void runRenderCommand() {
 
   render::GlContext context(backend, width, height);
   render::Renderer renderer(context, scene);
+  ProbeGrid probes;
+  if (!a.probes.empty()) {
+    probes = readProbeGrid(a.probes);
+    renderer.setProbes(probes);
+  }
   if (!a.quiet)
     for (const std::string& w : renderer.warnings()) std::fprintf(stderr, "prt: warning: %s\n", w.c_str());
   double drawMs = 0.0, lightMs = 0.0;
@@ -118,11 +130,17 @@ void runRenderCommand() {
     sh::ShRgb light = sh::Rotation(bands, sh::rotationY(rot0 + s * (rot1 - rot0))).apply(env);
     light += sun;
     auto t1 = std::chrono::steady_clock::now();
-    ImageRgb image = renderer.render(view, light, width, height);
+    render::Frame frame;
+    frame.camera = view;
+    frame.light = light;
+    frame.time = f / a.fps;
+    frame.width = width;
+    frame.height = height;
+    ImageRgb image = renderer.render(frame);
     std::string path = framePath(a.output, f);
     writeExr(path, image);
     if (a.png) writePng(std::filesystem::path(path).replace_extension(".png").string(), image, float(a.exposure));
-    lightMs += std::chrono::duration<double, std::milli>(t1 - t0).count();
+    lightMs += std::chrono::duration<double, std::milli>(t1 - t0).count() + renderer.lastFrame().lightMs;
     drawMs += renderer.lastFrame().drawMs + renderer.lastFrame().readbackMs;
     if (!a.quiet) std::fprintf(stderr, "frame %d -> %s (%.1f ms)\n", f, path.c_str(), renderer.lastFrame().drawMs);
   }
