@@ -5,14 +5,20 @@
 //   c    = Σ_p w_p c_p                         (interpolateRadiance; c_p = M_p · l, relit per frame)
 //   E    = Σ_j Â_l(j) y_j(n) c_j               (sh::irradiance)
 //   L_o  = albedo / π · E
-// computed as E = Σ_p w_p Σ_j (Â_l y_j(n)) c_p,j: the same sums in another order. The shader
-// reads c_p exactly as relightProbes returns it (probe-major, n² RGB), so the per-frame upload is
-// one buffer copy; coefficients of odd bands l > 1 have Â_l = 0 and are never read.
+// computed as E = Σ_j (Â_l y_j(n)) Σ_p w_p c_p,j: the same sums in another order. Per frame the
+// CPU packs each probe's c_p (from relightProbes) into RGBA texels, the RGB of the coefficients
+// with Â_l ≠ 0 back to back (odd bands l > 1 drop out of irradiance): 7 texels per probe for 3
+// bands instead of 9 RGB ones. Fetches dominate the receivers' cost on llvmpipe, and it reads
+// RGBA32F buffer texels about twice as fast as RGB32F ones (measured, docs/render.md).
 #include "probe_shading.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "prt/error.h"
 #include "prt/sh.h"
@@ -44,7 +50,7 @@ double minSpacing(const ProbeGrid& grid) {
 // cell corner c (0 where the C++ leaves the corner out), probe[c] its probe (−1 for none).
 // leakWeight() is the per-probe factor max(w_v · w_b, kMinWeight): the part that changes when
 // the visibility test changes. Its per-probe inputs come from probeStaticTexels() below.
-constexpr const char* kProbeWeightsGlsl = R"(
+constexpr const char* kProbeWeightsHeadGlsl = R"(
 const float kBoundaryTolerance = 1e-4;
 const float kMinWeight = 1e-6;
 const float kTrilinearFloor = 1e-3;
@@ -97,34 +103,58 @@ bool probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8]) {
   vec3 lerp[8];
   vec4 pv[8];  // (position, validity)
   bool anyTrilinear = false;
-  for (int c = 0; c < 8; ++c) {
-    ivec3 off = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+)";
+// Loop bodies over the cell's corners c = 0..7, emitted once per corner with C replaced by the
+// corner's number (the loops of the C++ unrolled: llvmpipe keeps arrays indexed by constants in
+// registers, but spills arrays indexed by a loop variable to memory, lane by lane).
+constexpr const char* kCornerSetupGlsl = R"(  {  // corner C
+    ivec3 off = ivec3(C & 1, (C >> 1) & 1, (C >> 2) & 1);
     int p = findProbe(base + off);
-    pv[c] = p >= 0 ? texelFetch(uProbeStatic, p * 4) : vec4(0.0);
-    if (p >= 0 && !(pv[c].w > 0.0)) p = -1;  // invalid probes are never read
-    probe[c] = p;
-    lerp[c] = vec3(off.x != 0 ? t.x : 1.0 - t.x, off.y != 0 ? t.y : 1.0 - t.y, off.z != 0 ? t.z : 1.0 - t.z);
-    if (p >= 0) anyTrilinear = anyTrilinear || lerp[c].x * lerp[c].y * lerp[c].z > 0.0;
+    pv[C] = p >= 0 ? texelFetch(uProbeStatic, p * 4) : vec4(0.0);
+    if (p >= 0 && !(pv[C].w > 0.0)) p = -1;  // invalid probes are never read
+    probe[C] = p;
+    lerp[C] = vec3(off.x != 0 ? t.x : 1.0 - t.x, off.y != 0 ? t.y : 1.0 - t.y, off.z != 0 ? t.z : 1.0 - t.z);
+    if (p >= 0) anyTrilinear = anyTrilinear || lerp[C].x * lerp[C].y * lerp[C].z > 0.0;
   }
-  float sum = 0.0;
-  for (int c = 0; c < 8; ++c) {
-    weight[c] = 0.0;
-    if (probe[c] < 0) continue;
-    vec3 f = anyTrilinear ? lerp[c] : max(lerp[c], vec3(kTrilinearFloor));
-    float wt = f.x * f.y * f.z * pv[c].w;
-    if (wt <= 0.0) continue;
-    vec3 d = x - pv[c].xyz;
-    float r = length(d);
-    weight[c] = wt * leakWeight(probe[c], d, r, n);
-    sum += weight[c];
+)";
+constexpr const char* kCornerWeightGlsl = R"(  weight[C] = 0.0;
+  if (probe[C] >= 0) {  // corner C
+    vec3 f = anyTrilinear ? lerp[C] : max(lerp[C], vec3(kTrilinearFloor));
+    float wt = f.x * f.y * f.z * pv[C].w;
+    if (wt > 0.0) {
+      vec3 d = x - pv[C].xyz;
+      float r = length(d);
+      weight[C] = wt * leakWeight(probe[C], d, r, n);
+      sum += weight[C];
+    }
   }
-  if (!(sum > 0.0)) return false;
-  for (int c = 0; c < 8; ++c) weight[c] /= sum;
-  return true;
+)";
+constexpr const char* kNormaliseGlsl = R"(  if (!(sum > 0.0)) return false;
+)";
+constexpr const char* kCornerNormaliseGlsl = "  weight[C] /= sum;\n";
+constexpr const char* kProbeWeightsTailGlsl = R"(  return true;
 }
 )";
 // END probeWeights port.
 // ============================================================================================
+
+std::string perCorner(const char* body) {
+  std::string out;
+  for (int c = 0; c < 8; ++c) {
+    std::string b = body;
+    for (size_t at = b.find('C'); at != std::string::npos; at = b.find('C', at + 1))
+      if ((at == 0 || !std::isalnum((unsigned char)b[at - 1])) && !std::isalnum((unsigned char)b[at + 1]))
+        b.replace(at, 1, std::to_string(c));
+    out += b;
+  }
+  return out;
+}
+
+std::string probeWeightsGlsl() {
+  return std::string(kProbeWeightsHeadGlsl) + perCorner(kCornerSetupGlsl) + "  float sum = 0.0;\n" +
+         perCorner(kCornerWeightGlsl) + kNormaliseGlsl +
+         perCorner(kCornerNormaliseGlsl) + kProbeWeightsTailGlsl;
+}
 
 // Normalisation K_l^m of the real SH basis (as in probes/src/sh.cpp): sqrt((2l+1)/(4π) ·
 // (l−m)!/(l+m)!), times √2 for m > 0.
@@ -190,7 +220,7 @@ in vec4 vColor;
 layout(binding = 0) uniform sampler2D uBaseColorTexture;
 layout(binding = 1) uniform isamplerBuffer uLattice;       // lattice point -> probe, -1 none
 layout(binding = 2) uniform samplerBuffer uProbeStatic;    // 4 texels per probe
-layout(binding = 3) uniform samplerBuffer uProbeRadiance;  // c_p: n² RGB texels per probe
+layout(binding = 3) uniform samplerBuffer uProbeRadiance;  // c_p packed: packRadiance()
 uniform vec4 uBaseColor;
 uniform int uHasTexture;
 uniform int uHasColor;
@@ -202,28 +232,34 @@ const int kCoeffs = )", n2, R"(;
 uniform vec3 uLight[kCoeffs];  // the light itself: incident radiance where no probe applies
 out vec4 fragColor;
 )");
-  s += kProbeWeightsGlsl;
+  s += probeWeightsGlsl();
   s += R"(
 void main() {
   vec3 n = normalize(vNormal);
   float px = n.x, py = n.y, pz = n.z;
 )";
   s += irradianceBasisGlsl(bands);
-  s += R"(  int probe[8];
-  float w[8];
-  vec3 e = vec3(0.0);
-  if (probeWeights(vWorld, n, probe, w)) {
-    for (int c = 0; c < 8; ++c) {
-      if (w[c] > 0.0) {
-        int base = probe[c] * kCoeffs;
-        vec3 s = vec3(0.0);
-)";
-  for (int j : irradianceCoefficients(bands))
-    s += cat("        s += texelFetch(uProbeRadiance, base + ", j, ").rgb * b", j, ";\n");
-  s += R"(        e += w[c] * s;
-      }
+  // Per corner, the weighted packed texels are summed (T_i += w · texel_i); the basis is applied
+  // once at the end: Σ_p w_p Σ_j b_j c_p,j = Σ_j b_j Σ_p w_p c_p,j.
+  const std::vector<int> used = irradianceCoefficients(bands);
+  const int texels = radianceTexels(bands);
+  s += "  int probe[8];\n  float w[8];\n  vec3 e = vec3(0.0);\n";
+  for (int i = 0; i < texels; ++i) s += cat("  vec4 T", i, " = vec4(0.0);\n");
+  s += "  if (probeWeights(vWorld, n, probe, w)) {\n";
+  std::string corner = cat("    if (w[C] > 0.0) {  // corner C\n      int base = probe[C] * ", texels, ";\n");
+  for (int i = 0; i < texels; ++i) corner += cat("      T", i, " += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
+  corner += "    }\n";
+  s += perCorner(corner.c_str());
+  const char* lane = "xyzw";
+  for (size_t k = 0; k < used.size(); ++k) {
+    std::string rgb;
+    for (int c = 0; c < 3; ++c) {
+      const size_t f = 3 * k + size_t(c);
+      rgb += cat(c ? ", " : "", "T", f / 4, ".", lane[f % 4]);
     }
-  } else {
+    s += cat("    e += vec3(", rgb, ") * b", used[k], ";\n");
+  }
+  s += R"(  } else {
     // Outside the lattice, or no valid probe around: lit by the unoccluded light (M = I).
 )";
   for (int j : irradianceCoefficients(bands)) s += cat("    e += uLight[", j, "] * b", j, ";\n");
@@ -235,6 +271,27 @@ void main() {
 }
 )";
   return s;
+}
+
+int radianceTexels(int bands) { return int(3 * irradianceCoefficients(bands).size() + 3) / 4; }
+
+void packRadiance(int bands, const std::vector<glm::vec3>& relit, std::vector<glm::vec4>& out) {
+  const std::vector<int> used = irradianceCoefficients(bands);
+  const size_t n2 = size_t(bands) * bands, texels = size_t(radianceTexels(bands));
+  PRT_CHECK_EQ(relit.size() % n2, size_t(0));
+  const size_t probes = relit.size() / n2;
+  out.assign(std::max<size_t>(probes, 1) * texels, glm::vec4(0.0f));
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, probes, 1024), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t p = r.begin(); p < r.end(); ++p) {
+      float* dst = &out[p * texels].x;
+      for (size_t k = 0; k < used.size(); ++k) {
+        const glm::vec3& c = relit[p * n2 + size_t(used[k])];
+        dst[3 * k] = c.r;
+        dst[3 * k + 1] = c.g;
+        dst[3 * k + 2] = c.b;
+      }
+    }
+  });
 }
 
 std::vector<glm::vec4> probeStaticTexels(const ProbeGrid& grid) {

@@ -20,6 +20,13 @@ constexpr int kProbeStaticTexels = 4;
 /// l > 1 contribute nothing to irradiance, so the shader never reads them).
 std::vector<int> irradianceCoefficients(int bands);
 
+/// RGBA texels per probe in the per-frame radiance buffer: ⌈3K/4⌉ for the K coefficients of
+/// irradianceCoefficients(bands).
+int radianceTexels(int bands);
+/// Packs relit probes (relightProbes' layout: probe-major, bands² RGB) into that buffer: per
+/// probe radianceTexels(bands) texels, coefficient irradianceCoefficients()[k] at floats 3k..3k+2.
+void packRadiance(int bands, const std::vector<glm::vec3>& relit, std::vector<glm::vec4>& out);
+
 /// The receivers' fragment shader for a grid of `bands` bands. Inputs: vWorld, vNormal,
 /// vTexcoord, vColor; uniforms and bindings as set up by Renderer (renderer.cpp).
 std::string receiverFragmentShader(int bands);

@@ -244,6 +244,7 @@ struct Renderer::Impl {
   GLuint fbo = 0, colorRb = 0, depthRb = 0;
   int fboWidth = 0, fboHeight = 0;
   std::vector<glm::vec4> readback;
+  std::vector<glm::vec4> radiance;  // per-frame upload: c_p as RGBA (see uploadProbes)
   FrameStats stats;
   std::vector<std::string> warnings;
 
@@ -473,8 +474,8 @@ void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
   gl.GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxTexels);
   const std::vector<int32_t> lattice = latticeIndex(g);
   const std::vector<glm::vec4> statics = probeStaticTexels(g);
-  const size_t radianceTexels = std::max<size_t>(g.probeCount(), 1) * size_t(g.coeffs());
-  for (size_t texels : {lattice.size(), statics.size(), radianceTexels})
+  const size_t radianceCount = std::max<size_t>(g.probeCount(), 1) * size_t(radianceTexels(g.bands));
+  for (size_t texels : {lattice.size(), statics.size(), radianceCount})
     if (texels > size_t(maxTexels))
       throw Error(cat("probe grid: ", texels, " texels exceed the GL's texture buffer limit of ", maxTexels));
   const std::string fs = receiverFragmentShader(g.bands);
@@ -482,12 +483,12 @@ void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
   gl.CreateBuffers(3, probeBuffers);
   gl.NamedBufferStorage(probeBuffers[0], GLsizeiptr(lattice.size() * sizeof(int32_t)), lattice.data(), 0);
   gl.NamedBufferStorage(probeBuffers[1], GLsizeiptr(statics.size() * sizeof(glm::vec4)), statics.data(), 0);
-  gl.NamedBufferStorage(probeBuffers[2], GLsizeiptr(radianceTexels * sizeof(glm::vec3)), nullptr,
+  gl.NamedBufferStorage(probeBuffers[2], GLsizeiptr(radianceCount * sizeof(glm::vec4)), nullptr,
                         GL_DYNAMIC_STORAGE_BIT);
   gl.CreateTextures(GL_TEXTURE_BUFFER, 3, probeTextures);
   gl.TextureBuffer(probeTextures[0], GL_R32I, probeBuffers[0]);
   gl.TextureBuffer(probeTextures[1], GL_RGBA32F, probeBuffers[1]);
-  gl.TextureBuffer(probeTextures[2], GL_RGB32F, probeBuffers[2]);
+  gl.TextureBuffer(probeTextures[2], GL_RGBA32F, probeBuffers[2]);
   const GLuint p = receiverProgram.id;
   const glm::vec3 origin(g.origin), spacing(g.spacing);
   gl.ProgramUniform3fv(p, receiverProgram.origin, 1, &origin.x);
@@ -619,7 +620,8 @@ ImageRgb Renderer::render(const Frame& frame) {
     gl.ProgramUniform3fv(r.receiverProgram.id, r.receiverProgram.light, l.size(), &l.c[0].x);
     if (g.probeCount() > 0) {
       const std::vector<glm::vec3> relit = relightProbes(g, l);
-      gl.NamedBufferSubData(r.probeBuffers[2], 0, GLsizeiptr(relit.size() * sizeof(glm::vec3)), relit.data());
+      packRadiance(g.bands, relit, r.radiance);
+      gl.NamedBufferSubData(r.probeBuffers[2], 0, GLsizeiptr(r.radiance.size() * sizeof(glm::vec4)), r.radiance.data());
     }
   }
   r.checkError("updating the light");
