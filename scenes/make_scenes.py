@@ -197,9 +197,10 @@ class GltfWriter:
     def _view(self, data, target):
         while len(self.bin) % 4:
             self.bin.append(0)
-        self.gltf["bufferViews"].append({
-            "buffer": 0, "byteOffset": len(self.bin), "byteLength": len(data), "target": target,
-        })
+        view = {"buffer": 0, "byteOffset": len(self.bin), "byteLength": len(data)}
+        if target is not None:  # animation data has no GL buffer target
+            view["target"] = target
+        self.gltf["bufferViews"].append(view)
         self.bin += data
         return len(self.gltf["bufferViews"]) - 1
 
@@ -242,6 +243,25 @@ class GltfWriter:
         self.gltf["scenes"][0]["nodes"].append(index)
         return index
 
+    def animation(self, name, node, path, times, values):
+        """A LINEAR animation of one node property: key `times` (seconds) and one value per key
+        (3 floats for translation and scale). The input accessor carries min/max, as glTF asks."""
+        times = [f32(t) for t in times]
+        tview = self._view(struct.pack("<%df" % len(times), *times), None)
+        self.gltf["accessors"].append({"bufferView": tview, "componentType": FLOAT, "count": len(times),
+                                       "type": "SCALAR", "min": [min(times)], "max": [max(times)]})
+        tacc = len(self.gltf["accessors"]) - 1
+        flat = [f32(c) for v in values for c in v]
+        vview = self._view(struct.pack("<%df" % len(flat), *flat), None)
+        self.gltf["accessors"].append({"bufferView": vview, "componentType": FLOAT, "count": len(values),
+                                       "type": "VEC3"})
+        vacc = len(self.gltf["accessors"]) - 1
+        self.gltf.setdefault("animations", []).append({
+            "name": name,
+            "channels": [{"sampler": 0, "target": {"node": node, "path": path}}],
+            "samplers": [{"input": tacc, "output": vacc, "interpolation": "LINEAR"}],
+        })
+
     def camera(self, name, yfov, aspect, znear):
         self.gltf.setdefault("cameras", []).append({
             "name": name, "type": "perspective",
@@ -258,9 +278,9 @@ class GltfWriter:
         with open(os.path.join(HERE, basename + ".gltf"), "w", encoding="utf-8", newline="\n") as f:
             json.dump(self.gltf, f, indent=1)
             f.write("\n")
-        verts = sum(a["count"] for a in self.gltf["accessors"]
-                    if "min" in a and a["type"] == "VEC3")
-        tris = sum(a["count"] for a in self.gltf["accessors"] if a["type"] == "SCALAR") // 3
+        prims = [p for m in self.gltf["meshes"] for p in m["primitives"]]
+        verts = sum(self.gltf["accessors"][p["attributes"]["POSITION"]]["count"] for p in prims)
+        tris = sum(self.gltf["accessors"][p["indices"]]["count"] for p in prims) // 3
         print("%-16s %6d vertices %6d triangles %8d bytes of buffer"
               % (basename + ".gltf", verts, tris, len(self.bin)))
 
@@ -288,6 +308,15 @@ OPENING = 0.8          # side of the square ceiling opening (m)
 SHORT_BOX = {"size": (0.6, 0.6, 0.6), "at": (0.35, 0.0, 0.3), "yaw": -17.0}
 TALL_BOX = {"size": (0.6, 1.2, 0.6), "at": (-0.33, 0.0, -0.3), "yaw": 17.0}
 RECEIVER = {"radius": 0.2, "at": (-0.4, 0.5, 0.3)}
+# The receiver's path (glTF animation "ReceiverPath", translation, LINEAR): from its rest place
+# at the left front up, over the short box to the right, and down beside the tall box. Key
+# times in seconds; after the last key it stays there (glTF clamps).
+RECEIVER_PATH = [
+    (0.0, (-0.4, 0.5, 0.3)),
+    (1.0, (-0.3, 0.95, 0.35)),
+    (2.0, (0.5, 1.0, 0.05)),
+    (3.0, (0.5, 0.75, -0.55)),
+]
 
 # Camera: inside, against the front wall, slightly pitched up. It frames the whole height of
 # the back wall, both coloured walls, both boxes and most of the receiver. The ceiling opening
@@ -339,13 +368,24 @@ def cornell_open():
         g.node(name, mesh=g.mesh(name, box(b["size"], CELL), white),
                translation=list(b["at"]), rotation=quat_y(b["yaw"]))
 
-    # The receiver must not intersect the boxes, the floor or the walls.
+    # The receiver must not intersect the boxes, the floor, the ceiling or the walls, at rest and
+    # anywhere along its path (sampled finely; it moves in straight lines between keys).
     r, at = RECEIVER["radius"], RECEIVER["at"]
+    assert RECEIVER_PATH[0][1] == at
     for b in (SHORT_BOX, TALL_BOX):
         assert footprint_distance(at, b) > r + 0.05
     assert at[1] - r > 0.05 and all(abs(c) + r < 0.95 for c in (at[0], at[2]))
-    g.node("Receiver", mesh=g.mesh("Receiver", uv_sphere(r, 32, 16), white),
-           translation=list(at), extras={"prt": {"receiver": True}})
+    for (t0, p0), (t1, p1) in zip(RECEIVER_PATH, RECEIVER_PATH[1:]):
+        assert t1 > t0
+        for k in range(201):
+            p = tuple(p0[i] + (p1[i] - p0[i]) * k / 200 for i in range(3))
+            for b in (SHORT_BOX, TALL_BOX):
+                assert footprint_distance(p, b) > r + 0.05 or p[1] - r > b["size"][1] + 0.05, p
+            assert p[1] - r > 0.05 and p[1] + r < 1.95 and all(abs(c) + r < 0.95 for c in (p[0], p[2])), p
+    receiver = g.node("Receiver", mesh=g.mesh("Receiver", uv_sphere(r, 32, 16), white),
+                      translation=list(at), extras={"prt": {"receiver": True}})
+    g.animation("ReceiverPath", receiver, "translation", [t for t, _ in RECEIVER_PATH],
+                [p for _, p in RECEIVER_PATH])
 
     cam = g.camera("Camera", CAMERA["yfov"], CAMERA["aspect"], 0.01)
     g.node("Camera", camera=cam, translation=list(CAMERA["at"]), rotation=quat_x(CAMERA["pitch"]))

@@ -14,6 +14,7 @@
 #include "prt/error.h"
 #include "prt/image.h"
 #include "prt/light_rig.h"
+#include "prt/probe_grid.h"
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
 #include "prt/scene.h"
@@ -27,12 +28,14 @@ struct RenderArgs {
   LightOptions light;
   bool png = false;
   double exposure = 0.0;
-  double fps = 0.0;  // 0: the rig's fps, else 24
+  double fps = 0.0;  // 0: the rig's fps, else 24; frame f is at time f / fps of the animations
+  std::string probes;  // probe grid (.vdb) lighting the receivers
   std::string mp4, contactSheet;
   int sheetColumns = 0, sheetTile = 192;
   double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitYfov = 45.0;
   bool quiet = false;
   CLI::Option* framesOption = nullptr;
+  CLI::Option* fpsOption = nullptr;
 };
 
 RenderArgs args;
@@ -75,7 +78,10 @@ CLI::App* addRenderCommand(CLI::App& app) {
   r->add_flag("--png", args.png, "Also write tone-mapped sRGB PNGs next to the EXRs");
   r->add_option("--exposure", args.exposure, "Exposure in stops for PNG, MP4 and contact sheet")->capture_default_str();
   r->add_option("--mp4", args.mp4, "Also encode the frames as H.264 MP4 with ffmpeg (must be on PATH)");
-  r->add_option("--fps", args.fps, "Frames per second of --mp4 (default: the rig's fps, else 24)");
+  args.fpsOption = r->add_option("--fps", args.fps,
+                "Frames per second: frame f shows the scene's animations at time f/fps; also the --mp4 rate "
+                "(default: the rig's fps, else 24)");
+  r->add_option("--probes", args.probes, "Probe grid (.vdb from prt bake --probes) lighting the receivers");
   r->add_option("--contact-sheet", args.contactSheet, "Also write a PNG grid of all frames, downscaled");
   r->add_option("--sheet-columns", args.sheetColumns, "Contact sheet columns (0 = about square)")->capture_default_str();
   r->add_option("--sheet-tile", args.sheetTile, "Contact sheet: largest tile side in pixels")->capture_default_str();
@@ -92,7 +98,7 @@ void runRenderCommand() {
     throw Error(cat("--size ", a.size, ": expected WxH, each 1..16384"));
   render::GlBackend backend = render::parseGlBackend(a.gl);
   if (!std::isfinite(a.exposure)) throw Error("--exposure: not a finite number");
-  if (a.fps != 0.0 && !(std::isfinite(a.fps) && a.fps > 0)) throw Error(cat("--fps ", a.fps, ": must be > 0"));
+  if (a.fpsOption->count() > 0 && !(std::isfinite(a.fps) && a.fps > 0)) throw Error(cat("--fps ", a.fps, ": must be > 0"));
   if (a.sheetColumns < 0) throw Error(cat("--sheet-columns ", a.sheetColumns, ": must be >= 0"));
   if (a.sheetTile < 1) throw Error(cat("--sheet-tile ", a.sheetTile, ": must be >= 1"));
 
@@ -116,7 +122,7 @@ void runRenderCommand() {
   std::unique_ptr<VideoEncoder> video;
   if (!a.mp4.empty()) video = std::make_unique<VideoEncoder>(a.mp4);  // ffmpeg missing: fail now
   if (!a.contactSheet.empty()) AtomicFile probe(a.contactSheet);     // unwritable: fail now
-  const double fps = a.fps > 0 ? a.fps : rig->fps.value_or(kDefaultFps);
+  const double fps = a.fpsOption->count() > 0 ? a.fps : rig->fps.value_or(kDefaultFps);
 
   Scene scene = loadScene(a.baked);
   if (scene.transferBands == 0) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
@@ -141,6 +147,11 @@ void runRenderCommand() {
 
   render::GlContext context(backend, width, height);
   render::Renderer renderer(context, scene);
+  ProbeGrid probes;
+  if (!a.probes.empty()) {
+    probes = readProbeGrid(a.probes);
+    renderer.setProbes(probes);
+  }
   if (!a.quiet)
     for (const std::string& w : renderer.warnings()) std::fprintf(stderr, "prt: warning: %s\n", w.c_str());
   const int n = last - first + 1;
@@ -156,8 +167,16 @@ void runRenderCommand() {
   for (int f = first; f <= last; ++f) {
     auto t0 = std::chrono::steady_clock::now();
     sh::ShRgb light = rig->evaluate(f, bands);
-    const double frameLightMs = msSince(t0);
-    ImageRgb image = renderer.render(view, light, width, height);
+    const double rigMs = msSince(t0);
+    render::Frame frame;
+    frame.camera = view;
+    frame.light = light;
+    frame.time = f / fps;
+    frame.width = width;
+    frame.height = height;
+    ImageRgb image = renderer.render(frame);
+    // The light update: the rig's SH plus, with probes, relighting and uploading the grid.
+    const double frameLightMs = rigMs + renderer.lastFrame().lightMs;
     auto t1 = std::chrono::steady_clock::now();
     std::string path = framePath(a.output, f);
     writeExr(path, image);

@@ -104,11 +104,11 @@ case "$mode" in
     say "relighting with scenes/env/royal_esplanade_128.hdr"
     run build/tools/prt relight out/cornell.baked.glb --env scenes/env/royal_esplanade_128.hdr \
       -o out/cornell.lit.glb --csv out/cornell.csv
-    say "rendering a turntable of the sky (8 frames)"
+    say "rendering a turntable of the sky with the receiver moving, lit from the probes (8 frames)"
     run mkdir -p out/frames
     run build/tools/prt render out/cornell.baked.glb --env scenes/env/royal_esplanade_128.hdr \
       --env-rotate 0 --env-rotate-end 315 --frames 0-7 --size 640x360 --gl osmesa --png --exposure 1 \
-      -o out/frames/frame_%04d.exr
+      --probes out/cornell.probes.vdb --fps 2 -o out/frames/frame_%04d.exr
     run build/tools/prt info out/cornell.probes.vdb
     say "done. Outputs in $root/out:"
     printf '    %s\n' \

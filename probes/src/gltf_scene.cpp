@@ -927,6 +927,171 @@ void computeBounds(const Gltf& g, Scene& scene) {
   scene.boundsMax = hi;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Nodes and animations (the renderer moves receivers with them; the bake is static)
+
+/// Every node of the file with its parent and rest TRS (or matrix). Values were validated by
+/// localTransform for the nodes of the default scene; others keep identity parts where a
+/// property is malformed (they place nothing).
+void readNodes(const Gltf& g, Scene& scene) {
+  const auto& nodes = g.model.nodes;
+  scene.nodes.assign(nodes.size(), Node{});
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const tinygltf::Node& n = nodes[i];
+    Node& out = scene.nodes[i];
+    out.name = n.name;
+    if (n.matrix.size() == 16) {
+      out.hasMatrix = true;
+      out.matrix = glm::make_mat4(n.matrix.data());
+    }
+    if (n.translation.size() == 3) out.translation = glm::make_vec3(n.translation.data());
+    if (n.rotation.size() == 4) {
+      const glm::dvec4 q = glm::make_vec4(n.rotation.data());
+      if (glm::length(q) > 0.0) out.rotation = q / glm::length(q);
+    }
+    if (n.scale.size() == 3) out.scale = glm::make_vec3(n.scale.data());
+    for (int c : n.children)
+      if (c >= 0 && size_t(c) < nodes.size()) scene.nodes[size_t(c)].parent = int(i);
+  }
+}
+
+const char* pathName(AnimationPath p) {
+  switch (p) {
+    case AnimationPath::Translation: return "translation";
+    case AnimationPath::Rotation: return "rotation";
+    case AnimationPath::Scale: return "scale";
+  }
+  return "?";
+}
+
+/// Reads and validates one channel; false if it is skipped (with a warning).
+bool readChannel(const Gltf& g, const tinygltf::Animation& anim, const tinygltf::AnimationChannel& ch,
+                 const std::string& where, AnimationChannel& out, std::vector<std::string>& warnings) {
+  const tinygltf::Model& m = g.model;
+  if (ch.target_node < 0) {
+    warnings.push_back(cat(g.path, ": ", where, ": no target node, ignored"));
+    return false;
+  }
+  if (size_t(ch.target_node) >= m.nodes.size())
+    fail(g, cat(where, ": target node ", ch.target_node, " does not exist (the file has ", m.nodes.size(), ")"));
+  out.node = ch.target_node;
+  if (ch.target_path == "translation") {
+    out.path = AnimationPath::Translation;
+  } else if (ch.target_path == "rotation") {
+    out.path = AnimationPath::Rotation;
+  } else if (ch.target_path == "scale") {
+    out.path = AnimationPath::Scale;
+  } else if (ch.target_path == "weights") {
+    warnings.push_back(cat(g.path, ": ", where, ": morph target weights are not supported, ignored"));
+    return false;
+  } else {
+    fail(g, cat(where, ": unknown target path '", ch.target_path, "'"));
+  }
+  if (!m.nodes[size_t(out.node)].matrix.empty())
+    fail(g, cat(where, ": node ", out.node, " has a matrix; glTF animates only nodes given as TRS"));
+  if (ch.sampler < 0 || size_t(ch.sampler) >= anim.samplers.size())
+    fail(g, cat(where, ": sampler ", ch.sampler, " does not exist (the animation has ", anim.samplers.size(), ")"));
+  const tinygltf::AnimationSampler& s = anim.samplers[size_t(ch.sampler)];
+  if (s.interpolation == "LINEAR" || s.interpolation.empty()) {
+    out.interpolation = Interpolation::Linear;
+  } else if (s.interpolation == "STEP") {
+    out.interpolation = Interpolation::Step;
+  } else if (s.interpolation == "CUBICSPLINE") {
+    out.interpolation = Interpolation::CubicSpline;
+  } else {
+    fail(g, cat(where, ": unknown interpolation '", s.interpolation, "'"));
+  }
+
+  const std::string inWhere = cat(where, " / input");
+  const AccessorData in = openAccessor(g, s.input, inWhere);
+  if (in.components != 1 || in.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
+    fail(g, cat(inWhere, ": key times must be SCALAR float, accessor ", s.input, " is ",
+                typeName(in.components == 1 ? TINYGLTF_TYPE_SCALAR : in.components), " of component type ",
+                in.componentType));
+  const size_t keys = in.count;
+  const bool cubic = out.interpolation == Interpolation::CubicSpline;
+  if (keys < (cubic ? 2u : 1u))
+    fail(g, cat(inWhere, ": ", keys, " key times, ", cubic ? "CUBICSPLINE needs at least 2" : "expected at least 1"));
+  out.times.resize(keys);
+  for (size_t k = 0; k < keys; ++k) {
+    out.times[k] = in.get(k, 0);
+    if (!std::isfinite(out.times[k])) fail(g, cat(inWhere, ": key time ", k, " is not finite"));
+    if (k > 0 && !(out.times[k] > out.times[k - 1]))
+      fail(g, cat(inWhere, ": key times not strictly increasing (key ", k, " at ", out.times[k], " s after ",
+                  out.times[k - 1], " s)"));
+  }
+
+  const std::string outWhere = cat(where, " / output");
+  const AccessorData val = openAccessor(g, s.output, outWhere);
+  const bool rotation = out.path == AnimationPath::Rotation;
+  const int want = rotation ? 4 : 3;
+  const bool floatType = val.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT;
+  // glTF allows normalized byte and short quaternions; translation and scale are float only.
+  const bool normalizedRotation = rotation && val.normalized && val.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+  if (val.components != want || !(floatType || normalizedRotation))
+    fail(g, cat(outWhere, ": ", pathName(out.path), " values must be ", rotation ? "VEC4" : "VEC3",
+                rotation ? " float or normalized integers" : " float", ", accessor ", s.output, " has ",
+                val.components, " components of component type ", val.componentType,
+                val.normalized ? " (normalized)" : ""));
+  const size_t expected = keys * (cubic ? 3 : 1);
+  if (val.count != expected)
+    fail(g, cat(outWhere, ": ", val.count, " values, expected ", expected, " (", keys, " key times",
+                cubic ? " × 3 for CUBICSPLINE: in-tangent, value, out-tangent" : "", ")"));
+  out.values.resize(expected);
+  for (size_t i = 0; i < expected; ++i) {
+    glm::dvec4 v(0.0);
+    for (int c = 0; c < want; ++c) v[c] = val.get(i, c);
+    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z) || !std::isfinite(v.w))
+      fail(g, cat(outWhere, ": value ", i, " is not finite"));
+    const bool isValue = !cubic || i % 3 == 1;  // tangents may be anything finite
+    if (rotation && isValue && glm::length(v) == 0.0)
+      fail(g, cat(outWhere, ": value ", i, " is a zero quaternion"));
+    out.values[i] = v;
+  }
+  return true;
+}
+
+void readAnimations(const Gltf& g, Scene& scene) {
+  const tinygltf::Model& m = g.model;
+  for (size_t a = 0; a < m.animations.size(); ++a) {
+    const tinygltf::Animation& anim = m.animations[a];
+    Animation out;
+    out.name = anim.name;
+    const std::string animWhere = cat("animation ", a, anim.name.empty() ? "" : cat(" '", anim.name, "'"));
+    std::set<std::pair<int, int>> targets;
+    for (size_t c = 0; c < anim.channels.size(); ++c) {
+      const tinygltf::AnimationChannel& ch = anim.channels[c];
+      const int node = ch.target_node;
+      std::string nodeName = node >= 0 && size_t(node) < m.nodes.size() && !m.nodes[size_t(node)].name.empty()
+                                 ? cat(" '", m.nodes[size_t(node)].name, "'")
+                                 : std::string();
+      const std::string where = cat(animWhere, " / channel ", c, " (node ", node, nodeName, " ", ch.target_path, ")");
+      AnimationChannel channel;
+      if (!readChannel(g, anim, ch, where, channel, scene.warnings)) continue;
+      // The spec: within one animation, each node property is the target of one channel only.
+      if (!targets.insert({channel.node, int(channel.path)}).second)
+        fail(g, cat(where, ": a second channel of this animation targets the same node property"));
+      out.channels.push_back(std::move(channel));
+    }
+    scene.animations.push_back(std::move(out));
+  }
+}
+
+/// The bake is static: an animated node whose instances were baked is drawn in its rest pose.
+void warnAnimatedBaked(const Gltf& g, Scene& scene) {
+  std::set<int> warned;
+  for (const MeshInstance& inst : scene.meshes) {
+    if (inst.receiverOnly || !isAnimated(scene, inst.node) || !warned.insert(inst.node).second) continue;
+    scene.warnings.push_back(cat(g.path, ": node ", inst.node,
+                                 inst.node >= 0 && !scene.nodes[size_t(inst.node)].name.empty()
+                                     ? cat(" '", scene.nodes[size_t(inst.node)].name, "'")
+                                     : std::string(),
+                                 " is animated but not a receiver: the bake is static, so its animation is "
+                                 "ignored (mark it a receiver to move it)"));
+  }
+}
+
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -974,6 +1139,9 @@ Scene loadScene(const std::string& path, const LoadOptions& options) {
   for (const NodeVisit& v : traversal.out) addNodeContents(g, v, options, scene, cache);
   checkTransferBands(g, scene);
   computeBounds(g, scene);
+  readNodes(g, scene);
+  readAnimations(g, scene);
+  warnAnimatedBaked(g, scene);
   return scene;
 }
 
@@ -1007,6 +1175,125 @@ glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, f
   if (!mesh.colors.empty())
     albedo *= glm::vec3(b0 * mesh.colors[i[0]] + b1 * mesh.colors[i[1]] + b2 * mesh.colors[i[2]]);
   return albedo;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Public: animation sampling (glTF 2.0 spec, Appendix C "Animation Sampler Interpolation Modes")
+
+namespace {
+
+glm::dvec4 unitQuaternion(const glm::dvec4& q) {
+  const double len = glm::length(q);
+  return len > 0.0 ? q / len : glm::dvec4(0, 0, 0, 1);
+}
+
+/// The spec's slerp: along the shorter arc (q and −q are one rotation), linear where the two
+/// are nearly parallel (sin of the angle → 0).
+glm::dvec4 slerp(glm::dvec4 a, glm::dvec4 b, double s) {
+  a = unitQuaternion(a);
+  b = unitQuaternion(b);
+  double d = glm::dot(a, b);
+  if (d < 0.0) {
+    b = -b;
+    d = -d;
+  }
+  if (d > 1.0 - 1e-12) return unitQuaternion(a + s * (b - a));
+  const double angle = std::acos(d), sinAngle = std::sin(angle);
+  return (std::sin((1.0 - s) * angle) * a + std::sin(s * angle) * b) / sinAngle;
+}
+
+glm::dmat4 trs(const glm::dvec3& t, const glm::dvec4& q, const glm::dvec3& s) {
+  const glm::dquat r(q.w, q.x, q.y, q.z);  // glm: (w, x, y, z); glTF: (x, y, z, w)
+  return glm::translate(glm::dmat4(1.0), t) * glm::mat4_cast(r) * glm::scale(glm::dmat4(1.0), s);
+}
+
+glm::dmat4 nodeLocalAt(const Scene& scene, int node, double t) {
+  const Node& n = scene.nodes[size_t(node)];
+  if (n.hasMatrix) return n.matrix;  // never animated (refused at load)
+  glm::dvec3 translation = n.translation, scale = n.scale;
+  glm::dvec4 rotation = n.rotation;
+  for (const Animation& a : scene.animations)
+    for (const AnimationChannel& c : a.channels) {
+      if (c.node != node) continue;
+      const glm::dvec4 v = sampleChannel(c, t);
+      if (c.path == AnimationPath::Translation) translation = glm::dvec3(v);
+      if (c.path == AnimationPath::Rotation) rotation = v;
+      if (c.path == AnimationPath::Scale) scale = glm::dvec3(v);
+    }
+  return trs(translation, rotation, scale);
+}
+
+bool nodeDriven(const Scene& scene, int node) {
+  for (const Animation& a : scene.animations)
+    for (const AnimationChannel& c : a.channels)
+      if (c.node == node) return true;
+  return false;
+}
+
+}  // namespace
+
+glm::dvec4 sampleChannel(const AnimationChannel& ch, double t) {
+  PRT_CHECK(!ch.times.empty());
+  const bool cubic = ch.interpolation == Interpolation::CubicSpline;
+  const bool rotation = ch.path == AnimationPath::Rotation;
+  PRT_CHECK_EQ(ch.values.size(), ch.times.size() * (cubic ? 3 : 1));
+  auto value = [&](size_t k) { return cubic ? ch.values[3 * k + 1] : ch.values[k]; };
+  auto finish = [&](const glm::dvec4& v) { return rotation ? unitQuaternion(v) : v; };
+  const size_t n = ch.times.size();
+  if (!(t > ch.times.front())) return finish(value(0));  // before the first key (and NaN)
+  if (t >= ch.times.back()) return finish(value(n - 1));
+  // times[k] <= t < times[k + 1]
+  const size_t k = size_t(std::upper_bound(ch.times.begin(), ch.times.end(), t) - ch.times.begin()) - 1;
+  const double td = ch.times[k + 1] - ch.times[k];
+  const double s = (t - ch.times[k]) / td;
+  switch (ch.interpolation) {
+    case Interpolation::Step:
+      return finish(value(k));
+    case Interpolation::Linear:
+      return rotation ? slerp(value(k), value(k + 1), s) : value(k) + s * (value(k + 1) - value(k));
+    case Interpolation::CubicSpline: {
+      // Hermite spline with the out-tangent b_k of key k and the in-tangent a_{k+1} of key k+1,
+      // both scaled by the interval t_d:
+      // p(s) = (2s³−3s²+1) v_k + t_d (s³−2s²+s) b_k + (−2s³+3s²) v_{k+1} + t_d (s³−s²) a_{k+1}
+      const double s2 = s * s, s3 = s2 * s;
+      const glm::dvec4 p = (2 * s3 - 3 * s2 + 1) * value(k) + td * (s3 - 2 * s2 + s) * ch.values[3 * k + 2] +
+                           (-2 * s3 + 3 * s2) * value(k + 1) + td * (s3 - s2) * ch.values[3 * (k + 1)];
+      return finish(p);
+    }
+  }
+  return finish(value(k));
+}
+
+bool isAnimated(const Scene& scene, int node) {
+  // Bounded walk: a malformed hierarchy outside the default scene must not loop forever.
+  for (size_t steps = 0; node >= 0 && size_t(node) < scene.nodes.size() && steps <= scene.nodes.size(); ++steps) {
+    if (nodeDriven(scene, node)) return true;
+    node = scene.nodes[size_t(node)].parent;
+  }
+  return false;
+}
+
+glm::dmat4 nodeWorldAt(const Scene& scene, int node, double t) {
+  PRT_CHECK(node >= 0 && size_t(node) < scene.nodes.size());
+  glm::dmat4 world = nodeLocalAt(scene, node, t);
+  int p = scene.nodes[size_t(node)].parent;
+  for (size_t steps = 0; p >= 0 && steps <= scene.nodes.size(); ++steps) {
+    world = nodeLocalAt(scene, p, t) * world;
+    p = scene.nodes[size_t(p)].parent;
+  }
+  return world;
+}
+
+glm::dmat4 instanceMotion(const Scene& scene, const MeshInstance& mesh, double t) {
+  if (!isAnimated(scene, mesh.node)) return glm::dmat4(1.0);
+  return nodeWorldAt(scene, mesh.node, t) * glm::inverse(mesh.world);
+}
+
+double animationDuration(const Scene& scene) {
+  double end = 0.0;
+  for (const Animation& a : scene.animations)
+    for (const AnimationChannel& c : a.channels) end = std::max(end, c.times.back());
+  return end;
 }
 
 // ---------------------------------------------------------------------------------------------

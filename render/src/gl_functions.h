@@ -33,6 +33,7 @@ namespace prt::render {
   X(PFNGLREADPIXELSPROC, ReadPixels)                                                \
   X(PFNGLCREATEBUFFERSPROC, CreateBuffers)                                          \
   X(PFNGLNAMEDBUFFERSTORAGEPROC, NamedBufferStorage)                                \
+  X(PFNGLNAMEDBUFFERSUBDATAPROC, NamedBufferSubData)                                \
   X(PFNGLDELETEBUFFERSPROC, DeleteBuffers)                                          \
   X(PFNGLBINDBUFFERBASEPROC, BindBufferBase)                                        \
   X(PFNGLCREATEVERTEXARRAYSPROC, CreateVertexArrays)                                \
@@ -49,6 +50,7 @@ namespace prt::render {
   X(PFNGLTEXTURESTORAGE2DPROC, TextureStorage2D)                                    \
   X(PFNGLTEXTURESUBIMAGE2DPROC, TextureSubImage2D)                                  \
   X(PFNGLTEXTUREPARAMETERIPROC, TextureParameteri)                                  \
+  X(PFNGLTEXTUREBUFFERPROC, TextureBuffer)                                          \
   X(PFNGLBINDTEXTUREUNITPROC, BindTextureUnit)                                      \
   X(PFNGLCREATEFRAMEBUFFERSPROC, CreateFramebuffers)                                \
   X(PFNGLDELETEFRAMEBUFFERSPROC, DeleteFramebuffers)                                \
@@ -76,8 +78,11 @@ namespace prt::render {
   X(PFNGLUSEPROGRAMPROC, UseProgram)                                                \
   X(PFNGLGETUNIFORMLOCATIONPROC, GetUniformLocation)                                \
   X(PFNGLPROGRAMUNIFORM1IPROC, ProgramUniform1i)                                    \
+  X(PFNGLPROGRAMUNIFORM1FPROC, ProgramUniform1f)                                    \
+  X(PFNGLPROGRAMUNIFORM3IVPROC, ProgramUniform3iv)                                  \
   X(PFNGLPROGRAMUNIFORM3FVPROC, ProgramUniform3fv)                                  \
   X(PFNGLPROGRAMUNIFORM4FVPROC, ProgramUniform4fv)                                  \
+  X(PFNGLPROGRAMUNIFORMMATRIX3FVPROC, ProgramUniformMatrix3fv)                      \
   X(PFNGLPROGRAMUNIFORMMATRIX4FVPROC, ProgramUniformMatrix4fv)
 
 /// The function table of one context. Pointers from one context must not be used with another

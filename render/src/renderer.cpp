@@ -1,4 +1,5 @@
-// Rasterizing baked instances with per-vertex SH transfer (docs/render.md).
+// Rasterizing baked instances with per-vertex SH transfer, and receivers lit per pixel from the
+// probe grid (docs/render.md).
 #include "prt/render/renderer.h"
 
 #include <algorithm>
@@ -7,6 +8,7 @@
 #include <string>
 
 #include "gl_functions.h"
+#include "probe_shading.h"
 #include "prt/error.h"
 
 namespace prt::render {
@@ -90,6 +92,42 @@ void main() {
   if (uHasTexture != 0) albedo *= texture(uBaseColorTexture, vTexcoord).rgb;
   fragColor = vec4(albedo * vTransferLight * 0.31830988618379067, 1.0);
 }
+)";
+
+// Receivers: world position and normal for the per-pixel probe lookup. uModel moves the stored
+// rest-pose (world-space) vertices to where the animation puts them at the frame's time.
+constexpr const char* kReceiverVertexShader = R"(#version 450 core
+layout(location = 0) in vec3 aPosition;
+layout(location = 1) in vec2 aTexcoord;
+layout(location = 2) in vec4 aColor;
+layout(location = 3) in vec3 aNormal;
+uniform mat4 uViewProj;
+uniform mat4 uModel;
+uniform mat3 uNormalMatrix;
+out vec3 vWorld;
+out vec3 vNormal;
+out vec2 vTexcoord;
+out vec4 vColor;
+void main() {
+  vec4 world = uModel * vec4(aPosition, 1.0);
+  vWorld = world.xyz;
+  vNormal = normalize(uNormalMatrix * aNormal);  // unit world normals per vertex, interpolated
+  vTexcoord = aTexcoord;
+  vColor = aColor;
+  gl_Position = uViewProj * world;
+}
+)";
+
+// The raster floor (Shading::Flat): positions only, one colour.
+constexpr const char* kFlatVertexShader = R"(#version 450 core
+layout(location = 0) in vec3 aPosition;
+uniform mat4 uViewProj;
+uniform mat4 uModel;
+void main() { gl_Position = uViewProj * (uModel * vec4(aPosition, 1.0)); }
+)";
+constexpr const char* kFlatFragmentShader = R"(#version 450 core
+out vec4 fragColor;
+void main() { fragColor = vec4(0.5, 0.5, 0.5, 1.0); }
 )";
 
 double msSince(std::chrono::steady_clock::time_point t0) {
@@ -176,36 +214,49 @@ CameraView orbitView(const Scene& scene, const OrbitCamera& orbit, double aspect
 struct Renderer::Impl {
   struct Instance {
     GLuint vao = 0;
-    GLuint buffers[5] = {};  // positions, texcoords, colours, indices, transfer
+    GLuint buffers[6] = {};  // positions, texcoords, colours, indices, transfer, normals
     GLsizei indexCount = 0;
+    size_t triangles = 0;
     glm::vec4 baseColor{1.0f};
     GLuint texture = 0;
     bool hasColor = false;
     bool doubleSided = false;
-    bool mirrored = false;  // negative determinant: glTF flips the winding
+    MeshInstance placement;  // receivers: node and rest world only (no vertices), for the motion
+  };
+  struct Program {
+    GLuint id = 0;
+    GLint viewProj = -1, model = -1, normalMatrix = -1, light = -1, baseColor = -1, hasTexture = -1,
+          hasColor = -1, origin = -1, spacing = -1, dims = -1, nearZero = -1;
   };
 
   GlContext& context;
   const GlFunctions& gl;
   int bands = 0;
   glm::vec3 boundsMin{0.0f}, boundsMax{0.0f};
-  std::vector<Instance> instances;
-  std::vector<GLuint> textures;  // per Scene texture, 0 where unused
-  GLuint program = 0;
-  GLint locViewProj = -1, locLight = -1, locBaseColor = -1, locHasTexture = -1,
-        locHasColor = -1;
+  std::vector<Instance> instances;  // baked
+  std::vector<Instance> receivers;
+  Scene animation;                  // the scene's nodes and animations only
+  std::vector<GLuint> textures;     // per Scene texture, 0 where unused
+  Program program, receiverProgram, flatProgram;
+  // Probe grid: lattice index, static per-probe data, per-frame radiance (buffer + texture each).
+  const ProbeGrid* grid = nullptr;
+  GLuint probeBuffers[3] = {}, probeTextures[3] = {};
   GLuint fbo = 0, colorRb = 0, depthRb = 0;
   int fboWidth = 0, fboHeight = 0;
   std::vector<glm::vec4> readback;
+  std::vector<glm::vec4> radiance;  // per-frame upload: c_p as RGBA (see uploadProbes)
   FrameStats stats;
   std::vector<std::string> warnings;
 
   Impl(GlContext& c) : context(c), gl(c.gl()) {}
   void checkError(const char* where) const;
   GLuint compile(GLenum type, const char* source, const char* what) const;
-  void buildProgram();
+  Program link(const std::string& vs, const std::string& fs, const char* what) const;
   GLuint uploadTexture(const Texture& t);
+  void setMaterial(const Scene& scene, const MeshInstance& m, Instance& in);
   void upload(const Scene& scene);
+  void uploadProbes(const ProbeGrid& grid);
+  void releaseProbes();
   void ensureFramebuffer(int width, int height);
   void release();
 };
@@ -230,28 +281,45 @@ GLuint Renderer::Impl::compile(GLenum type, const char* source, const char* what
   return s;
 }
 
-void Renderer::Impl::buildProgram() {
-  const std::string vsSource = vertexShader(bands);
-  GLuint vs = compile(GL_VERTEX_SHADER, vsSource.c_str(), "vertex");
-  GLuint fs = compile(GL_FRAGMENT_SHADER, kFragmentShader, "fragment");
-  program = gl.CreateProgram();
-  gl.AttachShader(program, vs);
-  gl.AttachShader(program, fs);
-  gl.LinkProgram(program);
+Renderer::Impl::Program Renderer::Impl::link(const std::string& vsSource, const std::string& fsSource,
+                                             const char* what) const {
+  GLuint vs = compile(GL_VERTEX_SHADER, vsSource.c_str(), cat(what, " vertex").c_str());
+  GLuint fs = 0;
+  try {
+    fs = compile(GL_FRAGMENT_SHADER, fsSource.c_str(), cat(what, " fragment").c_str());
+  } catch (...) {
+    gl.DeleteShader(vs);
+    throw;
+  }
+  Program p;
+  p.id = gl.CreateProgram();
+  gl.AttachShader(p.id, vs);
+  gl.AttachShader(p.id, fs);
+  gl.LinkProgram(p.id);
   gl.DeleteShader(vs);
   gl.DeleteShader(fs);
   GLint ok = 0;
-  gl.GetProgramiv(program, GL_LINK_STATUS, &ok);
+  gl.GetProgramiv(p.id, GL_LINK_STATUS, &ok);
   if (!ok) {
     char log[2048] = {};
-    gl.GetProgramInfoLog(program, sizeof log, nullptr, log);
-    throw Error(cat("GL: shader program does not link: ", log));
+    gl.GetProgramInfoLog(p.id, sizeof log, nullptr, log);
+    gl.DeleteProgram(p.id);
+    throw Error(cat("GL: ", what, " shader program does not link: ", log));
   }
-  locViewProj = gl.GetUniformLocation(program, "uViewProj");
-  locLight = gl.GetUniformLocation(program, bands <= kMaxAttributeBands ? "uLightFlat" : "uLight");
-  locBaseColor = gl.GetUniformLocation(program, "uBaseColor");
-  locHasTexture = gl.GetUniformLocation(program, "uHasTexture");
-  locHasColor = gl.GetUniformLocation(program, "uHasColor");
+  auto loc = [&](const char* name) { return gl.GetUniformLocation(p.id, name); };
+  p.viewProj = loc("uViewProj");
+  p.model = loc("uModel");
+  p.normalMatrix = loc("uNormalMatrix");
+  p.light = bands <= kMaxAttributeBands ? loc("uLightFlat") : loc("uLight");
+  if (p.light < 0) p.light = loc("uLight");
+  p.baseColor = loc("uBaseColor");
+  p.hasTexture = loc("uHasTexture");
+  p.hasColor = loc("uHasColor");
+  p.origin = loc("uOrigin");
+  p.spacing = loc("uSpacing");
+  p.dims = loc("uDims");
+  p.nearZero = loc("uNearZero");
+  return p;
 }
 
 GLuint Renderer::Impl::uploadTexture(const Texture& t) {
@@ -270,18 +338,71 @@ GLuint Renderer::Impl::uploadTexture(const Texture& t) {
   return tex;
 }
 
+void Renderer::Impl::setMaterial(const Scene& scene, const MeshInstance& m, Instance& in) {
+  in.indexCount = GLsizei(m.indices.size());
+  in.triangles = m.triangleCount();
+  in.hasColor = !m.colors.empty();
+  if (m.material < 0) return;
+  const Material& mat = scene.materials.at(size_t(m.material));
+  in.baseColor = mat.baseColorFactor;
+  in.doubleSided = mat.doubleSided;
+  if (mat.baseColorTexture >= 0 && !m.texcoords.empty()) {
+    GLuint& tex = textures.at(size_t(mat.baseColorTexture));
+    if (!tex) tex = uploadTexture(scene.textures[size_t(mat.baseColorTexture)]);
+    in.texture = tex;
+  }
+}
+
 void Renderer::Impl::upload(const Scene& scene) {
   boundsMin = scene.boundsMin;
   boundsMax = scene.boundsMax;
+  animation.nodes = scene.nodes;
+  animation.animations = scene.animations;
   const size_t n2 = size_t(bands) * bands;
   GLint maxSsbo = 0;
   gl.GetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &maxSsbo);
   textures.assign(scene.textures.size(), 0);
 
+  auto store = [&](GLuint buffer, const auto& v) {
+    // Empty buffers are still created, with one byte: a zero-size store is an error.
+    const size_t bytes = v.size() * sizeof(v[0]);
+    gl.NamedBufferStorage(buffer, GLsizeiptr(std::max<size_t>(bytes, 1)), bytes ? v.data() : nullptr, 0);
+  };
+  auto attribute = [&](GLuint vao, GLuint location, GLuint buffer, GLint components, bool present) {
+    if (!present) return;  // the shader ignores it (uHasColor) or the texture is not sampled
+    gl.VertexArrayVertexBuffer(vao, location, buffer, 0, GLsizei(components * sizeof(float)));
+    gl.VertexArrayAttribFormat(vao, location, components, GL_FLOAT, GL_FALSE, 0);
+    gl.VertexArrayAttribBinding(vao, location, location);
+    gl.EnableVertexArrayAttrib(vao, location);
+  };
+
   for (const MeshInstance& m : scene.meshes) {
-    if (m.receiverOnly || m.transferBands == 0) {
-      warnings.push_back(cat("skipping ", m.receiverOnly ? "receiver-only" : "unbaked",
-                             " instance '", m.name, "': no transfer (receivers are not drawn yet)"));
+    if (m.receiverOnly) {
+      // Drawn from the probe grid: positions, normals, texcoords, colours; no transfer.
+      Instance in;
+      setMaterial(scene, m, in);
+      in.placement.name = m.name;
+      in.placement.node = m.node;
+      in.placement.world = m.world;
+      gl.CreateBuffers(6, in.buffers);
+      store(in.buffers[0], m.positions);
+      store(in.buffers[1], m.texcoords);
+      store(in.buffers[2], m.colors);
+      store(in.buffers[3], m.indices);
+      store(in.buffers[4], std::vector<float>());
+      store(in.buffers[5], m.normals);
+      gl.CreateVertexArrays(1, &in.vao);
+      attribute(in.vao, 0, in.buffers[0], 3, true);
+      attribute(in.vao, 1, in.buffers[1], 2, !m.texcoords.empty());
+      attribute(in.vao, 2, in.buffers[2], 4, in.hasColor);
+      attribute(in.vao, 3, in.buffers[5], 3, m.normals.size() == m.positions.size());
+      gl.VertexArrayElementBuffer(in.vao, in.buffers[3]);
+      checkError(cat("uploading receiver '", m.name, "'").c_str());
+      receivers.push_back(in);
+      continue;
+    }
+    if (m.transferBands == 0) {
+      warnings.push_back(cat("skipping unbaked instance '", m.name, "': no transfer and not a receiver"));
       continue;
     }
     if (m.transferBands != bands || m.transfer.size() != m.vertexCount() * n2)
@@ -294,44 +415,19 @@ void Renderer::Impl::upload(const Scene& scene) {
                       " MiB exceeds the GL's shader storage block limit of ", maxSsbo >> 20, " MiB"));
 
     Instance in;
-    in.indexCount = GLsizei(m.indices.size());
-    in.hasColor = !m.colors.empty();
-    in.mirrored = glm::determinant(glm::dmat3(m.world)) < 0.0;
-    if (m.material >= 0) {
-      const Material& mat = scene.materials.at(size_t(m.material));
-      in.baseColor = mat.baseColorFactor;
-      in.doubleSided = mat.doubleSided;
-      if (mat.baseColorTexture >= 0 && !m.texcoords.empty()) {
-        GLuint& tex = textures.at(size_t(mat.baseColorTexture));
-        if (!tex) tex = uploadTexture(scene.textures[size_t(mat.baseColorTexture)]);
-        in.texture = tex;
-      }
-    }
-
-    gl.CreateBuffers(5, in.buffers);
-    auto store = [&](GLuint buffer, const auto& v) {
-      // Empty buffers are still created, with one byte: a zero-size store is an error.
-      const size_t bytes = v.size() * sizeof(v[0]);
-      gl.NamedBufferStorage(buffer, GLsizeiptr(std::max<size_t>(bytes, 1)),
-                            bytes ? v.data() : nullptr, 0);
-    };
+    setMaterial(scene, m, in);
+    gl.CreateBuffers(6, in.buffers);
     store(in.buffers[0], m.positions);
     store(in.buffers[1], m.texcoords);
     store(in.buffers[2], m.colors);
     store(in.buffers[3], m.indices);
     store(in.buffers[4], m.transfer);
+    store(in.buffers[5], std::vector<float>());
 
     gl.CreateVertexArrays(1, &in.vao);
-    auto attribute = [&](GLuint location, GLuint buffer, GLint components, bool present) {
-      if (!present) return;  // the shader ignores it (uHasColor) or the texture is not sampled
-      gl.VertexArrayVertexBuffer(in.vao, location, buffer, 0, GLsizei(components * sizeof(float)));
-      gl.VertexArrayAttribFormat(in.vao, location, components, GL_FLOAT, GL_FALSE, 0);
-      gl.VertexArrayAttribBinding(in.vao, location, location);
-      gl.EnableVertexArrayAttrib(in.vao, location);
-    };
-    attribute(0, in.buffers[0], 3, true);
-    attribute(1, in.buffers[1], 2, !m.texcoords.empty());
-    attribute(2, in.buffers[2], 4, in.hasColor);
+    attribute(in.vao, 0, in.buffers[0], 3, true);
+    attribute(in.vao, 1, in.buffers[1], 2, !m.texcoords.empty());
+    attribute(in.vao, 2, in.buffers[2], 4, in.hasColor);
     if (bands <= kMaxAttributeBands) {
       const GLsizei stride = GLsizei(n2 * sizeof(glm::vec3));
       gl.VertexArrayVertexBuffer(in.vao, kFirstTransferAttribute, in.buffers[4], 0, stride);
@@ -348,10 +444,59 @@ void Renderer::Impl::upload(const Scene& scene) {
     gl.VertexArrayElementBuffer(in.vao, in.buffers[3]);
     checkError(cat("uploading instance '", m.name, "'").c_str());
     instances.push_back(in);
-    stats.triangles += m.triangleCount();
   }
-  if (instances.empty())
-    throw Error(cat(scene.path, ": no baked instance to render"));
+  if (instances.empty() && receivers.empty())
+    throw Error(cat(scene.path, ": no baked instance or receiver to render"));
+}
+
+void Renderer::Impl::releaseProbes() {
+  if (probeTextures[0]) gl.DeleteTextures(3, probeTextures);
+  if (probeBuffers[0]) gl.DeleteBuffers(3, probeBuffers);
+  for (GLuint& t : probeTextures) t = 0;
+  for (GLuint& b : probeBuffers) b = 0;
+  if (receiverProgram.id) gl.DeleteProgram(receiverProgram.id);
+  receiverProgram = Program{};
+  grid = nullptr;
+}
+
+void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
+  if (g.bands < 1 || g.bands > sh::kMaxBands) throw Error(cat("probe grid: ", g.bands, " bands, expected 1..", sh::kMaxBands));
+  if (g.dims.x < 1 || g.dims.y < 1 || g.dims.z < 1)
+    throw Error(cat("probe grid: dims ", g.dims.x, "x", g.dims.y, "x", g.dims.z, ", expected at least 1 per axis"));
+  if (g.transfer.size() != g.probeCount() * g.transferStride() || g.validity.size() != g.probeCount() ||
+      g.offset.size() != g.probeCount() || g.moments.size() != g.probeCount())
+    throw Error("probe grid: per-probe arrays do not match the probe count");
+  releaseProbes();
+  // Buffer textures (texelFetch by index): the weights are per corner, so the hardware's
+  // trilinear filtering of a 3D texture is of no use, and a buffer holds any lattice and band
+  // count without 3D size limits.
+  GLint maxTexels = 0;
+  gl.GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxTexels);
+  const std::vector<int32_t> lattice = latticeIndex(g);
+  const std::vector<glm::vec4> statics = probeStaticTexels(g);
+  const size_t radianceCount = std::max<size_t>(g.probeCount(), 1) * size_t(radianceTexels(g.bands));
+  for (size_t texels : {lattice.size(), statics.size(), radianceCount})
+    if (texels > size_t(maxTexels))
+      throw Error(cat("probe grid: ", texels, " texels exceed the GL's texture buffer limit of ", maxTexels));
+  const std::string fs = receiverFragmentShader(g.bands);
+  receiverProgram = link(kReceiverVertexShader, fs, "receiver");
+  gl.CreateBuffers(3, probeBuffers);
+  gl.NamedBufferStorage(probeBuffers[0], GLsizeiptr(lattice.size() * sizeof(int32_t)), lattice.data(), 0);
+  gl.NamedBufferStorage(probeBuffers[1], GLsizeiptr(statics.size() * sizeof(glm::vec4)), statics.data(), 0);
+  gl.NamedBufferStorage(probeBuffers[2], GLsizeiptr(radianceCount * sizeof(glm::vec4)), nullptr,
+                        GL_DYNAMIC_STORAGE_BIT);
+  gl.CreateTextures(GL_TEXTURE_BUFFER, 3, probeTextures);
+  gl.TextureBuffer(probeTextures[0], GL_R32I, probeBuffers[0]);
+  gl.TextureBuffer(probeTextures[1], GL_RGBA32F, probeBuffers[1]);
+  gl.TextureBuffer(probeTextures[2], GL_RGBA32F, probeBuffers[2]);
+  const GLuint p = receiverProgram.id;
+  const glm::vec3 origin(g.origin), spacing(g.spacing);
+  gl.ProgramUniform3fv(p, receiverProgram.origin, 1, &origin.x);
+  gl.ProgramUniform3fv(p, receiverProgram.spacing, 1, &spacing.x);
+  gl.ProgramUniform3iv(p, receiverProgram.dims, 1, &g.dims.x);
+  gl.ProgramUniform1f(p, receiverProgram.nearZero, float(nearZero(g)));
+  checkError("uploading the probe grid");
+  grid = &g;
 }
 
 void Renderer::Impl::ensureFramebuffer(int width, int height) {
@@ -383,13 +528,16 @@ void Renderer::Impl::ensureFramebuffer(int width, int height) {
 }
 
 void Renderer::Impl::release() {
-  for (Instance& in : instances) {
-    gl.DeleteVertexArrays(1, &in.vao);
-    gl.DeleteBuffers(5, in.buffers);
-  }
+  for (std::vector<Instance>* list : {&instances, &receivers})
+    for (Instance& in : *list) {
+      gl.DeleteVertexArrays(1, &in.vao);
+      gl.DeleteBuffers(6, in.buffers);
+    }
   for (GLuint t : textures)
     if (t) gl.DeleteTextures(1, &t);
-  if (program) gl.DeleteProgram(program);
+  releaseProbes();
+  for (const Program* p : {&program, &flatProgram})
+    if (p->id) gl.DeleteProgram(p->id);
   if (fbo) {
     gl.DeleteFramebuffers(1, &fbo);
     gl.DeleteRenderbuffers(1, &colorRb);
@@ -398,12 +546,15 @@ void Renderer::Impl::release() {
 }
 
 Renderer::Renderer(GlContext& context, const Scene& scene) : impl_(std::make_unique<Impl>(context)) {
-  if (scene.transferBands <= 0 || scene.transferBands > sh::kMaxBands)
+  bool anyReceiver = false;
+  for (const MeshInstance& m : scene.meshes) anyReceiver |= m.receiverOnly;
+  if (scene.transferBands < 0 || scene.transferBands > sh::kMaxBands || (scene.transferBands == 0 && !anyReceiver))
     throw Error(cat(scene.path, ": holds no baked transfer (run prt bake first)"));
   impl_->bands = scene.transferBands;
   context.makeCurrent();
   try {
-    impl_->buildProgram();
+    if (impl_->bands > 0) impl_->program = impl_->link(vertexShader(impl_->bands), kFragmentShader, "baked");
+    impl_->flatProgram = impl_->link(kFlatVertexShader, kFlatFragmentShader, "flat");
     impl_->upload(scene);
   } catch (...) {
     impl_->release();
@@ -421,17 +572,63 @@ Renderer::~Renderer() {
   }
 }
 
+void Renderer::setProbes(const ProbeGrid& grid) {
+  impl_->context.makeCurrent();
+  impl_->uploadProbes(grid);
+}
+
 ImageRgb Renderer::render(const CameraView& camera, const sh::ShRgb& light) {
   return render(camera, light, impl_->context.width(), impl_->context.height());
 }
 
 ImageRgb Renderer::render(const CameraView& camera, const sh::ShRgb& light, int width, int height) {
+  Frame f;
+  f.camera = camera;
+  f.light = light;
+  f.width = width;
+  f.height = height;
+  return render(f);
+}
+
+ImageRgb Renderer::render(const Frame& frame) {
   Impl& r = *impl_;
   const GlFunctions& gl = r.gl;
+  const CameraView& camera = frame.camera;
+  const int width = frame.width > 0 ? frame.width : r.context.width();
+  const int height = frame.height > 0 ? frame.height : r.context.height();
+  const bool flat = frame.shading == Shading::Flat;
+  const bool drawReceivers = r.grid != nullptr && !r.receivers.empty();
   r.context.makeCurrent();
-  const auto t0 = std::chrono::steady_clock::now();
-  r.ensureFramebuffer(width, height);
 
+  // Light update: the baked instances' light uniform, and the probes' incident radiance
+  // c_p = M_p · l (CPU, TBB over probes) copied into the buffer the receivers read.
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!flat && r.bands > 0) {
+    const sh::ShRgb l = sh::resize(frame.light, r.bands);
+    if (r.bands <= kMaxAttributeBands) {
+      std::vector<glm::vec4> packed(size_t(attributeChunks(r.bands)), glm::vec4(0.0f));
+      for (int i = 0; i < l.size(); ++i)
+        for (int c = 0; c < 3; ++c) packed[size_t(3 * i + c) / 4][(3 * i + c) % 4] = l.c[size_t(i)][c];
+      gl.ProgramUniform4fv(r.program.id, r.program.light, GLsizei(packed.size()), &packed[0].x);
+    } else {
+      gl.ProgramUniform3fv(r.program.id, r.program.light, l.size(), &l.c[0].x);
+    }
+  }
+  if (!flat && drawReceivers) {
+    const ProbeGrid& g = *r.grid;
+    const sh::ShRgb l = sh::resize(frame.light, g.bands);
+    gl.ProgramUniform3fv(r.receiverProgram.id, r.receiverProgram.light, l.size(), &l.c[0].x);
+    if (g.probeCount() > 0) {
+      const std::vector<glm::vec3> relit = relightProbes(g, l);
+      packRadiance(g.bands, relit, r.radiance);
+      gl.NamedBufferSubData(r.probeBuffers[2], 0, GLsizeiptr(r.radiance.size() * sizeof(glm::vec4)), r.radiance.data());
+    }
+  }
+  r.checkError("updating the light");
+  r.stats.lightMs = msSince(t0);
+
+  const auto t1 = std::chrono::steady_clock::now();
+  r.ensureFramebuffer(width, height);
   const double aspect = double(width) / height;
   const glm::dmat4 view = glm::inverse(camera.cameraToWorld);
   double orthoFar = 1.0;
@@ -440,8 +637,9 @@ ImageRgb Renderer::render(const CameraView& camera, const sh::ShRgb& light, int 
                             i & 4 ? r.boundsMax.z : r.boundsMin.z);
     orthoFar = std::max(orthoFar, -(view * glm::dvec4(corner, 1.0)).z * 1.01 + camera.znear);
   }
-  const glm::mat4 viewProj(projection(camera, aspect, orthoFar) * view);
-  const sh::ShRgb l = sh::resize(light, r.bands);
+  // Receivers may move outside the rest-pose bounds: extend the orthographic far plane.
+  const glm::mat4 viewProj(projection(camera, aspect, 4.0 * orthoFar) * view);
+  const glm::mat4 identity(1.0f);
 
   gl.BindFramebuffer(GL_FRAMEBUFFER, r.fbo);
   gl.Viewport(0, 0, width, height);
@@ -453,38 +651,70 @@ ImageRgb Renderer::render(const CameraView& camera, const sh::ShRgb& light, int 
   gl.ClearNamedFramebufferfv(r.fbo, GL_COLOR, 0, black);
   gl.ClearNamedFramebufferfv(r.fbo, GL_DEPTH, 0, &farDepth);
 
-  gl.UseProgram(r.program);
-  gl.ProgramUniformMatrix4fv(r.program, r.locViewProj, 1, GL_FALSE, &viewProj[0][0]);
-  if (r.bands <= kMaxAttributeBands) {
-    std::vector<glm::vec4> flat(size_t(attributeChunks(r.bands)), glm::vec4(0.0f));
-    for (int i = 0; i < l.size(); ++i)
-      for (int c = 0; c < 3; ++c) flat[size_t(3 * i + c) / 4][(3 * i + c) % 4] = l.c[size_t(i)][c];
-    gl.ProgramUniform4fv(r.program, r.locLight, GLsizei(flat.size()), &flat[0].x);
-  } else {
-    gl.ProgramUniform3fv(r.program, r.locLight, l.size(), &l.c[0].x);
-  }
-  for (const Impl::Instance& in : r.instances) {
+  auto draw = [&](const Impl::Program& p, const Impl::Instance& in, bool mirrored) {
+    // The loader already wound every instance counter-clockwise in world space (it swaps two
+    // corners under mirroring transforms), so only a mirroring motion flips the front face.
     if (in.doubleSided) {
       gl.Disable(GL_CULL_FACE);
     } else {
       gl.Enable(GL_CULL_FACE);
       gl.CullFace(GL_BACK);
-      gl.FrontFace(in.mirrored ? GL_CW : GL_CCW);
+      gl.FrontFace(mirrored ? GL_CW : GL_CCW);
     }
-    gl.ProgramUniform4fv(r.program, r.locBaseColor, 1, &in.baseColor.x);
-    gl.ProgramUniform1i(r.program, r.locHasTexture, in.texture ? 1 : 0);
-    gl.ProgramUniform1i(r.program, r.locHasColor, in.hasColor ? 1 : 0);
-    if (in.texture) gl.BindTextureUnit(0, in.texture);
-    if (r.bands > kMaxAttributeBands) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.buffers[4]);
+    if (!flat) {
+      gl.ProgramUniform4fv(p.id, p.baseColor, 1, &in.baseColor.x);
+      gl.ProgramUniform1i(p.id, p.hasTexture, in.texture ? 1 : 0);
+      gl.ProgramUniform1i(p.id, p.hasColor, in.hasColor ? 1 : 0);
+      if (in.texture) gl.BindTextureUnit(0, in.texture);
+    }
     gl.BindVertexArray(in.vao);
     gl.DrawElements(GL_TRIANGLES, in.indexCount, GL_UNSIGNED_INT, nullptr);
+  };
+
+  r.stats.triangles = r.stats.receiverTriangles = 0;
+  const Impl::Program& baked = flat ? r.flatProgram : r.program;
+  if (!r.instances.empty()) {
+    gl.UseProgram(baked.id);
+    gl.ProgramUniformMatrix4fv(baked.id, baked.viewProj, 1, GL_FALSE, &viewProj[0][0]);
+    if (flat) gl.ProgramUniformMatrix4fv(baked.id, baked.model, 1, GL_FALSE, &identity[0][0]);
+    for (const Impl::Instance& in : r.instances) {
+      if (!flat && r.bands > kMaxAttributeBands) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.buffers[4]);
+      draw(baked, in, false);
+      r.stats.triangles += in.triangles;
+    }
+  }
+  if (drawReceivers) {
+    // Drawn after the baked instances, so that the depth test rejects hidden receiver pixels
+    // before their (costly) probe lookup runs.
+    const Impl::Program& p = flat ? r.flatProgram : r.receiverProgram;
+    gl.UseProgram(p.id);
+    gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &viewProj[0][0]);
+    if (!flat)
+      for (GLuint unit = 1; unit <= 3; ++unit) gl.BindTextureUnit(unit, r.probeTextures[unit - 1]);
+    for (const Impl::Instance& in : r.receivers) {
+      const glm::dmat4 motion = instanceMotion(r.animation, in.placement, frame.time);
+      const glm::dmat3 linear(motion);
+      // Cofactor matrix = det · inverse transpose: maps normals, defined even for singular
+      // motions; its scale does not matter (the shader normalises), its sign does.
+      glm::dmat3 cof(glm::cross(linear[1], linear[2]), glm::cross(linear[2], linear[0]),
+                     glm::cross(linear[0], linear[1]));
+      const bool mirrored = glm::determinant(linear) < 0.0;
+      if (mirrored) cof = -cof;
+      const glm::mat4 model(motion);
+      const glm::mat3 normalMatrix(cof);
+      gl.ProgramUniformMatrix4fv(p.id, p.model, 1, GL_FALSE, &model[0][0]);
+      if (!flat) gl.ProgramUniformMatrix3fv(p.id, p.normalMatrix, 1, GL_FALSE, &normalMatrix[0][0]);
+      draw(p, in, mirrored);
+      r.stats.triangles += in.triangles;
+      r.stats.receiverTriangles += in.triangles;
+    }
   }
   gl.BindVertexArray(0);
   gl.Finish();
   r.checkError("drawing the frame");
-  r.stats.drawMs = msSince(t0);
+  r.stats.drawMs = msSince(t1);
 
-  const auto t1 = std::chrono::steady_clock::now();
+  const auto t2 = std::chrono::steady_clock::now();
   r.readback.resize(size_t(width) * height);
   gl.PixelStorei(GL_PACK_ALIGNMENT, 4);
   gl.ReadPixels(0, 0, width, height, GL_RGBA, GL_FLOAT, r.readback.data());
@@ -495,12 +725,26 @@ ImageRgb Renderer::render(const CameraView& camera, const sh::ShRgb& light, int 
     const glm::vec4* src = r.readback.data() + size_t(height - 1 - y) * width;
     for (int x = 0; x < width; ++x) image.at(x, y) = glm::vec3(src[x]);
   }
-  r.stats.readbackMs = msSince(t1);
+  r.stats.readbackMs = msSince(t2);
   return image;
 }
 
 int Renderer::bands() const { return impl_->bands; }
+size_t Renderer::receiverCount() const { return impl_->receivers.size(); }
 const FrameStats& Renderer::lastFrame() const { return impl_->stats; }
-const std::vector<std::string>& Renderer::warnings() const { return impl_->warnings; }
+
+std::vector<std::string> Renderer::warnings() const {
+  std::vector<std::string> out = impl_->warnings;
+  const auto& rs = impl_->receivers;
+  if (impl_->grid == nullptr && !rs.empty()) {
+    std::string names;
+    for (size_t i = 0; i < std::min<size_t>(rs.size(), 3); ++i)
+      names += cat(i ? ", '" : "'", rs[i].placement.name, "'");
+    if (rs.size() > 3) names += cat(" and ", rs.size() - 3, " more");
+    out.push_back(cat(rs.size(), " receiver instance", rs.size() > 1 ? "s" : "", " (", names,
+                      ") not drawn: receivers are lit from a probe grid and none was given (prt render --probes)"));
+  }
+  return out;
+}
 
 }  // namespace prt::render

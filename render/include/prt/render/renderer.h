@@ -14,6 +14,7 @@
 #include <glm/glm.hpp>
 
 #include "prt/image.h"
+#include "prt/probe_grid.h"
 #include "prt/render/gl_context.h"
 #include "prt/scene.h"
 #include "prt/sh.h"
@@ -51,34 +52,64 @@ CameraView orbitView(const Scene& scene, const OrbitCamera& orbit, double aspect
 
 /// What the last frame cost, in milliseconds of wall time (GL work is finished before timing).
 struct FrameStats {
+  double lightMs = 0.0;     // light update: light uniforms, relightProbes and the probe upload
   double drawMs = 0.0;      // clear, draw, glFinish
   double readbackMs = 0.0;  // glReadPixels and the row flip
-  size_t triangles = 0;
+  size_t triangles = 0;     // drawn in the last frame (baked and receivers)
+  size_t receiverTriangles = 0;
 };
 
-/// The scene's baked instances uploaded to one GlContext; renders frames of them under any SH
-/// light. Receiver-only and unbaked instances (no transfer) are skipped and listed in
-/// warnings(): receivers are lit from the probe grid, which a later slice adds.
-/// The context must outlive the renderer.
+/// How a frame is shaded. Flat draws the same instances with the same vertex buffers, depth
+/// test and read-back in one constant colour: the raster floor a benchmark compares with.
+enum class Shading { Prt, Flat };
+
+/// One frame to render.
+struct Frame {
+  CameraView camera;
+  sh::ShRgb light;          // distant light; truncated or zero-padded to the bands in use
+  double time = 0.0;        // seconds: receivers are placed by the scene's animations at time
+  int width = 0;            // 0: the context's size
+  int height = 0;
+  Shading shading = Shading::Prt;
+};
+
+/// The scene uploaded to one GlContext; renders frames of it under any SH light. Baked instances
+/// are lit by their transfer; receivers (MeshInstance::receiverOnly) from the probe grid given to
+/// setProbes(), and are not drawn without one (see warnings()). Unbaked instances that are not
+/// receivers are skipped with a warning. The context must outlive the renderer.
 class Renderer {
 public:
-  /// Uploads geometry, transfer and textures. Throws prt::Error if the scene has no baked
-  /// instance or the GL cannot hold it (e.g. a transfer buffer larger than the GL allows).
+  /// Uploads geometry, transfer and textures. Throws prt::Error if the scene has neither a
+  /// baked instance nor a receiver, or the GL cannot hold it (e.g. a transfer buffer larger than
+  /// the GL allows).
   Renderer(GlContext& context, const Scene& scene);
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
 
-  /// Renders a width × height frame of exitant radiance (background 0), row 0 at the top.
-  /// `light` is truncated or zero-padded to the scene's bands. Makes the context current.
+  /// Lights the receivers from `grid` from the next frame on: its static data (probe positions,
+  /// validity, distance moments) is uploaded now, its incident radiance c_p = M_p · l is
+  /// recomputed (relightProbes) and uploaded every frame. `grid` must stay alive and unchanged
+  /// while the renderer uses it (until the renderer or the next setProbes). Throws prt::Error if
+  /// the GL cannot hold the grid.
+  void setProbes(const ProbeGrid& grid);
+
+  /// Renders a frame of exitant radiance (background 0), row 0 at the top. Makes the context
+  /// current.
+  ImageRgb render(const Frame& frame);
+  /// A frame at time 0, width × height.
   ImageRgb render(const CameraView& camera, const sh::ShRgb& light, int width, int height);
-  /// Same, at the context's frame size.
+  /// A frame at time 0 at the context's frame size.
   ImageRgb render(const CameraView& camera, const sh::ShRgb& light);
 
+  /// Bands of the baked transfer (0 if the scene has only receivers).
   int bands() const;
+  /// Number of receiver instances (drawn once setProbes was called).
+  size_t receiverCount() const;
   const FrameStats& lastFrame() const;
-  /// One line per skipped instance ("skipping receiver-only instance 'x': ...").
-  const std::vector<std::string>& warnings() const;
+  /// One line per skipped instance ("skipping unbaked instance 'x': ..."), and one line naming
+  /// the receivers while no probe grid is set (they are not drawn then).
+  std::vector<std::string> warnings() const;
 
 private:
   struct Impl;

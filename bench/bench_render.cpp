@@ -1,0 +1,304 @@
+// Render benchmark: ms per frame of the full relighting path (baked instances + receivers lit
+// from the probe grid) next to the raster floor, a flat-shaded draw of the same instances with
+// the same vertex buffers, depth test and read-back, measured in the same run; and the cost of a
+// light update for 1M baked vertices and for a 32³ probe grid.
+//
+//   prt_bench_render [--width 1920] [--height 1080] [--frames 12] [--gl osmesa|egl]
+//                    [--baked FILE.glb --probes FILE.vdb] [--samples 128] [--probe-dims 16]
+//                    [--json out.json]
+//
+// Without --baked/--probes the bundled Cornell room (scenes/cornell_open.gltf) is baked in the
+// process (surface transfer with --samples directions and 1 bounce, a --probe-dims³ probe
+// grid), which takes a few seconds and is not timed. Frames sweep the receiver's animation
+// (frame i at time i / frames · duration) under a rotating sky, so every frame relights.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "prt/bake/probe_bake.h"
+#include "prt/bake/surface_bake.h"
+#include "prt/error.h"
+#include "prt/light.h"
+#include "prt/probe_grid.h"
+#include "prt/relight.h"
+#include "prt/render/gl_context.h"
+#include "prt/render/renderer.h"
+#include "prt/scene.h"
+#include "prt/sh.h"
+
+namespace {
+
+using namespace prt;
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : (v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]));
+}
+
+// Splits every triangle into 4 (midpoints shared through an edge map), interpolating normals and
+// transfer: the refined mesh a denser bake would give.
+void refine(MeshInstance& m) {
+  const size_t n2 = size_t(m.transferBands) * m.transferBands;
+  std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
+  auto midpoint = [&](uint32_t a, uint32_t b) {
+    const auto key = std::minmax(a, b);
+    const auto it = mid.find(key);
+    if (it != mid.end()) return it->second;
+    const uint32_t i = uint32_t(m.positions.size());
+    m.positions.push_back(0.5f * (m.positions[a] + m.positions[b]));
+    m.normals.push_back(glm::normalize(m.normals[a] + m.normals[b]));
+    for (size_t k = 0; k < n2; ++k) m.transfer.push_back(0.5f * (m.transfer[a * n2 + k] + m.transfer[b * n2 + k]));
+    mid.emplace(key, i);
+    return i;
+  };
+  std::vector<uint32_t> out;
+  out.reserve(m.indices.size() * 4);
+  for (size_t t = 0; t < m.triangleCount(); ++t) {
+    const uint32_t a = m.indices[3 * t], b = m.indices[3 * t + 1], c = m.indices[3 * t + 2];
+    const uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
+    out.insert(out.end(), {a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca});
+  }
+  m.indices = std::move(out);
+}
+
+size_t bakedVertices(const Scene& s) {
+  size_t n = 0;
+  for (const MeshInstance& m : s.meshes)
+    if (!m.receiverOnly) n += m.vertexCount();
+  return n;
+}
+
+// A sky with structure in every band of 3, turned about +Y by `degrees`.
+sh::ShRgb sky(double degrees) {
+  sh::ShRgb l(3);
+  l.c[0] = glm::vec3(3.0f, 2.8f, 2.5f);
+  l.c[1] = glm::vec3(1.5f);
+  l.c[3] = glm::vec3(0.8f, 0.5f, 0.2f);
+  l.c[6] = glm::vec3(0.4f);
+  l.c[8] = glm::vec3(0.2f, 0.1f, 0.0f);
+  return sh::Rotation(3, sh::rotationY(degrees)).apply(l);
+}
+
+struct Timing {
+  std::vector<double> light, draw, readback;
+  double frameMs() const { return median(light) + median(draw) + median(readback); }
+  nlohmann::json json() const {
+    return {{"light_ms", median(light)}, {"draw_ms", median(draw)}, {"readback_ms", median(readback)},
+            {"frame_ms", frameMs()}};
+  }
+};
+
+void record(Timing& t, const render::FrameStats& s) {
+  t.light.push_back(s.lightMs);
+  t.draw.push_back(s.drawMs);
+  t.readback.push_back(s.readbackMs);
+}
+
+// A 32³ (or n³) grid of random transfer, all probes valid: the light update does not depend
+// on the values.
+ProbeGrid randomGrid(int n, int bands) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-0.1f, 1.0f);
+  ProbeGrid g;
+  g.bands = bands;
+  g.dims = glm::ivec3(n);
+  g.origin = glm::dvec3(-1.0, 0.0, -1.0);
+  g.spacing = glm::dvec3(2.0 / (n - 1));
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) g.coord.emplace_back(x, y, z);
+  g.transfer.resize(g.probeCount() * g.transferStride());
+  for (float& v : g.transfer) v = u(rng);
+  g.validity.assign(g.probeCount(), 1.0f);
+  g.offset.assign(g.probeCount(), glm::vec3(0.0f));
+  g.skyVisibility.assign(g.probeCount(), 1.0f);
+  std::array<glm::vec2, 6> m;
+  m.fill(glm::vec2(1.0f, 1.0f));
+  g.moments.assign(g.probeCount(), m);
+  g.buildIndex();
+  return g;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string bakedPath, probesPath, jsonPath, gl = "osmesa";
+  int width = 1920, height = 1080, frames = 12, samples = 128, probeDims = 16;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string k = argv[i], v = argv[i + 1];
+    if (k == "--width") width = std::stoi(v);
+    else if (k == "--height") height = std::stoi(v);
+    else if (k == "--frames") frames = std::stoi(v);
+    else if (k == "--gl") gl = v;
+    else if (k == "--baked") bakedPath = v;
+    else if (k == "--probes") probesPath = v;
+    else if (k == "--samples") samples = std::stoi(v);
+    else if (k == "--probe-dims") probeDims = std::stoi(v);
+    else if (k == "--json") jsonPath = v;
+    else {
+      std::fprintf(stderr, "prt_bench_render: unknown option %s\n", k.c_str());
+      return 2;
+    }
+  }
+  if ((argc - 1) % 2 || frames < 1 || bakedPath.empty() != probesPath.empty()) {
+    std::fprintf(stderr, "usage: prt_bench_render [--width W] [--height H] [--frames N] [--gl osmesa|egl] "
+                         "[--baked FILE.glb --probes FILE.vdb] [--samples N] [--probe-dims N] [--json FILE]\n");
+    return 2;
+  }
+  try {
+    // --- The scene: baked here or read from files ---------------------------------------------
+    Scene scene;
+    ProbeGrid grid;
+    if (bakedPath.empty()) {
+      scene = loadScene(PRT_SOURCE_DIR "/scenes/cornell_open.gltf");
+      bake::BakeSettings bs;
+      bs.samples = samples;
+      bs.bounces = 1;
+      bs.keepLowerOrder = true;
+      const bake::SurfaceTransfer t = bake::bakeSurface(scene, bs);
+      for (size_t k = 0; k < scene.meshes.size(); ++k) {
+        if (scene.meshes[k].receiverOnly) continue;
+        scene.meshes[k].transferBands = t.bands;
+        scene.meshes[k].transfer = t.perMesh[k];
+      }
+      scene.transferBands = t.bands;
+      bake::ProbeSettings ps;
+      ps.dims = glm::ivec3(probeDims);
+      ps.samples = 256;
+      ps.bounces = 1;
+      grid = bake::bakeProbes(scene, t.perMeshLowerOrder, ps);
+    } else {
+      scene = loadScene(bakedPath);
+      grid = readProbeGrid(probesPath);
+    }
+    const double duration = animationDuration(scene);
+
+    // --- Full frames vs the raster floor, same run, interleaved ------------------------------
+    render::GlContext context(render::parseGlBackend(gl), width, height);
+    render::Renderer renderer(context, scene);
+    renderer.setProbes(grid);
+    render::CameraView view;
+    if (!scene.cameras.empty()) {
+      view = render::cameraView(scene.cameras[0]);
+    } else {
+      render::OrbitCamera orbit;
+      view = render::orbitView(scene, orbit, double(width) / height);
+    }
+    Timing prtTiming, flatTiming;
+    for (int i = -2; i < frames; ++i) {  // two warm-up frames: llvmpipe compiles shaders on first use
+      render::Frame f;
+      f.camera = view;
+      f.time = i < 0 ? 0.0 : duration * i / frames;
+      f.light = sky(360.0 * std::max(i, 0) / frames);
+      renderer.render(f);
+      if (i >= 0) record(prtTiming, renderer.lastFrame());
+      f.shading = render::Shading::Flat;
+      renderer.render(f);
+      if (i >= 0) record(flatTiming, renderer.lastFrame());
+    }
+    const render::FrameStats last = renderer.lastFrame();
+    // The same frames without receivers: what the per-pixel probe lookup costs on its own.
+    Timing staticTiming;
+    {
+      render::Renderer r(context, scene);
+      for (int i = -1; i < frames; ++i) {
+        render::Frame f;
+        f.camera = view;
+        f.light = sky(360.0 * std::max(i, 0) / frames);
+        r.render(f);
+        if (i >= 0) record(staticTiming, r.lastFrame());
+      }
+    }
+
+    // --- Light update, 1M baked vertices (the static path) ----------------------------------
+    Scene dense = scene;
+    dense.meshes.erase(std::remove_if(dense.meshes.begin(), dense.meshes.end(),
+                                      [](const MeshInstance& m) { return m.receiverOnly; }),
+                       dense.meshes.end());
+    for (size_t k = 0; bakedVertices(dense) < 1000000; k = (k + 1) % dense.meshes.size()) refine(dense.meshes[k]);
+    size_t denseTriangles = 0;
+    for (const MeshInstance& m : dense.meshes) denseTriangles += m.triangleCount();
+    std::vector<double> cpuRelight;
+    for (int i = 0; i < 5; ++i) {
+      const auto t0 = Clock::now();
+      const auto radiance = relightVertices(dense, sky(10.0 * i));
+      cpuRelight.push_back(msSince(t0));
+    }
+    Timing densePrt, denseFlat;
+    {
+      render::Renderer r(context, dense);
+      for (int i = -1; i < 5; ++i) {
+        render::Frame f;
+        f.camera = view;
+        f.light = sky(10.0 * i);
+        r.render(f);
+        if (i >= 0) record(densePrt, r.lastFrame());
+        f.shading = render::Shading::Flat;
+        r.render(f);
+        if (i >= 0) record(denseFlat, r.lastFrame());
+      }
+    }
+
+    // --- Light update, 32³ probes: relightProbes + upload -----------------------------------
+    const ProbeGrid big = randomGrid(32, 3);
+    std::vector<double> relightOnly, probeUpdate;
+    for (int i = 0; i < 10; ++i) {
+      const auto t0 = Clock::now();
+      const std::vector<glm::vec3> relit = relightProbes(big, sky(7.0 * i));
+      relightOnly.push_back(msSince(t0));
+    }
+    {
+      render::Renderer r(context, scene);
+      r.setProbes(big);
+      for (int i = -1; i < 10; ++i) {
+        render::Frame f;
+        f.camera = view;
+        f.light = sky(7.0 * i);
+        f.width = 64;
+        f.height = 36;
+        r.render(f);
+        if (i >= 0) probeUpdate.push_back(r.lastFrame().lightMs);
+      }
+    }
+
+    const double ratio = prtTiming.frameMs() / flatTiming.frameMs();
+    nlohmann::json j;
+    j["device"] = context.description();
+    j["frame"] = {{"width", width}, {"height", height}, {"frames", frames}, {"triangles", last.triangles},
+                  {"receiver_triangles", last.receiverTriangles}, {"probes", grid.probeCount()},
+                  {"bands", grid.bands}, {"prt", prtTiming.json()}, {"flat", flatTiming.json()},
+                  {"prt_without_receivers", staticTiming.json()},
+                  {"ratio", ratio}, {"target_ratio", 1.5}};
+    j["light_update_1M_vertices"] = {{"vertices", bakedVertices(dense)},
+                                     {"triangles", denseTriangles},
+                                     {"gl_light_ms", median(densePrt.light)},
+                                     {"gl_prt_frame_ms", densePrt.frameMs()},
+                                     {"gl_flat_frame_ms", denseFlat.frameMs()},
+                                     {"cpu_relight_vertices_ms", median(cpuRelight)}};
+    j["light_update_32cubed_probes"] = {{"probes", big.probeCount()},
+                                        {"bands", big.bands},
+                                        {"relight_ms", median(relightOnly)},
+                                        {"relight_and_upload_ms", median(probeUpdate)},
+                                        {"target_ms", 10.0}};
+    const std::string text = j.dump(2);
+    std::printf("%s\n", text.c_str());
+    if (!jsonPath.empty()) std::ofstream(jsonPath) << text << "\n";
+    return 0;
+  } catch (const Error& e) {
+    std::fprintf(stderr, "prt_bench_render: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,336 @@
+// The receivers' shading: a port of the probe interpolation to GLSL (docs/render.md, "Receivers").
+//
+// Per pixel of a receiver, with x the world position and n the unit normal:
+//   w_p  = probeWeights(x, n)                 (trilinear × validity × Chebyshev × back face)
+//   c    = Σ_p w_p c_p                         (interpolateRadiance; c_p = M_p · l, relit per frame)
+//   E    = Σ_j Â_l(j) y_j(n) c_j               (sh::irradiance)
+//   L_o  = albedo / π · E
+// computed as E = Σ_j (Â_l y_j(n)) Σ_p w_p c_p,j: the same sums in another order. Per frame the
+// CPU packs each probe's c_p (from relightProbes) into RGBA texels, the RGB of the coefficients
+// with Â_l ≠ 0 back to back (odd bands l > 1 drop out of irradiance): 7 texels per probe for 3
+// bands instead of 9 RGB ones. Fetches dominate the receivers' cost on llvmpipe, and it reads
+// RGBA32F buffer texels about twice as fast as RGB32F ones (measured, docs/render.md).
+#include "probe_shading.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "prt/error.h"
+#include "prt/sh.h"
+
+namespace prt::render {
+
+namespace {
+
+// Constants of prt::probeWeights (probes/src/probe_grid.cpp), private there; the receiver tests
+// (RenderReceivers.*) compare this port with the C++ function at pixel centres, so a change on
+// one side without the other fails there.
+constexpr double kVarianceFloorFraction = 0.01;  // kVarianceFloor
+constexpr double kNearZeroFraction = 1e-6;       // r > 1e-6 · min spacing enables the back-face term
+
+std::string glslFloat(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.9e", v);
+  return buf;
+}
+
+double minSpacing(const ProbeGrid& grid) {
+  return std::min({grid.spacing.x, grid.spacing.y, grid.spacing.z});
+}
+
+// ============================================================================================
+// BEGIN probeWeights port. Mirrors prt::probeWeights (probes/src/probe_grid.cpp) step by step;
+// the C++ works in double, this in float. Where the C++ returns count = 0 (outside the lattice,
+// or no valid probe in the cell) this returns false. weight[c] is the normalised weight of
+// cell corner c (0 where the C++ leaves the corner out), probe[c] its probe (−1 for none).
+// leakWeight() is the per-probe factor max(w_v · w_b, kMinWeight): the part that changes when
+// the visibility test changes. Its per-probe inputs come from probeStaticTexels() below.
+constexpr const char* kProbeWeightsHeadGlsl = R"(
+const float kBoundaryTolerance = 1e-4;
+const float kMinWeight = 1e-6;
+const float kTrilinearFloor = 1e-3;
+
+// prt::faceOf: dominant axis and sign, ties to the earlier axis. 0..5 = +X -X +Y -Y +Z -Z.
+int faceOf(vec3 d) {
+  vec3 a = abs(d);
+  if (a.x >= a.y && a.x >= a.z) return d.x >= 0.0 ? 0 : 1;
+  if (a.y >= a.z) return d.y >= 0.0 ? 2 : 3;
+  return d.z >= 0.0 ? 4 : 5;
+}
+
+// prt::ProbeGrid::find.
+int findProbe(ivec3 q) {
+  if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, uDims))) return -1;
+  return texelFetch(uLattice, (q.z * uDims.y + q.y) * uDims.x + q.x).r;
+}
+
+// Chebyshev visibility (cubed) times the soft back-face weight, floored: d = x − P, r = |d|.
+float leakWeight(int p, vec3 d, float r, vec3 n) {
+  int face = faceOf(d);
+  vec4 axis = texelFetch(uProbeStatic, p * 4 + 1 + face / 2);
+  vec2 m = (face & 1) == 0 ? axis.xy : axis.zw;  // (μ, σ²), σ² already floored
+  float mu = m.x;
+  float wv = 1.0;
+  if (r > mu) {
+    float var = m.y;
+    float cheb = var / (var + (r - mu) * (r - mu));
+    wv = cheb * cheb * cheb;
+  }
+  float wb = 1.0;
+  if (r > uNearZero) {
+    float h = (dot(-d / r, n) + 1.0) * 0.5;
+    wb = h * h + 0.2;
+  }
+  return max(wv * wb, kMinWeight);
+}
+
+bool probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8]) {
+  vec3 u = (x - uOrigin) / uSpacing;
+  ivec3 base;
+  vec3 t;
+  for (int a = 0; a < 3; ++a) {
+    float hi = float(uDims[a] - 1);
+    if (!(u[a] >= -kBoundaryTolerance && u[a] <= hi + kBoundaryTolerance)) return false;
+    float v = clamp(u[a], 0.0, hi);
+    base[a] = min(int(floor(v)), max(uDims[a] - 2, 0));
+    t[a] = v - float(base[a]);
+  }
+  vec3 lerp[8];
+  vec4 pv[8];  // (position, validity)
+  bool anyTrilinear = false;
+)";
+// Loop bodies over the cell's corners c = 0..7, emitted once per corner with C replaced by the
+// corner's number (the loops of the C++ unrolled: llvmpipe keeps arrays indexed by constants in
+// registers, but spills arrays indexed by a loop variable to memory, lane by lane).
+constexpr const char* kCornerSetupGlsl = R"(  {  // corner C
+    ivec3 off = ivec3(C & 1, (C >> 1) & 1, (C >> 2) & 1);
+    int p = findProbe(base + off);
+    pv[C] = p >= 0 ? texelFetch(uProbeStatic, p * 4) : vec4(0.0);
+    if (p >= 0 && !(pv[C].w > 0.0)) p = -1;  // invalid probes are never read
+    probe[C] = p;
+    lerp[C] = vec3(off.x != 0 ? t.x : 1.0 - t.x, off.y != 0 ? t.y : 1.0 - t.y, off.z != 0 ? t.z : 1.0 - t.z);
+    if (p >= 0) anyTrilinear = anyTrilinear || lerp[C].x * lerp[C].y * lerp[C].z > 0.0;
+  }
+)";
+constexpr const char* kCornerWeightGlsl = R"(  weight[C] = 0.0;
+  if (probe[C] >= 0) {  // corner C
+    vec3 f = anyTrilinear ? lerp[C] : max(lerp[C], vec3(kTrilinearFloor));
+    float wt = f.x * f.y * f.z * pv[C].w;
+    if (wt > 0.0) {
+      vec3 d = x - pv[C].xyz;
+      float r = length(d);
+      weight[C] = wt * leakWeight(probe[C], d, r, n);
+      sum += weight[C];
+    }
+  }
+)";
+constexpr const char* kNormaliseGlsl = R"(  if (!(sum > 0.0)) return false;
+)";
+constexpr const char* kCornerNormaliseGlsl = "  weight[C] /= sum;\n";
+constexpr const char* kProbeWeightsTailGlsl = R"(  return true;
+}
+)";
+// END probeWeights port.
+// ============================================================================================
+
+std::string perCorner(const char* body) {
+  std::string out;
+  for (int c = 0; c < 8; ++c) {
+    std::string b = body;
+    for (size_t at = b.find('C'); at != std::string::npos; at = b.find('C', at + 1))
+      if ((at == 0 || !std::isalnum((unsigned char)b[at - 1])) && !std::isalnum((unsigned char)b[at + 1]))
+        b.replace(at, 1, std::to_string(c));
+    out += b;
+  }
+  return out;
+}
+
+std::string probeWeightsGlsl() {
+  return std::string(kProbeWeightsHeadGlsl) + perCorner(kCornerSetupGlsl) + "  float sum = 0.0;\n" +
+         perCorner(kCornerWeightGlsl) + kNormaliseGlsl +
+         perCorner(kCornerNormaliseGlsl) + kProbeWeightsTailGlsl;
+}
+
+// Normalisation K_l^m of the real SH basis (as in probes/src/sh.cpp): sqrt((2l+1)/(4π) ·
+// (l−m)!/(l+m)!), times √2 for m > 0.
+double shNorm(int l, int m) {
+  double ratio = 1.0;
+  for (int j = l - m + 1; j <= l + m; ++j) ratio /= j;
+  const double v = std::sqrt((2.0 * l + 1.0) / (4.0 * M_PI) * ratio);
+  return m == 0 ? v : std::sqrt(2.0) * v;
+}
+
+// Straight-line GLSL that sets float b<j> = Â_l y_j(n) for every coefficient j of a band with
+// Â_l ≠ 0, n = (px, py, pz) unit. Same polynomial recurrence as sh::evaluate (sh.cpp explains
+// it): P_l^m = sin^m θ · Q_l^m(z), sin^m θ (cos mφ, sin mφ) = (Re, Im)(x + iy)^m.
+std::string irradianceBasisGlsl(int bands) {
+  std::string s;
+  for (int m = 0; m < bands; ++m) {
+    if (m == 1) s += "  float c1 = px, s1 = py;\n";
+    if (m > 1)
+      s += cat("  float c", m, " = c", m - 1, " * px - s", m - 1, " * py, s", m, " = c", m - 1, " * py + s", m - 1,
+               " * px;\n");
+    double qmm = 1.0;  // (2m − 1)!!
+    for (int j = 1; j <= 2 * m - 1; j += 2) qmm *= j;
+    for (int l = m; l < bands; ++l) {
+      const std::string q = cat("q", l, "_", m);
+      if (l == m)
+        s += cat("  float ", q, " = ", glslFloat(qmm), ";\n");
+      else if (l == m + 1)
+        s += cat("  float ", q, " = ", glslFloat((2 * m + 1) * qmm), " * pz;\n");
+      else
+        s += cat("  float ", q, " = (", glslFloat(2 * l - 1), " * pz * q", l - 1, "_", m, " - ", glslFloat(l + m - 1),
+                 " * q", l - 2, "_", m, ") / ", glslFloat(l - m), ";\n");
+      const double a = sh::clampedCosineFactor(l);
+      if (a == 0.0) continue;
+      const std::string f = glslFloat(a * shNorm(l, m));
+      if (m == 0) {
+        s += cat("  float b", sh::index(l, 0), " = ", f, " * ", q, ";\n");
+      } else {
+        s += cat("  float b", sh::index(l, m), " = ", f, " * ", q, " * c", m, ";\n");
+        s += cat("  float b", sh::index(l, -m), " = ", f, " * ", q, " * s", m, ";\n");
+      }
+    }
+  }
+  return s;
+}
+
+}  // namespace
+
+std::vector<int> irradianceCoefficients(int bands) {
+  std::vector<int> out;
+  for (int j = 0; j < bands * bands; ++j)
+    if (sh::clampedCosineFactor(sh::bandOf(j)) != 0.0) out.push_back(j);
+  return out;
+}
+
+std::string receiverFragmentShader(int bands) {
+  PRT_CHECK(bands >= 1 && bands <= sh::kMaxBands);
+  const int n2 = bands * bands;
+  std::string s = cat(R"(#version 450 core
+in vec3 vWorld;
+in vec3 vNormal;
+in vec2 vTexcoord;
+in vec4 vColor;
+layout(binding = 0) uniform sampler2D uBaseColorTexture;
+layout(binding = 1) uniform isamplerBuffer uLattice;       // lattice point -> probe, -1 none
+layout(binding = 2) uniform samplerBuffer uProbeStatic;    // 4 texels per probe
+layout(binding = 3) uniform samplerBuffer uProbeRadiance;  // c_p packed: packRadiance()
+uniform vec4 uBaseColor;
+uniform int uHasTexture;
+uniform int uHasColor;
+uniform vec3 uOrigin;
+uniform vec3 uSpacing;
+uniform ivec3 uDims;
+uniform float uNearZero;
+const int kCoeffs = )", n2, R"(;
+uniform vec3 uLight[kCoeffs];  // the light itself: incident radiance where no probe applies
+out vec4 fragColor;
+)");
+  s += probeWeightsGlsl();
+  s += R"(
+void main() {
+  vec3 n = normalize(vNormal);
+  float px = n.x, py = n.y, pz = n.z;
+)";
+  s += irradianceBasisGlsl(bands);
+  // Per corner, the weighted packed texels are summed (T_i += w · texel_i); the basis is applied
+  // once at the end: Σ_p w_p Σ_j b_j c_p,j = Σ_j b_j Σ_p w_p c_p,j.
+  const std::vector<int> used = irradianceCoefficients(bands);
+  const int texels = radianceTexels(bands);
+  s += "  int probe[8];\n  float w[8];\n  vec3 e = vec3(0.0);\n";
+  for (int i = 0; i < texels; ++i) s += cat("  vec4 T", i, " = vec4(0.0);\n");
+  s += "  if (probeWeights(vWorld, n, probe, w)) {\n";
+  std::string corner = cat("    if (w[C] > 0.0) {  // corner C\n      int base = probe[C] * ", texels, ";\n");
+  for (int i = 0; i < texels; ++i) corner += cat("      T", i, " += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
+  corner += "    }\n";
+  s += perCorner(corner.c_str());
+  const char* lane = "xyzw";
+  for (size_t k = 0; k < used.size(); ++k) {
+    std::string rgb;
+    for (int c = 0; c < 3; ++c) {
+      const size_t f = 3 * k + size_t(c);
+      rgb += cat(c ? ", " : "", "T", f / 4, ".", lane[f % 4]);
+    }
+    s += cat("    e += vec3(", rgb, ") * b", used[k], ";\n");
+  }
+  s += R"(  } else {
+    // Outside the lattice, or no valid probe around: lit by the unoccluded light (M = I).
+)";
+  for (int j : irradianceCoefficients(bands)) s += cat("    e += uLight[", j, "] * b", j, ";\n");
+  s += R"(  }
+  vec3 albedo = uBaseColor.rgb;
+  if (uHasColor != 0) albedo *= vColor.rgb;
+  if (uHasTexture != 0) albedo *= texture(uBaseColorTexture, vTexcoord).rgb;
+  fragColor = vec4(albedo * e * 0.31830988618379067, 1.0);
+}
+)";
+  return s;
+}
+
+int radianceTexels(int bands) { return int(3 * irradianceCoefficients(bands).size() + 3) / 4; }
+
+void packRadiance(int bands, const std::vector<glm::vec3>& relit, std::vector<glm::vec4>& out) {
+  const std::vector<int> used = irradianceCoefficients(bands);
+  const size_t n2 = size_t(bands) * bands, texels = size_t(radianceTexels(bands));
+  PRT_CHECK_EQ(relit.size() % n2, size_t(0));
+  const size_t probes = relit.size() / n2;
+  out.assign(std::max<size_t>(probes, 1) * texels, glm::vec4(0.0f));
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, probes, 1024), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t p = r.begin(); p < r.end(); ++p) {
+      float* dst = &out[p * texels].x;
+      for (size_t k = 0; k < used.size(); ++k) {
+        const glm::vec3& c = relit[p * n2 + size_t(used[k])];
+        dst[3 * k] = c.r;
+        dst[3 * k + 1] = c.g;
+        dst[3 * k + 2] = c.b;
+      }
+    }
+  });
+}
+
+std::vector<glm::vec4> probeStaticTexels(const ProbeGrid& grid) {
+  const size_t count = grid.probeCount();
+  PRT_CHECK_EQ(grid.validity.size(), count);
+  PRT_CHECK_EQ(grid.offset.size(), count);
+  PRT_CHECK_EQ(grid.moments.size(), count);
+  const double floor = varianceFloor(grid);
+  std::vector<glm::vec4> out(std::max<size_t>(count, 1) * kProbeStaticTexels, glm::vec4(0.0f));
+  for (size_t p = 0; p < count; ++p) {
+    glm::vec4* t = &out[p * kProbeStaticTexels];
+    t[0] = glm::vec4(glm::vec3(grid.position(p)), grid.validity[p]);
+    for (int axis = 0; axis < 3; ++axis) {
+      // As probeWeights: σ² = max(m₂ − μ², floor) with μ, m₂ widened to double first.
+      const glm::vec2 pos = grid.moments[p][size_t(2 * axis)], neg = grid.moments[p][size_t(2 * axis + 1)];
+      const double varPos = std::max(double(pos.y) - double(pos.x) * double(pos.x), floor);
+      const double varNeg = std::max(double(neg.y) - double(neg.x) * double(neg.x), floor);
+      t[1 + axis] = glm::vec4(pos.x, float(varPos), neg.x, float(varNeg));
+    }
+  }
+  return out;
+}
+
+std::vector<int32_t> latticeIndex(const ProbeGrid& grid) {
+  const size_t points = size_t(grid.dims.x) * size_t(grid.dims.y) * size_t(grid.dims.z);
+  std::vector<int32_t> out(std::max<size_t>(points, 1), -1);
+  for (size_t p = 0; p < grid.probeCount(); ++p) {
+    const glm::ivec3 c = grid.coord[p];
+    PRT_CHECK(c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x < grid.dims.x && c.y < grid.dims.y && c.z < grid.dims.z);
+    out[(size_t(c.z) * size_t(grid.dims.y) + size_t(c.y)) * size_t(grid.dims.x) + size_t(c.x)] = int32_t(p);
+  }
+  return out;
+}
+
+double varianceFloor(const ProbeGrid& grid) {
+  const double f = kVarianceFloorFraction * minSpacing(grid);
+  return f * f;
+}
+
+double nearZero(const ProbeGrid& grid) { return kNearZeroFraction * minSpacing(grid); }
+
+}  // namespace prt::render
