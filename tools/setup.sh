@@ -104,19 +104,21 @@ case "$mode" in
     say "relighting with scenes/env/royal_esplanade_128.hdr"
     run build/tools/prt relight out/cornell.baked.glb --env scenes/env/royal_esplanade_128.hdr \
       -o out/cornell.lit.glb --csv out/cornell.csv
+    run build/tools/prt info out/cornell.probes.vdb
     say "rendering a turntable of the sky with the receiver moving, lit from the probes (8 frames)"
     run mkdir -p out/frames
-    run build/tools/prt render out/cornell.baked.glb --env scenes/env/royal_esplanade_128.hdr \
-      --env-rotate 0 --env-rotate-end 315 --frames 0-7 --size 640x360 --gl osmesa --png --exposure 1 \
-      --probes out/cornell.probes.vdb --fps 2 -o out/frames/frame_%04d.exr
-    run build/tools/prt info out/cornell.probes.vdb
+    run build/tools/prt render out/cornell.baked.glb --probes out/cornell.probes.vdb \
+      --env scenes/env/royal_esplanade_128.hdr --env-rotate 0:315 --frames 0-7 --fps 2 \
+      --size 640x360 --gl osmesa --png --exposure 1 --contact-sheet out/contact_sheet.png \
+      -o out/frames/frame_%04d.exr
     say "done. Outputs in $root/out:"
     printf '    %s\n' \
       "out/cornell.baked.glb  the scene with per-vertex SH transfer (input of prt relight)" \
       "out/cornell.lit.glb    per-vertex radiance as COLOR_0 (open in any glTF viewer)" \
       "out/cornell.csv        the same per-vertex radiance as a table" \
       "out/cornell.probes.vdb the probe grid (OpenVDB: vdb_print, pyopenvdb, Blender)" \
-      "out/frames/            relit frames, linear EXR and tone-mapped PNG"
+      "out/frames/            relit frames, linear EXR and tone-mapped PNG" \
+      "out/contact_sheet.png  all frames on one page"
     ;;
   test)
     say "running the tests (ctest)"
