@@ -103,6 +103,7 @@ struct Scene {
   std::vector<std::string> warnings;            // skipped or repaired input, one line each
   std::string bakeSettingsJson;                 // asset.extras.prt of a baked file, else ""
   int transferBands = 0;                        // > 0 when read from a baked file
+  bool allowExternalUris = false;  // loaded with LoadOptions::allowExternalUris (writers reread so)
 };
 
 struct LoadOptions {
@@ -111,12 +112,20 @@ struct LoadOptions {
   std::vector<std::string> receiverNodes;
   /// Skip zero-area triangles with a warning instead of refusing the file.
   bool allowDegenerate = false;
+  /// Read buffer and image URIs that point outside the scene's folder (absolute paths, `..`,
+  /// symbolic links leading out). Off: such a URI is refused with an error.
+  bool allowExternalUris = false;
 };
 
 /// Loads .gltf or .glb. Throws prt::Error naming the file and the element on bad input:
 /// missing or malformed file, non-finite positions, out-of-range indices, degenerate
-/// triangles (unless allowed), unsupported required extensions, a scene with no triangles.
+/// triangles (unless allowed), unsupported required extensions, a scene with no triangles,
+/// URIs outside the scene's folder (unless allowed), limits in docs/robustness.md.
 Scene loadScene(const std::string& path, const LoadOptions& options = {});
+/// Loads .gltf or .glb bytes held in memory; `name` stands for the file in messages and its
+/// extension picks the format when the bytes lack the GLB magic. URIs may only be data: URIs
+/// (there is no folder). Same checks and errors as loadScene.
+Scene loadSceneFromMemory(const std::string& name, const std::string& bytes, const LoadOptions& options = {});
 
 /// Base colour (linear RGB, baseColorFactor × texture × COLOR_0) at vertex v.
 glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v);

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Bounded fuzzing of every loader: bash tests/fuzz/run.sh BUILD_DIR [SECONDS [TARGET...]]
+#
+# Runs each fuzz target (default: gltf image vdb) for SECONDS (default 60) on a temporary copy
+# of its seed corpus plus its regression inputs, so the checkout is never written to. A crash,
+# a sanitizer report, a leak or an input over the memory limit stops the run: the input is kept
+# as BUILD_DIR/fuzz-artifacts/<target>/crash-* and the script exits 1. Longer local runs:
+# docs/robustness.md.
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+build=${1:?usage: run.sh BUILD_DIR [SECONDS [TARGET...]]}
+seconds=${2:-60}
+shift $(( $# < 2 ? $# : 2 ))
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(gltf image vdb)
+
+# Library-internal leaks only (see the file); our code is never suppressed.
+export LSAN_OPTIONS="suppressions=$here/../sanitizer_suppressions.txt:print_suppressions=0"
+export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
+
+status=0
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+for t in "${targets[@]}"; do
+  exe="$build/tests/fuzz/fuzz_$t"
+  [ -x "$exe" ] || { echo "run.sh: $exe not built" >&2; exit 2; }
+  mkdir -p "$work/$t" "$build/fuzz-artifacts/$t"
+  cp "$here/corpus/$t"/* "$work/$t"/
+  dict=()
+  [ -f "$here/$t.dict" ] && dict=(-dict="$here/$t.dict")
+  # -rss_limit_mb: a loader that allocates far beyond its input is a finding, not noise.
+  # -timeout: one input may take at most 10 s (a hang is a finding too).
+  echo "==> fuzz_$t for $seconds s"
+  if ! "$exe" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 \
+       "${dict[@]}" -artifact_prefix="$build/fuzz-artifacts/$t/" "$work/$t" "$here/regressions/$t" \
+       >"$work/$t.log" 2>&1; then
+    tail -60 "$work/$t.log"
+    echo "run.sh: fuzz_$t FAILED; input kept in $build/fuzz-artifacts/$t/" >&2
+    status=1
+  else
+    grep -E "^stat::number_of_executed_units|^stat::peak_rss_mb|^#[0-9]+ +DONE" "$work/$t.log" || true
+  fi
+done
+exit "$status"
