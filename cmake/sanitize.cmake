@@ -36,11 +36,13 @@ if(PRT_FUZZ)
   add_compile_options(-fsanitize=fuzzer-no-link)
 endif()
 
-option(PRT_INSTRUMENT_PARSERS "Compile tinygltf and stb_image from their headers (instrumented)"
-       ${PRT_FUZZ})
-if(PRT_SANITIZE)
-  set(PRT_INSTRUMENT_PARSERS ON CACHE BOOL "" FORCE)
+if(PRT_SANITIZE OR PRT_FUZZ)
+  set(prt_instrument_default ON)
+else()
+  set(prt_instrument_default OFF)
 endif()
+option(PRT_INSTRUMENT_PARSERS "Compile tinygltf and stb_image from their headers (instrumented)"
+       ${prt_instrument_default})
 
 # tinygltf and stb_image parse the untrusted bytes of a scene. Debian ships them compiled
 # (libtinygltf.so, libstb.so), invisible to sanitizers and to the fuzzer's coverage; here the
