@@ -28,7 +28,14 @@ if(PRT_SANITIZE)
   if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
     # Third-party header code that is compiled into our objects but whose reports are not
     # ours to fix (each entry says why).
-    add_compile_options(-fsanitize-ignorelist=${PROJECT_SOURCE_DIR}/cmake/sanitizer_ignorelist.txt)
+    # The list is an input of every object that neither the generated build nor ccache sees:
+    # a copy named by its hash changes the flags, so an edit rebuilds everything (configure_file
+    # also reruns CMake when the list changes).
+    set(prt_ignorelist ${PROJECT_SOURCE_DIR}/cmake/sanitizer_ignorelist.txt)
+    file(MD5 ${prt_ignorelist} prt_ignorelist_md5)
+    set(prt_ignorelist_copy ${CMAKE_BINARY_DIR}/sanitizer_ignorelist_${prt_ignorelist_md5}.txt)
+    configure_file(${prt_ignorelist} ${prt_ignorelist_copy} COPYONLY)
+    add_compile_options(-fsanitize-ignorelist=${prt_ignorelist_copy})
   endif()
 endif()
 
