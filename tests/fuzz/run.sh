@@ -25,6 +25,7 @@ trap 'rm -rf "$work"' EXIT
 for t in "${targets[@]}"; do
   exe="$build/tests/fuzz/fuzz_$t"
   [ -x "$exe" ] || { echo "run.sh: $exe not built" >&2; exit 2; }
+  rm -rf "$build/fuzz-artifacts/$t"
   mkdir -p "$work/$t" "$build/fuzz-artifacts/$t"
   cp "$here/corpus/$t"/* "$work/$t"/
   extra=()
@@ -49,9 +50,18 @@ for t in "${targets[@]}"; do
   # -rss_limit_mb: a loader that allocates far beyond its input is a finding, not noise.
   # -timeout: one input may take at most 10 s (a hang is a finding too).
   echo "==> fuzz_$t for $seconds s"
-  if ! ASAN_OPTIONS="$ASAN_OPTIONS$vdb_asan" "$exe" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 \
-       "${extra[@]}" -artifact_prefix="$build/fuzz-artifacts/$t/" "$work/$t" "$here/regressions/$t" \
-       >"$work/$t.log" 2>&1; then
+  rc=0
+  ASAN_OPTIONS="$ASAN_OPTIONS$vdb_asan" "$exe" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 \
+    -print_final_stats=1 "${extra[@]}" -artifact_prefix="$build/fuzz-artifacts/$t/" "$work/$t" \
+    "$here/regressions/$t" >"$work/$t.log" 2>&1 || rc=$?
+  # Fork mode exits non-zero after an ignored OOM too: there, only other findings count.
+  findings=$(find "$build/fuzz-artifacts/$t" -type f ! -name 'oom-*' | wc -l)
+  ooms=$(find "$build/fuzz-artifacts/$t" -type f -name 'oom-*' | wc -l)
+  if [ "$t" = vdb ] && [ "$rc" -ne 0 ] && [ "$findings" -eq 0 ] && [ "$ooms" -gt 0 ]; then
+    echo "fuzz_$t: $ooms out-of-memory input(s) skipped (OpenVDB string lengths, docs/robustness.md)"
+    rc=0
+  fi
+  if [ "$rc" -ne 0 ]; then
     tail -60 "$work/$t.log"
     echo "run.sh: fuzz_$t FAILED; input kept in $build/fuzz-artifacts/$t/" >&2
     status=1
