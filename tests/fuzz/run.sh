@@ -48,7 +48,8 @@ for t in "${targets[@]}"; do
     # deadlock with the TBB worker threads the reader starts; the leaks would be OpenVDB's
     # anyway, and the ASan test suite checks the VDB reader for leaks on every seed and
     # regression input.
-    extra+=(-fork=1 -ignore_ooms=1 -ignore_crashes=0 -ignore_timeouts=0 -malloc_limit_mb=1048576 -detect_leaks=0)
+    # -ignore_crashes=1: crashes are classified below (a known OpenVDB overflow is not ours).
+    extra+=(-fork=1 -ignore_ooms=1 -ignore_crashes=1 -ignore_timeouts=0 -malloc_limit_mb=1048576 -detect_leaks=0)
     vdb_asan=":allocator_may_return_null=1:alloc_dealloc_mismatch=0"
   fi
   # -rss_limit_mb: a loader that allocates far beyond its input is a finding, not noise.
@@ -58,11 +59,25 @@ for t in "${targets[@]}"; do
   ASAN_OPTIONS="$ASAN_OPTIONS$vdb_asan" "$exe" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 \
     -print_final_stats=1 "${extra[@]}" -artifact_prefix="$build/fuzz-artifacts/$t/" "$work/$t" \
     "$here/regressions/$t" >"$work/$t.log" 2>&1 || rc=$?
-  # Fork mode exits non-zero after an ignored OOM too: there, only other findings count.
-  findings=$(find "$build/fuzz-artifacts/$t" -type f ! -name 'oom-*' | wc -l)
+  # OpenVDB 10.0.1's bloscFromStream reads a corrupt "uncompressed" size straight into a
+  # buffer of the expected size: a heap overflow inside the library that prt cannot prevent
+  # without a VDB parser of its own (docs/robustness.md, tests/fuzz/known-library-bugs/).
+  # Crashes of that one kind are reported and set aside; any other crash fails the run.
+  if [ "$t" = vdb ]; then
+    for c in "$build/fuzz-artifacts/$t"/crash-*; do
+      [ -f "$c" ] || continue
+      report=$(ASAN_OPTIONS="$ASAN_OPTIONS$vdb_asan:detect_leaks=0" "$exe" "$c" 2>&1 || true)
+      if grep -A5 "ERROR: AddressSanitizer: heap-buffer-overflow" <<<"$report" | grep -q "io::bloscFromStream"; then
+        echo "fuzz_$t: known OpenVDB overflow in bloscFromStream: $(basename "$c") (set aside)"
+        mv "$c" "$build/fuzz-artifacts/$t/known-openvdb-$(basename "$c")"
+      fi
+    done
+  fi
+  # Fork mode exits non-zero after an ignored OOM or crash too: there, only findings count.
+  findings=$(find "$build/fuzz-artifacts/$t" -type f ! -name 'oom-*' ! -name 'known-openvdb-*' | wc -l)
   ooms=$(find "$build/fuzz-artifacts/$t" -type f -name 'oom-*' | wc -l)
-  if [ "$t" = vdb ] && [ "$rc" -ne 0 ] && [ "$findings" -eq 0 ] && [ "$ooms" -gt 0 ]; then
-    echo "fuzz_$t: $ooms out-of-memory input(s) skipped (OpenVDB string lengths, docs/robustness.md)"
+  if [ "$t" = vdb ] && [ "$findings" -eq 0 ]; then
+    [ "$ooms" -eq 0 ] || echo "fuzz_$t: $ooms out-of-memory input(s) skipped (OpenVDB string lengths)"
     rc=0
   fi
   if [ "$rc" -ne 0 ]; then
