@@ -493,6 +493,8 @@ int main(int argc, char** argv) {
   bake->add_option("--threads", bakeArgs.settings.threads, "Worker threads (0 = all cores)")->capture_default_str();
   bake->add_option("--receiver", bakeArgs.load.receiverNodes, "Node (name or index) baked as receiver only; repeatable");
   bake->add_flag("--allow-degenerate", bakeArgs.load.allowDegenerate, "Drop zero-area triangles with a warning instead of refusing");
+  bake->add_flag("--allow-external-uris", bakeArgs.load.allowExternalUris,
+                 "Read buffers and images outside the scene's folder (absolute paths, ..)");
   bake->add_flag("-q,--quiet", bakeArgs.quiet, "No progress bar, no summary");
   bake->add_option("--probes", bakeArgs.probes, "Also bake a probe grid into this OpenVDB file (.vdb)");
   bake->add_option("--probe-spacing", bakeArgs.probeSpacing, "Probe spacing in world units (else --probe-dims)");

@@ -8,7 +8,11 @@
 # 2. configures and builds Release with Ninja into build/;
 # 3. demo: bakes scenes/cornell_open.gltf (surface + probes), relights it and renders frames
 #    into out/;
-#    test: runs ctest in build/ and exits with its status.
+#    test: runs ctest in build/; then builds the suite with AddressSanitizer +
+#    UndefinedBehaviorSanitizer (clang) in build-asan/ and runs ctest there; then builds the
+#    libFuzzer targets in build-fuzz/ and runs each for PRT_FUZZ_SECONDS (default 60) on a
+#    temporary copy of its seed corpus. Exits non-zero if any phase fails.
+#    PRT_TEST_PHASES (default "release asan fuzz") picks phases.
 # Run as root, or as a user with sudo (used for apt-get only). Under sudo, the build and the
 # outputs belong to the user who ran sudo when that user owns the checkout.
 set -euo pipefail
@@ -19,6 +23,7 @@ PACKAGES=(
   libembree-dev libglm-dev libopenexr-dev libtinygltf-dev nlohmann-json3-dev libstb-dev
   libtbb-dev libcli11-dev libosmesa6-dev libegl-dev libegl1-mesa-dev libgl1-mesa-dri
   libgtest-dev
+  clang-14 libclang-rt-14-dev llvm-14
 )
 
 usage() {
@@ -27,8 +32,9 @@ usage: bash tools/setup.sh demo|test
 
   demo   install dependencies, build, then bake scenes/cornell_open.gltf and relight it
          with scenes/env/royal_esplanade_128.hdr into out/
-  test   install dependencies, build, then run the test suite (ctest) and exit with its
-         status
+  test   install dependencies, build, run the test suite (ctest); then the same suite
+         built with ASan + UBSan (build-asan/), then each fuzz target for 60 s (build-fuzz/);
+         exit non-zero if any phase fails
 
 Installs Debian 12 packages with apt-get (as root, or through sudo) and builds Release
 with Ninja into build/.
@@ -89,10 +95,12 @@ run() { "${as_user[@]}" "$@"; }
 if [ -f build/CMakeCache.txt ] && ! grep -q '^CMAKE_GENERATOR:INTERNAL=Ninja$' build/CMakeCache.txt; then
   die "build/ was configured with another generator than Ninja; remove it (rm -rf build) and rerun"
 fi
+build_start=$SECONDS
 say "configuring (Release, Ninja) in build/"
 run cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
 say "building"
 run cmake --build build
+build_seconds=$((SECONDS - build_start))
 
 # --- 3. Demo or tests --------------------------------------------------------------------
 case "$mode" in
@@ -121,11 +129,54 @@ case "$mode" in
       "out/contact_sheet.png  all frames on one page"
     ;;
   test)
-    say "running the tests (ctest)"
-    cd build
+    phases=${PRT_TEST_PHASES:-release asan fuzz}
+    fuzz_seconds=${PRT_FUZZ_SECONDS:-60}
     status=0
-    run ctest --output-on-failure -j2 || status=$?
-    if [ "$status" -eq 0 ]; then say "all tests passed"; else say "tests FAILED (ctest exit status $status)"; fi
+    phase_times=()
+    timed() {  # timed NAME COMMAND...: runs, records the seconds, keeps the first failure
+      local name=$1 start=$SECONDS rc=0
+      shift
+      "$@" || rc=$?
+      phase_times+=("$name $((SECONDS - start)) s$([ "$rc" -eq 0 ] || echo " (FAILED, status $rc)")")
+      [ "$rc" -eq 0 ] || [ "$status" -ne 0 ] || status=$rc
+    }
+    release_tests() { (cd build && run ctest --output-on-failure -j2); }
+    # Sanitizers: clang, every target instrumented; options in tests/CMakeLists.txt.
+    asan_build() {
+      run cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+        -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
+        -DPRT_SANITIZE=address,undefined -DPRT_BUILD_BENCH=OFF &&
+        run cmake --build build-asan
+    }
+    asan_tests() { (cd build-asan && run ctest --output-on-failure -j2); }
+    fuzz_build() {
+      run cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+        -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
+        -DPRT_FUZZ=ON -DPRT_SANITIZE=address,undefined -DPRT_BUILD_TESTS=OFF -DPRT_BUILD_BENCH=OFF &&
+        run cmake --build build-fuzz --target fuzz_gltf fuzz_image fuzz_vdb
+    }
+    fuzz_runs() { run bash tests/fuzz/run.sh build-fuzz "$fuzz_seconds"; }
+
+    phase_times+=("release build $build_seconds s")
+    for phase in $phases; do
+      case "$phase" in
+        release) say "running the tests (ctest, Release)"; timed "release tests" release_tests ;;
+        asan)
+          say "building with AddressSanitizer + UndefinedBehaviorSanitizer in build-asan/"
+          timed "asan build" asan_build
+          say "running the tests under ASan + UBSan"
+          timed "asan tests" asan_tests ;;
+        fuzz)
+          say "building the fuzz targets in build-fuzz/"
+          timed "fuzz build" fuzz_build
+          say "fuzzing each loader for $fuzz_seconds s"
+          timed "fuzz runs" fuzz_runs ;;
+        *) die "PRT_TEST_PHASES: unknown phase '$phase' (release, asan, fuzz)" ;;
+      esac
+    done
+    say "phase times:"
+    printf '    %s\n' "${phase_times[@]}"
+    if [ "$status" -eq 0 ]; then say "all tests passed"; else say "tests FAILED (exit status $status)"; fi
     exit "$status"
     ;;
 esac

@@ -38,6 +38,20 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
 constexpr int kMaxNodeDepth = 1000;
+// Limits on hostile input, checked before anything that scales with them is allocated
+// (docs/robustness.md). JSON nesting: tinygltf converts extras and extensions recursively,
+// so a deeply nested document would overflow the stack; real files nest fewer than 20 levels.
+constexpr int kMaxJsonDepth = 64;
+// A .gltf/.glb and every file it refers to: tinygltf holds sizes in 32-bit fields (GLB
+// lengths, its string loaders), so 4 GiB is its own limit.
+constexpr uint64_t kMaxFileBytes = 0xFFFFFFFFull;
+// Base colour textures are decoded to float RGBA (16 bytes a texel): at most 1 GiB, and no
+// side beyond what GPUs load (16384).
+constexpr int64_t kMaxTextureSide = 16384;
+constexpr int64_t kMaxTexels = int64_t(1) << 26;
+// An accessor without a buffer view reads as zeros: its count is not backed by bytes of the
+// file, so it is bounded here instead of by the buffer.
+constexpr size_t kMaxBufferlessCount = size_t(1) << 24;
 constexpr const char* kTransferPrefix = "_PRT_SH_";
 constexpr const char* kUnlit = "KHR_materials_unlit";
 constexpr const char* kLights = "KHR_lights_punctual";
@@ -163,41 +177,198 @@ bool keepImageUri(const std::string*, const std::string*, const tinygltf::Image*
   return false;
 }
 
-bool looksBinary(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  char magic[4] = {};
-  if (in.read(magic, 4) && std::memcmp(magic, "glTF", 4) == 0) return true;
+bool looksBinary(const std::string& path, const std::string& bytes) {
+  if (bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0) return true;
   std::string ext = fs::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   return ext == ".glb";
 }
 
-/// Parses .gltf or .glb; tinygltf's warnings go to `warnings`, its errors become one
-/// prt::Error line.
-Gltf readGltf(const std::string& path, std::vector<std::string>* warnings) {
+/// Where the files a glTF refers to may come from (buffers and images by URI). The scene's
+/// folder, resolved through symbolic links, unless external URIs are allowed; nothing when
+/// the document was read from memory.
+struct UriGuard {
+  std::string baseDir;    // as tinygltf joins URIs to it ("" = read from memory)
+  fs::path canonicalDir;  // the folder every file must lie in
+  bool allowExternal = false;
+  std::string refusal;    // first refused file, reported once parsing returns
+};
+
+bool isWithin(const fs::path& p, const fs::path& dir) {
+  auto [d, q] = std::mismatch(dir.begin(), dir.end(), p.begin(), p.end());
+  return d == dir.end();
+}
+
+/// Why `uri` (of a buffer or an image) may not be read, or "" if it may.
+std::string uriProblem(const UriGuard& guard, const std::string& uri) {
+  if (uri.rfind("data:", 0) == 0) return "";
+  size_t colon = uri.find(':');
+  bool scheme = colon != std::string::npos && colon > 0 && std::isalpha(static_cast<unsigned char>(uri[0])) &&
+                std::all_of(uri.begin(), uri.begin() + std::ptrdiff_t(colon), [](unsigned char c) {
+                  return std::isalnum(c) || c == '+' || c == '-' || c == '.';
+                });
+  if (scheme) return cat("uses scheme '", uri.substr(0, colon), "'; only relative file paths and data: URIs are read");
+  if (guard.baseDir.empty()) return "refers to a file, but the document was read from memory (no folder)";
+  bool absolute = !uri.empty() && (uri[0] == '/' || uri[0] == '\\');
+  if (absolute && !guard.allowExternal)
+    return "is an absolute path; refused unless external URIs are allowed (--allow-external-uris)";
   std::error_code ec;
-  if (!fs::exists(path, ec)) throw Error(cat(path, ": no such file"));
-  if (fs::is_directory(path, ec)) throw Error(cat(path, ": is a directory, expected a .gltf or .glb file"));
+  fs::path target = fs::weakly_canonical(absolute ? fs::path(uri) : guard.canonicalDir / uri, ec);
+  if (!guard.allowExternal && (ec || !isWithin(target, guard.canonicalDir)))
+    return "points outside the scene folder; refused unless external URIs are allowed (--allow-external-uris)";
+  if (fs::exists(target, ec) && !fs::is_regular_file(target, ec)) return "is not a regular file";
+  return "";
+}
+
+/// Why tinygltf may not open `path` (a URI joined to a search folder), or "".
+std::string fileProblem(const UriGuard& guard, const std::string& path) {
+  if (guard.baseDir.empty()) return "refers to a file, but the document was read from memory (no folder)";
+  std::error_code ec;
+  if (!guard.allowExternal && !isWithin(fs::weakly_canonical(path, ec), guard.canonicalDir))
+    return "lies outside the scene folder; refused unless external URIs are allowed (--allow-external-uris)";
+  if (fs::exists(path, ec) && !fs::is_regular_file(path, ec)) return "is not a regular file";
+  return "";
+}
+
+// tinygltf file-system callbacks: every file it opens passes the guard (tinygltf also looks
+// in the working directory, and follows whatever path a URI spells).
+bool guardedFileExists(const std::string& path, void* user) {
+  auto& guard = *static_cast<UriGuard*>(user);
+  std::error_code ec;
+  if (guard.baseDir.empty() || !fs::exists(path, ec)) return false;  // tinygltf: "File not found"
+  if (std::string why = fileProblem(guard, path); !why.empty()) {
+    if (guard.refusal.empty()) guard.refusal = cat("file '", path, "' ", why);
+    return false;
+  }
+  return true;
+}
+
+std::string guardedExpandFilePath(const std::string& path, void* user) {
+  // tinygltf joins an absolute URI to its folder ("dir//abs"); when external files are
+  // allowed, it means what it says.
+  const auto& guard = *static_cast<const UriGuard*>(user);
+  for (const std::string& dir : {guard.baseDir, std::string(".")})
+    if (guard.allowExternal && !dir.empty() && path.rfind(dir + "//", 0) == 0) return path.substr(dir.size() + 1);
+  return path;
+}
+
+bool guardedReadWholeFile(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  auto& guard = *static_cast<UriGuard*>(user);
+  if (std::string why = fileProblem(guard, path); !why.empty()) {
+    if (err) *err += why;
+    return false;
+  }
+  std::error_code ec;
+  uintmax_t size = fs::file_size(path, ec);
+  if (ec || size > kMaxFileBytes) {
+    if (err) *err += ec ? ec.message() : cat("larger than ", kMaxFileBytes, " bytes");
+    return false;
+  }
+  std::ifstream in(path, std::ios::binary);
+  out->resize(size_t(size));
+  if (!in.read(reinterpret_cast<char*>(out->data()), std::streamsize(size))) {
+    if (err) *err += "cannot read";
+    return false;
+  }
+  return true;
+}
+
+bool refuseWrite(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "prt never writes through tinygltf's file callbacks";
+  return false;
+}
+
+/// The JSON text of a .gltf, or the JSON chunk of a .glb ("" if the container is malformed:
+/// tinygltf reports that).
+std::string jsonText(const std::string& bytes, bool binary) {
+  if (!binary) return bytes;
+  if (bytes.size() < 20 || std::memcmp(bytes.data() + 16, "JSON", 4) != 0) return "";
+  uint32_t length = 0;
+  std::memcpy(&length, bytes.data() + 12, 4);
+  return length <= bytes.size() - 20 ? bytes.substr(20, length) : "";
+}
+
+/// Checks what tinygltf would trust: the nesting depth of the document and the URIs of
+/// buffers and images. Syntax errors are left to tinygltf, which reports them.
+void checkDocument(const std::string& path, const std::string& text, const UriGuard& guard) {
+  Json doc = Json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) return;
+  std::vector<std::pair<const Json*, int>> stack{{&doc, 1}};
+  while (!stack.empty()) {
+    auto [j, depth] = stack.back();
+    stack.pop_back();
+    if (depth > kMaxJsonDepth)
+      throw Error(cat(path, ": JSON nested deeper than ", kMaxJsonDepth, " levels"));
+    if (j->is_structured())
+      for (const Json& child : *j) stack.emplace_back(&child, depth + 1);
+  }
+  if (!doc.is_object()) return;
+  for (const char* array : {"buffers", "images"}) {
+    auto it = doc.find(array);
+    if (it == doc.end() || !it->is_array()) continue;
+    for (size_t i = 0; i < it->size(); ++i) {
+      const Json& element = (*it)[i];
+      if (!element.is_object() || !element.contains("uri") || !element["uri"].is_string()) continue;
+      const std::string uri = element["uri"].get<std::string>();
+      if (std::string why = uriProblem(guard, uri); !why.empty())
+        throw Error(cat(path, ": ", std::string(array) == "buffers" ? "buffer " : "image ", i, ": uri '",
+                        uri.size() > 200 ? uri.substr(0, 200) + "..." : uri, "' ", why));
+    }
+  }
+}
+
+/// Parses .gltf or .glb bytes; tinygltf's warnings go to `warnings`, its errors become one
+/// prt::Error line. `baseDir` is the folder URIs are relative to ("" = none: from memory).
+Gltf parseGltf(const std::string& path, const std::string& bytes, const std::string& baseDir, bool allowExternal,
+               std::vector<std::string>* warnings) {
+  if (bytes.size() > kMaxFileBytes) throw Error(cat(path, ": larger than ", kMaxFileBytes, " bytes"));
+  UriGuard guard;
+  guard.baseDir = baseDir;
+  guard.allowExternal = allowExternal;
+  std::error_code ec;
+  if (!baseDir.empty()) guard.canonicalDir = fs::weakly_canonical(baseDir, ec);
+  bool binary = looksBinary(path, bytes);
+  checkDocument(path, jsonText(bytes, binary), guard);
   Gltf g;
   g.path = path;
   tinygltf::TinyGLTF parser;
   parser.SetImageLoader(&keepEncodedImage, &g.model);
+  parser.SetFsCallbacks(tinygltf::FsCallbacks{&guardedFileExists, &guardedExpandFilePath, &guardedReadWholeFile,
+                                              &refuseWrite, &guard});
   std::string err, warn;
   bool ok = false;
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
   try {
-    ok = looksBinary(path) ? parser.LoadBinaryFromFile(&g.model, &err, &warn, path)
-                           : parser.LoadASCIIFromFile(&g.model, &err, &warn, path);
+    ok = binary ? parser.LoadBinaryFromMemory(&g.model, &err, &warn, data, unsigned(bytes.size()), baseDir)
+                : parser.LoadASCIIFromString(&g.model, &err, &warn, bytes.data(), unsigned(bytes.size()), baseDir);
   } catch (const std::exception& e) {
     // tinygltf mostly reports through `err`, but a few inputs (an empty data: image) make it
     // throw from the standard library.
     err = e.what();
   }
+  if (!guard.refusal.empty()) throw Error(cat(path, ": ", guard.refusal));
   if (!ok) throw Error(cat(path, ": malformed glTF: ", err.empty() ? "unknown error" : firstLine(err)));
   if (warnings) {
     for (const std::string& line : lines(warn)) warnings->push_back(cat(path, ": ", line));
     for (const std::string& line : lines(err)) warnings->push_back(cat(path, ": ", line));
   }
   return g;
+}
+
+/// Reads and parses a .gltf or .glb file (see parseGltf).
+Gltf readGltf(const std::string& path, std::vector<std::string>* warnings, bool allowExternal) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw Error(cat(path, ": no such file"));
+  if (fs::is_directory(path, ec)) throw Error(cat(path, ": is a directory, expected a .gltf or .glb file"));
+  if (!fs::is_regular_file(path, ec)) throw Error(cat(path, ": not a regular file"));
+  uintmax_t size = fs::file_size(path, ec);
+  if (ec) throw Error(cat(path, ": cannot read (", ec.message(), ")"));
+  if (size > kMaxFileBytes) throw Error(cat(path, ": larger than ", kMaxFileBytes, " bytes"));
+  std::string bytes(size_t(size), '\0');
+  std::ifstream in(path, std::ios::binary);
+  if (!in.read(bytes.data(), std::streamsize(size))) throw Error(cat(path, ": cannot read"));
+  std::string dir = fs::path(path).parent_path().string();
+  return parseGltf(path, bytes, dir.empty() ? "." : dir, allowExternal, warnings);
 }
 
 void checkRequiredExtensions(const Gltf& g, std::vector<std::string>& warnings) {
@@ -302,7 +473,12 @@ AccessorData openAccessor(const Gltf& g, int index, const std::string& where) {
   if (size == 0) fail(g, cat(where, ": accessor ", index, " has invalid component type ", a.componentType));
   if (d.components == 0) fail(g, cat(where, ": accessor ", index, " has type ", typeName(a.type), ", expected a scalar or vector"));
   size_t elementSize = size_t(size) * size_t(d.components);
-  if (a.bufferView < 0) return d;  // glTF: an accessor without a buffer view reads as zeros
+  if (a.bufferView < 0) {  // glTF: an accessor without a buffer view reads as zeros
+    if (d.count > kMaxBufferlessCount)
+      fail(g, cat(where, ": accessor ", index, " has ", d.count, " elements but no buffer view (at most ",
+                  kMaxBufferlessCount, ")"));
+    return d;
+  }
   if (size_t(a.bufferView) >= m.bufferViews.size())
     fail(g, cat(where, ": accessor ", index, " uses buffer view ", a.bufferView, ", which does not exist"));
   const tinygltf::BufferView& view = m.bufferViews[size_t(a.bufferView)];
@@ -428,6 +604,16 @@ const char* modeName(int mode) {
   return mode >= 0 && mode < 4 ? names[mode] : "?";
 }
 
+/// Refuses a non-finite value among values[first], values[first + step], ... (vertex-major
+/// data: step = values per vertex).
+template <class Vec>
+void requireFinite(const Gltf& g, const std::vector<Vec>& values, const std::string& where, size_t first = 0,
+                   size_t step = 1) {
+  for (size_t i = first, v = 0; i < values.size(); i += step, ++v)
+    for (int c = 0; c < Vec::length(); ++c)
+      if (!std::isfinite(values[i][c])) fail(g, cat(where, ": vertex ", v, " is not finite"));
+}
+
 std::vector<glm::vec3> readPositions(const Gltf& g, int accessor, const std::string& where) {
   std::string here = cat(where, " / POSITION");
   AccessorData d = openAccessor(g, accessor, here);
@@ -480,8 +666,9 @@ void readTransfer(const Gltf& g, const tinygltf::Primitive& prim, PrimitiveData&
   if (coefficients.empty()) return;
   int count = static_cast<int>(coefficients.size());
   int bands = static_cast<int>(std::lround(std::sqrt(double(count))));
-  if (bands * bands != count)
-    fail(g, cat(where, ": ", count, " transfer attributes, expected a square number (bands²)"));
+  if (bands * bands != count || bands > sh::kMaxBands)
+    fail(g, cat(where, ": ", count, " transfer attributes, expected a square number (bands²) of at most ",
+                sh::kMaxBands * sh::kMaxBands));
   for (int i = 0; i < count; ++i)
     if (!coefficients.count(i))
       fail(g, cat(where, ": transfer attribute ", coefficientName(i), " is missing (", count, " found)"));
@@ -495,6 +682,7 @@ void readTransfer(const Gltf& g, const tinygltf::Primitive& prim, PrimitiveData&
     requireCount(g, d, here, n);
     for (size_t v = 0; v < n; ++v)
       for (int c = 0; c < 3; ++c) p.transfer[v * k + size_t(i)][c] = static_cast<float>(d.get(v, c));
+    requireFinite(g, p.transfer, here, i, k);
   }
 }
 
@@ -548,6 +736,7 @@ PrimitiveData readPrimitive(const Gltf& g, const Scene& scene, int meshIndex, in
     p.colors.assign(n, glm::vec4(1.0f));
     for (size_t v = 0; v < n; ++v)
       for (int c = 0; c < d.components; ++c) p.colors[v][c] = static_cast<float>(d.get(v, c));
+    requireFinite(g, p.colors, here);
   }
   p.indices = toTriangleList(g, prim.mode, readIndices(g, prim, where, n), cat(where, " / indices"));
   removeDegenerate(g, p, where, options, warnings);
@@ -743,6 +932,21 @@ bool isWrapMode(int mode) {
          mode == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT;
 }
 
+/// Before stb_image sees the bytes: only the formats glTF allows (PNG, JPEG), and dimensions
+/// from the header within the limits, so a corrupt header cannot make stb_image allocate.
+void checkTextureHeader(const Gltf& g, const std::vector<unsigned char>& bytes, const std::string& where) {
+  bool png = bytes.size() >= 8 && std::memcmp(bytes.data(), "\x89PNG\r\n\x1a\n", 8) == 0;
+  bool jpeg = bytes.size() >= 3 && std::memcmp(bytes.data(), "\xFF\xD8\xFF", 3) == 0;
+  if (!png && !jpeg) fail(g, cat(where, ": not a PNG or JPEG image"));
+  int w = 0, h = 0, comp = 0;
+  int size = static_cast<int>(std::min<size_t>(bytes.size(), std::numeric_limits<int>::max()));
+  if (!stbi_info_from_memory(bytes.data(), size, &w, &h, &comp))
+    fail(g, cat(where, ": cannot decode (", stbi_failure_reason(), ")"));
+  if (w <= 0 || h <= 0 || w > kMaxTextureSide || h > kMaxTextureSide || int64_t(w) * h > kMaxTexels)
+    fail(g, cat(where, ": image ", w, "x", h, " is too large (at most ", kMaxTextureSide, " a side, ",
+                kMaxTexels, " texels)"));
+}
+
 /// Decodes glTF texture `index` as sRGB base colour into linear RGBA.
 Texture decodeBaseColorTexture(const Gltf& g, int index) {
   const tinygltf::Model& m = g.model;
@@ -766,6 +970,7 @@ Texture decodeBaseColorTexture(const Gltf& g, int index) {
   const auto* bytes = image.image.data();
   int size = static_cast<int>(std::min<size_t>(image.image.size(), std::numeric_limits<int>::max()));
   int w = 0, h = 0, comp = 0;
+  checkTextureHeader(g, image.image, where);
   bool wide = stbi_is_16_bit_from_memory(bytes, size);
   void* pixels = wide ? static_cast<void*>(stbi_load_16_from_memory(bytes, size, &w, &h, &comp, 4))
                       : static_cast<void*>(stbi_load_from_memory(bytes, size, &w, &h, &comp, 4));
@@ -802,6 +1007,8 @@ void readMaterials(const Gltf& g, Scene& scene, std::vector<std::string>& warnin
     const std::vector<double>& f = src.pbrMetallicRoughness.baseColorFactor;
     if (f.size() == 4) mat.baseColorFactor = glm::vec4(f[0], f[1], f[2], f[3]);
     else if (!f.empty()) fail(g, cat("material ", i, ": baseColorFactor has ", f.size(), " values, expected 4"));
+    if (!std::isfinite(glm::dot(mat.baseColorFactor, mat.baseColorFactor)))  // as floats
+      fail(g, cat("material ", i, ": baseColorFactor is not finite"));
     mat.doubleSided = src.doubleSided;
     mat.unlit = src.extensions.count(kUnlit) > 0;
     const tinygltf::TextureInfo& info = src.pbrMetallicRoughness.baseColorTexture;
@@ -845,6 +1052,8 @@ Camera readCamera(const Gltf& g, const NodeVisit& v) {
     c.znear = src.orthographic.znear;
     c.zfar = src.orthographic.zfar;
   }
+  for (double x : {c.yfov, c.aspectRatio, c.znear, c.zfar, c.xmag, c.ymag})
+    if (!std::isfinite(x)) fail(g, cat("camera ", n.camera, ": a parameter is not finite"));
   return c;
 }
 
@@ -874,6 +1083,8 @@ std::optional<PunctualLight> readLight(const Gltf& g, const NodeVisit& v, std::v
   l.direction = unitOr(glm::dmat3(v.world) * glm::dvec3(0, 0, -1), glm::vec3(0, 0, -1));
   l.innerConeAngle = static_cast<float>(src.spot.innerConeAngle);
   l.outerConeAngle = static_cast<float>(src.spot.outerConeAngle);
+  for (float x : {l.color.r, l.color.g, l.color.b, l.intensity, l.range, l.innerConeAngle, l.outerConeAngle})
+    if (!std::isfinite(x)) fail(g, cat("light ", index.GetNumberAsInt(), ": a parameter is not finite"));
   return l;
 }
 
@@ -1125,10 +1336,14 @@ glm::vec4 Texture::sample(const glm::vec2& uv) const {
   return glm::vec4(top * (1.0 - fy) + bottom * fy);
 }
 
-Scene loadScene(const std::string& path, const LoadOptions& options) {
+namespace {
+/// loadScene and loadSceneFromMemory: `memory` holds the document, or null to read `path`.
+Scene loadSceneFrom(const std::string& path, const std::string* memory, const LoadOptions& options) {
   Scene scene;
   scene.path = path;
-  Gltf g = readGltf(path, &scene.warnings);
+  Gltf g = memory ? parseGltf(path, *memory, "", false, &scene.warnings)
+                  : readGltf(path, &scene.warnings, options.allowExternalUris);
+  scene.allowExternalUris = options.allowExternalUris;
   checkRequiredExtensions(g, scene.warnings);
   readMaterials(g, scene, scene.warnings);
   std::vector<char> receivers = receiverRoots(g, options);
@@ -1143,6 +1358,15 @@ Scene loadScene(const std::string& path, const LoadOptions& options) {
   readAnimations(g, scene);
   warnAnimatedBaked(g, scene);
   return scene;
+}
+}  // namespace
+
+Scene loadScene(const std::string& path, const LoadOptions& options) {
+  return loadSceneFrom(path, nullptr, options);
+}
+
+Scene loadSceneFromMemory(const std::string& name, const std::string& bytes, const LoadOptions& options) {
+  return loadSceneFrom(name, &bytes, options);
 }
 
 glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v) {
@@ -1603,7 +1827,7 @@ void addPositionBounds(Gltf& g) {
 
 /// Loads the input again and makes it ready to carry per-instance vertex data.
 Gltf reloadForWriting(const std::string& inputPath, const Scene& scene, int& staging) {
-  Gltf g = readGltf(inputPath, nullptr);
+  Gltf g = readGltf(inputPath, nullptr, scene.allowExternalUris);
   checkMatchesScene(g, scene);
   addPositionBounds(g);
   rewriteStripsAndFans(g, staging);

@@ -30,6 +30,9 @@ namespace {
 // Larger sides are refused before anything is allocated: a corrupt header cannot make us ask
 // for gigabytes, and 32768 is far beyond any environment map or frame prt handles.
 constexpr int64_t kMaxSide = 32768;
+// And at most 2^27 pixels (16384 x 8192, the largest environment maps published): 1.5 GiB as
+// float RGB, so a header alone cannot make us allocate tens of gigabytes.
+constexpr int64_t kMaxPixels = int64_t(1) << 27;
 
 enum class Format { Exr, Radiance, Unknown };
 
@@ -44,6 +47,8 @@ void checkDimensions(const std::string& path, int64_t w, int64_t h) {
   if (w <= 0 || h <= 0) throw Error(cat(path, ": image ", w, "x", h, " has no pixels"));
   if (w > kMaxSide || h > kMaxSide)
     throw Error(cat(path, ": image ", w, "x", h, " is too large (at most ", kMaxSide, " a side)"));
+  if (w * h > kMaxPixels)
+    throw Error(cat(path, ": image ", w, "x", h, " is too large (at most ", kMaxPixels, " pixels)"));
 }
 
 void checkFinite(const std::string& path, const ImageRgb& image) {
@@ -99,6 +104,9 @@ ImageRgb loadExr(const std::string& path, const std::string& data) {
     const int64_t w = int64_t(dw.max.x) - dw.min.x + 1;
     const int64_t h = int64_t(dw.max.y) - dw.min.y + 1;
     checkDimensions(path, w, h);
+    // Every chunk of pixels must be in the file before its pixels get memory: a header that
+    // claims a large image over a few bytes is refused here, not after the allocation.
+    if (!file.isComplete()) throw Error(cat(path, ": corrupt OpenEXR file (pixel data missing or truncated)"));
 
     const Imf::ChannelList& channels = file.header().channels();
     const bool rgb = channels.findChannel("R") && channels.findChannel("G") &&

@@ -355,6 +355,42 @@ std::string humanBytes(uintmax_t bytes) {
 
 std::string vec3Text(const glm::dvec3& v) { return cat("(", v.x, ", ", v.y, ", ", v.z, ")"); }
 
+// OpenVDB stamps every file it writes with a random UUID (36 ASCII characters after the
+// 21-byte header start: magic, file version, library version, grid-offsets flag), so two
+// writes of the same grids differ. Readers only compare UUIDs to tell files apart, so one
+// derived from the rest of the file serves as well and makes the bytes a function of the
+// grids alone (the same seed gives the same file, whatever the thread count).
+constexpr size_t kUuidOffset = 21, kUuidLength = 36;
+
+void stampContentUuid(const std::string& tempPath, const std::string& path) {
+  std::fstream f(tempPath, std::ios::in | std::ios::out | std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(f)), {});
+  auto isUuid = [&] {
+    if (bytes.size() < kUuidOffset + kUuidLength) return false;
+    for (size_t i = 0; i < kUuidLength; ++i) {
+      const char c = bytes[kUuidOffset + i];
+      const bool dash = i == 8 || i == 13 || i == 18 || i == 23;
+      const bool hex = (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F');
+      if (dash ? c != '-' : !hex) return false;
+    }
+    return true;
+  };
+  if (!f || !isUuid()) throw Error(cat(path, ": cannot write VDB file (unexpected header layout)"));
+  // Two FNV-1a 64-bit hashes (different offset bases) of everything but the UUID.
+  uint64_t h[2] = {0xcbf29ce484222325ull, 0x84222325cbf29ce4ull};
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    if (i >= kUuidOffset && i < kUuidOffset + kUuidLength) continue;
+    for (uint64_t& x : h) x = (x ^ static_cast<unsigned char>(bytes[i])) * 0x100000001b3ull;
+  }
+  char uuid[kUuidLength + 1];
+  std::snprintf(uuid, sizeof uuid, "%08x-%04x-%04x-%04x-%012llx", unsigned(h[0] >> 32), unsigned(h[0] >> 16 & 0xffff),
+                unsigned(h[0] & 0xffff), unsigned(h[1] >> 48), static_cast<unsigned long long>(h[1] & 0xffffffffffffull));
+  f.clear();
+  f.seekp(std::streamoff(kUuidOffset));
+  f.write(uuid, std::streamsize(kUuidLength));
+  if (!f.flush()) throw Error(cat(path, ": cannot write VDB file"));
+}
+
 }  // namespace
 
 void writeProbeGrid(const ProbeGrid& grid, const std::string& path, bool half) {
@@ -494,6 +530,7 @@ void writeProbeGrid(const ProbeGrid& grid, const std::string& path, bool half) {
   } catch (const std::exception& e) {
     throw Error(cat(path, ": cannot write VDB file (", e.what(), ")"));
   }
+  stampContentUuid(out.tempPath(), path);
   out.commit();
 }
 

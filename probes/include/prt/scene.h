@@ -140,6 +140,7 @@ struct Scene {
   /// together from t = 0 (docs/render.md, "Animation").
   std::vector<Node> nodes;
   std::vector<Animation> animations;
+  bool allowExternalUris = false;  // loaded with LoadOptions::allowExternalUris (writers reread so)
 };
 
 struct LoadOptions {
@@ -148,13 +149,21 @@ struct LoadOptions {
   std::vector<std::string> receiverNodes;
   /// Skip zero-area triangles with a warning instead of refusing the file.
   bool allowDegenerate = false;
+  /// Read buffer and image URIs that point outside the scene's folder (absolute paths, `..`,
+  /// symbolic links leading out). Off: such a URI is refused with an error.
+  bool allowExternalUris = false;
 };
 
 /// Loads .gltf or .glb. Throws prt::Error naming the file and the element on bad input:
 /// missing or malformed file, non-finite positions, out-of-range indices, degenerate
 /// triangles (unless allowed), unsupported required extensions, a scene with no triangles,
-/// malformed animations (accessor types or counts, key times not increasing, NaN values).
+/// malformed animations (accessor types or counts, key times not increasing, NaN values),
+/// URIs outside the scene's folder (unless allowed), limits in docs/robustness.md.
 Scene loadScene(const std::string& path, const LoadOptions& options = {});
+/// Loads .gltf or .glb bytes held in memory; `name` stands for the file in messages and its
+/// extension picks the format when the bytes lack the GLB magic. URIs may only be data: URIs
+/// (there is no folder). Same checks and errors as loadScene.
+Scene loadSceneFromMemory(const std::string& name, const std::string& bytes, const LoadOptions& options = {});
 
 /// Value of one channel at time t (seconds), per the glTF 2.0 spec: Linear (rotation by
 /// shortest-path slerp), Step, CubicSpline (Hermite; tangents scaled by the key interval).
