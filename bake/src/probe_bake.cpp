@@ -28,6 +28,25 @@ constexpr int kStream = 256;
 // Rays of the quick inside/outside test (and of each relocation candidate).
 constexpr uint32_t kProbeTestRays = 64;
 
+// The sphere directions of one stream: scrambled Sobol points, one scramble per stream, so each
+// probe's rays depend on (seed, stream) only and never on the thread that traces them.
+struct SphereSet {
+  uint32_t s0, s1;
+  SphereSet(uint64_t seed, uint64_t stream) {
+    const uint64_t h = splitMix64(seed ^ splitMix64(stream));
+    s0 = uint32_t(h);
+    s1 = uint32_t(h >> 32);
+  }
+  Ray ray(const glm::vec3& x, uint32_t k) const {
+    Ray r;
+    r.org = x;
+    r.tnear = 0.0f;
+    r.dir = sampleUniformSphere({sobol0(k, s0), sobol1(k, s1)});
+    r.tfar = std::numeric_limits<float>::infinity();
+    return r;
+  }
+};
+
 struct ProbeAccum {
   int n2 = 0;
   std::vector<double> direct;    // n2 × n2, colourless
@@ -55,22 +74,14 @@ struct Tracer {
       acc.direct.assign(size_t(n2) * n2, 0.0);
       acc.indirect.assign(size_t(n2) * n2, glm::dvec3(0.0));
     }
-    const uint64_t h = splitMix64(seed ^ splitMix64(stream));
-    const uint32_t s0 = uint32_t(h), s1 = uint32_t(h >> 32);
+    const SphereSet set(seed, stream);
     alignas(64) Ray batch[kStream];
     float y[sh::kMaxBands * sh::kMaxBands];
     glm::vec3 g[sh::kMaxBands * sh::kMaxBands];
     const bool haveTransfer = !lowerOrder.empty();
     for (uint32_t first = 0; first < n; first += kStream) {
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
-      for (uint32_t j = 0; j < count; ++j) {
-        Ray& r = batch[j];
-        r = Ray{};
-        r.org = x;
-        r.tnear = 0.0f;
-        r.dir = sampleUniformSphere({sobol0(first + j, s0), sobol1(first + j, s1)});
-        r.tfar = std::numeric_limits<float>::infinity();
-      }
+      for (uint32_t j = 0; j < count; ++j) batch[j] = set.ray(x, first + j);
       rays.intersect(batch, count);
       for (uint32_t j = 0; j < count; ++j) {
         const Ray& r = batch[j];
@@ -181,6 +192,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
 
   struct Slot {
     uint8_t valid = 0, moved = 0;
+    uint32_t traced = 0;  // rays cast for this lattice point: tests, candidates, full set
     glm::vec3 offset{0.0f};
     ProbeAccum acc;
   };
@@ -200,6 +212,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
           ProbeAccum cand;
           glm::dvec3 o = candidates[k] * grid.spacing;
           tracer.trace(glm::vec3(base + o), kProbeTestRays, 2 * idx, false, cand);
+          slot.traced += cand.rays;
           // A moved probe must be clearly outside: half the threshold.
           if (backShare(cand) <= 0.5 * settings.insideThreshold) {
             ok = true;
@@ -207,8 +220,10 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
             slot.moved = 1;
           }
         }
+        slot.traced += test.rays;
         if (ok) {
           tracer.trace(glm::vec3(base + offset), uint32_t(settings.samples), 2 * idx + 1, true, slot.acc);
+          slot.traced += slot.acc.rays;
           // The full set of rays decides too: the quick test can miss a thin enclosure.
           ok = backShare(slot.acc) <= settings.insideThreshold;
         }
@@ -235,6 +250,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       for (int x = 0; x < dims.x; ++x) {
         const glm::ivec3 c(x, y, z);
         const Slot& slot = slots[size_t(x) + size_t(dims.x) * (size_t(y) + size_t(dims.y) * z)];
+        stats.rays += slot.traced;
         bool active = slot.valid;
         for (int d = 0; d < 27 && !active; ++d)
           active = validAt(c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1));
@@ -261,12 +277,28 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
         stats.active += 1;
         stats.invalid += !slot.valid;
         stats.moved += slot.valid && slot.moved;
-        stats.rays += slot.acc.rays;
       }
   grid.buildIndex();
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (statsOut) *statsOut = stats;
   return grid;
+}
+
+std::vector<Ray> probeBakeRays(const ProbeGrid& layout, const ProbeSettings& settings,
+                               const std::vector<size_t>& lattice) {
+  const glm::ivec3 dims = layout.dims;
+  const size_t per = kProbeTestRays + size_t(settings.samples);
+  std::vector<Ray> out(lattice.size() * per);
+  for (size_t k = 0; k < lattice.size(); ++k) {
+    const size_t idx = lattice[k];
+    const glm::ivec3 c(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
+    const glm::vec3 x(layout.latticePosition(c));
+    Ray* r = out.data() + k * per;
+    const SphereSet test(settings.seed, 2 * idx), full(settings.seed, 2 * idx + 1);
+    for (uint32_t j = 0; j < kProbeTestRays; ++j) r[j] = test.ray(x, j);
+    for (uint32_t j = 0; j < uint32_t(settings.samples); ++j) r[kProbeTestRays + j] = full.ray(x, j);
+  }
+  return out;
 }
 
 }  // namespace prt::bake
