@@ -287,11 +287,13 @@ constexpr float kCross[] = {0.4f, 1.0f, 1.6f, 2.25f, 2.6f};
 
 class ProbeThinWall : public ::testing::TestWithParam<std::pair<float, float>> {};
 
+// Receivers in the dark room at depths 0.01 .. 0.5 spacing behind the wall's dark face, with no
+// normal, a normal into the room and one towards the wall. The truth is 0 and the dark probes
+// hold exactly 0, so whatever they get comes from the bright probes through the wall.
 TEST_P(ProbeThinWall, DarkRoomGetsNoLightThroughTheWall) {
   const auto [wallX, thickness] = GetParam();
   const TwoRooms rooms(wallX, thickness);
   const ProbeGrid& g = rooms.grid;
-  // The dark room's probes are valid and hold no light at all (nothing reaches them).
   int darkProbes = 0;
   for (size_t p = 0; p < g.probeCount(); ++p) {
     if (rooms.bright(p) || !(g.validity[p] > 0.0f)) continue;
@@ -302,32 +304,92 @@ TEST_P(ProbeThinWall, DarkRoomGetsNoLightThroughTheWall) {
   // "The bright side": brute-force irradiance at the bright room's centre facing the sky.
   bake::RayScene rays(rooms.scene);
   std::mt19937 rng(77);
-  const glm::vec3 up(0.0f, 1.0f, 0.0f);
   const double eBright =
       bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho, rooms.sky,
-                      glm::vec3(0.5f * wallX, 1.5f, 1.5f), up, 20000, rng).g;
+                      glm::vec3(0.5f * wallX, 1.5f, 1.5f), glm::vec3(0.0f, 1.0f, 0.0f), 20000, rng).g;
   ASSERT_GT(eBright, 1.0);
 
   const glm::vec3 into(1.0f, 0.0f, 0.0f), toward(-1.0f, 0.0f, 0.0f);
-  std::printf("wall x = %.3f, thickness %.3f spacing; dark receivers, bright-room weight share (max E / E_bright):\n",
+  const glm::vec3* normals[3] = {nullptr, &into, &toward};
+  std::printf("wall x = %.3f, %.2f spacing thick. Dark receivers: weight share of the bright probes, mean "
+              "(max); leaked E / E_bright, max\n",
               double(wallX), thickness / TwoRooms::kSpacing);
   for (double depth : kDepths) {
     const float x = wallX + thickness + float(depth * TwoRooms::kSpacing);
-    double share[3] = {0, 0, 0}, worstE[3] = {0, 0, 0};
+    double meanShare[3] = {0, 0, 0}, maxShare[3] = {0, 0, 0}, maxE[3] = {0, 0, 0};
     int n = 0;
     for (float y : kCross)
       for (float z : kCross) {
         const glm::vec3 p(x, y, z);
-        const glm::vec3* normals[3] = {nullptr, &into, &toward};
         for (int k = 0; k < 3; ++k) {
-          share[k] += rooms.brightShare(probeWeights(g, p, normals[k]));
-          if (normals[k]) worstE[k] = std::max(worstE[k], double(rooms.irradiance(p, *normals[k]).g) / eBright);
+          const double share = rooms.brightShare(probeWeights(g, p, normals[k]));
+          meanShare[k] += share;
+          maxShare[k] = std::max(maxShare[k], share);
+          if (normals[k]) maxE[k] = std::max(maxE[k], double(rooms.irradiance(p, *normals[k]).g) / eBright);
+          // The leak. The visibility weight of a bright probe is at most (ε²/(ε² + (h + δ)²))³,
+          // ε = 0.01 spacing, through a wall h ≥ 0.04 spacing thick: ≤ 5.7e-5 relative to its
+          // trilinear weight. Version 1 left 0.25–0.76 of the weight here at δ ≤ 0.03 spacing
+          // (19–71% of the bright side's irradiance). 1% sits between the two, two orders of
+          // magnitude above the formula's bound, so float rounding in the moments cannot trip it.
+          EXPECT_LT(share, 0.01) << "at (" << p.x << ", " << p.y << ", " << p.z << "), normal " << k;
         }
         ++n;
       }
-    std::printf("  depth %.2f: no normal %.4f, normal into the room %.4f (%.2g), toward the wall %.4f (%.2g)\n",
-                depth, share[0] / n, share[1] / n, worstE[1], share[2] / n, worstE[2]);
+    for (int k = 1; k < 3; ++k) EXPECT_LT(maxE[k], 0.01) << "depth " << depth << ", normal " << k;
+    std::printf("  depth %.2f: no normal %.2g (%.2g); normal into the room %.2g (%.2g), E %.2g; toward the wall "
+                "%.2g (%.2g), E %.2g\n",
+                depth, meanShare[0] / n, maxShare[0], meanShare[1] / n, maxShare[1], maxE[1], meanShare[2] / n,
+                maxShare[2], maxE[2]);
   }
+}
+
+// Receivers in the bright room at the same depths in front of the wall's lit face, against
+// independent brute force: cutting the leak must not cut the bright side's own light (or let the
+// dark room's zeros in).
+TEST_P(ProbeThinWall, BrightRoomMatchesBruteForce) {
+  const auto [wallX, thickness] = GetParam();
+  const TwoRooms rooms(wallX, thickness);
+  bake::RayScene rays(rooms.scene);
+  std::mt19937 rng(78);
+  const glm::vec3 normals[] = {{-1.0f, 0.0f, 0.0f}, {1.0f, 0.0f, 0.0f}, {0.0f, 1.0f, 0.0f}};
+  std::printf("wall x = %.3f. Bright receivers: |E_probe - E_brute| / E_brute, mean (max)\n", double(wallX));
+  double sumAll = 0.0;
+  int nAll = 0;
+  for (double depth : kDepths) {
+    const float x = wallX - float(depth * TwoRooms::kSpacing);
+    double sum[3] = {0, 0, 0}, worst[3] = {0, 0, 0};
+    int n = 0;
+    for (float y : {0.4f, 1.6f, 2.6f})
+      for (float z : {0.4f, 1.6f, 2.6f}) {
+        const glm::vec3 p(x, y, z);
+        for (int k = 0; k < 3; ++k) {
+          // No weight on the dark room's probes (version 1 gave them up to 45% here).
+          EXPECT_GT(rooms.brightShare(probeWeights(rooms.grid, p, &normals[k])), 0.999);
+          const double eProbe = rooms.irradiance(p, normals[k]).g;
+          const double eBrute = bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho,
+                                                rooms.sky, p, normals[k], 10000, rng).g;
+          const double rel = std::fabs(eProbe - eBrute) / eBrute;
+          sum[k] += rel;
+          worst[k] = std::max(worst[k], rel);
+          sumAll += rel;
+          ++nAll;
+          // 10000 cosine samples give ~1% noise. The rest is the probes' own error: 3 bands and
+          // 0.5 m cells give 2–4% mean, 9% worst at the probe columns themselves (measured), and
+          // towards the wall the receivers are extrapolated from the last column of bright
+          // probes, up to 0.6 spacing away, while the true irradiance of an upward or wall-facing
+          // receiver changes across that gap (the wall fills more of its hemisphere): measured up
+          // to 42% at the top of the room. 50% per point; the mean below is the sharper test.
+          EXPECT_LT(rel, 0.5) << "at (" << p.x << ", " << p.y << ", " << p.z << "), normal " << k;
+        }
+        ++n;
+      }
+    std::printf("  depth %.2f: normal away from the wall %.3f (%.3f); toward it %.3f (%.3f); up %.3f (%.3f)\n", depth,
+                sum[0] / n, worst[0], sum[1] / n, worst[1], sum[2] / n, worst[2]);
+  }
+  std::printf("  mean over all: %.3f\n", sumAll / nAll);
+  // Version 1 (ray-length moments, dominant face only) measured 0.049 and 0.25 here: the dark
+  // probes took up to 45% of the weight in front of the 0.6-of-a-cell wall.
+  EXPECT_LT(sumAll / nAll, 0.15);
 }
 
 INSTANTIATE_TEST_SUITE_P(Walls, ProbeThinWall,
