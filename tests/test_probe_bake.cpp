@@ -1,11 +1,16 @@
 // Probe bake against closed forms and brute force: the empty scene (M = identity), the centre
-// of the open cavity for every bounce count, probes inside geometry, and interpolated
-// irradiance against independent Monte Carlo at random points.
+// of the open cavity for every bounce count, probes inside geometry, interpolated irradiance
+// against independent Monte Carlo at random points, and no light through a thin wall between
+// a bright and a dark room.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include <tbb/global_control.h>
 
@@ -138,14 +143,20 @@ TEST(ProbeBake, SameSeedSameGridAnyThreadCount) {
   bake::ProbeSettings ps;
   ps.dims = glm::ivec3(4);
   ps.samples = 64;
-  std::vector<float> first;
+  ProbeGrid first;
   for (int threads : {1, 2}) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
     ProbeGrid g = bake::bakeProbes(s, {}, ps);
-    if (first.empty())
-      first = g.transfer;
-    else
-      EXPECT_EQ(0, std::memcmp(first.data(), g.transfer.data(), first.size() * sizeof(float)));
+    if (first.transfer.empty()) {
+      first = g;
+      continue;
+    }
+    ASSERT_EQ(first.transfer.size(), g.transfer.size());
+    EXPECT_EQ(0, std::memcmp(first.transfer.data(), g.transfer.data(), first.transfer.size() * sizeof(float)));
+    ASSERT_EQ(first.moments.size(), g.moments.size());
+    EXPECT_EQ(0, std::memcmp(first.moments.data(), g.moments.data(), first.moments.size() * sizeof(first.moments[0])));
+    EXPECT_EQ(first.skyVisibility, g.skyVisibility);
+    EXPECT_EQ(first.offset, g.offset);
   }
 }
 
