@@ -86,3 +86,70 @@ inline Scene makeScene(std::vector<MeshInstance> meshes, float rho) {
 }
 
 }  // namespace prt::test
+
+// Builders added later (kept below the first block so merges stay clean).
+#include <algorithm>
+#include <vector>
+
+namespace prt::test {
+
+/// A solid axis-aligned box [lo, hi] (outward faces, so it is seen from outside as front faces
+/// and from inside as back faces), each face subdivided into squares of side about `cell`
+/// (0: one quad per face), so per-vertex transfer has vertices across the face.
+inline MeshInstance makeSlab(const glm::vec3& lo, const glm::vec3& hi, float cell = 0.0f) {
+  MeshInstance m;
+  m.name = "slab";
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      glm::vec3 n(0.0f);
+      n[axis] = side ? 1.0f : -1.0f;
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      const int nu = cell > 0.0f ? std::max(1, int(std::ceil((hi[u] - lo[u]) / cell))) : 1;
+      const int nv = cell > 0.0f ? std::max(1, int(std::ceil((hi[v] - lo[v]) / cell))) : 1;
+      const uint32_t base = uint32_t(m.positions.size());
+      for (int j = 0; j <= nv; ++j)
+        for (int i = 0; i <= nu; ++i) {
+          glm::vec3 p;
+          p[axis] = side ? hi[axis] : lo[axis];
+          p[u] = lo[u] + (hi[u] - lo[u]) * float(i) / float(nu);
+          p[v] = lo[v] + (hi[v] - lo[v]) * float(j) / float(nv);
+          m.positions.push_back(p);
+          m.normals.push_back(n);
+        }
+      for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+          const uint32_t a = base + uint32_t(j * (nu + 1) + i), b = a + 1, c = a + uint32_t(nu + 1), d = c + 1;
+          addTriangle(m, a, b, d, n);
+          addTriangle(m, a, d, c, n);
+        }
+    }
+  return m;
+}
+
+/// Two rooms side by side along x, 3 m high and 3 m deep (z ∈ [0, 3]), for light-leak tests:
+/// a bright room x ∈ [0, wallX] open to the sky (no ceiling) and a dark room
+/// x ∈ [wallX + thickness, 6] closed on every side, so no light reaches it at all. Between them a
+/// thin wall x ∈ [wallX, wallX + thickness] from the floor to the dark room's ceiling. Every part
+/// is a solid slab 0.2 m thick; slabs overlap at the edges so no ray slips through a seam, and
+/// each room has its own slabs (split inside the thin wall), so per-vertex transfer never
+/// interpolates across the wall. Faces are subdivided into squares of about `cell`.
+inline std::vector<MeshInstance> makeTwoRooms(float wallX, float thickness, float cell) {
+  const float t = 0.2f, mid = wallX + 0.5f * thickness;
+  std::vector<MeshInstance> m;
+  // Bright room: floor, the far wall x = 0, the side walls z = 0 and z = 3, no ceiling.
+  m.push_back(makeSlab({-t, -t, -t}, {mid, 0.0f, 3.0f + t}, cell));
+  m.push_back(makeSlab({-t, 0.0f, -t}, {0.0f, 3.0f, 3.0f + t}, cell));
+  m.push_back(makeSlab({0.0f, 0.0f, -t}, {mid, 3.0f, 0.0f}, cell));
+  m.push_back(makeSlab({0.0f, 0.0f, 3.0f}, {mid, 3.0f, 3.0f + t}, cell));
+  // Dark room: floor, ceiling, the far wall x = 6, the side walls.
+  m.push_back(makeSlab({mid, -t, -t}, {6.0f + t, 0.0f, 3.0f + t}, cell));
+  m.push_back(makeSlab({mid, 3.0f, -t}, {6.0f + t, 3.0f + t, 3.0f + t}, cell));
+  m.push_back(makeSlab({6.0f, 0.0f, -t}, {6.0f + t, 3.0f, 3.0f + t}, cell));
+  m.push_back(makeSlab({mid, 0.0f, -t}, {6.0f, 3.0f, 0.0f}, cell));
+  m.push_back(makeSlab({mid, 0.0f, 3.0f}, {6.0f, 3.0f, 3.0f + t}, cell));
+  // The thin wall, up to the top of the dark room's ceiling.
+  m.push_back(makeSlab({wallX, -t, -t}, {wallX + thickness, 3.0f + t, 3.0f + t}, cell));
+  return m;
+}
+
+}  // namespace prt::test

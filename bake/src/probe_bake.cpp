@@ -2,7 +2,9 @@
 //   M_ji(p) = ∫ y_j(ω) [ V(p,ω) y_i(ω) + (1 − V(p,ω)) (ρ(h)/π) t_i(h(ω)) ] dω
 // estimated with N uniform sphere directions (pdf 1/4π): each ray adds (4π/N) y_j(ω) [...].
 // A ray that hits the back of a surface sends nothing, and counts towards the probe's
-// back-face share: a probe that sees mostly back faces is inside geometry.
+// back-face share: a probe that sees mostly back faces is inside geometry. Per cube face the
+// probe also keeps the mean and mean square of its hits' depth along the face's axis, for the
+// interpolation's visibility test.
 #include "prt/bake/probe_bake.h"
 
 #include <algorithm>
@@ -28,6 +30,25 @@ constexpr int kStream = 256;
 // Rays of the quick inside/outside test (and of each relocation candidate).
 constexpr uint32_t kProbeTestRays = 64;
 
+// The sphere directions of one stream: scrambled Sobol points, one scramble per stream, so each
+// probe's rays depend on (seed, stream) only and never on the thread that traces them.
+struct SphereSet {
+  uint32_t s0, s1;
+  SphereSet(uint64_t seed, uint64_t stream) {
+    const uint64_t h = splitMix64(seed ^ splitMix64(stream));
+    s0 = uint32_t(h);
+    s1 = uint32_t(h >> 32);
+  }
+  Ray ray(const glm::vec3& x, uint32_t k) const {
+    Ray r;
+    r.org = x;
+    r.tnear = 0.0f;
+    r.dir = sampleUniformSphere({sobol0(k, s0), sobol1(k, s1)});
+    r.tfar = std::numeric_limits<float>::infinity();
+    return r;
+  }
+};
+
 struct ProbeAccum {
   int n2 = 0;
   std::vector<double> direct;    // n2 × n2, colourless
@@ -46,31 +67,27 @@ struct Tracer {
   uint64_t seed;
   float maxDistance;
 
-  // Traces `n` sphere directions from x. full = accumulate M and moments; otherwise only count
-  // back faces (the inside test).
+  // Traces `n` sphere directions from x. full = reset acc, then accumulate M and moments;
+  // otherwise only count rays and back faces into acc (the inside test).
   void trace(const glm::vec3& x, uint32_t n, uint64_t stream, bool full, ProbeAccum& acc) const {
     const int n2 = bands * bands;
-    if (full) {
+    if (full) {  // start afresh, keeping the matrices' storage
       acc.n2 = n2;
       acc.direct.assign(size_t(n2) * n2, 0.0);
       acc.indirect.assign(size_t(n2) * n2, glm::dvec3(0.0));
+      acc.rays = acc.backfaces = acc.escaped = 0;
+      acc.sumD = {};
+      acc.sumD2 = {};
+      acc.count = {};
     }
-    const uint64_t h = splitMix64(seed ^ splitMix64(stream));
-    const uint32_t s0 = uint32_t(h), s1 = uint32_t(h >> 32);
+    const SphereSet set(seed, stream);
     alignas(64) Ray batch[kStream];
     float y[sh::kMaxBands * sh::kMaxBands];
     glm::vec3 g[sh::kMaxBands * sh::kMaxBands];
     const bool haveTransfer = !lowerOrder.empty();
     for (uint32_t first = 0; first < n; first += kStream) {
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
-      for (uint32_t j = 0; j < count; ++j) {
-        Ray& r = batch[j];
-        r = Ray{};
-        r.org = x;
-        r.tnear = 0.0f;
-        r.dir = sampleUniformSphere({sobol0(first + j, s0), sobol1(first + j, s1)});
-        r.tfar = std::numeric_limits<float>::infinity();
-      }
+      for (uint32_t j = 0; j < count; ++j) batch[j] = set.ray(x, first + j);
       rays.intersect(batch, count);
       for (uint32_t j = 0; j < count; ++j) {
         const Ray& r = batch[j];
@@ -78,8 +95,11 @@ struct Tracer {
         const bool back = r.hit() && r.backface();
         acc.backfaces += back;
         if (!full) continue;
+        // Depth along the face's axis, not the ray's length: a wall perpendicular to the axis
+        // then has one depth for every ray of the face (docs/probes.md, "Visibility").
         const int face = faceOf(r.dir);
-        const double d = r.hit() ? std::min(r.tfar, maxDistance) : maxDistance;
+        const double d = r.hit() ? std::min(double(r.tfar) * std::fabs(double(r.dir[face / 2])), double(maxDistance))
+                                 : double(maxDistance);
         acc.sumD[face] += d;
         acc.sumD2[face] += d * d;
         ++acc.count[face];
@@ -179,15 +199,27 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   for (int c = 0; c < 8; ++c)
     candidates.push_back(glm::dvec3(c & 1 ? 0.3 : -0.3, c & 2 ? 0.3 : -0.3, c & 4 ? 0.3 : -0.3));
 
+  // Per lattice point, what the assembly needs besides the transfer. Each probe's double
+  // accumulators (4n⁴ doubles) live only during its own trace: the matrix is converted to float
+  // into `transfer` at once, so the bake holds one float matrix per lattice point, not 4n⁴
+  // doubles per probe until the end. The conversion is the same per-probe arithmetic in a fixed
+  // order, so the result does not depend on threads.
   struct Slot {
     uint8_t valid = 0, moved = 0;
+    uint32_t traced = 0;  // rays cast for this lattice point: tests, candidates, full set
     glm::vec3 offset{0.0f};
-    ProbeAccum acc;
+    float skyVisibility = 0.0f;
+    std::array<glm::vec2, 6> moments{};
   };
   std::vector<Slot> slots(total);
+  const size_t stride = size_t(n2) * n2 * 3;
+  std::vector<float> transfer(total * stride, 0.0f);  // lattice order; compacted below
+  const double w = 4.0 * M_PI / settings.samples;
+  const float maxD = tracer.maxDistance;
   {
     Progress progress("probes", total, "probes", settings.progress);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, total, 16), [&](const tbb::blocked_range<size_t>& r) {
+      ProbeAccum acc;  // reused by the probes of this range
       for (size_t idx = r.begin(); idx != r.end(); ++idx) {
         glm::ivec3 c(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
         glm::dvec3 base = grid.latticePosition(c);
@@ -200,6 +232,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
           ProbeAccum cand;
           glm::dvec3 o = candidates[k] * grid.spacing;
           tracer.trace(glm::vec3(base + o), kProbeTestRays, 2 * idx, false, cand);
+          slot.traced += cand.rays;
           // A moved probe must be clearly outside: half the threshold.
           if (backShare(cand) <= 0.5 * settings.insideThreshold) {
             ok = true;
@@ -207,14 +240,29 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
             slot.moved = 1;
           }
         }
+        slot.traced += test.rays;
+        slot.moments.fill(glm::vec2(maxD, maxD * maxD));  // "nothing hit", kept by invalid probes
         if (ok) {
-          tracer.trace(glm::vec3(base + offset), uint32_t(settings.samples), 2 * idx + 1, true, slot.acc);
+          tracer.trace(glm::vec3(base + offset), uint32_t(settings.samples), 2 * idx + 1, true, acc);
+          slot.traced += acc.rays;
           // The full set of rays decides too: the quick test can miss a thin enclosure.
-          ok = backShare(slot.acc) <= settings.insideThreshold;
+          ok = backShare(acc) <= settings.insideThreshold;
         }
         slot.valid = ok;
         slot.offset = glm::vec3(offset);
-        if (!ok) slot.acc = ProbeAccum{};
+        if (ok) {
+          for (int f = 0; f < 6; ++f)
+            if (const uint32_t n = acc.count[f])
+              slot.moments[f] = glm::vec2(float(acc.sumD[f] / n), float(acc.sumD2[f] / n));
+          slot.skyVisibility = acc.rays ? float(double(acc.escaped) / acc.rays) : 0.0f;
+          float* out = transfer.data() + idx * stride;
+          for (size_t k = 0; k < size_t(n2) * n2; ++k) {
+            const glm::dvec3 v = w * (glm::dvec3(acc.direct[k]) + acc.indirect[k]);
+            out[3 * k] = float(v.r);
+            out[3 * k + 1] = float(v.g);
+            out[3 * k + 2] = float(v.b);
+          }
+        }
         progress.add(1);
       }
     });
@@ -229,44 +277,58 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   };
   ProbeStats stats;
   stats.probes = total;
-  const double w = 4.0 * M_PI / settings.samples;
+  size_t active = 0;
   for (int z = 0; z < dims.z; ++z)
     for (int y = 0; y < dims.y; ++y)
       for (int x = 0; x < dims.x; ++x) {
         const glm::ivec3 c(x, y, z);
-        const Slot& slot = slots[size_t(x) + size_t(dims.x) * (size_t(y) + size_t(dims.y) * z)];
-        bool active = slot.valid;
-        for (int d = 0; d < 27 && !active; ++d)
-          active = validAt(c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1));
-        if (!active) continue;
+        const size_t idx = size_t(x) + size_t(dims.x) * (size_t(y) + size_t(dims.y) * z);
+        const Slot& slot = slots[idx];
+        stats.rays += slot.traced;
+        bool isActive = slot.valid;
+        for (int d = 0; d < 27 && !isActive; ++d)
+          isActive = validAt(c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1));
+        if (!isActive) continue;
         grid.coord.push_back(c);
         grid.validity.push_back(slot.valid ? 1.0f : 0.0f);
         grid.offset.push_back(slot.offset);
-        std::array<glm::vec2, 6> mom{};
-        const float maxD = tracer.maxDistance;
-        for (int f = 0; f < 6; ++f) {
-          uint32_t n = slot.acc.count[f];
-          mom[f] = n ? glm::vec2(float(slot.acc.sumD[f] / n), float(slot.acc.sumD2[f] / n)) : glm::vec2(maxD, maxD * maxD);
-        }
-        grid.moments.push_back(mom);
-        grid.skyVisibility.push_back(slot.acc.rays ? float(double(slot.acc.escaped) / slot.acc.rays) : 0.0f);
-        for (int j = 0; j < n2; ++j)
-          for (int i = 0; i < n2; ++i) {
-            glm::dvec3 v(0.0);
-            if (slot.valid) v = w * (glm::dvec3(slot.acc.direct[size_t(j) * n2 + i]) + slot.acc.indirect[size_t(j) * n2 + i]);
-            grid.transfer.push_back(float(v.r));
-            grid.transfer.push_back(float(v.g));
-            grid.transfer.push_back(float(v.b));
-          }
+        grid.moments.push_back(slot.moments);
+        grid.skyVisibility.push_back(slot.skyVisibility);
+        // Compact in place: active probes keep lattice order, so probe `active` ≤ idx and the
+        // copy only ever moves data towards the front.
+        if (active != idx)
+          std::copy_n(transfer.begin() + ptrdiff_t(idx * stride), stride, transfer.begin() + ptrdiff_t(active * stride));
+        ++active;
         stats.active += 1;
         stats.invalid += !slot.valid;
         stats.moved += slot.valid && slot.moved;
-        stats.rays += slot.acc.rays;
       }
+  transfer.resize(active * stride);
+  // Give back the tail when solid interiors left much of the lattice inactive (the copy this
+  // costs is at most the size of what remains).
+  if (transfer.capacity() > transfer.size() + transfer.size() / 4) transfer.shrink_to_fit();
+  grid.transfer = std::move(transfer);
   grid.buildIndex();
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (statsOut) *statsOut = stats;
   return grid;
+}
+
+std::vector<Ray> probeBakeRays(const ProbeGrid& layout, const ProbeSettings& settings,
+                               const std::vector<size_t>& lattice) {
+  const glm::ivec3 dims = layout.dims;
+  const size_t per = kProbeTestRays + size_t(settings.samples);
+  std::vector<Ray> out(lattice.size() * per);
+  for (size_t k = 0; k < lattice.size(); ++k) {
+    const size_t idx = lattice[k];
+    const glm::ivec3 c(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
+    const glm::vec3 x(layout.latticePosition(c));
+    Ray* r = out.data() + k * per;
+    const SphereSet test(settings.seed, 2 * idx), full(settings.seed, 2 * idx + 1);
+    for (uint32_t j = 0; j < kProbeTestRays; ++j) r[j] = test.ray(x, j);
+    for (uint32_t j = 0; j < uint32_t(settings.samples); ++j) r[kProbeTestRays + j] = full.ray(x, j);
+  }
+  return out;
 }
 
 }  // namespace prt::bake

@@ -95,6 +95,43 @@ std::vector<glm::vec3> relightProbes(const ProbeGrid& grid, const sh::ShRgb& lig
   return out;
 }
 
+namespace {
+
+// The weight of one corner probe for a receiver: the whole formula of docs/probes.md
+// ("Interpolation"), in one place because the renderer's shader ports it line by line.
+//   wt: trilinear weight × validity (> 0); d = x − P (receiver minus the probe's position);
+//   m: the probe's moments; n: the receiver's unit normal or null; s: the smallest spacing.
+double cornerWeight(double wt, const glm::dvec3& d, const std::array<glm::vec2, 6>& m, const glm::dvec3* n, double s) {
+  // Visibility. Face f = 2a + (d_a < 0) of axis a stores the mean μ and mean square of the depth
+  // along a, |t · ω_a|, of the surfaces its rays hit (misses count as 2 spacings). A wall
+  // perpendicular to a at depth D gives μ = D exactly, whatever the ray's angle, so a receiver
+  // with |d_a| > D is behind it. Chebyshev's one-sided inequality bounds the chance that the
+  // probe's surface on that side lies beyond |d_a|: P(depth ≥ |d_a|) ≤ σ² / (σ² + (|d_a| − μ)²);
+  // cubed as in DDGI, so the cut-off behind a surface is sharp while w = 1 in front of μ. All
+  // three axes must pass: a receiver offset sideways more than forwards is still behind the wall.
+  const double floor2 = (kVarianceFloor * s) * (kVarianceFloor * s);
+  double wv = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    const glm::vec2 ma = m[size_t(2 * a + (d[a] < 0.0 ? 1 : 0))];
+    const double depth = std::fabs(d[a]), mu = ma.x;
+    if (depth <= mu) continue;
+    const double var = std::max(double(ma.y) - mu * mu, floor2);
+    const double cheb = var / (var + (depth - mu) * (depth - mu));
+    wv *= cheb * cheb * cheb;
+  }
+  // DDGI's soft back-face weight: probes behind the surface (seen against the normal) count less
+  // but never zero, so thin geometry between x and every probe still gets light.
+  double wb = 1.0;
+  const double r = glm::length(d);
+  if (n && r > 1e-6 * s) {
+    const double h = (glm::dot(-d / r, *n) + 1.0) * 0.5;
+    wb = h * h + 0.2;
+  }
+  return wt * std::max(wv * wb, kMinWeight);
+}
+
+}  // namespace
+
 ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::vec3* normal) {
   ProbeWeights out;
   const size_t count = grid.probeCount();
@@ -116,11 +153,10 @@ ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::
     t[a] = v - base[a];
   }
 
-  glm::vec3 n(0.0f);
+  glm::dvec3 n(0.0);
   const bool useNormal = normal != nullptr && glm::dot(*normal, *normal) > 0.0f;
-  if (useNormal) n = glm::normalize(*normal);
+  if (useNormal) n = glm::normalize(glm::dvec3(*normal));
   const double minSpacing = std::min({grid.spacing.x, grid.spacing.y, grid.spacing.z});
-  const double varianceFloor = (kVarianceFloor * minSpacing) * (kVarianceFloor * minSpacing);
 
   struct Corner {
     int probe = -1;
@@ -146,30 +182,8 @@ ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::
     if (!anyTrilinear) f = glm::max(f, glm::dvec3(kTrilinearFloor));
     const double wt = f.x * f.y * f.z * double(grid.validity[size_t(p)]);
     if (wt <= 0.0) continue;
-
     const glm::dvec3 d = glm::dvec3(x) - grid.position(size_t(p));
-    const double r = glm::length(d);
-    // Chebyshev's inequality bounds the chance that the surface the probe saw in this direction
-    // lies beyond x: P(D ≥ r) ≤ σ² / (σ² + (r − μ)²) for r > μ. The bound is loose (it is an
-    // upper bound, reached only by a two-point distribution), so a wall still lets a fair share
-    // through; cubing it, as DDGI does, turns that soft tail into a sharp cut-off while leaving
-    // w = 1 where x is in front of the mean hit.
-    const glm::vec2 m = grid.moments[size_t(p)][size_t(faceOf(glm::vec3(d)))];
-    const double mu = m.x;
-    double wv = 1.0;
-    if (r > mu) {
-      const double var = std::max(double(m.y) - mu * mu, varianceFloor);
-      const double cheb = var / (var + (r - mu) * (r - mu));
-      wv = cheb * cheb * cheb;
-    }
-    // DDGI's soft back-face weight: probes behind the surface (seen against the normal) count
-    // less but never zero, so thin geometry between x and every probe still gets light.
-    double wb = 1.0;
-    if (useNormal && r > 1e-6 * minSpacing) {
-      const double h = (glm::dot(-d / r, glm::dvec3(n)) + 1.0) * 0.5;
-      wb = h * h + 0.2;
-    }
-    weight[size_t(c)] = wt * std::max(wv * wb, kMinWeight);
+    weight[size_t(c)] = cornerWeight(wt, d, grid.moments[size_t(p)], useNormal ? &n : nullptr, minSpacing);
     sum += weight[size_t(c)];
   }
   if (!(sum > 0.0)) return out;

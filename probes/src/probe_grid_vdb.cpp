@@ -30,7 +30,9 @@ namespace {
 namespace fs = std::filesystem;
 namespace vdb = openvdb;
 
-constexpr int kFormatVersion = 1;
+// 2: the moment grids hold depths along the face's axis. Version 1 held ray lengths, which the
+// interpolation of version 2 would misread (it would let light through walls), so 1 is refused.
+constexpr int kFormatVersion = 2;
 // OpenVDB's file magic: the first 8 bytes of every .vdb file (an int64, little endian).
 constexpr int64_t kVdbMagic = 0x56444220;
 
@@ -42,8 +44,9 @@ constexpr const char* kLayout =
     "transfer_JJ_II vec3s: RGB of M_ji (c_j = sum_i M_ji l_i); validity float (1 valid, 0 inside "
     "geometry); offset vec3s: world offset of the probe from its lattice point; sky_visibility "
     "float; irradiance_preview vec3s: irradiance at a +Y normal under a uniform sky of radiance "
-    "1; moments_mean_pos/neg vec3s: mean first-hit distance over the +X,+Y,+Z / -X,-Y,-Z cube "
-    "faces; moments_sq_pos/neg vec3s: mean squared distance; index (i,j,k) is at world "
+    "1; moments_mean_pos/neg vec3s: for the rays of the +X,+Y,+Z / -X,-Y,-Z cube faces, mean "
+    "depth of the first hit along the face's axis (|t*dir_axis|, misses 2*max spacing); "
+    "moments_sq_pos/neg vec3s: mean squared depth; index (i,j,k) is at world "
     "origin + spacing*(i,j,k)";
 
 // The four moment grids: which faces each holds, and whether it is the mean or the mean square.
@@ -54,10 +57,10 @@ struct MomentGrid {
   const char* description;
 };
 constexpr MomentGrid kMomentGrids[] = {
-    {"moments_mean_pos", 0, 0, "mean first-hit distance of the probe's rays, faces +X,+Y,+Z"},
-    {"moments_mean_neg", 1, 0, "mean first-hit distance of the probe's rays, faces -X,-Y,-Z"},
-    {"moments_sq_pos", 0, 1, "mean squared first-hit distance, faces +X,+Y,+Z"},
-    {"moments_sq_neg", 1, 1, "mean squared first-hit distance, faces -X,-Y,-Z"},
+    {"moments_mean_pos", 0, 0, "mean depth of the first hit along the face axis, faces +X,+Y,+Z"},
+    {"moments_mean_neg", 1, 0, "mean depth of the first hit along the face axis, faces -X,-Y,-Z"},
+    {"moments_sq_pos", 0, 1, "mean squared depth of the first hit along the face axis, faces +X,+Y,+Z"},
+    {"moments_sq_neg", 1, 1, "mean squared depth of the first hit along the face axis, faces -X,-Y,-Z"},
 };
 
 void initOpenVdb() {
@@ -229,8 +232,11 @@ void readProbes(const std::string& path, const GridT& g, const std::vector<glm::
 ProbeGrid toProbeGrid(const std::string& path, const LoadedFile& file) {
   const MetaReader meta(path, *file.meta);
   const int64_t version = meta.integer("prt_format_version");
-  if (version < 1 || version > kFormatVersion)
-    throw Error(cat(path, ": prt_format_version ", version, " is not supported (this prt reads 1..",
+  if (version == 1)
+    throw Error(cat(path, ": prt_format_version 1 is no longer read: its moment grids hold ray lengths, "
+                    "version 2 holds depths along the face axis; bake the probes again"));
+  if (version != kFormatVersion)
+    throw Error(cat(path, ": prt_format_version ", version, " is not supported (this prt reads ",
                     kFormatVersion, ")"));
   ProbeGrid grid;
   const int64_t bands = meta.integer("bands");

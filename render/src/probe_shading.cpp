@@ -55,32 +55,27 @@ const float kBoundaryTolerance = 1e-4;
 const float kMinWeight = 1e-6;
 const float kTrilinearFloor = 1e-3;
 
-// prt::faceOf: dominant axis and sign, ties to the earlier axis. 0..5 = +X -X +Y -Y +Z -Z.
-int faceOf(vec3 d) {
-  vec3 a = abs(d);
-  if (a.x >= a.y && a.x >= a.z) return d.x >= 0.0 ? 0 : 1;
-  if (a.y >= a.z) return d.y >= 0.0 ? 2 : 3;
-  return d.z >= 0.0 ? 4 : 5;
-}
-
 // prt::ProbeGrid::find.
 int findProbe(ivec3 q) {
   if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, uDims))) return -1;
   return texelFetch(uLattice, (q.z * uDims.y + q.y) * uDims.x + q.x).r;
 }
 
-// Chebyshev visibility (cubed) times the soft back-face weight, floored: d = x − P, r = |d|.
+// Chebyshev visibility (cubed) on each axis: face 2a + (d_a < 0) holds the mean μ and floored
+// variance σ² of the depth along axis a; the receiver's depth is |d_a|. All three axes must pass.
+float axisVisibility(vec4 axis, float da) {
+  vec2 m = da < 0.0 ? axis.zw : axis.xy;  // (μ, σ²), σ² already floored
+  float depth = abs(da);
+  if (depth <= m.x) return 1.0;
+  float cheb = m.y / (m.y + (depth - m.x) * (depth - m.x));
+  return cheb * cheb * cheb;
+}
+
+// Visibility times the soft back-face weight, floored: d = x − P, r = |d|.
 float leakWeight(int p, vec3 d, float r, vec3 n) {
-  int face = faceOf(d);
-  vec4 axis = texelFetch(uProbeStatic, p * 4 + 1 + face / 2);
-  vec2 m = (face & 1) == 0 ? axis.xy : axis.zw;  // (μ, σ²), σ² already floored
-  float mu = m.x;
-  float wv = 1.0;
-  if (r > mu) {
-    float var = m.y;
-    float cheb = var / (var + (r - mu) * (r - mu));
-    wv = cheb * cheb * cheb;
-  }
+  float wv = axisVisibility(texelFetch(uProbeStatic, p * 4 + 1), d.x) *
+             axisVisibility(texelFetch(uProbeStatic, p * 4 + 2), d.y) *
+             axisVisibility(texelFetch(uProbeStatic, p * 4 + 3), d.z);
   float wb = 1.0;
   if (r > uNearZero) {
     float h = (dot(-d / r, n) + 1.0) * 0.5;

@@ -44,7 +44,9 @@ struct ProbeGrid {
   std::vector<float> validity;        // 1 = valid, 0 = inside geometry (never interpolated)
   std::vector<glm::vec3> offset;      // world offset from the lattice position (0 if not moved)
   std::vector<float> skyVisibility;   // fraction of all directions that escape to the sky
-  std::vector<std::array<glm::vec2, 6>> moments;  // per Face: mean hit distance, mean squared
+  // Per Face: mean and mean square of the first hits' depth along the face's axis, |t · ω_axis|
+  // (ray length t, direction ω; misses count as 2 × max spacing). prt_format_version 2.
+  std::vector<std::array<glm::vec2, 6>> moments;
 
   size_t probeCount() const { return coord.size(); }
   int coeffs() const { return bands * bands; }
@@ -74,11 +76,12 @@ struct ProbeWeights {
   std::array<float, 8> weight{};
 };
 
-/// Interpolation weights at world point x (with surface normal n, or none): trilinear, times
-/// validity, times a Chebyshev visibility test against the probe's distance moments (no light
-/// through walls between probe and x), times a soft back-face weight when n is given; then
-/// normalised. Falls back to plain trilinear over valid probes when every weight vanishes.
-/// count == 0 when x is outside the grid or no valid probe surrounds it.
+/// Interpolation weights at world point x (with surface normal n, or none): per corner probe,
+/// trilinear × validity × a Chebyshev visibility test on the depth moments of the three faces
+/// x lies towards (no light through walls between probe and x) × a soft back-face weight when n
+/// is given; then normalised (exact formula: docs/probes.md). Falls back to plain trilinear
+/// over valid probes when every weight vanishes. count == 0 when x is outside the grid or no
+/// valid probe surrounds it.
 ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::vec3* normal);
 
 /// Interpolated incident radiance SH at x from relit probes (relightProbes()).

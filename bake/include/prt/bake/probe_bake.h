@@ -9,6 +9,7 @@
 
 #include <glm/glm.hpp>
 
+#include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/probe_grid.h"
 #include "prt/scene.h"
@@ -40,7 +41,7 @@ struct ProbeStats {
   uint64_t active = 0;       // stored
   uint64_t invalid = 0;      // inside geometry, not moved out
   uint64_t moved = 0;        // moved out of geometry within their cell
-  uint64_t rays = 0;
+  uint64_t rays = 0;          // every ray cast: inside tests, relocation candidates, full sets
   double seconds = 0.0;
 };
 
@@ -49,5 +50,13 @@ struct ProbeStats {
 /// point is lit like a baked vertex there with K bounces. Deterministic for any thread count.
 ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3>>& lowerOrder,
                      const ProbeSettings& settings, ProbeStats* stats = nullptr);
+
+/// The rays bakeProbes casts from the given lattice points (linear index x + dims.x·(y + dims.y·z)
+/// into layout.dims, lattice from layoutGrid): per point the inside test's 64 rays, then the
+/// settings.samples rays of the full trace, in the bake's order; untraced. For benchmarks: the
+/// bake casts exactly these, except that a probe moved out of geometry traces its full set from
+/// the moved position (and the relocation candidates' tests are not included).
+std::vector<Ray> probeBakeRays(const ProbeGrid& layout, const ProbeSettings& settings,
+                               const std::vector<size_t>& lattice);
 
 }  // namespace prt::bake

@@ -1,0 +1,247 @@
+// Probe-bake benchmark: probes/s and rays/s of the probe bake next to the raw Embree ceiling for
+// the same rays on the same scene, measured in the same process; the share of time the indirect
+// light (hits on lit surfaces) costs; the bytes per probe on disk (32- and 16-bit files) and in
+// memory; peak memory.
+//
+//   prt_bench_probes [--scene scenes/cornell_open.gltf] [--dims 32] [--samples 1024]
+//                    [--bounces 2] [--surface-samples 256] [--threads 0]
+//                    [--ceiling-fraction 0.1] [--repeat 2] [--json out.json]
+//
+// --dims N gives an N³ lattice over the scene's bounds. The surface bake (bands 3, --bounces,
+// --surface-samples) supplies the transfer a probe ray sees where it hits a surface; it is timed
+// but is not part of the probe numbers. The ceiling traces exactly the rays the probe bake casts
+// (bake::probeBakeRays: the inside test's 64 rays and the full set per probe, same origins,
+// directions and streams of ≤ 256) for a fraction of the lattice, in runs of 16 consecutive
+// probes (the bake's unit of work), with nothing done per ray. Every timing is the fastest of
+// --repeat rounds (the machines this runs on are shared); memory is the first round's.
+#include <malloc.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+#include "prt/bake/probe_bake.h"
+#include "prt/bake/ray_scene.h"
+#include "prt/bake/surface_bake.h"
+#include "prt/error.h"
+#include "prt/probe_grid.h"
+#include "prt/progress.h"
+#include "prt/scene.h"
+
+namespace {
+
+using namespace prt;
+using Clock = std::chrono::steady_clock;
+namespace fs = std::filesystem;
+
+// A field of /proc/self/status in bytes ("VmHWM", "VmRSS"), or 0 where there is none.
+uint64_t procStatusBytes(const char* key) {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  const size_t n = std::strlen(key);
+  while (std::getline(in, line))
+    if (line.compare(0, n, key) == 0 && line.size() > n && line[n] == ':')
+      return std::stoull(line.substr(n + 1)) * 1024u;  // "VmHWM:   123456 kB"
+  return 0;
+}
+
+// Resets the kernel's peak-RSS mark (VmHWM) to the current RSS (Linux ≥ 4.0), so the peak of one
+// stage can be read on its own. False where that is not possible.
+bool resetPeakRss() {
+  std::ofstream out("/proc/self/clear_refs");
+  out << "5";
+  out.flush();
+  return bool(out);
+}
+
+uint64_t fnv1a(const void* data, size_t bytes, uint64_t h = 1469598103934665603ull) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  return h;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string scenePath = PRT_SOURCE_DIR "/scenes/cornell_open.gltf", jsonPath;
+  int dims = 32, threads = 0;
+  bake::BakeSettings surface;
+  surface.samples = 256;
+  surface.bounces = 2;
+  surface.keepLowerOrder = true;
+  bake::ProbeSettings settings;
+  settings.samples = 1024;
+  double ceilingFraction = 0.1;
+  int repeat = 2;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    std::string k = argv[i], v = argv[i + 1];
+    if (k == "--scene") scenePath = v;
+    else if (k == "--dims") dims = std::stoi(v);
+    else if (k == "--samples") settings.samples = std::stoi(v);
+    else if (k == "--bounces") surface.bounces = std::stoi(v);
+    else if (k == "--surface-samples") surface.samples = std::stoi(v);
+    else if (k == "--threads") threads = std::stoi(v);
+    else if (k == "--ceiling-fraction") ceilingFraction = std::stod(v);
+    else if (k == "--repeat") repeat = std::max(1, std::stoi(v));
+    else if (k == "--json") jsonPath = v;
+    else {
+      std::fprintf(stderr, "prt_bench_probes: unknown option %s\n", k.c_str());
+      return 2;
+    }
+  }
+  try {
+    if (dims < 1 || dims > 512) throw Error(cat("--dims ", dims, ": must be between 1 and 512"));
+    settings.dims = glm::ivec3(dims);
+    settings.bounces = surface.bounces;
+    surface.threads = threads;
+    std::unique_ptr<tbb::global_control> limit;
+    if (threads > 0)
+      limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+
+    const Scene scene = loadScene(scenePath);
+    bake::SurfaceTransfer lit = bake::bakeSurface(scene, surface);
+    std::vector<std::vector<glm::vec3>> lowerOrder = std::move(lit.perMeshLowerOrder);
+    if (lowerOrder.empty()) lowerOrder.assign(scene.meshes.size(), {});
+
+    // The ceiling: the same rays, generated outside the timer, traced with nothing else to do.
+    // Measured before and after the bake and the faster kept (the machine is shared; noise must
+    // not flatter the bake). The ray arrays are freed before the bake so that they do not
+    // count in its memory.
+    ProbeGrid layout;
+    bake::layoutGrid(settings, glm::dvec3(scene.boundsMin), glm::dvec3(scene.boundsMax), layout);
+    const size_t total = size_t(dims) * dims * dims;
+    const size_t every = std::max<size_t>(1, size_t(std::lround(1.0 / ceilingFraction)));
+    std::vector<size_t> picked;
+    for (size_t run = 0; run * 16 < total; run += every)
+      for (size_t p = run * 16; p < std::min(total, run * 16 + 16); ++p) picked.push_back(p);
+    const bake::RayScene rays(scene);
+    auto ceiling = [&]() {
+      std::vector<bake::Ray> batch = bake::probeBakeRays(layout, settings, picked);
+      const size_t per = batch.size() / picked.size();
+      const auto t0 = Clock::now();
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, picked.size(), 16), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          // As the bake: the 64 test rays as one stream, then the full set in streams of 256.
+          rays.intersect(batch.data() + i * per, 64);
+          for (size_t first = 64; first < per; first += 256)
+            rays.intersect(batch.data() + i * per + first, std::min<size_t>(256, per - first));
+        }
+      });
+      return double(batch.size()) / std::chrono::duration<double>(Clock::now() - t0).count();
+    };
+    const double ceilingBefore = ceiling();
+
+    // The probe bake as `prt bake --probes` runs it; its own peak memory is measured from here.
+    // Freed heap (the ceiling's rays, the surface bake's scratch) goes back to the system first,
+    // so that the baseline is what is live and the bake's growth is all its own.
+    malloc_trim(0);
+    const uint64_t rssBefore = procStatusBytes("VmRSS");
+    const bool peakReset = resetPeakRss();
+    bake::ProbeStats stats;
+    ProbeGrid grid = bake::bakeProbes(scene, lowerOrder, settings, &stats);
+    const uint64_t bakePeak = peakReset ? procStatusBytes("VmHWM") : 0;
+    grid.info.scene = fs::path(scenePath).filename().string();
+
+    // The same bake with surfaces that send nothing: what the indirect light costs.
+    bake::ProbeStats directStats;
+    const std::vector<std::vector<glm::vec3>> none(scene.meshes.size());
+    (void)bake::bakeProbes(scene, none, settings, &directStats);
+    const double ceilingAfter = ceiling();
+    double ceilingRate = std::max(ceilingBefore, ceilingAfter);
+    // Further rounds (--repeat): ceiling, bake, direct-only bake again, keeping the fastest of
+    // each, so that a burst of load from other processes on a shared machine does not decide
+    // the ratios. The result must be the same grid every time.
+    std::vector<double> bakeSeconds{stats.seconds}, directSeconds{directStats.seconds};
+    for (int round = 1; round < repeat; ++round) {
+      bake::ProbeStats again, directAgain;
+      const ProbeGrid other = bake::bakeProbes(scene, lowerOrder, settings, &again);
+      if (other.transfer != grid.transfer) throw Error("the probe bake gave a different grid on a second run");
+      (void)bake::bakeProbes(scene, none, settings, &directAgain);
+      bakeSeconds.push_back(again.seconds);
+      directSeconds.push_back(directAgain.seconds);
+      ceilingRate = std::max(ceilingRate, ceiling());
+    }
+    stats.seconds = *std::min_element(bakeSeconds.begin(), bakeSeconds.end());
+    directStats.seconds = *std::min_element(directSeconds.begin(), directSeconds.end());
+
+    const fs::path dir = fs::temp_directory_path() / cat("prt_bench_probes_", getpid());
+    fs::create_directories(dir);
+    const std::string floatPath = (dir / "probes.vdb").string(), halfPath = (dir / "probes_half.vdb").string();
+    writeProbeGrid(grid, floatPath, false);
+    writeProbeGrid(grid, halfPath, true);
+    const double floatBytes = double(fs::file_size(floatPath)), halfBytes = double(fs::file_size(halfPath));
+    fs::remove_all(dir);
+
+    const double active = double(grid.probeCount());
+    // In memory: transfer, validity, offset, sky visibility, moments, lattice coordinate, plus
+    // one int32 of the dense index per lattice point (spread over the active probes).
+    const double memoryPerProbe = double(grid.transferStride() * sizeof(float) + sizeof(float) + sizeof(glm::vec3) +
+                                         sizeof(float) + sizeof(std::array<glm::vec2, 6>) + sizeof(glm::ivec3)) +
+                                  4.0 * double(total) / std::max(active, 1.0);
+    // Fingerprints of the result, to check that a change to the bake leaves it bit for bit.
+    auto hex = [](uint64_t h) {
+      char buf[17];
+      std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+      return std::string(buf);
+    };
+    const std::string transferHash = hex(fnv1a(grid.transfer.data(), grid.transfer.size() * sizeof(float)));
+    const std::string momentsHash = hex(fnv1a(grid.moments.data(), grid.moments.size() * sizeof(grid.moments[0])));
+
+    nlohmann::json j;
+    j["scene"] = scenePath;
+    j["threads"] = threads;
+    j["dims"] = dims;
+    j["bands"] = settings.bands;
+    j["samples"] = settings.samples;
+    j["bounces"] = surface.bounces;
+    j["surface_bake_seconds"] = lit.stats.seconds;
+    j["lattice_points"] = stats.probes;
+    j["active_probes"] = stats.active;
+    j["invalid_probes"] = stats.invalid;
+    j["moved_probes"] = stats.moved;
+    j["probe_bake_seconds"] = stats.seconds;
+    j["probes_per_s"] = double(stats.probes) / stats.seconds;
+    j["rays"] = stats.rays;
+    j["bake_rays_per_s"] = double(stats.rays) / stats.seconds;
+    j["ceiling_rays_per_s"] = ceilingRate;
+    j["ceiling_rays_per_s_before_after"] = {ceilingBefore, ceilingAfter};
+    j["repeat"] = repeat;
+    j["probe_bake_seconds_each"] = bakeSeconds;
+    j["direct_only_bake_seconds_each"] = directSeconds;
+    j["ceiling_probes"] = picked.size();
+    j["bake_vs_ceiling"] = double(stats.rays) / stats.seconds / ceilingRate;
+    j["direct_only_bake_seconds"] = directStats.seconds;
+    j["indirect_time_share"] = 1.0 - directStats.seconds / stats.seconds;
+    j["surface_bake_share_of_total"] = lit.stats.seconds / (lit.stats.seconds + stats.seconds);
+    j["file_bytes_float"] = floatBytes;
+    j["file_bytes_half"] = halfBytes;
+    j["file_bytes_per_probe_float"] = floatBytes / active;
+    j["file_bytes_per_probe_half"] = halfBytes / active;
+    j["raw_bytes_per_probe_float"] = double((grid.transferStride() + 20) * sizeof(float));
+    j["memory_bytes_per_probe"] = memoryPerProbe;
+    j["memory_bytes_grid"] = memoryPerProbe * active;
+    j["bake_peak_rss_bytes"] = bakePeak;
+    j["bake_rss_before_bytes"] = rssBefore;
+    j["bake_peak_over_baseline_bytes"] = bakePeak > rssBefore ? bakePeak - rssBefore : 0;
+    j["process_peak_rss_bytes"] = peakMemoryBytes();
+    j["transfer_fnv1a"] = transferHash;
+    j["moments_fnv1a"] = momentsHash;
+    std::string text = j.dump(2);
+    std::printf("%s\n", text.c_str());
+    if (!jsonPath.empty()) std::ofstream(jsonPath) << text << "\n";
+  } catch (const Error& e) {
+    std::fprintf(stderr, "prt_bench_probes: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
