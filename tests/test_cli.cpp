@@ -404,6 +404,8 @@ TEST(CliRig, BadRigMapCameraOrBackEndIsOneLineAndWritesNothing) {
   expectCleanFailure(prt(render + " --env /nonexistent/sky.hdr"), "/nonexistent/sky.hdr", out);
   expectCleanFailure(prt(render + " --env " + esplanade() + " --camera nope"), "no camera named 'nope'", out);
   expectCleanFailure(prt(render + " --env " + esplanade() + " --gl vulkan"), "vulkan", out);
+  expectCleanFailure(prt(render + " --env " + esplanade() + " --exr-compression lzma"),
+                     "--exr-compression lzma: expected zip, piz or none", out);
   expectCleanFailure(prt(render + " --rig " + bad.string() + " --env " + esplanade()), "--rig and --env", out);
   // A GL back end that cannot start: libglvnd finds no EGL vendor library.
   ::setenv("__EGL_VENDOR_LIBRARY_FILENAMES", "/nonexistent/vendor.json", 1);

@@ -30,6 +30,7 @@ struct RenderArgs {
   double exposure = 0.0;
   double fps = 0.0;  // 0: the rig's fps, else 24; frame f is at time f / fps of the animations
   std::string probes;  // probe grid (.vdb) lighting the receivers
+  std::string exrCompression = "zip";
   std::string mp4, contactSheet;
   int sheetColumns = 0, sheetTile = 192;
   double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitYfov = 45.0;
@@ -75,6 +76,8 @@ CLI::App* addRenderCommand(CLI::App& app) {
   r->add_option("--orbit-elevation", args.orbitElevation, "Orbit camera elevation, degrees")->capture_default_str();
   r->add_option("--gl", args.gl, "OpenGL back end: osmesa or egl")->capture_default_str();
   addLightOptions(*r, args.light, /*animated=*/true);
+  r->add_option("--exr-compression", args.exrCompression, "EXR compression, all lossless: zip, piz or none (fastest)")
+      ->capture_default_str();
   r->add_flag("--png", args.png, "Also write tone-mapped sRGB PNGs next to the EXRs");
   r->add_option("--exposure", args.exposure, "Exposure in stops for PNG, MP4 and contact sheet")->capture_default_str();
   r->add_option("--mp4", args.mp4, "Also encode the frames as H.264 MP4 with ffmpeg (must be on PATH)");
@@ -101,6 +104,13 @@ void runRenderCommand() {
   if (a.fpsOption->count() > 0 && !(std::isfinite(a.fps) && a.fps > 0)) throw Error(cat("--fps ", a.fps, ": must be > 0"));
   if (a.sheetColumns < 0) throw Error(cat("--sheet-columns ", a.sheetColumns, ": must be >= 0"));
   if (a.sheetTile < 1) throw Error(cat("--sheet-tile ", a.sheetTile, ": must be >= 1"));
+  ExrCompression compression = ExrCompression::Zip;
+  if (a.exrCompression == "none")
+    compression = ExrCompression::None;
+  else if (a.exrCompression == "piz")
+    compression = ExrCompression::Piz;
+  else if (a.exrCompression != "zip")
+    throw Error(cat("--exr-compression ", a.exrCompression, ": expected zip, piz or none"));
 
   // Lighting first (a bad rig or map fails before any GL work). A rig file's keyframe range is
   // the default frame range; the shortcuts' START:END need the range to place their keys.
@@ -179,7 +189,7 @@ void runRenderCommand() {
     const double frameLightMs = rigMs + renderer.lastFrame().lightMs;
     auto t1 = std::chrono::steady_clock::now();
     std::string path = framePath(a.output, f);
-    writeExr(path, image);
+    writeExr(path, image, compression);
     if (a.png) writePng(std::filesystem::path(path).replace_extension(".png").string(), image, float(a.exposure));
     if (sheet) sheet->add(image);
     const double frameWriteMs = msSince(t1);

@@ -25,8 +25,12 @@ struct ImageRgb {
 /// malformed file, absurd dimensions (> 32768 a side) or non-finite pixels.
 ImageRgb loadHdrImage(const std::string& path);
 
+/// OpenEXR compression, all lossless: Zip (deflate, 16 lines a block; smallest for smooth
+/// renders, the slowest to write), Piz (wavelet; better on noisy images), None (fastest, largest).
+enum class ExrCompression { None, Zip, Piz };
+
 /// Writes float32 RGB OpenEXR, atomically (temporary file, then rename).
-void writeExr(const std::string& path, const ImageRgb& image);
+void writeExr(const std::string& path, const ImageRgb& image, ExrCompression compression = ExrCompression::Zip);
 
 /// Writes 8-bit sRGB PNG, atomically: value·2^exposure, clamped to [0, 1], sRGB-encoded.
 void writePng(const std::string& path, const ImageRgb& image, float exposure = 0.0f);
