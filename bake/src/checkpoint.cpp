@@ -127,7 +127,7 @@ void addSceneFingerprint(Fingerprint& fp, const Scene& scene) {
 
 void ByteReader::read(void* out, size_t bytes) {
   if (bytes > data_.size() - pos_) fail("record shorter than its contents");
-  std::memcpy(out, data_.data() + pos_, bytes);
+  if (bytes > 0) std::memcpy(out, data_.data() + pos_, bytes);  // out may be null when empty
   pos_ += bytes;
 }
 
@@ -328,7 +328,7 @@ void Checkpoint::Impl::openExisting() {
   // The fingerprint, entry by entry, so the message names what differs.
   std::vector<std::string> diffs;
   for (const auto& [k, v] : fp.entries) {
-    auto it = std::find_if(old.entries.begin(), old.entries.end(), [&](const auto& e) { return e.first == k; });
+    auto it = std::find_if(old.entries.begin(), old.entries.end(), [&key = k](const auto& e) { return e.first == key; });
     if (it == old.entries.end())
       diffs.push_back(cat(k, " missing in the checkpoint"));
     else if (it->second != v)
@@ -336,7 +336,7 @@ void Checkpoint::Impl::openExisting() {
                                                 : cat(k, " ", it->second, " (checkpoint) vs ", v, " (now)"));
   }
   for (const auto& [k, v] : old.entries)
-    if (std::none_of(fp.entries.begin(), fp.entries.end(), [&](const auto& e) { return e.first == k; }))
+    if (std::none_of(fp.entries.begin(), fp.entries.end(), [&key = k](const auto& e) { return e.first == key; }))
       diffs.push_back(cat(k, " is not a setting of this bake"));
   if (!diffs.empty()) {
     std::string list;

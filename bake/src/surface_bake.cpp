@@ -337,6 +337,9 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
   for (const ChunkHits& ch : chunkHits) hitCount += ch.hits.size();
   const size_t directLeft = chunks - size_t(std::count(chunkDone.begin(), chunkDone.end(), 1));
 
+  // Direct chunk records carry their transfer while it exists. Outside the block below: with
+  // hit records kept, checkpoints saved during the bounces still write the direct chunks.
+  bool directAlive = true;
   if (resumeStage == 0) {
     direct.resize(values);
     // ---- Direct pass: visibility-weighted SH, and the hit records for the bounces.
@@ -356,7 +359,6 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
       if (keepHits && directLeft > 0) share = pilotFrontHitShare(scene, lay, *rays, origins, settings, tnear);
       control.checkMemory(share);
     }
-    bool directAlive = true;  // direct chunk records carry their transfer while it exists
     if (cp) {
       Checkpoint::StageIo io;
       io.chunksOutliveStage = keepHits;
