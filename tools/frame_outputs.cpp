@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string_view>
 
@@ -165,16 +166,30 @@ void VideoEncoder::finish() {
 // ---------------------------------------------------------------------------------------------
 // Contact sheet
 
+ContactSheet::Layout ContactSheet::layout(int64_t frameWidth, int64_t frameHeight, int64_t frames, int64_t columns,
+                                          int64_t maxTile) {
+  PRT_CHECK(frameWidth > 0 && frameHeight > 0 && frames > 0 && maxTile > 0 && columns >= 0);
+  Layout l{};
+  const int64_t longest = std::max(frameWidth, frameHeight);
+  l.factor = (longest + maxTile - 1) / maxTile;  // smallest k with ceil(longest / k) <= maxTile
+  l.tileWidth = (frameWidth + l.factor - 1) / l.factor;
+  l.tileHeight = (frameHeight + l.factor - 1) / l.factor;
+  l.columns = columns > 0 ? std::min(columns, frames) : int64_t(std::ceil(std::sqrt(double(frames)) - 1e-9));
+  const int64_t rows = (frames + l.columns - 1) / l.columns;
+  l.width = l.columns * (l.tileWidth + kGap) - kGap;
+  l.height = rows * (l.tileHeight + kGap) - kGap;
+  return l;
+}
+
 ContactSheet::ContactSheet(int frameWidth, int frameHeight, int frames, int columns, int maxTile)
     : frameWidth_(frameWidth), frameHeight_(frameHeight), frames_(frames) {
-  PRT_CHECK(frameWidth > 0 && frameHeight > 0 && frames > 0 && maxTile > 0 && columns >= 0);
-  const int longest = std::max(frameWidth, frameHeight);
-  factor_ = (longest + maxTile - 1) / maxTile;  // smallest k with ceil(longest / k) <= maxTile
-  tileWidth_ = (frameWidth + factor_ - 1) / factor_;
-  tileHeight_ = (frameHeight + factor_ - 1) / factor_;
-  columns_ = columns > 0 ? std::min(columns, frames) : int(std::ceil(std::sqrt(double(frames)) - 1e-9));
-  const int rows = (frames + columns_ - 1) / columns_;
-  sheet_ = ImageRgb(columns_ * tileWidth_ + (columns_ - 1) * kGap, rows * tileHeight_ + (rows - 1) * kGap);
+  const Layout l = layout(frameWidth, frameHeight, frames, columns, maxTile);
+  PRT_CHECK(l.width <= std::numeric_limits<int>::max() / l.height);
+  factor_ = int(l.factor);
+  tileWidth_ = int(l.tileWidth);
+  tileHeight_ = int(l.tileHeight);
+  columns_ = int(l.columns);
+  sheet_ = ImageRgb(int(l.width), int(l.height));
 }
 
 void ContactSheet::add(const ImageRgb& frame) {

@@ -2,6 +2,7 @@
 // contact sheet (a grid of downscaled frames in one PNG).
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -53,6 +54,12 @@ private:
 /// row by row, 2 black pixels between tiles. Tone-mapped when written (same exposure as --png).
 class ContactSheet {
 public:
+  /// Sizes of a sheet, in 64 bits so that a caller can refuse one too large before making it.
+  struct Layout {
+    int64_t factor, tileWidth, tileHeight, columns, width, height;
+  };
+  /// The layout the constructor uses. Preconditions as for the constructor.
+  static Layout layout(int64_t frameWidth, int64_t frameHeight, int64_t frames, int64_t columns, int64_t maxTile);
   /// k is the smallest integer with ceil(W/k) and ceil(H/k) <= maxTile; columns 0 = ceil(√frames).
   ContactSheet(int frameWidth, int frameHeight, int frames, int columns, int maxTile);
   /// Adds the next frame. Precondition: fewer than `frames` frames added, size as given.

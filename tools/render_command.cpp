@@ -1,12 +1,25 @@
 #include "render_command.h"
 
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "frame_outputs.h"
 #include "light_options.h"
@@ -33,28 +46,215 @@ struct RenderArgs {
   std::string exrCompression = "zip";
   std::string mp4, contactSheet;
   int sheetColumns = 0, sheetTile = 192;
-  double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitYfov = 45.0;
+  double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitFov = 45.0, orbitDistance = 0.0;
+  std::vector<double> orbitTarget;  // empty: the centre of the scene bounds
   bool quiet = false;
   CLI::Option* framesOption = nullptr;
   CLI::Option* fpsOption = nullptr;
+  CLI::Option* cameraOption = nullptr;
+  std::vector<CLI::Option*> orbitOptions;  // any of them given selects the orbit camera
 };
 
 RenderArgs args;
 
 constexpr double kDefaultFps = 24.0;
+// Frame numbers stay below INT_MAX so that f + 1, the rig's frames and %d never overflow.
+constexpr int64_t kMaxFrame = std::numeric_limits<int>::max() - 1;
+// A rig's keyframe range is rendered by default only up to this many frames; a longer sequence
+// (a stray key at frame 1e9) needs --frames, so a typo cannot start a render that never ends.
+constexpr int64_t kMaxDefaultFrames = 100000;
+// Frames and contact sheets: each side at most the GL renderbuffer limit of llvmpipe, and at
+// most 8192² pixels, about 60 bytes each in GL buffers, read-back and encoding (≈ 4 GB).
+constexpr int kMaxSide = 16384;
+constexpr int64_t kMaxPixels = int64_t(8192) * 8192;
 
-// Expands the one printf-style integer field (%d, %04d) of a frame path pattern.
-std::string framePath(const std::string& pattern, int frame) {
-  size_t p = pattern.find('%');
-  if (p == std::string::npos) return pattern;
-  size_t e = pattern.find('d', p);
-  if (e == std::string::npos) throw Error(cat("-o ", pattern, ": expected a frame field like %04d"));
-  std::string spec = pattern.substr(p, e - p + 1);
-  for (char c : spec.substr(1, spec.size() - 2))
-    if (c < '0' || c > '9') throw Error(cat("-o ", pattern, ": bad frame field '", spec, "'"));
-  char buf[32];
-  std::snprintf(buf, sizeof buf, spec.c_str(), frame);
-  return pattern.substr(0, p) + buf + pattern.substr(e + 1);
+struct FrameRange {
+  int64_t first = 0, last = 0;
+  int64_t count() const { return last - first + 1; }
+};
+
+// A whole non-negative decimal number: digits only ("12", not "+12", "12x" or " 12").
+std::optional<int64_t> parseWhole(std::string_view text) {
+  uint64_t v = 0;
+  auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (text.empty() || ec != std::errc() || end != text.data() + text.size() || v > uint64_t(kMaxFrame))
+    return std::nullopt;
+  return int64_t(v);
+}
+
+// --frames A-B (inclusive) or A.
+FrameRange parseFrames(const std::string& text) {
+  const size_t dash = text.find('-');
+  std::optional<int64_t> a = parseWhole(std::string_view(text).substr(0, dash));
+  std::optional<int64_t> b = dash == std::string::npos ? a : parseWhole(std::string_view(text).substr(dash + 1));
+  if (!a || !b) throw Error(cat("--frames ", text, ": expected A-B or A, whole frame numbers 0..", kMaxFrame));
+  if (*b < *a) throw Error(cat("--frames ", text, ": the last frame comes before the first"));
+  return {*a, *b};
+}
+
+// --size WxH.
+std::pair<int, int> parseSize(const std::string& text) {
+  const size_t x = text.find('x');
+  std::optional<int64_t> w = parseWhole(std::string_view(text).substr(0, x));
+  std::optional<int64_t> h = x == std::string::npos ? std::nullopt : parseWhole(std::string_view(text).substr(x + 1));
+  if (!w || !h || *w < 1 || *h < 1 || *w > kMaxSide || *h > kMaxSide)
+    throw Error(cat("--size ", text, ": expected WxH, each 1..", kMaxSide));
+  if (*w * *h > kMaxPixels)
+    throw Error(cat("--size ", text, ": ", *w * *h, " pixels, more than the ", kMaxPixels, " (8192x8192) allowed"));
+  return {int(*w), int(*h)};
+}
+
+// Without --frames, a rig with keyframes renders its keyframe range, rounded outwards and cut
+// at frame 0. The range is computed in double: a key at 1e12 must not wrap an int.
+FrameRange rigFrames(const LightRig& rig, const std::string& rigPath) {
+  auto [lo, hi] = rig.keyRange();
+  const double first = std::max(0.0, std::floor(lo)), last = std::max(first, std::ceil(hi));
+  if (!(last - first + 1 <= double(kMaxDefaultFrames)))
+    throw Error(cat(rigPath, ": keyframes run from frame ", lo, " to ", hi, ", ", last - first + 1,
+                    " frames; more than ", kMaxDefaultFrames, " are rendered only with an explicit --frames A-B"));
+  return {int64_t(first), int64_t(last)};
+}
+
+// The -o pattern: a name with at most one frame field, %d or %0Nd, in the file name.
+class FramePattern {
+public:
+  explicit FramePattern(std::string pattern) : pattern_(std::move(pattern)) {
+    const size_t p = pattern_.find('%');
+    if (p == std::string::npos) return;
+    const size_t d = pattern_.find('d', p);
+    const std::string spec = pattern_.substr(p, d == std::string::npos ? std::string::npos : d - p + 1);
+    const std::string width = spec.size() > 2 ? spec.substr(1, spec.size() - 2) : "";
+    const bool zeroPadded = width.size() >= 2 && width.size() <= 3 && width[0] == '0' &&
+                            width.find_first_not_of("0123456789") == std::string::npos;
+    if (d == std::string::npos || !(width.empty() || zeroPadded))
+      throw Error(cat("-o ", pattern_, ": bad frame field '", spec, "': use %d or %0Nd, e.g. %04d"));
+    if (pattern_.find('%', d) != std::string::npos)
+      throw Error(cat("-o ", pattern_, ": more than one '%' (one frame field, %d or %0Nd)"));
+    if (pattern_.find('/', d) != std::string::npos)
+      throw Error(cat("-o ", pattern_, ": the frame field must be in the file name, not in a folder"));
+    prefix_ = pattern_.substr(0, p);
+    suffix_ = pattern_.substr(d + 1);
+    width_ = width.empty() ? 0 : std::stoi(width.substr(1));
+    hasField_ = true;
+  }
+
+  bool hasField() const { return hasField_; }
+  const std::string& text() const { return pattern_; }
+
+  std::string path(int64_t frame) const {
+    if (!hasField_) return pattern_;
+    std::string digits = std::to_string(frame);
+    if (int(digits.size()) < width_) digits.insert(0, size_t(width_) - digits.size(), '0');
+    return prefix_ + digits + suffix_;
+  }
+
+private:
+  std::string pattern_, prefix_, suffix_;
+  int width_ = 0;
+  bool hasField_ = false;
+};
+
+// Checks -o before any work: a frame field when there is more than one frame, the .exr
+// extension, and a folder that exists and is writable or can be created (nearest existing
+// ancestor writable). The folder itself is created just before the first frame is written.
+void checkOutput(const FramePattern& out, const FrameRange& frames) {
+  if (!out.hasField() && frames.count() > 1)
+    throw Error(cat("-o ", out.text(), ": ", frames.count(), " frames need a frame-number field in the name, "
+                    "e.g. frame_%04d.exr (only a single frame may have a plain name)"));
+  const std::filesystem::path first = out.path(frames.first);
+  std::string ext = first.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext != ".exr" || first.stem().empty())
+    throw Error(cat("-o ", out.text(), ": expected an .exr file name (--png writes PNGs next to the EXRs)"));
+  std::filesystem::path dir = first.parent_path();
+  std::error_code ec;
+  while (!dir.empty() && !std::filesystem::exists(dir, ec)) dir = dir.parent_path();
+  const std::string shown = dir.empty() ? "." : dir.string();
+  if (!std::filesystem::is_directory(dir.empty() ? "." : dir, ec))
+    throw Error(cat("-o ", out.text(), ": '", shown, "' is not a folder"));
+  if (::access(shown.c_str(), W_OK | X_OK) != 0)
+    throw Error(cat("-o ", out.text(), ": cannot write in folder '", shown, "' (", std::strerror(errno), ")"));
+}
+
+void createOutputFolder(const FramePattern& out, int64_t frame) {
+  const std::filesystem::path dir = std::filesystem::path(out.path(frame)).parent_path();
+  std::error_code ec;
+  if (!dir.empty()) std::filesystem::create_directories(dir, ec);
+  if (ec) throw Error(cat("-o ", out.text(), ": cannot create folder '", dir.string(), "' (", ec.message(), ")"));
+}
+
+bool given(const CLI::Option* o) { return o && o->count() > 0; }
+
+const CLI::Option* firstOrbitOption(const RenderArgs& a) {
+  for (const CLI::Option* o : a.orbitOptions)
+    if (given(o)) return o;
+  return nullptr;
+}
+
+// The orbit options, validated before the scene is loaded.
+render::OrbitCamera orbitCamera(const RenderArgs& a) {
+  if (given(a.cameraOption))
+    if (const CLI::Option* o = firstOrbitOption(a))
+      throw Error(cat("--camera and ", o->get_name(), ": give either a glTF camera or orbit options, not both"));
+  if (!std::isfinite(a.orbitAzimuth)) throw Error("--orbit-azimuth: not a finite number");
+  if (!(std::fabs(a.orbitElevation) <= 89.0))
+    throw Error(cat("--orbit-elevation ", a.orbitElevation, ": must be within -89..89 degrees (straight up or down "
+                    "leaves the view's roll undefined)"));
+  if (!(a.orbitFov > 0.0 && a.orbitFov < 180.0))
+    throw Error(cat("--orbit-fov ", a.orbitFov, ": the vertical field of view must be between 0 and 180 degrees"));
+  if (given(a.orbitOptions[2]) && !(std::isfinite(a.orbitDistance) && a.orbitDistance > 0.0))
+    throw Error(cat("--orbit-distance ", a.orbitDistance, ": must be > 0"));
+  render::OrbitCamera orbit;
+  orbit.azimuthDegrees = a.orbitAzimuth;
+  orbit.elevationDegrees = a.orbitElevation;
+  orbit.yfovDegrees = a.orbitFov;
+  orbit.distance = a.orbitDistance;
+  if (!a.orbitTarget.empty()) {
+    const glm::dvec3 t(a.orbitTarget[0], a.orbitTarget[1], a.orbitTarget[2]);
+    if (!std::isfinite(t.x + t.y + t.z)) throw Error("--orbit-target: not three finite numbers");
+    orbit.target = glm::vec3(t);
+  }
+  return orbit;
+}
+
+struct ChosenCamera {
+  render::CameraView view;
+  std::string description;  // for the summary
+};
+
+// --camera NAME: that glTF camera. Any --orbit-* option: the orbit. Neither: the file's first
+// camera, else the orbit.
+ChosenCamera chooseCamera(const RenderArgs& a, const render::OrbitCamera& orbit, const Scene& scene, double aspect) {
+  if (!a.camera.empty() || (!firstOrbitOption(a) && !scene.cameras.empty())) {
+    auto cam = std::find_if(scene.cameras.begin(), scene.cameras.end(),
+                            [&](const Camera& c) { return a.camera.empty() || c.name == a.camera; });
+    if (cam == scene.cameras.end()) throw Error(cat(a.baked, ": no camera named '", a.camera, "'"));
+    const std::string lens = cam->perspective ? cat("vertical fov ", glm::degrees(cam->yfov), " deg")
+                                              : cat("orthographic, ymag ", cam->ymag);
+    return {render::cameraView(*cam), cat("glTF camera '", cam->name, "' (node ", cam->node, ", ", lens, ")")};
+  }
+  const render::CameraView view = render::orbitView(scene, orbit, aspect);
+  const glm::dvec3 target =
+      orbit.target ? glm::dvec3(*orbit.target) : 0.5 * (glm::dvec3(scene.boundsMin) + glm::dvec3(scene.boundsMax));
+  const double distance = glm::length(glm::dvec3(view.cameraToWorld[3]) - target);
+  return {view, cat("orbit (target ", target.x, ",", target.y, ",", target.z, ", distance ", distance, ", azimuth ",
+                    orbit.azimuthDegrees, ", elevation ", orbit.elevationDegrees, ", vertical fov ",
+                    orbit.yfovDegrees, " deg", firstOrbitOption(a) ? "" : "; the file has no camera", ")")};
+}
+
+// A probe grid baked for another scene still renders, but wrongly: the bake's scene name and
+// seed, stored in both files, must agree (a warning if not); bands must match (an error).
+std::vector<std::string> checkProbesMatch(const ProbeGrid& grid, const Scene& scene, const RenderArgs& a) {
+  if (grid.bands != scene.transferBands)
+    throw Error(cat(a.probes, ": ", grid.bands, " bands, but ", a.baked, " is baked with ", scene.transferBands,
+                    " (bake the surface and the probes together, with one --bands)"));
+  const auto settings = nlohmann::json::parse(scene.bakeSettingsJson, nullptr, /*allow_exceptions=*/false);
+  if (!settings.is_object() || !settings.contains("scene") || grid.info.scene.empty()) return {};
+  const std::string bakedFrom = settings.value("scene", std::string());
+  const uint64_t seed = settings.value("seed", uint64_t(0));
+  if (bakedFrom == grid.info.scene && seed == grid.info.seed) return {};
+  return {cat(a.probes, " was baked from '", grid.info.scene, "' (seed ", grid.info.seed, "), ", a.baked, " from '",
+              bakedFrom, "' (seed ", seed, "): the probes may belong to another scene or bake")};
 }
 
 double msSince(std::chrono::steady_clock::time_point t0) {
@@ -66,14 +266,29 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 CLI::App* addRenderCommand(CLI::App& app) {
   CLI::App* r = app.add_subcommand("render", "Render relit frames of a baked scene headlessly (EXR, PNG, MP4)");
   r->add_option("baked", args.baked, "Baked scene (.glb from prt bake)")->required();
-  r->add_option("-o,--output", args.output, "Frame path pattern (.exr), e.g. out/frame_%04d.exr")->capture_default_str();
+  r->add_option("-o,--output", args.output,
+                "Frame path (.exr) with a frame field %d or %0Nd, e.g. out/frame_%04d.exr (a plain name for one "
+                "frame); its folder is created")
+      ->capture_default_str();
   args.framesOption = r->add_option("--frames", args.frames,
-                                    "Frame range A-B (inclusive); default 0-0, or the --rig's keyframe range")
+                                    "Frame range A-B (inclusive) or A; default 0-0, or the --rig's keyframe range "
+                                    "(up to 100000 frames)")
                           ->capture_default_str();
-  r->add_option("--size", args.size, "Image size WxH")->capture_default_str();
-  r->add_option("--camera", args.camera, "glTF camera name (default: the first camera, else an orbit)");
-  r->add_option("--orbit-azimuth", args.orbitAzimuth, "Orbit camera azimuth, degrees about +Y")->capture_default_str();
-  r->add_option("--orbit-elevation", args.orbitElevation, "Orbit camera elevation, degrees")->capture_default_str();
+  r->add_option("--size", args.size, "Image size WxH (each 1..16384, at most 8192x8192 pixels)")->capture_default_str();
+  args.cameraOption =
+      r->add_option("--camera", args.camera, "glTF camera name (default: the first camera, else the orbit camera)");
+  args.orbitOptions = {
+      r->add_option("--orbit-azimuth", args.orbitAzimuth, "Orbit camera azimuth, degrees about +Y (0: looking down -Z)")
+          ->capture_default_str(),
+      r->add_option("--orbit-elevation", args.orbitElevation, "Orbit camera elevation, degrees (-89..89)")
+          ->capture_default_str(),
+      r->add_option("--orbit-distance", args.orbitDistance,
+                    "Orbit camera distance from the target (default: the scene's bounding sphere fills the view)"),
+      r->add_option("--orbit-target", args.orbitTarget, "Point the orbit camera looks at X,Y,Z (default: bounds centre)")
+          ->delimiter(',')
+          ->expected(3),
+      r->add_option("--orbit-fov", args.orbitFov, "Orbit camera vertical field of view, degrees")->capture_default_str()};
+  for (CLI::Option* o : args.orbitOptions) o->group("Camera (any --orbit-* option selects the orbit camera)");
   r->add_option("--gl", args.gl, "OpenGL back end: osmesa or egl")->capture_default_str();
   addLightOptions(*r, args.light, /*animated=*/true);
   r->add_option("--exr-compression", args.exrCompression, "EXR compression, all lossless: zip, piz or none (fastest)")
@@ -95,15 +310,13 @@ CLI::App* addRenderCommand(CLI::App& app) {
 void runRenderCommand() {
   const RenderArgs& a = args;
   const auto tStart = std::chrono::steady_clock::now();
-  int first = 0, last = 0, width = 0, height = 0;
-  if (std::sscanf(a.size.c_str(), "%dx%d", &width, &height) != 2 || width < 1 || height < 1 || width > 16384 ||
-      height > 16384)
-    throw Error(cat("--size ", a.size, ": expected WxH, each 1..16384"));
+  const auto [width, height] = parseSize(a.size);
   render::GlBackend backend = render::parseGlBackend(a.gl);
   if (!std::isfinite(a.exposure)) throw Error("--exposure: not a finite number");
   if (a.fpsOption->count() > 0 && !(std::isfinite(a.fps) && a.fps > 0)) throw Error(cat("--fps ", a.fps, ": must be > 0"));
   if (a.sheetColumns < 0) throw Error(cat("--sheet-columns ", a.sheetColumns, ": must be >= 0"));
   if (a.sheetTile < 1) throw Error(cat("--sheet-tile ", a.sheetTile, ": must be >= 1"));
+  const render::OrbitCamera orbit = orbitCamera(a);
   ExrCompression compression = ExrCompression::Zip;
   if (a.exrCompression == "none")
     compression = ExrCompression::None;
@@ -116,57 +329,44 @@ void runRenderCommand() {
   // the default frame range; the shortcuts' START:END need the range to place their keys.
   std::optional<LightRig> rig;
   if (!a.light.rig.empty()) rig = buildRig(a.light, 0, 0);
-  if (a.framesOption->count() > 0 || !rig || !rig->animated()) {
-    if (std::sscanf(a.frames.c_str(), "%d-%d", &first, &last) != 2 || first < 0 || last < first)
-      throw Error(cat("--frames ", a.frames, ": expected A-B with 0 <= A <= B"));
-  } else {
-    auto [lo, hi] = rig->keyRange();
-    first = std::max(0, int(std::floor(lo)));
-    last = std::max(first, int(std::ceil(hi)));
-  }
-  if (!rig) rig = buildRig(a.light, first, last);
+  const FrameRange frames = given(a.framesOption) || !rig || !rig->animated() ? parseFrames(a.frames)
+                                                                                : rigFrames(*rig, a.light.rig);
+  if (!rig) rig = buildRig(a.light, int(frames.first), int(frames.last));
 
-  std::filesystem::path dir = std::filesystem::path(framePath(a.output, first)).parent_path();
-  if (!dir.empty() && !std::filesystem::is_directory(dir))
-    throw Error(cat(a.output, ": directory '", dir.string(), "' does not exist"));
+  const FramePattern output(a.output);
+  checkOutput(output, frames);
   std::unique_ptr<VideoEncoder> video;
   if (!a.mp4.empty()) video = std::make_unique<VideoEncoder>(a.mp4);  // ffmpeg missing: fail now
-  if (!a.contactSheet.empty()) AtomicFile probe(a.contactSheet);     // unwritable: fail now
+  if (!a.contactSheet.empty()) {
+    const ContactSheet::Layout sheet = ContactSheet::layout(width, height, frames.count(), a.sheetColumns, a.sheetTile);
+    if (sheet.width > kMaxSide || sheet.height > kMaxSide || sheet.width * sheet.height > kMaxPixels)
+      throw Error(cat("--contact-sheet ", a.contactSheet, ": ", frames.count(), " frames make a ", sheet.width, "x",
+                      sheet.height, " sheet, over ", kMaxSide, " pixels a side or ", kMaxPixels,
+                      " in all; lower --sheet-tile or render fewer frames"));
+    AtomicFile probe(a.contactSheet);  // unwritable: fail now
+  }
   const double fps = a.fpsOption->count() > 0 ? a.fps : rig->fps.value_or(kDefaultFps);
 
   Scene scene = loadScene(a.baked);
   if (scene.transferBands == 0) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
   const int bands = scene.transferBands;
+  const ChosenCamera camera = chooseCamera(a, orbit, scene, double(width) / height);
 
-  render::CameraView view;
-  if (!a.camera.empty() || !scene.cameras.empty()) {
-    const Camera* cam = nullptr;
-    for (const Camera& c : scene.cameras)
-      if (a.camera.empty() || c.name == a.camera) {
-        cam = &c;
-        break;
-      }
-    if (!cam) throw Error(cat(a.baked, ": no camera named '", a.camera, "'"));
-    view = render::cameraView(*cam);
-  } else {
-    render::OrbitCamera orbit;
-    orbit.azimuthDegrees = a.orbitAzimuth;
-    orbit.elevationDegrees = a.orbitElevation;
-    view = render::orbitView(scene, orbit, double(width) / height);
-  }
-
-  render::GlContext context(backend, width, height);
-  render::Renderer renderer(context, scene);
   ProbeGrid probes;
+  std::vector<std::string> warnings;
   if (!a.probes.empty()) {
     probes = readProbeGrid(a.probes);
-    renderer.setProbes(probes);
+    warnings = checkProbesMatch(probes, scene, a);
   }
+  render::GlContext context(backend, width, height);
+  render::Renderer renderer(context, scene);
+  if (!a.probes.empty()) renderer.setProbes(probes);
+  for (const std::string& w : renderer.warnings()) warnings.push_back(w);
   if (!a.quiet)
-    for (const std::string& w : renderer.warnings()) std::fprintf(stderr, "prt: warning: %s\n", w.c_str());
-  const int n = last - first + 1;
+    for (const std::string& w : warnings) std::fprintf(stderr, "prt: warning: %s\n", w.c_str());
+  const int64_t n = frames.count();
   std::optional<ContactSheet> sheet;
-  if (!a.contactSheet.empty()) sheet.emplace(width, height, n, a.sheetColumns, a.sheetTile);
+  if (!a.contactSheet.empty()) sheet.emplace(width, height, int(n), a.sheetColumns, a.sheetTile);
   if (video) video->start(width, height, fps);
 
   // Maps are projected once, here; a frame then costs a rotation and the analytic lights.
@@ -174,21 +374,22 @@ void runRenderCommand() {
   rig->prepare(bands);
   const double prepareMs = msSince(tPrepare);
   double lightMs = 0.0, drawMs = 0.0, readbackMs = 0.0, writeMs = 0.0, encodeMs = 0.0;
-  for (int f = first; f <= last; ++f) {
+  for (int64_t f = frames.first; f <= frames.last; ++f) {
     auto t0 = std::chrono::steady_clock::now();
-    sh::ShRgb light = rig->evaluate(f, bands);
+    sh::ShRgb light = rig->evaluate(double(f), bands);
     const double rigMs = msSince(t0);
     render::Frame frame;
-    frame.camera = view;
+    frame.camera = camera.view;
     frame.light = light;
-    frame.time = f / fps;
+    frame.time = double(f) / fps;
     frame.width = width;
     frame.height = height;
     ImageRgb image = renderer.render(frame);
     // The light update: the rig's SH plus, with probes, relighting and uploading the grid.
     const double frameLightMs = rigMs + renderer.lastFrame().lightMs;
     auto t1 = std::chrono::steady_clock::now();
-    std::string path = framePath(a.output, f);
+    if (f == frames.first) createOutputFolder(output, f);
+    std::string path = output.path(f);
     writeExr(path, image, compression);
     if (a.png) writePng(std::filesystem::path(path).replace_extension(".png").string(), image, float(a.exposure));
     if (sheet) sheet->add(image);
@@ -201,29 +402,32 @@ void runRenderCommand() {
     readbackMs += renderer.lastFrame().readbackMs;
     writeMs += frameWriteMs;
     if (!a.quiet)
-      std::fprintf(stderr, "frame %d -> %s: light %.3f ms, draw %.1f ms, readback %.1f ms, write %.1f ms\n", f,
-                   path.c_str(), frameLightMs, renderer.lastFrame().drawMs, renderer.lastFrame().readbackMs,
-                   frameWriteMs);
+      std::fprintf(stderr, "frame %lld -> %s: light %.3f ms, draw %.1f ms, readback %.1f ms, write %.1f ms\n",
+                   static_cast<long long>(f), path.c_str(), frameLightMs, renderer.lastFrame().drawMs,
+                   renderer.lastFrame().readbackMs, frameWriteMs);
   }
   auto tEnd = std::chrono::steady_clock::now();
   if (video) video->finish();
   encodeMs += msSince(tEnd);
   if (sheet) sheet->write(a.contactSheet, float(a.exposure));
   if (a.quiet) return;
+  const double perFrame = 1.0 / double(n);
   std::fprintf(stderr,
-               "prt render: %d frame%s %dx%d written (%s .. %s)%s on %s\n"
+               "prt render: %lld frame%s %dx%d written (%s .. %s)%s on %s\n"
+               "  camera: %s\n"
                "  %.2f ms/frame draw + %.2f ms/frame readback, %.3f ms per light update (%zu lights, %d bands, "
                "window %s; maps projected once in %.1f ms), %.2f ms/frame writing\n",
-               n, n == 1 ? "" : "s", width, height, framePath(a.output, first).c_str(), framePath(a.output, last).c_str(),
-               a.png ? " + PNG" : "", context.description().c_str(), drawMs / n, readbackMs / n, lightMs / n,
-               rig->lights.size(), bands, sh::windowName(rig->window), prepareMs, writeMs / n);
+               static_cast<long long>(n), n == 1 ? "" : "s", width, height, output.path(frames.first).c_str(),
+               output.path(frames.last).c_str(), a.png ? " + PNG" : "", context.description().c_str(),
+               camera.description.c_str(), drawMs * perFrame, readbackMs * perFrame, lightMs * perFrame,
+               rig->lights.size(), bands, sh::windowName(rig->window), prepareMs, writeMs * perFrame);
   if (video)
-    std::fprintf(stderr, "  video %s: %d frames at %g fps, %.2f ms/frame encoding (%s)\n", a.mp4.c_str(), n, fps,
-                 encodeMs / n, video->ffmpeg().c_str());
+    std::fprintf(stderr, "  video %s: %lld frames at %g fps, %.2f ms/frame encoding (%s)\n", a.mp4.c_str(),
+                 static_cast<long long>(n), fps, encodeMs * perFrame, video->ffmpeg().c_str());
   if (sheet)
     std::fprintf(stderr, "  contact sheet %s: %d columns of %dx%d tiles (1/%d)\n", a.contactSheet.c_str(),
                  sheet->columns(), sheet->tileWidth(), sheet->tileHeight(), sheet->factor());
-  std::fprintf(stderr, "  total %.2f s (%.1f ms/frame)\n", msSince(tStart) / 1000.0, msSince(tStart) / n);
+  std::fprintf(stderr, "  total %.2f s (%.1f ms/frame)\n", msSince(tStart) / 1000.0, msSince(tStart) * perFrame);
 }
 
 }  // namespace prt::tools
