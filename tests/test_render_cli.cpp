@@ -187,6 +187,7 @@ TEST(RenderCli, BadOptionsAreOneLineAndWriteNothing) {
       {"-o " + (out / "f_%d_%d.exr").string(), "more than one '%'"},
       {"-o " + (out / "%d/f.exr").string(), "the frame field must be in the file name"},
       {"-o " + glb + "/f.exr", "is not a folder"},
+      {"--contact-sheet " + glb + "/s.png -o " + frames, "--contact-sheet " + glb + "/s.png: '" + glb + "' is not a folder"},
       {"--camera Side --orbit-azimuth 10 -o " + frames, "--camera and --orbit-azimuth: give either"},
       {"--orbit-fov 180 -o " + frames, "--orbit-fov 180: the vertical field of view must be between 0 and 180"},
       {"--orbit-elevation 90 -o " + frames, "--orbit-elevation 90: must be within -89..89"},
@@ -205,19 +206,34 @@ TEST(RenderCli, BadOptionsAreOneLineAndWriteNothing) {
   }
 }
 
-// One frame may have a plain name; a missing output folder is created (with its parents).
-TEST(RenderCli, PlainNameForOneFrameAndTheFolderIsCreated) {
+bool onPath(const std::string& program) {
+  return std::system(cat("command -v ", program, " >/dev/null 2>&1").c_str()) == 0;
+}
+
+std::vector<std::string> namesIn(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// One frame may have a plain name; missing output folders are created (with their parents),
+// for the frames, the contact sheet and the video alike, and hold no temporary files after.
+TEST(RenderCli, PlainNameForOneFrameAndFoldersAreCreated) {
   const fs::path d = freshDir("plain_name");
   const std::string glb = bake(source("scenes/plane.gltf"), d, "plane");
   const fs::path out = d / "new" / "sub";
+  const bool ffmpeg = onPath("ffmpeg");
   const Result r = prt(cat("render ", glb, " --env ", whiteSky(), " --size 8x8 --frames 7 --png -o ",
-                        (out / "still.exr").string()),
-                    d);
+                           (out / "still.exr").string(), " --contact-sheet ", (d / "sheets" / "s.png").string(),
+                           ffmpeg ? cat(" --mp4 ", (d / "video" / "v.mp4").string()) : ""),
+                       d);
   ASSERT_EQ(r.status, 0) << r.err;
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(out)) names.push_back(e.path().filename().string());
-  std::sort(names.begin(), names.end());
-  EXPECT_EQ(names, (std::vector<std::string>{"still.exr", "still.png"}));  // no temporary files left
+  EXPECT_EQ(namesIn(out), (std::vector<std::string>{"still.exr", "still.png"}));
+  EXPECT_EQ(namesIn(d / "sheets"), std::vector<std::string>{"s.png"});
+  if (ffmpeg) {
+    EXPECT_EQ(namesIn(d / "video"), std::vector<std::string>{"v.mp4"});
+  }
   EXPECT_NE(r.err.find("1 frame 8x8 written"), std::string::npos) << r.err;
 }
 

@@ -62,7 +62,6 @@ VideoEncoder::VideoEncoder(const std::string& path) : path_(path) {
   ffmpeg_ = findOnPath("ffmpeg");
   if (ffmpeg_.empty())
     throw Error(cat("--mp4 ", path, ": ffmpeg not found on PATH (install ffmpeg, or drop --mp4)"));
-  file_ = std::make_unique<AtomicFile>(path);  // fails now on a missing or read-only folder
 }
 
 VideoEncoder::~VideoEncoder() {
@@ -83,6 +82,7 @@ void VideoEncoder::stop() {
 }
 
 void VideoEncoder::start(int width, int height, double fps) {
+  file_ = std::make_unique<AtomicFile>(path_);  // a missing or read-only folder fails here
   width_ = width;
   height_ = height;
   // ffmpeg's messages go to a log file, shown (last line) only if it fails.

@@ -24,14 +24,15 @@ std::string findOnPath(const std::string& program);
 /// error), it stops ffmpeg and removes the temporary file.
 class VideoEncoder {
 public:
-  /// Throws prt::Error "PATH: ffmpeg not found on PATH ..." when ffmpeg is missing, or when the
-  /// output folder cannot be written. Does not start ffmpeg yet (start()).
+  /// Throws prt::Error "--mp4 PATH: ffmpeg not found on PATH ..." when ffmpeg is missing. Does
+  /// not touch `path` nor start ffmpeg yet (start()), so its folder may be created in between.
   explicit VideoEncoder(const std::string& path);
   ~VideoEncoder();
   VideoEncoder(const VideoEncoder&) = delete;
   VideoEncoder& operator=(const VideoEncoder&) = delete;
 
-  /// Starts ffmpeg for frames of width × height at `fps` frames per second.
+  /// Starts ffmpeg for frames of width × height at `fps` frames per second, writing to a
+  /// temporary file next to the path. Throws prt::Error if the folder cannot be written.
   void start(int width, int height, double fps);
   /// Sends one frame (tone-mapped as toneMapSrgb8). Throws prt::Error if ffmpeg failed.
   void addFrame(const ImageRgb& image, float exposure);

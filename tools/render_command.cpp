@@ -121,20 +121,19 @@ public:
   explicit FramePattern(std::string pattern) : pattern_(std::move(pattern)) {
     const size_t p = pattern_.find('%');
     if (p == std::string::npos) return;
-    const size_t d = pattern_.find('d', p);
-    const std::string spec = pattern_.substr(p, d == std::string::npos ? std::string::npos : d - p + 1);
-    const std::string width = spec.size() > 2 ? spec.substr(1, spec.size() - 2) : "";
-    const bool zeroPadded = width.size() >= 2 && width.size() <= 3 && width[0] == '0' &&
-                            width.find_first_not_of("0123456789") == std::string::npos;
-    if (d == std::string::npos || !(width.empty() || zeroPadded))
-      throw Error(cat("-o ", pattern_, ": bad frame field '", spec, "': use %d or %0Nd, e.g. %04d"));
+    // '%', an optional zero-padded width (0 followed by 1-2 digits), 'd'.
+    size_t d = p + 1;
+    while (d < pattern_.size() && d - p <= 3 && std::isdigit(static_cast<unsigned char>(pattern_[d]))) ++d;
+    const std::string width = pattern_.substr(p + 1, d - p - 1);
+    if (d >= pattern_.size() || pattern_[d] != 'd' || !(width.empty() || (width.size() >= 2 && width[0] == '0')))
+      throw Error(cat("-o ", pattern_, ": bad frame field '", pattern_.substr(p, d - p + 1), "': use %d or %0Nd, e.g. %04d"));
     if (pattern_.find('%', d) != std::string::npos)
       throw Error(cat("-o ", pattern_, ": more than one '%' (one frame field, %d or %0Nd)"));
     if (pattern_.find('/', d) != std::string::npos)
       throw Error(cat("-o ", pattern_, ": the frame field must be in the file name, not in a folder"));
     prefix_ = pattern_.substr(0, p);
     suffix_ = pattern_.substr(d + 1);
-    width_ = width.empty() ? 0 : std::stoi(width.substr(1));
+    width_ = width.empty() ? 0 : std::stoi(width);
     hasField_ = true;
   }
 
@@ -154,33 +153,37 @@ private:
   bool hasField_ = false;
 };
 
+// An output's folder need not exist yet (it is created before the first frame), but the
+// nearest existing folder above it must be a writable folder. `what` names the option.
+void checkFolderFor(const std::string& what, const std::filesystem::path& file) {
+  std::filesystem::path dir = file.parent_path();
+  std::error_code ec;
+  while (!dir.empty() && !std::filesystem::exists(dir, ec)) dir = dir.parent_path();
+  const std::string shown = dir.empty() ? "." : dir.string();
+  if (!std::filesystem::is_directory(shown, ec)) throw Error(cat(what, ": '", shown, "' is not a folder"));
+  if (::access(shown.c_str(), W_OK | X_OK) != 0)
+    throw Error(cat(what, ": cannot write in folder '", shown, "' (", std::strerror(errno), ")"));
+}
+
+void createFolderFor(const std::string& what, const std::filesystem::path& file) {
+  const std::filesystem::path dir = file.parent_path();
+  std::error_code ec;
+  if (!dir.empty()) std::filesystem::create_directories(dir, ec);
+  if (ec) throw Error(cat(what, ": cannot create folder '", dir.string(), "' (", ec.message(), ")"));
+}
+
 // Checks -o before any work: a frame field when there is more than one frame, the .exr
-// extension, and a folder that exists and is writable or can be created (nearest existing
-// ancestor writable). The folder itself is created just before the first frame is written.
+// extension, a folder that can be written or created.
 void checkOutput(const FramePattern& out, const FrameRange& frames) {
+  const std::string what = cat("-o ", out.text());
   if (!out.hasField() && frames.count() > 1)
-    throw Error(cat("-o ", out.text(), ": ", frames.count(), " frames need a frame-number field in the name, "
+    throw Error(cat(what, ": ", frames.count(), " frames need a frame-number field in the name, "
                     "e.g. frame_%04d.exr (only a single frame may have a plain name)"));
   const std::filesystem::path first = out.path(frames.first);
   std::string ext = first.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  if (ext != ".exr" || first.stem().empty())
-    throw Error(cat("-o ", out.text(), ": expected an .exr file name (--png writes PNGs next to the EXRs)"));
-  std::filesystem::path dir = first.parent_path();
-  std::error_code ec;
-  while (!dir.empty() && !std::filesystem::exists(dir, ec)) dir = dir.parent_path();
-  const std::string shown = dir.empty() ? "." : dir.string();
-  if (!std::filesystem::is_directory(dir.empty() ? "." : dir, ec))
-    throw Error(cat("-o ", out.text(), ": '", shown, "' is not a folder"));
-  if (::access(shown.c_str(), W_OK | X_OK) != 0)
-    throw Error(cat("-o ", out.text(), ": cannot write in folder '", shown, "' (", std::strerror(errno), ")"));
-}
-
-void createOutputFolder(const FramePattern& out, int64_t frame) {
-  const std::filesystem::path dir = std::filesystem::path(out.path(frame)).parent_path();
-  std::error_code ec;
-  if (!dir.empty()) std::filesystem::create_directories(dir, ec);
-  if (ec) throw Error(cat("-o ", out.text(), ": cannot create folder '", dir.string(), "' (", ec.message(), ")"));
+  if (ext != ".exr") throw Error(cat(what, ": expected an .exr file name (--png writes PNGs next to the EXRs)"));
+  checkFolderFor(what, first);
 }
 
 bool given(const CLI::Option* o) { return o && o->count() > 0; }
@@ -336,14 +339,17 @@ void runRenderCommand() {
   const FramePattern output(a.output);
   checkOutput(output, frames);
   std::unique_ptr<VideoEncoder> video;
-  if (!a.mp4.empty()) video = std::make_unique<VideoEncoder>(a.mp4);  // ffmpeg missing: fail now
+  if (!a.mp4.empty()) {
+    video = std::make_unique<VideoEncoder>(a.mp4);  // ffmpeg missing: fail now
+    checkFolderFor(cat("--mp4 ", a.mp4), a.mp4);
+  }
   if (!a.contactSheet.empty()) {
     const ContactSheet::Layout sheet = ContactSheet::layout(width, height, frames.count(), a.sheetColumns, a.sheetTile);
     if (sheet.width > kMaxSide || sheet.height > kMaxSide || sheet.width * sheet.height > kMaxPixels)
       throw Error(cat("--contact-sheet ", a.contactSheet, ": ", frames.count(), " frames make a ", sheet.width, "x",
                       sheet.height, " sheet, over ", kMaxSide, " pixels a side or ", kMaxPixels,
                       " in all; lower --sheet-tile or render fewer frames"));
-    AtomicFile probe(a.contactSheet);  // unwritable: fail now
+    checkFolderFor(cat("--contact-sheet ", a.contactSheet), a.contactSheet);
   }
   const double fps = a.fpsOption->count() > 0 ? a.fps : rig->fps.value_or(kDefaultFps);
 
@@ -365,6 +371,11 @@ void runRenderCommand() {
   if (!a.quiet)
     for (const std::string& w : warnings) std::fprintf(stderr, "prt: warning: %s\n", w.c_str());
   const int64_t n = frames.count();
+  // Every check that can be made before rendering has passed: the output folders are made now,
+  // so that a run refused earlier leaves nothing behind.
+  createFolderFor(cat("-o ", output.text()), output.path(frames.first));
+  if (video) createFolderFor(cat("--mp4 ", a.mp4), a.mp4);
+  if (!a.contactSheet.empty()) createFolderFor(cat("--contact-sheet ", a.contactSheet), a.contactSheet);
   std::optional<ContactSheet> sheet;
   if (!a.contactSheet.empty()) sheet.emplace(width, height, int(n), a.sheetColumns, a.sheetTile);
   if (video) video->start(width, height, fps);
@@ -388,7 +399,6 @@ void runRenderCommand() {
     // The light update: the rig's SH plus, with probes, relighting and uploading the grid.
     const double frameLightMs = rigMs + renderer.lastFrame().lightMs;
     auto t1 = std::chrono::steady_clock::now();
-    if (f == frames.first) createOutputFolder(output, f);
     std::string path = output.path(f);
     writeExr(path, image, compression);
     if (a.png) writePng(std::filesystem::path(path).replace_extension(".png").string(), image, float(a.exposure));
