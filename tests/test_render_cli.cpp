@@ -245,19 +245,19 @@ TEST(RenderCli, FarRigKeyframeNeedsExplicitFrames) {
   const std::string glb = bake(source("scenes/plane.gltf"), d, "plane");
   const fs::path out = d / "out";
   fs::create_directories(out);
-  auto rig = [&](const std::string& name, double lastKey) {
+  auto rig = [&](const std::string& name, double firstKey, double lastKey) {
     const fs::path p = d / name;
     std::ofstream(p) << nlohmann::json{
         {"version", 1},
         {"lights",
          {{{"type", "environment"},
            {"file", whiteSky()},
-           {"rotation", {{{"frame", 0.5}, {"value", 0}}, {{"frame", lastKey}, {"value", 360}}}}}}}};
+           {"rotation", {{{"frame", firstKey}, {"value", 0}}, {{"frame", lastKey}, {"value", 360}}}}}}}};
     return p.string();
   };
   const std::string common = cat("render ", glb, " --size 8x8 -o ", (out / "f_%d.exr").string(), " --rig ");
   for (double key : {1e10, 100000.0}) {  // 100001 frames (0 .. 100000): one over the limit
-    const std::string far = rig("far.json", key);
+    const std::string far = rig("far.json", 0.5, key);
     const Result r = prt(common + far, d);
     EXPECT_EQ(r.status, 1) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
@@ -266,12 +266,16 @@ TEST(RenderCli, FarRigKeyframeNeedsExplicitFrames) {
         << r.err;
     EXPECT_TRUE(fs::is_empty(out));
   }
-  const Result explicitFrames = prt(common + rig("far.json", 1e10) + " --frames 2-3 -q", d);
+  // Keys 3e9 and 3e9 + 4: five frames, but beyond the largest frame number.
+  const Result late = prt(common + rig("late.json", 3e9, 3e9 + 4.0) + " -q", d);
+  EXPECT_EQ(late.status, 1) << late.err;
+  EXPECT_NE(late.err.find("keyframes beyond frame 2147483646"), std::string::npos) << late.err;
+  const Result explicitFrames = prt(common + rig("far.json", 0.5, 1e10) + " --frames 2-3 -q", d);
   ASSERT_EQ(explicitFrames.status, 0) << explicitFrames.err;
   EXPECT_TRUE(fs::exists(out / "f_2.exr") && fs::exists(out / "f_3.exr"));
   EXPECT_EQ(std::distance(fs::directory_iterator(out), fs::directory_iterator()), 2);
   // Keys at 0.5 and 3.2: frames 0 to 4.
-  const Result near = prt(common + rig("near.json", 3.2) + " -q", d);
+  const Result near = prt(common + rig("near.json", 0.5, 3.2) + " -q", d);
   ASSERT_EQ(near.status, 0) << near.err;
   EXPECT_TRUE(fs::exists(out / "f_0.exr") && fs::exists(out / "f_4.exr") && !fs::exists(out / "f_5.exr"));
 }

@@ -112,6 +112,8 @@ FrameRange rigFrames(const LightRig& rig, const std::string& rigPath) {
   if (!(last - first + 1 <= double(kMaxDefaultFrames)))
     throw Error(cat(rigPath, ": keyframes run from frame ", lo, " to ", hi, ", ", last - first + 1,
                     " frames; more than ", kMaxDefaultFrames, " are rendered only with an explicit --frames A-B"));
+  if (last > double(kMaxFrame))
+    throw Error(cat(rigPath, ": keyframes beyond frame ", kMaxFrame, " (up to ", hi, "); give --frames A-B"));
   return {int64_t(first), int64_t(last)};
 }
 
