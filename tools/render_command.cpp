@@ -52,6 +52,7 @@ struct RenderArgs {
   CLI::Option* framesOption = nullptr;
   CLI::Option* fpsOption = nullptr;
   CLI::Option* cameraOption = nullptr;
+  CLI::Option* orbitDistanceOption = nullptr;
   std::vector<CLI::Option*> orbitOptions;  // any of them given selects the orbit camera
 };
 
@@ -207,7 +208,7 @@ render::OrbitCamera orbitCamera(const RenderArgs& a) {
                     "leaves the view's roll undefined)"));
   if (!(a.orbitFov > 0.0 && a.orbitFov < 180.0))
     throw Error(cat("--orbit-fov ", a.orbitFov, ": the vertical field of view must be between 0 and 180 degrees"));
-  if (given(a.orbitOptions[2]) && !(std::isfinite(a.orbitDistance) && a.orbitDistance > 0.0))
+  if (given(a.orbitDistanceOption) && !(std::isfinite(a.orbitDistance) && a.orbitDistance > 0.0))
     throw Error(cat("--orbit-distance ", a.orbitDistance, ": must be > 0"));
   render::OrbitCamera orbit;
   orbit.azimuthDegrees = a.orbitAzimuth;
@@ -287,8 +288,9 @@ CLI::App* addRenderCommand(CLI::App& app) {
           ->capture_default_str(),
       r->add_option("--orbit-elevation", args.orbitElevation, "Orbit camera elevation, degrees (-89..89)")
           ->capture_default_str(),
-      r->add_option("--orbit-distance", args.orbitDistance,
-                    "Orbit camera distance from the target (default: the scene's bounding sphere fills the view)"),
+      args.orbitDistanceOption = r->add_option(
+          "--orbit-distance", args.orbitDistance,
+          "Orbit camera distance from the target (default: the scene's bounding sphere fills the view)"),
       r->add_option("--orbit-target", args.orbitTarget, "Point the orbit camera looks at X,Y,Z (default: bounds centre)")
           ->delimiter(',')
           ->expected(3),
