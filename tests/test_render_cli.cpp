@@ -48,6 +48,8 @@ Result prt(const std::string& args, const fs::path& dir) {
   return r;
 }
 
+int lines(const std::string& text) { return int(std::count(text.begin(), text.end(), '\n')); }
+
 std::string source(const std::string& relative) { return cat(PRT_SOURCE_DIR, "/", relative); }
 std::string whiteSky() { return source("scenes/env/white_sky_64.hdr"); }
 
@@ -200,7 +202,7 @@ TEST(RenderCli, BadOptionsAreOneLineAndWriteNothing) {
   for (const Case& c : cases) {
     const Result r = prt(cat("render ", glb, " --env ", whiteSky(), " ", c.args), d);
     EXPECT_EQ(r.status, 1) << c.args << "\n" << r.err;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << c.args << "\n" << r.err;
+    EXPECT_EQ(lines(r.err), 1) << c.args << "\n" << r.err;
     EXPECT_NE(r.err.find(c.message), std::string::npos) << c.args << "\n" << r.err;
     EXPECT_FALSE(fs::exists(out)) << c.args << ": output folder created";
   }
@@ -260,7 +262,7 @@ TEST(RenderCli, FarRigKeyframeNeedsExplicitFrames) {
     const std::string far = rig("far.json", 0.5, key);
     const Result r = prt(common + far, d);
     EXPECT_EQ(r.status, 1) << r.err;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_EQ(lines(r.err), 1) << r.err;
     EXPECT_NE(r.err.find(far + ": keyframes run from frame 0.5 to "), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("more than 100000 are rendered only with an explicit --frames A-B"), std::string::npos)
         << r.err;
@@ -312,7 +314,7 @@ TEST(RenderCli, ProbesFromAnotherBakeWarnOrFail) {
   fs::remove(out / "f.exr");
   const Result bands = render("two_bands.vdb");
   EXPECT_EQ(bands.status, 1) << bands.err;
-  EXPECT_EQ(std::count(bands.err.begin(), bands.err.end(), '\n'), 1) << bands.err;
+  EXPECT_EQ(lines(bands.err), 1) << bands.err;
   EXPECT_NE(bands.err.find("two_bands.vdb: 2 bands, but " + glb + " is baked with 3"), std::string::npos) << bands.err;
   EXPECT_TRUE(fs::is_empty(out));
 }
