@@ -18,6 +18,7 @@
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/bake/surface_bake.h"
+#include "prt/error.h"
 #include "prt/light.h"
 #include "prt/probe_grid.h"
 #include "prt/sh.h"
@@ -100,6 +101,47 @@ TEST_P(ProbeCavity, CentreMatchesClosedForm) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Bounces, ProbeCavity, ::testing::Values(0, 1, 2, 3));
+
+// A flat scene (a floor plane: its bounds have zero height) must still give a volume of probes:
+// the flat axis is padded to the largest extent, centred on the plane, so half the probes lie
+// above it, valid and open to the sky, at the other axes' spacing (before the padding: a spacing
+// of ~1e-10 along y, or with --probe-spacing one layer lying in the plane, half its rays on the
+// plane's back).
+TEST(ProbeBake, FlatSceneBoundsArePaddedToAVolume) {
+  const Scene s = test::makeScene({test::makePlane(glm::vec3(0.0f, 0.25f, 0.0f), 2.0f, 4)}, 0.5f);
+  ASSERT_EQ(s.boundsMin.y, s.boundsMax.y);
+  bake::ProbeSettings byDims;
+  byDims.dims = glm::ivec3(4);
+  byDims.samples = 64;
+  bake::ProbeSettings bySpacing = byDims;
+  bySpacing.dims = glm::ivec3(0);
+  bySpacing.spacing = 0.5;
+  for (const bake::ProbeSettings& ps : {byDims, bySpacing}) {
+    const ProbeGrid g = bake::bakeProbes(s, {}, ps);
+    EXPECT_EQ(g.dims, glm::ivec3(4));
+    EXPECT_NEAR(g.spacing.y, 0.5, 1e-6);
+    EXPECT_NEAR(g.origin.y, 0.25 - 0.75, 1e-6);  // lattice y = −0.5, 0, 0.5, 1: the plane in the middle
+    // Every probe above the plane is stored, valid, and sees at least the upper hemisphere's sky.
+    size_t above = 0;
+    for (size_t p = 0; p < g.probeCount(); ++p) {
+      if (g.latticePosition(g.coord[p]).y < 0.25) continue;
+      ++above;
+      EXPECT_EQ(g.validity[p], 1.0f);
+      EXPECT_GE(g.skyVisibility[p], 0.45f);  // 64 Sobol directions: 1/2 within ~0.05
+    }
+    EXPECT_EQ(above, 32u);
+  }
+  // Bounds the user gives are never padded: flat ones are refused, naming the axis.
+  bake::ProbeSettings flat = byDims;
+  flat.boundsMin = glm::dvec3(-1.0, 0.0, -1.0);
+  flat.boundsMax = glm::dvec3(1.0, 1e-6, 1.0);
+  try {
+    bake::validate(flat);
+    ADD_FAILURE() << "flat --probe-bounds accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--probe-bounds: the box is flat (y extent"), std::string::npos) << e.what();
+  }
+}
 
 // A closed box (test::makeSlab) seen from inside shows only back faces (its normals face out).
 TEST(ProbeBake, ProbeInsideClosedBoxIsInvalidAndNeverStoredAlone) {

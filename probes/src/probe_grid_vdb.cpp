@@ -579,8 +579,12 @@ std::string describeProbeFile(const std::string& path) {
      << " lattice points)\n";
   os << "  spacing       " << vec3Text(grid.spacing) << "\n";
   os << "  origin        " << vec3Text(grid.origin) << "\n";
+  glm::dvec3 domainLo, domainHi;
+  probeDomain(grid, domainLo, domainHi);
   os << "  world bounds  " << vec3Text(grid.origin) << " .. "
-     << vec3Text(grid.origin + grid.spacing * glm::dvec3(grid.dims - 1)) << "\n";
+     << vec3Text(grid.origin + grid.spacing * glm::dvec3(grid.dims - 1)) << " (probe positions)\n";
+  os << "  domain        " << vec3Text(domainLo) << " .. " << vec3Text(domainHi)
+     << " (half a cell more: queried here; outside, receivers get the unoccluded light)\n";
   os << "  probes        " << grid.probeCount() << " active of " << lattice << ", " << valid << " valid\n";
   os << "  grids         " << file.byName.size() << ": " << firstTransfer << " .. " << lastTransfer << " ("
      << transferGrids << " Vec3f grids)";
@@ -591,8 +595,10 @@ std::string describeProbeFile(const std::string& path) {
       grid.probeCount() * (sizeof(glm::ivec3) + grid.transferStride() * sizeof(float) + sizeof(float) * 2 +
                            sizeof(glm::vec3) + sizeof(grid.moments[0])) +
       uintmax_t(lattice) * sizeof(int32_t);
-  os << "  size          " << humanBytes(file.fileSize) << " on disk, " << humanBytes(memory)
-     << " as VDB grids, " << humanBytes(arrays) << " as prt arrays\n";
+  os << "  file size     " << humanBytes(file.fileSize) << " on disk\n";
+  os << "  memory        " << humanBytes(arrays) << " once loaded by prt (probe arrays and lattice index); "
+     << "reading peaks at " << humanBytes(arrays + memory) << " (the OpenVDB grids, " << humanBytes(memory)
+     << ", are freed after conversion)\n";
   os << "  bake          " << grid.info.bounces << " bounces, " << grid.info.samples << " samples, seed "
      << grid.info.seed << ", scene '" << grid.info.scene << "'\n";
   return os.str();
