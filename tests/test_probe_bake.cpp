@@ -22,6 +22,7 @@
 #include "prt/light.h"
 #include "prt/probe_grid.h"
 #include "prt/sh.h"
+#include "probe_brute_force.h"
 #include "test_scenes.h"
 
 namespace prt {
@@ -202,41 +203,6 @@ TEST(ProbeBake, SameSeedSameGridAnyThreadCount) {
   }
 }
 
-// Irradiance at x for normal n by independent brute force: E(x, n) = ∫ L_in(x, ω) max(n·ω, 0) dω
-// with L_in = sky where a ray escapes and ρ/π · (t_lower(h) · l) where it hits a front face (0 on
-// a back face), from N cosine-weighted directions of std::mt19937 (not the bake's Sobol sequence,
-// not its code path): E = (π/N) Σ L_in.
-glm::dvec3 bruteIrradiance(const bake::RayScene& rays, const Scene& s, const std::vector<std::vector<glm::vec3>>& lower,
-                           float rho, const sh::ShRgb& sky, const glm::vec3& x, const glm::vec3& nrm, int N,
-                           std::mt19937& rng) {
-  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
-  const int n2 = int(sky.c.size());
-  bake::Frame frame = bake::Frame::fromNormal(nrm);
-  std::vector<bake::Ray> batch{size_t(N)};
-  for (bake::Ray& r : batch) {
-    r.org = x;
-    r.dir = frame.toWorld(bake::sampleCosineHemisphere({uni(rng), uni(rng)}));
-    r.tfar = 1e30f;
-  }
-  rays.intersect(batch.data(), batch.size(), false);
-  glm::dvec3 sum(0.0);
-  for (const bake::Ray& r : batch) {
-    if (!r.hit()) {
-      sum += glm::dvec3(sh::reconstruct(sky, r.dir));
-    } else if (!r.backface() && !lower.empty() && !lower[r.mesh].empty()) {
-      const MeshInstance& m = s.meshes[r.mesh];
-      const uint32_t* ix = &m.indices[3 * size_t(r.tri)];
-      glm::vec3 e(0.0f);
-      for (int i = 0; i < n2; ++i) {
-        glm::vec3 ti = (1.0f - r.u - r.v) * lower[r.mesh][ix[0] * n2 + i] + r.u * lower[r.mesh][ix[1] * n2 + i] +
-                       r.v * lower[r.mesh][ix[2] * n2 + i];
-        e += ti * sky.c[size_t(i)];
-      }
-      sum += glm::dvec3(rho / float(M_PI) * e);
-    }
-  }
-  return M_PI * sum / double(N);
-}
 
 // Interpolated probe irradiance against an independent brute-force estimate: at random points
 // inside the cavity, E(x, n) = ∫ L_in(x, ω) max(n·ω, 0) dω with L_in = sky where a ray escapes
@@ -274,7 +240,7 @@ TEST(ProbeBake, InterpolatedIrradianceMatchesBruteForce) {
     glm::vec3 nrm = bake::sampleUniformSphere({uni(rng), uni(rng)});
     if (probeWeights(g, x, &nrm).count == 0) continue;
     glm::vec3 eProbe = sh::irradiance(interpolateRadiance(g, relit, x, &nrm), nrm);
-    const glm::dvec3 eBrute = bruteIrradiance(rays, s, t.perMeshLowerOrder, 0.6f, sky, x, nrm, 20000, rng);
+    const glm::dvec3 eBrute = test::bruteIrradiance(rays, s, t.perMeshLowerOrder, 0.6f, sky, x, nrm, 20000, rng);
     double rel = std::fabs(eProbe.g - eBrute.g) / eBrute.g;
     sumRel += rel;
     ++n;
@@ -358,7 +324,7 @@ TEST_P(ProbeThinWall, DarkRoomGetsNoLightThroughTheWall) {
   bake::RayScene rays(rooms.scene);
   std::mt19937 rng(77);
   const double eBright =
-      bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho, rooms.sky,
+      test::bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho, rooms.sky,
                       glm::vec3(0.5f * wallX, 1.5f, 1.5f), glm::vec3(0.0f, 1.0f, 0.0f), 20000, rng).g;
   ASSERT_GT(eBright, 1.0);
 
@@ -419,7 +385,7 @@ TEST_P(ProbeThinWall, BrightRoomMatchesBruteForce) {
           // No weight on the dark room's probes (version 1 gave them up to 45% here).
           EXPECT_GT(rooms.brightShare(probeWeights(rooms.grid, p, &normals[k])), 0.999);
           const double eProbe = rooms.irradiance(p, normals[k]).g;
-          const double eBrute = bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho,
+          const double eBrute = test::bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho,
                                                 rooms.sky, p, normals[k], 10000, rng).g;
           const double rel = std::fabs(eProbe - eBrute) / eBrute;
           sum[k] += rel;
