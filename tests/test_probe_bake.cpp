@@ -94,6 +94,9 @@ TEST_P(ProbeCavity, CentreMatchesClosedForm) {
   // 4096 Sobol sphere directions estimate the opening's share to ~0.3%; the walls' radiance
   // comes from the bake (mean error < 0.1%, see BakeCavity) and faceting (~0.1%): 1.5% of the
   // value bounds both, while a wrong factor of π or a bounce too many is ≥ 10% here.
+  // The figures of docs/probes.md ("Bounces").
+  std::printf("[ measured ] K=%d c00 %.5f (closed form %.5f), c1y %.5f (%.5f), L_wall(K-1) %.5f\n", K, c[0].g,
+              c00, c[1].g, c1y, wall);
   EXPECT_NEAR(c[0].g, c00, 0.015 * c00);
   EXPECT_NEAR(c[1].g, c1y, 0.015 * c1y);
   EXPECT_NEAR(c[3].g, 0.0, 0.01 * c00);  // symmetric about the y axis
