@@ -422,6 +422,11 @@ TEST_F(ProbeCli, InfoNamesFileKindsAndDescribesScenes) {
         std::string("transfer    3 bands")})
     EXPECT_NE(r.out.find(s), std::string::npos) << "missing '" << s << "' in:\n" << r.out;
   EXPECT_EQ(r.out.find("as VDB grids"), std::string::npos) << r.out;
+  const Exec json = prt("info " + file("light.json"));
+  EXPECT_EQ(json.status, 1);
+  EXPECT_NE(json.err.find("light.json: not a glTF scene (.gltf, .glb) or a probe grid (.vdb): the file is JSON"),
+            std::string::npos)
+      << json.err;
   // A file claiming to be glTF by its extension is reported by the glTF reader.
   std::ofstream(file("fake.glb")) << "not a scene";
   const Exec fake = prt("info " + file("fake.glb"));
