@@ -118,7 +118,9 @@ int main(int argc, char** argv) {
     // not flatter the bake). The ray arrays are freed before the bake so that they do not
     // count in its memory.
     ProbeGrid layout;
-    bake::layoutGrid(settings, glm::dvec3(scene.boundsMin), glm::dvec3(scene.boundsMax), layout);
+    glm::dvec3 lo, hi;
+    bake::probeBounds(settings, scene, lo, hi);  // the bake's bounds, flat axes padded
+    bake::layoutGrid(settings, lo, hi, layout);
     const size_t total = size_t(dims) * dims * dims;
     const size_t every = std::max<size_t>(1, size_t(std::lround(1.0 / ceilingFraction)));
     std::vector<size_t> picked;

@@ -18,9 +18,11 @@
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/bake/surface_bake.h"
+#include "prt/error.h"
 #include "prt/light.h"
 #include "prt/probe_grid.h"
 #include "prt/sh.h"
+#include "probe_brute_force.h"
 #include "test_scenes.h"
 
 namespace prt {
@@ -92,6 +94,9 @@ TEST_P(ProbeCavity, CentreMatchesClosedForm) {
   // 4096 Sobol sphere directions estimate the opening's share to ~0.3%; the walls' radiance
   // comes from the bake (mean error < 0.1%, see BakeCavity) and faceting (~0.1%): 1.5% of the
   // value bounds both, while a wrong factor of π or a bounce too many is ≥ 10% here.
+  // The figures of docs/probes.md ("Bounces").
+  std::printf("[ measured ] K=%d c00 %.5f (closed form %.5f), c1y %.5f (%.5f), L_wall(K-1) %.5f\n", K, c[0].g,
+              c00, c[1].g, c1y, wall);
   EXPECT_NEAR(c[0].g, c00, 0.015 * c00);
   EXPECT_NEAR(c[1].g, c1y, 0.015 * c1y);
   EXPECT_NEAR(c[3].g, 0.0, 0.01 * c00);  // symmetric about the y axis
@@ -100,6 +105,47 @@ TEST_P(ProbeCavity, CentreMatchesClosedForm) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Bounces, ProbeCavity, ::testing::Values(0, 1, 2, 3));
+
+// A flat scene (a floor plane: its bounds have zero height) must still give a volume of probes:
+// the flat axis is padded to the largest extent, centred on the plane, so half the probes lie
+// above it, valid and open to the sky, at the other axes' spacing (before the padding: a spacing
+// of ~1e-10 along y, or with --probe-spacing one layer lying in the plane, half its rays on the
+// plane's back).
+TEST(ProbeBake, FlatSceneBoundsArePaddedToAVolume) {
+  const Scene s = test::makeScene({test::makePlane(glm::vec3(0.0f, 0.25f, 0.0f), 2.0f, 4)}, 0.5f);
+  ASSERT_EQ(s.boundsMin.y, s.boundsMax.y);
+  bake::ProbeSettings byDims;
+  byDims.dims = glm::ivec3(4);
+  byDims.samples = 64;
+  bake::ProbeSettings bySpacing = byDims;
+  bySpacing.dims = glm::ivec3(0);
+  bySpacing.spacing = 0.5;
+  for (const bake::ProbeSettings& ps : {byDims, bySpacing}) {
+    const ProbeGrid g = bake::bakeProbes(s, {}, ps);
+    EXPECT_EQ(g.dims, glm::ivec3(4));
+    EXPECT_NEAR(g.spacing.y, 0.5, 1e-6);
+    EXPECT_NEAR(g.origin.y, 0.25 - 0.75, 1e-6);  // lattice y = −0.5, 0, 0.5, 1: the plane in the middle
+    // Every probe above the plane is stored, valid, and sees at least the upper hemisphere's sky.
+    size_t above = 0;
+    for (size_t p = 0; p < g.probeCount(); ++p) {
+      if (g.latticePosition(g.coord[p]).y < 0.25) continue;
+      ++above;
+      EXPECT_EQ(g.validity[p], 1.0f);
+      EXPECT_GE(g.skyVisibility[p], 0.45f);  // 64 Sobol directions: 1/2 within ~0.05
+    }
+    EXPECT_EQ(above, 32u);
+  }
+  // Bounds the user gives are never padded: flat ones are refused, naming the axis.
+  bake::ProbeSettings flat = byDims;
+  flat.boundsMin = glm::dvec3(-1.0, 0.0, -1.0);
+  flat.boundsMax = glm::dvec3(1.0, 1e-6, 1.0);
+  try {
+    bake::validate(flat);
+    ADD_FAILURE() << "flat --probe-bounds accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--probe-bounds: the box is flat (y extent"), std::string::npos) << e.what();
+  }
+}
 
 // A closed box (test::makeSlab) seen from inside shows only back faces (its normals face out).
 TEST(ProbeBake, ProbeInsideClosedBoxIsInvalidAndNeverStoredAlone) {
@@ -160,41 +206,6 @@ TEST(ProbeBake, SameSeedSameGridAnyThreadCount) {
   }
 }
 
-// Irradiance at x for normal n by independent brute force: E(x, n) = ∫ L_in(x, ω) max(n·ω, 0) dω
-// with L_in = sky where a ray escapes and ρ/π · (t_lower(h) · l) where it hits a front face (0 on
-// a back face), from N cosine-weighted directions of std::mt19937 (not the bake's Sobol sequence,
-// not its code path): E = (π/N) Σ L_in.
-glm::dvec3 bruteIrradiance(const bake::RayScene& rays, const Scene& s, const std::vector<std::vector<glm::vec3>>& lower,
-                           float rho, const sh::ShRgb& sky, const glm::vec3& x, const glm::vec3& nrm, int N,
-                           std::mt19937& rng) {
-  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
-  const int n2 = int(sky.c.size());
-  bake::Frame frame = bake::Frame::fromNormal(nrm);
-  std::vector<bake::Ray> batch{size_t(N)};
-  for (bake::Ray& r : batch) {
-    r.org = x;
-    r.dir = frame.toWorld(bake::sampleCosineHemisphere({uni(rng), uni(rng)}));
-    r.tfar = 1e30f;
-  }
-  rays.intersect(batch.data(), batch.size(), false);
-  glm::dvec3 sum(0.0);
-  for (const bake::Ray& r : batch) {
-    if (!r.hit()) {
-      sum += glm::dvec3(sh::reconstruct(sky, r.dir));
-    } else if (!r.backface() && !lower.empty() && !lower[r.mesh].empty()) {
-      const MeshInstance& m = s.meshes[r.mesh];
-      const uint32_t* ix = &m.indices[3 * size_t(r.tri)];
-      glm::vec3 e(0.0f);
-      for (int i = 0; i < n2; ++i) {
-        glm::vec3 ti = (1.0f - r.u - r.v) * lower[r.mesh][ix[0] * n2 + i] + r.u * lower[r.mesh][ix[1] * n2 + i] +
-                       r.v * lower[r.mesh][ix[2] * n2 + i];
-        e += ti * sky.c[size_t(i)];
-      }
-      sum += glm::dvec3(rho / float(M_PI) * e);
-    }
-  }
-  return M_PI * sum / double(N);
-}
 
 // Interpolated probe irradiance against an independent brute-force estimate: at random points
 // inside the cavity, E(x, n) = ∫ L_in(x, ω) max(n·ω, 0) dω with L_in = sky where a ray escapes
@@ -232,7 +243,7 @@ TEST(ProbeBake, InterpolatedIrradianceMatchesBruteForce) {
     glm::vec3 nrm = bake::sampleUniformSphere({uni(rng), uni(rng)});
     if (probeWeights(g, x, &nrm).count == 0) continue;
     glm::vec3 eProbe = sh::irradiance(interpolateRadiance(g, relit, x, &nrm), nrm);
-    const glm::dvec3 eBrute = bruteIrradiance(rays, s, t.perMeshLowerOrder, 0.6f, sky, x, nrm, 20000, rng);
+    const glm::dvec3 eBrute = test::bruteIrradiance(rays, s, t.perMeshLowerOrder, 0.6f, sky, x, nrm, 20000, rng);
     double rel = std::fabs(eProbe.g - eBrute.g) / eBrute.g;
     sumRel += rel;
     ++n;
@@ -316,7 +327,7 @@ TEST_P(ProbeThinWall, DarkRoomGetsNoLightThroughTheWall) {
   bake::RayScene rays(rooms.scene);
   std::mt19937 rng(77);
   const double eBright =
-      bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho, rooms.sky,
+      test::bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho, rooms.sky,
                       glm::vec3(0.5f * wallX, 1.5f, 1.5f), glm::vec3(0.0f, 1.0f, 0.0f), 20000, rng).g;
   ASSERT_GT(eBright, 1.0);
 
@@ -377,7 +388,7 @@ TEST_P(ProbeThinWall, BrightRoomMatchesBruteForce) {
           // No weight on the dark room's probes (version 1 gave them up to 45% here).
           EXPECT_GT(rooms.brightShare(probeWeights(rooms.grid, p, &normals[k])), 0.999);
           const double eProbe = rooms.irradiance(p, normals[k]).g;
-          const double eBrute = bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho,
+          const double eBrute = test::bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho,
                                                 rooms.sky, p, normals[k], 10000, rng).g;
           const double rel = std::fabs(eProbe - eBrute) / eBrute;
           sum[k] += rel;

@@ -416,22 +416,86 @@ TEST(ProbeGridInterpolate, InvalidProbesAreNeverRead) {
   EXPECT_EQ(probeWeights(allBad, glm::vec3(0.5f), nullptr).count, 0);
 }
 
-TEST(ProbeGridInterpolate, OutsideTheLatticeGivesNothing) {
+// The domain is the lattice's box grown by half a spacing (the probes' cells): beyond it no
+// probe applies (count 0, cover Outside), within it every point gets probes.
+TEST(ProbeGridInterpolate, OutsideTheDomainGivesNothing) {
   const ProbeGrid g = emptySceneGrid(1, {3, 2, 2}, glm::dvec3(-1.0, 0.0, 2.0), glm::dvec3(0.5));
   const std::vector<glm::vec3> relit = relightProbes(g, sh::ShRgb(1));
-  const glm::vec3 lo(-1.0f, 0.0f, 2.0f), hi(0.0f, 0.5f, 2.5f);
+  glm::dvec3 lo, hi;
+  probeDomain(g, lo, hi);
+  EXPECT_EQ(lo, glm::dvec3(-1.25, -0.25, 1.75));
+  EXPECT_EQ(hi, glm::dvec3(0.25, 0.75, 2.75));
   for (int a = 0; a < 3; ++a) {
-    glm::vec3 below = 0.5f * (lo + hi), above = below;
-    below[a] = lo[a] - 0.01f;
-    above[a] = hi[a] + 0.01f;
+    glm::vec3 below = glm::vec3(0.5 * (lo + hi)), above = below;
+    below[a] = float(lo[a]) - 0.01f;
+    above[a] = float(hi[a]) + 0.01f;
     EXPECT_EQ(probeWeights(g, below, nullptr).count, 0) << a;
+    EXPECT_EQ(probeWeights(g, below, nullptr).cover, ProbeCover::Outside) << a;
     EXPECT_EQ(probeWeights(g, above, nullptr).count, 0) << a;
     EXPECT_EQ(interpolateRadiance(g, relit, above, nullptr).c[0], glm::vec3(0.0f));
   }
-  // The bounding box itself is inside, corners included.
-  EXPECT_GT(probeWeights(g, lo, nullptr).count, 0);
-  EXPECT_GT(probeWeights(g, hi, nullptr).count, 0);
+  // The domain's box itself is inside, corners included.
+  EXPECT_GT(probeWeights(g, glm::vec3(lo), nullptr).count, 0);
+  EXPECT_GT(probeWeights(g, glm::vec3(hi), nullptr).count, 0);
   EXPECT_EQ(probeWeights(g, glm::vec3(NAN), nullptr).count, 0);
+}
+
+// In the half-cell shell between the lattice's box and the domain's edge the query is clamped
+// to the box: a field linear in position takes its value on the box's nearest face (on every
+// axis that lies outside), and the cover says Shell; inside the box it says Lattice.
+TEST(ProbeGridInterpolate, HalfCellShellClampsToTheNearestProbes) {
+  ProbeGrid g = emptySceneGrid(1, {3, 3, 2}, glm::dvec3(0.5, 1.0, -1.0), glm::dvec3(1.0, 0.5, 2.0));
+  auto field = [](const glm::dvec3& p) { return 1.0 + 0.5 * p.x - 2.0 * p.y + 0.25 * p.z; };
+  for (size_t p = 0; p < g.probeCount(); ++p) transferOf(g, p)[0] = float(field(g.latticePosition(g.coord[p])));
+  sh::ShRgb white(1);
+  white.c[0] = glm::vec3(1.0f);
+  const std::vector<glm::vec3> relit = relightProbes(g, white);
+  const glm::dvec3 boxLo = g.origin, boxHi = g.origin + g.spacing * glm::dvec3(g.dims - 1);
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> in(0.0, 1.0);
+  std::uniform_int_distribution<int> zone(0, 2);
+  int shell = 0;
+  for (int k = 0; k < 200; ++k) {
+    // A point of the domain: per axis in the low shell, the box or the high shell.
+    glm::dvec3 x;
+    for (int a = 0; a < 3; ++a) {
+      const double h = (0.001 + 0.4989 * in(rng)) * g.spacing[a];
+      const int z = zone(rng);
+      x[a] = z == 0 ? boxLo[a] - h : z == 2 ? boxHi[a] + h : boxLo[a] + (boxHi[a] - boxLo[a]) * in(rng);
+    }
+    const glm::dvec3 clamped = glm::clamp(x, boxLo, boxHi);
+    const ProbeWeights w = probeWeights(g, glm::vec3(x), nullptr);
+    ASSERT_GT(w.count, 0) << x.x << " " << x.y << " " << x.z;
+    const bool outsideBox = clamped != x;
+    shell += outsideBox;
+    EXPECT_EQ(w.cover, outsideBox ? ProbeCover::Shell : ProbeCover::Lattice);
+    const float v = interpolateRadiance(g, relit, glm::vec3(x), nullptr).c[0].r;
+    EXPECT_NEAR(v, field(clamped), 1e-5 * (1.0 + std::fabs(field(clamped))));
+  }
+  EXPECT_GT(shell, 50);
+}
+
+// receiverRadiance: the probes' value where they apply; the light itself (M = I) outside the
+// domain and in a cell whose probes are all invalid, with the cover saying why.
+TEST(ProbeGridInterpolate, ReceiverRadianceFallsBackToTheUnoccludedLight) {
+  ProbeGrid g = emptySceneGrid(3, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
+  for (float& v : g.transfer) v *= 0.5f;
+  std::mt19937 rng(5);
+  const sh::ShRgb light = randomLight(3, rng);
+  const std::vector<glm::vec3> relit = relightProbes(g, light);
+  const glm::vec3 n(0.0f, 1.0f, 0.0f);
+  ProbeCover cover;
+  sh::ShRgb c = receiverRadiance(g, relit, light, glm::vec3(0.5f, 1.3f, 0.5f), &n, &cover);  // shell
+  EXPECT_EQ(cover, ProbeCover::Shell);
+  for (int j = 0; j < 9; ++j) EXPECT_NEAR(c.c[size_t(j)].g, 0.5f * light.c[size_t(j)].g, 1e-6f) << j;
+  c = receiverRadiance(g, relit, light, glm::vec3(0.5f, 1.6f, 0.5f), &n, &cover);  // outside
+  EXPECT_EQ(cover, ProbeCover::Outside);
+  for (int j = 0; j < 9; ++j) EXPECT_EQ(c.c[size_t(j)], light.c[size_t(j)]) << j;
+  g.validity.assign(g.probeCount(), 0.0f);
+  c = receiverRadiance(g, relit, light, glm::vec3(0.5f), &n, &cover);
+  EXPECT_EQ(cover, ProbeCover::NoValidProbe);
+  for (int j = 0; j < 9; ++j) EXPECT_EQ(c.c[size_t(j)], light.c[size_t(j)]) << j;
+  EXPECT_STREQ(probeCoverName(ProbeCover::NoValidProbe), "no_valid_probe");
 }
 
 // ---- OpenVDB file

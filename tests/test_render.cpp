@@ -138,7 +138,7 @@ bool nearJump(const ProbeGrid& g, const glm::dvec3& x, const glm::vec3& n) {
   const glm::dvec3 u = (x - g.origin) / g.spacing;
   for (int a = 0; a < 3; ++a) {
     const double hi = g.dims[a] - 1;
-    if (std::abs(u[a] + 1e-4) < kMargin || std::abs(u[a] - hi - 1e-4) < kMargin) return true;
+    if (std::abs(u[a] + 0.5 + 1e-4) < kMargin || std::abs(u[a] - hi - 0.5 - 1e-4) < kMargin) return true;
   }
   const ProbeWeights w = probeWeights(g, glm::vec3(x), &n);
   for (int k = 0; k < w.count; ++k) {
@@ -987,8 +987,9 @@ TEST(RenderReceivers, EmptySceneLitLikeAnUnoccludedSurface) {
   }
 }
 
-// Points outside the lattice's box get no probe and are lit by the light itself (M = I). With
-// M = ½ I inside, the half of the ball inside the lattice is half as bright as the other half.
+// Points outside the grid's domain (the lattice's box grown by half a cell) get no probe and are
+// lit by the light itself (M = I). With M = ½ I inside, the half of the ball inside the domain is
+// half as bright as the other half.
 TEST(RenderReceivers, OutsideTheLatticeLitByTheLight) {
   Scene s;
   s.path = "half-inside";
@@ -996,8 +997,8 @@ TEST(RenderReceivers, OutsideTheLatticeLitByTheLight) {
   ball.receiverOnly = true;
   s.meshes.push_back(ball);
   updateBounds(s);
-  // The lattice covers x ≤ 0 only.
-  const ProbeGrid half = identityGrid(3, glm::ivec3(3, 4, 4), glm::dvec3(-1.0, -1.0, -1.0),
+  // The lattice covers x ≤ −0.25 only, its domain x ≤ 0.
+  const ProbeGrid half = identityGrid(3, glm::ivec3(3, 4, 4), glm::dvec3(-1.25, -1.0, -1.0),
                                       glm::dvec3(0.5, 2.0 / 3.0, 2.0 / 3.0), 0.5f);
   const sh::ShRgb light = skyLight(3);
   const ProbeLighting pl = probeLighting(half, light);

@@ -3,12 +3,14 @@
 // here: bad input prints one line and exits 1; usage errors print usage and exit 2.
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cerrno>
 #include <cstring>
 #include <optional>
 #include <filesystem>
@@ -268,84 +270,131 @@ struct ProbeArgs {
   tools::LightOptions light;
 };
 
+// What prt probe reports at one point: the incident radiance SH as the renderer lights a
+// receiver there (receiverRadiance: the probes, or the unoccluded light where none applies),
+// and where the point lies.
+struct ProbeQuery {
+  const ProbeGrid& grid;
+  const std::vector<glm::vec3>& relit;
+  const sh::ShRgb& light;
+  sh::ShRgb radiance(const glm::vec3& x, const glm::vec3* n, ProbeCover& cover) const {
+    return receiverRadiance(grid, relit, light, x, n, &cover);
+  }
+};
+
+glm::vec3 finiteVec3(const std::vector<double>& v, const char* what) {
+  for (double x : v)
+    if (!std::isfinite(x)) throw Error(cat(what, ": values must be finite"));
+  return glm::vec3(float(v[0]), float(v[1]), float(v[2]));
+}
+
+void probeAt(const ProbeArgs& a, const ProbeQuery& q) {
+  const glm::vec3 x = finiteVec3(a.at, "--at");
+  nlohmann::json j;
+  j["position"] = {x.x, x.y, x.z};
+  j["bands"] = q.grid.bands;
+  glm::vec3 n;
+  const glm::vec3* np = nullptr;
+  if (!a.normal.empty()) {
+    n = finiteVec3(a.normal, "--normal");
+    if (glm::length(n) == 0.0f) throw Error("--normal: must not be zero");
+    n = glm::normalize(n);
+    np = &n;
+  }
+  ProbeCover cover;
+  const sh::ShRgb c = q.radiance(x, np, cover);
+  j["status"] = probeCoverName(cover);
+  nlohmann::json coeffs = nlohmann::json::array();
+  for (const glm::vec3& v : c.c) coeffs.push_back({v.r, v.g, v.b});
+  j["radiance_sh"] = coeffs;
+  const ProbeWeights w = probeWeights(q.grid, x, np);
+  nlohmann::json probes = nlohmann::json::array();
+  for (int i = 0; i < w.count; ++i) {
+    glm::ivec3 ijk = q.grid.coord[size_t(w.probe[size_t(i)])];
+    probes.push_back({{"index", {ijk.x, ijk.y, ijk.z}}, {"weight", w.weight[size_t(i)]}});
+  }
+  j["probes"] = probes;
+  if (np) {
+    glm::vec3 e = sh::irradiance(c, n);
+    j["normal"] = {n.x, n.y, n.z};
+    j["irradiance"] = {e.r, e.g, e.b};
+  }
+  if (w.count == 0)
+    std::fprintf(stderr, "prt: warning: (%g, %g, %g) is %s: reporting the unoccluded light, as the renderer does\n",
+                 x.x, x.y, x.z, cover == ProbeCover::Outside ? "outside the probe grid" : "in a cell with no valid probe");
+  std::printf("%s\n", j.dump(2).c_str());
+}
+
+// Splits one CSV line at commas (no quoting).
+std::vector<std::string> csvFields(const std::string& line) {
+  std::vector<std::string> out;
+  std::istringstream ls(line);
+  std::string cell;
+  while (std::getline(ls, cell, ',')) out.push_back(cell);
+  if (!line.empty() && line.back() == ',') out.emplace_back();
+  return out;
+}
+
+// The CSV text of --points -o: each input row repeated verbatim (its own text, not re-printed
+// numbers), then E_r,E_g,E_b and the status. Throws "FILE:LINE: problem" on a malformed row.
+std::string probePointsCsv(const std::string& path, const ProbeQuery& q) {
+  const std::string text = readFile(path);
+  std::istringstream in(text);
+  std::string line;
+  auto chomp = [&] {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+  };
+  if (!std::getline(in, line)) throw Error(cat(path, ":1: empty file, expected a header x,y,z,nx,ny,nz"));
+  chomp();
+  const std::vector<std::string> header = csvFields(line);
+  const std::vector<std::string> expected{"x", "y", "z", "nx", "ny", "nz"};
+  if (header.size() < 6 || !std::equal(expected.begin(), expected.end(), header.begin()))
+    throw Error(cat(path, ":1: header is '", line, "', expected it to start with x,y,z,nx,ny,nz"));
+  std::string out = line + ",E_r,E_g,E_b,status\n";
+  int outside = 0;
+  for (int row = 2; std::getline(in, line); ++row) {
+    chomp();
+    if (line.empty()) continue;
+    const std::vector<std::string> f = csvFields(line);
+    if (f.size() != header.size())
+      throw Error(cat(path, ":", row, ": ", f.size(), " fields, the header has ", header.size()));
+    std::array<float, 6> v{};
+    for (size_t k = 0; k < 6; ++k) {
+      char* end = nullptr;
+      const char* begin = f[k].c_str();
+      v[k] = std::strtof(begin, &end);
+      while (end && (*end == ' ' || *end == '\t')) ++end;
+      if (end == begin || *end != '\0' || !std::isfinite(v[k]))
+        throw Error(cat(path, ":", row, ": ", header[k], " '", f[k], "' is not a finite number"));
+    }
+    const glm::vec3 x(v[0], v[1], v[2]);
+    glm::vec3 n(v[3], v[4], v[5]);
+    if (glm::length(n) == 0.0f) throw Error(cat(path, ":", row, ": the normal is zero"));
+    n = glm::normalize(n);
+    ProbeCover cover;
+    const glm::vec3 e = sh::irradiance(q.radiance(x, &n, cover), n);
+    outside += cover == ProbeCover::Outside || cover == ProbeCover::NoValidProbe;
+    out += cat(line, ",", std::setprecision(9), e.r, ",", e.g, ",", e.b, ",", probeCoverName(cover), "\n");
+  }
+  if (outside)
+    std::fprintf(stderr, "prt: warning: %s: %d points outside the probe grid or without a valid probe got the "
+                 "unoccluded light (status column)\n", path.c_str(), outside);
+  return out;
+}
+
 void runProbe(const ProbeArgs& a) {
   if (a.points.empty() == a.at.empty()) throw Error("give either --at X,Y,Z or --points IN.csv -o OUT.csv");
   if (!a.points.empty() && a.output.empty()) throw Error("--points needs -o OUT.csv");
+  if (!a.output.empty() && a.points.empty()) throw Error("-o goes with --points (--at prints JSON)");
+  if (!a.normal.empty() && a.at.empty()) throw Error("--normal goes with --at (--points has its own normals)");
   std::optional<AtomicFile> outFile;
   if (!a.output.empty()) outFile.emplace(a.output);
-  ProbeGrid grid = readProbeGrid(a.file);
-  sh::ShRgb light = tools::buildLight(a.light, grid.bands);
-  std::vector<glm::vec3> relit = relightProbes(grid, light);
-  auto finiteVec = [](const std::vector<double>& v, const char* what) {
-    for (double x : v)
-      if (!std::isfinite(x)) throw Error(cat(what, ": values must be finite"));
-    return glm::vec3(float(v[0]), float(v[1]), float(v[2]));
-  };
-  if (!a.at.empty()) {
-    glm::vec3 x = finiteVec(a.at, "--at");
-    nlohmann::json j;
-    j["position"] = {x.x, x.y, x.z};
-    j["bands"] = grid.bands;
-    glm::vec3 n;
-    const glm::vec3* np = nullptr;
-    if (!a.normal.empty()) {
-      n = finiteVec(a.normal, "--normal");
-      if (glm::length(n) == 0.0f) throw Error("--normal: must not be zero");
-      n = glm::normalize(n);
-      np = &n;
-    }
-    ProbeWeights w = probeWeights(grid, x, np);
-    if (w.count == 0) throw Error(cat(a.file, ": point (", x.x, ", ", x.y, ", ", x.z, ") is outside the probe grid or has no valid probe around it"));
-    sh::ShRgb c = interpolateRadiance(grid, relit, x, np);
-    nlohmann::json coeffs = nlohmann::json::array();
-    for (const glm::vec3& v : c.c) coeffs.push_back({v.r, v.g, v.b});
-    j["radiance_sh"] = coeffs;
-    nlohmann::json probes = nlohmann::json::array();
-    for (int i = 0; i < w.count; ++i) {
-      glm::ivec3 ijk = grid.coord[size_t(w.probe[size_t(i)])];
-      probes.push_back({{"index", {ijk.x, ijk.y, ijk.z}}, {"weight", w.weight[size_t(i)]}});
-    }
-    j["probes"] = probes;
-    if (np) {
-      glm::vec3 e = sh::irradiance(c, n);
-      j["normal"] = {n.x, n.y, n.z};
-      j["irradiance"] = {e.r, e.g, e.b};
-    }
-    std::printf("%s\n", j.dump(2).c_str());
-    return;
-  }
-  // --points IN.csv -o OUT.csv
-  std::string text = readFile(a.points);
-  std::istringstream in(text);
-  std::string line;
-  if (!std::getline(in, line)) throw Error(cat(a.points, ": empty file, expected a header x,y,z,nx,ny,nz"));
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  if (line != "x,y,z,nx,ny,nz") throw Error(cat(a.points, ": header is '", line, "', expected 'x,y,z,nx,ny,nz'"));
-  std::ostringstream out;
-  out << "x,y,z,nx,ny,nz,E_r,E_g,E_b\n";
-  out.precision(9);
-  for (int row = 2; std::getline(in, line); ++row) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    std::array<float, 6> v{};
-    std::istringstream ls(line);
-    std::string cell;
-    for (int k = 0; k < 6; ++k) {
-      if (!std::getline(ls, cell, ',')) throw Error(cat(a.points, ": line ", row, ": expected 6 values"));
-      char* end = nullptr;
-      v[size_t(k)] = std::strtof(cell.c_str(), &end);
-      if (end == cell.c_str() || !std::isfinite(v[size_t(k)]))
-        throw Error(cat(a.points, ": line ", row, ": '", cell, "' is not a finite number"));
-    }
-    glm::vec3 x(v[0], v[1], v[2]), n(v[3], v[4], v[5]);
-    if (glm::length(n) == 0.0f) throw Error(cat(a.points, ": line ", row, ": normal is zero"));
-    n = glm::normalize(n);
-    glm::vec3 e(0.0f);
-    if (probeWeights(grid, x, &n).count > 0) e = sh::irradiance(interpolateRadiance(grid, relit, x, &n), n);
-    out << v[0] << ',' << v[1] << ',' << v[2] << ',' << v[3] << ',' << v[4] << ',' << v[5] << ',' << e.r << ','
-        << e.g << ',' << e.b << '\n';
-  }
-  writeFileAtomic(a.output, out.str());
+  const ProbeGrid grid = readProbeGrid(a.file);
+  const sh::ShRgb light = sh::resize(tools::buildLight(a.light, grid.bands), grid.bands);
+  const std::vector<glm::vec3> relit = relightProbes(grid, light);
+  const ProbeQuery q{grid, relit, light};
+  if (!a.at.empty()) return probeAt(a, q);
+  writeFileAtomic(a.output, probePointsCsv(a.points, q));
 }
 
 // ---- prt relight
@@ -441,12 +490,30 @@ void infoGlb(const std::string& path) {
     baked += m.transferBands > 0;
   }
   std::printf("%s: glTF scene\n", path.c_str());
+  std::printf("  file        %s on disk\n", formatBytes(std::filesystem::file_size(path)).c_str());
   std::printf("  instances   %zu (%zu with transfer, %zu receivers)\n", scene.meshes.size(), baked, receivers);
   std::printf("  vertices    %zu\n  triangles   %zu\n", vertices, triangles);
   std::printf("  materials   %zu, textures %zu, cameras %zu, lights %zu\n", scene.materials.size(),
               scene.textures.size(), scene.cameras.size(), scene.lights.size());
+  for (size_t k = 0; k < scene.cameras.size(); ++k) {
+    const Camera& c = scene.cameras[k];
+    std::printf("  camera %zu    '%s', %s\n", k, c.name.c_str(),
+                c.perspective ? cat("perspective, yfov ", c.yfov, " rad").c_str() : "orthographic");
+  }
+  for (const Animation& an : scene.animations) {
+    double end = 0.0;
+    for (const AnimationChannel& ch : an.channels) end = std::max(end, ch.times.back());
+    std::printf("  animation   '%s', %zu channels, %g s\n", an.name.c_str(), an.channels.size(), end);
+  }
   std::printf("  bounds      (%g, %g, %g) .. (%g, %g, %g)\n", scene.boundsMin.x, scene.boundsMin.y,
               scene.boundsMin.z, scene.boundsMax.x, scene.boundsMax.y, scene.boundsMax.z);
+  // The memory figures come from the bake's own estimate (the one --max-memory checks).
+  const bake::BakeSettings defaults;
+  const bake::MemoryEstimate loaded = bake::estimateBakeMemory(scene, defaults, nullptr, 1.0);
+  std::printf("  memory      %s when loaded (geometry, transfer, textures); baking it with the defaults "
+              "(%d bands, %d samples, %d bounces) needs at most %s\n",
+              formatBytes(loaded.scene).c_str(), defaults.bands, defaults.samples, defaults.bounces,
+              formatBytes(loaded.total).c_str());
   if (scene.transferBands > 0) {
     std::printf("  transfer    %d bands (%d RGB coefficients per vertex)\n", scene.transferBands,
                 scene.transferBands * scene.transferBands);
@@ -457,20 +524,95 @@ void infoGlb(const std::string& path) {
   for (const std::string& w : scene.warnings) std::printf("  warning     %s\n", w.c_str());
 }
 
+enum class FileKind { Gltf, ProbeGrid, Other };
+
+// What a file is, from its first bytes (then its extension); `what` names other kinds.
+FileKind sniffFile(const std::string& path, std::string& what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(cat(path, ": cannot read (", std::strerror(errno), ")"));
+  char head[16] = {};
+  in.read(head, sizeof head);
+  const std::string h(head, size_t(in.gcount()));
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (h.compare(0, 8, std::string(" BDV\0\0\0\0", 8)) == 0) return FileKind::ProbeGrid;  // OpenVDB's int64 magic
+  const size_t text = h.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;    // UTF-8 byte order mark
+  const size_t first = h.find_first_not_of(" \t\r\n", text);
+  const bool json = first != std::string::npos && h[first] == '{';
+  if (h.compare(0, 4, "glTF") == 0 || (json && ext != ".json")) return FileKind::Gltf;
+  // The extension claims a kind: let its reader say what is wrong with the file.
+  if (ext == ".vdb") return FileKind::ProbeGrid;
+  if (ext == ".gltf" || ext == ".glb") return FileKind::Gltf;
+  what = json                                  ? "JSON (a light rig or `prt light` output?)"
+         : h.compare(0, 2, "#?") == 0          ? "a Radiance HDR image"
+         : h.compare(0, 4, "v/1\x01") == 0     ? "an OpenEXR image"
+         : h.compare(0, 4, "\x89PNG") == 0     ? "a PNG image"
+         : h.compare(0, 3, "\xFF\xD8\xFF") == 0 ? "a JPEG image"
+         : h.empty()                           ? "empty"
+                                               : "of an unknown kind";
+  return FileKind::Other;
+}
+
 int runInfo(const std::vector<std::string>& files) {
   int status = 0;
   for (const std::string& f : files) {
     try {
-      if (std::filesystem::path(f).extension() == ".vdb")
-        std::printf("%s", describeProbeFile(f).c_str());
-      else
-        infoGlb(f);
+      std::string what;
+      switch (sniffFile(f, what)) {
+        case FileKind::ProbeGrid: std::printf("%s", describeProbeFile(f).c_str()); break;
+        case FileKind::Gltf: infoGlb(f); break;
+        case FileKind::Other:
+          throw Error(cat(f, ": not a glTF scene (.gltf, .glb) or a probe grid (.vdb): the file is ", what));
+      }
     } catch (const Error& e) {
       std::fprintf(stderr, "prt: %s\n", e.what());
       status = 1;
     }
   }
   return status;
+}
+
+// Parses "A,B,..." into exactly `count` finite numbers (integers if `integers`) for option
+// `name`; anything else is a usage error that names the option, the text and the expected form.
+std::vector<double> parseNumberList(const std::string& name, const std::string& text, size_t count, bool integers,
+                                    const char* form) {
+  std::vector<double> out;
+  std::istringstream in(text);
+  std::string item;
+  bool ok = !text.empty() && text.back() != ',';
+  while (ok && std::getline(in, item, ',')) {
+    char* end = nullptr;
+    const double v = std::strtod(item.c_str(), &end);
+    ok = !item.empty() && *end == '\0' && std::isfinite(v) && (!integers || (v == std::floor(v) && std::fabs(v) < 1e9));
+    out.push_back(v);
+  }
+  if (!ok || out.size() != count) throw CLI::ValidationError(name, cat("'", text, "' is not ", form));
+  return out;
+}
+
+// The probe options of prt bake: each needs --probes (never silently ignored), --probe-dims and
+// --probe-spacing exclude each other, and malformed values are one-line usage errors.
+void addProbeOptions(CLI::App& bake, BakeArgs& a) {
+  CLI::Option* probes = bake.add_option("--probes", a.probes, "Also bake a probe grid into this OpenVDB file (.vdb)");
+  CLI::Option* spacing = bake.add_option("--probe-spacing", a.probeSpacing, "Probe spacing in world units (else --probe-dims)")
+                             ->check(CLI::PositiveNumber);
+  CLI::Option* dims = bake.add_option_function<std::string>(
+      "--probe-dims",
+      [&a](const std::string& v) {
+        std::vector<double> d = parseNumberList("--probe-dims", v, 3, true, "three integer counts X,Y,Z (e.g. 16,16,8)");
+        a.probeDims.clear();
+        for (double x : d) a.probeDims.push_back(int(x));
+      },
+      "Probe counts X,Y,Z (default 16,16,16)");
+  CLI::Option* bounds = bake.add_option_function<std::string>(
+      "--probe-bounds",
+      [&a](const std::string& v) {
+        a.probeBounds = parseNumberList("--probe-bounds", v, 6, false, "six numbers MINX,MINY,MINZ,MAXX,MAXY,MAXZ");
+      },
+      "Probe grid bounds MINX,MINY,MINZ,MAXX,MAXY,MAXZ (default: scene bounds, flat axes padded)");
+  CLI::Option* samples = bake.add_option("--probe-samples", a.probeSamples, "Sphere directions per probe")->capture_default_str();
+  CLI::Option* half = bake.add_flag("--probe-half", a.probeHalf, "Store probe grids as 16-bit floats");
+  dims->excludes(spacing);
+  for (CLI::Option* o : {spacing, dims, bounds, samples, half}) o->needs(probes);
 }
 
 }  // namespace
@@ -480,6 +622,10 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "prt 0.1.0");
   app.get_formatter()->column_width(34);
+  // Usage errors in one line (CLI11's default adds a second).
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return cat("prt: ", e.what(), " (see --help)\n");
+  });
 
   BakeArgs bakeArgs;
   CLI::App* bake = app.add_subcommand("bake", "Bake per-vertex SH transfer of a glTF scene into a .glb");
@@ -496,13 +642,7 @@ int main(int argc, char** argv) {
   bake->add_flag("--allow-external-uris", bakeArgs.load.allowExternalUris,
                  "Read buffers and images outside the scene's folder (absolute paths, ..)");
   bake->add_flag("-q,--quiet", bakeArgs.quiet, "No progress bar, no summary");
-  bake->add_option("--probes", bakeArgs.probes, "Also bake a probe grid into this OpenVDB file (.vdb)");
-  bake->add_option("--probe-spacing", bakeArgs.probeSpacing, "Probe spacing in world units (else --probe-dims)");
-  bake->add_option("--probe-dims", bakeArgs.probeDims, "Probe counts X,Y,Z (default 16,16,16)")->delimiter(',')->expected(3);
-  bake->add_option("--probe-bounds", bakeArgs.probeBounds, "Probe grid bounds MINX,MINY,MINZ,MAXX,MAXY,MAXZ (default: scene bounds)")
-      ->delimiter(',')->expected(6);
-  bake->add_option("--probe-samples", bakeArgs.probeSamples, "Sphere directions per probe")->capture_default_str();
-  bake->add_flag("--probe-half", bakeArgs.probeHalf, "Store probe grids as 16-bit floats");
+  addProbeOptions(*bake, bakeArgs);
   bake->add_flag("--resume", bakeArgs.resume, "Continue an interrupted bake from its checkpoint (same scene and settings)");
   bake->add_option("--checkpoint", bakeArgs.checkpoint, "Checkpoint file (default: OUTPUT.prt-checkpoint)");
   bake->add_option("--checkpoint-interval", bakeArgs.checkpointInterval,

@@ -107,8 +107,8 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   e.surfacePeak = e.scene + std::max(layout + e.bvh + e.hits + 3 * e.transfer + lower, 2 * (e.transfer + lower));
   if (probes) {
     ProbeGrid grid;
-    glm::dvec3 lo = probes->boundsMin.value_or(glm::dvec3(scene.boundsMin));
-    glm::dvec3 hi = probes->boundsMax.value_or(glm::dvec3(scene.boundsMax));
+    glm::dvec3 lo, hi;
+    probeBounds(*probes, scene, lo, hi);
     layoutGrid(*probes, lo, hi, grid);
     const uint64_t lattice = uint64_t(grid.dims.x) * grid.dims.y * grid.dims.z;
     const uint64_t pn2 = uint64_t(probes->bands) * probes->bands;

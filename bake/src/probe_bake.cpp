@@ -29,6 +29,11 @@ namespace {
 constexpr int kStream = 256;
 // Rays of the quick inside/outside test (and of each relocation candidate).
 constexpr uint32_t kProbeTestRays = 64;
+// An axis of the probe bounds thinner than this share of the largest extent is flat (a floor
+// plane's bounds have zero height): the lattice would have a spacing of ~1e-10 on it, or one
+// layer of probes lying in the plane with half their rays on its back. Default bounds are padded
+// (probeBounds), bounds the user gave are refused (validate).
+constexpr double kFlatFraction = 1e-3;
 
 // The sphere directions of one stream: scrambled Sobol points, one scramble per stream, so each
 // probe's rays depend on (seed, stream) only and never on the thread that traces them.
@@ -143,7 +148,28 @@ void validate(const ProbeSettings& s) {
     glm::dvec3 lo = *s.boundsMin, hi = *s.boundsMax;
     if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z) || !std::isfinite(lo.x + lo.y + lo.z + hi.x + hi.y + hi.z))
       throw Error("--probe-bounds: MIN must be below MAX on every axis");
+    const glm::dvec3 size = hi - lo;
+    const double largest = std::max({size.x, size.y, size.z});
+    for (int a = 0; a < 3; ++a)
+      if (size[a] < kFlatFraction * largest)
+        throw Error(cat("--probe-bounds: the box is flat (", "xyz"[a], " extent ", size[a], " against ", largest,
+                        "): give the probes a volume, at least ", kFlatFraction, " of the largest extent on every axis"));
   }
+}
+
+void probeBounds(const ProbeSettings& s, const Scene& scene, glm::dvec3& lo, glm::dvec3& hi) {
+  lo = s.boundsMin.value_or(glm::dvec3(scene.boundsMin));
+  hi = s.boundsMax.value_or(glm::dvec3(scene.boundsMax));
+  if (s.boundsMin) return;  // given bounds were checked by validate()
+  const glm::dvec3 size = hi - lo;
+  const double largest = std::max({size.x, size.y, size.z});
+  if (!(largest > 0.0)) throw Error("the scene's bounds are a single point: give --probe-bounds");
+  for (int a = 0; a < 3; ++a)
+    if (size[a] < kFlatFraction * largest) {  // pad symmetrically: the scene may lie on either side
+      const double mid = 0.5 * (lo[a] + hi[a]);
+      lo[a] = mid - 0.5 * largest;
+      hi[a] = mid + 0.5 * largest;
+    }
 }
 
 void layoutGrid(const ProbeSettings& s, const glm::dvec3& lo, const glm::dvec3& hi, ProbeGrid& grid) {
@@ -173,8 +199,8 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   grid.info.bounces = settings.bounces;
   grid.info.samples = settings.samples;
   grid.info.seed = settings.seed;
-  glm::dvec3 lo = settings.boundsMin.value_or(glm::dvec3(scene.boundsMin));
-  glm::dvec3 hi = settings.boundsMax.value_or(glm::dvec3(scene.boundsMax));
+  glm::dvec3 lo, hi;
+  probeBounds(settings, scene, lo, hi);
   layoutGrid(settings, lo, hi, grid);
   if (!lowerOrder.empty()) PRT_CHECK_EQ(lowerOrder.size(), scene.meshes.size());
 

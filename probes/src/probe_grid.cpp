@@ -15,9 +15,14 @@ namespace prt {
 
 namespace {
 
-// Points within this distance (in lattice units) outside the lattice's bounding box still
-// count as inside: a receiver lying exactly on the boundary must not flicker in and out
-// because of float rounding of its world position.
+// How far (in lattice units) the grid's domain reaches beyond the lattice's bounding box: half
+// a cell, so the domain is the union of the probes' cells. prt bake puts probes at the cell
+// centres of the bake bounds, so a receiver on a floor at the bounds' edge (half a spacing
+// below the lowest probes) is still lit by its nearest probes, clamped.
+constexpr double kDomainMargin = 0.5;
+// Points within this distance (in lattice units) outside the domain still count as inside: a
+// receiver lying exactly on the boundary must not flicker in and out because of float rounding
+// of its world position.
 constexpr double kBoundaryTolerance = 1e-4;
 // Floor of the variance in the Chebyshev test, as a fraction of the smallest spacing. Without
 // it a face whose rays all hit at one distance (σ² = 0, or slightly negative from rounding)
@@ -140,18 +145,22 @@ ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::
   PRT_CHECK_EQ(grid.offset.size(), count);
   PRT_CHECK_EQ(grid.moments.size(), count);
 
-  // Cell of x and its fractional position t in it. An axis with one lattice point is a plane:
-  // the cell has zero width there and x must lie on it.
+  // Cell of x and its fractional position t in it, x clamped to the lattice's box (a point in
+  // the half-cell shell takes the values of the box's nearest face). An axis with one lattice
+  // point has a cell of zero width: t = 0 there.
   const glm::dvec3 u = (glm::dvec3(x) - grid.origin) / grid.spacing;
   glm::ivec3 base;
   glm::dvec3 t;
+  bool shell = false;
   for (int a = 0; a < 3; ++a) {
-    const double hi = double(grid.dims[a] - 1);
-    if (!(u[a] >= -kBoundaryTolerance && u[a] <= hi + kBoundaryTolerance)) return out;  // NaN too
+    const double hi = double(grid.dims[a] - 1), margin = kDomainMargin + kBoundaryTolerance;
+    if (!(u[a] >= -margin && u[a] <= hi + margin)) return out;  // NaN too
+    shell |= u[a] < -kBoundaryTolerance || u[a] > hi + kBoundaryTolerance;
     const double v = std::clamp(u[a], 0.0, hi);
     base[a] = std::min(int(std::floor(v)), std::max(grid.dims[a] - 2, 0));
     t[a] = v - base[a];
   }
+  out.cover = ProbeCover::NoValidProbe;
 
   glm::dvec3 n(0.0);
   const bool useNormal = normal != nullptr && glm::dot(*normal, *normal) > 0.0f;
@@ -187,6 +196,7 @@ ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::
     sum += weight[size_t(c)];
   }
   if (!(sum > 0.0)) return out;
+  out.cover = shell ? ProbeCover::Shell : ProbeCover::Lattice;
   for (int c = 0; c < 8; ++c) {
     if (weight[size_t(c)] <= 0.0) continue;
     out.probe[size_t(out.count)] = corners[c].probe;
@@ -196,17 +206,48 @@ ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::
   return out;
 }
 
-sh::ShRgb interpolateRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const glm::vec3& x,
-                              const glm::vec3* normal) {
+const char* probeCoverName(ProbeCover c) {
+  switch (c) {
+    case ProbeCover::Lattice: return "lattice";
+    case ProbeCover::Shell: return "shell";
+    case ProbeCover::Outside: return "outside";
+    case ProbeCover::NoValidProbe: return "no_valid_probe";
+  }
+  return "?";
+}
+
+void probeDomain(const ProbeGrid& grid, glm::dvec3& lo, glm::dvec3& hi) {
+  lo = grid.origin - kDomainMargin * grid.spacing;
+  hi = grid.origin + grid.spacing * (glm::dvec3(grid.dims - 1) + kDomainMargin);
+}
+
+namespace {
+
+// Σ_p w_p c_p over the probes of one interpolation.
+sh::ShRgb blend(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const ProbeWeights& w) {
   const int n2 = grid.coeffs();
   PRT_CHECK_EQ(relit.size(), grid.probeCount() * size_t(n2));
   sh::ShRgb out(grid.bands);
-  const ProbeWeights w = probeWeights(grid, x, normal);
   for (int k = 0; k < w.count; ++k) {
     const glm::vec3* c = relit.data() + size_t(w.probe[size_t(k)]) * size_t(n2);
     for (int i = 0; i < n2; ++i) out.c[size_t(i)] += w.weight[size_t(k)] * c[i];
   }
   return out;
+}
+
+}  // namespace
+
+sh::ShRgb interpolateRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const glm::vec3& x,
+                              const glm::vec3* normal) {
+  return blend(grid, relit, probeWeights(grid, x, normal));
+}
+
+sh::ShRgb receiverRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const sh::ShRgb& light,
+                           const glm::vec3& x, const glm::vec3* normal, ProbeCover* cover) {
+  const ProbeWeights w = probeWeights(grid, x, normal);
+  if (cover) *cover = w.cover;
+  if (w.count == 0) return sh::resize(light, grid.bands);
+  return blend(grid, relit, w);
 }
 
 }  // namespace prt

@@ -22,6 +22,7 @@
 #include "prt/atomic_file.h"
 #include "prt/error.h"
 #include "prt/probe_grid.h"
+#include "prt/progress.h"
 
 namespace prt {
 
@@ -348,17 +349,6 @@ ProbeGrid toProbeGrid(const std::string& path, const LoadedFile& file) {
   return grid;
 }
 
-std::string humanBytes(uintmax_t bytes) {
-  char buf[64];
-  if (bytes < 10 * 1024)
-    std::snprintf(buf, sizeof buf, "%ju B", bytes);
-  else if (bytes < 10 * 1024 * 1024)
-    std::snprintf(buf, sizeof buf, "%.1f KiB", double(bytes) / 1024.0);
-  else
-    std::snprintf(buf, sizeof buf, "%.1f MiB", double(bytes) / (1024.0 * 1024.0));
-  return buf;
-}
-
 std::string vec3Text(const glm::dvec3& v) { return cat("(", v.x, ", ", v.y, ", ", v.z, ")"); }
 
 // OpenVDB stamps every file it writes with a random UUID (36 ASCII characters after the
@@ -579,8 +569,12 @@ std::string describeProbeFile(const std::string& path) {
      << " lattice points)\n";
   os << "  spacing       " << vec3Text(grid.spacing) << "\n";
   os << "  origin        " << vec3Text(grid.origin) << "\n";
+  glm::dvec3 domainLo, domainHi;
+  probeDomain(grid, domainLo, domainHi);
   os << "  world bounds  " << vec3Text(grid.origin) << " .. "
-     << vec3Text(grid.origin + grid.spacing * glm::dvec3(grid.dims - 1)) << "\n";
+     << vec3Text(grid.origin + grid.spacing * glm::dvec3(grid.dims - 1)) << " (probe positions)\n";
+  os << "  domain        " << vec3Text(domainLo) << " .. " << vec3Text(domainHi)
+     << " (half a cell more: queried here; outside, receivers get the unoccluded light)\n";
   os << "  probes        " << grid.probeCount() << " active of " << lattice << ", " << valid << " valid\n";
   os << "  grids         " << file.byName.size() << ": " << firstTransfer << " .. " << lastTransfer << " ("
      << transferGrids << " Vec3f grids)";
@@ -591,8 +585,10 @@ std::string describeProbeFile(const std::string& path) {
       grid.probeCount() * (sizeof(glm::ivec3) + grid.transferStride() * sizeof(float) + sizeof(float) * 2 +
                            sizeof(glm::vec3) + sizeof(grid.moments[0])) +
       uintmax_t(lattice) * sizeof(int32_t);
-  os << "  size          " << humanBytes(file.fileSize) << " on disk, " << humanBytes(memory)
-     << " as VDB grids, " << humanBytes(arrays) << " as prt arrays\n";
+  os << "  file size     " << formatBytes(file.fileSize) << " on disk\n";
+  os << "  memory        " << formatBytes(arrays) << " once loaded by prt (probe arrays and lattice index)\n"
+     << "                " << formatBytes(arrays + memory) << " at the peak while reading: the OpenVDB trees ("
+     << formatBytes(memory) << ", mostly their internal nodes) are freed after conversion\n";
   os << "  bake          " << grid.info.bounces << " bounces, " << grid.info.samples << " samples, seed "
      << grid.info.seed << ", scene '" << grid.info.scene << "'\n";
   return os.str();

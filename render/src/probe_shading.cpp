@@ -45,13 +45,14 @@ double minSpacing(const ProbeGrid& grid) {
 
 // ============================================================================================
 // BEGIN probeWeights port. Mirrors prt::probeWeights (probes/src/probe_grid.cpp) step by step;
-// the C++ works in double, this in float. Where the C++ returns count = 0 (outside the lattice,
+// the C++ works in double, this in float. Where the C++ returns count = 0 (outside the domain,
 // or no valid probe in the cell) this returns false. weight[c] is the normalised weight of
 // cell corner c (0 where the C++ leaves the corner out), probe[c] its probe (−1 for none).
 // leakWeight() is the per-probe factor max(w_v · w_b, kMinWeight): the part that changes when
 // the visibility test changes. Its per-probe inputs come from probeStaticTexels() below.
 constexpr const char* kProbeWeightsHeadGlsl = R"(
 const float kBoundaryTolerance = 1e-4;
+const float kDomainMargin = 0.5;  // the domain: the lattice's box grown by half a cell
 const float kMinWeight = 1e-6;
 const float kTrilinearFloor = 1e-3;
 
@@ -90,7 +91,7 @@ bool probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8]) {
   vec3 t;
   for (int a = 0; a < 3; ++a) {
     float hi = float(uDims[a] - 1);
-    if (!(u[a] >= -kBoundaryTolerance && u[a] <= hi + kBoundaryTolerance)) return false;
+    if (!(u[a] >= -kDomainMargin - kBoundaryTolerance && u[a] <= hi + kDomainMargin + kBoundaryTolerance)) return false;
     float v = clamp(u[a], 0.0, hi);
     base[a] = min(int(floor(v)), max(uDims[a] - 2, 0));
     t[a] = v - float(base[a]);
@@ -255,7 +256,8 @@ void main() {
     s += cat("    e += vec3(", rgb, ") * b", used[k], ";\n");
   }
   s += R"(  } else {
-    // Outside the lattice, or no valid probe around: lit by the unoccluded light (M = I).
+    // Outside the domain, or no valid probe around: lit by the unoccluded light (M = I), as
+    // prt::receiverRadiance.
 )";
   for (int j : irradianceCoefficients(bands)) s += cat("    e += uLight[", j, "] * b", j, ";\n");
   s += R"(  }

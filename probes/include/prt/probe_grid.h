@@ -69,24 +69,49 @@ private:
 /// This is the per-frame "light update".
 std::vector<glm::vec3> relightProbes(const ProbeGrid& grid, const sh::ShRgb& light);
 
+/// Where a query point lies relative to the grid (docs/probes.md, "Lattice and domain").
+enum class ProbeCover {
+  Lattice,       // inside the lattice's box [origin, origin + spacing ⊙ (dims − 1)]: interpolated
+  Shell,         // in the half-cell shell around it: clamped to the box, nearest probes
+  Outside,       // beyond the domain (the box grown by half a spacing): no probe
+  NoValidProbe,  // inside the domain, but every probe of its cell is invalid or inactive
+};
+/// "lattice", "shell", "outside", "no_valid_probe" (prt probe's JSON and CSV).
+const char* probeCoverName(ProbeCover c);
+
 /// Weights of one interpolation: up to 8 probes and their normalised weights.
 struct ProbeWeights {
   int count = 0;
   std::array<int, 8> probe{};
   std::array<float, 8> weight{};
+  ProbeCover cover = ProbeCover::Outside;  // count > 0 exactly for Lattice and Shell
 };
+
+/// The domain of the grid: the lattice's box grown by half a spacing on every side, i.e. the
+/// union of the probes' cells. prt bake's default lattice puts the probes at the cell centres of
+/// the bake bounds, so the domain covers those bounds.
+void probeDomain(const ProbeGrid& grid, glm::dvec3& lo, glm::dvec3& hi);
 
 /// Interpolation weights at world point x (with surface normal n, or none): per corner probe,
 /// trilinear × validity × a Chebyshev visibility test on the depth moments of the three faces
 /// x lies towards (no light through walls between probe and x) × a soft back-face weight when n
 /// is given; then normalised (exact formula: docs/probes.md). Falls back to plain trilinear
-/// over valid probes when every weight vanishes. count == 0 when x is outside the grid or no
-/// valid probe surrounds it.
+/// over valid probes when every weight vanishes. A point in the half-cell shell around the
+/// lattice's box has its trilinear position clamped to the box (the nearest probes light it).
+/// count == 0 when x is outside the domain or no valid probe surrounds it (`cover` says which).
 ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::vec3* normal);
 
-/// Interpolated incident radiance SH at x from relit probes (relightProbes()).
+/// Interpolated incident radiance SH at x from relit probes (relightProbes()); zero where
+/// probeWeights finds no probe.
 sh::ShRgb interpolateRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit,
                               const glm::vec3& x, const glm::vec3* normal);
+
+/// Incident radiance SH at x as the renderer lights a receiver there: interpolated from the
+/// probes where probeWeights finds any, else the unoccluded light itself (M = I: nothing
+/// around x blocks or reflects). `light` is the one the probes were relit with. `cover` (if
+/// given) receives where x lies. prt probe and the renderer's shader both follow this rule.
+sh::ShRgb receiverRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const sh::ShRgb& light,
+                           const glm::vec3& x, const glm::vec3* normal, ProbeCover* cover = nullptr);
 
 /// Writes the grid as OpenVDB (standard grid types only), atomically. `half` stores floats
 /// as 16-bit. Layout: docs/probes.md.

@@ -32,6 +32,11 @@ struct ProbeSettings {
 /// Throws prt::Error on bad values.
 void validate(const ProbeSettings& s);
 
+/// The bounds the probe lattice fills: s.boundsMin/Max if given, else the scene's bounds with
+/// every flat axis (thinner than 1/1000 of the largest extent, e.g. a floor plane's height)
+/// padded symmetrically to the largest extent. Throws prt::Error if the scene is a point.
+void probeBounds(const ProbeSettings& s, const Scene& scene, glm::dvec3& lo, glm::dvec3& hi);
+
 /// The lattice (origin, spacing, dims) for these settings and scene bounds. Probes sit at cell
 /// centres of the bounds, so they are never exactly on the bounding walls.
 void layoutGrid(const ProbeSettings& s, const glm::dvec3& lo, const glm::dvec3& hi, ProbeGrid& grid);
