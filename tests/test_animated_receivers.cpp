@@ -243,12 +243,8 @@ TEST(RenderAnimatedReceivers, MovingCubeMatchesTheProbeOracleAndTheClosedForm) {
   const Scene s = loadScene(writeCubeScene(dir, "scene", false));
   ASSERT_TRUE(instanceOf(s, "Cube").receiverOnly);
   ASSERT_EQ(s.cameras.size(), 1u);
-  bake::ProbeSettings ps;
-  ps.dims = glm::ivec3(4, 3, 4);
-  ps.boundsMin = glm::dvec3(-1.2, 0.0, -1.2);
-  ps.boundsMax = glm::dvec3(1.2, 1.2, 1.2);
-  ps.samples = 1024;
-  ps.bounces = 0;
+  const bake::ProbeSettings ps{.samples = 1024, .bounces = 0, .dims = glm::ivec3(4, 3, 4),
+                               .boundsMin = glm::dvec3(-1.2, 0.0, -1.2), .boundsMax = glm::dvec3(1.2, 1.2, 1.2)};
   const ProbeGrid grid = bake::bakeProbes(s, {}, ps);  // nothing to hit: the cube is a receiver
   const sh::ShRgb light = testLight();
   const std::vector<glm::vec3> relit = relightProbes(grid, light);
