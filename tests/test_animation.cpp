@@ -135,6 +135,8 @@ TEST(AnimationFile, ParentAnimationComposesWithTheChild) {
   const MeshInstance& m = s.meshes[0];
   EXPECT_TRUE(m.receiverOnly);
   EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
+  EXPECT_EQ(describeReceivers(s),
+            std::vector<std::string>{"node 1 'Child': extras.prt.receiver, animated (scale, translation of node 0 'Parent')"});
 
   // At t = 1.5: parent at (3, 1, 0); child scaled 2, turned 90° about Y (x -> -z), at +1 x.
   // Mesh vertex (1, 0, 0) -> scale (2, 0, 0) -> rotate (0, 0, -2) -> +(1, 0, 0) -> +(3, 1, 0).
@@ -296,6 +298,9 @@ TEST(AnimationFile, WeightsChannelsAreSkippedWithAWarning) {
   EXPECT_TRUE(s.animations[0].channels.empty());
   ASSERT_EQ(s.warnings.size(), 1u);
   EXPECT_NE(s.warnings[0].find("morph target weights are not supported"), std::string::npos) << s.warnings[0];
+  // Nothing moves the node: it stays static (baked), not a receiver.
+  ASSERT_EQ(s.meshes.size(), 1u);
+  EXPECT_FALSE(s.meshes[0].receiverOnly);
 }
 
 }  // namespace
