@@ -40,7 +40,8 @@ struct Material {
 };
 
 /// Why an instance is a receiver: left out of the bake (neither baked nor an occluder) and lit
-/// per pixel from the probe grid by the renderer. The first that applies, in this order.
+/// per pixel from the probe grid by the renderer. An explicit mark comes before Animated; the
+/// topmost marked ancestor gives it, Option before Extras where one node has both.
 enum class ReceiverReason {
   None,      // baked (or receiverOnly set by hand, as tests do)
   Option,    // LoadOptions::receiverNodes names the node or an ancestor (prt bake --receiver)
