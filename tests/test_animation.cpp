@@ -1,14 +1,11 @@
 // glTF animation (prt/scene.h): sampling against hand-computed values for LINEAR, STEP and
 // CUBICSPLINE (glTF 2.0, Appendix C), parent-child composition through a loaded file, clamping
-// outside the key range, and bad animations rejected with one clear line.
+// outside the key range, and bad animations rejected with one clear line. Animated nodes as
+// receivers through the bake and the renderer: test_animated_receivers.cpp.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <limits>
 #include <string>
@@ -18,6 +15,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
 
+#include "gltf_file.h"
 #include "prt/error.h"
 #include "prt/scene.h"
 
@@ -25,6 +23,7 @@ namespace prt {
 namespace {
 
 using Json = nlohmann::json;
+using test::GltfFile;
 namespace fs = std::filesystem;
 
 // Values are computed in double from float-exact inputs; 1e-12 is rounding only.
@@ -109,78 +108,6 @@ TEST(AnimationSample, CubicSplineIsTheSpecsHermite) {
   expectNear(q, quatY(40), kExact, "symmetric Hermite between two rotations about Y");
 }
 
-// ---------------------------------------------------------------------------------------------
-// Files: a tiny glTF writer (JSON with a base64 data: buffer).
-
-std::string base64(const std::vector<unsigned char>& in) {
-  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  for (size_t i = 0; i < in.size(); i += 3) {
-    const uint32_t v = uint32_t(in[i]) << 16 | (i + 1 < in.size() ? uint32_t(in[i + 1]) << 8 : 0) |
-                       (i + 2 < in.size() ? uint32_t(in[i + 2]) : 0);
-    out += k[(v >> 18) & 63];
-    out += k[(v >> 12) & 63];
-    out += i + 1 < in.size() ? k[(v >> 6) & 63] : '=';
-    out += i + 2 < in.size() ? k[v & 63] : '=';
-  }
-  return out;
-}
-
-struct GltfFile {
-  Json j;
-  std::vector<unsigned char> bin;
-
-  GltfFile() {
-    j = {{"asset", {{"version", "2.0"}}}, {"scene", 0}, {"scenes", Json::array({{{"nodes", Json::array()}}})},
-         {"nodes", Json::array()}, {"meshes", Json::array()}, {"accessors", Json::array()},
-         {"bufferViews", Json::array()}, {"animations", Json::array()}};
-    // One triangle mesh (mesh 0) for the nodes to carry.
-    const int pos = accessor({0, 0, 0, 1, 0, 0, 0, 1, 0}, "VEC3");
-    j["meshes"].push_back({{"primitives", Json::array({{{"attributes", {{"POSITION", pos}}}}})}});
-  }
-  int accessor(const std::vector<float>& data, const char* type, int componentType = 5126) {
-    const size_t offset = bin.size();
-    bin.resize(offset + data.size() * 4);
-    std::memcpy(bin.data() + offset, data.data(), data.size() * 4);
-    const int width = std::string(type) == "SCALAR" ? 1 : std::string(type) == "VEC3" ? 3 : 4;
-    j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * 4}});
-    j["accessors"].push_back({{"bufferView", j["bufferViews"].size() - 1}, {"componentType", componentType},
-                              {"count", data.size() / size_t(width)}, {"type", type}});
-    return int(j["accessors"].size() - 1);
-  }
-  int node(Json n, bool root) {
-    j["nodes"].push_back(std::move(n));
-    const int index = int(j["nodes"].size() - 1);
-    if (root) j["scenes"][0]["nodes"].push_back(index);
-    return index;
-  }
-  /// Adds an animation with one sampler per channel: {node, path, times, values, interpolation}.
-  struct Channel {
-    int node;
-    std::string path;
-    std::vector<float> times;
-    std::vector<float> values;
-    std::string interpolation = "LINEAR";
-  };
-  void animation(const std::string& name, const std::vector<Channel>& channels) {
-    Json a = {{"name", name}, {"channels", Json::array()}, {"samplers", Json::array()}};
-    for (const Channel& c : channels) {
-      const int in = accessor(c.times, "SCALAR");
-      const int out = accessor(c.values, c.path == "rotation" ? "VEC4" : "VEC3");
-      a["samplers"].push_back({{"input", in}, {"output", out}, {"interpolation", c.interpolation}});
-      a["channels"].push_back({{"sampler", a["samplers"].size() - 1}, {"target", {{"node", c.node}, {"path", c.path}}}});
-    }
-    j["animations"].push_back(a);
-  }
-  std::string write(const std::string& name) {
-    j["buffers"] = Json::array({{{"byteLength", bin.size()},
-                                 {"uri", "data:application/octet-stream;base64," + base64(bin)}}});
-    const fs::path p = fs::temp_directory_path() / cat("prt_anim_", ::getpid(), "_", name, ".gltf");
-    std::ofstream(p) << j.dump();
-    return p.string();
-  }
-};
-
 TEST(AnimationFile, ParentAnimationComposesWithTheChild) {
   // Parent: translation animated (LINEAR) over a rest translation; child: rest rotation 90°
   // about Y and translation (1, 0, 0) in the parent, scale animated (STEP). The child carries
@@ -208,6 +135,8 @@ TEST(AnimationFile, ParentAnimationComposesWithTheChild) {
   const MeshInstance& m = s.meshes[0];
   EXPECT_TRUE(m.receiverOnly);
   EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
+  EXPECT_EQ(describeReceivers(s),
+            std::vector<std::string>{"node 1 'Child': extras.prt.receiver, animated (scale, translation of node 0 'Parent')"});
 
   // At t = 1.5: parent at (3, 1, 0); child scaled 2, turned 90° about Y (x -> -z), at +1 x.
   // Mesh vertex (1, 0, 0) -> scale (2, 0, 0) -> rotate (0, 0, -2) -> +(1, 0, 0) -> +(3, 1, 0).
@@ -227,20 +156,32 @@ TEST(AnimationFile, ParentAnimationComposesWithTheChild) {
   EXPECT_NEAR(glm::length(glm::dvec3(nodeWorldAt(s, parent, 9.0)[3]) - glm::dvec3(4, 1, 0)), 0.0, kExact);
 }
 
-TEST(AnimationFile, StaticNodesHaveIdentityMotionAndBakedAnimatedNodesWarn) {
+TEST(AnimationFile, StaticNodesHaveIdentityMotionAndAnimatedNodesAreReceivers) {
   GltfFile f;
   const int still = f.node({{"name", "Still"}, {"mesh", 0}, {"translation", {0, 0, 2}}}, true);
   const int moving = f.node({{"name", "Wall"}, {"mesh", 0}}, true);
   f.animation("", {{moving, "translation", {0.0f, 1.0f}, {0, 0, 0, 1, 0, 0}}});
   const std::string path = f.write("baked");
   const Scene s = loadScene(path);
-  fs::remove(path);
   ASSERT_EQ(s.meshes.size(), 2u);
   EXPECT_EQ(instanceMotion(s, s.meshes[0], 0.7), glm::dmat4(1.0));  // exactly
   EXPECT_FALSE(isAnimated(s, still));
-  ASSERT_EQ(s.warnings.size(), 1u);
-  EXPECT_NE(s.warnings[0].find("'Wall' is animated but not a receiver"), std::string::npos) << s.warnings[0];
-  EXPECT_NE(s.warnings[0].find("ignored"), std::string::npos) << s.warnings[0];
+  EXPECT_FALSE(s.meshes[0].receiverOnly);
+  EXPECT_TRUE(s.meshes[1].receiverOnly);
+  EXPECT_EQ(s.meshes[1].receiverReason, ReceiverReason::Animated);
+  EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
+
+  // Marked static explicitly: baked in its rest pose, with a warning that says so.
+  f.j["nodes"][moving]["extras"] = {{"prt", {{"receiver", false}}}};
+  const std::string pinnedPath = f.write("pinned");
+  const Scene pinned = loadScene(pinnedPath);
+  fs::remove(path);
+  fs::remove(pinnedPath);
+  ASSERT_EQ(pinned.meshes.size(), 2u);
+  EXPECT_FALSE(pinned.meshes[1].receiverOnly);
+  ASSERT_EQ(pinned.warnings.size(), 1u);
+  EXPECT_NE(pinned.warnings[0].find("'Wall' is animated but marked static"), std::string::npos) << pinned.warnings[0];
+  EXPECT_NE(pinned.warnings[0].find("ignored"), std::string::npos) << pinned.warnings[0];
 }
 
 // Loads a file with one broken animation; the error must be one line naming the file, the
@@ -357,6 +298,9 @@ TEST(AnimationFile, WeightsChannelsAreSkippedWithAWarning) {
   EXPECT_TRUE(s.animations[0].channels.empty());
   ASSERT_EQ(s.warnings.size(), 1u);
   EXPECT_NE(s.warnings[0].find("morph target weights are not supported"), std::string::npos) << s.warnings[0];
+  // Nothing moves the node: it stays static (baked), not a receiver.
+  ASSERT_EQ(s.meshes.size(), 1u);
+  EXPECT_FALSE(s.meshes[0].receiverOnly);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <string>
 #include <vector>
@@ -476,6 +477,30 @@ TEST_F(SceneLoad, ReceiversByNameIndexAndExtrasCoverSubtrees) {
   EXPECT_TRUE(receiverOf(marked, ball));  // by name, inherited from Group
   EXPECT_TRUE(receiverOf(marked, floor));  // by index
   EXPECT_TRUE(receiverOf(marked, toy));
+  EXPECT_EQ(prt::describeReceivers(marked),
+            (std::vector<std::string>{"node 0 'Ball': named by --receiver", "node 2 'Floor': named by --receiver",
+                                      "node 3 'Toy': extras.prt.receiver"}));
+
+  // The baked file marks the --receiver nodes in their extras: loaded again without options
+  // (as prt render loads it), the same instances are receivers. Other extras are kept.
+  b.doc["nodes"][size_t(floor)]["extras"] = {{"note", "kept"}, {"prt", {{"other", 1}}}};
+  path = b.write(dir_ / "receivers_extras.gltf");
+  prt::Scene named = prt::loadScene(path, options);
+  const std::string baked = (dir_ / "receivers.glb").string();
+  prt::writeBakedScene(path, named, "", baked);
+  prt::Scene reread = prt::loadScene(baked);
+  for (const prt::MeshInstance& m : reread.meshes) {
+    EXPECT_TRUE(m.receiverOnly) << m.name;
+    EXPECT_EQ(m.receiverReason, prt::ReceiverReason::Extras) << m.name;
+  }
+  std::ifstream in(baked, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  uint32_t jsonLength = 0;  // GLB: 12-byte header, then the JSON chunk's length, type and bytes
+  ASSERT_GT(bytes.size(), 20u);
+  std::memcpy(&jsonLength, bytes.data() + 12, 4);
+  const Json written = Json::parse(bytes.substr(20, jsonLength));
+  EXPECT_EQ(written["nodes"][size_t(floor)]["extras"],
+            Json({{"note", "kept"}, {"prt", {{"other", 1}, {"receiver", true}}}}));
 }
 
 TEST_F(SceneLoad, LinesAreSkippedWithAWarning) {

@@ -252,6 +252,7 @@ void runBake(const BakeArgs& a) {
                formatCount(double(st.hitRecords)).c_str(), st.resumed ? "; resumed from the checkpoint" : "",
                stages.str().c_str(), writeSeconds, st.seconds + writeSeconds, formatBytes(estimate.total).c_str(),
                formatBytes(peakMemoryBytes()).c_str());
+  for (const std::string& line : describeReceivers(scene)) std::fprintf(stderr, "  receiver %s\n", line.c_str());
   if (!a.probes.empty())
     std::fprintf(stderr,
                  "  probes: %s lattice points, %s active, %s inside geometry, %s moved out; %s rays in %.2f s "
@@ -492,6 +493,7 @@ void infoGlb(const std::string& path) {
   std::printf("%s: glTF scene\n", path.c_str());
   std::printf("  file        %s on disk\n", formatBytes(std::filesystem::file_size(path)).c_str());
   std::printf("  instances   %zu (%zu with transfer, %zu receivers)\n", scene.meshes.size(), baked, receivers);
+  for (const std::string& line : describeReceivers(scene)) std::printf("  receiver    %s\n", line.c_str());
   std::printf("  vertices    %zu\n  triangles   %zu\n", vertices, triangles);
   std::printf("  materials   %zu, textures %zu, cameras %zu, lights %zu\n", scene.materials.size(),
               scene.textures.size(), scene.cameras.size(), scene.lights.size());

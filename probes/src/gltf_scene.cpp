@@ -772,29 +772,40 @@ glm::dmat4 localTransform(const Gltf& g, int index) {
   return t * r * s;
 }
 
-/// One node of the default scene with its world transform.
+/// How nodes are marked by the file and the options, before animations are looked at.
+struct NodeMarks {
+  std::vector<ReceiverReason> receiver;  // Option or Extras where the node itself is marked
+  std::vector<char> keepStatic;          // extras {"prt": {"receiver": false}}
+};
+
+/// One node of the default scene with its world transform and its inherited marks: a receiver
+/// mark on the node or an ancestor makes it a receiver; a static mark keeps an animated node
+/// baked (a receiver mark wins over it).
 struct NodeVisit {
   int node = -1;
   glm::dmat4 world{1.0};
-  bool receiver = false;
+  ReceiverReason receiver = ReceiverReason::None;
+  bool keepStatic = false;
 };
 
 struct Traversal {
   const Gltf& g;
-  const std::vector<char>& receiverRoots;
+  const NodeMarks& marks;
   std::vector<char> visited, onPath;
   std::vector<NodeVisit> out;
 
-  void visit(int node, const glm::dmat4& parent, bool receiver, int depth) {
+  void visit(int node, const NodeVisit& parent, int depth) {
     if (node < 0 || size_t(node) >= g.model.nodes.size()) fail(g, cat("node ", node, " does not exist"));
     if (onPath[size_t(node)]) fail(g, cat("node ", node, ": the node hierarchy has a cycle"));
     if (visited[size_t(node)]) fail(g, cat("node ", node, " is reached twice (glTF nodes form a tree)"));
     if (depth > kMaxNodeDepth) fail(g, cat("node ", node, ": node hierarchy deeper than ", kMaxNodeDepth, " levels"));
     visited[size_t(node)] = onPath[size_t(node)] = 1;
     const tinygltf::Node& n = g.model.nodes[size_t(node)];
-    NodeVisit v{node, parent * localTransform(g, node), receiver || receiverRoots[size_t(node)]};
+    NodeVisit v{node, parent.world * localTransform(g, node),
+                parent.receiver != ReceiverReason::None ? parent.receiver : marks.receiver[size_t(node)],
+                parent.keepStatic || marks.keepStatic[size_t(node)] != 0};
     out.push_back(v);
-    for (int child : n.children) visit(child, v.world, v.receiver, depth + 1);
+    for (int child : n.children) visit(child, v, depth + 1);
     onPath[size_t(node)] = 0;
   }
 };
@@ -816,27 +827,39 @@ std::vector<int> rootNodes(const Gltf& g) {
   return roots;
 }
 
-bool markedReceiver(const tinygltf::Node& n) {
-  if (!n.extras.IsObject() || !n.extras.Has("prt")) return false;
+/// extras {"prt": {"receiver": true | false}}: true or false when given, empty otherwise.
+std::optional<bool> extrasReceiver(const tinygltf::Node& n) {
+  if (!n.extras.IsObject() || !n.extras.Has("prt")) return std::nullopt;
   const tinygltf::Value& prt = n.extras.Get("prt");
-  if (!prt.IsObject() || !prt.Has("receiver")) return false;
+  if (!prt.IsObject() || !prt.Has("receiver")) return std::nullopt;
   const tinygltf::Value& r = prt.Get("receiver");
-  return r.IsBool() && r.Get<bool>();
+  if (!r.IsBool()) return std::nullopt;
+  return r.Get<bool>();
 }
 
-std::vector<char> receiverRoots(const Gltf& g, const LoadOptions& options) {
+NodeMarks nodeMarks(const Gltf& g, const LoadOptions& options) {
   const auto& nodes = g.model.nodes;
-  std::vector<char> roots(nodes.size(), 0);
-  for (size_t i = 0; i < nodes.size(); ++i) roots[i] = markedReceiver(nodes[i]);
+  NodeMarks marks{std::vector<ReceiverReason>(nodes.size(), ReceiverReason::None), std::vector<char>(nodes.size(), 0)};
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const std::optional<bool> r = extrasReceiver(nodes[i]);
+    if (r && *r) marks.receiver[i] = ReceiverReason::Extras;
+    marks.keepStatic[i] = r && !*r;
+  }
   for (const std::string& entry : options.receiverNodes) {
     bool found = false;
     for (size_t i = 0; i < nodes.size(); ++i)
-      if (nodes[i].name == entry) roots[i] = found = true;
+      if (nodes[i].name == entry) {
+        marks.receiver[i] = ReceiverReason::Option;
+        found = true;
+      }
     bool numeric = allDigits(entry) && entry.size() < 10;
-    if (numeric && size_t(std::stoul(entry)) < nodes.size()) roots[std::stoul(entry)] = found = true;
+    if (numeric && size_t(std::stoul(entry)) < nodes.size()) {
+      marks.receiver[std::stoul(entry)] = ReceiverReason::Option;
+      found = true;
+    }
     if (!found) fail(g, cat("no node named '", entry, "'"));
   }
-  return roots;
+  return marks;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -898,7 +921,8 @@ MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, 
   inst.primitive = primIndex;
   inst.world = visit.world;
   inst.material = p.material;
-  inst.receiverOnly = visit.receiver;
+  inst.receiverOnly = visit.receiver != ReceiverReason::None;
+  inst.receiverReason = visit.receiver;
   inst.positions.resize(p.positions.size());
   for (size_t v = 0; v < p.positions.size(); ++v) {
     glm::dvec4 w = visit.world * glm::dvec4(glm::dvec3(p.positions[v]), 1.0);
@@ -1288,17 +1312,28 @@ void readAnimations(const Gltf& g, Scene& scene) {
   }
 }
 
-/// The bake is static: an animated node whose instances were baked is drawn in its rest pose.
-void warnAnimatedBaked(const Gltf& g, Scene& scene) {
+/// "node 3 'Box'" (the name only where the node has one).
+std::string nodeLabel(const Scene& scene, int node) {
+  const bool named = node >= 0 && size_t(node) < scene.nodes.size() && !scene.nodes[size_t(node)].name.empty();
+  return cat("node ", node, named ? cat(" '", scene.nodes[size_t(node)].name, "'") : std::string());
+}
+
+/// The bake is static: an instance that moves can be neither baked nor an occluder of the bake
+/// (its shadow would stay where it was at rest), so every animated instance becomes a receiver,
+/// except under an explicit {"prt": {"receiver": false}}, which keeps it baked in its rest pose
+/// (with a warning: the renderer then draws it there).
+void makeAnimatedInstancesReceivers(const Gltf& g, Scene& scene, const std::vector<char>& keepStatic) {
   std::set<int> warned;
-  for (const MeshInstance& inst : scene.meshes) {
-    if (inst.receiverOnly || !isAnimated(scene, inst.node) || !warned.insert(inst.node).second) continue;
-    scene.warnings.push_back(cat(g.path, ": node ", inst.node,
-                                 inst.node >= 0 && !scene.nodes[size_t(inst.node)].name.empty()
-                                     ? cat(" '", scene.nodes[size_t(inst.node)].name, "'")
-                                     : std::string(),
-                                 " is animated but not a receiver: the bake is static, so its animation is "
-                                 "ignored (mark it a receiver to move it)"));
+  for (MeshInstance& inst : scene.meshes) {
+    if (inst.receiverOnly || !isAnimated(scene, inst.node)) continue;
+    if (!keepStatic[size_t(inst.node)]) {
+      inst.receiverOnly = true;
+      inst.receiverReason = ReceiverReason::Animated;
+    } else if (warned.insert(inst.node).second) {
+      scene.warnings.push_back(cat(g.path, ": ", nodeLabel(scene, inst.node),
+                                   " is animated but marked static (extras prt.receiver = false): baked in its "
+                                   "rest pose, its animation is ignored"));
+    }
   }
 }
 
@@ -1346,17 +1381,21 @@ Scene loadSceneFrom(const std::string& path, const std::string* memory, const Lo
   scene.allowExternalUris = options.allowExternalUris;
   checkRequiredExtensions(g, scene.warnings);
   readMaterials(g, scene, scene.warnings);
-  std::vector<char> receivers = receiverRoots(g, options);
-  Traversal traversal{g, receivers, std::vector<char>(g.model.nodes.size(), 0),
+  const NodeMarks marks = nodeMarks(g, options);
+  Traversal traversal{g, marks, std::vector<char>(g.model.nodes.size(), 0),
                       std::vector<char>(g.model.nodes.size(), 0), {}};
-  for (int root : rootNodes(g)) traversal.visit(root, glm::dmat4(1.0), false, 0);
+  for (int root : rootNodes(g)) traversal.visit(root, NodeVisit{}, 0);
   std::map<std::pair<int, int>, PrimitiveData> cache;
-  for (const NodeVisit& v : traversal.out) addNodeContents(g, v, options, scene, cache);
+  std::vector<char> keepStatic(g.model.nodes.size(), 0);  // inherited, per node of the default scene
+  for (const NodeVisit& v : traversal.out) {
+    addNodeContents(g, v, options, scene, cache);
+    keepStatic[size_t(v.node)] = v.keepStatic;
+  }
   checkTransferBands(g, scene);
   computeBounds(g, scene);
   readNodes(g, scene);
   readAnimations(g, scene);
-  warnAnimatedBaked(g, scene);
+  makeAnimatedInstancesReceivers(g, scene, keepStatic);
   return scene;
 }
 }  // namespace
@@ -1520,6 +1559,43 @@ double animationDuration(const Scene& scene) {
   return end;
 }
 
+namespace {
+
+/// "translation, scale of node 2 'Arm'": the properties that animations drive on `node` and
+/// its ancestors, each once.
+std::string drivenProperties(const Scene& scene, int node) {
+  std::vector<std::string> parts;
+  for (int n = node, steps = 0; n >= 0 && size_t(n) < scene.nodes.size() && size_t(steps) <= scene.nodes.size();
+       n = scene.nodes[size_t(n)].parent, ++steps)
+    for (const Animation& a : scene.animations)
+      for (const AnimationChannel& c : a.channels) {
+        if (c.node != n) continue;
+        std::string part = n == node ? std::string(pathName(c.path)) : cat(pathName(c.path), " of ", nodeLabel(scene, n));
+        if (std::find(parts.begin(), parts.end(), part) == parts.end()) parts.push_back(std::move(part));
+      }
+  std::string out;
+  for (const std::string& p : parts) out += (out.empty() ? "" : ", ") + p;
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> describeReceivers(const Scene& scene) {
+  std::vector<std::string> lines;
+  std::set<int> seen;
+  for (const MeshInstance& m : scene.meshes) {
+    if (!m.receiverOnly || (m.node >= 0 && !seen.insert(m.node).second)) continue;
+    std::string why = m.receiverReason == ReceiverReason::Option   ? "named by --receiver"
+                      : m.receiverReason == ReceiverReason::Extras ? "extras.prt.receiver"
+                                                                   : "";
+    if (isAnimated(scene, m.node))
+      why += cat(why.empty() ? "" : ", ", "animated (", drivenProperties(scene, m.node), ")");
+    if (why.empty()) why = "receiverOnly set by the caller";
+    lines.push_back(cat(m.node >= 0 ? nodeLabel(scene, m.node) : cat("'", m.name, "'"), ": ", why));
+  }
+  return lines;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Writing: edits on the reloaded input model, then one packed buffer and an atomic .glb
 
@@ -1642,6 +1718,22 @@ void addTransferAttributes(tinygltf::Model& m, int& staging, const Scene& scene)
       for (size_t v = 0; v < column.size(); ++v) column[v] = inst.transfer[v * k + i];
       prim.attributes[coefficientName(int(i))] = addVec3Accessor(m, staging, column, coefficientName(int(i)));
     }
+  }
+}
+
+/// Receivers named only by LoadOptions::receiverNodes (prt bake --receiver) get extras
+/// {"prt": {"receiver": true}} on their node in the written file, so that loading it again
+/// (prt render, prt info) finds the same receivers. Other extras are kept.
+void markOptionReceivers(tinygltf::Model& m, const Scene& scene) {
+  using Object = tinygltf::Value::Object;
+  for (const MeshInstance& inst : scene.meshes) {
+    if (inst.receiverReason != ReceiverReason::Option) continue;
+    tinygltf::Value& extras = m.nodes[size_t(inst.node)].extras;
+    Object root = extras.IsObject() ? extras.Get<Object>() : Object{};
+    Object prt = root.count("prt") && root["prt"].IsObject() ? root["prt"].Get<Object>() : Object{};
+    prt["receiver"] = tinygltf::Value(true);
+    root["prt"] = tinygltf::Value(std::move(prt));
+    extras = tinygltf::Value(std::move(root));
   }
 }
 
@@ -1908,6 +2000,7 @@ void writeBakedScene(const std::string& inputPath, const Scene& scene, const std
   int staging = -1;
   Gltf g = reloadForWriting(inputPath, scene, staging);
   addTransferAttributes(g.model, staging, scene);
+  markOptionReceivers(g.model, scene);
   storeSettings(g, g.model, settingsJson);
   writeGlb(g, g.model, staging, outPath);
 }

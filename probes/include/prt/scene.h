@@ -39,6 +39,16 @@ struct Material {
   bool unlit = false;               // KHR_materials_unlit
 };
 
+/// Why an instance is a receiver: left out of the bake (neither baked nor an occluder) and lit
+/// per pixel from the probe grid by the renderer. An explicit mark comes before Animated; the
+/// topmost marked ancestor gives it, Option before Extras where one node has both.
+enum class ReceiverReason {
+  None,      // baked (or receiverOnly set by hand, as tests do)
+  Option,    // LoadOptions::receiverNodes names the node or an ancestor (prt bake --receiver)
+  Extras,    // the node or an ancestor has extras {"prt": {"receiver": true}}
+  Animated,  // an animation channel moves the node or an ancestor (docs/render.md, "Animation")
+};
+
 /// One glTF primitive placed by one node, in world space.
 struct MeshInstance {
   std::string name;        // "node name/mesh name/primitive k", for messages
@@ -54,6 +64,7 @@ struct MeshInstance {
   std::vector<uint32_t> indices;     // triangle list, 3 per triangle
   int material = -1;                 // index into Scene::materials, -1 = glTF default (white)
   bool receiverOnly = false;         // excluded from the bake (moving / unbaked object)
+  ReceiverReason receiverReason = ReceiverReason::None;  // why, as the loader decided
 
   /// Per-vertex transfer when read from a baked file: vertexCount × bands² RGB, vertex-major.
   int transferBands = 0;
@@ -145,7 +156,9 @@ struct Scene {
 
 struct LoadOptions {
   /// Node names (or indices as decimal strings) whose subtrees are receivers only. Nodes whose
-  /// extras hold {"prt": {"receiver": true}} are receivers too.
+  /// extras hold {"prt": {"receiver": true}} are receivers too, and so are nodes moved by an
+  /// animation channel (on themselves or an ancestor) unless their extras hold
+  /// {"prt": {"receiver": false}} (then they are baked in their rest pose, with a warning).
   std::vector<std::string> receiverNodes;
   /// Skip zero-area triangles with a warning instead of refusing the file.
   bool allowDegenerate = false;
@@ -180,6 +193,9 @@ glm::dmat4 nodeWorldAt(const Scene& scene, int node, double t);
 glm::dmat4 instanceMotion(const Scene& scene, const MeshInstance& mesh, double t);
 /// Last key time over every channel (0 without animations).
 double animationDuration(const Scene& scene);
+/// One line per receiver node (in the order of Scene::meshes, each node once) saying why it is
+/// one, e.g. "node 5 'Ball': extras.prt.receiver, animated (translation of node 2 'Arm')".
+std::vector<std::string> describeReceivers(const Scene& scene);
 
 /// Base colour (linear RGB, baseColorFactor × texture × COLOR_0) at vertex v.
 glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v);
@@ -190,7 +206,9 @@ glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, f
 /// Writes `inputPath`'s scene as .glb with each baked instance's transfer (scene.meshes[k].
 /// transfer, scene.transferBands) as attributes _PRT_SH_00 .. (VEC3 float, RGB of coefficient
 /// i), meshes duplicated where one is used by several nodes, strips and fans rewritten as
-/// triangle lists, and `settingsJson` stored in asset.extras.prt. Atomic (temp + rename).
+/// triangle lists, and `settingsJson` stored in asset.extras.prt. Receivers named by
+/// LoadOptions::receiverNodes get extras {"prt": {"receiver": true}}, so the file keeps them
+/// receivers. Atomic (temp + rename).
 void writeBakedScene(const std::string& inputPath, const Scene& scene,
                      const std::string& settingsJson, const std::string& outPath);
 
