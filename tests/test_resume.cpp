@@ -177,10 +177,13 @@ TEST(Resume, TornTailOfTheLogIsDropped) {
   const SurfaceTransfer ref = bakeSurface(scene, s);
   const std::string path = (freshDir("torn") / "a.ckpt").string();
   bakeUntilInterrupted(scene, s, path, false, 60, 1e-9);
-  const uintmax_t full = fs::file_size(path);
-  for (uintmax_t cut : {full - 1, full - 30, full * 2 / 3}) {
-    SCOPED_TRACE(cut);
+  // Each round cuts the checkpoint as it is now (a resumed save may leave it shorter).
+  for (auto cutOf : {+[](size_t n) { return n - 1; }, +[](size_t n) { return n - 30; },
+                     +[](size_t n) { return n * 2 / 3; }}) {
     std::string bytes = slurp(path);
+    ASSERT_GT(bytes.size(), 30u);
+    const size_t cut = cutOf(bytes.size());
+    SCOPED_TRACE(cut);
     {
       std::ofstream out(path, std::ios::binary | std::ios::trunc);
       out.write(bytes.data(), std::streamsize(cut));
