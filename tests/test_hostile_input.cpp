@@ -17,6 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "fuzz/fuzz_rig.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
 #include "prt/image.h"
@@ -541,6 +542,13 @@ TEST_F(Hostile, RigMapBrightnessIsBoundedSoItsShStaysFinite) {
   for (double frame : {0.0, 3.7, 9.0}) expectFiniteSh(rig, frame);
   expectRigError(rigJson(R"({"type": "environment", "file": "hotter.exr"})"),
                  {"lights[0].file: brightest pixel 2e+30 is beyond 1e+30"}, o);
+  // Maps given in memory are checked as maps read from files.
+  o.maps["nan.exr"] = hot;
+  o.maps["nan.exr"].pixels[5].y = std::nanf("");
+  o.maps["inf.exr"] = hot;
+  o.maps["inf.exr"].pixels[0].z = -INFINITY;
+  expectRigError(rigJson(R"({"type": "environment", "file": "nan.exr"})"), {"lights[0].file: a pixel is not a number (NaN)"}, o);
+  expectRigError(rigJson(R"({"type": "environment", "file": "inf.exr"})"), {"lights[0].file: brightest pixel inf is beyond 1e+30"}, o);
   expectRigError(rigJson(R"({"type": "environment", "file": "hot.exr", "intensity": [1, 1.5, 1]})"),
                  {"lights[0].intensity: intensity 1.5 times the map's brightest pixel 9.99e+29 is beyond 1e+30"}, o);
   EXPECT_NO_THROW(parseLightRigFromMemory(rigJson(R"({"type": "environment", "file": "bright.exr", "intensity": 1e12})"), "r", o));
@@ -682,6 +690,12 @@ TEST(FuzzRegressions, Vdb) {
   replay("vdb", [](const std::string& path) { readProbeGrid(path); });
 }
 
+// Light rigs: the whole check of fuzz_rig (finite SH at several frames, one-line messages).
+TEST(FuzzRegressions, Rig) {
+  const RigReadOptions options = fuzz::rigOptions();
+  replay("rig", [&](const std::string& path) { EXPECT_EQ(fuzz::rigProblem(readFile(path), options), ""); });
+}
+
 // The seeds themselves are valid files: the fuzzers start from inputs that load.
 TEST(FuzzRegressions, SeedsLoad) {
   fs::path corpus = fs::path(PRT_SOURCE_DIR) / "tests" / "fuzz" / "corpus";
@@ -690,6 +704,8 @@ TEST(FuzzRegressions, SeedsLoad) {
   for (const auto& e : fs::directory_iterator(corpus / "image"))
     EXPECT_NO_THROW(loadHdrImage(e.path().string())) << e.path();
   for (const auto& e : fs::directory_iterator(corpus / "vdb")) EXPECT_NO_THROW(readProbeGrid(e.path().string())) << e.path();
+  for (const auto& e : fs::directory_iterator(corpus / "rig"))
+    EXPECT_NO_THROW(parseLightRigFromMemory(readFile(e.path().string()), "seed.json", fuzz::rigOptions())) << e.path();
 }
 
 }  // namespace

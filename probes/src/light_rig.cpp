@@ -174,9 +174,9 @@ struct Checker {
   // factors ≤ 4π (light.cpp).
   void mapRadiance(const RigLight& light, double brightest, const std::string& origin) const {
     const double limit = RigLimits::kMaxMapRadiance;
-    if (!(brightest <= limit))
-      fail(light.label.empty() ? light.file : light.label + ".file",
-           cat("brightest pixel ", brightest, " is beyond ", limit));
+    const std::string file = light.label.empty() ? light.file : light.label + ".file";
+    if (std::isnan(brightest)) fail(file, "a pixel is not a number (NaN)");
+    if (brightest > limit) fail(file, cat("brightest pixel ", brightest, " is beyond ", limit));
     const Track& t = light.intensity;
     for (size_t k = 0; k < t.keys.size(); ++k) {
       const double x = std::max({t.keys[k].value.x, t.keys[k].value.y, t.keys[k].value.z});
@@ -210,13 +210,21 @@ struct LightRig::Cache {
   std::map<std::string, Map> maps;                             // by file path
   std::map<std::pair<std::string, int>, sh::ShRgb> projected;  // by (file, bands)
 
+  static double brightestOf(const ImageRgb& image) {
+    double brightest = 0.0;
+    for (const glm::vec3& p : image.pixels)
+      for (int c = 0; c < 3; ++c) {
+        const double v = std::abs(double(p[c]));
+        if (std::isnan(v)) return v;
+        brightest = std::max(brightest, v);
+      }
+    return brightest;
+  }
+
   // Precondition: the caller holds `mutex`.
   const Map& add(const std::string& file, ImageRgb image) {
-    Map m{std::move(image), 0.0};
-    for (const glm::vec3& p : m.image.pixels)
-      for (int c = 0; c < 3; ++c)
-        if (!(std::abs(double(p[c])) <= m.brightest)) m.brightest = std::abs(double(p[c]));
-    return maps.insert_or_assign(file, std::move(m)).first->second;
+    const double brightest = brightestOf(image);
+    return maps.insert_or_assign(file, Map{std::move(image), brightest}).first->second;
   }
 
   // The map of `file`, read if not there yet. Precondition: the caller holds `mutex`.
@@ -466,6 +474,10 @@ public:
   Reader(std::string name, const RigReadOptions& options)
       : name_(std::move(name)), baseDir_(options.baseDir), maps_(options.maps) {}
 
+  [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
+    throw Error(path.empty() ? cat(name_, ": ", problem) : cat(name_, ": ", path, ": ", problem));
+  }
+
   LightRig read(const std::string& bytes) {
     checkBytes(name_, bytes);
     Json root;
@@ -512,13 +524,6 @@ private:
   std::string name_;
   std::filesystem::path baseDir_;
   const std::map<std::string, ImageRgb>& maps_;
-
-public:
-  [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
-    throw Error(path.empty() ? cat(name_, ": ", problem) : cat(name_, ": ", path, ": ", problem));
-  }
-
-private:
 
   // Refuses keys that are not in `allowed` (typos would otherwise be silently ignored).
   void keys(const Json& obj, const std::string& path, std::vector<std::string> allowed) const {
