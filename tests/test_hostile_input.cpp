@@ -520,6 +520,12 @@ TEST_F(Hostile, RigTinySunRadiusGivesThePointSunNotNaN) {
         ASSERT_NEAR(l.c[i].x, E * y[i], 1e-6 * E) << type << " radius " << degrees << " coefficient " << i;
     }
   }
+  // A disk of given radiance shrinks to nothing instead, until its radius is 0 in radians.
+  LightRig disk = parseLightRigFromMemory(rigJson(R"({"type": "disk", "direction": [0, 1, 0], "radius": 1e-300, "radiance": 1e12})"), "r");
+  expectFiniteSh(disk, 0.0);
+  EXPECT_EQ(disk.evaluate(0, 3).c[0], glm::vec3(0.0f));
+  expectRigError(rigJson(R"({"type": "disk", "direction": [0, 1, 0], "radius": 1e-323, "radiance": 1})"),
+                 {"lights[0].radius: disk radius 9.88131e-324 degrees is 0 in radians"});
   // Either side of the switch to the point sun (1e-6 rad) the two agree to 7 r² (Note 3).
   const double r = 1e-6;
   sh::ShRgb below = projectSun(8, d, r * (1 - 1e-9), glm::dvec3(1.0)), above = projectSun(8, d, r * (1 + 1e-9), glm::dvec3(1.0));
@@ -693,7 +699,11 @@ TEST(FuzzRegressions, Vdb) {
 // Light rigs: the whole check of fuzz_rig (finite SH at several frames, one-line messages).
 TEST(FuzzRegressions, Rig) {
   const RigReadOptions options = fuzz::rigOptions();
-  replay("rig", [&](const std::string& path) { EXPECT_EQ(fuzz::rigProblem(readFile(path), options), ""); });
+  replay("rig", [&](const std::string& path) {
+    std::string problem;
+    EXPECT_NO_THROW(problem = fuzz::rigProblem(readFile(path), options));  // evaluate() must not throw
+    EXPECT_EQ(problem, "");
+  });
 }
 
 // The seeds themselves are valid files: the fuzzers start from inputs that load.

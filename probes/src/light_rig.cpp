@@ -140,6 +140,8 @@ struct Checker {
             break;
           case Range::DiskRadius:
             if (!(x > 0 && x <= 180)) fail(where, cat("disk radius must be in (0, 180] degrees (got ", x, ")"));
+            // Below 3e-322 degrees the radius is 0 in radians, which projectDiskRadiance refuses.
+            if (!(glm::radians(x) > 0)) fail(where, cat("disk radius ", x, " degrees is 0 in radians"));
             break;
           case Range::DiskIrradianceRadius:
             if (!(x > 0 && x < 90))
