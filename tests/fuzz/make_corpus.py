@@ -274,3 +274,9 @@ rig_seed("tiny_suns.json", {"version": 1, "fps": 0.001, "window": "hann", "light
     {"type": "sun", "direction": [0, 0, 1], "radius": keys((0, 0), (1e9, 1e-300)), "irradiance": 1e12},
     {"type": "disk", "azimuth": -1e12, "elevation": -90, "radius": 1e-12, "irradiance": 1e12},
     {"type": "disk", "direction": [1e-12, 1e12, 0], "radius": 180, "radiance": 1e12}]})
+rig_seed("disks_and_keys.json", {"version": 1, "window": "lanczos", "lights": [
+    {"type": "disk", "direction": keys((0, [0, 1, 0]), (3, [0, -0.2, 1]), (4, [-1, 0, 0])), "radius": 1e-300, "radiance": 1e12},
+    {"type": "disk", "azimuth": keys((0, 350), (9, 370)), "elevation": 89.999999999999986,
+     "radius": {"interpolation": "step", "keys": keys((0, 180), (1, 0.5))}, "radiance": [1, 0, 2]},
+    {"type": "sun", "direction": [1, 1, 1], "radius": keys((0, 89.999999999999986), (1e-9, 0)), "irradiance": [0, 1e12, 1]},
+    {"type": "uniform", "radiance": keys((-1e9, 0), (1e9, 1e12))}]})
