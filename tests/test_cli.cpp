@@ -554,5 +554,19 @@ TEST(CliDeterminism, ThreadCountDoesNotChangeTheBytes) {
   }
 }
 
+// A hostile rig (tests/test_hostile_input.cpp has each limit): one line, exit 1, nothing written.
+TEST(CliRig, HostileRigIsOneLineAndWritesNothing) {
+  fs::path d = tempDir("rig_hostile");
+  fs::path out = d / "out";
+  fs::create_directories(out);
+  fs::path deep = d / "deep.json", huge = d / "huge.json";
+  std::ofstream(deep) << "{\"version\": 1, \"lights\": " << std::string(100, '[') << std::string(100, ']') << "}";
+  std::ofstream(huge) << R"({"version": 1, "lights": [{"type": "uniform", "radiance": [{"frame": 0, "value": 1}, {"frame": 2e9, "value": 2}]}]})";
+  expectCleanFailure(prt("render " + bakedCornell() + " --rig " + deep.string() + " --size 16x16 -o " + (out / "f_%d.exr").string()),
+                     "deep.json: JSON nested deeper than 64 levels", out);
+  expectCleanFailure(prt("light --rig " + huge.string() + " -o " + (out / "l.json").string()),
+                     "huge.json: lights[0].radiance[1].frame: frame 2e+09 is beyond ±1e+09", out);
+}
+
 }  // namespace
 }  // namespace prt

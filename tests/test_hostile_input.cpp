@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -16,9 +17,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "fuzz/fuzz_rig.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
 #include "prt/image.h"
+#include "prt/light.h"
+#include "prt/light_rig.h"
 #include "prt/probe_grid.h"
 #include "prt/scene.h"
 
@@ -344,6 +348,236 @@ TEST_F(Hostile, ExrWithoutItsPixelChunksIsRefusedBeforeAllocating) {
   expectError([&] { loadHdrImage(path); }, path, {"corrupt OpenEXR file"});
 }
 
+// ---- Light rigs (docs/lights.md, "Limits"): bytes, structure, numbers, and what they derive
+
+std::string rigJson(const std::string& lights, const std::string& extra = "") {
+  return "{\"version\": 1" + extra + ", \"lights\": [" + lights + "]}";
+}
+
+void expectRigError(const std::string& json, const std::vector<std::string>& parts, const RigReadOptions& o = {}) {
+  expectError([&] { parseLightRigFromMemory(json, "rig.json", o); }, "rig.json", parts);
+}
+
+/// The message of the prt::Error that `f` throws ("" if none).
+template <class F>
+std::string messageOf(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+void expectFiniteSh(const LightRig& rig, double frame) {
+  for (int bands : {1, 3, 8}) {
+    sh::ShRgb l = rig.evaluate(frame, bands);
+    for (const glm::vec3& c : l.c)
+      ASSERT_TRUE(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z)) << "frame " << frame << ", " << bands;
+  }
+}
+
+const std::string kUniform = R"({"type": "uniform", "radiance": 1})";
+
+TEST_F(Hostile, RigLargerThanTheSizeLimitIsRefusedBeforeReading) {
+  // Exactly the limit loads (JSON allows any whitespace); one byte more does not, from a file
+  // (checked on its size, before reading) or from memory.
+  std::string json = rigJson(kUniform);
+  json += std::string(RigLimits::kMaxFileBytes - json.size(), ' ');
+  EXPECT_EQ(loadLightRig(write("limit.json", json)).lights.size(), 1u);
+  json += ' ';
+  expectError([&] { loadLightRig(write("over.json", json)); }, "over.json",
+              {"16777217 bytes: larger than a rig may be (16777216 bytes)"});
+  expectRigError(json, {"rig.json: 16777217 bytes: larger than a rig may be"});
+}
+
+TEST_F(Hostile, RigNestedDeeperThan64IsRefusedBeforeParsing) {
+  auto nested = [](int depth) { return std::string(depth, '[') + std::string(depth, ']'); };
+  // The rig object is level 1: 63 more levels are read (and refused for what they are)...
+  std::string e = messageOf([&] { parseLightRigFromMemory(rigJson(kUniform, ", \"description\": " + nested(63)), "rig.json"); });
+  EXPECT_NE(e.find("rig.json: description: expected a string"), std::string::npos) << e;
+  // ...64 are not, nor 100000 (which a recursive reader would not survive).
+  expectRigError(rigJson(kUniform, ",\n \"description\": " + nested(64)), {"rig.json: JSON nested deeper than 64 levels (line 2)"});
+  expectRigError(rigJson(kUniform, ", \"description\": " + nested(100000)), {"JSON nested deeper than 64 levels"});
+  // Brackets inside strings are text.
+  EXPECT_NO_THROW(parseLightRigFromMemory(rigJson(kUniform, ", \"description\": \"" + std::string(1000, '[') + "\""), "r"));
+}
+
+TEST_F(Hostile, RigNulBytesAndControlCharactersAreRefused) {
+  std::string json = rigJson(kUniform);
+  json[5] = '\0';
+  expectRigError(json, {"rig.json: NUL byte at offset 5 (a rig is JSON text)"});
+  // Escaped into a string: a path must not hold one (the file system would stop there), and a
+  // message shows it escaped, on one line.
+  RigReadOptions withMap;
+  withMap.maps["sky.hdr"] = ImageRgb(2, 1);
+  expectRigError(rigJson(R"({"type": "environment", "file": "sky.hdr\u0000.exr"})"),
+                 {"lights[0].file: 'sky.hdr\\x00.exr': a path without control characters (or NUL) expected"}, withMap);
+  expectRigError(rigJson(R"({"type": "environment", "file": "sky\n.hdr"})"), {"'sky\\x0a.hdr'"}, withMap);
+  expectRigError(rigJson(R"({"type": "uniform", "radiance": 1, "a\u0000b\nc": 2})"), {"lights[0].a\\x00b\\x0ac: unknown key"});
+  expectRigError(rigJson(R"({"type": "sun\r\n"})"), {"lights[0].type: 'sun\\x0d\\x0a' is not a light type"});
+}
+
+TEST_F(Hostile, RigNumbersBeyondTheLimitsAreRefused) {
+  EXPECT_NO_THROW(parseLightRigFromMemory(rigJson(R"({"type": "uniform", "radiance": 1e12})"), "r"));
+  EXPECT_NO_THROW(parseLightRigFromMemory(rigJson(R"({"type": "sun", "azimuth": -1e12, "elevation": 3})"), "r"));
+  expectRigError(rigJson(R"({"type": "uniform", "radiance": [1, 2e12, 3]})"), {"lights[0].radiance: 2e+12 is beyond ±1e+12"});
+  expectRigError(rigJson(R"({"type": "sun", "azimuth": [{"frame": 0, "value": 1}, {"frame": 1, "value": -3e12}], "elevation": 3})"),
+                 {"lights[0].azimuth[1].value: -3e+12 is beyond ±1e+12"});
+  expectRigError(rigJson(R"({"type": "sun", "direction": [0, 5e13, 0]})"), {"lights[0].direction: 5e+13 is beyond"});
+  // JSON has no NaN or infinity, and a number beyond double's range is not read as one.
+  expectRigError(rigJson(R"({"type": "uniform", "radiance": NaN})"), {"rig.json: invalid JSON: "});
+  expectRigError(rigJson(R"({"type": "uniform", "radiance": -1e400})"), {"invalid JSON: number overflow parsing '-1e400'"});
+  // Frames: within ±1e9.
+  EXPECT_NO_THROW(parseLightRigFromMemory(
+      rigJson(R"({"type": "uniform", "radiance": [{"frame": -1e9, "value": 1}, {"frame": 1e9, "value": 2}]})"), "r"));
+  expectRigError(rigJson(R"({"type": "uniform", "radiance": [{"frame": 0, "value": 1}, {"frame": 1.5e9, "value": 2}]})"),
+                 {"lights[0].radiance[1].frame: frame 1.5e+09 is beyond ±1e+09"});
+  // Frames per second: [0.001, 10000].
+  for (const char* fps : {"0.001", "24", "10000"})
+    EXPECT_NO_THROW(parseLightRigFromMemory(rigJson(kUniform, std::string(", \"fps\": ") + fps), "r")) << fps;
+  for (const char* fps : {"0.0009", "10001", "-24", "0"})
+    expectRigError(rigJson(kUniform, std::string(", \"fps\": ") + fps), {"fps: must be in [0.001, 10000] frames per second"});
+  expectRigError(rigJson(kUniform, ", \"fps\": \"24\""), {"fps: expected a number, got \"24\""});
+}
+
+TEST_F(Hostile, RigCountsOfLightsAndKeysAreBounded) {
+  std::string lights = kUniform;
+  for (size_t i = 1; i < RigLimits::kMaxLights; ++i) lights += "," + kUniform;
+  EXPECT_EQ(parseLightRigFromMemory(rigJson(lights), "r").lights.size(), RigLimits::kMaxLights);
+  expectRigError(rigJson(lights + "," + kUniform), {"rig.json: lights: 1025 lights (at most 1024)"});
+  std::string keys;
+  for (size_t k = 0; k < RigLimits::kMaxKeys; ++k) keys += cat(k ? "," : "", "{\"frame\":", k, ",\"value\":1}");
+  LightRig many = parseLightRigFromMemory(rigJson(R"({"type": "uniform", "radiance": {"keys": [)" + keys + "]}}"), "r");
+  EXPECT_EQ(many.lights[0].color.keys.size(), RigLimits::kMaxKeys);
+  expectRigError(rigJson(R"({"type": "uniform", "radiance": {"keys": [)" + keys + R"(,{"frame":1e8,"value":1}]}})"),
+                 {"lights[0].radiance.keys: 100001 keys (at most 100000)"});
+}
+
+TEST_F(Hostile, RigBadEnumsAreNamedAndLongStringsCut) {
+  expectRigError(rigJson(R"({"type": "Sun"})"), {"lights[0].type: 'Sun' is not a light type (environment, sun, disk or uniform)"});
+  expectRigError(rigJson(kUniform, R"(, "window": "HANN")"), {"window: 'HANN': expected none, hann or lanczos"});
+  expectRigError(rigJson(kUniform, R"(, "window": 3)"), {"window: expected \"none\", \"hann\" or \"lanczos\""});
+  expectRigError(rigJson(R"({"type": "uniform", "radiance": {"interpolation": "cubic", "keys": [{"frame": 0, "value": 1}]}})"),
+                 {"lights[0].radiance.interpolation: 'cubic': expected linear or step"});
+  expectRigError(rigJson(R"({"type": "uniform", "radiance": {"interpolation": 1, "keys": [{"frame": 0, "value": 1}]}})"),
+                 {"lights[0].radiance.interpolation: '1': expected linear or step"});
+  // A string from the file is quoted in at most 40 bytes (cut on a UTF-8 boundary, "...").
+  const std::string x(100000, 'x');
+  for (const std::string& json :
+       {rigJson("{\"type\": \"" + x + "\"}"), rigJson(kUniform, ", \"window\": \"" + x + "\""),
+        rigJson(R"({"type": "uniform", "radiance": 1, ")" + x + "\": 1}"), rigJson("{\"type\": \"" + x + "\x01\"}"),
+        rigJson("{\"type\": 1" + std::string(100000, '0') + "}"),
+        rigJson(R"({"type": "uniform", "radiance": ")" + x + "\"}"), rigJson("{\"type\": \"" + std::string(30, 'x') + std::string(50, '\xc3') + "\"}")}) {
+    std::string e = messageOf([&] { parseLightRigFromMemory(json, "rig.json"); });
+    EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+    EXPECT_LT(e.size(), 250u) << e;  // the fixed text, and 40 bytes of the string
+    EXPECT_TRUE(e.find(std::string(30, 'x')) != std::string::npos || e.find(std::string(30, '0')) != std::string::npos) << e;
+  }
+  std::string e = messageOf([&] { parseLightRigFromMemory(rigJson("{\"type\": \"" + std::string(39, 'a') + "\xc3\xa9z\"}"), "r"); });
+  EXPECT_NE(e.find("'" + std::string(39, 'a') + "\xc3\xa9...'"), std::string::npos) << e;
+}
+
+TEST_F(Hostile, RigMissingFilesFoldersAndDevicesAreRefused) {
+  expectError([] { loadLightRig("/nonexistent/rig.json"); }, "rig.json", {"/nonexistent/rig.json: no such file"});
+  expectError([&] { loadLightRig(dir_.string()); }, dir_.string(), {"is a directory"});
+  expectError([] { loadLightRig("/dev/zero"); }, "/dev/zero", {"/dev/zero: not a regular file"});
+  // Maps too: a device would be read forever.
+  std::string rig = write("dev.json", rigJson(R"({"type": "environment", "file": "/dev/zero"})"));
+  expectError([&] { loadLightRig(rig); }, rig, {"lights[0].file: /dev/zero: not a regular file"});
+  rig = write("missing.json", rigJson(R"({"type": "environment", "file": "nothere.hdr"})"));
+  expectError([&] { loadLightRig(rig); }, rig, {"lights[0].file: " + (dir_ / "nothere.hdr").string() + ": no such file"});
+}
+
+TEST_F(Hostile, RigFromMemoryReadsNoFileButMapsGivenInMemory) {
+  std::string sky = write("sky.hdr", "");
+  expectRigError(rigJson(R"({"type": "environment", "file": ")" + sky + "\"}"),
+                 {"lights[0].file: '" + sky.substr(0, 40) + "...': a rig read from memory reads no files"});
+  RigReadOptions o;
+  ImageRgb map(8, 4);
+  for (size_t i = 0; i < map.pixels.size(); ++i) map.pixels[i] = glm::vec3(float(i), 1.0f, 0.5f);
+  o.maps["sky.hdr"] = map;
+  LightRig rig = parseLightRigFromMemory(rigJson(R"({"type": "environment", "file": "sky.hdr"})"), "rig.json", o);
+  sh::ShRgb expected = projectEnvironment(map, 3), got = rig.evaluate(0, 3);
+  for (int i = 0; i < 9; ++i) EXPECT_EQ(got.c[i], expected.c[i]) << i;
+}
+
+// Note 3 of light.cpp: a sun whose radius is too small for the disk formula (s and sin² r
+// underflow near 1e-154 rad and gave 0/0 = NaN) is the point sun, E · y_lm(d), in closed form.
+TEST_F(Hostile, RigTinySunRadiusGivesThePointSunNotNaN) {
+  const glm::dvec3 d = glm::normalize(glm::dvec3(0.3, 0.9, -0.2));
+  const double E = 1e12;
+  double y[64];
+  sh::evaluate(8, d, y);
+  for (double degrees : {5e-324, 1e-300, 1e-160, 1e-100, 1e-20, 1e-8}) {
+    for (const char* type : {"sun", "disk"}) {
+      LightRig rig = parseLightRigFromMemory(
+          rigJson(cat(R"({"type": ")", type, R"(", "direction": [0.3, 0.9, -0.2], "radius": )", degrees,
+                      R"(, "irradiance": 1e12})")),
+          "rig.json");
+      sh::ShRgb l = rig.evaluate(0, 8);
+      for (int i = 0; i < 64; ++i)
+        ASSERT_NEAR(l.c[i].x, E * y[i], 1e-6 * E) << type << " radius " << degrees << " coefficient " << i;
+    }
+  }
+  // A disk of given radiance shrinks to nothing instead, until its radius is 0 in radians.
+  LightRig disk = parseLightRigFromMemory(rigJson(R"({"type": "disk", "direction": [0, 1, 0], "radius": 1e-300, "radiance": 1e12})"), "r");
+  expectFiniteSh(disk, 0.0);
+  EXPECT_EQ(disk.evaluate(0, 3).c[0], glm::vec3(0.0f));
+  expectRigError(rigJson(R"({"type": "disk", "direction": [0, 1, 0], "radius": 1e-323, "radiance": 1})"),
+                 {"lights[0].radius: disk radius 9.88131e-324 degrees is 0 in radians"});
+  // Either side of the switch to the point sun (1e-6 rad) the two agree to 7 r² (Note 3).
+  const double r = 1e-6;
+  sh::ShRgb below = projectSun(8, d, r * (1 - 1e-9), glm::dvec3(1.0)), above = projectSun(8, d, r * (1 + 1e-9), glm::dvec3(1.0));
+  for (int i = 0; i < 64; ++i) EXPECT_NEAR(below.c[i].x, above.c[i].x, 2e-7) << i;
+}
+
+// Note of LightRig (light_rig.cpp): a map's SH stays finite in float when its brightest pixel,
+// and that pixel times the intensity, stay within 1e30; 1024 such lights, turned, still do.
+TEST_F(Hostile, RigMapBrightnessIsBoundedSoItsShStaysFinite) {
+  RigReadOptions o;
+  ImageRgb hot(4, 2), hotter(4, 2), bright(4, 2);
+  for (glm::vec3& p : hot.pixels) p = glm::vec3(9.99e29f);  // float(1e30) is a little above 1e30
+  for (glm::vec3& p : hotter.pixels) p = glm::vec3(2e30f);
+  bright.pixels[3] = glm::vec3(0.0f, 1e18f, 0.0f);
+  o.maps = {{"hot.exr", hot}, {"hotter.exr", hotter}, {"bright.exr", bright}};
+  const std::string turning = R"({"type": "environment", "file": "hot.exr", "axis": [1, 2, 3], "rotation": [{"frame": 0, "value": 0}, {"frame": 9, "value": 1e6}]})";
+  std::string lights = turning;
+  for (size_t i = 1; i < RigLimits::kMaxLights; ++i) lights += "," + turning;
+  LightRig rig = parseLightRigFromMemory(rigJson(lights), "rig.json", o);
+  for (double frame : {0.0, 3.7, 9.0}) expectFiniteSh(rig, frame);
+  expectRigError(rigJson(R"({"type": "environment", "file": "hotter.exr"})"),
+                 {"lights[0].file: brightest pixel 2e+30 is beyond 1e+30"}, o);
+  // Maps given in memory are checked as maps read from files.
+  o.maps["nan.exr"] = hot;
+  o.maps["nan.exr"].pixels[5].y = std::nanf("");
+  o.maps["inf.exr"] = hot;
+  o.maps["inf.exr"].pixels[0].z = -INFINITY;
+  expectRigError(rigJson(R"({"type": "environment", "file": "nan.exr"})"), {"lights[0].file: a pixel is not a number (NaN)"}, o);
+  expectRigError(rigJson(R"({"type": "environment", "file": "inf.exr"})"), {"lights[0].file: brightest pixel inf is beyond 1e+30"}, o);
+  expectRigError(rigJson(R"({"type": "environment", "file": "hot.exr", "intensity": [1, 1.5, 1]})"),
+                 {"lights[0].intensity: intensity 1.5 times the map's brightest pixel 9.99e+29 is beyond 1e+30"}, o);
+  EXPECT_NO_THROW(parseLightRigFromMemory(rigJson(R"({"type": "environment", "file": "bright.exr", "intensity": 1e12})"), "r", o));
+  expectRigError(rigJson(R"({"type": "environment", "file": "bright.exr", "intensity": [{"frame": 0, "value": 1}, {"frame": 1, "value": [1, 1, 1e12]}, {"frame": 2, "value": 1e13}]})"),
+                 {"lights[0].intensity[2].value: 1e+13 is beyond ±1e+12"}, o);
+}
+
+// Linear keys interpolate inside their range exactly: two keys at the largest sun radius below
+// 90° gave 90° between them at 1 frame in 10 (rounding), which projectSun refuses.
+TEST_F(Hostile, RigInterpolatedValuesStayInTheKeysRange) {
+  const double r = std::nextafter(90.0, 0.0);
+  LightRig rig = parseLightRigFromMemory(
+      rigJson(R"({"type": "sun", "direction": [0, 1, 0], "radius": [{"frame": 0, "value": 89.999999999999986},
+                                                                   {"frame": 7, "value": 89.999999999999986}]})"),
+      "rig.json");
+  ASSERT_EQ(rig.lights[0].radius.keys[1].value.x, r);
+  for (int i = 0; i <= 1000; ++i) {
+    const double frame = 7.0 * i / 1000;
+    EXPECT_LT(rig.lights[0].radius.scalarAt(frame), 90.0) << frame;
+    EXPECT_NO_THROW(rig.evaluate(frame, 3)) << frame;
+  }
+}
+
 // ---- The command line: one line, exit 1, the output left as it was
 
 struct CliRun {
@@ -462,6 +696,16 @@ TEST(FuzzRegressions, Vdb) {
   replay("vdb", [](const std::string& path) { readProbeGrid(path); });
 }
 
+// Light rigs: the whole check of fuzz_rig (finite SH at several frames, one-line messages).
+TEST(FuzzRegressions, Rig) {
+  const RigReadOptions options = fuzz::rigOptions();
+  replay("rig", [&](const std::string& path) {
+    std::string problem;
+    EXPECT_NO_THROW(problem = fuzz::rigProblem(readFile(path), options));  // evaluate() must not throw
+    EXPECT_EQ(problem, "");
+  });
+}
+
 // The seeds themselves are valid files: the fuzzers start from inputs that load.
 TEST(FuzzRegressions, SeedsLoad) {
   fs::path corpus = fs::path(PRT_SOURCE_DIR) / "tests" / "fuzz" / "corpus";
@@ -470,6 +714,8 @@ TEST(FuzzRegressions, SeedsLoad) {
   for (const auto& e : fs::directory_iterator(corpus / "image"))
     EXPECT_NO_THROW(loadHdrImage(e.path().string())) << e.path();
   for (const auto& e : fs::directory_iterator(corpus / "vdb")) EXPECT_NO_THROW(readProbeGrid(e.path().string())) << e.path();
+  for (const auto& e : fs::directory_iterator(corpus / "rig"))
+    EXPECT_NO_THROW(parseLightRigFromMemory(readFile(e.path().string()), "seed.json", fuzz::rigOptions())) << e.path();
 }
 
 }  // namespace

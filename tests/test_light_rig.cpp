@@ -375,7 +375,7 @@ TEST(RigErrors, MissingAndMalformedFiles) {
   expectRigError("{\"version\": 1, \"lights\": []}", "lights: empty");
   expectRigError("{\"version\": 1}", "lights: missing");
   expectRigError("{\"version\": 1, \"window\": \"gauss\", \"lights\": []}", "window: 'gauss'");
-  expectRigError("{\"version\": 1, \"fps\": 0, \"lights\": []}", "fps: expected a positive number");
+  expectRigError("{\"version\": 1, \"fps\": 0, \"lights\": []}", "fps: must be in [0.001, 10000] frames per second (got 0)");
 }
 
 TEST(RigErrors, UnknownKeysAndTypes) {

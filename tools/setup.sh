@@ -153,7 +153,7 @@ case "$mode" in
       run cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
         -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
         -DPRT_FUZZ=ON -DPRT_SANITIZE=address,undefined -DPRT_BUILD_TESTS=OFF -DPRT_BUILD_BENCH=OFF &&
-        run cmake --build build-fuzz --target fuzz_gltf fuzz_image fuzz_vdb
+        run cmake --build build-fuzz --target fuzz_gltf fuzz_image fuzz_vdb fuzz_rig
     }
     fuzz_runs() { run bash tests/fuzz/run.sh build-fuzz "$fuzz_seconds"; }
 

@@ -158,8 +158,15 @@ sh::ShRgb projectSun(int bands, const glm::dvec3& toLight, double radius,
   // I_l = ∫_{cos r}^1 P_l. As r -> 0, I_l(s) -> s = 1 - cos r (P_l ≈ 1 on the cap) and
   // s / sin² r = 1 / (1 + cos r) -> 1/2, so every factor tends to E: the delta's coefficients
   // E · y_lm(d), which r = 0 uses directly.
+  //
+  // Note 3: small radii. Band l deviates from the delta by a factor 1 + r²/4 − l(l+1) r²/8 +
+  // O(r⁴), at most 7 r² for l <= 7: 7e-12 below kPointSunRadius = 1e-6, far under float's
+  // rounding (6e-8), so the delta is used there. The disk formula would hold much lower (s and
+  // sin² r keep their relative precision until they underflow near r = 1e-154, where s / sin² r
+  // becomes 0/0), but gains nothing.
+  constexpr double kPointSunRadius = 1e-6;
   std::array<double, sh::kMaxBands> factor{};
-  if (radius == 0.0) {
+  if (radius < kPointSunRadius) {
     factor.fill(1.0);
   } else {
     const double halfSin = std::sin(radius / 2.0);

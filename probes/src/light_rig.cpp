@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <initializer_list>
 #include <map>
@@ -67,7 +68,10 @@ glm::dvec3 Track::at(double frame) const {
   if (interp == Interp::Step) return k0.value;
   const double t = (frame - k0.frame) / (k1.frame - k0.frame);
   if (direction) return slerp(k0.value, k1.value, t);
-  return (1.0 - t) * k0.value + t * k1.value;
+  // Rounding can put the line a last bit outside [k0, k1] (two keys at 89.99999999999999 could
+  // give 90); clamped, an interpolated value stays in every convex range its keys are in.
+  const glm::dvec3 v = (1.0 - t) * k0.value + t * k1.value;
+  return glm::clamp(v, glm::min(k0.value, k1.value), glm::max(k0.value, k1.value));
 }
 
 glm::dvec3 azimuthElevationDirection(double azimuthDegrees, double elevationDegrees) {
@@ -102,8 +106,13 @@ struct Checker {
 
   void frames(const Track& t, const std::string& origin) const {
     if (t.keys.empty()) fail(origin, "no keyframes");
+    if (t.keys.size() > RigLimits::kMaxKeys)
+      fail(origin, cat(t.keys.size(), " keys (at most ", RigLimits::kMaxKeys, ")"));
     for (size_t k = 0; k < t.keys.size(); ++k) {
-      if (!std::isfinite(t.keys[k].frame)) fail(keyPath(t, origin, k, "frame"), "frame is not a finite number");
+      const double f = t.keys[k].frame;
+      if (!std::isfinite(f)) fail(keyPath(t, origin, k, "frame"), "frame is not a finite number");
+      if (std::abs(f) > RigLimits::kMaxFrame)
+        fail(keyPath(t, origin, k, "frame"), cat("frame ", f, " is beyond ±", RigLimits::kMaxFrame));
       if (k > 0 && !(t.keys[k].frame > t.keys[k - 1].frame))
         fail(keyPath(t, origin, k, "frame"),
              cat("frames must increase (", t.keys[k].frame, " after ", t.keys[k - 1].frame, ")"));
@@ -117,6 +126,7 @@ struct Checker {
       for (int c = 0; c < components; ++c) {
         const double x = t.keys[k].value[c];
         if (!std::isfinite(x)) fail(where, "not a finite number");
+        if (std::abs(x) > RigLimits::kMaxValue) fail(where, cat(x, " is beyond ±", RigLimits::kMaxValue));
         switch (range) {
           case Range::Any: break;
           case Range::NonNegative:
@@ -130,6 +140,8 @@ struct Checker {
             break;
           case Range::DiskRadius:
             if (!(x > 0 && x <= 180)) fail(where, cat("disk radius must be in (0, 180] degrees (got ", x, ")"));
+            // Below 3e-322 degrees the radius is 0 in radians, which projectDiskRadiance refuses.
+            if (!(glm::radians(x) > 0)) fail(where, cat("disk radius ", x, " degrees is 0 in radians"));
             break;
           case Range::DiskIrradianceRadius:
             if (!(x > 0 && x < 90))
@@ -154,7 +166,35 @@ struct Checker {
              "opposite to the previous key: the path between them is undefined (add a key in between)");
     }
   }
+
+  // Note: an environment's SH stays finite in float. A coefficient of a map projected with
+  // pixel weights summing to 4π is at most 4π · max|y_lm| · M ≤ 4π · 1.1 · M for the brightest
+  // channel M (|y_lm| ≤ √((2l+1)/4π) ≤ 1.1 for l ≤ 7); a rotation keeps each band's length, so
+  // a rotated coefficient is at most √15 times that; times the intensity. With M and M ·
+  // intensity ≤ kMaxMapRadiance (1e30) a light gives at most 5.4e31, and kMaxLights (1024) of
+  // them 5.5e34, below float's 3.4e38. Analytic lights stay far below: values ≤ 1e12 and their
+  // factors ≤ 4π (light.cpp).
+  void mapRadiance(const RigLight& light, double brightest, const std::string& origin) const {
+    const double limit = RigLimits::kMaxMapRadiance;
+    const std::string file = light.label.empty() ? light.file : light.label + ".file";
+    if (std::isnan(brightest)) fail(file, "a pixel is not a number (NaN)");
+    if (brightest > limit) fail(file, cat("brightest pixel ", brightest, " is beyond ", limit));
+    const Track& t = light.intensity;
+    for (size_t k = 0; k < t.keys.size(); ++k) {
+      const double x = std::max({t.keys[k].value.x, t.keys[k].value.y, t.keys[k].value.z});
+      if (x * brightest > limit)
+        fail(keyPath(t, origin, k, "value"),
+             cat("intensity ", x, " times the map's brightest pixel ", brightest, " is beyond ", limit));
+    }
+  }
 };
+
+template <class Check>
+void checkFps(const Check& check, double fps) {
+  if (!(fps >= RigLimits::kMinFps && fps <= RigLimits::kMaxFps))
+    check.fail("fps", cat("must be in [", RigLimits::kMinFps, ", ", RigLimits::kMaxFps, "] frames per second (got ", fps,
+                          ")"));
+}
 
 std::string originOf(const RigLight& light, const Track& t, const char* field) {
   if (!t.origin.empty()) return t.origin;
@@ -164,17 +204,57 @@ std::string originOf(const RigLight& light, const Track& t, const char* field) {
 }  // namespace
 
 struct LightRig::Cache {
+  struct Map {
+    ImageRgb image;
+    double brightest = 0.0;  // the largest |channel| of any pixel (NaN if any is NaN)
+  };
   std::mutex mutex;
-  std::map<std::string, ImageRgb> images;                      // by file path
+  std::map<std::string, Map> maps;                             // by file path
   std::map<std::pair<std::string, int>, sh::ShRgb> projected;  // by (file, bands)
+
+  static double brightestOf(const ImageRgb& image) {
+    double brightest = 0.0;
+    for (const glm::vec3& p : image.pixels)
+      for (int c = 0; c < 3; ++c) {
+        const double v = std::abs(double(p[c]));
+        if (std::isnan(v)) return v;
+        brightest = std::max(brightest, v);
+      }
+    return brightest;
+  }
+
+  // Precondition: the caller holds `mutex`.
+  const Map& add(const std::string& file, ImageRgb image) {
+    const double brightest = brightestOf(image);
+    return maps.insert_or_assign(file, Map{std::move(image), brightest}).first->second;
+  }
+
+  // The map of `file`, read if not there yet. Precondition: the caller holds `mutex`.
+  const Map& get(const std::string& file) {
+    auto it = maps.find(file);
+    if (it != maps.end()) return it->second;
+    // loadHdrImage reads the whole file: a device (/dev/zero) or a FIFO would never end.
+    std::error_code ec;
+    if (std::filesystem::exists(file, ec) && !std::filesystem::is_directory(file, ec) &&
+        !std::filesystem::is_regular_file(file, ec))
+      throw Error(cat(file, ": not a regular file"));
+    return add(file, loadHdrImage(file));
+  }
 };
 
 LightRig::LightRig() : cache_(std::make_shared<Cache>()) {}
 
+void LightRig::provideMap(const std::string& file, ImageRgb image) {
+  std::lock_guard<std::mutex> lock(cache_->mutex);
+  cache_->add(file, std::move(image));
+}
+
 void LightRig::validate() {
   Checker check{source.empty() ? std::string() : source + ": "};
   if (lights.empty()) check.fail("lights", "no lights");
-  if (fps && !(std::isfinite(*fps) && *fps > 0)) check.fail("fps", "must be a positive number");
+  if (lights.size() > RigLimits::kMaxLights)
+    check.fail("lights", cat(lights.size(), " lights (at most ", RigLimits::kMaxLights, ")"));
+  if (fps) checkFps(check, *fps);
   for (RigLight& light : lights) {
     auto origin = [&](const Track& t, const char* field) { return originOf(light, t, field); };
     switch (light.type) {
@@ -183,14 +263,14 @@ void LightRig::validate() {
         check.values(light.rotation, origin(light.rotation, "rotation"), Range::Any, 1);
         check.values(light.intensity, origin(light.intensity, "intensity"), Range::NonNegative, 3);
         std::lock_guard<std::mutex> lock(cache_->mutex);
-        if (!cache_->images.count(light.file)) {
-          try {
-            cache_->images.emplace(light.file, loadHdrImage(light.file));
-          } catch (const Error& e) {
-            if (light.label.empty()) throw Error(cat(check.prefix, e.what()));
-            check.fail(light.label + ".file", e.what());
-          }
+        double brightest = 0.0;
+        try {
+          brightest = cache_->get(light.file).brightest;
+        } catch (const Error& e) {
+          if (light.label.empty()) throw Error(cat(check.prefix, e.what()));
+          check.fail(light.label + ".file", e.what());
         }
+        check.mapRadiance(light, brightest, origin(light.intensity, "intensity"));
         break;
       }
       case RigLight::Type::Sun:
@@ -224,11 +304,7 @@ template <class Cache>
 const sh::ShRgb& projected(Cache& cache, const std::string& file, int bands) {
   auto key = std::make_pair(file, bands);
   auto it = cache.projected.find(key);
-  if (it == cache.projected.end()) {
-    auto image = cache.images.find(file);
-    if (image == cache.images.end()) image = cache.images.emplace(file, loadHdrImage(file)).first;
-    it = cache.projected.emplace(key, projectEnvironment(image->second, bands)).first;
-  }
+  if (it == cache.projected.end()) it = cache.projected.emplace(key, projectEnvironment(cache.get(file).image, bands)).first;
   return it->second;
 }
 
@@ -325,27 +401,92 @@ std::string quoteList(const std::vector<std::string>& names) {
 
 enum class Shape { Scalar, Color, Direction };
 
+// A string from the file for a message: cut after `maxBytes` bytes ("..."), control characters
+// and bytes that are not UTF-8 written as \xNN, so the message stays one short line.
+std::string printable(const std::string& s, size_t maxBytes = 40) {
+  std::string out;
+  for (size_t i = 0; i < s.size();) {
+    if (out.size() >= maxBytes) return out + "...";
+    const auto c = static_cast<unsigned char>(s[i]);
+    const size_t n = c < 0x80 ? 1 : c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+    bool valid = n > 0 && i + n <= s.size() && (n > 1 || (c >= 0x20 && c != 0x7F));
+    for (size_t k = 1; valid && k < n; ++k) valid = (static_cast<unsigned char>(s[i + k]) & 0xC0) == 0x80;
+    if (valid) {
+      out.append(s, i, n);
+      i += n;
+    } else {
+      const char* hex = "0123456789abcdef";
+      out += {'\\', 'x', hex[c >> 4], hex[c & 15]};
+      ++i;
+    }
+  }
+  return out;
+}
+
 // A JSON value for a message: compact, and cut short so the message stays one readable line.
-std::string shortDump(const nlohmann::json& j) {
-  std::string s = j.dump();
-  return s.size() > 48 ? s.substr(0, 45) + "..." : s;
+std::string shortDump(const nlohmann::json& j) { return printable(j.dump()); }
+
+// nlohmann's message without its "[json.exception.parse_error.101] " tag, the token it quotes
+// ('...', the file's bytes) cut short.
+std::string jsonProblem(const Json::exception& e) {
+  std::string what = e.what();
+  const size_t close = what.find("] ");
+  if (close != std::string::npos) what = what.substr(close + 2);
+  const size_t quote = what.find('\'');
+  if (quote == std::string::npos) return printable(what, 200);
+  return printable(what.substr(0, quote + 1), 200) + printable(what.substr(quote + 1));
+}
+
+[[noreturn]] void failBytes(const std::string& name, const std::string& problem) { throw Error(cat(name, ": ", problem)); }
+
+void checkSize(const std::string& name, uintmax_t bytes) {
+  if (bytes > RigLimits::kMaxFileBytes)
+    failBytes(name, cat(bytes, " bytes: larger than a rig may be (", RigLimits::kMaxFileBytes, " bytes)"));
+}
+
+// What nlohmann would trust, checked on the bytes: their number, NUL bytes (a rig is text),
+// and the nesting depth. Brackets are counted outside strings; in a text that is not JSON the
+// count may be off, but nlohmann then refuses the text anyway.
+void checkBytes(const std::string& name, const std::string& bytes) {
+  checkSize(name, bytes.size());
+  if (size_t nul = bytes.find('\0'); nul != std::string::npos)
+    failBytes(name, cat("NUL byte at offset ", nul, " (a rig is JSON text)"));
+  int depth = 0;
+  size_t line = 1;
+  bool inString = false, escaped = false;
+  for (char c : bytes) {
+    if (c == '\n') ++line;
+    if (inString) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') inString = false;
+    } else if (c == '"') {
+      inString = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > RigLimits::kMaxJsonDepth)
+        failBytes(name, cat("JSON nested deeper than ", RigLimits::kMaxJsonDepth, " levels (line ", line, ")"));
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
 }
 
 class Reader {
 public:
-  Reader(std::string name, std::filesystem::path baseDir) : name_(std::move(name)), baseDir_(std::move(baseDir)) {}
+  Reader(std::string name, const RigReadOptions& options)
+      : name_(std::move(name)), baseDir_(options.baseDir), maps_(options.maps) {}
 
-  LightRig read(const std::string& text) {
+  [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
+    throw Error(path.empty() ? cat(name_, ": ", problem) : cat(name_, ": ", path, ": ", problem));
+  }
+
+  LightRig read(const std::string& bytes) {
+    checkBytes(name_, bytes);
     Json root;
     try {
-      root = Json::parse(text);
+      root = Json::parse(bytes);
     } catch (const Json::exception& e) {
-      // nlohmann's message starts with "[json.exception.parse_error.101] "; keep what follows.
-      std::string what = e.what();
-      size_t close = what.find("] ");
-      if (close != std::string::npos) what = what.substr(close + 2);
-      std::replace(what.begin(), what.end(), '\n', ' ');
-      throw Error(cat(name_, ": invalid JSON: ", what));
+      throw Error(cat(name_, ": invalid JSON: ", jsonProblem(e)));
     }
     if (!root.is_object()) fail("", "expected a JSON object {\"version\": 1, \"lights\": [...]}");
     keys(root, "", {"version", "description", "window", "fps", "lights"});
@@ -360,18 +501,21 @@ public:
     if (root.contains("window")) {
       if (!root["window"].is_string()) fail("window", "expected \"none\", \"hann\" or \"lanczos\"");
       std::string w = root["window"].get<std::string>();
-      if (w != "none" && w != "hann" && w != "lanczos") fail("window", cat("'", w, "': expected none, hann or lanczos"));
+      if (w != "none" && w != "hann" && w != "lanczos")
+        fail("window", cat("'", printable(w), "': expected none, hann or lanczos"));
       rig.window = sh::parseWindow(w);
     }
     if (root.contains("fps")) {
-      if (!root["fps"].is_number() || !(root["fps"].get<double>() > 0)) fail("fps", "expected a positive number");
-      rig.fps = root["fps"].get<double>();
+      rig.fps = number(root["fps"], "fps");
+      checkFps(*this, *rig.fps);
     }
     if (!root.contains("lights")) fail("lights", "missing (a list of lights)");
     const Json& lights = root["lights"];
     if (!lights.is_array()) fail("lights", "expected a list of lights");
     if (lights.empty()) fail("lights", "empty: a rig needs at least one light");
-    for (size_t i = 0; i < lights.size(); ++i) rig.lights.push_back(readLight(lights[i], cat("lights[", i, "]")));
+    if (lights.size() > RigLimits::kMaxLights)
+      fail("lights", cat(lights.size(), " lights (at most ", RigLimits::kMaxLights, ")"));
+    for (size_t i = 0; i < lights.size(); ++i) rig.lights.push_back(readLight(rig, lights[i], cat("lights[", i, "]")));
     // Values (ranges, directions) and map files are checked by validate(), which names the
     // paths stored in each track's origin.
     rig.validate();
@@ -381,10 +525,7 @@ public:
 private:
   std::string name_;
   std::filesystem::path baseDir_;
-
-  [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
-    throw Error(path.empty() ? cat(name_, ": ", problem) : cat(name_, ": ", path, ": ", problem));
-  }
+  const std::map<std::string, ImageRgb>& maps_;
 
   // Refuses keys that are not in `allowed` (typos would otherwise be silently ignored).
   void keys(const Json& obj, const std::string& path, std::vector<std::string> allowed) const {
@@ -396,7 +537,7 @@ private:
         size_t d = editDistance(it.key(), a);
         if (d < bestDistance) bestDistance = d, best = a;
       }
-      std::string where = path.empty() ? it.key() : cat(path, ".", it.key());
+      std::string where = path.empty() ? printable(it.key()) : cat(path, ".", printable(it.key()));
       fail(where, best.empty() ? cat("unknown key (expected one of: ", quoteList(allowed), ")")
                                : cat("unknown key (did you mean '", best, "'?)"));
     }
@@ -439,10 +580,10 @@ private:
       if (list->empty()) fail(listPath, "empty: give at least one key");
       if (j.contains("interpolation")) {
         const Json& in = j["interpolation"];
-        std::string s = in.is_string() ? in.get<std::string>() : shortDump(in);
+        std::string s = in.is_string() ? in.get<std::string>() : in.dump();
         if (s == "linear") t.interp = Track::Interp::Linear;
         else if (s == "step") t.interp = Track::Interp::Step;
-        else fail(path + ".interpolation", cat("'", s, "': expected linear or step"));
+        else fail(path + ".interpolation", cat("'", printable(s), "': expected linear or step"));
       }
     } else if (isKeyList(j)) {
       list = &j;
@@ -451,6 +592,8 @@ private:
       t.keys.push_back({0.0, value(j, path, shape)});
       return t;
     }
+    if (list->size() > RigLimits::kMaxKeys)
+      fail(listPath, cat(list->size(), " keys (at most ", RigLimits::kMaxKeys, ")"));
     for (size_t k = 0; k < list->size(); ++k) {
       const Json& key = (*list)[k];
       std::string keyPath = cat(listPath, "[", k, "]");
@@ -465,7 +608,25 @@ private:
     return t;
   }
 
-  RigLight readLight(const Json& j, const std::string& path) {
+  // The map an environment light names: one of the maps in memory (given to `rig`), else a
+  // file resolved against the base folder, if there is one.
+  std::string mapFile(LightRig& rig, const Json& j, const std::string& path) {
+    if (!j.is_string() || j.get<std::string>().empty()) fail(path, "missing (the path of an .exr or .hdr map)");
+    const std::string file = j.get<std::string>();
+    if (file.size() > RigLimits::kMaxPathBytes)
+      fail(path, cat(file.size(), " bytes: longer than a path may be (", RigLimits::kMaxPathBytes, ")"));
+    if (std::any_of(file.begin(), file.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7F; }))
+      fail(path, cat("'", printable(file), "': a path without control characters (or NUL) expected"));
+    if (auto it = maps_.find(file); it != maps_.end()) {
+      rig.provideMap(file, it->second);
+      return file;
+    }
+    if (baseDir_.empty()) fail(path, cat("'", printable(file), "': a rig read from memory reads no files"));
+    std::filesystem::path p = file;
+    return (p.is_relative() ? baseDir_ / p : p).lexically_normal().string();
+  }
+
+  RigLight readLight(LightRig& rig, const Json& j, const std::string& path) {
     if (!j.is_object()) fail(path, "expected a light object {\"type\": ..., ...}");
     if (!j.contains("type")) fail(path + ".type", "missing (environment, sun, disk or uniform)");
     if (!j["type"].is_string()) fail(path + ".type", "expected a string (environment, sun, disk or uniform)");
@@ -475,10 +636,7 @@ private:
     if (type == "environment") {
       light.type = RigLight::Type::Environment;
       keys(j, path, {"type", "name", "file", "axis", "rotation", "intensity"});
-      if (!j.contains("file") || !j["file"].is_string() || j["file"].get<std::string>().empty())
-        fail(path + ".file", "missing (the path of an .exr or .hdr map)");
-      std::filesystem::path file = j["file"].get<std::string>();
-      light.file = (file.is_relative() ? baseDir_ / file : file).lexically_normal().string();
+      light.file = mapFile(rig, j.contains("file") ? j["file"] : Json(), path + ".file");
       if (j.contains("axis")) light.axis = track(j["axis"], path + ".axis", Shape::Direction);
       if (j.contains("rotation")) light.rotation = track(j["rotation"], path + ".rotation", Shape::Scalar);
       if (j.contains("intensity")) light.intensity = track(j["intensity"], path + ".intensity", Shape::Color);
@@ -522,7 +680,7 @@ private:
       if (!j.contains("radiance")) fail(path + ".radiance", "missing (sky radiance, a number or [R, G, B])");
       light.color = track(j["radiance"], path + ".radiance", Shape::Color);
     } else {
-      fail(path + ".type", cat("'", type, "' is not a light type (environment, sun, disk or uniform)"));
+      fail(path + ".type", cat("'", printable(type), "' is not a light type (environment, sun, disk or uniform)"));
     }
     if (j.contains("name") && !j["name"].is_string()) fail(path + ".name", "expected a string");
     return light;
@@ -532,14 +690,25 @@ private:
 
 }  // namespace
 
+LightRig parseLightRigFromMemory(const std::string& bytes, const std::string& name, const RigReadOptions& options) {
+  Reader reader(name, options);
+  return reader.read(bytes);
+}
+
 LightRig parseLightRig(const std::string& json, const std::string& name, const std::string& baseDir) {
-  Reader reader(name, baseDir);
-  return reader.read(json);
+  return parseLightRigFromMemory(json, name, {baseDir.empty() ? "." : baseDir, {}});
 }
 
 LightRig loadLightRig(const std::string& path) {
-  std::string text = readFile(path);
-  return parseLightRig(text, path, std::filesystem::path(path).parent_path().string());
+  // Checked before reading: readFile would read a device or a FIFO forever.
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_directory(path, ec)) {
+    if (!std::filesystem::is_regular_file(path, ec)) throw Error(cat(path, ": not a regular file"));
+    const uintmax_t size = std::filesystem::file_size(path, ec);
+    if (!ec) checkSize(path, size);
+  }
+  const std::string dir = std::filesystem::path(path).parent_path().string();
+  return parseLightRigFromMemory(readFile(path), path, {dir.empty() ? "." : dir, {}});
 }
 
 }  // namespace prt

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the small seed corpora of the glTF and image fuzz targets (tests/fuzz/corpus/).
+"""Writes the small seed corpora of the glTF, image and rig fuzz targets (tests/fuzz/corpus/).
 
 Each seed is a valid file that exercises one feature of its loader; the fuzzer mutates from
 there. Run from anywhere: python3 tests/fuzz/make_corpus.py. The VDB seeds come from
@@ -246,3 +246,37 @@ out("image", "none_float.exr", exr(4, 3, rgb_f, 0, ramp))
 out("image", "rle_half.exr", exr(8, 4, rgb_h, 1, ramp))
 out("image", "zip_float.exr", exr(5, 17, rgb_f, 3, ramp))
 out("image", "luminance_half.exr", exr(3, 2, [("Y", HALF)], 0, ramp))
+
+
+# ---- Light rigs (JSON, docs/lights.md) ---------------------------------------------------
+# The bundled rigs, with their maps renamed to the maps fuzz_rig holds in memory, plus one
+# seed per feature the bundled ones miss. Written compact: the fuzzer mutates fewer bytes.
+def rig_seed(name, doc):
+    out("rig", name, json.dumps(doc, separators=(",", ":")).encode())
+
+
+ROOT = os.path.dirname(os.path.dirname(HERE))
+for f in sorted(os.listdir(os.path.join(ROOT, "scenes", "rigs"))):
+    with open(os.path.join(ROOT, "scenes", "rigs", f)) as fh:
+        doc = json.load(fh)
+    doc.pop("description", None)
+    for light in doc["lights"]:
+        if light["type"] == "environment":
+            light["file"] = "sky.hdr"
+    rig_seed(f, doc)
+
+keys = lambda *kv: [{"frame": f, "value": v} for f, v in kv]
+rig_seed("hot_map_turning.json", {"version": 1, "lights": [
+    {"type": "environment", "file": "hot.exr", "axis": keys((0, [1, 0, 0]), (5, [0, 0, 1])),
+     "rotation": keys((0, 0), (10, 1e6))},
+    {"type": "environment", "file": "one.exr", "intensity": {"interpolation": "step", "keys": keys((0, 1), (2, [0, 3, 1]))}}]})
+rig_seed("tiny_suns.json", {"version": 1, "fps": 0.001, "window": "hann", "lights": [
+    {"type": "sun", "direction": [0, 0, 1], "radius": keys((0, 0), (1e9, 1e-300)), "irradiance": 1e12},
+    {"type": "disk", "azimuth": -1e12, "elevation": -90, "radius": 1e-12, "irradiance": 1e12},
+    {"type": "disk", "direction": [1e-12, 1e12, 0], "radius": 180, "radiance": 1e12}]})
+rig_seed("disks_and_keys.json", {"version": 1, "window": "lanczos", "lights": [
+    {"type": "disk", "direction": keys((0, [0, 1, 0]), (3, [0, -0.2, 1]), (4, [-1, 0, 0])), "radius": 1e-300, "radiance": 1e12},
+    {"type": "disk", "azimuth": keys((0, 350), (9, 370)), "elevation": 89.999999999999986,
+     "radius": {"interpolation": "step", "keys": keys((0, 180), (1, 0.5))}, "radiance": [1, 0, 2]},
+    {"type": "sun", "direction": [1, 1, 1], "radius": keys((0, 89.999999999999986), (1e-9, 0)), "irradiance": [0, 1e12, 1]},
+    {"type": "uniform", "radiance": keys((-1e9, 0), (1e9, 1e12))}]})

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Bounded fuzzing of every loader: bash tests/fuzz/run.sh BUILD_DIR [SECONDS [TARGET...]]
 #
-# Runs each fuzz target (default: gltf image vdb) for SECONDS (default 60) on a temporary copy
+# Runs each fuzz target (default: gltf image vdb rig) for SECONDS (default 60) on a temporary copy
 # of its seed corpus plus its regression inputs, so the checkout is never written to. A crash,
 # a sanitizer report, a leak or an input over the memory limit stops the run: the input is kept
 # as BUILD_DIR/fuzz-artifacts/<target>/crash-* and the script exits 1. Longer local runs:
@@ -12,7 +12,7 @@ build=${1:?usage: run.sh BUILD_DIR [SECONDS [TARGET...]]}
 seconds=${2:-60}
 shift $(( $# < 2 ? $# : 2 ))
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(gltf image vdb)
+[ ${#targets[@]} -gt 0 ] || targets=(gltf image vdb rig)
 
 # Library-internal leaks only (see the file); our code is never suppressed.
 export LSAN_OPTIONS="suppressions=$here/../sanitizer_suppressions.txt:print_suppressions=0"

@@ -13,6 +13,8 @@
 // direction as the orbit camera does: (cos el · sin az, sin el, cos el · cos az).
 #pragma once
 
+#include <cstddef>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -20,9 +22,24 @@
 
 #include <glm/glm.hpp>
 
+#include "prt/image.h"
 #include "prt/sh.h"
 
 namespace prt {
+
+/// What a rig may hold (docs/lights.md, "Limits"): the readers refuse anything beyond, before
+/// allocating for it, and within them every SH a rig evaluates to is finite in float.
+struct RigLimits {
+  static constexpr size_t kMaxFileBytes = size_t(16) << 20;  // a rig file, or the bytes given
+  static constexpr int kMaxJsonDepth = 64;                    // nesting of [ and {
+  static constexpr double kMaxValue = 1e12;                   // |every number| (colours, angles, ...)
+  static constexpr double kMaxFrame = 1e9;                    // |keyframe numbers|
+  static constexpr double kMinFps = 0.001, kMaxFps = 1e4;
+  static constexpr size_t kMaxLights = 1024;
+  static constexpr size_t kMaxKeys = 100000;        // per parameter
+  static constexpr size_t kMaxPathBytes = 4096;     // an environment map's `file`
+  static constexpr double kMaxMapRadiance = 1e30;   // brightest map pixel × intensity
+};
 
 /// A parameter over frames: one key is a constant, several keys are interpolated.
 /// Before the first key the first value holds, after the last key the last value holds.
@@ -101,9 +118,13 @@ public:
 
   LightRig();
 
+  /// Uses `image` as the environment map `file` (a RigLight::file) instead of reading that file.
+  void provideMap(const std::string& file, ImageRgb image);
+
   /// Checks every light and track: keys present and increasing, values finite and in range
   /// (radius, intensities >= 0, elevation in [-90, 90], non-zero directions, no opposite
-  /// neighbouring direction keys), and loads every environment map not yet loaded. Throws
+  /// neighbouring direction keys, RigLimits), and loads every environment map not yet loaded
+  /// or provided (regular files only; brightest pixel × intensity within limits). Throws
   /// prt::Error "LABEL.field: problem". Interpolated values then stay in range, because every
   /// allowed range is convex. Normalises direction keys.
   void validate();
@@ -126,13 +147,27 @@ private:
   std::shared_ptr<Cache> cache_;
 };
 
-/// Reads and validates a rig file (JSON, docs/lights.md). Relative map paths are resolved
-/// against the rig file's folder. Throws prt::Error with one line naming the file and the
+/// Where a rig read from memory finds its environment maps.
+struct RigReadOptions {
+  /// Folder that relative map paths are resolved against; "" = none: the rig reads no file at
+  /// all, and an environment light must name one of `maps`.
+  std::string baseDir;
+  /// Maps in memory, by the `file` string exactly as the rig writes it; used before any file.
+  std::map<std::string, ImageRgb> maps;
+};
+
+/// Parses and validates a rig from its bytes (JSON, docs/lights.md); `name` (the file's path,
+/// or any label) starts every message. Checks the bytes first (RigLimits: size, NUL bytes,
+/// nesting depth), then every element. Throws prt::Error with one line naming `name` and the
 /// JSON path of the problem, e.g. "rig.json: lights[1].radius.keys[2].frame: frames must
 /// increase (10 after 12)".
-LightRig loadLightRig(const std::string& path);
+LightRig parseLightRigFromMemory(const std::string& bytes, const std::string& name, const RigReadOptions& options = {});
 
-/// Same from JSON text; `name` is used in messages, `baseDir` resolves relative map paths.
+/// Same from JSON text, relative map paths resolved against `baseDir` ("" = the working folder).
 LightRig parseLightRig(const std::string& json, const std::string& name, const std::string& baseDir);
+
+/// Reads and validates a rig file: a regular file of at most RigLimits::kMaxFileBytes, then
+/// parseLightRigFromMemory with relative map paths resolved against the rig file's folder.
+LightRig loadLightRig(const std::string& path);
 
 }  // namespace prt
