@@ -1082,6 +1082,66 @@ TEST(RenderReceivers, EveryBandCountMatchesOracleOnARandomGrid) {
   }
 }
 
+// Every material variant of the shaders (renderer: compiled with HAS_TEXTURE / HAS_COLOR as the
+// material has a base colour texture / the mesh COLOR_0) on receivers and baked instances in
+// one frame: plain, COLOR_0 only, texture only, both; each matches the oracle.
+TEST(RenderReceivers, MaterialVariantsMatchOracle) {
+  Scene s;
+  s.path = "variants";
+  Texture t;
+  t.name = "stripes";
+  t.width = 5;
+  t.height = 4;
+  for (int y = 0; y < t.height; ++y)
+    for (int x = 0; x < t.width; ++x)
+      t.texels.push_back(glm::vec4(0.2f + 0.15f * x, 0.9f - 0.2f * y, ((x + y) & 1) ? 0.8f : 0.1f, 1));
+  s.textures.push_back(t);
+  Material plain;
+  plain.baseColorFactor = glm::vec4(0.8f, 0.7f, 0.9f, 1.0f);
+  Material textured = plain;
+  textured.baseColorTexture = 0;
+  s.materials = {plain, textured};
+  // Texcoords and colours from the position.
+  auto decorate = [](MeshInstance& m, int material, bool texcoords, bool colors) {
+    m.material = material;
+    for (const glm::vec3& p : m.positions) {
+      if (texcoords) m.texcoords.emplace_back(0.5f + 0.8f * p.x, 0.5f - 0.9f * p.y + 0.3f * p.z);
+      if (colors) m.colors.emplace_back(0.5f + 0.4f * std::sin(3.0f * p.x), 0.6f, 0.5f + 0.4f * std::cos(2.0f * p.y), 1.0f);
+    }
+  };
+  const glm::vec3 centres[4] = {{-0.5f, 0.4f, 0.0f}, {0.5f, 0.4f, 0.0f}, {-0.5f, -0.4f, 0.0f}, {0.5f, -0.4f, 0.0f}};
+  for (int v = 0; v < 4; ++v) {
+    MeshInstance ball = sphere(centres[v], 0.33f, 24, 12);
+    ball.name = cat("ball", v);
+    ball.receiverOnly = true;
+    decorate(ball, v & 1 ? 1 : 0, v & 1, v & 2);
+    s.meshes.push_back(ball);
+    // A baked quad behind each ball, of the same variant.
+    MeshInstance quad = wall(cat("quad", v), centres[v] - glm::vec3(0.0f, 0.0f, 0.6f), {0.45f, 0, 0}, {0, 0.38f, 0}, 2);
+    quad.normals.clear();
+    decorate(quad, v & 1 ? 1 : 0, v & 1, v & 2);
+    fillTransfer(quad, 3, 70 + uint32_t(v));
+    s.meshes.push_back(quad);
+  }
+  s.transferBands = 3;
+  updateBounds(s);
+  const CameraView cam = lookAt({0.1, 0.2, 3.2}, {0.0, 0.0, -0.2}, 40.0);
+  const ProbeGrid g = randomGrid(3, 77);
+  const sh::ShRgb light = randomLight(3, 41);
+  const ProbeLighting pl = probeLighting(g, light);
+  const int w = 128, h = 96;
+  GlContext ctx(GlBackend::OSMesa, w, h);
+  Renderer r(ctx, s);
+  r.setProbes(g);
+  const Comparison c = compare(r.render(cam, light), s, cam, light, &pl);
+  std::printf("  %d pixels (%d receiver), max receiver error %.3g, max error %.3g\n", c.compared, c.receiver,
+              c.maxReceiverError, c.maxError);
+  EXPECT_GT(c.receiver, 1500);              // four balls
+  EXPECT_GT(c.compared - c.receiver, 400);  // and the quads' rims around them
+  EXPECT_LT(c.maxReceiverError, kReceiverTolerance) << "mean " << c.meanReceiverError;
+  EXPECT_LT(c.maxError, std::max(textureTolerance(ctx), kReceiverTolerance));
+}
+
 // A receiver moved by a glTF animation (translation LINEAR, scale STEP: the normals change
 // with the non-uniform scale): each frame matches the oracle at the animated position, and
 // the frames differ.

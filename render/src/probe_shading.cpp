@@ -45,20 +45,27 @@ double minSpacing(const ProbeGrid& grid) {
 
 // ============================================================================================
 // BEGIN probeWeights port. Mirrors prt::probeWeights (probes/src/probe_grid.cpp) step by step;
-// the C++ works in double, this in float. Where the C++ returns count = 0 (outside the lattice,
-// or no valid probe in the cell) this returns false. weight[c] is the normalised weight of
-// cell corner c (0 where the C++ leaves the corner out), probe[c] its probe (−1 for none).
-// leakWeight() is the per-probe factor max(w_v · w_b, kMinWeight): the part that changes when
-// the visibility test changes. Its per-probe inputs come from probeStaticTexels() below.
+// the C++ works in double, this in float, and without branches: a corner without a valid probe
+// reads the null probe 0 (all texels zero) and gets weight 0 instead of being skipped, so every
+// pixel runs the same straight-line code (llvmpipe shades 8 pixels per SIMD instruction and
+// pays for both sides of a divergent branch, plus the mask bookkeeping). The weights come back
+// unnormalised, weight[c] = trilinear × validity × leakWeight (0 where the C++ leaves the corner
+// out), and the function returns their sum: 0 where the C++ returns count = 0 (outside the
+// lattice, or no valid probe in the cell); the caller divides once by the sum. probe[c] is the
+// corner's probe + 1 (0: none). leakWeight() is the per-probe factor max(w_v · w_b, kMinWeight):
+// the part that changes when the visibility test changes. Its per-probe inputs come from
+// probeStaticTexels() below.
 constexpr const char* kProbeWeightsHeadGlsl = R"(
 const float kBoundaryTolerance = 1e-4;
 const float kMinWeight = 1e-6;
 const float kTrilinearFloor = 1e-3;
 
-// prt::ProbeGrid::find.
+// prt::ProbeGrid::find, plus one: 0 where the lattice point has no probe or lies outside.
 int findProbe(ivec3 q) {
-  if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, uDims))) return -1;
-  return texelFetch(uLattice, (q.z * uDims.y + q.y) * uDims.x + q.x).r;
+  bool inside = all(greaterThanEqual(q, ivec3(0))) && all(lessThan(q, uDims));
+  ivec3 c = clamp(q, ivec3(0), uDims - 1);
+  int p = texelFetch(uLattice, (c.z * uDims.y + c.y) * uDims.x + c.x).r;
+  return inside ? p : 0;
 }
 
 // Chebyshev visibility (cubed) on each axis: face 2a + (d_a < 0) holds the mean μ and floored
@@ -66,9 +73,8 @@ int findProbe(ivec3 q) {
 float axisVisibility(vec4 axis, float da) {
   vec2 m = da < 0.0 ? axis.zw : axis.xy;  // (μ, σ²), σ² already floored
   float depth = abs(da);
-  if (depth <= m.x) return 1.0;
   float cheb = m.y / (m.y + (depth - m.x) * (depth - m.x));
-  return cheb * cheb * cheb;
+  return depth <= m.x ? 1.0 : cheb * cheb * cheb;
 }
 
 // Visibility times the soft back-face weight, floored: d = x − P, r = |d|.
@@ -76,27 +82,21 @@ float leakWeight(int p, vec3 d, float r, vec3 n) {
   float wv = axisVisibility(texelFetch(uProbeStatic, p * 4 + 1), d.x) *
              axisVisibility(texelFetch(uProbeStatic, p * 4 + 2), d.y) *
              axisVisibility(texelFetch(uProbeStatic, p * 4 + 3), d.z);
-  float wb = 1.0;
-  if (r > uNearZero) {
-    float h = (dot(-d / r, n) + 1.0) * 0.5;
-    wb = h * h + 0.2;
-  }
+  float h = (dot(-d / max(r, 1e-30), n) + 1.0) * 0.5;
+  float wb = r > uNearZero ? h * h + 0.2 : 1.0;
   return max(wv * wb, kMinWeight);
 }
 
-bool probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8]) {
+float probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8]) {
   vec3 u = (x - uOrigin) / uSpacing;
-  ivec3 base;
-  vec3 t;
-  for (int a = 0; a < 3; ++a) {
-    float hi = float(uDims[a] - 1);
-    if (!(u[a] >= -kBoundaryTolerance && u[a] <= hi + kBoundaryTolerance)) return false;
-    float v = clamp(u[a], 0.0, hi);
-    base[a] = min(int(floor(v)), max(uDims[a] - 2, 0));
-    t[a] = v - float(base[a]);
-  }
+  vec3 hi = vec3(uDims - 1);
+  bool inside = all(greaterThanEqual(u, vec3(-kBoundaryTolerance))) &&
+                all(lessThanEqual(u, hi + kBoundaryTolerance));  // false for NaN too
+  vec3 v = clamp(u, vec3(0.0), hi);
+  ivec3 base = min(ivec3(floor(v)), max(uDims - 2, ivec3(0)));
+  vec3 t = v - vec3(base);
   vec3 lerp[8];
-  vec4 pv[8];  // (position, validity)
+  vec4 pv[8];  // (position, validity), validity 0 for no or an invalid probe
   bool anyTrilinear = false;
 )";
 // Loop bodies over the cell's corners c = 0..7, emitted once per corner with C replaced by the
@@ -105,29 +105,22 @@ bool probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8]) {
 constexpr const char* kCornerSetupGlsl = R"(  {  // corner C
     ivec3 off = ivec3(C & 1, (C >> 1) & 1, (C >> 2) & 1);
     int p = findProbe(base + off);
-    pv[C] = p >= 0 ? texelFetch(uProbeStatic, p * 4) : vec4(0.0);
-    if (p >= 0 && !(pv[C].w > 0.0)) p = -1;  // invalid probes are never read
-    probe[C] = p;
+    pv[C] = texelFetch(uProbeStatic, p * 4);
+    bool valid = pv[C].w > 0.0;  // invalid probes are never read
+    probe[C] = valid ? p : 0;
+    pv[C].w = valid ? pv[C].w : 0.0;
     lerp[C] = vec3(off.x != 0 ? t.x : 1.0 - t.x, off.y != 0 ? t.y : 1.0 - t.y, off.z != 0 ? t.z : 1.0 - t.z);
-    if (p >= 0) anyTrilinear = anyTrilinear || lerp[C].x * lerp[C].y * lerp[C].z > 0.0;
+    anyTrilinear = anyTrilinear || (valid && lerp[C].x * lerp[C].y * lerp[C].z > 0.0);
   }
 )";
-constexpr const char* kCornerWeightGlsl = R"(  weight[C] = 0.0;
-  if (probe[C] >= 0) {  // corner C
+constexpr const char* kCornerWeightGlsl = R"(  {  // corner C
     vec3 f = anyTrilinear ? lerp[C] : max(lerp[C], vec3(kTrilinearFloor));
-    float wt = f.x * f.y * f.z * pv[C].w;
-    if (wt > 0.0) {
-      vec3 d = x - pv[C].xyz;
-      float r = length(d);
-      weight[C] = wt * leakWeight(probe[C], d, r, n);
-      sum += weight[C];
-    }
+    vec3 d = x - pv[C].xyz;
+    weight[C] = f.x * f.y * f.z * pv[C].w * leakWeight(probe[C], d, length(d), n);
+    sum += weight[C];
   }
 )";
-constexpr const char* kNormaliseGlsl = R"(  if (!(sum > 0.0)) return false;
-)";
-constexpr const char* kCornerNormaliseGlsl = "  weight[C] /= sum;\n";
-constexpr const char* kProbeWeightsTailGlsl = R"(  return true;
+constexpr const char* kProbeWeightsTailGlsl = R"(  return inside ? sum : 0.0;
 }
 )";
 // END probeWeights port.
@@ -147,8 +140,7 @@ std::string perCorner(const char* body) {
 
 std::string probeWeightsGlsl() {
   return std::string(kProbeWeightsHeadGlsl) + perCorner(kCornerSetupGlsl) + "  float sum = 0.0;\n" +
-         perCorner(kCornerWeightGlsl) + kNormaliseGlsl +
-         perCorner(kCornerNormaliseGlsl) + kProbeWeightsTailGlsl;
+         perCorner(kCornerWeightGlsl) + kProbeWeightsTailGlsl;
 }
 
 // Normalisation K_l^m of the real SH basis (as in probes/src/sh.cpp): sqrt((2l+1)/(4π) ·
@@ -197,6 +189,14 @@ std::string irradianceBasisGlsl(int bands) {
 
 }  // namespace
 
+std::string withMaterialDefines(const std::string& source, int variant) {
+  const size_t eol = source.find('\n') + 1;
+  std::string defines;
+  if (variant & kVariantTexture) defines += "#define HAS_TEXTURE 1\n";
+  if (variant & kVariantColor) defines += "#define HAS_COLOR 1\n";
+  return source.substr(0, eol) + defines + source.substr(eol);
+}
+
 std::vector<int> irradianceCoefficients(int bands) {
   std::vector<int> out;
   for (int j = 0; j < bands * bands; ++j)
@@ -210,15 +210,9 @@ std::string receiverFragmentShader(int bands) {
   std::string s = cat(R"(#version 450 core
 in vec3 vWorld;
 in vec3 vNormal;
-in vec2 vTexcoord;
-in vec4 vColor;
-layout(binding = 0) uniform sampler2D uBaseColorTexture;
-layout(binding = 1) uniform isamplerBuffer uLattice;       // lattice point -> probe, -1 none
-layout(binding = 2) uniform samplerBuffer uProbeStatic;    // 4 texels per probe
+)", kAlbedoInputsGlsl, R"(layout(binding = 1) uniform isamplerBuffer uLattice;       // lattice point -> probe + 1, 0 none
+layout(binding = 2) uniform samplerBuffer uProbeStatic;    // 4 texels per probe, probe 0 null
 layout(binding = 3) uniform samplerBuffer uProbeRadiance;  // c_p packed: packRadiance()
-uniform vec4 uBaseColor;
-uniform int uHasTexture;
-uniform int uHasColor;
 uniform vec3 uOrigin;
 uniform vec3 uSpacing;
 uniform ivec3 uDims;
@@ -235,16 +229,16 @@ void main() {
 )";
   s += irradianceBasisGlsl(bands);
   // Per corner, the weighted packed texels are summed (T_i += w · texel_i); the basis is applied
-  // once at the end: Σ_p w_p Σ_j b_j c_p,j = Σ_j b_j Σ_p w_p c_p,j.
+  // once at the end and the sum divided by Σ w once: Σ_p w_p Σ_j b_j c_p,j = Σ_j b_j Σ_p w_p c_p,j.
   const std::vector<int> used = irradianceCoefficients(bands);
   const int texels = radianceTexels(bands);
-  s += "  int probe[8];\n  float w[8];\n  vec3 e = vec3(0.0);\n";
+  s += "  int probe[8];\n  float w[8];\n  float sum = probeWeights(vWorld, n, probe, w);\n";
   for (int i = 0; i < texels; ++i) s += cat("  vec4 T", i, " = vec4(0.0);\n");
-  s += "  if (probeWeights(vWorld, n, probe, w)) {\n";
-  std::string corner = cat("    if (w[C] > 0.0) {  // corner C\n      int base = probe[C] * ", texels, ";\n");
-  for (int i = 0; i < texels; ++i) corner += cat("      T", i, " += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
-  corner += "    }\n";
+  std::string corner = cat("  {  // corner C\n    int base = probe[C] * ", texels, ";\n");
+  for (int i = 0; i < texels; ++i) corner += cat("    T", i, " += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
+  corner += "  }\n";
   s += perCorner(corner.c_str());
+  s += "  vec3 fromProbes = vec3(0.0);\n";
   const char* lane = "xyzw";
   for (size_t k = 0; k < used.size(); ++k) {
     std::string rgb;
@@ -252,17 +246,13 @@ void main() {
       const size_t f = 3 * k + size_t(c);
       rgb += cat(c ? ", " : "", "T", f / 4, ".", lane[f % 4]);
     }
-    s += cat("    e += vec3(", rgb, ") * b", used[k], ";\n");
+    s += cat("  fromProbes += vec3(", rgb, ") * b", used[k], ";\n");
   }
-  s += R"(  } else {
-    // Outside the lattice, or no valid probe around: lit by the unoccluded light (M = I).
-)";
-  for (int j : irradianceCoefficients(bands)) s += cat("    e += uLight[", j, "] * b", j, ";\n");
-  s += R"(  }
-  vec3 albedo = uBaseColor.rgb;
-  if (uHasColor != 0) albedo *= vColor.rgb;
-  if (uHasTexture != 0) albedo *= texture(uBaseColorTexture, vTexcoord).rgb;
-  fragColor = vec4(albedo * e * 0.31830988618379067, 1.0);
+  // Outside the lattice, or no valid probe around: lit by the unoccluded light (M = I).
+  s += "  vec3 fromLight = vec3(0.0);\n";
+  for (int j : used) s += cat("  fromLight += uLight[", j, "] * b", j, ";\n");
+  s += R"(  vec3 e = sum > 0.0 ? fromProbes / sum : fromLight;
+  fragColor = vec4(albedo() * e * 0.31830988618379067, 1.0);
 }
 )";
   return s;
@@ -275,10 +265,10 @@ void packRadiance(int bands, const std::vector<glm::vec3>& relit, std::vector<gl
   const size_t n2 = size_t(bands) * bands, texels = size_t(radianceTexels(bands));
   PRT_CHECK_EQ(relit.size() % n2, size_t(0));
   const size_t probes = relit.size() / n2;
-  out.assign(std::max<size_t>(probes, 1) * texels, glm::vec4(0.0f));
+  out.assign((probes + 1) * texels, glm::vec4(0.0f));
   tbb::parallel_for(tbb::blocked_range<size_t>(0, probes, 1024), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t p = r.begin(); p < r.end(); ++p) {
-      float* dst = &out[p * texels].x;
+      float* dst = &out[(p + 1) * texels].x;
       for (size_t k = 0; k < used.size(); ++k) {
         const glm::vec3& c = relit[p * n2 + size_t(used[k])];
         dst[3 * k] = c.r;
@@ -295,9 +285,9 @@ std::vector<glm::vec4> probeStaticTexels(const ProbeGrid& grid) {
   PRT_CHECK_EQ(grid.offset.size(), count);
   PRT_CHECK_EQ(grid.moments.size(), count);
   const double floor = varianceFloor(grid);
-  std::vector<glm::vec4> out(std::max<size_t>(count, 1) * kProbeStaticTexels, glm::vec4(0.0f));
+  std::vector<glm::vec4> out((count + 1) * kProbeStaticTexels, glm::vec4(0.0f));
   for (size_t p = 0; p < count; ++p) {
-    glm::vec4* t = &out[p * kProbeStaticTexels];
+    glm::vec4* t = &out[(p + 1) * kProbeStaticTexels];
     t[0] = glm::vec4(glm::vec3(grid.position(p)), grid.validity[p]);
     for (int axis = 0; axis < 3; ++axis) {
       // As probeWeights: σ² = max(m₂ − μ², floor) with μ, m₂ widened to double first.
@@ -312,11 +302,11 @@ std::vector<glm::vec4> probeStaticTexels(const ProbeGrid& grid) {
 
 std::vector<int32_t> latticeIndex(const ProbeGrid& grid) {
   const size_t points = size_t(grid.dims.x) * size_t(grid.dims.y) * size_t(grid.dims.z);
-  std::vector<int32_t> out(std::max<size_t>(points, 1), -1);
+  std::vector<int32_t> out(std::max<size_t>(points, 1), 0);
   for (size_t p = 0; p < grid.probeCount(); ++p) {
     const glm::ivec3 c = grid.coord[p];
     PRT_CHECK(c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x < grid.dims.x && c.y < grid.dims.y && c.z < grid.dims.z);
-    out[(size_t(c.z) * size_t(grid.dims.y) + size_t(c.y)) * size_t(grid.dims.x) + size_t(c.x)] = int32_t(p);
+    out[(size_t(c.z) * size_t(grid.dims.y) + size_t(c.y)) * size_t(grid.dims.x) + size_t(c.x)] = int32_t(p + 1);
   }
   return out;
 }
