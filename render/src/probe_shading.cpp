@@ -68,20 +68,20 @@ int findProbe(ivec3 q) {
   return inside ? p : 0;
 }
 
-// Chebyshev visibility (cubed) on each axis: face 2a + (d_a < 0) holds the mean μ and floored
-// variance σ² of the depth along axis a; the receiver's depth is |d_a|. All three axes must pass.
-float axisVisibility(vec4 axis, float da) {
-  vec2 m = da < 0.0 ? axis.zw : axis.xy;  // (μ, σ²), σ² already floored
-  float depth = abs(da);
+// Chebyshev visibility (cubed) on one axis: m = (μ, σ²) of face 2a + (d_a < 0), the mean and
+// floored variance of the depth along axis a; the receiver's depth is |d_a|.
+float axisVisibility(vec2 m, float depth) {
   float cheb = m.y / (m.y + (depth - m.x) * (depth - m.x));
   return depth <= m.x ? 1.0 : cheb * cheb * cheb;
 }
 
-// Visibility times the soft back-face weight, floored: d = x − P, r = |d|.
+// Visibility times the soft back-face weight, floored: d = x − P, r = |d|. All three axes must
+// pass. The faces of x and y come in one texel per sign pair (probeStaticTexels), z's in one.
 float leakWeight(int p, vec3 d, float r, vec3 n) {
-  float wv = axisVisibility(texelFetch(uProbeStatic, p * 4 + 1), d.x) *
-             axisVisibility(texelFetch(uProbeStatic, p * 4 + 2), d.y) *
-             axisVisibility(texelFetch(uProbeStatic, p * 4 + 3), d.z);
+  vec4 xy = texelFetch(uProbeStatic, p * kStaticTexels + 1 + (d.x < 0.0 ? 1 : 0) + (d.y < 0.0 ? 2 : 0));
+  vec4 z = texelFetch(uProbeStatic, p * kStaticTexels + 5);
+  float wv = axisVisibility(xy.xy, abs(d.x)) * axisVisibility(xy.zw, abs(d.y)) *
+             axisVisibility(d.z < 0.0 ? z.zw : z.xy, abs(d.z));
   float h = (dot(-d / max(r, 1e-30), n) + 1.0) * 0.5;
   float wb = r > uNearZero ? h * h + 0.2 : 1.0;
   return max(wv * wb, kMinWeight);
@@ -105,7 +105,7 @@ float probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8]) {
 constexpr const char* kCornerSetupGlsl = R"(  {  // corner C
     ivec3 off = ivec3(C & 1, (C >> 1) & 1, (C >> 2) & 1);
     int p = findProbe(base + off);
-    pv[C] = texelFetch(uProbeStatic, p * 4);
+    pv[C] = texelFetch(uProbeStatic, p * kStaticTexels);
     bool valid = pv[C].w > 0.0;  // invalid probes are never read
     probe[C] = valid ? p : 0;
     pv[C].w = valid ? pv[C].w : 0.0;
@@ -211,12 +211,13 @@ std::string receiverFragmentShader(int bands) {
 in vec3 vWorld;
 in vec3 vNormal;
 )", kAlbedoInputsGlsl, R"(layout(binding = 1) uniform isamplerBuffer uLattice;       // lattice point -> probe + 1, 0 none
-layout(binding = 2) uniform samplerBuffer uProbeStatic;    // 4 texels per probe, probe 0 null
+layout(binding = 2) uniform samplerBuffer uProbeStatic;    // kStaticTexels per probe, probe 0 null
 layout(binding = 3) uniform samplerBuffer uProbeRadiance;  // c_p packed: packRadiance()
 uniform vec3 uOrigin;
 uniform vec3 uSpacing;
 uniform ivec3 uDims;
 uniform float uNearZero;
+const int kStaticTexels = )", kProbeStaticTexels, R"(;
 const int kCoeffs = )", n2, R"(;
 uniform vec3 uLight[kCoeffs];  // the light itself: incident radiance where no probe applies
 out vec4 fragColor;
@@ -289,13 +290,17 @@ std::vector<glm::vec4> probeStaticTexels(const ProbeGrid& grid) {
   for (size_t p = 0; p < count; ++p) {
     glm::vec4* t = &out[(p + 1) * kProbeStaticTexels];
     t[0] = glm::vec4(glm::vec3(grid.position(p)), grid.validity[p]);
-    for (int axis = 0; axis < 3; ++axis) {
-      // As probeWeights: σ² = max(m₂ − μ², floor) with μ, m₂ widened to double first.
-      const glm::vec2 pos = grid.moments[p][size_t(2 * axis)], neg = grid.moments[p][size_t(2 * axis + 1)];
-      const double varPos = std::max(double(pos.y) - double(pos.x) * double(pos.x), floor);
-      const double varNeg = std::max(double(neg.y) - double(neg.x) * double(neg.x), floor);
-      t[1 + axis] = glm::vec4(pos.x, float(varPos), neg.x, float(varNeg));
+    // Per face f = 2·axis + (negative side): (μ, σ²), σ² = max(m₂ − μ², floor) with μ, m₂ widened
+    // to double first, as probeWeights does.
+    glm::vec2 face[6];
+    for (size_t f = 0; f < 6; ++f) {
+      const glm::vec2 m = grid.moments[p][f];
+      face[f] = glm::vec2(m.x, float(std::max(double(m.y) - double(m.x) * double(m.x), floor)));
     }
+    for (int negY = 0; negY < 2; ++negY)
+      for (int negX = 0; negX < 2; ++negX)
+        t[1 + negX + 2 * negY] = glm::vec4(face[negX], face[2 + negY]);
+    t[5] = glm::vec4(face[4], face[5]);
   }
   return out;
 }

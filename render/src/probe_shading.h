@@ -45,7 +45,7 @@ constexpr int kVariantTexture = 1, kVariantColor = 2, kVariants = 4;
 std::string withMaterialDefines(const std::string& source, int variant);
 
 /// Texels per probe in the static buffer (probeStaticTexels).
-constexpr int kProbeStaticTexels = 4;
+constexpr int kProbeStaticTexels = 6;
 
 /// Coefficient indices j < bands² whose band l has a non-zero clamped-cosine factor Â_l (odd
 /// l > 1 contribute nothing to irradiance, so the shader never reads them).
@@ -65,9 +65,12 @@ void packRadiance(int bands, const std::vector<glm::vec3>& relit, std::vector<gl
 std::string receiverFragmentShader(int bands);
 
 /// Per probe p, kProbeStaticTexels RGBA texels from texel (p + 1) · kProbeStaticTexels on (the
-/// null probe 0 is all zero: validity 0): (position xyz, validity), then per axis x, y, z
-/// (μ₊, σ²₊, μ₋, σ²₋) of the + and − faces, σ² = max(m₂ − μ², floor²) evaluated in double as
-/// probeWeights does (a float shader would lose σ² to cancellation).
+/// null probe 0 is all zero: validity 0): (position xyz, validity); then for the four sign pairs
+/// (s_x, s_y), texel 1 + s_x + 2 s_y (s = 1 on the − side): (μ, σ²) of x's face of side s_x and
+/// of y's face of side s_y; then (μ₊, σ²₊, μ₋, σ²₋) of z. The shader reads the position texel,
+/// one x-y texel and the z texel: 3 fetches per probe instead of 4 with one texel per axis.
+/// σ² = max(m₂ − μ², floor²) is evaluated in double as probeWeights does (a float shader would
+/// lose σ² to cancellation).
 std::vector<glm::vec4> probeStaticTexels(const ProbeGrid& grid);
 
 /// Dense lattice (index (z·dims.y + y)·dims.x + x) -> position in grid.coord plus one, 0 for none.
