@@ -11,8 +11,9 @@
 // process (surface transfer with --samples directions and 1 bounce, a --probe-dims³ probe
 // grid), which takes a few seconds and is not timed. Frames sweep the receiver's animation
 // (frame i at time i / frames · duration) under a rotating sky, so every frame relights.
-// Three kinds of frame are interleaved (full, flat, baked instances only; the order rotates
-// from frame to frame) and compared frame by frame, wall and process CPU time
+// Four kinds of frame are interleaved (full with the per-pixel probe lookup, full with the
+// per-vertex lookup, flat, baked instances only; the order rotates from frame to frame) and
+// compared frame by frame, wall and process CPU time
 // (CLOCK_PROCESS_CPUTIME_ID: llvmpipe's and TBB's threads included), so that the load of a
 // shared machine falls on all kinds alike. --frames-only 1 skips the light-update part.
 #include <algorithm>
@@ -309,7 +310,7 @@ int main(int argc, char** argv) {
     }
     // The baked instances alone: the same scene without a probe grid (receivers not drawn).
     render::Renderer bakedOnly(context, scene);
-    Timing prtTiming, flatTiming, staticTiming;
+    Timing prtTiming, flatTiming, staticTiming, vertexTiming;
     std::vector<size_t> receiverPixels;
     render::FrameStats last;
     for (int i = -2; i < frames; ++i) {  // two warm-up frames: llvmpipe compiles shaders on first use
@@ -317,16 +318,18 @@ int main(int argc, char** argv) {
       f.camera = view;
       f.time = i < 0 ? 0.0 : duration * i / frames;
       f.light = sky(360.0 * std::max(i, 0) / frames);
-      render::Frame flatFrame = f;
+      render::Frame flatFrame = f, vertexFrame = f;
       flatFrame.shading = render::Shading::Flat;
+      vertexFrame.probeLookup = render::ProbeLookup::PerVertex;
       ImageRgb full, withoutReceivers;
-      for (int k = 0; k < 3; ++k) {
-        switch ((k + std::max(i, 0)) % 3) {
+      for (int k = 0; k < 4; ++k) {
+        switch ((k + std::max(i, 0)) % 4) {
           case 0:
             full = timedRender(renderer, f, i >= 0 ? &prtTiming : nullptr);
             last = renderer.lastFrame();
             break;
           case 1: timedRender(renderer, flatFrame, i >= 0 ? &flatTiming : nullptr); break;
+          case 2: timedRender(renderer, vertexFrame, i >= 0 ? &vertexTiming : nullptr); break;
           default: withoutReceivers = timedRender(bakedOnly, f, i >= 0 ? &staticTiming : nullptr); break;
         }
       }
@@ -346,6 +349,9 @@ int main(int argc, char** argv) {
                   {"cpu_ratio", medianRatio(prtTiming.cpu, flatTiming.cpu)},
                   {"baked_ratio", medianRatio(staticTiming.total, flatTiming.total)},
                   {"baked_cpu_ratio", medianRatio(staticTiming.cpu, flatTiming.cpu)},
+                  {"prt_per_vertex_lookup", vertexTiming.json()},
+                  {"per_vertex_ratio", medianRatio(vertexTiming.total, flatTiming.total)},
+                  {"per_vertex_cpu_ratio", medianRatio(vertexTiming.cpu, flatTiming.cpu)},
                   {"target_ratio", 1.5}};
     if (!framesOnly) j.update(lightUpdates(context, scene, view));
     const std::string text = j.dump(2);

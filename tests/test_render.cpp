@@ -117,6 +117,8 @@ struct ProbeLighting {
   std::vector<glm::vec3> relit;
   sh::ShRgb light;
   double time = 0.0;
+  // ProbeLookup::PerVertex: the lookup at the triangle's vertices, its result interpolated.
+  bool perVertex = false;
 };
 
 ProbeLighting probeLighting(const ProbeGrid& grid, const sh::ShRgb& light, double time = 0.0) {
@@ -219,12 +221,26 @@ Hit oracle(const Scene& s, const CameraView& c, const sh::ShRgb& light, int widt
         const glm::dvec3 x = origin + t * dir;
         const glm::vec3 n(glm::normalize(normal));
         const ProbeGrid& g = *probes->grid;
-        const sh::ShRgb incident = probeWeights(g, glm::vec3(x), &n).count > 0
-                                       ? interpolateRadiance(g, probes->relit, glm::vec3(x), &n)
-                                       : probes->light;
+        auto lookup = [&](const glm::vec3& at, const glm::vec3& nAt) {
+          return probeWeights(g, at, &nAt).count > 0 ? interpolateRadiance(g, probes->relit, at, &nAt)
+                                                     : probes->light;
+        };
+        sh::ShRgb incident(g.bands);
+        best.ambiguous = false;
+        if (probes->perVertex) {
+          // Per vertex: the lookup at the vertices (moved, unit normals), interpolated with the
+          // hit's barycentrics (what perspective-correct interpolation of varyings computes).
+          for (int k = 0; k < 3; ++k) {
+            const sh::ShRgb atVertex = lookup(m.positions[v[k]], m.normals[v[k]]);
+            for (size_t j = 0; j < atVertex.c.size(); ++j) incident.c[j] += float(b[k]) * atVertex.c[j];
+            best.ambiguous = best.ambiguous || nearJump(g, glm::dvec3(m.positions[v[k]]), m.normals[v[k]]);
+          }
+        } else {
+          incident = lookup(glm::vec3(x), n);
+          best.ambiguous = nearJump(g, x, n);
+        }
         e = glm::dvec3(sh::irradiance(incident, n));
         best.normal = glm::dvec3(n);
-        best.ambiguous = nearJump(g, x, n);
       }
       glm::dvec3 albedo = glm::dvec3(mat.baseColorFactor) * color;
       // Texture::sample is the project's bilinear lookup (texel centres at (i + ½)/size, glTF
@@ -1140,6 +1156,68 @@ TEST(RenderReceivers, MaterialVariantsMatchOracle) {
   EXPECT_GT(c.compared - c.receiver, 400);  // and the quads' rims around them
   EXPECT_LT(c.maxReceiverError, kReceiverTolerance) << "mean " << c.meanReceiverError;
   EXPECT_LT(c.maxError, std::max(textureTolerance(ctx), kReceiverTolerance));
+}
+
+// ProbeLookup::PerVertex: the lookup at the vertices, interpolated, matches an oracle that does
+// the same in double (C++ interpolateRadiance at each vertex, barycentric interpolation, the
+// irradiance at the pixel's normal): the baked room, and a random grid at two band counts.
+TEST(RenderReceivers, PerVertexLookupMatchesItsOracle) {
+  const BakedRoom& room = bakedRoom();
+  const sh::ShRgb light = skyLight(3);
+  ProbeLighting probes = probeLighting(room.grid, light);
+  probes.perVertex = true;
+  const int w = 96, h = 72;
+  GlContext ctx(GlBackend::OSMesa, w, h);
+  Renderer r(ctx, room.scene);
+  r.setProbes(room.grid);
+  Frame f;
+  f.camera = roomCamera();
+  f.light = light;
+  const ImageRgb perPixel = r.render(f);
+  f.probeLookup = ProbeLookup::PerVertex;
+  const ImageRgb perVertex = r.render(f);
+  const Comparison c = compare(perVertex, room.scene, roomCamera(), light, &probes);
+  double peak = 0.0;
+  for (const glm::vec3& p : perPixel.pixels) peak = std::max({peak, double(p.x), double(p.y), double(p.z)});
+  std::printf("  room: %d receiver pixels (%d skipped), max error %.3g, mean %.3g; per vertex vs per pixel: %.3g of the peak\n",
+              c.receiver, c.ambiguous, c.maxReceiverError, c.meanReceiverError,
+              maxDifference(perPixel, perVertex) / peak);
+  EXPECT_GT(c.receiver, 400);
+  EXPECT_LT(c.ambiguous, c.receiver / 5);
+  EXPECT_LT(c.maxReceiverError, kReceiverTolerance);
+  EXPECT_GT(maxDifference(perPixel, perVertex), 0.0);  // a different lookup, not the per-pixel one
+
+  Scene s;
+  s.path = "random-grid";
+  Material mat;
+  mat.baseColorFactor = glm::vec4(0.8f, 0.7f, 0.9f, 1.0f);
+  s.materials.push_back(mat);
+  MeshInstance ball = sphere({0.05f, 0.0f, 0.0f}, 0.75f, 32, 16);
+  ball.material = 0;
+  ball.receiverOnly = true;
+  s.meshes.push_back(ball);
+  updateBounds(s);
+  const CameraView cam = lookAt({0.4, 0.5, 3.0}, {0.05, 0.0, 0.0}, 40.0);
+  Renderer rs(ctx, s);
+  for (int bands : {2, 5}) {
+    SCOPED_TRACE(cat(bands, " bands"));
+    const ProbeGrid g = randomGrid(bands, 300 + uint32_t(bands));
+    rs.setProbes(g);
+    const sh::ShRgb l = randomLight(bands, 50);
+    ProbeLighting pl = probeLighting(g, l);
+    pl.perVertex = true;
+    Frame fs;
+    fs.camera = cam;
+    fs.light = l;
+    fs.width = w;
+    fs.height = h;
+    fs.probeLookup = ProbeLookup::PerVertex;
+    const Comparison cs = compare(rs.render(fs), s, cam, l, &pl);
+    std::printf("  random grid, %d bands: %d receiver pixels (%d skipped), max error %.3g\n", bands, cs.receiver,
+                cs.ambiguous, cs.maxReceiverError);
+    EXPECT_GT(cs.receiver, 1000);
+    EXPECT_LT(cs.maxReceiverError, kReceiverTolerance) << "mean " << cs.meanReceiverError;
+  }
 }
 
 // A receiver moved by a glTF animation (translation LINEAR, scale STEP: the normals change

@@ -204,13 +204,15 @@ std::vector<int> irradianceCoefficients(int bands) {
   return out;
 }
 
-std::string receiverFragmentShader(int bands) {
+namespace {
+
+// Declarations and functions of the probe lookup, for the fragment or the vertex stage:
+// incidentRadiance(x, n, T) = Σ_p w_p c_p / Σ_p w_p in the packed radiance layout (T[i] = texel
+// i), or the light in that layout where no probe applies; irradiance(T, n) = Σ_j Â_l y_j(n) c_j.
+std::string probeLookupGlsl(int bands) {
   PRT_CHECK(bands >= 1 && bands <= sh::kMaxBands);
-  const int n2 = bands * bands;
-  std::string s = cat(R"(#version 450 core
-in vec3 vWorld;
-in vec3 vNormal;
-)", kAlbedoInputsGlsl, R"(layout(binding = 1) uniform isamplerBuffer uLattice;       // lattice point -> probe + 1, 0 none
+  const int texels = radianceTexels(bands);
+  std::string s = cat(R"(layout(binding = 1) uniform isamplerBuffer uLattice;       // lattice point -> probe + 1, 0 none
 layout(binding = 2) uniform samplerBuffer uProbeStatic;    // kStaticTexels per probe, probe 0 null
 layout(binding = 3) uniform samplerBuffer uProbeRadiance;  // c_p packed: packRadiance()
 uniform vec3 uOrigin;
@@ -218,45 +220,81 @@ uniform vec3 uSpacing;
 uniform ivec3 uDims;
 uniform float uNearZero;
 const int kStaticTexels = )", kProbeStaticTexels, R"(;
-const int kCoeffs = )", n2, R"(;
-uniform vec3 uLight[kCoeffs];  // the light itself: incident radiance where no probe applies
-out vec4 fragColor;
+const int kTexels = )", texels, R"(;
+// The light itself, packed as the probes are: incident radiance where no probe applies.
+uniform vec4 uLightPacked[kTexels];
 )");
   s += probeWeightsGlsl();
-  s += R"(
-void main() {
-  vec3 n = normalize(vNormal);
-  float px = n.x, py = n.y, pz = n.z;
-)";
-  s += irradianceBasisGlsl(bands);
-  // Per corner, the weighted packed texels are summed (T_i += w · texel_i); the basis is applied
-  // once at the end and the sum divided by Σ w once: Σ_p w_p Σ_j b_j c_p,j = Σ_j b_j Σ_p w_p c_p,j.
-  const std::vector<int> used = irradianceCoefficients(bands);
-  const int texels = radianceTexels(bands);
-  s += "  int probe[8];\n  float w[8];\n  float sum = probeWeights(vWorld, n, probe, w);\n";
-  for (int i = 0; i < texels; ++i) s += cat("  vec4 T", i, " = vec4(0.0);\n");
-  std::string corner = cat("  {  // corner C\n    int base = probe[C] * ", texels, ";\n");
-  for (int i = 0; i < texels; ++i) corner += cat("    T", i, " += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
+  // Per corner, the weighted packed texels are summed (T_i += w · texel_i) and divided by Σ w once.
+  s += "\nvoid incidentRadiance(vec3 x, vec3 n, out vec4 T[kTexels]) {\n";
+  s += "  int probe[8];\n  float w[8];\n  float sum = probeWeights(x, n, probe, w);\n";
+  for (int i = 0; i < texels; ++i) s += cat("  T[", i, "] = vec4(0.0);\n");
+  std::string corner = "  {  // corner C\n    int base = probe[C] * kTexels;\n";
+  for (int i = 0; i < texels; ++i) corner += cat("    T[", i, "] += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
   corner += "  }\n";
   s += perCorner(corner.c_str());
-  s += "  vec3 fromProbes = vec3(0.0);\n";
+  for (int i = 0; i < texels; ++i) s += cat("  T[", i, "] = sum > 0.0 ? T[", i, "] / sum : uLightPacked[", i, "];\n");
+  s += "}\n";
+  return s;
+}
+
+// irradiance(T, n): the basis applied to packed radiance, n unit.
+std::string irradianceGlsl(int bands) {
+  std::string s = "\nvec3 irradiance(vec4 T[kTexels], vec3 n) {\n  float px = n.x, py = n.y, pz = n.z;\n";
+  s += irradianceBasisGlsl(bands);
+  s += "  vec3 e = vec3(0.0);\n";
+  const std::vector<int> used = irradianceCoefficients(bands);
   const char* lane = "xyzw";
   for (size_t k = 0; k < used.size(); ++k) {
     std::string rgb;
     for (int c = 0; c < 3; ++c) {
       const size_t f = 3 * k + size_t(c);
-      rgb += cat(c ? ", " : "", "T", f / 4, ".", lane[f % 4]);
+      rgb += cat(c ? ", " : "", "T[", f / 4, "].", lane[f % 4]);
     }
-    s += cat("  fromProbes += vec3(", rgb, ") * b", used[k], ";\n");
+    s += cat("  e += vec3(", rgb, ") * b", used[k], ";\n");
   }
-  // Outside the lattice, or no valid probe around: lit by the unoccluded light (M = I).
-  s += "  vec3 fromLight = vec3(0.0);\n";
-  for (int j : used) s += cat("  fromLight += uLight[", j, "] * b", j, ";\n");
-  s += R"(  vec3 e = sum > 0.0 ? fromProbes / sum : fromLight;
-  fragColor = vec4(albedo() * e * 0.31830988618379067, 1.0);
+  return s + "  return e;\n}\n";
 }
-)";
-  return s;
+
+}  // namespace
+
+std::string receiverVertexShader(int bands, ProbeLookup lookup) {
+  const bool perVertex = lookup == ProbeLookup::PerVertex;
+  std::string s = cat(R"(#version 450 core
+layout(location = 0) in vec3 aPosition;
+layout(location = 1) in vec2 aTexcoord;
+layout(location = 2) in vec4 aColor;
+layout(location = 3) in vec3 aNormal;
+uniform mat4 uViewProj;
+uniform mat4 uModel;
+uniform mat3 uNormalMatrix;
+out vec3 vWorld;
+out vec3 vNormal;
+)", kAlbedoOutputsGlsl);
+  if (perVertex) s += probeLookupGlsl(bands) + "out vec4 vRadiance[kTexels];\n";
+  s += cat(R"(void main() {
+  vec4 world = uModel * vec4(aPosition, 1.0);
+  vWorld = world.xyz;
+  vNormal = normalize(uNormalMatrix * aNormal);  // unit world normals per vertex, interpolated
+)", kAlbedoPassGlsl);
+  if (perVertex) s += "  vec4 T[kTexels];\n  incidentRadiance(vWorld, vNormal, T);\n  vRadiance = T;\n";
+  return s + "  gl_Position = uViewProj * world;\n}\n";
+}
+
+std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
+  const bool perVertex = lookup == ProbeLookup::PerVertex;
+  std::string s = cat("#version 450 core\nin vec3 vWorld;\nin vec3 vNormal;\n", kAlbedoInputsGlsl);
+  if (perVertex)
+    s += cat("const int kTexels = ", radianceTexels(bands), ";\nin vec4 vRadiance[kTexels];\n");
+  else
+    s += probeLookupGlsl(bands);
+  s += irradianceGlsl(bands);
+  s += "out vec4 fragColor;\nvoid main() {\n  vec3 n = normalize(vNormal);\n";
+  if (perVertex)
+    s += "  vec3 e = irradiance(vRadiance, n);\n";
+  else
+    s += "  vec4 T[kTexels];\n  incidentRadiance(vWorld, n, T);\n  vec3 e = irradiance(T, n);\n";
+  return s + "  fragColor = vec4(albedo() * e * 0.31830988618379067, 1.0);\n}\n";
 }
 
 int radianceTexels(int bands) { return int(3 * irradianceCoefficients(bands).size() + 3) / 4; }
@@ -278,6 +316,13 @@ void packRadiance(int bands, const std::vector<glm::vec3>& relit, std::vector<gl
       }
     }
   });
+}
+
+std::vector<glm::vec4> packLight(int bands, const sh::ShRgb& light) {
+  const sh::ShRgb l = sh::resize(light, bands);
+  std::vector<glm::vec4> packed;
+  packRadiance(bands, l.c, packed);  // the null probe's texels, then the light's
+  return std::vector<glm::vec4>(packed.begin() + radianceTexels(bands), packed.end());
 }
 
 std::vector<glm::vec4> probeStaticTexels(const ProbeGrid& grid) {

@@ -10,6 +10,8 @@
 #include <glm/glm.hpp>
 
 #include "prt/probe_grid.h"
+#include "prt/render/renderer.h"
+#include "prt/sh.h"
 
 namespace prt::render {
 
@@ -37,6 +39,22 @@ vec3 albedo() {
 }
 )";
 
+// The vertex shaders' side of kAlbedoInputsGlsl: declarations, and the copies in main().
+inline constexpr const char* kAlbedoOutputsGlsl = R"(#ifdef HAS_TEXTURE
+out vec2 vTexcoord;
+#endif
+#ifdef HAS_COLOR
+out vec4 vColor;
+#endif
+)";
+inline constexpr const char* kAlbedoPassGlsl = R"(#ifdef HAS_TEXTURE
+  vTexcoord = aTexcoord;
+#endif
+#ifdef HAS_COLOR
+  vColor = aColor;
+#endif
+)";
+
 /// Material variant of a shader: bit kVariantTexture (base colour texture sampled), bit
 /// kVariantColor (COLOR_0 present).
 constexpr int kVariantTexture = 1, kVariantColor = 2, kVariants = 4;
@@ -59,10 +77,18 @@ int radianceTexels(int bands);
 /// irradianceCoefficients()[k] at floats 3k..3k+2 of the probe's texels.
 void packRadiance(int bands, const std::vector<glm::vec3>& relit, std::vector<glm::vec4>& out);
 
-/// The receivers' fragment shader for a grid of `bands` bands, to be compiled through
-/// withMaterialDefines. Inputs: vWorld, vNormal and those of kAlbedoInputsGlsl; uniforms and
-/// bindings as set up by Renderer (renderer.cpp).
-std::string receiverFragmentShader(int bands);
+/// The receivers' shaders for a grid of `bands` bands, to be compiled through
+/// withMaterialDefines; uniforms and bindings as set up by Renderer (renderer.cpp). The vertex
+/// shader moves the rest-pose vertex by uModel / uNormalMatrix and passes vWorld, vNormal and the
+/// material's varyings. ProbeLookup::PerPixel: the fragment shader does the probe lookup at the
+/// interpolated x and n. PerVertex: the vertex shader does it at the vertex and passes the
+/// normalised incident radiance (packed, radianceTexels vec4) on, interpolated; the fragment shader
+/// applies the irradiance basis at the interpolated normal.
+std::string receiverVertexShader(int bands, ProbeLookup lookup);
+std::string receiverFragmentShader(int bands, ProbeLookup lookup);
+
+/// The light packed as packRadiance packs one probe (radianceTexels(bands) texels).
+std::vector<glm::vec4> packLight(int bands, const sh::ShRgb& light);
 
 /// Per probe p, kProbeStaticTexels RGBA texels from texel (p + 1) · kProbeStaticTexels on (the
 /// null probe 0 is all zero: validity 0): (position xyz, validity); then for the four sign pairs

@@ -34,21 +34,6 @@ constexpr GLuint kFirstTransferAttribute = 3;
 
 int attributeChunks(int bands) { return (3 * bands * bands + 3) / 4; }
 
-// The vertex shaders' side of kAlbedoInputsGlsl: declarations, and the copies in main().
-constexpr const char* kAlbedoOutputsGlsl = R"(#ifdef HAS_TEXTURE
-out vec2 vTexcoord;
-#endif
-#ifdef HAS_COLOR
-out vec4 vColor;
-#endif
-)";
-constexpr const char* kAlbedoPassGlsl = R"(#ifdef HAS_TEXTURE
-  vTexcoord = aTexcoord;
-#endif
-#ifdef HAS_COLOR
-  vColor = aColor;
-#endif
-)";
 
 std::string vertexShader(int bands) {
   std::string s = R"(#version 450 core
@@ -98,28 +83,6 @@ std::string bakedFragmentShader() {
 in vec3 vTransferLight;
 )", kAlbedoInputsGlsl, R"(out vec4 fragColor;
 void main() { fragColor = vec4(albedo() * vTransferLight * 0.31830988618379067, 1.0); }
-)");
-}
-
-// Receivers: world position and normal for the per-pixel probe lookup. uModel moves the stored
-// rest-pose (world-space) vertices to where the animation puts them at the frame's time.
-std::string receiverVertexShader() {
-  return cat(R"(#version 450 core
-layout(location = 0) in vec3 aPosition;
-layout(location = 1) in vec2 aTexcoord;
-layout(location = 2) in vec4 aColor;
-layout(location = 3) in vec3 aNormal;
-uniform mat4 uViewProj;
-uniform mat4 uModel;
-uniform mat3 uNormalMatrix;
-out vec3 vWorld;
-out vec3 vNormal;
-)", kAlbedoOutputsGlsl, R"(void main() {
-  vec4 world = uModel * vec4(aPosition, 1.0);
-  vWorld = world.xyz;
-  vNormal = normalize(uNormalMatrix * aNormal);  // unit world normals per vertex, interpolated
-)", kAlbedoPassGlsl, R"(  gl_Position = uViewProj * world;
-}
 )");
 }
 
@@ -244,7 +207,8 @@ struct Renderer::Impl {
   Scene animation;                  // the scene's nodes and animations only
   std::vector<GLuint> textures;     // per Scene texture, 0 where unused
   // Per material variant (id 0: no instance needs it).
-  std::array<Program, kVariants> programs, receiverPrograms;
+  std::array<Program, kVariants> programs;
+  std::array<std::array<Program, kVariants>, 2> receiverPrograms;  // [ProbeLookup][variant]
   Program flatProgram;
   // Probe grid: lattice index, static per-probe data, per-frame radiance (buffer + texture each).
   const ProbeGrid* grid = nullptr;
@@ -320,6 +284,7 @@ Renderer::Impl::Program Renderer::Impl::link(const std::string& vsSource, const 
   p.normalMatrix = loc("uNormalMatrix");
   p.light = bands <= kMaxAttributeBands ? loc("uLightFlat") : loc("uLight");
   if (p.light < 0) p.light = loc("uLight");
+  if (p.light < 0) p.light = loc("uLightPacked");
   p.baseColor = loc("uBaseColor");
   p.origin = loc("uOrigin");
   p.spacing = loc("uSpacing");
@@ -466,10 +431,11 @@ void Renderer::Impl::releaseProbes() {
   if (probeBuffers[0]) gl.DeleteBuffers(3, probeBuffers);
   for (GLuint& t : probeTextures) t = 0;
   for (GLuint& b : probeBuffers) b = 0;
-  for (Program& p : receiverPrograms) {
-    if (p.id) gl.DeleteProgram(p.id);
-    p = Program{};
-  }
+  for (auto& lookup : receiverPrograms)
+    for (Program& p : lookup) {
+      if (p.id) gl.DeleteProgram(p.id);
+      p = Program{};
+    }
   grid = nullptr;
 }
 
@@ -492,11 +458,13 @@ void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
   for (size_t texels : {lattice.size(), statics.size(), radianceCount})
     if (texels > size_t(maxTexels))
       throw Error(cat("probe grid: ", texels, " texels exceed the GL's texture buffer limit of ", maxTexels));
-  const std::string fs = receiverFragmentShader(g.bands);
-  for (const Instance& in : receivers)
-    if (!receiverPrograms[size_t(in.variant)].id)
-      receiverPrograms[size_t(in.variant)] = link(withMaterialDefines(receiverVertexShader(), in.variant),
-                                                  withMaterialDefines(fs, in.variant), "receiver");
+  for (ProbeLookup lookup : {ProbeLookup::PerPixel, ProbeLookup::PerVertex}) {
+    const std::string vs = receiverVertexShader(g.bands, lookup), fs = receiverFragmentShader(g.bands, lookup);
+    for (const Instance& in : receivers) {
+      Program& p = receiverPrograms[size_t(lookup)][size_t(in.variant)];
+      if (!p.id) p = link(withMaterialDefines(vs, in.variant), withMaterialDefines(fs, in.variant), "receiver");
+    }
+  }
   gl.CreateBuffers(3, probeBuffers);
   gl.NamedBufferStorage(probeBuffers[0], GLsizeiptr(lattice.size() * sizeof(int32_t)), lattice.data(), 0);
   gl.NamedBufferStorage(probeBuffers[1], GLsizeiptr(statics.size() * sizeof(glm::vec4)), statics.data(), 0);
@@ -507,13 +475,14 @@ void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
   gl.TextureBuffer(probeTextures[1], GL_RGBA32F, probeBuffers[1]);
   gl.TextureBuffer(probeTextures[2], GL_RGBA32F, probeBuffers[2]);
   const glm::vec3 origin(g.origin), spacing(g.spacing);
-  for (const Program& p : receiverPrograms) {
-    if (!p.id) continue;
-    gl.ProgramUniform3fv(p.id, p.origin, 1, &origin.x);
-    gl.ProgramUniform3fv(p.id, p.spacing, 1, &spacing.x);
-    gl.ProgramUniform3iv(p.id, p.dims, 1, &g.dims.x);
-    gl.ProgramUniform1f(p.id, p.nearZero, float(nearZero(g)));
-  }
+  for (const auto& lookup : receiverPrograms)
+    for (const Program& p : lookup) {
+      if (!p.id) continue;
+      gl.ProgramUniform3fv(p.id, p.origin, 1, &origin.x);
+      gl.ProgramUniform3fv(p.id, p.spacing, 1, &spacing.x);
+      gl.ProgramUniform3iv(p.id, p.dims, 1, &g.dims.x);
+      gl.ProgramUniform1f(p.id, p.nearZero, float(nearZero(g)));
+    }
   checkError("uploading the probe grid");
   grid = &g;
 }
@@ -638,8 +607,9 @@ ImageRgb Renderer::render(const Frame& frame) {
   if (!flat && drawReceivers) {
     const ProbeGrid& g = *r.grid;
     const sh::ShRgb l = sh::resize(frame.light, g.bands);
-    for (const Impl::Program& p : r.receiverPrograms)
-      if (p.id) gl.ProgramUniform3fv(p.id, p.light, l.size(), &l.c[0].x);
+    const std::vector<glm::vec4> packedLight = packLight(g.bands, l);
+    for (const Impl::Program& p : r.receiverPrograms[size_t(frame.probeLookup)])
+      if (p.id) gl.ProgramUniform4fv(p.id, p.light, GLsizei(packedLight.size()), &packedLight[0].x);
     if (g.probeCount() > 0) {
       const std::vector<glm::vec3> relit = relightProbes(g, l);
       packRadiance(g.bands, relit, r.radiance);
@@ -722,7 +692,7 @@ ImageRgb Renderer::render(const Frame& frame) {
     // before their (costly) probe lookup runs.
     if (!flat)
       for (GLuint unit = 1; unit <= 3; ++unit) gl.BindTextureUnit(unit, r.probeTextures[unit - 1]);
-    drawAll(r.receivers, r.receiverPrograms, [&](const Impl::Program& p, const Impl::Instance& in) {
+    drawAll(r.receivers, r.receiverPrograms[size_t(frame.probeLookup)], [&](const Impl::Program& p, const Impl::Instance& in) {
       const glm::dmat4 motion = instanceMotion(r.animation, in.placement, frame.time);
       const glm::dmat3 linear(motion);
       // Cofactor matrix = det · inverse transpose: maps normals, defined even for singular
