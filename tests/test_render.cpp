@@ -474,11 +474,8 @@ TEST(RenderShading, LightOfFewerBandsIsZeroPadded) {
             shadingTolerance(ctx));
 }
 
-TEST(RenderShading, TexturedQuadAlbedoPerPixel) {
-  // A 4×3 texture with distinct texels over a quad facing the camera, transfer·light = π
-  // everywhere, so each pixel shows albedo = factor × bilinear texture lookup exactly.
-  Scene s;
-  s.path = "textured-quad";
+// A 4×3 texture with distinct texels: red grows with x, green with y, blue alternates.
+Texture checker() {
   Texture t;
   t.name = "checker";
   t.width = 4;
@@ -486,7 +483,15 @@ TEST(RenderShading, TexturedQuadAlbedoPerPixel) {
   for (int y = 0; y < t.height; ++y)
     for (int x = 0; x < t.width; ++x)
       t.texels.push_back(glm::vec4(0.1f + 0.25f * x, 0.15f + 0.4f * y, ((x + y) & 1) ? 0.9f : 0.05f, 1));
-  s.textures.push_back(t);
+  return t;
+}
+
+TEST(RenderShading, TexturedQuadAlbedoPerPixel) {
+  // A 4×3 texture with distinct texels over a quad facing the camera, transfer·light = π
+  // everywhere, so each pixel shows albedo = factor × bilinear texture lookup exactly.
+  Scene s;
+  s.path = "textured-quad";
+  s.textures.push_back(checker());
   Material mat;
   mat.baseColorFactor = glm::vec4(0.9f, 0.8f, 1.0f, 1.0f);
   mat.baseColorTexture = 0;
@@ -1069,7 +1074,8 @@ ProbeGrid randomGrid(int bands, uint32_t seed) {
   return g;
 }
 
-TEST(RenderReceivers, EveryBandCountMatchesOracleOnARandomGrid) {
+// A receiver ball inside randomGrid's lattice.
+Scene randomGridBall() {
   Scene s;
   s.path = "random-grid";
   Material mat;
@@ -1080,6 +1086,11 @@ TEST(RenderReceivers, EveryBandCountMatchesOracleOnARandomGrid) {
   ball.receiverOnly = true;
   s.meshes.push_back(ball);
   updateBounds(s);
+  return s;
+}
+
+TEST(RenderReceivers, EveryBandCountMatchesOracleOnARandomGrid) {
+  const Scene s = randomGridBall();
   const CameraView cam = lookAt({0.4, 0.5, 3.0}, {0.05, 0.0, 0.0}, 40.0);
   GlContext ctx(GlBackend::OSMesa, kWidth, kHeight);
   Renderer r(ctx, s);
@@ -1104,14 +1115,7 @@ TEST(RenderReceivers, EveryBandCountMatchesOracleOnARandomGrid) {
 TEST(RenderReceivers, MaterialVariantsMatchOracle) {
   Scene s;
   s.path = "variants";
-  Texture t;
-  t.name = "stripes";
-  t.width = 5;
-  t.height = 4;
-  for (int y = 0; y < t.height; ++y)
-    for (int x = 0; x < t.width; ++x)
-      t.texels.push_back(glm::vec4(0.2f + 0.15f * x, 0.9f - 0.2f * y, ((x + y) & 1) ? 0.8f : 0.1f, 1));
-  s.textures.push_back(t);
+  s.textures.push_back(checker());
   Material plain;
   plain.baseColorFactor = glm::vec4(0.8f, 0.7f, 0.9f, 1.0f);
   Material textured = plain;
@@ -1187,16 +1191,7 @@ TEST(RenderReceivers, PerVertexLookupMatchesItsOracle) {
   EXPECT_LT(c.maxReceiverError, kReceiverTolerance);
   EXPECT_GT(maxDifference(perPixel, perVertex), 0.0);  // a different lookup, not the per-pixel one
 
-  Scene s;
-  s.path = "random-grid";
-  Material mat;
-  mat.baseColorFactor = glm::vec4(0.8f, 0.7f, 0.9f, 1.0f);
-  s.materials.push_back(mat);
-  MeshInstance ball = sphere({0.05f, 0.0f, 0.0f}, 0.75f, 32, 16);
-  ball.material = 0;
-  ball.receiverOnly = true;
-  s.meshes.push_back(ball);
-  updateBounds(s);
+  const Scene s = randomGridBall();
   const CameraView cam = lookAt({0.4, 0.5, 3.0}, {0.05, 0.0, 0.0}, 40.0);
   Renderer rs(ctx, s);
   for (int bands : {2, 5}) {
