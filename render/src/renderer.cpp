@@ -34,7 +34,6 @@ constexpr GLuint kFirstTransferAttribute = 3;
 
 int attributeChunks(int bands) { return (3 * bands * bands + 3) / 4; }
 
-
 std::string vertexShader(int bands) {
   std::string s = R"(#version 450 core
 layout(location = 0) in vec3 aPosition;
