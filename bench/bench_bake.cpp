@@ -9,6 +9,7 @@
 // origins, directions and streams of 256 per vertex, generated beforehand, outside the timer)
 // for a fraction of the vertices, with nothing done per ray: the rate the bake could reach if
 // SH evaluation, accumulation and hit bookkeeping cost nothing.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -20,6 +21,7 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
+#include "bench_options.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
@@ -27,6 +29,10 @@
 #include "prt/scene.h"
 
 namespace {
+
+constexpr const char* kUsage =
+    "usage: prt_bench_bake [--scene FILE.gltf] [--min-vertices 100000] [--samples 256] [--bounces 2]\n"
+    "                      [--threads 0] [--ceiling-fraction 0.1] [--json out.json]\n";
 
 using namespace prt;
 using Clock = std::chrono::steady_clock;
@@ -72,20 +78,16 @@ int main(int argc, char** argv) {
   settings.samples = 256;
   settings.bounces = 2;
   double ceilingFraction = 0.1;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    std::string k = argv[i], v = argv[i + 1];
-    if (k == "--scene") scenePath = v;
-    else if (k == "--min-vertices") minVertices = std::stoul(v);
-    else if (k == "--samples") settings.samples = std::stoi(v);
-    else if (k == "--bounces") settings.bounces = std::stoi(v);
-    else if (k == "--threads") settings.threads = std::stoi(v);
-    else if (k == "--ceiling-fraction") ceilingFraction = std::stod(v);
-    else if (k == "--json") jsonPath = v;
-    else {
-      std::fprintf(stderr, "prt_bench_bake: unknown option %s\n", k.c_str());
-      return 2;
-    }
-  }
+  const int exit = bench::parseOptions(
+      argc, argv, "prt_bench_bake", kUsage,
+      {{"--scene", [&](const std::string& v) { scenePath = v; }},
+       {"--min-vertices", [&](const std::string& v) { minVertices = size_t(std::max(0, bench::toInt(v))); }},
+       {"--samples", [&](const std::string& v) { settings.samples = bench::toInt(v); }},
+       {"--bounces", [&](const std::string& v) { settings.bounces = bench::toInt(v); }},
+       {"--threads", [&](const std::string& v) { settings.threads = bench::toInt(v); }},
+       {"--ceiling-fraction", [&](const std::string& v) { ceilingFraction = bench::toDouble(v); }},
+       {"--json", [&](const std::string& v) { jsonPath = v; }}});
+  if (exit >= 0) return exit;
   try {
     Scene scene = loadScene(scenePath);
     while (bakedVertices(scene) < minVertices)

@@ -31,6 +31,7 @@
 #include <tbb/parallel_for.h>
 
 #include "prt/bake/probe_bake.h"
+#include "bench_options.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
@@ -39,6 +40,11 @@
 #include "prt/scene.h"
 
 namespace {
+
+constexpr const char* kUsage =
+    "usage: prt_bench_probes [--scene FILE.gltf] [--dims 32] [--samples 1024] [--bounces 2]\n"
+    "                        [--surface-samples 256] [--threads 0] [--ceiling-fraction 0.1]\n"
+    "                        [--repeat 2] [--json out.json]\n";
 
 using namespace prt;
 using Clock = std::chrono::steady_clock;
@@ -83,22 +89,18 @@ int main(int argc, char** argv) {
   settings.samples = 1024;
   double ceilingFraction = 0.1;
   int repeat = 2;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    std::string k = argv[i], v = argv[i + 1];
-    if (k == "--scene") scenePath = v;
-    else if (k == "--dims") dims = std::stoi(v);
-    else if (k == "--samples") settings.samples = std::stoi(v);
-    else if (k == "--bounces") surface.bounces = std::stoi(v);
-    else if (k == "--surface-samples") surface.samples = std::stoi(v);
-    else if (k == "--threads") threads = std::stoi(v);
-    else if (k == "--ceiling-fraction") ceilingFraction = std::stod(v);
-    else if (k == "--repeat") repeat = std::max(1, std::stoi(v));
-    else if (k == "--json") jsonPath = v;
-    else {
-      std::fprintf(stderr, "prt_bench_probes: unknown option %s\n", k.c_str());
-      return 2;
-    }
-  }
+  const int exit = bench::parseOptions(
+      argc, argv, "prt_bench_probes", kUsage,
+      {{"--scene", [&](const std::string& v) { scenePath = v; }},
+       {"--dims", [&](const std::string& v) { dims = bench::toInt(v); }},
+       {"--samples", [&](const std::string& v) { settings.samples = bench::toInt(v); }},
+       {"--bounces", [&](const std::string& v) { surface.bounces = bench::toInt(v); }},
+       {"--surface-samples", [&](const std::string& v) { surface.samples = bench::toInt(v); }},
+       {"--threads", [&](const std::string& v) { threads = bench::toInt(v); }},
+       {"--ceiling-fraction", [&](const std::string& v) { ceilingFraction = bench::toDouble(v); }},
+       {"--repeat", [&](const std::string& v) { repeat = std::max(1, bench::toInt(v)); }},
+       {"--json", [&](const std::string& v) { jsonPath = v; }}});
+  if (exit >= 0) return exit;
   try {
     if (dims < 1 || dims > 512) throw Error(cat("--dims ", dims, ": must be between 1 and 512"));
     settings.dims = glm::ivec3(dims);

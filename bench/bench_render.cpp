@@ -5,15 +5,23 @@
 //
 //   prt_bench_render [--width 1920] [--height 1080] [--frames 12] [--gl osmesa|egl]
 //                    [--baked FILE.glb --probes FILE.vdb] [--samples 128] [--probe-dims 16]
-//                    [--json out.json]
+//                    [--frames-only 0|1] [--json out.json]
 //
 // Without --baked/--probes the bundled Cornell room (scenes/cornell_open.gltf) is baked in the
 // process (surface transfer with --samples directions and 1 bounce, a --probe-dims³ probe
 // grid), which takes a few seconds and is not timed. Frames sweep the receiver's animation
 // (frame i at time i / frames · duration) under a rotating sky, so every frame relights.
+// Four kinds of frame are interleaved (full with the per-pixel probe lookup, full with the
+// per-vertex lookup, flat, baked instances only; the order rotates from frame to frame) and
+// compared frame by frame, wall and process CPU time
+// (CLOCK_PROCESS_CPUTIME_ID: llvmpipe's and TBB's threads included), so that the load of a
+// shared machine falls on all kinds alike. --frames-only 1 skips the light-update part.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
+
+#include <sys/resource.h>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -22,6 +30,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "bench_options.h"
 
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
@@ -38,6 +48,18 @@ namespace {
 
 using namespace prt;
 using Clock = std::chrono::steady_clock;
+
+constexpr const char* kUsage =
+    "usage: prt_bench_render [--width 1920] [--height 1080] [--frames 12] [--gl osmesa|egl]\n"
+    "                        [--baked FILE.glb --probes FILE.vdb] [--samples 128] [--probe-dims 16]\n"
+    "                        [--frames-only 0|1] [--json out.json]\n";
+
+// CPU time of the whole process (all threads), ms.
+double processCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
+}
 
 double msSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -93,18 +115,53 @@ sh::ShRgb sky(double degrees) {
 }
 
 struct Timing {
-  std::vector<double> light, draw, readback;
+  std::vector<double> light, draw, readback, total, cpu;  // per frame, ms
+  std::vector<double> faults;                              // minor page faults per frame
   double frameMs() const { return median(light) + median(draw) + median(readback); }
   nlohmann::json json() const {
     return {{"light_ms", median(light)}, {"draw_ms", median(draw)}, {"readback_ms", median(readback)},
-            {"frame_ms", frameMs()}};
+            {"frame_ms", frameMs()}, {"cpu_ms", median(cpu)}, {"page_faults", median(faults)}};
   }
 };
 
-void record(Timing& t, const render::FrameStats& s) {
+void record(Timing& t, const render::FrameStats& s, double cpuMs = 0.0) {
   t.light.push_back(s.lightMs);
   t.draw.push_back(s.drawMs);
   t.readback.push_back(s.readbackMs);
+  t.total.push_back(s.lightMs + s.drawMs + s.readbackMs);
+  t.cpu.push_back(cpuMs);
+}
+
+// Median over frames of a[i] / b[i]: frames of the two kinds ran next to each other.
+double medianRatio(const std::vector<double>& a, const std::vector<double>& b) {
+  std::vector<double> r;
+  for (size_t i = 0; i < std::min(a.size(), b.size()); ++i) r.push_back(a[i] / b[i]);
+  return median(r);
+}
+
+long minorFaults() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_minflt;
+}
+
+// Renders `f` and records wall and CPU time and page faults; the image is dropped.
+void timedRender(render::Renderer& r, const render::Frame& f, Timing* t) {
+  const long faults0 = minorFaults();
+  const double cpu0 = processCpuMs();
+  r.render(f);
+  const double cpu = processCpuMs() - cpu0;
+  if (t) {
+    record(*t, r.lastFrame(), cpu);
+    t->faults.push_back(double(minorFaults() - faults0));
+  }
+}
+
+size_t differingPixels(const ImageRgb& a, const ImageRgb& b) {
+  size_t n = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) n += a.at(x, y) != b.at(x, y);
+  return n;
 }
 
 // A 32³ (or n³) grid of random transfer, all probes valid: the light update does not depend
@@ -132,30 +189,99 @@ ProbeGrid randomGrid(int n, int bands) {
   return g;
 }
 
+// The light updates: 1M baked vertices (a uniform; the dot product runs per vertex), and a 32³
+// probe grid (relightProbes + pack + upload).
+nlohmann::json lightUpdates(render::GlContext& context, const Scene& scene, const render::CameraView& view) {
+  // --- Light update, 1M baked vertices (the static path) ----------------------------------
+  Scene dense = scene;
+  dense.meshes.erase(std::remove_if(dense.meshes.begin(), dense.meshes.end(),
+                                    [](const MeshInstance& m) { return m.receiverOnly; }),
+                     dense.meshes.end());
+  for (size_t k = 0; bakedVertices(dense) < 1000000; k = (k + 1) % dense.meshes.size()) refine(dense.meshes[k]);
+  size_t denseTriangles = 0;
+  for (const MeshInstance& m : dense.meshes) denseTriangles += m.triangleCount();
+  std::vector<double> cpuRelight;
+  for (int i = 0; i < 5; ++i) {
+    const auto t0 = Clock::now();
+    const auto radiance = relightVertices(dense, sky(10.0 * i));
+    cpuRelight.push_back(msSince(t0));
+  }
+  Timing densePrt, denseFlat;
+  {
+    render::Renderer r(context, dense);
+    for (int i = -1; i < 5; ++i) {
+      render::Frame f;
+      f.camera = view;
+      f.light = sky(10.0 * i);
+      r.render(f);
+      if (i >= 0) record(densePrt, r.lastFrame());
+      f.shading = render::Shading::Flat;
+      r.render(f);
+      if (i >= 0) record(denseFlat, r.lastFrame());
+    }
+  }
+
+  // --- Light update, 32³ probes: relightProbes + upload -----------------------------------
+  const ProbeGrid big = randomGrid(32, 3);
+  std::vector<double> relightOnly, relightCpu, probeUpdate;
+  for (int i = 0; i < 10; ++i) {
+    const auto t0 = Clock::now();
+    const double cpu0 = processCpuMs();
+    const std::vector<glm::vec3> relit = relightProbes(big, sky(7.0 * i));
+    relightOnly.push_back(msSince(t0));
+    relightCpu.push_back(processCpuMs() - cpu0);
+  }
+  {
+    render::Renderer r(context, scene);
+    r.setProbes(big);
+    for (int i = -1; i < 10; ++i) {
+      render::Frame f;
+      f.camera = view;
+      f.light = sky(7.0 * i);
+      f.width = 64;
+      f.height = 36;
+      r.render(f);
+      if (i >= 0) probeUpdate.push_back(r.lastFrame().lightMs);
+    }
+  }
+
+  nlohmann::json j;
+  j["light_update_1M_vertices"] = {{"vertices", bakedVertices(dense)},
+                                   {"triangles", denseTriangles},
+                                   {"gl_light_ms", median(densePrt.light)},
+                                   {"gl_prt_frame_ms", densePrt.frameMs()},
+                                   {"gl_flat_frame_ms", denseFlat.frameMs()},
+                                   {"cpu_relight_vertices_ms", median(cpuRelight)}};
+  j["light_update_32cubed_probes"] = {{"probes", big.probeCount()},
+                                      {"bands", big.bands},
+                                      {"relight_ms", median(relightOnly)},
+                                      {"relight_cpu_ms", median(relightCpu)},
+                                      {"relight_and_upload_ms", median(probeUpdate)},
+                                      {"target_ms", 10.0}};
+  return j;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string bakedPath, probesPath, jsonPath, gl = "osmesa";
   int width = 1920, height = 1080, frames = 12, samples = 128, probeDims = 16;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--width") width = std::stoi(v);
-    else if (k == "--height") height = std::stoi(v);
-    else if (k == "--frames") frames = std::stoi(v);
-    else if (k == "--gl") gl = v;
-    else if (k == "--baked") bakedPath = v;
-    else if (k == "--probes") probesPath = v;
-    else if (k == "--samples") samples = std::stoi(v);
-    else if (k == "--probe-dims") probeDims = std::stoi(v);
-    else if (k == "--json") jsonPath = v;
-    else {
-      std::fprintf(stderr, "prt_bench_render: unknown option %s\n", k.c_str());
-      return 2;
-    }
-  }
-  if ((argc - 1) % 2 || frames < 1 || bakedPath.empty() != probesPath.empty()) {
-    std::fprintf(stderr, "usage: prt_bench_render [--width W] [--height H] [--frames N] [--gl osmesa|egl] "
-                         "[--baked FILE.glb --probes FILE.vdb] [--samples N] [--probe-dims N] [--json FILE]\n");
+  int framesOnly = 0;
+  const int exit = bench::parseOptions(
+      argc, argv, "prt_bench_render", kUsage,
+      {{"--width", [&](const std::string& v) { width = bench::toInt(v); }},
+       {"--height", [&](const std::string& v) { height = bench::toInt(v); }},
+       {"--frames", [&](const std::string& v) { frames = bench::toInt(v); }},
+       {"--gl", [&](const std::string& v) { gl = v; }},
+       {"--baked", [&](const std::string& v) { bakedPath = v; }},
+       {"--probes", [&](const std::string& v) { probesPath = v; }},
+       {"--samples", [&](const std::string& v) { samples = bench::toInt(v); }},
+       {"--probe-dims", [&](const std::string& v) { probeDims = bench::toInt(v); }},
+       {"--frames-only", [&](const std::string& v) { framesOnly = bench::toInt(v); }},
+       {"--json", [&](const std::string& v) { jsonPath = v; }}});
+  if (exit >= 0) return exit;
+  if (frames < 1 || bakedPath.empty() != probesPath.empty()) {
+    std::fprintf(stderr, "prt_bench_render: --frames must be >= 1, and --baked and --probes go together\n");
     return 2;
   }
   try {
@@ -197,102 +323,54 @@ int main(int argc, char** argv) {
       render::OrbitCamera orbit;
       view = render::orbitView(scene, orbit, double(width) / height);
     }
-    Timing prtTiming, flatTiming;
+    // The baked instances alone: the same scene without a probe grid (receivers not drawn).
+    render::Renderer bakedOnly(context, scene);
+    Timing prtTiming, flatTiming, staticTiming, vertexTiming;
+    std::vector<size_t> receiverPixels;
+    render::FrameStats last;
     for (int i = -2; i < frames; ++i) {  // two warm-up frames: llvmpipe compiles shaders on first use
       render::Frame f;
       f.camera = view;
       f.time = i < 0 ? 0.0 : duration * i / frames;
       f.light = sky(360.0 * std::max(i, 0) / frames);
-      renderer.render(f);
-      if (i >= 0) record(prtTiming, renderer.lastFrame());
-      f.shading = render::Shading::Flat;
-      renderer.render(f);
-      if (i >= 0) record(flatTiming, renderer.lastFrame());
-    }
-    const render::FrameStats last = renderer.lastFrame();
-    // The same frames without receivers: what the per-pixel probe lookup costs on its own.
-    Timing staticTiming;
-    {
-      render::Renderer r(context, scene);
-      for (int i = -1; i < frames; ++i) {
-        render::Frame f;
-        f.camera = view;
-        f.light = sky(360.0 * std::max(i, 0) / frames);
-        r.render(f);
-        if (i >= 0) record(staticTiming, r.lastFrame());
+      render::Frame flatFrame = f, vertexFrame = f;
+      flatFrame.shading = render::Shading::Flat;
+      vertexFrame.probeLookup = render::ProbeLookup::PerVertex;
+      // Every timed frame's image is dropped at once, so that all kinds allocate (and page in)
+      // the same memory: keeping one kind's image alive while the next renders cost that one
+      // fresh pages, ≈ 0.1 of a flat frame of CPU time here.
+      for (int k = 0; k < 4; ++k) {
+        switch ((k + std::max(i, 0)) % 4) {
+          case 0:
+            timedRender(renderer, f, i >= 0 ? &prtTiming : nullptr);
+            last = renderer.lastFrame();
+            break;
+          case 1: timedRender(renderer, flatFrame, i >= 0 ? &flatTiming : nullptr); break;
+          case 2: timedRender(renderer, vertexFrame, i >= 0 ? &vertexTiming : nullptr); break;
+          default: timedRender(bakedOnly, f, i >= 0 ? &staticTiming : nullptr); break;
+        }
       }
+      // Pixels where the receiver is seen: those the receiver changes (untimed frames).
+      if (i >= 0) receiverPixels.push_back(differingPixels(renderer.render(f), bakedOnly.render(f)));
     }
+    std::sort(receiverPixels.begin(), receiverPixels.end());
 
-    // --- Light update, 1M baked vertices (the static path) ----------------------------------
-    Scene dense = scene;
-    dense.meshes.erase(std::remove_if(dense.meshes.begin(), dense.meshes.end(),
-                                      [](const MeshInstance& m) { return m.receiverOnly; }),
-                       dense.meshes.end());
-    for (size_t k = 0; bakedVertices(dense) < 1000000; k = (k + 1) % dense.meshes.size()) refine(dense.meshes[k]);
-    size_t denseTriangles = 0;
-    for (const MeshInstance& m : dense.meshes) denseTriangles += m.triangleCount();
-    std::vector<double> cpuRelight;
-    for (int i = 0; i < 5; ++i) {
-      const auto t0 = Clock::now();
-      const auto radiance = relightVertices(dense, sky(10.0 * i));
-      cpuRelight.push_back(msSince(t0));
-    }
-    Timing densePrt, denseFlat;
-    {
-      render::Renderer r(context, dense);
-      for (int i = -1; i < 5; ++i) {
-        render::Frame f;
-        f.camera = view;
-        f.light = sky(10.0 * i);
-        r.render(f);
-        if (i >= 0) record(densePrt, r.lastFrame());
-        f.shading = render::Shading::Flat;
-        r.render(f);
-        if (i >= 0) record(denseFlat, r.lastFrame());
-      }
-    }
-
-    // --- Light update, 32³ probes: relightProbes + upload -----------------------------------
-    const ProbeGrid big = randomGrid(32, 3);
-    std::vector<double> relightOnly, probeUpdate;
-    for (int i = 0; i < 10; ++i) {
-      const auto t0 = Clock::now();
-      const std::vector<glm::vec3> relit = relightProbes(big, sky(7.0 * i));
-      relightOnly.push_back(msSince(t0));
-    }
-    {
-      render::Renderer r(context, scene);
-      r.setProbes(big);
-      for (int i = -1; i < 10; ++i) {
-        render::Frame f;
-        f.camera = view;
-        f.light = sky(7.0 * i);
-        f.width = 64;
-        f.height = 36;
-        r.render(f);
-        if (i >= 0) probeUpdate.push_back(r.lastFrame().lightMs);
-      }
-    }
-
-    const double ratio = prtTiming.frameMs() / flatTiming.frameMs();
     nlohmann::json j;
     j["device"] = context.description();
     j["frame"] = {{"width", width}, {"height", height}, {"frames", frames}, {"triangles", last.triangles},
-                  {"receiver_triangles", last.receiverTriangles}, {"probes", grid.probeCount()},
-                  {"bands", grid.bands}, {"prt", prtTiming.json()}, {"flat", flatTiming.json()},
-                  {"prt_without_receivers", staticTiming.json()},
-                  {"ratio", ratio}, {"target_ratio", 1.5}};
-    j["light_update_1M_vertices"] = {{"vertices", bakedVertices(dense)},
-                                     {"triangles", denseTriangles},
-                                     {"gl_light_ms", median(densePrt.light)},
-                                     {"gl_prt_frame_ms", densePrt.frameMs()},
-                                     {"gl_flat_frame_ms", denseFlat.frameMs()},
-                                     {"cpu_relight_vertices_ms", median(cpuRelight)}};
-    j["light_update_32cubed_probes"] = {{"probes", big.probeCount()},
-                                        {"bands", big.bands},
-                                        {"relight_ms", median(relightOnly)},
-                                        {"relight_and_upload_ms", median(probeUpdate)},
-                                        {"target_ms", 10.0}};
+                  {"receiver_triangles", last.receiverTriangles},
+                  {"receiver_pixels", receiverPixels[receiverPixels.size() / 2]},
+                  {"probes", grid.probeCount()}, {"bands", grid.bands}, {"prt", prtTiming.json()},
+                  {"flat", flatTiming.json()}, {"prt_without_receivers", staticTiming.json()},
+                  {"ratio", medianRatio(prtTiming.total, flatTiming.total)},
+                  {"cpu_ratio", medianRatio(prtTiming.cpu, flatTiming.cpu)},
+                  {"baked_ratio", medianRatio(staticTiming.total, flatTiming.total)},
+                  {"baked_cpu_ratio", medianRatio(staticTiming.cpu, flatTiming.cpu)},
+                  {"prt_per_vertex_lookup", vertexTiming.json()},
+                  {"per_vertex_ratio", medianRatio(vertexTiming.total, flatTiming.total)},
+                  {"per_vertex_cpu_ratio", medianRatio(vertexTiming.cpu, flatTiming.cpu)},
+                  {"target_ratio", 1.5}};
+    if (!framesOnly) j.update(lightUpdates(context, scene, view));
     const std::string text = j.dump(2);
     std::printf("%s\n", text.c_str());
     if (!jsonPath.empty()) std::ofstream(jsonPath) << text << "\n";

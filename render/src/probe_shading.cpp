@@ -45,59 +45,60 @@ double minSpacing(const ProbeGrid& grid) {
 
 // ============================================================================================
 // BEGIN probeWeights port. Mirrors prt::probeWeights (probes/src/probe_grid.cpp) step by step;
-// the C++ works in double, this in float. Where the C++ returns count = 0 (outside the domain,
-// or no valid probe in the cell) this returns false. weight[c] is the normalised weight of
-// cell corner c (0 where the C++ leaves the corner out), probe[c] its probe (−1 for none).
-// leakWeight() is the per-probe factor max(w_v · w_b, kMinWeight): the part that changes when
-// the visibility test changes. Its per-probe inputs come from probeStaticTexels() below.
+// the C++ works in double, this in float, and without branches: a corner without a valid probe
+// reads the null probe 0 (all texels zero) and gets weight 0 instead of being skipped, so every
+// pixel runs the same straight-line code (llvmpipe shades 8 pixels per SIMD instruction and
+// pays for both sides of a divergent branch, plus the mask bookkeeping). The weights come back
+// unnormalised, weight[c] = trilinear × validity × leakWeight (0 where the C++ leaves the corner
+// out), and the function returns their sum: 0 where the C++ returns count = 0 (outside the
+// domain, or no valid probe in the cell); the caller divides once by the sum. probe[c] is the
+// corner's probe + 1 (0: none). leakWeight() is the per-probe factor max(w_v · w_b, kMinWeight):
+// the part that changes when the visibility test changes. Its per-probe inputs come from
+// probeStaticTexels() below.
 constexpr const char* kProbeWeightsHeadGlsl = R"(
 const float kBoundaryTolerance = 1e-4;
 const float kDomainMargin = 0.5;  // the domain: the lattice's box grown by half a cell
 const float kMinWeight = 1e-6;
 const float kTrilinearFloor = 1e-3;
 
-// prt::ProbeGrid::find.
+// prt::ProbeGrid::find, plus one: 0 where the lattice point has no probe or lies outside.
 int findProbe(ivec3 q) {
-  if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, uDims))) return -1;
-  return texelFetch(uLattice, (q.z * uDims.y + q.y) * uDims.x + q.x).r;
+  bool inside = all(greaterThanEqual(q, ivec3(0))) && all(lessThan(q, uDims));
+  ivec3 c = clamp(q, ivec3(0), uDims - 1);
+  int p = texelFetch(uLattice, (c.z * uDims.y + c.y) * uDims.x + c.x).r;
+  return inside ? p : 0;
 }
 
-// Chebyshev visibility (cubed) on each axis: face 2a + (d_a < 0) holds the mean μ and floored
-// variance σ² of the depth along axis a; the receiver's depth is |d_a|. All three axes must pass.
-float axisVisibility(vec4 axis, float da) {
-  vec2 m = da < 0.0 ? axis.zw : axis.xy;  // (μ, σ²), σ² already floored
-  float depth = abs(da);
-  if (depth <= m.x) return 1.0;
+// Chebyshev visibility (cubed) on one axis: m = (μ, σ²) of face 2a + (d_a < 0), the mean and
+// floored variance of the depth along axis a; the receiver's depth is |d_a|.
+float axisVisibility(vec2 m, float depth) {
   float cheb = m.y / (m.y + (depth - m.x) * (depth - m.x));
-  return cheb * cheb * cheb;
+  return depth <= m.x ? 1.0 : cheb * cheb * cheb;
 }
 
-// Visibility times the soft back-face weight, floored: d = x − P, r = |d|.
+// Visibility times the soft back-face weight, floored: d = x − P, r = |d|. All three axes must
+// pass. The faces of x and y come in one texel per sign pair (probeStaticTexels), z's in one.
 float leakWeight(int p, vec3 d, float r, vec3 n) {
-  float wv = axisVisibility(texelFetch(uProbeStatic, p * 4 + 1), d.x) *
-             axisVisibility(texelFetch(uProbeStatic, p * 4 + 2), d.y) *
-             axisVisibility(texelFetch(uProbeStatic, p * 4 + 3), d.z);
-  float wb = 1.0;
-  if (r > uNearZero) {
-    float h = (dot(-d / r, n) + 1.0) * 0.5;
-    wb = h * h + 0.2;
-  }
+  vec4 xy = texelFetch(uProbeStatic, p * kStaticTexels + 1 + (d.x < 0.0 ? 1 : 0) + (d.y < 0.0 ? 2 : 0));
+  vec4 z = texelFetch(uProbeStatic, p * kStaticTexels + 5);
+  float wv = axisVisibility(xy.xy, abs(d.x)) * axisVisibility(xy.zw, abs(d.y)) *
+             axisVisibility(d.z < 0.0 ? z.zw : z.xy, abs(d.z));
+  float h = (dot(-d / max(r, 1e-30), n) + 1.0) * 0.5;
+  float wb = r > uNearZero ? h * h + 0.2 : 1.0;
   return max(wv * wb, kMinWeight);
 }
 
-bool probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8]) {
+float probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8]) {
   vec3 u = (x - uOrigin) / uSpacing;
-  ivec3 base;
-  vec3 t;
-  for (int a = 0; a < 3; ++a) {
-    float hi = float(uDims[a] - 1);
-    if (!(u[a] >= -kDomainMargin - kBoundaryTolerance && u[a] <= hi + kDomainMargin + kBoundaryTolerance)) return false;
-    float v = clamp(u[a], 0.0, hi);
-    base[a] = min(int(floor(v)), max(uDims[a] - 2, 0));
-    t[a] = v - float(base[a]);
-  }
+  vec3 hi = vec3(uDims - 1);
+  const float margin = kDomainMargin + kBoundaryTolerance;
+  bool inside = all(greaterThanEqual(u, vec3(-margin))) &&
+                all(lessThanEqual(u, hi + margin));  // false for NaN too
+  vec3 v = clamp(u, vec3(0.0), hi);
+  ivec3 base = min(ivec3(floor(v)), max(uDims - 2, ivec3(0)));
+  vec3 t = v - vec3(base);
   vec3 lerp[8];
-  vec4 pv[8];  // (position, validity)
+  vec4 pv[8];  // (position, validity), validity 0 for no or an invalid probe
   bool anyTrilinear = false;
 )";
 // Loop bodies over the cell's corners c = 0..7, emitted once per corner with C replaced by the
@@ -106,29 +107,22 @@ bool probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8]) {
 constexpr const char* kCornerSetupGlsl = R"(  {  // corner C
     ivec3 off = ivec3(C & 1, (C >> 1) & 1, (C >> 2) & 1);
     int p = findProbe(base + off);
-    pv[C] = p >= 0 ? texelFetch(uProbeStatic, p * 4) : vec4(0.0);
-    if (p >= 0 && !(pv[C].w > 0.0)) p = -1;  // invalid probes are never read
-    probe[C] = p;
+    pv[C] = texelFetch(uProbeStatic, p * kStaticTexels);
+    bool valid = pv[C].w > 0.0;  // invalid probes are never read
+    probe[C] = valid ? p : 0;
+    pv[C].w = valid ? pv[C].w : 0.0;
     lerp[C] = vec3(off.x != 0 ? t.x : 1.0 - t.x, off.y != 0 ? t.y : 1.0 - t.y, off.z != 0 ? t.z : 1.0 - t.z);
-    if (p >= 0) anyTrilinear = anyTrilinear || lerp[C].x * lerp[C].y * lerp[C].z > 0.0;
+    anyTrilinear = anyTrilinear || (valid && lerp[C].x * lerp[C].y * lerp[C].z > 0.0);
   }
 )";
-constexpr const char* kCornerWeightGlsl = R"(  weight[C] = 0.0;
-  if (probe[C] >= 0) {  // corner C
+constexpr const char* kCornerWeightGlsl = R"(  {  // corner C
     vec3 f = anyTrilinear ? lerp[C] : max(lerp[C], vec3(kTrilinearFloor));
-    float wt = f.x * f.y * f.z * pv[C].w;
-    if (wt > 0.0) {
-      vec3 d = x - pv[C].xyz;
-      float r = length(d);
-      weight[C] = wt * leakWeight(probe[C], d, r, n);
-      sum += weight[C];
-    }
+    vec3 d = x - pv[C].xyz;
+    weight[C] = f.x * f.y * f.z * pv[C].w * leakWeight(probe[C], d, length(d), n);
+    sum += weight[C];
   }
 )";
-constexpr const char* kNormaliseGlsl = R"(  if (!(sum > 0.0)) return false;
-)";
-constexpr const char* kCornerNormaliseGlsl = "  weight[C] /= sum;\n";
-constexpr const char* kProbeWeightsTailGlsl = R"(  return true;
+constexpr const char* kProbeWeightsTailGlsl = R"(  return inside ? sum : 0.0;
 }
 )";
 // END probeWeights port.
@@ -148,8 +142,7 @@ std::string perCorner(const char* body) {
 
 std::string probeWeightsGlsl() {
   return std::string(kProbeWeightsHeadGlsl) + perCorner(kCornerSetupGlsl) + "  float sum = 0.0;\n" +
-         perCorner(kCornerWeightGlsl) + kNormaliseGlsl +
-         perCorner(kCornerNormaliseGlsl) + kProbeWeightsTailGlsl;
+         perCorner(kCornerWeightGlsl) + kProbeWeightsTailGlsl;
 }
 
 // Normalisation K_l^m of the real SH basis (as in probes/src/sh.cpp): sqrt((2l+1)/(4π) ·
@@ -198,6 +191,14 @@ std::string irradianceBasisGlsl(int bands) {
 
 }  // namespace
 
+std::string withMaterialDefines(const std::string& source, int variant) {
+  const size_t eol = source.find('\n') + 1;
+  std::string defines;
+  if (variant & kVariantTexture) defines += "#define HAS_TEXTURE 1\n";
+  if (variant & kVariantColor) defines += "#define HAS_COLOR 1\n";
+  return source.substr(0, eol) + defines + source.substr(eol);
+}
+
 std::vector<int> irradianceCoefficients(int bands) {
   std::vector<int> out;
   for (int j = 0; j < bands * bands; ++j)
@@ -205,69 +206,97 @@ std::vector<int> irradianceCoefficients(int bands) {
   return out;
 }
 
-std::string receiverFragmentShader(int bands) {
+namespace {
+
+// Declarations and functions of the probe lookup, for the fragment or the vertex stage:
+// incidentRadiance(x, n, T) = Σ_p w_p c_p / Σ_p w_p in the packed radiance layout (T[i] = texel
+// i), or the light in that layout where no probe applies; irradiance(T, n) = Σ_j Â_l y_j(n) c_j.
+std::string probeLookupGlsl(int bands) {
   PRT_CHECK(bands >= 1 && bands <= sh::kMaxBands);
-  const int n2 = bands * bands;
-  std::string s = cat(R"(#version 450 core
-in vec3 vWorld;
-in vec3 vNormal;
-in vec2 vTexcoord;
-in vec4 vColor;
-layout(binding = 0) uniform sampler2D uBaseColorTexture;
-layout(binding = 1) uniform isamplerBuffer uLattice;       // lattice point -> probe, -1 none
-layout(binding = 2) uniform samplerBuffer uProbeStatic;    // 4 texels per probe
+  const int texels = radianceTexels(bands);
+  std::string s = cat(R"(layout(binding = 1) uniform isamplerBuffer uLattice;       // lattice point -> probe + 1, 0 none
+layout(binding = 2) uniform samplerBuffer uProbeStatic;    // kStaticTexels per probe, probe 0 null
 layout(binding = 3) uniform samplerBuffer uProbeRadiance;  // c_p packed: packRadiance()
-uniform vec4 uBaseColor;
-uniform int uHasTexture;
-uniform int uHasColor;
 uniform vec3 uOrigin;
 uniform vec3 uSpacing;
 uniform ivec3 uDims;
 uniform float uNearZero;
-const int kCoeffs = )", n2, R"(;
-uniform vec3 uLight[kCoeffs];  // the light itself: incident radiance where no probe applies
-out vec4 fragColor;
+const int kStaticTexels = )", kProbeStaticTexels, R"(;
+const int kTexels = )", texels, R"(;
+// The light itself, packed as the probes are: incident radiance where no probe applies.
+uniform vec4 uLightPacked[kTexels];
 )");
   s += probeWeightsGlsl();
-  s += R"(
-void main() {
-  vec3 n = normalize(vNormal);
-  float px = n.x, py = n.y, pz = n.z;
-)";
-  s += irradianceBasisGlsl(bands);
-  // Per corner, the weighted packed texels are summed (T_i += w · texel_i); the basis is applied
-  // once at the end: Σ_p w_p Σ_j b_j c_p,j = Σ_j b_j Σ_p w_p c_p,j.
-  const std::vector<int> used = irradianceCoefficients(bands);
-  const int texels = radianceTexels(bands);
-  s += "  int probe[8];\n  float w[8];\n  vec3 e = vec3(0.0);\n";
-  for (int i = 0; i < texels; ++i) s += cat("  vec4 T", i, " = vec4(0.0);\n");
-  s += "  if (probeWeights(vWorld, n, probe, w)) {\n";
-  std::string corner = cat("    if (w[C] > 0.0) {  // corner C\n      int base = probe[C] * ", texels, ";\n");
-  for (int i = 0; i < texels; ++i) corner += cat("      T", i, " += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
-  corner += "    }\n";
+  // Per corner, the weighted packed texels are summed (T_i += w · texel_i) and divided by Σ w once.
+  s += "\nvoid incidentRadiance(vec3 x, vec3 n, out vec4 T[kTexels]) {\n";
+  s += "  int probe[8];\n  float w[8];\n  float sum = probeWeights(x, n, probe, w);\n";
+  for (int i = 0; i < texels; ++i) s += cat("  T[", i, "] = vec4(0.0);\n");
+  std::string corner = "  {  // corner C\n    int base = probe[C] * kTexels;\n";
+  for (int i = 0; i < texels; ++i) corner += cat("    T[", i, "] += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
+  corner += "  }\n";
   s += perCorner(corner.c_str());
+  for (int i = 0; i < texels; ++i) s += cat("  T[", i, "] = sum > 0.0 ? T[", i, "] / sum : uLightPacked[", i, "];\n");
+  s += "}\n";
+  return s;
+}
+
+// irradiance(T, n): the basis applied to packed radiance, n unit.
+std::string irradianceGlsl(int bands) {
+  std::string s = "\nvec3 irradiance(vec4 T[kTexels], vec3 n) {\n  float px = n.x, py = n.y, pz = n.z;\n";
+  s += irradianceBasisGlsl(bands);
+  s += "  vec3 e = vec3(0.0);\n";
+  const std::vector<int> used = irradianceCoefficients(bands);
   const char* lane = "xyzw";
   for (size_t k = 0; k < used.size(); ++k) {
     std::string rgb;
     for (int c = 0; c < 3; ++c) {
       const size_t f = 3 * k + size_t(c);
-      rgb += cat(c ? ", " : "", "T", f / 4, ".", lane[f % 4]);
+      rgb += cat(c ? ", " : "", "T[", f / 4, "].", lane[f % 4]);
     }
-    s += cat("    e += vec3(", rgb, ") * b", used[k], ";\n");
+    s += cat("  e += vec3(", rgb, ") * b", used[k], ";\n");
   }
-  s += R"(  } else {
-    // Outside the domain, or no valid probe around: lit by the unoccluded light (M = I), as
-    // prt::receiverRadiance.
-)";
-  for (int j : irradianceCoefficients(bands)) s += cat("    e += uLight[", j, "] * b", j, ";\n");
-  s += R"(  }
-  vec3 albedo = uBaseColor.rgb;
-  if (uHasColor != 0) albedo *= vColor.rgb;
-  if (uHasTexture != 0) albedo *= texture(uBaseColorTexture, vTexcoord).rgb;
-  fragColor = vec4(albedo * e * 0.31830988618379067, 1.0);
+  return s + "  return e;\n}\n";
 }
-)";
-  return s;
+
+}  // namespace
+
+std::string receiverVertexShader(int bands, ProbeLookup lookup) {
+  const bool perVertex = lookup == ProbeLookup::PerVertex;
+  std::string s = cat(R"(#version 450 core
+layout(location = 0) in vec3 aPosition;
+layout(location = 1) in vec2 aTexcoord;
+layout(location = 2) in vec4 aColor;
+layout(location = 3) in vec3 aNormal;
+uniform mat4 uViewProj;
+uniform mat4 uModel;
+uniform mat3 uNormalMatrix;
+out vec3 vWorld;
+out vec3 vNormal;
+)", kAlbedoOutputsGlsl);
+  if (perVertex) s += probeLookupGlsl(bands) + "out vec4 vRadiance[kTexels];\n";
+  s += cat(R"(void main() {
+  vec4 world = uModel * vec4(aPosition, 1.0);
+  vWorld = world.xyz;
+  vNormal = normalize(uNormalMatrix * aNormal);  // unit world normals per vertex, interpolated
+)", kAlbedoPassGlsl);
+  if (perVertex) s += "  vec4 T[kTexels];\n  incidentRadiance(vWorld, vNormal, T);\n  vRadiance = T;\n";
+  return s + "  gl_Position = uViewProj * world;\n}\n";
+}
+
+std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
+  const bool perVertex = lookup == ProbeLookup::PerVertex;
+  std::string s = cat("#version 450 core\nin vec3 vWorld;\nin vec3 vNormal;\n", kAlbedoInputsGlsl);
+  if (perVertex)
+    s += cat("const int kTexels = ", radianceTexels(bands), ";\nin vec4 vRadiance[kTexels];\n");
+  else
+    s += probeLookupGlsl(bands);
+  s += irradianceGlsl(bands);
+  s += "out vec4 fragColor;\nvoid main() {\n  vec3 n = normalize(vNormal);\n";
+  if (perVertex)
+    s += "  vec3 e = irradiance(vRadiance, n);\n";
+  else
+    s += "  vec4 T[kTexels];\n  incidentRadiance(vWorld, n, T);\n  vec3 e = irradiance(T, n);\n";
+  return s + "  fragColor = vec4(albedo() * e * 0.31830988618379067, 1.0);\n}\n";
 }
 
 int radianceTexels(int bands) { return int(3 * irradianceCoefficients(bands).size() + 3) / 4; }
@@ -277,10 +306,10 @@ void packRadiance(int bands, const std::vector<glm::vec3>& relit, std::vector<gl
   const size_t n2 = size_t(bands) * bands, texels = size_t(radianceTexels(bands));
   PRT_CHECK_EQ(relit.size() % n2, size_t(0));
   const size_t probes = relit.size() / n2;
-  out.assign(std::max<size_t>(probes, 1) * texels, glm::vec4(0.0f));
+  out.assign((probes + 1) * texels, glm::vec4(0.0f));
   tbb::parallel_for(tbb::blocked_range<size_t>(0, probes, 1024), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t p = r.begin(); p < r.end(); ++p) {
-      float* dst = &out[p * texels].x;
+      float* dst = &out[(p + 1) * texels].x;
       for (size_t k = 0; k < used.size(); ++k) {
         const glm::vec3& c = relit[p * n2 + size_t(used[k])];
         dst[3 * k] = c.r;
@@ -291,34 +320,45 @@ void packRadiance(int bands, const std::vector<glm::vec3>& relit, std::vector<gl
   });
 }
 
+std::vector<glm::vec4> packLight(int bands, const sh::ShRgb& light) {
+  const sh::ShRgb l = sh::resize(light, bands);
+  std::vector<glm::vec4> packed;
+  packRadiance(bands, l.c, packed);  // the null probe's texels, then the light's
+  return std::vector<glm::vec4>(packed.begin() + radianceTexels(bands), packed.end());
+}
+
 std::vector<glm::vec4> probeStaticTexels(const ProbeGrid& grid) {
   const size_t count = grid.probeCount();
   PRT_CHECK_EQ(grid.validity.size(), count);
   PRT_CHECK_EQ(grid.offset.size(), count);
   PRT_CHECK_EQ(grid.moments.size(), count);
   const double floor = varianceFloor(grid);
-  std::vector<glm::vec4> out(std::max<size_t>(count, 1) * kProbeStaticTexels, glm::vec4(0.0f));
+  std::vector<glm::vec4> out((count + 1) * kProbeStaticTexels, glm::vec4(0.0f));
   for (size_t p = 0; p < count; ++p) {
-    glm::vec4* t = &out[p * kProbeStaticTexels];
+    glm::vec4* t = &out[(p + 1) * kProbeStaticTexels];
     t[0] = glm::vec4(glm::vec3(grid.position(p)), grid.validity[p]);
-    for (int axis = 0; axis < 3; ++axis) {
-      // As probeWeights: σ² = max(m₂ − μ², floor) with μ, m₂ widened to double first.
-      const glm::vec2 pos = grid.moments[p][size_t(2 * axis)], neg = grid.moments[p][size_t(2 * axis + 1)];
-      const double varPos = std::max(double(pos.y) - double(pos.x) * double(pos.x), floor);
-      const double varNeg = std::max(double(neg.y) - double(neg.x) * double(neg.x), floor);
-      t[1 + axis] = glm::vec4(pos.x, float(varPos), neg.x, float(varNeg));
+    // Per face f = 2·axis + (negative side): (μ, σ²), σ² = max(m₂ − μ², floor) with μ, m₂ widened
+    // to double first, as probeWeights does.
+    glm::vec2 face[6];
+    for (size_t f = 0; f < 6; ++f) {
+      const glm::vec2 m = grid.moments[p][f];
+      face[f] = glm::vec2(m.x, float(std::max(double(m.y) - double(m.x) * double(m.x), floor)));
     }
+    for (int negY = 0; negY < 2; ++negY)
+      for (int negX = 0; negX < 2; ++negX)
+        t[1 + negX + 2 * negY] = glm::vec4(face[negX], face[2 + negY]);
+    t[5] = glm::vec4(face[4], face[5]);
   }
   return out;
 }
 
 std::vector<int32_t> latticeIndex(const ProbeGrid& grid) {
   const size_t points = size_t(grid.dims.x) * size_t(grid.dims.y) * size_t(grid.dims.z);
-  std::vector<int32_t> out(std::max<size_t>(points, 1), -1);
+  std::vector<int32_t> out(std::max<size_t>(points, 1), 0);
   for (size_t p = 0; p < grid.probeCount(); ++p) {
     const glm::ivec3 c = grid.coord[p];
     PRT_CHECK(c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x < grid.dims.x && c.y < grid.dims.y && c.z < grid.dims.z);
-    out[(size_t(c.z) * size_t(grid.dims.y) + size_t(c.y)) * size_t(grid.dims.x) + size_t(c.x)] = int32_t(p);
+    out[(size_t(c.z) * size_t(grid.dims.y) + size_t(c.y)) * size_t(grid.dims.x) + size_t(c.x)] = int32_t(p + 1);
   }
   return out;
 }

@@ -3,6 +3,7 @@
 #include "prt/render/renderer.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -40,9 +41,8 @@ layout(location = 1) in vec2 aTexcoord;
 layout(location = 2) in vec4 aColor;
 uniform mat4 uViewProj;
 out vec3 vTransferLight;
-out vec2 vTexcoord;
-out vec4 vColor;
 )";
+  s += kAlbedoOutputsGlsl;
   if (bands <= kMaxAttributeBands) {
     const int chunks = attributeChunks(bands);
     for (int k = 0; k < chunks; ++k)
@@ -68,55 +68,22 @@ void main() {
   vTransferLight = e;
 )";
   }
-  s += R"(  vTexcoord = aTexcoord;
-  vColor = aColor;
-  gl_Position = uViewProj * vec4(aPosition, 1.0);
+  s += kAlbedoPassGlsl;
+  s += R"(  gl_Position = uViewProj * vec4(aPosition, 1.0);
 }
 )";
   return s;
 }
 
-// Albedo per pixel: baseColorFactor × texture(texcoord) × COLOR_0; alpha is ignored.
-constexpr const char* kFragmentShader = R"(#version 450 core
+// Albedo per pixel: baseColorFactor × texture(texcoord) × COLOR_0 (kAlbedoInputsGlsl); alpha is
+// ignored.
+std::string bakedFragmentShader() {
+  return cat(R"(#version 450 core
 in vec3 vTransferLight;
-in vec2 vTexcoord;
-in vec4 vColor;
-layout(binding = 0) uniform sampler2D uBaseColorTexture;
-uniform vec4 uBaseColor;
-uniform int uHasTexture;
-uniform int uHasColor;
-out vec4 fragColor;
-void main() {
-  vec3 albedo = uBaseColor.rgb;
-  if (uHasColor != 0) albedo *= vColor.rgb;
-  if (uHasTexture != 0) albedo *= texture(uBaseColorTexture, vTexcoord).rgb;
-  fragColor = vec4(albedo * vTransferLight * 0.31830988618379067, 1.0);
+)", kAlbedoInputsGlsl, R"(out vec4 fragColor;
+void main() { fragColor = vec4(albedo() * vTransferLight * 0.31830988618379067, 1.0); }
+)");
 }
-)";
-
-// Receivers: world position and normal for the per-pixel probe lookup. uModel moves the stored
-// rest-pose (world-space) vertices to where the animation puts them at the frame's time.
-constexpr const char* kReceiverVertexShader = R"(#version 450 core
-layout(location = 0) in vec3 aPosition;
-layout(location = 1) in vec2 aTexcoord;
-layout(location = 2) in vec4 aColor;
-layout(location = 3) in vec3 aNormal;
-uniform mat4 uViewProj;
-uniform mat4 uModel;
-uniform mat3 uNormalMatrix;
-out vec3 vWorld;
-out vec3 vNormal;
-out vec2 vTexcoord;
-out vec4 vColor;
-void main() {
-  vec4 world = uModel * vec4(aPosition, 1.0);
-  vWorld = world.xyz;
-  vNormal = normalize(uNormalMatrix * aNormal);  // unit world normals per vertex, interpolated
-  vTexcoord = aTexcoord;
-  vColor = aColor;
-  gl_Position = uViewProj * world;
-}
-)";
 
 // The raster floor (Shading::Flat): positions only, one colour.
 constexpr const char* kFlatVertexShader = R"(#version 450 core
@@ -221,12 +188,13 @@ struct Renderer::Impl {
     GLuint texture = 0;
     bool hasColor = false;
     bool doubleSided = false;
+    int variant = 0;  // kVariantTexture | kVariantColor: the shader variant it is drawn with
     MeshInstance placement;  // receivers: node and rest world only (no vertices), for the motion
   };
   struct Program {
     GLuint id = 0;
-    GLint viewProj = -1, model = -1, normalMatrix = -1, light = -1, baseColor = -1, hasTexture = -1,
-          hasColor = -1, origin = -1, spacing = -1, dims = -1, nearZero = -1;
+    GLint viewProj = -1, model = -1, normalMatrix = -1, light = -1, baseColor = -1, origin = -1, spacing = -1,
+          dims = -1, nearZero = -1;
   };
 
   GlContext& context;
@@ -237,7 +205,10 @@ struct Renderer::Impl {
   std::vector<Instance> receivers;
   Scene animation;                  // the scene's nodes and animations only
   std::vector<GLuint> textures;     // per Scene texture, 0 where unused
-  Program program, receiverProgram, flatProgram;
+  // Per material variant (id 0: no instance needs it).
+  std::array<Program, kVariants> programs;
+  std::array<std::array<Program, kVariants>, 2> receiverPrograms;  // [ProbeLookup][variant]
+  Program flatProgram;
   // Probe grid: lattice index, static per-probe data, per-frame radiance (buffer + texture each).
   const ProbeGrid* grid = nullptr;
   GLuint probeBuffers[3] = {}, probeTextures[3] = {};
@@ -312,9 +283,8 @@ Renderer::Impl::Program Renderer::Impl::link(const std::string& vsSource, const 
   p.normalMatrix = loc("uNormalMatrix");
   p.light = bands <= kMaxAttributeBands ? loc("uLightFlat") : loc("uLight");
   if (p.light < 0) p.light = loc("uLight");
+  if (p.light < 0) p.light = loc("uLightPacked");
   p.baseColor = loc("uBaseColor");
-  p.hasTexture = loc("uHasTexture");
-  p.hasColor = loc("uHasColor");
   p.origin = loc("uOrigin");
   p.spacing = loc("uSpacing");
   p.dims = loc("uDims");
@@ -342,6 +312,7 @@ void Renderer::Impl::setMaterial(const Scene& scene, const MeshInstance& m, Inst
   in.indexCount = GLsizei(m.indices.size());
   in.triangles = m.triangleCount();
   in.hasColor = !m.colors.empty();
+  in.variant = in.hasColor ? kVariantColor : 0;
   if (m.material < 0) return;
   const Material& mat = scene.materials.at(size_t(m.material));
   in.baseColor = mat.baseColorFactor;
@@ -350,6 +321,7 @@ void Renderer::Impl::setMaterial(const Scene& scene, const MeshInstance& m, Inst
     GLuint& tex = textures.at(size_t(mat.baseColorTexture));
     if (!tex) tex = uploadTexture(scene.textures[size_t(mat.baseColorTexture)]);
     in.texture = tex;
+    in.variant |= kVariantTexture;
   }
 }
 
@@ -416,6 +388,10 @@ void Renderer::Impl::upload(const Scene& scene) {
 
     Instance in;
     setMaterial(scene, m, in);
+    Program& program = programs[size_t(in.variant)];
+    if (!program.id)
+      program = link(withMaterialDefines(vertexShader(bands), in.variant),
+                     withMaterialDefines(bakedFragmentShader(), in.variant), "baked");
     gl.CreateBuffers(6, in.buffers);
     store(in.buffers[0], m.positions);
     store(in.buffers[1], m.texcoords);
@@ -454,8 +430,11 @@ void Renderer::Impl::releaseProbes() {
   if (probeBuffers[0]) gl.DeleteBuffers(3, probeBuffers);
   for (GLuint& t : probeTextures) t = 0;
   for (GLuint& b : probeBuffers) b = 0;
-  if (receiverProgram.id) gl.DeleteProgram(receiverProgram.id);
-  receiverProgram = Program{};
+  for (auto& lookup : receiverPrograms)
+    for (Program& p : lookup) {
+      if (p.id) gl.DeleteProgram(p.id);
+      p = Program{};
+    }
   grid = nullptr;
 }
 
@@ -474,12 +453,17 @@ void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
   gl.GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxTexels);
   const std::vector<int32_t> lattice = latticeIndex(g);
   const std::vector<glm::vec4> statics = probeStaticTexels(g);
-  const size_t radianceCount = std::max<size_t>(g.probeCount(), 1) * size_t(radianceTexels(g.bands));
+  const size_t radianceCount = (g.probeCount() + 1) * size_t(radianceTexels(g.bands));
   for (size_t texels : {lattice.size(), statics.size(), radianceCount})
     if (texels > size_t(maxTexels))
       throw Error(cat("probe grid: ", texels, " texels exceed the GL's texture buffer limit of ", maxTexels));
-  const std::string fs = receiverFragmentShader(g.bands);
-  receiverProgram = link(kReceiverVertexShader, fs, "receiver");
+  for (ProbeLookup lookup : {ProbeLookup::PerPixel, ProbeLookup::PerVertex}) {
+    const std::string vs = receiverVertexShader(g.bands, lookup), fs = receiverFragmentShader(g.bands, lookup);
+    for (const Instance& in : receivers) {
+      Program& p = receiverPrograms[size_t(lookup)][size_t(in.variant)];
+      if (!p.id) p = link(withMaterialDefines(vs, in.variant), withMaterialDefines(fs, in.variant), "receiver");
+    }
+  }
   gl.CreateBuffers(3, probeBuffers);
   gl.NamedBufferStorage(probeBuffers[0], GLsizeiptr(lattice.size() * sizeof(int32_t)), lattice.data(), 0);
   gl.NamedBufferStorage(probeBuffers[1], GLsizeiptr(statics.size() * sizeof(glm::vec4)), statics.data(), 0);
@@ -489,12 +473,15 @@ void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
   gl.TextureBuffer(probeTextures[0], GL_R32I, probeBuffers[0]);
   gl.TextureBuffer(probeTextures[1], GL_RGBA32F, probeBuffers[1]);
   gl.TextureBuffer(probeTextures[2], GL_RGBA32F, probeBuffers[2]);
-  const GLuint p = receiverProgram.id;
   const glm::vec3 origin(g.origin), spacing(g.spacing);
-  gl.ProgramUniform3fv(p, receiverProgram.origin, 1, &origin.x);
-  gl.ProgramUniform3fv(p, receiverProgram.spacing, 1, &spacing.x);
-  gl.ProgramUniform3iv(p, receiverProgram.dims, 1, &g.dims.x);
-  gl.ProgramUniform1f(p, receiverProgram.nearZero, float(nearZero(g)));
+  for (const auto& lookup : receiverPrograms)
+    for (const Program& p : lookup) {
+      if (!p.id) continue;
+      gl.ProgramUniform3fv(p.id, p.origin, 1, &origin.x);
+      gl.ProgramUniform3fv(p.id, p.spacing, 1, &spacing.x);
+      gl.ProgramUniform3iv(p.id, p.dims, 1, &g.dims.x);
+      gl.ProgramUniform1f(p.id, p.nearZero, float(nearZero(g)));
+    }
   checkError("uploading the probe grid");
   grid = &g;
 }
@@ -536,8 +523,9 @@ void Renderer::Impl::release() {
   for (GLuint t : textures)
     if (t) gl.DeleteTextures(1, &t);
   releaseProbes();
-  for (const Program* p : {&program, &flatProgram})
-    if (p->id) gl.DeleteProgram(p->id);
+  for (const Program& p : programs)
+    if (p.id) gl.DeleteProgram(p.id);
+  if (flatProgram.id) gl.DeleteProgram(flatProgram.id);
   if (fbo) {
     gl.DeleteFramebuffers(1, &fbo);
     gl.DeleteRenderbuffers(1, &colorRb);
@@ -553,7 +541,6 @@ Renderer::Renderer(GlContext& context, const Scene& scene) : impl_(std::make_uni
   impl_->bands = scene.transferBands;
   context.makeCurrent();
   try {
-    if (impl_->bands > 0) impl_->program = impl_->link(vertexShader(impl_->bands), kFragmentShader, "baked");
     impl_->flatProgram = impl_->link(kFlatVertexShader, kFlatFragmentShader, "flat");
     impl_->upload(scene);
   } catch (...) {
@@ -605,19 +592,23 @@ ImageRgb Renderer::render(const Frame& frame) {
   const auto t0 = std::chrono::steady_clock::now();
   if (!flat && r.bands > 0) {
     const sh::ShRgb l = sh::resize(frame.light, r.bands);
-    if (r.bands <= kMaxAttributeBands) {
-      std::vector<glm::vec4> packed(size_t(attributeChunks(r.bands)), glm::vec4(0.0f));
-      for (int i = 0; i < l.size(); ++i)
-        for (int c = 0; c < 3; ++c) packed[size_t(3 * i + c) / 4][(3 * i + c) % 4] = l.c[size_t(i)][c];
-      gl.ProgramUniform4fv(r.program.id, r.program.light, GLsizei(packed.size()), &packed[0].x);
-    } else {
-      gl.ProgramUniform3fv(r.program.id, r.program.light, l.size(), &l.c[0].x);
+    std::vector<glm::vec4> packed(size_t(attributeChunks(r.bands)), glm::vec4(0.0f));
+    for (int i = 0; i < l.size(); ++i)
+      for (int c = 0; c < 3; ++c) packed[size_t(3 * i + c) / 4][(3 * i + c) % 4] = l.c[size_t(i)][c];
+    for (const Impl::Program& p : r.programs) {
+      if (!p.id) continue;
+      if (r.bands <= kMaxAttributeBands)
+        gl.ProgramUniform4fv(p.id, p.light, GLsizei(packed.size()), &packed[0].x);
+      else
+        gl.ProgramUniform3fv(p.id, p.light, l.size(), &l.c[0].x);
     }
   }
   if (!flat && drawReceivers) {
     const ProbeGrid& g = *r.grid;
     const sh::ShRgb l = sh::resize(frame.light, g.bands);
-    gl.ProgramUniform3fv(r.receiverProgram.id, r.receiverProgram.light, l.size(), &l.c[0].x);
+    const std::vector<glm::vec4> packedLight = packLight(g.bands, l);
+    for (const Impl::Program& p : r.receiverPrograms[size_t(frame.probeLookup)])
+      if (p.id) gl.ProgramUniform4fv(p.id, p.light, GLsizei(packedLight.size()), &packedLight[0].x);
     if (g.probeCount() > 0) {
       const std::vector<glm::vec3> relit = relightProbes(g, l);
       packRadiance(g.bands, relit, r.radiance);
@@ -663,35 +654,44 @@ ImageRgb Renderer::render(const Frame& frame) {
     }
     if (!flat) {
       gl.ProgramUniform4fv(p.id, p.baseColor, 1, &in.baseColor.x);
-      gl.ProgramUniform1i(p.id, p.hasTexture, in.texture ? 1 : 0);
-      gl.ProgramUniform1i(p.id, p.hasColor, in.hasColor ? 1 : 0);
       if (in.texture) gl.BindTextureUnit(0, in.texture);
     }
     gl.BindVertexArray(in.vao);
     gl.DrawElements(GL_TRIANGLES, in.indexCount, GL_UNSIGNED_INT, nullptr);
   };
+  // Draws `list` grouped by program: each material variant's, or the flat one for all.
+  // `place(program, instance)` sets the instance's own uniforms and returns whether its motion
+  // mirrors it.
+  auto drawAll = [&](const std::vector<Impl::Instance>& list, const std::array<Impl::Program, kVariants>& programs,
+                     auto&& place) {
+    for (int variant = 0; variant < (flat ? 1 : kVariants); ++variant) {
+      const Impl::Program& p = flat ? r.flatProgram : programs[size_t(variant)];
+      bool used = false;
+      for (const Impl::Instance& in : list) {
+        if (!flat && in.variant != variant) continue;
+        if (!used) {
+          gl.UseProgram(p.id);
+          gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &viewProj[0][0]);
+          if (flat) gl.ProgramUniformMatrix4fv(p.id, p.model, 1, GL_FALSE, &identity[0][0]);
+          used = true;
+        }
+        draw(p, in, place(p, in));
+        r.stats.triangles += in.triangles;
+      }
+    }
+  };
 
   r.stats.triangles = r.stats.receiverTriangles = 0;
-  const Impl::Program& baked = flat ? r.flatProgram : r.program;
-  if (!r.instances.empty()) {
-    gl.UseProgram(baked.id);
-    gl.ProgramUniformMatrix4fv(baked.id, baked.viewProj, 1, GL_FALSE, &viewProj[0][0]);
-    if (flat) gl.ProgramUniformMatrix4fv(baked.id, baked.model, 1, GL_FALSE, &identity[0][0]);
-    for (const Impl::Instance& in : r.instances) {
-      if (!flat && r.bands > kMaxAttributeBands) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.buffers[4]);
-      draw(baked, in, false);
-      r.stats.triangles += in.triangles;
-    }
-  }
+  drawAll(r.instances, r.programs, [&](const Impl::Program&, const Impl::Instance& in) {
+    if (!flat && r.bands > kMaxAttributeBands) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.buffers[4]);
+    return false;
+  });
   if (drawReceivers) {
     // Drawn after the baked instances, so that the depth test rejects hidden receiver pixels
     // before their (costly) probe lookup runs.
-    const Impl::Program& p = flat ? r.flatProgram : r.receiverProgram;
-    gl.UseProgram(p.id);
-    gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &viewProj[0][0]);
     if (!flat)
       for (GLuint unit = 1; unit <= 3; ++unit) gl.BindTextureUnit(unit, r.probeTextures[unit - 1]);
-    for (const Impl::Instance& in : r.receivers) {
+    drawAll(r.receivers, r.receiverPrograms[size_t(frame.probeLookup)], [&](const Impl::Program& p, const Impl::Instance& in) {
       const glm::dmat4 motion = instanceMotion(r.animation, in.placement, frame.time);
       const glm::dmat3 linear(motion);
       // Cofactor matrix = det · inverse transpose: maps normals, defined even for singular
@@ -704,10 +704,9 @@ ImageRgb Renderer::render(const Frame& frame) {
       const glm::mat3 normalMatrix(cof);
       gl.ProgramUniformMatrix4fv(p.id, p.model, 1, GL_FALSE, &model[0][0]);
       if (!flat) gl.ProgramUniformMatrix3fv(p.id, p.normalMatrix, 1, GL_FALSE, &normalMatrix[0][0]);
-      draw(p, in, mirrored);
-      r.stats.triangles += in.triangles;
       r.stats.receiverTriangles += in.triangles;
-    }
+      return mirrored;
+    });
   }
   gl.BindVertexArray(0);
   gl.Finish();

@@ -63,6 +63,14 @@ struct FrameStats {
 /// test and read-back in one constant colour: the raster floor a benchmark compares with.
 enum class Shading { Prt, Flat };
 
+/// Where receivers look their probes up. PerPixel (the reference): at every pixel's interpolated
+/// position and normal. PerVertex: at the receiver's vertices; the normalised incident radiance
+/// Σ w_p c_p / Σ w_p is interpolated across each triangle and the irradiance basis applied at the
+/// pixel's normal: cheaper on CPU rasterizers, and equal to PerPixel only as far as the probe
+/// field is linear over a triangle (the visibility weights are not: use it for receivers whose
+/// triangles are small next to the probe spacing).
+enum class ProbeLookup { PerPixel, PerVertex };
+
 /// One frame to render.
 struct Frame {
   CameraView camera;
@@ -71,6 +79,7 @@ struct Frame {
   int width = 0;            // 0: the context's size
   int height = 0;
   Shading shading = Shading::Prt;
+  ProbeLookup probeLookup = ProbeLookup::PerPixel;
 };
 
 /// The scene uploaded to one GlContext; renders frames of it under any SH light. Baked instances
