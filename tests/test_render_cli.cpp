@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -196,6 +197,7 @@ TEST(RenderCli, BadOptionsAreOneLineAndWriteNothing) {
       {"--orbit-distance 0 -o " + frames, "--orbit-distance 0: must be > 0"},
       {"--orbit-target 1,nan,0 -o " + frames, "--orbit-target: not three finite numbers"},
       {"--camera Front -o " + frames, "no camera named 'Front'"},
+      {"--probe-lookup texel -o " + frames, "--probe-lookup texel: expected pixel or vertex"},
       {"--frames 0-20000 --size 100x100 --contact-sheet " + (out / "s.png").string() + " -o " + frames,
        "--contact-sheet " + (out / "s.png").string() + ": 20001 frames make a 14482x14380 sheet"},
   };
@@ -321,6 +323,42 @@ TEST(RenderCli, ProbesFromAnotherBakeWarnOrFail) {
   EXPECT_EQ(lines(bands.err), 1) << bands.err;
   EXPECT_NE(bands.err.find("two_bands.vdb: 2 bands, but " + glb + " is baked with 3"), std::string::npos) << bands.err;
   EXPECT_TRUE(fs::is_empty(out));
+}
+
+// --probe-lookup vertex moves the receivers' probe lookup to their vertices: static surfaces are
+// bit-identical, receiver pixels change a little (the lookup is interpolated across each
+// triangle; the renderer's own tests compare each mode with its CPU oracle).
+TEST(RenderCli, ProbeLookupVertexChangesOnlyTheReceivers) {
+  const fs::path d = freshDir("probe_lookup");
+  const std::string glb =
+      bake(source("scenes/cornell_open.gltf"), d, "room", "--probe-dims 6,6,6 --probe-samples 64 --probes " + (d / "room.vdb").string());
+  auto render = [&](const std::string& mode) {
+    const fs::path out = d / (mode + ".exr");
+    const Result r = prt(cat("render ", glb, " --env ", whiteSky(), " --size 96x72 -q -o ", out.string(), " --probes ",
+                             (d / "room.vdb").string(), " --probe-lookup ", mode),
+                         d);
+    EXPECT_EQ(r.status, 0) << r.err;
+    return loadHdrImage(out.string());
+  };
+  const ImageRgb pixel = render("pixel"), vertex = render("vertex");
+  ASSERT_EQ(pixel.width, vertex.width);
+  float peak = 0.0f;
+  for (int y = 0; y < pixel.height; ++y)
+    for (int x = 0; x < pixel.width; ++x) peak = std::max(peak, pixel.at(x, y).g);
+  int changed = 0;
+  float worst = 0.0f;
+  for (int y = 0; y < pixel.height; ++y)
+    for (int x = 0; x < pixel.width; ++x) {
+      const glm::vec3 a = pixel.at(x, y), b = vertex.at(x, y);
+      const float diff = std::max({std::fabs(a.r - b.r), std::fabs(a.g - b.g), std::fabs(a.b - b.b)});
+      changed += diff > 0.0f;
+      worst = std::max(worst, diff);
+    }
+  std::printf("[ measured ] --probe-lookup vertex vs pixel: %d of %d pixels differ, worst %.4g of peak %.4g\n", changed,
+              pixel.width * pixel.height, worst, peak);
+  EXPECT_GT(changed, 20);               // the receiver sphere covers some hundred pixels
+  EXPECT_LT(changed, pixel.width * pixel.height / 4);  // the static room does not change
+  EXPECT_LT(worst, 0.05f * peak);
 }
 
 }  // namespace

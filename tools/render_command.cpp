@@ -44,6 +44,7 @@ struct RenderArgs {
   double fps = 0.0;  // 0: the rig's fps, else 24; frame f is at time f / fps of the animations
   std::string probes;  // probe grid (.vdb) lighting the receivers
   std::string exrCompression = "zip";
+  std::string probeLookup = "pixel";  // where receivers interpolate the grid: pixel or vertex
   std::string mp4, contactSheet;
   int sheetColumns = 0, sheetTile = 192;
   double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitFov = 45.0, orbitDistance = 0.0;
@@ -307,6 +308,10 @@ CLI::App* addRenderCommand(CLI::App& app) {
                 "Frames per second: frame f shows the scene's animations at time f/fps; also the --mp4 rate "
                 "(default: the rig's fps, else 24)");
   r->add_option("--probes", args.probes, "Probe grid (.vdb from prt bake --probes) lighting the receivers");
+  r->add_option("--probe-lookup", args.probeLookup,
+                "Where receivers interpolate the probe grid: pixel (exact) or vertex (faster, exact only where "
+                "the probe field is linear over each triangle)")
+      ->capture_default_str();
   r->add_option("--contact-sheet", args.contactSheet, "Also write a PNG grid of all frames, downscaled");
   r->add_option("--sheet-columns", args.sheetColumns, "Contact sheet columns (0 = about square)")->capture_default_str();
   r->add_option("--sheet-tile", args.sheetTile, "Contact sheet: largest tile side in pixels")->capture_default_str();
@@ -331,6 +336,10 @@ void runRenderCommand() {
     compression = ExrCompression::Piz;
   else if (a.exrCompression != "zip")
     throw Error(cat("--exr-compression ", a.exrCompression, ": expected zip, piz or none"));
+  if (a.probeLookup != "pixel" && a.probeLookup != "vertex")
+    throw Error(cat("--probe-lookup ", a.probeLookup, ": expected pixel or vertex"));
+  const render::ProbeLookup lookup =
+      a.probeLookup == "vertex" ? render::ProbeLookup::PerVertex : render::ProbeLookup::PerPixel;
 
   // Lighting first (a bad rig or map fails before any GL work). A rig file's keyframe range is
   // the default frame range; the shortcuts' START:END need the range to place their keys.
@@ -397,6 +406,7 @@ void runRenderCommand() {
     frame.camera = camera.view;
     frame.light = light;
     frame.time = double(f) / fps;
+    frame.probeLookup = lookup;
     frame.width = width;
     frame.height = height;
     ImageRgb image = renderer.render(frame);
