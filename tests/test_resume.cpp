@@ -18,8 +18,10 @@
 
 #include "prt/bake/checkpoint.h"
 #include "prt/bake/memory_estimate.h"
+#include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
+#include "prt/probe_grid.h"
 #include "test_scenes.h"
 
 namespace prt {
@@ -246,6 +248,209 @@ TEST(Resume, NoCheckpointStillStopsOnInterrupt) {
   requestInterrupt(SIGINT);
   EXPECT_THROW(bakeSurface(scene, resumeSettings()), Interrupted);
   clearInterrupt();
+}
+
+// ---- The probe stage
+// A 9×7×8 lattice over the cavity and the plane (504 points, 8 chunks of 64, the last one
+// partial): probes in free space, inside the cavity's wall, and moved out of it.
+ProbeSettings resumeProbeSettings() {
+  ProbeSettings ps;
+  ps.dims = glm::ivec3(9, 7, 8);
+  ps.samples = 64;
+  ps.bands = 3;
+  ps.bounces = 2;
+  return ps;
+}
+
+Fingerprint fingerprintOf(const Scene& scene, const BakeSettings& s, const ProbeSettings& ps) {
+  Fingerprint fp = fingerprintOf(scene, s);
+  addProbeFingerprint(fp, ps);
+  return fp;
+}
+
+// Surface then probes through one checkpoint, as `prt bake --probes` runs them.
+ProbeGrid bakeBoth(const Scene& scene, const BakeSettings& s, const ProbeSettings& ps, Checkpoint* cp,
+                   ProbeStats* stats = nullptr) {
+  BakeControl control;
+  control.checkpoint = cp;
+  SurfaceTransfer t = bakeSurface(scene, s, control);
+  return bakeProbes(scene, t.perMeshLowerOrder, ps, stats, cp);
+}
+
+void bakeBothUntilInterrupted(const Scene& scene, const BakeSettings& s, const ProbeSettings& ps,
+                              const std::string& path, bool resume, uint64_t after, double interval) {
+  CheckpointOptions o;
+  o.path = path;
+  o.resume = resume;
+  o.interruptAfterChunks = after;
+  o.intervalSeconds = interval;
+  Checkpoint cp(o, fingerprintOf(scene, s, ps));
+  EXPECT_THROW(bakeBoth(scene, s, ps, &cp), Interrupted);
+  clearInterrupt();
+}
+
+std::string vdbBytes(const ProbeGrid& g, const fs::path& path) {
+  writeProbeGrid(g, path.string());
+  return slurp(path);
+}
+
+template <class T>
+bool sameBits(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
+void expectSameGrid(const ProbeGrid& a, const ProbeGrid& b) {
+  EXPECT_EQ(a.dims, b.dims);
+  EXPECT_EQ(a.origin, b.origin);
+  EXPECT_EQ(a.spacing, b.spacing);
+  EXPECT_TRUE(sameBits(a.coord, b.coord));
+  EXPECT_TRUE(sameBits(a.transfer, b.transfer));
+  EXPECT_TRUE(sameBits(a.validity, b.validity));
+  EXPECT_TRUE(sameBits(a.offset, b.offset));
+  EXPECT_TRUE(sameBits(a.skyVisibility, b.skyVisibility));
+  EXPECT_TRUE(sameBits(a.moments, b.moments));
+}
+
+constexpr uint64_t kResumeSurfaceChunks = 3 * ((2561 + 169 + 63) / 64);  // direct pass, 2 bounces
+constexpr uint64_t kResumeProbeChunks = (9 * 7 * 8 + kProbeChunk - 1) / kProbeChunk;
+
+TEST(ResumeProbes, InterruptedInTheProbeStageResumesToTheSameBitsAndFile) {
+  const Scene scene = resumeScene();
+  const BakeSettings s = resumeSettings();
+  const ProbeSettings ps = resumeProbeSettings();
+  fs::path dir = freshDir("probes");
+  ProbeStats refStats;
+  const ProbeGrid ref = bakeBoth(scene, s, ps, nullptr, &refStats);
+  // The lattice has all three kinds of probes, or the test would miss a code path.
+  ASSERT_GT(refStats.invalid, 0u);
+  ASSERT_GT(refStats.moved, 0u);
+  ASSERT_GT(refStats.active - refStats.invalid, refStats.active / 2);
+  const std::string refFile = vdbBytes(ref, dir / "ref.vdb");
+  // After the first probe chunk, in the middle, and after the last one (interrupt raised by
+  // the last chunk: the stage is complete but stops before assembling); saves only at the
+  // interrupt, and after every chunk.
+  for (uint64_t k : {uint64_t(1), kResumeProbeChunks / 2, kResumeProbeChunks}) {
+    for (double interval : {0.0, 1e-9}) {
+      SCOPED_TRACE(::testing::Message() << "interrupt after probe chunk " << k << ", interval " << interval);
+      const std::string path = (dir / "a.ckpt").string();
+      bakeBothUntilInterrupted(scene, s, ps, path, false, kResumeSurfaceChunks + k, interval);
+      ASSERT_TRUE(fs::exists(path));
+      BakeSettings r = s;
+      r.threads = 1;  // another thread count on resume
+      ProbeSettings rp = ps;
+      rp.threads = 1;
+      CheckpointOptions o;
+      o.path = path;
+      o.resume = true;
+      Checkpoint cp(o, fingerprintOf(scene, r, rp));
+      ProbeStats stats;
+      const ProbeGrid g = bakeBoth(scene, r, rp, &cp, &stats);
+      cp.remove();
+      EXPECT_EQ(stats.restored, std::min<uint64_t>(k * kProbeChunk, stats.probes));
+      EXPECT_LT(stats.rays, refStats.rays);  // only the missing chunks were traced
+      expectSameGrid(ref, g);
+      EXPECT_TRUE(vdbBytes(g, dir / "resumed.vdb") == refFile) << "the .vdb differs";
+    }
+  }
+}
+
+TEST(ResumeProbes, InterruptedTwiceInTheProbeStage) {
+  const Scene scene = resumeScene();
+  const BakeSettings s = resumeSettings();
+  const ProbeSettings ps = resumeProbeSettings();
+  const ProbeGrid ref = bakeBoth(scene, s, ps, nullptr);
+  const std::string path = (freshDir("probes_twice") / "a.ckpt").string();
+  bakeBothUntilInterrupted(scene, s, ps, path, false, kResumeSurfaceChunks + 2, 1e-9);
+  bakeBothUntilInterrupted(scene, s, ps, path, true, 3, 0.0);  // the resumed bake interrupted again
+  CheckpointOptions o;
+  o.path = path;
+  o.resume = true;
+  Checkpoint cp(o, fingerprintOf(scene, s, ps));
+  ProbeStats stats;
+  expectSameGrid(ref, bakeBoth(scene, s, ps, &cp, &stats));
+  EXPECT_EQ(stats.restored, 5 * kProbeChunk);
+}
+
+TEST(ResumeProbes, CheckpointWithOtherProbeSettingsIsRefused) {
+  const Scene scene = resumeScene();
+  const BakeSettings s = resumeSettings();
+  const ProbeSettings ps = resumeProbeSettings();
+  const std::string path = (freshDir("probes_mismatch") / "a.ckpt").string();
+  bakeBothUntilInterrupted(scene, s, ps, path, false, kResumeSurfaceChunks + 2, 0.0);
+  auto messageFor = [&](const ProbeSettings& other) {
+    CheckpointOptions o;
+    o.path = path;
+    o.resume = true;
+    try {
+      Checkpoint cp(o, fingerprintOf(scene, s, other));
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  auto expectRefused = [&](const ProbeSettings& other, const std::string& what) {
+    const std::string msg = messageFor(other);
+    EXPECT_NE(msg.find("checkpoint is from another bake: " + what), std::string::npos) << msg;
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  };
+  ProbeSettings o = ps;
+  o.samples = 128;
+  expectRefused(o, "probe samples 64 (checkpoint) vs 128 (now)");
+  o = ps;
+  o.dims.z = 9;
+  expectRefused(o, "probe dims 9,7,8 (checkpoint) vs 9,7,9 (now)");
+  o = ps;
+  o.spacing = 0.25;
+  expectRefused(o, "probe spacing 0 (checkpoint) vs 0.25 (now)");
+  o = ps;
+  o.boundsMin = glm::dvec3(-1.0);
+  o.boundsMax = glm::dvec3(1.0);
+  expectRefused(o, "probe bounds min scene (checkpoint) vs -1,-1,-1 (now)");
+  o = ps;
+  o.seed = 2;
+  expectRefused(o, "probe seed 1 (checkpoint) vs 2 (now)");
+  o = ps;
+  o.bands = 2;
+  expectRefused(o, "probe bands 3 (checkpoint) vs 2 (now)");
+  o = ps;
+  o.bounces = 1;
+  expectRefused(o, "probe bounces 2 (checkpoint) vs 1 (now)");
+  o = ps;
+  o.threads = 1;  // not a setting of the result
+  EXPECT_EQ(messageFor(o), "accepted");
+}
+
+TEST(ResumeProbes, InterruptStopsWithinAProbe) {
+  // Two probes of 2^24 rays each take seconds; the flag is polled per stream of 256 rays, so
+  // the bake stops long before one probe is done, and saves no probe chunk.
+  const Scene scene = resumeScene();
+  ProbeSettings ps;
+  ps.dims = glm::ivec3(2, 1, 1);
+  ps.samples = 1 << 24;
+  ps.bounces = 0;
+  const std::string path = (freshDir("probes_latency") / "a.ckpt").string();
+  CheckpointOptions o;
+  o.path = path;
+  o.intervalSeconds = 0.0;
+  Checkpoint cp(o, fingerprintOf(scene, resumeSettings(), ps));
+  std::thread stopper([] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    requestInterrupt(SIGINT);
+  });
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_THROW(bakeProbes(scene, {}, ps, nullptr, &cp), Interrupted);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  stopper.join();
+  clearInterrupt();
+  std::printf("probe bake of 2 x 2^24 rays interrupted after 0.2 s: stopped after %.3f s\n", seconds);
+  EXPECT_LT(seconds, 1.5);
+  uint64_t chunks = 0;
+  CheckpointOptions r = o;
+  r.resume = true;
+  Checkpoint again(r, fingerprintOf(scene, resumeSettings(), ps));
+  again.restoreChunks(kProbeStage, [&](uint64_t, ByteReader&) { ++chunks; });
+  EXPECT_EQ(chunks, 0u);
+  again.remove();
 }
 
 TEST(Hasher, StreamingEqualsOneShotAndDetectsChanges) {

@@ -3,8 +3,12 @@
 //
 //   surface  scene + layout + BVH + hit records + 3B (t^{k-1}, t^k, running sum)
 //            (+ B for the lower-order sum when probes follow)
-//   probes   scene + 2B (transfer and lower-order sum) + BVH + per-probe accumulators and grid;
-//            then the grid, its OpenVDB copy and OpenVDB's own buffers while writing
+//   probes   scene + 2B (transfer and lower-order sum), then the largest of
+//              trace     BVH + per lattice point a slot and its n2²·3 floats + per thread the
+//                        double accumulators + the checkpoint's save/read buffers
+//              assemble  slots and lattice transfer + the compacted copy + the grid's
+//                        attribute vectors (growing) + its dense index
+//              write     the grid + its OpenVDB copy (whole 8³ leaves) + OpenVDB's buffers
 //   write    scene + B (transfer in the scene) [+ B lower-order sum] + the glTF writer: copies
 //            of the input's buffers (reloaded, packed, serialised) and of the transfer (staging,
 //            packed, serialised), as measured
@@ -23,6 +27,7 @@
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "prt/error.h"
 #include "prt/progress.h"
@@ -46,10 +51,18 @@ constexpr uint64_t kWriteTransferCopies = 5, kWriteInputCopies = 3;
 constexpr uint64_t kLayoutPerVertex = 28, kLayoutPerTriangle = 16;
 // One hit record, and the CSR offset per vertex.
 constexpr uint64_t kHitBytes = 8, kHitOffsetBytes = 4;
-// Probe bake (probe_bake.cpp): a slot per lattice point, accumulators (n2² doubles and n2²
-// double RGB) per valid probe, and per active probe the grid's n2²·3 floats, attributes (80)
-// and the OpenVDB copy written out (about the same again).
-constexpr uint64_t kProbeSlotBytes = 224, kProbeAttributeBytes = 80, kAllocOverhead = 32;
+// Probe bake (probe_bake.cpp): a 72-byte slot per lattice point next to its n2²·3 floats
+// (lattice order, kept in the checkpoint's chunk records as they are); per worker thread one
+// set of accumulators (n2² doubles and n2² double RGB); per active probe the grid's
+// attributes: coordinate 12, validity 4, offset 12, moments 48, sky 4 (80), and a 4-byte
+// dense index entry per lattice point.
+constexpr uint64_t kProbeSlotBytes = 72, kProbeAttributeBytes = 80, kProbeIndexBytes = 4, kAllocOverhead = 32;
+// OpenVDB keeps whole leaves of 8³ voxels; one value per grid per voxel, n2² Vec3s transfer
+// grids plus validity, sky visibility (float), irradiance preview, offset and four moment
+// grids (Vec3s), plus per leaf its masks and node header.
+constexpr uint64_t kVdbLeafVoxels = 512, kVdbVec3Grids = 6, kVdbFloatGrids = 2, kVdbLeafOverhead = 256;
+// The checkpoint's save buffer (checkpoint.cpp FdWriter) and its read buffer on resume.
+constexpr uint64_t kCheckpointBuffers = uint64_t(5) << 20;
 // Writing the .vdb: measured ~46 MiB on top of the grid whatever its size (OpenVDB's
 // registries, Blosc and stream buffers), rounded up.
 constexpr uint64_t kVdbWriteBytes = uint64_t(56) << 20;
@@ -78,6 +91,33 @@ uint64_t gltfInputBytes(const Scene& scene) {
 
 std::string mib(uint64_t b) { return formatBytes(b); }
 
+// The probe stage on top of the scene and the surface transfer: the largest of its trace,
+// assembly and write. Every lattice point is counted as valid and active (the bound). Sets
+// `lattice` to the bytes of the lattice's own results (slots and transfer).
+uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t triangles, uint64_t& lattice) {
+  ProbeGrid grid;
+  glm::dvec3 lo = p.boundsMin.value_or(glm::dvec3(scene.boundsMin));
+  glm::dvec3 hi = p.boundsMax.value_or(glm::dvec3(scene.boundsMax));
+  layoutGrid(p, lo, hi, grid);
+  const glm::u64vec3 dims(grid.dims);
+  const uint64_t points = dims.x * dims.y * dims.z;
+  const uint64_t pn2 = uint64_t(p.bands) * p.bands;
+  const uint64_t matrix = pn2 * pn2 * 12;
+  const uint64_t threads = std::max(1u, p.threads > 0 ? unsigned(p.threads) : std::thread::hardware_concurrency());
+  const uint64_t accum = pn2 * pn2 * (8 + 24) + 2 * kAllocOverhead;
+  lattice = points * (kProbeSlotBytes + matrix);
+  const uint64_t trace = triangles * kBvhBytesPerTriangle + lattice + threads * accum + kCheckpointBuffers;
+  // Compaction keeps the lattice's transfer and, when it shrinks, a copy of at most 0.8 of it;
+  // the attribute vectors grow by doubling.
+  const uint64_t gridBytes = points * (matrix + kProbeAttributeBytes + kProbeIndexBytes);
+  const uint64_t assemble = lattice + points * (matrix * 4 / 5 + 2 * kProbeAttributeBytes + kProbeIndexBytes);
+  const uint64_t leaves = ((dims.x + 7) / 8) * ((dims.y + 7) / 8) * ((dims.z + 7) / 8);
+  const uint64_t vdbLeaf = kVdbLeafVoxels * (12 * (pn2 * pn2 + kVdbVec3Grids) + 4 * kVdbFloatGrids) +
+                           (pn2 * pn2 + kVdbVec3Grids + kVdbFloatGrids) * kVdbLeafOverhead;
+  const uint64_t write = gridBytes + leaves * vdbLeaf + kVdbWriteBytes;
+  return std::max({trace, assemble, write});
+}
+
 }  // namespace
 
 MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, const ProbeSettings* probes,
@@ -105,21 +145,7 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   // Surface stage: during the last bounce (or the direct pass and its copy without bounces),
   // then the per-instance copies of the sums.
   e.surfacePeak = e.scene + std::max(layout + e.bvh + e.hits + 3 * e.transfer + lower, 2 * (e.transfer + lower));
-  if (probes) {
-    ProbeGrid grid;
-    glm::dvec3 lo = probes->boundsMin.value_or(glm::dvec3(scene.boundsMin));
-    glm::dvec3 hi = probes->boundsMax.value_or(glm::dvec3(scene.boundsMax));
-    layoutGrid(*probes, lo, hi, grid);
-    const uint64_t lattice = uint64_t(grid.dims.x) * grid.dims.y * grid.dims.z;
-    const uint64_t pn2 = uint64_t(probes->bands) * probes->bands;
-    const uint64_t accum = pn2 * pn2 * (8 + 24) + 2 * kAllocOverhead;
-    const uint64_t stored = pn2 * pn2 * 12 + kProbeAttributeBytes;
-    // Every lattice point may be valid and active (the bound); the grid is built while the
-    // accumulators live, and copied to OpenVDB after they are gone.
-    e.probes = lattice * (kProbeSlotBytes + accum + stored + 4);
-    e.probePeak = e.scene + 2 * e.transfer + triangles * kBvhBytesPerTriangle + e.probes;
-    e.probePeak = std::max(e.probePeak, e.scene + 2 * e.transfer + lattice * 2 * stored + kVdbWriteBytes);
-  }
+  if (probes) e.probePeak = e.scene + 2 * e.transfer + probeStagePeak(scene, *probes, triangles, e.probes);
   e.writePeak = e.scene + e.transfer + lower + kWriteInputCopies * gltfInputBytes(scene) +
                 kWriteTransferCopies * e.transfer;
   e.total = e.base + uint64_t(double(std::max({e.surfacePeak, e.probePeak, e.writePeak})) * kSlack);
@@ -132,8 +158,17 @@ std::string MemoryEstimate::describe() const {
   if (hits) os << "hit records " << mib(hits) << ", ";
   os << "transfer " << mib(transfer) << " per buffer, ";
   if (bvh) os << "BVH " << mib(bvh) << ", ";
-  if (probes) os << "probes " << mib(probes) << ", ";
+  if (probes) os << "probe lattice " << mib(probes) << ", ";
   os << "scene " << mib(scene) << ")";
+  return os.str();
+}
+
+std::string MemoryEstimate::phases() const {
+  auto bound = [&](uint64_t peak) { return mib(base + uint64_t(double(peak) * kSlack)); };
+  std::ostringstream os;
+  os << "surface " << bound(surfacePeak);
+  if (probePeak) os << ", probes " << bound(probePeak);
+  os << ", write " << bound(writePeak);
   return os.str();
 }
 
