@@ -8,7 +8,8 @@
 //                        double accumulators + the checkpoint's save/read buffers
 //              assemble  slots and lattice transfer + the compacted copy + the grid's
 //                        attribute vectors (growing) + its dense index
-//              write     the grid + its OpenVDB copy (whole 8³ leaves) + OpenVDB's buffers
+//              write     the grid + its OpenVDB copy (whole 8³ leaves) + OpenVDB's buffers +
+//                        the written file read back whole for its content UUID
 //   write    scene + B (transfer in the scene) [+ B lower-order sum] + the glTF writer: copies
 //            of the input's buffers (reloaded, packed, serialised) and of the transfer (staging,
 //            packed, serialised), as measured
@@ -57,15 +58,25 @@ constexpr uint64_t kHitBytes = 8, kHitOffsetBytes = 4;
 // attributes: coordinate 12, validity 4, offset 12, moments 48, sky 4 (80), and a 4-byte
 // dense index entry per lattice point.
 constexpr uint64_t kProbeSlotBytes = 72, kProbeAttributeBytes = 80, kProbeIndexBytes = 4, kAllocOverhead = 32;
-// OpenVDB keeps whole leaves of 8³ voxels; one value per grid per voxel, n2² Vec3s transfer
-// grids plus validity, sky visibility (float), irradiance preview, offset and four moment
-// grids (Vec3s), plus per leaf its masks and node header.
-constexpr uint64_t kVdbLeafVoxels = 512, kVdbVec3Grids = 6, kVdbFloatGrids = 2, kVdbLeafOverhead = 256;
+// The .vdb's grids: n2² Vec3s transfer grids, irradiance preview, offset and four moment grids
+// (Vec3s), validity and sky visibility (float). An OpenVDB 10 tree (5-4-3) has one 32³ upper
+// node (the lattice, at most 512 per axis from 0, lies within its 4096³ span), a 16³ lower
+// node per 128³ block and a leaf of 8³ voxels per 8³ block, whole; a node entry is a union of
+// a child pointer and a value (16 bytes for Vec3s, 8 for float). The upper node alone is
+// 512 KiB per Vec3s grid: measured 0.49, 0.55, 0.58, 0.59 MiB per grid at bands 2-5 for a
+// 2³ lattice (24 to 633 grids), whatever the lattice's size.
+constexpr uint64_t kVdbVec3Grids = 6, kVdbFloatGrids = 2;
+constexpr uint64_t kVdbUpperEntries = 32768, kVdbLowerEntries = 4096, kVdbLeafVoxels = 512;
+constexpr uint64_t kVdbNodeOverhead = 8192, kVdbLeafOverhead = 256;
+// The written .vdb holds the active values (Blosc barely shrinks these floats: measured 0.9 of
+// the raw 12·n2² + 80 bytes per probe) and per leaf and grid two 64-byte masks. It is read
+// back whole into a string to derive its UUID (probe_grid_vdb.cpp, stampContentUuid) while the
+// grids are alive: the string grows by doubling, so up to 3 file sizes are held at once.
+constexpr uint64_t kVdbFileMaskBytes = 128, kVdbFileReadCopies = 3;
 // The checkpoint's save buffer (checkpoint.cpp FdWriter) and its read buffer on resume.
 constexpr uint64_t kCheckpointBuffers = uint64_t(5) << 20;
-// Writing the .vdb: measured ~46 MiB on top of the grid whatever its size (OpenVDB's
-// registries, Blosc and stream buffers), rounded up.
-constexpr uint64_t kVdbWriteBytes = uint64_t(56) << 20;
+// Writing the .vdb besides the trees: OpenVDB's registries, Blosc and stream buffers.
+constexpr uint64_t kVdbWriteBytes = uint64_t(8) << 20;
 // On top of the sum: allocator rounding, vector growth of the hit records per thread.
 constexpr double kSlack = 1.10;
 
@@ -91,6 +102,16 @@ uint64_t gltfInputBytes(const Scene& scene) {
 
 std::string mib(uint64_t b) { return formatBytes(b); }
 
+// One OpenVDB tree over the lattice (see kVdbUpperEntries): values of `valueBytes`, node
+// entries of `entryBytes`.
+uint64_t vdbTreeBytes(uint64_t valueBytes, uint64_t entryBytes, const glm::u64vec3& dims) {
+  auto blocks = [&](uint64_t side) { return ((dims.x + side - 1) / side) * ((dims.y + side - 1) / side) *
+                                            ((dims.z + side - 1) / side); };
+  return kVdbUpperEntries * entryBytes + kVdbNodeOverhead +
+         blocks(128) * (kVdbLowerEntries * entryBytes + kVdbNodeOverhead) +
+         blocks(8) * (kVdbLeafVoxels * valueBytes + kVdbLeafOverhead);
+}
+
 // The probe stage on top of the scene and the surface transfer: the largest of its trace,
 // assembly and write. Every lattice point is counted as valid and active (the bound). Sets
 // `lattice` to the bytes of the lattice's own results (slots and transfer).
@@ -112,9 +133,11 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   const uint64_t gridBytes = points * (matrix + kProbeAttributeBytes + kProbeIndexBytes);
   const uint64_t assemble = lattice + points * (matrix * 4 / 5 + 2 * kProbeAttributeBytes + kProbeIndexBytes);
   const uint64_t leaves = ((dims.x + 7) / 8) * ((dims.y + 7) / 8) * ((dims.z + 7) / 8);
-  const uint64_t vdbLeaf = kVdbLeafVoxels * (12 * (pn2 * pn2 + kVdbVec3Grids) + 4 * kVdbFloatGrids) +
-                           (pn2 * pn2 + kVdbVec3Grids + kVdbFloatGrids) * kVdbLeafOverhead;
-  const uint64_t write = gridBytes + leaves * vdbLeaf + kVdbWriteBytes;
+  const uint64_t grids = pn2 * pn2 + kVdbVec3Grids + kVdbFloatGrids;
+  const uint64_t trees =
+      (pn2 * pn2 + kVdbVec3Grids) * vdbTreeBytes(12, 16, dims) + kVdbFloatGrids * vdbTreeBytes(4, 8, dims);
+  const uint64_t file = points * (matrix + kProbeAttributeBytes) + leaves * grids * kVdbFileMaskBytes;
+  const uint64_t write = gridBytes + trees + kVdbFileReadCopies * file + kVdbWriteBytes;
   return std::max({trace, assemble, write});
 }
 
