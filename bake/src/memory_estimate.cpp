@@ -71,8 +71,10 @@ constexpr uint64_t kVdbNodeOverhead = 8192, kVdbLeafOverhead = 256;
 // The written .vdb holds the active values (Blosc barely shrinks these floats: measured 0.9 of
 // the raw 12·n2² + 80 bytes per probe) and per leaf and grid two 64-byte masks. It is read
 // back whole into a string to derive its UUID (probe_grid_vdb.cpp, stampContentUuid) while the
-// grids are alive: the string grows by doubling, so up to 3 file sizes are held at once.
-constexpr uint64_t kVdbFileMaskBytes = 128, kVdbFileReadCopies = 3;
+// grids are alive. The string grows by doubling: when its capacity C is exceeded, the old C
+// bytes and their copy in the new buffer are resident (the new buffer's untouched pages are
+// not), and C < the file's size: at most 2 file sizes at once.
+constexpr uint64_t kVdbFileMaskBytes = 128, kVdbFileReadCopies = 2;
 // The checkpoint's save buffer (checkpoint.cpp FdWriter) and its read buffer on resume.
 constexpr uint64_t kCheckpointBuffers = uint64_t(5) << 20;
 // Writing the .vdb besides the trees: OpenVDB's registries, Blosc and stream buffers.
