@@ -572,6 +572,18 @@ std::vector<std::string> dirNames(const fs::path& dir) {
   return n;
 }
 
+// Starts `prt ARGS...` (a resumed bake), waits until it has saved to its checkpoint `ckpt`
+// once more, and kills it with -9.
+ChildRun killAfterNextSave(const std::vector<std::string>& args, const std::string& ckpt, const fs::path& errFile) {
+  const uintmax_t before = fs::file_size(ckpt);
+  auto t0 = std::chrono::steady_clock::now();
+  pid_t pid = spawn(args, errFile);
+  for (int i = 0; i < 400 && fs::file_size(ckpt) <= before; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_GT(fs::file_size(ckpt), before) << "the resumed bake saved nothing in 4 s";
+  ::kill(pid, SIGKILL);
+  return finish(pid, errFile, t0);
+}
+
 TEST(CliResume, InterruptedBakeResumesByteIdenticalWithOtherThreads) {
   fs::path dir = freshDir("cli_points");
   const std::string scene = scenePath("cornell_open.gltf");
@@ -643,12 +655,7 @@ TEST(CliResume, SignalThenKillNineThenResume) {
   resumeArgs.push_back("--resume");
   resumeArgs.push_back("--threads");
   resumeArgs.push_back("1");
-  const uintmax_t before = fs::file_size(ckpt);
-  pid = spawn(resumeArgs, errFile);
-  for (int i = 0; i < 400 && fs::file_size(ckpt) <= before; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  EXPECT_GT(fs::file_size(ckpt), before) << "the resumed bake saved nothing in 4 s";
-  ::kill(pid, SIGKILL);
-  ChildRun killed = finish(pid, errFile, t0);
+  ChildRun killed = killAfterNextSave(resumeArgs, ckpt, errFile);
   ASSERT_EQ(killed.status, 128 + SIGKILL) << "finished before kill -9: " << killed.err;
   EXPECT_EQ(slurp(out), previous);  // never a partial output
 
@@ -796,12 +803,7 @@ TEST(CliResumeProbes, SigintInTheProbeStageThenKillNineThenResume) {
   EXPECT_EQ(slurp(vdb), previousVdb);
 
   std::vector<std::string> resumeArgs = plus(args, {"--resume", "--threads", "1", "--checkpoint-interval", "0.1"});
-  const uintmax_t before = fs::file_size(ckpt);
-  pid = spawn(resumeArgs, errFile);
-  for (int i = 0; i < 400 && fs::file_size(ckpt) <= before; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  EXPECT_GT(fs::file_size(ckpt), before) << "the resumed bake saved nothing in 4 s";
-  ::kill(pid, SIGKILL);
-  ChildRun killed = finish(pid, errFile, t0);
+  ChildRun killed = killAfterNextSave(resumeArgs, ckpt, errFile);
   ASSERT_EQ(killed.status, 128 + SIGKILL) << "finished before kill -9: " << killed.err;
   EXPECT_EQ(slurp(out), previousGlb);  // never a partial output
   EXPECT_EQ(slurp(vdb), previousVdb);
