@@ -179,10 +179,13 @@ TEST(Resume, TornTailOfTheLogIsDropped) {
   const SurfaceTransfer ref = bakeSurface(scene, s);
   const std::string path = (freshDir("torn") / "a.ckpt").string();
   bakeUntilInterrupted(scene, s, path, false, 60, 1e-9);
-  const uintmax_t full = fs::file_size(path);
-  for (uintmax_t cut : {full - 1, full - 30, full * 2 / 3}) {
-    SCOPED_TRACE(cut);
+  // Cuts relative to the file as it is at each round: a resumed bake may leave it shorter than
+  // before (its last chunks can hold fewer hit records than the ones the cut dropped).
+  for (auto cutOf : {+[](uintmax_t n) { return n - 1; }, +[](uintmax_t n) { return n - 30; },
+                     +[](uintmax_t n) { return n * 2 / 3; }}) {
     std::string bytes = slurp(path);
+    const uintmax_t cut = cutOf(bytes.size());
+    SCOPED_TRACE(cut);
     {
       std::ofstream out(path, std::ios::binary | std::ios::trunc);
       out.write(bytes.data(), std::streamsize(cut));
