@@ -528,7 +528,8 @@ std::string fileBytes(const fs::path& p) {
 
 // Same seed, any thread count: the baked .glb and the probe .vdb are the same bytes. The
 // cornell box has occlusion and interreflection, so every stage of both bakes runs (rays,
-// bounces, probe relocation), and a 4x4x4 probe grid has probes inside and outside the walls.
+// bounces, probe relocation), and an 8x8x8 probe grid (8 chunks of 64, so threads share the
+// probe stage) has probes inside and outside the walls.
 TEST(CliDeterminism, ThreadCountDoesNotChangeTheBytes) {
   fs::path d = tempDir("determinism");
   std::string reference;
@@ -538,7 +539,7 @@ TEST(CliDeterminism, ThreadCountDoesNotChangeTheBytes) {
     name += std::to_string(threads);  // (not "t" + to_string: GCC 12 warns, -Wrestrict false positive)
     std::string glb = (d / (name + ".glb")).string(), vdb = (d / (name + ".vdb")).string();
     CliRun r = prt("bake " + scene("cornell_open.gltf") + " -o " + glb + " --probes " + vdb +
-                   " --probe-dims 4,4,4 --probe-samples 64 --samples 32 --bounces 2 --seed 7 -q --threads " +
+                   " --probe-dims 8,8,8 --probe-samples 64 --samples 32 --bounces 2 --seed 7 -q --threads " +
                    std::to_string(threads));
     ASSERT_EQ(r.status, 0) << r.err;
     std::string bytes = fileBytes(glb), vdbBytes = fileBytes(vdb);

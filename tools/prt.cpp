@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -46,16 +45,13 @@ void printWarnings(const Scene& scene, bool quiet) {
 }
 
 // ---- prt bake
-// Signals: the first SIGINT/SIGTERM asks the bake to stop (it saves its checkpoint and unwinds
-// to main); a second one, or one during a stage that cannot stop cleanly (the probe stage, for
-// now), exits at once with a message prepared beforehand. Only async-signal-safe calls here.
-char gHardExitMessage[1024];
-std::atomic<bool> gHardExit{false};
-
+// Signals: the first SIGINT/SIGTERM asks the bake to stop (every stage, surface and probes,
+// saves its checkpoint and unwinds to main); a second one exits at once without saving. Only
+// async-signal-safe calls here.
 void onSignal(int sig) {
-  if (gHardExit.load() || bake::interruptRequested()) {
-    const char* msg = gHardExit.load() ? gHardExitMessage : "prt: interrupted again: stopping without saving\n";
-    ssize_t ignored = ::write(STDERR_FILENO, msg, std::strlen(msg));
+  if (bake::interruptRequested()) {
+    const char msg[] = "prt: interrupted again: stopping without saving\n";
+    ssize_t ignored = ::write(STDERR_FILENO, msg, sizeof msg - 1);
     (void)ignored;
     ::_exit(128 + sig);
   }
@@ -74,7 +70,6 @@ public:
     sigaction(SIGTERM, &sa, &oldTerm_);
   }
   ~SignalScope() {
-    gHardExit = false;
     sigaction(SIGINT, &oldInt_, nullptr);
     sigaction(SIGTERM, &oldTerm_, nullptr);
   }
@@ -116,15 +111,8 @@ bake::Fingerprint bakeFingerprint(const Scene& scene, const BakeArgs& a, const b
   fp.add("seed", std::to_string(s.seed));
   fp.add("probes", ps ? "yes" : "no");
   if (ps) {
-    fp.add("probe samples", std::to_string(ps->samples));
-    fp.add("probe spacing", cat(std::setprecision(17), ps->spacing));
-    fp.add("probe dims", cat(ps->dims.x, ",", ps->dims.y, ",", ps->dims.z));
-    std::string bounds = "scene";
-    if (!a.probeBounds.empty()) {
-      bounds.clear();
-      for (double v : a.probeBounds) bounds += cat(bounds.empty() ? "" : ",", std::setprecision(17), v);
-    }
-    fp.add("probe bounds", bounds);
+    bake::addProbeFingerprint(fp, *ps);
+    fp.add("probe half", a.probeHalf ? "yes" : "no");  // the .vdb written from the same results
   }
   return fp;
 }
@@ -151,6 +139,7 @@ void runBake(const BakeArgs& a) {
     ps.bounces = s.shadowed ? s.bounces : 0;
     ps.seed = s.seed;
     ps.progress = s.progress;
+    ps.threads = s.threads;
     ps.spacing = a.probeSpacing;
     if (!a.probeDims.empty()) ps.dims = glm::ivec3(a.probeDims[0], a.probeDims[1], a.probeDims[2]);
     if (a.probeSpacing == 0.0 && a.probeDims.empty()) ps.dims = glm::ivec3(16);
@@ -195,28 +184,24 @@ void runBake(const BakeArgs& a) {
     estimate = bake::estimateBakeMemory(scene, s, psp, share);
     if (limit) bake::checkMemory(estimate, *limit, scene, s, psp);
   };
-  bake::SurfaceTransfer result;
-  try {
-    result = bake::bakeSurface(scene, s, control);
-  } catch (const Interrupted& e) {
-    if (!checkpoint) throw;
-    throw Interrupted(cat("interrupted: checkpoint saved to ", checkpoint->path(), " (",
-                          checkpoint->progressText(), "); rerun with --resume to continue"));
-  }
+  // Runs a stage; an interruption names the checkpoint and how far the bake got.
+  auto runStage = [&](auto&& run) {
+    try {
+      return run();
+    } catch (const Interrupted&) {
+      if (!checkpoint) throw;
+      throw Interrupted(cat("interrupted: checkpoint saved to ", checkpoint->path(), " (",
+                            checkpoint->progressText(), "); rerun with --resume to continue"));
+    }
+  };
+  bake::SurfaceTransfer result = runStage([&] { return bake::bakeSurface(scene, s, control); });
   std::string sceneName = std::filesystem::path(a.scene).filename().string();
   bake::ProbeStats probeStats;
   if (!a.probes.empty()) {
     if (result.perMeshLowerOrder.empty()) result.perMeshLowerOrder.assign(scene.meshes.size(), {});
-    // The probe bake does not poll the interrupt flag yet: a signal during it exits at once,
-    // and the checkpoint keeps the finished surface stage (saved by bakeSurface).
-    std::snprintf(gHardExitMessage, sizeof gHardExitMessage,
-                  "\nprt: interrupted in the probe stage: checkpoint %s keeps the surface stage; rerun with "
-                  "--resume to continue from there\n",
-                  checkpoint->path().c_str());
-    gHardExit = true;
-    if (bake::interruptRequested()) onSignal(bake::interruptSignal());
-    ProbeGrid grid = bake::bakeProbes(scene, result.perMeshLowerOrder, ps, &probeStats);
-    gHardExit = false;
+    ProbeGrid grid = runStage([&] {
+      return bake::bakeProbes(scene, result.perMeshLowerOrder, ps, &probeStats, checkpoint ? &*checkpoint : nullptr);
+    });
     grid.info.scene = sceneName;
     writeProbeGrid(grid, a.probes, a.probeHalf);
   }
@@ -244,24 +229,27 @@ void runBake(const BakeArgs& a) {
   std::fprintf(stderr,
                "prt bake: %s -> %s\n  %s vertices in %zu instances (%zu receivers skipped), %d bands, "
                "%d samples, %d bounces%s\n  %s rays (%s rays/s in the direct pass), %s hit records%s\n"
-               "  time: %s write %.2f s; total %.2f s\n  memory: estimated %s, peak %s\n",
+               "  time: %s write %.2f s; total %.2f s\n  memory: estimated %s, peak %s (estimated by phase: %s)\n",
                a.scene.c_str(), a.output.c_str(), formatCount(double(st.vertices)).c_str(),
                scene.meshes.size() - receivers, receivers, s.bands, s.samples, s.shadowed ? s.bounces : 0,
                s.shadowed ? "" : " (unshadowed)", formatCount(double(st.rays)).c_str(),
                formatCount(directSeconds > 0 ? double(st.rays) / directSeconds : 0.0).c_str(),
                formatCount(double(st.hitRecords)).c_str(), st.resumed ? "; resumed from the checkpoint" : "",
                stages.str().c_str(), writeSeconds, st.seconds + writeSeconds, formatBytes(estimate.total).c_str(),
-               formatBytes(peakMemoryBytes()).c_str());
+               formatBytes(peakMemoryBytes()).c_str(), estimate.phases().c_str());
   for (const std::string& line : describeReceivers(scene)) std::fprintf(stderr, "  receiver %s\n", line.c_str());
-  if (!a.probes.empty())
-    std::fprintf(stderr,
-                 "  probes: %s lattice points, %s active, %s inside geometry, %s moved out; %s rays in %.2f s "
-                 "(%s probes/s, %s rays/s) -> %s\n",
-                 formatCount(double(probeStats.probes)).c_str(), formatCount(double(probeStats.active)).c_str(),
-                 formatCount(double(probeStats.invalid)).c_str(), formatCount(double(probeStats.moved)).c_str(),
-                 formatCount(double(probeStats.rays)).c_str(), probeStats.seconds,
-                 formatCount(probeStats.probes / std::max(probeStats.seconds, 1e-9)).c_str(),
-                 formatCount(probeStats.rays / std::max(probeStats.seconds, 1e-9)).c_str(), a.probes.c_str());
+  if (a.probes.empty()) return;
+  const std::string restored =
+      probeStats.restored ? cat("; ", formatCount(double(probeStats.restored)), " restored from the checkpoint") : "";
+  std::fprintf(stderr,
+               "  probes: %s lattice points, %s active, %s inside geometry, %s moved out; %s rays in %.2f s "
+               "(%s probes/s, %s rays/s)%s -> %s\n",
+               formatCount(double(probeStats.probes)).c_str(), formatCount(double(probeStats.active)).c_str(),
+               formatCount(double(probeStats.invalid)).c_str(), formatCount(double(probeStats.moved)).c_str(),
+               formatCount(double(probeStats.rays)).c_str(), probeStats.seconds,
+               formatCount(double(probeStats.probes - probeStats.restored) / std::max(probeStats.seconds, 1e-9)).c_str(),
+               formatCount(probeStats.rays / std::max(probeStats.seconds, 1e-9)).c_str(), restored.c_str(),
+               a.probes.c_str());
 }
 
 // ---- prt probe

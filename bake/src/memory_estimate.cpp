@@ -3,8 +3,13 @@
 //
 //   surface  scene + layout + BVH + hit records + 3B (t^{k-1}, t^k, running sum)
 //            (+ B for the lower-order sum when probes follow)
-//   probes   scene + 2B (transfer and lower-order sum) + BVH + per-probe accumulators and grid;
-//            then the grid, its OpenVDB copy and OpenVDB's own buffers while writing
+//   probes   scene + 2B (transfer and lower-order sum), then the largest of
+//              trace     BVH + per lattice point a slot and its n2²·3 floats + per thread the
+//                        double accumulators + the checkpoint's save/read buffers
+//              assemble  slots and lattice transfer + the compacted copy + the grid's
+//                        attribute vectors (growing) + its dense index
+//              write     the grid + its OpenVDB copy (whole 8³ leaves) + OpenVDB's buffers +
+//                        the written file read back whole for its content UUID
 //   write    scene + B (transfer in the scene) [+ B lower-order sum] + the glTF writer: copies
 //            of the input's buffers (reloaded, packed, serialised) and of the transfer (staging,
 //            packed, serialised), as measured
@@ -23,6 +28,7 @@
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "prt/error.h"
 #include "prt/progress.h"
@@ -46,13 +52,33 @@ constexpr uint64_t kWriteTransferCopies = 5, kWriteInputCopies = 3;
 constexpr uint64_t kLayoutPerVertex = 28, kLayoutPerTriangle = 16;
 // One hit record, and the CSR offset per vertex.
 constexpr uint64_t kHitBytes = 8, kHitOffsetBytes = 4;
-// Probe bake (probe_bake.cpp): a slot per lattice point, accumulators (n2² doubles and n2²
-// double RGB) per valid probe, and per active probe the grid's n2²·3 floats, attributes (80)
-// and the OpenVDB copy written out (about the same again).
-constexpr uint64_t kProbeSlotBytes = 224, kProbeAttributeBytes = 80, kAllocOverhead = 32;
-// Writing the .vdb: measured ~46 MiB on top of the grid whatever its size (OpenVDB's
-// registries, Blosc and stream buffers), rounded up.
-constexpr uint64_t kVdbWriteBytes = uint64_t(56) << 20;
+// Probe bake (probe_bake.cpp): a 72-byte slot per lattice point next to its n2²·3 floats
+// (lattice order, kept in the checkpoint's chunk records as they are); per worker thread one
+// set of accumulators (n2² doubles and n2² double RGB); per active probe the grid's
+// attributes: coordinate 12, validity 4, offset 12, moments 48, sky 4 (80), and a 4-byte
+// dense index entry per lattice point.
+constexpr uint64_t kProbeSlotBytes = 72, kProbeAttributeBytes = 80, kProbeIndexBytes = 4, kAllocOverhead = 32;
+// The .vdb's grids: n2² Vec3s transfer grids, irradiance preview, offset and four moment grids
+// (Vec3s), validity and sky visibility (float). An OpenVDB 10 tree (5-4-3) has one 32³ upper
+// node (the lattice, at most 512 per axis from 0, lies within its 4096³ span), a 16³ lower
+// node per 128³ block and a leaf of 8³ voxels per 8³ block, whole; a node entry is a union of
+// a child pointer and a value (16 bytes for Vec3s, 8 for float). The upper node alone is
+// 512 KiB per Vec3s grid: measured 0.49, 0.55, 0.58, 0.59 MiB per grid at bands 2-5 for a
+// 2³ lattice (24 to 633 grids), whatever the lattice's size.
+constexpr uint64_t kVdbVec3Grids = 6, kVdbFloatGrids = 2;
+constexpr uint64_t kVdbUpperEntries = 32768, kVdbLowerEntries = 4096, kVdbLeafVoxels = 512;
+constexpr uint64_t kVdbNodeOverhead = 8192, kVdbLeafOverhead = 256;
+// The written .vdb holds the active values (Blosc barely shrinks these floats: measured 0.9 of
+// the raw 12·n2² + 80 bytes per probe) and per leaf and grid two 64-byte masks. It is read
+// back whole into a string to derive its UUID (probe_grid_vdb.cpp, stampContentUuid) while the
+// grids are alive. The string grows by doubling: when its capacity C is exceeded, the old C
+// bytes and their copy in the new buffer are resident (the new buffer's untouched pages are
+// not), and C < the file's size: at most 2 file sizes at once.
+constexpr uint64_t kVdbFileMaskBytes = 128, kVdbFileReadCopies = 2;
+// The checkpoint's save buffer (checkpoint.cpp FdWriter) and its read buffer on resume.
+constexpr uint64_t kCheckpointBuffers = uint64_t(5) << 20;
+// Writing the .vdb besides the trees: OpenVDB's registries, Blosc and stream buffers.
+constexpr uint64_t kVdbWriteBytes = uint64_t(8) << 20;
 // On top of the sum: allocator rounding, vector growth of the hit records per thread.
 constexpr double kSlack = 1.10;
 
@@ -77,6 +103,45 @@ uint64_t gltfInputBytes(const Scene& scene) {
 }
 
 std::string mib(uint64_t b) { return formatBytes(b); }
+
+// One OpenVDB tree over the lattice (see kVdbUpperEntries): values of `valueBytes`, node
+// entries of `entryBytes`.
+uint64_t vdbTreeBytes(uint64_t valueBytes, uint64_t entryBytes, const glm::u64vec3& dims) {
+  auto blocks = [&](uint64_t side) { return ((dims.x + side - 1) / side) * ((dims.y + side - 1) / side) *
+                                            ((dims.z + side - 1) / side); };
+  return kVdbUpperEntries * entryBytes + kVdbNodeOverhead +
+         blocks(128) * (kVdbLowerEntries * entryBytes + kVdbNodeOverhead) +
+         blocks(8) * (kVdbLeafVoxels * valueBytes + kVdbLeafOverhead);
+}
+
+// The probe stage on top of the scene and the surface transfer: the largest of its trace,
+// assembly and write. Every lattice point is counted as valid and active (the bound). Sets
+// `lattice` to the bytes of the lattice's own results (slots and transfer).
+uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t triangles, uint64_t& lattice) {
+  ProbeGrid grid;
+  glm::dvec3 lo, hi;
+  probeBounds(p, scene, lo, hi);
+  layoutGrid(p, lo, hi, grid);
+  const glm::u64vec3 dims(grid.dims);
+  const uint64_t points = dims.x * dims.y * dims.z;
+  const uint64_t pn2 = uint64_t(p.bands) * p.bands;
+  const uint64_t matrix = pn2 * pn2 * 12;
+  const uint64_t threads = std::max(1u, p.threads > 0 ? unsigned(p.threads) : std::thread::hardware_concurrency());
+  const uint64_t accum = pn2 * pn2 * (8 + 24) + 2 * kAllocOverhead;
+  lattice = points * (kProbeSlotBytes + matrix);
+  const uint64_t trace = triangles * kBvhBytesPerTriangle + lattice + threads * accum + kCheckpointBuffers;
+  // Compaction keeps the lattice's transfer and, when it shrinks, a copy of at most 0.8 of it;
+  // the attribute vectors grow by doubling.
+  const uint64_t gridBytes = points * (matrix + kProbeAttributeBytes + kProbeIndexBytes);
+  const uint64_t assemble = lattice + points * (matrix * 4 / 5 + 2 * kProbeAttributeBytes + kProbeIndexBytes);
+  const uint64_t leaves = ((dims.x + 7) / 8) * ((dims.y + 7) / 8) * ((dims.z + 7) / 8);
+  const uint64_t grids = pn2 * pn2 + kVdbVec3Grids + kVdbFloatGrids;
+  const uint64_t trees =
+      (pn2 * pn2 + kVdbVec3Grids) * vdbTreeBytes(12, 16, dims) + kVdbFloatGrids * vdbTreeBytes(4, 8, dims);
+  const uint64_t file = points * (matrix + kProbeAttributeBytes) + leaves * grids * kVdbFileMaskBytes;
+  const uint64_t write = gridBytes + trees + kVdbFileReadCopies * file + kVdbWriteBytes;
+  return std::max({trace, assemble, write});
+}
 
 }  // namespace
 
@@ -105,21 +170,7 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   // Surface stage: during the last bounce (or the direct pass and its copy without bounces),
   // then the per-instance copies of the sums.
   e.surfacePeak = e.scene + std::max(layout + e.bvh + e.hits + 3 * e.transfer + lower, 2 * (e.transfer + lower));
-  if (probes) {
-    ProbeGrid grid;
-    glm::dvec3 lo, hi;
-    probeBounds(*probes, scene, lo, hi);
-    layoutGrid(*probes, lo, hi, grid);
-    const uint64_t lattice = uint64_t(grid.dims.x) * grid.dims.y * grid.dims.z;
-    const uint64_t pn2 = uint64_t(probes->bands) * probes->bands;
-    const uint64_t accum = pn2 * pn2 * (8 + 24) + 2 * kAllocOverhead;
-    const uint64_t stored = pn2 * pn2 * 12 + kProbeAttributeBytes;
-    // Every lattice point may be valid and active (the bound); the grid is built while the
-    // accumulators live, and copied to OpenVDB after they are gone.
-    e.probes = lattice * (kProbeSlotBytes + accum + stored + 4);
-    e.probePeak = e.scene + 2 * e.transfer + triangles * kBvhBytesPerTriangle + e.probes;
-    e.probePeak = std::max(e.probePeak, e.scene + 2 * e.transfer + lattice * 2 * stored + kVdbWriteBytes);
-  }
+  if (probes) e.probePeak = e.scene + 2 * e.transfer + probeStagePeak(scene, *probes, triangles, e.probes);
   e.writePeak = e.scene + e.transfer + lower + kWriteInputCopies * gltfInputBytes(scene) +
                 kWriteTransferCopies * e.transfer;
   e.total = e.base + uint64_t(double(std::max({e.surfacePeak, e.probePeak, e.writePeak})) * kSlack);
@@ -132,8 +183,17 @@ std::string MemoryEstimate::describe() const {
   if (hits) os << "hit records " << mib(hits) << ", ";
   os << "transfer " << mib(transfer) << " per buffer, ";
   if (bvh) os << "BVH " << mib(bvh) << ", ";
-  if (probes) os << "probes " << mib(probes) << ", ";
+  if (probes) os << "probe lattice " << mib(probes) << ", ";
   os << "scene " << mib(scene) << ")";
+  return os.str();
+}
+
+std::string MemoryEstimate::phases() const {
+  auto bound = [&](uint64_t peak) { return mib(base + uint64_t(double(peak) * kSlack)); };
+  std::ostringstream os;
+  os << "surface " << bound(surfacePeak);
+  if (probePeak) os << ", probes " << bound(probePeak);
+  os << ", write " << bound(writePeak);
   return os.str();
 }
 

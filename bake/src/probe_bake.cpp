@@ -9,10 +9,16 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <limits>
+#include <memory>
+#include <optional>
+#include <type_traits>
 
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
 #include "albedo_lookup.h"
@@ -73,8 +79,10 @@ struct Tracer {
   float maxDistance;
 
   // Traces `n` sphere directions from x. full = reset acc, then accumulate M and moments;
-  // otherwise only count rays and back faces into acc (the inside test).
-  void trace(const glm::vec3& x, uint32_t n, uint64_t stream, bool full, ProbeAccum& acc) const {
+  // otherwise only count rays and back faces into acc (the inside test). False when an
+  // interrupt was requested before it finished (polled per stream of rays, so a probe with
+  // millions of samples still stops at once); acc is then incomplete.
+  bool trace(const glm::vec3& x, uint32_t n, uint64_t stream, bool full, ProbeAccum& acc) const {
     const int n2 = bands * bands;
     if (full) {  // start afresh, keeping the matrices' storage
       acc.n2 = n2;
@@ -91,6 +99,7 @@ struct Tracer {
     glm::vec3 g[sh::kMaxBands * sh::kMaxBands];
     const bool haveTransfer = !lowerOrder.empty();
     for (uint32_t first = 0; first < n; first += kStream) {
+      if (interruptRequested()) return false;
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
       for (uint32_t j = 0; j < count; ++j) batch[j] = set.ray(x, first + j);
       rays.intersect(batch, count);
@@ -127,10 +136,120 @@ struct Tracer {
         }
       }
     }
+    return true;
   }
 };
 
 double backShare(const ProbeAccum& a) { return a.rays ? double(a.backfaces) / a.rays : 0.0; }
+
+// What the assembly needs of one lattice point besides its transfer; the checkpoint stores it
+// as is (no padding, so the record holds no undefined bytes).
+struct ProbeSlot {
+  uint8_t valid = 0, moved = 0;
+  uint16_t reserved = 0;
+  uint32_t traced = 0;  // rays cast for this lattice point: tests, candidates, full set
+  glm::vec3 offset{0.0f};
+  float skyVisibility = 0.0f;
+  std::array<glm::vec2, 6> moments{};
+};
+static_assert(sizeof(ProbeSlot) == 72 && std::is_trivially_copyable_v<ProbeSlot>);
+
+// The results of every lattice point, in lattice order: what the checkpoint's chunk records
+// are written from. Shared with the checkpoint's writer, so a save can never read freed
+// memory, whenever it happens.
+struct LatticeResults {
+  std::vector<ProbeSlot> slots;
+  std::vector<float> transfer;  // stride floats per lattice point; zero for invalid points
+  size_t stride = 0;
+};
+
+// Chunk record: the chunk's slots, then the transfer of its valid points only.
+void writeProbeChunk(const LatticeResults& res, size_t begin, size_t end, ByteWriter& w) {
+  w.putArray(res.slots.data() + begin, end - begin);
+  for (size_t i = begin; i < end; ++i)
+    if (res.slots[i].valid) w.write(res.transfer.data() + i * res.stride, res.stride * sizeof(float));
+}
+
+void readProbeChunk(LatticeResults& res, size_t begin, size_t end, ByteReader& r) {
+  r.getArray(res.slots.data() + begin, end - begin);
+  for (size_t i = begin; i < end; ++i) {
+    const ProbeSlot& slot = res.slots[i];
+    if (slot.valid > 1 || slot.moved > 1) r.fail("probe record");
+    if (slot.valid) r.read(res.transfer.data() + i * res.stride, res.stride * sizeof(float));
+  }
+}
+
+// Bakes lattice points one at a time: the inside test, relocation, the full set of rays.
+struct ProbeBaker {
+  const Tracer& tracer;
+  const ProbeGrid& grid;
+  const ProbeSettings& settings;
+  std::vector<glm::dvec3> candidates;
+
+  ProbeBaker(const Tracer& t, const ProbeGrid& g, const ProbeSettings& s) : tracer(t), grid(g), settings(s) {
+    // Relocation candidates, in a fixed order, as fractions of the spacing: along the axes,
+    // then towards the corners; all inside the probe's cell.
+    for (double f : {0.25, 0.45})
+      for (int axis = 0; axis < 3; ++axis)
+        for (double sgn : {1.0, -1.0}) {
+          glm::dvec3 o(0.0);
+          o[axis] = sgn * f;
+          candidates.push_back(o);
+        }
+    for (int c = 0; c < 8; ++c)
+      candidates.push_back(glm::dvec3(c & 1 ? 0.3 : -0.3, c & 2 ? 0.3 : -0.3, c & 4 ? 0.3 : -0.3));
+  }
+
+  // Lattice point idx into slot and out (n2² RGB floats). The double accumulators `acc` live
+  // only during this point's trace: the matrix is converted to float at once, with the same
+  // per-probe arithmetic in a fixed order, so the result does not depend on threads. False
+  // when interrupted first (slot and out are then incomplete).
+  bool bake(size_t idx, ProbeAccum& acc, ProbeSlot& slot, float* out) const {
+    const glm::ivec3 dims = grid.dims;
+    const glm::ivec3 c(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
+    const glm::dvec3 base = grid.latticePosition(c);
+    slot = ProbeSlot{};
+    ProbeAccum test;
+    if (!tracer.trace(glm::vec3(base), kProbeTestRays, 2 * idx, false, test)) return false;
+    glm::dvec3 offset(0.0);
+    bool ok = backShare(test) <= settings.insideThreshold;
+    for (size_t k = 0; !ok && k < candidates.size(); ++k) {
+      ProbeAccum cand;
+      glm::dvec3 o = candidates[k] * grid.spacing;
+      if (!tracer.trace(glm::vec3(base + o), kProbeTestRays, 2 * idx, false, cand)) return false;
+      slot.traced += cand.rays;
+      // A moved probe must be clearly outside: half the threshold.
+      if (backShare(cand) <= 0.5 * settings.insideThreshold) {
+        ok = true;
+        offset = o;
+        slot.moved = 1;
+      }
+    }
+    slot.traced += test.rays;
+    const float maxD = tracer.maxDistance;
+    slot.moments.fill(glm::vec2(maxD, maxD * maxD));  // "nothing hit", kept by invalid probes
+    if (ok) {
+      if (!tracer.trace(glm::vec3(base + offset), uint32_t(settings.samples), 2 * idx + 1, true, acc)) return false;
+      slot.traced += acc.rays;
+      // The full set of rays decides too: the quick test can miss a thin enclosure.
+      ok = backShare(acc) <= settings.insideThreshold;
+    }
+    slot.valid = ok;
+    slot.offset = glm::vec3(offset);
+    if (!ok) return true;
+    for (int f = 0; f < 6; ++f)
+      if (const uint32_t n = acc.count[f]) slot.moments[f] = glm::vec2(float(acc.sumD[f] / n), float(acc.sumD2[f] / n));
+    slot.skyVisibility = acc.rays ? float(double(acc.escaped) / acc.rays) : 0.0f;
+    const double w = 4.0 * M_PI / settings.samples;
+    for (size_t k = 0; k < size_t(acc.n2) * acc.n2; ++k) {
+      const glm::dvec3 v = w * (glm::dvec3(acc.direct[k]) + acc.indirect[k]);
+      out[3 * k] = float(v.r);
+      out[3 * k + 1] = float(v.g);
+      out[3 * k + 2] = float(v.b);
+    }
+    return true;
+  }
+};
 
 }  // namespace
 
@@ -144,6 +263,7 @@ void validate(const ProbeSettings& s) {
     throw Error("--probe-dims: give three positive counts (or --probe-spacing)");
   if (s.spacing == 0.0 && double(s.dims.x) * s.dims.y * s.dims.z > 512.0 * 512 * 512)
     throw Error("--probe-dims: more than 512³ probes");
+  if (s.threads < 0) throw Error(cat("--threads ", s.threads, ": must be 0 (all cores) or more"));
   if (s.boundsMin && s.boundsMax) {
     glm::dvec3 lo = *s.boundsMin, hi = *s.boundsMax;
     if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z) || !std::isfinite(lo.x + lo.y + lo.z + hi.x + hi.y + hi.z))
@@ -190,10 +310,33 @@ void layoutGrid(const ProbeSettings& s, const glm::dvec3& lo, const glm::dvec3& 
   }
 }
 
+void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& s) {
+  auto num = [](double v) { return cat(std::setprecision(17), v); };
+  auto vec = [&](const std::optional<glm::dvec3>& v) {
+    return v ? cat(num(v->x), ",", num(v->y), ",", num(v->z)) : std::string("scene");
+  };
+  fp.add("probe bands", std::to_string(s.bands));
+  fp.add("probe samples", std::to_string(s.samples));
+  fp.add("probe bounces", std::to_string(s.bounces));
+  fp.add("probe seed", std::to_string(s.seed));
+  fp.add("probe spacing", num(s.spacing));
+  fp.add("probe dims", cat(s.dims.x, ",", s.dims.y, ",", s.dims.z));
+  fp.add("probe bounds min", vec(s.boundsMin));
+  fp.add("probe bounds max", vec(s.boundsMax));
+  fp.add("probe inside threshold", num(s.insideThreshold));
+}
+
+// Checkpointing (checkpoint.h): one stage, kProbeStage, of kProbeChunk lattice points per
+// chunk in lattice order; a chunk record holds its points' slots and transfer, the very values
+// the grid is assembled from, so a resumed bake assembles the same bits.
 ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3>>& lowerOrder,
-                     const ProbeSettings& settings, ProbeStats* statsOut) {
+                     const ProbeSettings& settings, ProbeStats* statsOut, Checkpoint* cp) {
   validate(settings);
   const auto t0 = std::chrono::steady_clock::now();
+  std::unique_ptr<tbb::global_control> threadLimit;
+  if (settings.threads > 0)
+    threadLimit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                        size_t(settings.threads));
   ProbeGrid grid;
   grid.bands = settings.bands;
   grid.info.bounces = settings.bounces;
@@ -204,96 +347,86 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   layoutGrid(settings, lo, hi, grid);
   if (!lowerOrder.empty()) PRT_CHECK_EQ(lowerOrder.size(), scene.meshes.size());
 
-  RayScene rays(scene);
-  AlbedoLookup albedo(scene);
-  const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
-  Tracer tracer{scene, rays, lowerOrder, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing)};
-
   const glm::ivec3 dims = grid.dims;
   const size_t total = size_t(dims.x) * dims.y * dims.z;
   const int n2 = settings.bands * settings.bands;
-  // Relocation candidates, in a fixed order, as fractions of the spacing: along the axes,
-  // then towards the corners; all inside the probe's cell.
-  std::vector<glm::dvec3> candidates;
-  for (double f : {0.25, 0.45})
-    for (int axis = 0; axis < 3; ++axis)
-      for (double sgn : {1.0, -1.0}) {
-        glm::dvec3 o(0.0);
-        o[axis] = sgn * f;
-        candidates.push_back(o);
-      }
-  for (int c = 0; c < 8; ++c)
-    candidates.push_back(glm::dvec3(c & 1 ? 0.3 : -0.3, c & 2 ? 0.3 : -0.3, c & 4 ? 0.3 : -0.3));
-
-  // Per lattice point, what the assembly needs besides the transfer. Each probe's double
-  // accumulators (4n⁴ doubles) live only during its own trace: the matrix is converted to float
-  // into `transfer` at once, so the bake holds one float matrix per lattice point, not 4n⁴
-  // doubles per probe until the end. The conversion is the same per-probe arithmetic in a fixed
-  // order, so the result does not depend on threads.
-  struct Slot {
-    uint8_t valid = 0, moved = 0;
-    uint32_t traced = 0;  // rays cast for this lattice point: tests, candidates, full set
-    glm::vec3 offset{0.0f};
-    float skyVisibility = 0.0f;
-    std::array<glm::vec2, 6> moments{};
-  };
-  std::vector<Slot> slots(total);
   const size_t stride = size_t(n2) * n2 * 3;
-  std::vector<float> transfer(total * stride, 0.0f);  // lattice order; compacted below
-  const double w = 4.0 * M_PI / settings.samples;
-  const float maxD = tracer.maxDistance;
+  const size_t chunks = (total + kProbeChunk - 1) / kProbeChunk;
+  auto chunkRange = [&](size_t c) { return std::pair(c * kProbeChunk, std::min(total, (c + 1) * kProbeChunk)); };
+  auto res = std::make_shared<LatticeResults>();
+  res->slots.resize(total);
+  res->transfer.assign(total * stride, 0.0f);  // lattice order; compacted below
+  res->stride = stride;
+
+  // The stage's writer holds `res`; forget it however this function ends, so that the
+  // checkpoint does not keep the lattice alive (or save chunks of it) after the stage.
+  struct Release {
+    Checkpoint* cp;
+    ~Release() {
+      if (cp) cp->releaseStages();
+    }
+  } release{cp};
+  std::vector<uint8_t> chunkDone(chunks, 0);
+  uint64_t restored = 0;
+  if (cp) {
+    restored = cp->restoreChunks(kProbeStage, [&](uint64_t c, ByteReader& r) {
+      if (c >= chunks) r.fail("probe chunk index");
+      auto [begin, end] = chunkRange(c);
+      readProbeChunk(*res, begin, end, r);
+      chunkDone[c] = 1;
+    });
+    Checkpoint::StageIo io;
+    io.chunksOutliveStage = true;
+    io.writeChunk = [res, chunkRange](uint64_t c, ByteWriter& w) {
+      auto [begin, end] = chunkRange(c);
+      writeProbeChunk(*res, begin, end, w);
+    };
+    cp->beginStage(kProbeStage, "probe stage", chunks, restored, std::move(io));
+  }
+
+  ProbeStats stats;
+  stats.probes = total;
+  std::atomic<uint64_t> raysCast{0}, restoredPoints{0};
   {
+    RayScene rays(scene);
+    AlbedoLookup albedo(scene);
+    const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
+    Tracer tracer{scene, rays, lowerOrder, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing)};
+    const ProbeBaker baker(tracer, grid, settings);
     Progress progress("probes", total, "probes", settings.progress);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, total, 16), [&](const tbb::blocked_range<size_t>& r) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1), [&](const tbb::blocked_range<size_t>& r) {
       ProbeAccum acc;  // reused by the probes of this range
-      for (size_t idx = r.begin(); idx != r.end(); ++idx) {
-        glm::ivec3 c(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
-        glm::dvec3 base = grid.latticePosition(c);
-        Slot& slot = slots[idx];
-        ProbeAccum test;
-        tracer.trace(glm::vec3(base), kProbeTestRays, 2 * idx, false, test);
-        glm::dvec3 offset(0.0);
-        bool ok = backShare(test) <= settings.insideThreshold;
-        for (size_t k = 0; !ok && k < candidates.size(); ++k) {
-          ProbeAccum cand;
-          glm::dvec3 o = candidates[k] * grid.spacing;
-          tracer.trace(glm::vec3(base + o), kProbeTestRays, 2 * idx, false, cand);
-          slot.traced += cand.rays;
-          // A moved probe must be clearly outside: half the threshold.
-          if (backShare(cand) <= 0.5 * settings.insideThreshold) {
-            ok = true;
-            offset = o;
-            slot.moved = 1;
-          }
+      for (size_t c = r.begin(); c != r.end(); ++c) {
+        auto [begin, end] = chunkRange(c);
+        if (chunkDone[c]) {
+          restoredPoints += end - begin;
+          progress.add(end - begin);
+          continue;
         }
-        slot.traced += test.rays;
-        slot.moments.fill(glm::vec2(maxD, maxD * maxD));  // "nothing hit", kept by invalid probes
-        if (ok) {
-          tracer.trace(glm::vec3(base + offset), uint32_t(settings.samples), 2 * idx + 1, true, acc);
-          slot.traced += acc.rays;
-          // The full set of rays decides too: the quick test can miss a thin enclosure.
-          ok = backShare(acc) <= settings.insideThreshold;
+        uint64_t cast = 0;
+        bool finished = !interruptRequested();
+        for (size_t idx = begin; finished && idx < end; ++idx) {
+          finished = baker.bake(idx, acc, res->slots[idx], res->transfer.data() + idx * stride);
+          cast += res->slots[idx].traced;
         }
-        slot.valid = ok;
-        slot.offset = glm::vec3(offset);
-        if (ok) {
-          for (int f = 0; f < 6; ++f)
-            if (const uint32_t n = acc.count[f])
-              slot.moments[f] = glm::vec2(float(acc.sumD[f] / n), float(acc.sumD2[f] / n));
-          slot.skyVisibility = acc.rays ? float(double(acc.escaped) / acc.rays) : 0.0f;
-          float* out = transfer.data() + idx * stride;
-          for (size_t k = 0; k < size_t(n2) * n2; ++k) {
-            const glm::dvec3 v = w * (glm::dvec3(acc.direct[k]) + acc.indirect[k]);
-            out[3 * k] = float(v.r);
-            out[3 * k + 1] = float(v.g);
-            out[3 * k + 2] = float(v.b);
-          }
-        }
-        progress.add(1);
+        if (!finished) continue;  // interrupted: the chunk is done again on resume
+        raysCast += cast;
+        if (cp) cp->complete(c);
+        progress.add(end - begin);
       }
     });
     progress.finish();
   }
+  if (cp) cp->stopIfInterrupted();
+  if (interruptRequested()) throw Interrupted("interrupted");
+  if (cp) {
+    cp->endStage();
+    cp->releaseStages();
+  }
+  stats.rays = raysCast.load();
+  stats.restored = restoredPoints.load();
+  const std::vector<ProbeSlot>& slots = res->slots;
+  std::vector<float> transfer = std::move(res->transfer);
 
   // Active: valid probes, and invalid ones next to a valid probe (so the file shows where
   // interpolation must not read); solid interiors far from free space are not stored.
@@ -301,16 +434,13 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
     if (glm::any(glm::lessThan(c, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(c, dims))) return false;
     return slots[size_t(c.x) + size_t(dims.x) * (size_t(c.y) + size_t(dims.y) * c.z)].valid != 0;
   };
-  ProbeStats stats;
-  stats.probes = total;
   size_t active = 0;
   for (int z = 0; z < dims.z; ++z)
     for (int y = 0; y < dims.y; ++y)
       for (int x = 0; x < dims.x; ++x) {
         const glm::ivec3 c(x, y, z);
         const size_t idx = size_t(x) + size_t(dims.x) * (size_t(y) + size_t(dims.y) * z);
-        const Slot& slot = slots[idx];
-        stats.rays += slot.traced;
+        const ProbeSlot& slot = slots[idx];
         bool isActive = slot.valid;
         for (int d = 0; d < 27 && !isActive; ++d)
           isActive = validAt(c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1));

@@ -20,7 +20,7 @@ struct MemoryEstimate {
   uint64_t bvh = 0;        // Embree's copy of the geometry and its BVH
   uint64_t hits = 0;       // hit records of the direct pass (for the bounces)
   uint64_t transfer = 0;   // one per-vertex transfer buffer (vertices × bands² × 12)
-  uint64_t probes = 0;     // probe bake: per-probe accumulators and the grid
+  uint64_t probes = 0;     // probe bake: the lattice's slots and transfer (its part that scales)
   double frontHitShare = 1.0;  // share of direct rays assumed to hit a front face
   // Peaks of the phases.
   uint64_t surfacePeak = 0, probePeak = 0, writePeak = 0;
@@ -28,6 +28,9 @@ struct MemoryEstimate {
 
   /// "1.2 GiB (hit records 900 MiB, transfer 3 × 40 MiB, BVH 80 MiB, scene 30 MiB, ...)".
   std::string describe() const;
+  /// "surface 150 MiB, probes 180 MiB, write 120 MiB": each phase's peak with the base and
+  /// slack, i.e. what the estimate would be if that phase were the largest.
+  std::string phases() const;
 };
 
 /// The bound for this scene and these settings; `probes` null when no probe grid is baked.

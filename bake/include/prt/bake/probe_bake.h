@@ -9,6 +9,7 @@
 
 #include <glm/glm.hpp>
 
+#include "prt/bake/checkpoint.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/probe_grid.h"
@@ -25,6 +26,7 @@ struct ProbeSettings {
   glm::ivec3 dims{0};          // or: probe counts per axis (used when spacing == 0)
   std::optional<glm::dvec3> boundsMin, boundsMax;  // default: the scene's bounds
   bool progress = false;
+  int threads = 0;             // 0 = all cores
   /// A probe whose rays hit back faces for more than this share is inside geometry.
   double insideThreshold = 0.25;
 };
@@ -46,15 +48,30 @@ struct ProbeStats {
   uint64_t active = 0;       // stored
   uint64_t invalid = 0;      // inside geometry, not moved out
   uint64_t moved = 0;        // moved out of geometry within their cell
-  uint64_t rays = 0;          // every ray cast: inside tests, relocation candidates, full sets
+  uint64_t rays = 0;          // cast by this run: inside tests, relocation candidates, full sets
+  uint64_t restored = 0;      // lattice points restored from the checkpoint (not traced again)
   double seconds = 0.0;
 };
+
+/// Checkpoint stage of the probe bake: lattice points in chunks of kProbeChunk, in lattice
+/// order (whatever the thread count); a chunk record holds its points' results as they go
+/// into the grid.
+constexpr uint32_t kProbeStage = kProbeStageFirst;
+constexpr size_t kProbeChunk = 64;
+
+/// Adds every setting that changes the probe stage's results to a checkpoint fingerprint
+/// (bands, samples, bounces, seed, spacing or dims, bounds, inside threshold). The scene's
+/// own entries come from addSceneFingerprint.
+void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& settings);
 
 /// Bakes the probe grid. `lowerOrder[k]` is instance k's surface transfer summed over bounces
 /// 0..K−1 (SurfaceTransfer::perMeshLowerOrder; empty vectors when K = 0), so a receiver at a
 /// point is lit like a baked vertex there with K bounces. Deterministic for any thread count.
+/// With a checkpoint: restores the chunks it holds, saves finished ones (its interval, and on
+/// interrupt), and the result has the same bits as an uninterrupted bake. Throws
+/// prt::Interrupted within about a second of interruptRequested() (after saving, if any).
 ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3>>& lowerOrder,
-                     const ProbeSettings& settings, ProbeStats* stats = nullptr);
+                     const ProbeSettings& settings, ProbeStats* stats = nullptr, Checkpoint* checkpoint = nullptr);
 
 /// The rays bakeProbes casts from the given lattice points (linear index x + dims.x·(y + dims.y·z)
 /// into layout.dims, lattice from layoutGrid): per point the inside test's 64 rays, then the
