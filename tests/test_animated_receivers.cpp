@@ -351,5 +351,38 @@ TEST(RenderAnimatedReceivers, BakeAndRenderCommandsMoveTheCube) {
   fs::remove_all(dir);
 }
 
+// A scene whose every mesh moves bakes no transfer at all (only the settings and the probes);
+// prt render still lights the receivers from the grid, with the bands of the bake settings:
+// here an empty scene, so the top face is the unoccluded closed form ρ/π · E(+Y).
+TEST(RenderAnimatedReceivers, SceneOfReceiversOnlyRendersFromTheProbes) {
+  const fs::path dir = freshDir("cli_receivers_only");
+  const std::string scene = writeCubeScene(dir, "scene", false);
+  const fs::path rig = dir / "rig.json";
+  std::ofstream(rig) << R"({"version": 1, "fps": 2, "lights": [{"type": "uniform", "radiance": [0.4, 0.45, 0.5]}]})";
+  const std::string baked = (dir / "b.glb").string(), probes = (dir / "p.vdb").string();
+  const CommandRun bakeRun = prtCommand(cat("bake ", scene, " -o ", baked, " --samples 16 --probes ", probes,
+                                            " --probe-dims 4,3,4 --probe-bounds -1.2,0.05,-1.2,1.2,1.2,1.2 -q"),
+                                        dir);
+  ASSERT_EQ(bakeRun.status, 0) << bakeRun.err;
+  ASSERT_EQ(loadScene(baked).transferBands, 0);  // nothing baked: the case under test
+  const CommandRun renderRun = prtCommand(cat("render ", baked, " --rig ", rig.string(), " --probes ", probes,
+                                              " --camera Top --frames 1 --size 64x48 -q -o ", (dir / "f.exr").string()),
+                                          dir);
+  ASSERT_EQ(renderRun.status, 0) << renderRun.err;
+  const Scene file = loadScene(baked);
+  const sh::ShRgb light = loadLightRig(rig.string()).evaluate(1, 3);
+  const glm::dvec3 closedForm = glm::dvec3(kCubeAlbedo) * kInvPi * upIrradiance(light);
+  const TopFace got = compareTopFace(loadHdrImage((dir / "f.exr").string()), render::cameraView(file.cameras[0]), 0.5,
+                                     [&](const glm::vec3&) { return closedForm; });
+  EXPECT_GE(got.pixels, 9);
+  EXPECT_LT(got.maxError, 1e-2);
+  // Without --probes the receivers are not drawn, as in any scene, and the run says so.
+  const CommandRun noProbes =
+      prtCommand(cat("render ", baked, " --rig ", rig.string(), " --size 8x8 -o ", (dir / "g.exr").string()), dir);
+  EXPECT_EQ(noProbes.status, 0) << noProbes.err;
+  EXPECT_NE(noProbes.err.find("warning"), std::string::npos) << noProbes.err;
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace prt

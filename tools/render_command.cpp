@@ -249,6 +249,19 @@ ChosenCamera chooseCamera(const RenderArgs& a, const render::OrbitCamera& orbit,
                     orbit.yfovDegrees, " deg", firstOrbitOption(a) ? "" : "; the file has no camera", ")")};
 }
 
+// A bake in which every instance is a receiver (all of them animated, say) writes no transfer
+// attribute; its band count is then the one of the bake settings (asset.extras.prt), so the
+// receivers can still be lit from the probes. 0 when the file is not such a bake.
+int receiversOnlyBands(const Scene& scene) {
+  if (scene.meshes.empty()) return 0;
+  for (const MeshInstance& m : scene.meshes)
+    if (!m.receiverOnly) return 0;
+  const auto settings = nlohmann::json::parse(scene.bakeSettingsJson, nullptr, /*allow_exceptions=*/false);
+  if (!settings.is_object() || !settings.contains("bands") || !settings["bands"].is_number_integer()) return 0;
+  const int bands = settings["bands"].get<int>();
+  return bands >= 1 && bands <= sh::kMaxBands ? bands : 0;
+}
+
 // A probe grid baked for another scene still renders, but wrongly: the bake's scene name and
 // seed, stored in both files, must agree (a warning if not); bands must match (an error).
 std::vector<std::string> checkProbesMatch(const ProbeGrid& grid, const Scene& scene, const RenderArgs& a) {
@@ -367,6 +380,7 @@ void runRenderCommand() {
   const double fps = a.fpsOption->count() > 0 ? a.fps : rig->fps.value_or(kDefaultFps);
 
   Scene scene = loadScene(a.baked);
+  if (scene.transferBands == 0) scene.transferBands = receiversOnlyBands(scene);
   if (scene.transferBands == 0) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
   const int bands = scene.transferBands;
   const ChosenCamera camera = chooseCamera(a, orbit, scene, double(width) / height);
