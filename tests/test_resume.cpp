@@ -317,6 +317,14 @@ void expectSameGrid(const ProbeGrid& a, const ProbeGrid& b) {
 constexpr uint64_t kResumeSurfaceChunks = 3 * ((2561 + 169 + 63) / 64);  // direct pass, 2 bounces
 constexpr uint64_t kResumeProbeChunks = (9 * 7 * 8 + kProbeChunk - 1) / kProbeChunk;
 
+// Probes restored from a checkpoint holding k finished chunks. On several threads chunks finish
+// in any order, so the k may include the last, shorter one (504 = 7 × 64 + 56 here).
+bool restoredChunks(uint64_t restored, uint64_t k, uint64_t probes) {
+  const uint64_t last = probes - (kResumeProbeChunks - 1) * kProbeChunk;
+  if (k >= kResumeProbeChunks) return restored == probes;
+  return restored == k * kProbeChunk || restored == (k - 1) * kProbeChunk + last;
+}
+
 TEST(ResumeProbes, InterruptedInTheProbeStageResumesToTheSameBitsAndFile) {
   const Scene scene = resumeScene();
   const BakeSettings s = resumeSettings();
@@ -349,7 +357,7 @@ TEST(ResumeProbes, InterruptedInTheProbeStageResumesToTheSameBitsAndFile) {
       ProbeStats stats;
       const ProbeGrid g = bakeBoth(scene, r, rp, &cp, &stats);
       cp.remove();
-      EXPECT_EQ(stats.restored, std::min<uint64_t>(k * kProbeChunk, stats.probes));
+      EXPECT_TRUE(restoredChunks(stats.restored, k, stats.probes)) << stats.restored << " probes restored";
       EXPECT_LT(stats.rays, refStats.rays);  // only the missing chunks were traced
       expectSameGrid(ref, g);
       EXPECT_TRUE(vdbBytes(g, dir / "resumed.vdb") == refFile) << "the .vdb differs";
@@ -371,7 +379,7 @@ TEST(ResumeProbes, InterruptedTwiceInTheProbeStage) {
   Checkpoint cp(o, fingerprintOf(scene, s, ps));
   ProbeStats stats;
   expectSameGrid(ref, bakeBoth(scene, s, ps, &cp, &stats));
-  EXPECT_EQ(stats.restored, 5 * kProbeChunk);
+  EXPECT_TRUE(restoredChunks(stats.restored, 5, stats.probes)) << stats.restored << " probes restored";
 }
 
 TEST(ResumeProbes, CheckpointWithOtherProbeSettingsIsRefused) {
