@@ -160,7 +160,8 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   e.transfer = vertices * n2 * 12;
   const bool shadowed = s.shadowed;
   const bool bounces = shadowed && s.bounces > 0;
-  e.frontHitShare = bounces ? std::clamp(frontHitShare, 0.0, 1.0) : 0.0;
+  // A share that is not a number (no vertices to measure it on) counts as the worst case.
+  e.frontHitShare = !bounces ? 0.0 : std::isfinite(frontHitShare) ? std::clamp(frontHitShare, 0.0, 1.0) : 1.0;
   e.bvh = shadowed ? triangles * kBvhBytesPerTriangle : 0;
   e.hits = bounces ? uint64_t(std::ceil(e.frontHitShare * double(vertices) * s.samples)) * kHitBytes +
                          vertices * kHitOffsetBytes

@@ -355,7 +355,7 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
     }
     if (control.checkMemory) {
       double share = 0.0;
-      if (keepHits && directLeft == 0) share = double(hitCount) / (double(lay.vertices) * N);
+      if (keepHits && directLeft == 0 && lay.vertices > 0) share = double(hitCount) / (double(lay.vertices) * N);
       if (keepHits && directLeft > 0) share = pilotFrontHitShare(scene, lay, *rays, origins, settings, tnear);
       control.checkMemory(share);
     }
