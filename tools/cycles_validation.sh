@@ -3,12 +3,13 @@
 #
 #   tools/cycles_validation.sh [OUTDIR]        (default build/validation)
 #
-# Needs build/tools/prt (tools/setup.sh build) and Blender 3.4 (`apt-get install blender`; a
-# validation tool, not a dependency of the build or of the tests). For each case Cycles renders
-# scenes/cornell_open.gltf without its receiver (tools/cycles_reference.py) and prt bakes and
-# renders the same camera; the two linear EXRs are compared region by region (object faces
-# from Cycles' object-index and normal passes, and a 4x3 grid of image tiles; every mask eroded
-# by 2 pixels away from edges) by the python3 program below (standard library only).
+# Needs build/tools/prt (bash tools/setup.sh demo, or any build) and Blender 3.4
+# (`apt-get install blender`: a validation tool, not a dependency of the build or the tests).
+# For each case Cycles renders scenes/cornell_open.gltf without its receiver
+# (tools/cycles_reference.py) and prt bakes and renders the same camera; the two linear EXRs are
+# compared region by region (object faces from Cycles' object-index and normal passes, and a
+# 4x3 grid of image tiles; every mask eroded by 2 pixels away from edges) by the python3
+# program below (standard library only).
 #
 # Skies: white_sky_64.hdr (uniform, band 0 only) and a generated "lobes" sky (one positive
 # polynomial lobe of degree 4 per colour channel, towards +X, +Z and -X: exactly bands 0-4, so
