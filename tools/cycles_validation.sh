@@ -281,6 +281,7 @@ cycles() {
 sys.exit(0 if (m['env'],m['env_rotate_deg'],m['samples'],m['bounces'],m['size'])==('$2',float('$3'),$SAMPLES,$k,[int(v) for v in '$SIZE'.split('x')]) else 1)"; then
     echo "reusing $exr"
   else
+    rm -f "$exr" "$exr.json"
     nice "$BLENDER" -b --factory-startup --python tools/cycles_reference.py -- --scene "$SCENE" \
       --remove Receiver --env "$2" --env-rotate "$3" --bounces "$k" --samples "$SAMPLES" \
       --size "$SIZE" --camera "$CAMERA" --threads "$THREADS" -o "$exr" | grep -E '^(cycles_reference|Error)' || true
