@@ -1,0 +1,283 @@
+"""Cycles reference render of a bundled glTF scene, for docs/validation.md.
+
+Run inside Blender 3.4 (Debian package `blender`), not with python3:
+
+    blender -b --factory-startup --python tools/cycles_reference.py -- \
+        --scene scenes/cornell_open.gltf --remove Receiver \
+        --env scenes/env/white_sky_64.hdr --bounces 2 --samples 1024 \
+        --size 160x90 --camera Camera -o out/cycles.exr
+
+The scene is imported with Blender's own glTF importer, so its axis conversion (glTF
+(x, y, z) -> Blender (x, -z, y)), camera and node transforms are Blender's, not prt's: that is
+the point of an independent check. Every material becomes a Lambertian Diffuse BSDF
+(roughness 0: not Oren-Nayar, not the Principled BSDF, whose diffuse lobe is not Lambertian)
+with the glTF baseColorFactor; the world is the equirectangular map, sampled with "Closest"
+interpolation (prt projects each pixel as a constant, docs/lights.md), strength 1.
+
+Bounces: `prt bake --bounces K` stores t0 + ... + tK (prt-math.md): light that reached the
+visible point directly, plus paths with up to K diffuse reflections before it. Cycles'
+"diffuse bounces" counts the reflections after the first (camera) hit, so 0 is direct light
+only: K maps to diffuse bounces = total bounces = K.
+
+`--env-rotate DEG` turns the lighting as `prt render --env-rotate DEG` does: +DEG about glTF +Y,
+which is Blender +Z. The Mapping node (type POINT) rotates the lookup vector, L'(w) = L(R w),
+so it gets -DEG.
+
+Output: an uncompressed 32-bit multilayer EXR with the passes Combined (linear radiance: no
+view transform applies to multilayer EXR; "Standard" and exposure 0 are set anyway), Normal
+(world normals, Blender axes) and IndexOB (object pass index), and OUTPUT.json with the
+object indices and the settings used. tools/cycles_validation.sh reads both.
+"""
+
+import argparse
+import json
+import math
+import os
+import sys
+
+import bpy
+
+
+def parse_args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    p = argparse.ArgumentParser(prog="cycles_reference.py")
+    p.add_argument("--scene", help="glTF scene (.gltf or .glb)")
+    p.add_argument("--env", help="equirectangular environment map (.hdr or .exr), linear radiance")
+    p.add_argument("--env-rotate", type=float, default=0.0,
+                   help="degrees about glTF +Y, as prt render --env-rotate")
+    p.add_argument("--bounces", type=int, default=2, help="prt bake --bounces K: diffuse bounces")
+    p.add_argument("--samples", type=int, default=1024, help="Cycles samples per pixel")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--size", default="160x90", help="WxH")
+    p.add_argument("--camera", default="", help="glTF camera node name (default: the first camera)")
+    p.add_argument("--remove", action="append", default=[],
+                   help="node name to delete after import (receivers: prt draws none without probes)")
+    p.add_argument("--threads", type=int, default=0, help="render threads (0: all)")
+    p.add_argument("-o", "--output", help="output multilayer EXR")
+    a = p.parse_args(argv)
+    if not (a.scene and a.env and a.output):
+        p.error("--scene, --env and -o are required")
+    return a
+
+
+def fail(message):
+    print(f"cycles_reference.py: {message}", file=sys.stderr)
+    sys.exit(1)
+
+
+def clear_scene():
+    for obj in list(bpy.data.objects):
+        bpy.data.objects.remove(obj, do_unlink=True)
+
+
+def import_gltf(path):
+    if not os.path.isfile(path):
+        fail(f"{path}: no such file")
+    # Debian 12 pairs Blender 3.4's importer with NumPy 1.24, which removed the alias np.bool
+    # that the importer's set_poly_smoothing still uses; give it back (it is the builtin bool).
+    import numpy
+    if "bool" not in vars(numpy):
+        numpy.bool = bool
+    result = bpy.ops.import_scene.gltf(filepath=os.path.abspath(path))
+    if "FINISHED" not in result:
+        fail(f"{path}: Blender's glTF importer failed")
+
+
+def remove_nodes(names):
+    for name in names:
+        obj = bpy.data.objects.get(name)
+        if obj is None:
+            fail(f"--remove {name}: no such node in the imported scene")
+        for child in list(obj.children_recursive):
+            bpy.data.objects.remove(child, do_unlink=True)
+        bpy.data.objects.remove(obj, do_unlink=True)
+
+
+def base_color(material):
+    """The glTF baseColorFactor, as the importer put it on the Principled BSDF."""
+    if material.use_nodes:
+        for node in material.node_tree.nodes:
+            if node.type == "BSDF_PRINCIPLED":
+                if node.inputs["Base Color"].is_linked:
+                    fail(f"material {material.name}: textured base colour is not supported here")
+                return tuple(node.inputs["Base Color"].default_value)
+    return tuple(material.diffuse_color)
+
+
+def make_lambertian(material):
+    rgba = base_color(material)
+    material.use_nodes = True
+    nodes = material.node_tree.nodes
+    nodes.clear()
+    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = rgba
+    diffuse.inputs["Roughness"].default_value = 0.0
+    out = nodes.new("ShaderNodeOutputMaterial")
+    material.node_tree.links.new(diffuse.outputs["BSDF"], out.inputs["Surface"])
+    return rgba[:3]
+
+
+def setup_materials():
+    colours = {}
+    for obj in bpy.context.scene.objects:
+        for slot in obj.material_slots if obj.type == "MESH" else []:
+            if slot.material is not None and slot.material.name not in colours:
+                colours[slot.material.name] = make_lambertian(slot.material)
+    return colours
+
+
+def setup_world(scene, env_path, rotate_deg):
+    if not os.path.isfile(env_path):
+        fail(f"{env_path}: no such file")
+    world = bpy.data.worlds.new("prt_validation")
+    scene.world = world
+    world.use_nodes = True
+    nodes = world.node_tree.nodes
+    nodes.clear()
+    coord = nodes.new("ShaderNodeTexCoord")
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.vector_type = "POINT"
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(-rotate_deg))
+    env = nodes.new("ShaderNodeTexEnvironment")
+    env.image = bpy.data.images.load(os.path.abspath(env_path))
+    env.image.colorspace_settings.name = "Linear"
+    env.interpolation = "Closest"
+    env.projection = "EQUIRECTANGULAR"
+    background = nodes.new("ShaderNodeBackground")
+    background.inputs["Strength"].default_value = 1.0
+    out = nodes.new("ShaderNodeOutputWorld")
+    links = world.node_tree.links
+    links.new(coord.outputs["Generated"], mapping.inputs["Vector"])
+    links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+    links.new(env.outputs["Color"], background.inputs["Color"])
+    links.new(background.outputs["Background"], out.inputs["Surface"])
+    world.cycles.sampling_method = "AUTOMATIC"
+
+
+def camera_yfov(scene_path, name):
+    """yfov of the named glTF camera node, read from the file itself (.gltf only)."""
+    if not scene_path.lower().endswith(".gltf"):
+        return None
+    with open(scene_path) as f:
+        gltf = json.load(f)
+    for node in gltf.get("nodes", []):
+        if "camera" in node and (not name or node.get("name") == name):
+            cam = gltf["cameras"][node["camera"]]
+            return cam.get("perspective", {}).get("yfov")
+    return None
+
+
+def setup_camera(scene, scene_path, name):
+    cameras = [o for o in scene.objects if o.type == "CAMERA"]
+    chosen = [o for o in cameras if not name or o.name == name]
+    if not chosen:
+        fail(f"--camera {name}: no such camera (cameras: {', '.join(o.name for o in cameras) or 'none'})")
+    cam = chosen[0]
+    yfov = camera_yfov(scene_path, name)
+    if yfov is not None:
+        cam.data.sensor_fit = "VERTICAL"
+        cam.data.angle_y = yfov
+    scene.camera = cam
+    return cam, yfov
+
+
+def setup_cycles(scene, a, width, height):
+    scene.render.engine = "CYCLES"
+    c = scene.cycles
+    c.device = "CPU"
+    c.samples = a.samples
+    c.use_adaptive_sampling = False
+    c.use_denoising = False
+    c.seed = a.seed
+    c.use_animated_seed = False
+    c.max_bounces = a.bounces
+    c.diffuse_bounces = a.bounces
+    c.glossy_bounces = 0
+    c.transmission_bounces = 0
+    c.volume_bounces = 0
+    c.transparent_max_bounces = 0
+    c.caustics_reflective = False
+    c.caustics_refractive = False
+    c.sample_clamp_direct = 0.0
+    c.sample_clamp_indirect = 0.0
+    c.blur_glossy = 0.0
+    c.light_sampling_threshold = 0.0
+    c.use_fast_gi = False
+    c.film_exposure = 1.0
+    scene.render.film_transparent = False
+    scene.render.use_compositing = False  # no glare or any other compositor node
+    scene.render.use_sequencer = False
+    scene.render.resolution_x = width
+    scene.render.resolution_y = height
+    scene.render.resolution_percentage = 100
+    scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
+    if a.threads > 0:
+        scene.render.threads_mode = "FIXED"
+        scene.render.threads = a.threads
+    scene.display_settings.display_device = "sRGB"
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    layer = scene.view_layers[0]
+    layer.use_pass_combined = True
+    layer.use_pass_normal = True
+    layer.use_pass_object_index = True
+    settings = scene.render.image_settings
+    settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.color_depth = "32"
+    settings.exr_codec = "NONE"
+
+
+def index_objects(scene):
+    indices = {}
+    for i, obj in enumerate(sorted((o for o in scene.objects if o.type == "MESH"), key=lambda o: o.name)):
+        obj.pass_index = i + 1
+        indices[obj.name] = i + 1
+    return indices
+
+
+def parse_size(text):
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        fail(f"--size {text}: expected WxH")
+    if w < 1 or h < 1:
+        fail(f"--size {text}: expected WxH")
+    return w, h
+
+
+def render(a):
+    width, height = parse_size(a.size)
+    clear_scene()
+    import_gltf(a.scene)
+    remove_nodes(a.remove)
+    scene = bpy.context.scene
+    scene.frame_set(0)  # frame 0 = t 0 s, prt render's frame 0; no animated node is left anyway
+    colours = setup_materials()
+    setup_world(scene, a.env, a.env_rotate)
+    cam, yfov = setup_camera(scene, a.scene, a.camera)
+    setup_cycles(scene, a, width, height)
+    indices = index_objects(scene)
+    out = os.path.abspath(a.output)
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    tmp = out + ".tmp.exr"
+    scene.render.filepath = tmp
+    bpy.ops.render.render(write_still=True)
+    os.replace(tmp, out)
+    meta = {"scene": a.scene, "env": a.env, "env_rotate_deg": a.env_rotate, "bounces": a.bounces,
+            "samples": a.samples, "seed": a.seed, "size": [width, height], "camera": cam.name,
+            "yfov": yfov, "removed": a.remove, "object_index": indices, "albedo": colours,
+            "blender": bpy.app.version_string}
+    with open(out + ".json.tmp", "w") as f:
+        json.dump(meta, f, indent=1)
+    os.replace(out + ".json.tmp", out + ".json")
+    print(f"cycles_reference.py: wrote {a.output} ({width}x{height}, {a.samples} samples, "
+          f"{a.bounces} diffuse bounces, objects {indices})")
+
+
+def main():
+    render(parse_args())
+
+
+main()
