@@ -25,8 +25,11 @@
 #include "prt/image.h"
 #include "prt/light.h"
 #include "prt/sh.h"
+#include "test_util.h"
 
 namespace {
+
+using prt::test::errorOf;
 
 namespace fs = std::filesystem;
 using prt::ExrCompression;
@@ -66,18 +69,6 @@ private:
 void writeBytes(const std::string& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary);
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
-
-// The message of the prt::Error that f throws, or a marker that fails every check below.
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const prt::Error& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    return std::string("<not a prt::Error: ") + e.what() + ">";
-  }
-  return "<no exception>";
 }
 
 // Every image error must start with the offending path, and say what is wrong.

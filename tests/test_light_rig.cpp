@@ -21,8 +21,11 @@
 #include "prt/light.h"
 #include "prt/light_rig.h"
 #include "prt/sh.h"
+#include "test_util.h"
 
 namespace {
+
+using prt::test::errorOf;
 
 namespace fs = std::filesystem;
 using prt::LightRig;
@@ -67,17 +70,6 @@ std::string num(double v) {
 
 // The rig parsed from JSON text (maps relative to `base`), named "rig.json" in messages.
 LightRig rigOf(const std::string& json, const std::string& base = ".") { return prt::parseLightRig(json, "rig.json", base); }
-
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const prt::Error& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    return std::string("<not a prt::Error: ") + e.what() + ">";
-  }
-  return "<no exception>";
-}
 
 double maxAbsDiff(const prt::sh::ShRgb& a, const prt::sh::ShRgb& b) {
   EXPECT_EQ(a.size(), b.size());

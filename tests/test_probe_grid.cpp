@@ -21,6 +21,7 @@
 #include "prt/error.h"
 #include "prt/probe_grid.h"
 #include "prt/sh.h"
+#include "test_util.h"
 
 namespace prt {
 namespace {
@@ -29,34 +30,6 @@ namespace fs = std::filesystem;
 
 constexpr const char* kPython = "/usr/bin/python3";  // Debian's: the one with pyopenvdb
 constexpr const char* kVdbPrint = "/usr/bin/vdb_print";
-
-// Every lattice point active and valid, M = identity, no offsets, and every face's moments at
-// the "miss" distance 2 × max spacing with zero variance: an empty scene.
-ProbeGrid emptySceneGrid(int bands, glm::ivec3 dims, glm::dvec3 origin, glm::dvec3 spacing) {
-  ProbeGrid g;
-  g.bands = bands;
-  g.dims = dims;
-  g.origin = origin;
-  g.spacing = spacing;
-  const float miss = float(2.0 * std::max({spacing.x, spacing.y, spacing.z}));
-  const int n2 = g.coeffs();
-  for (int z = 0; z < dims.z; ++z)
-    for (int y = 0; y < dims.y; ++y)
-      for (int x = 0; x < dims.x; ++x) g.coord.emplace_back(x, y, z);
-  const size_t count = g.coord.size();
-  g.transfer.assign(count * g.transferStride(), 0.0f);
-  for (size_t p = 0; p < count; ++p)
-    for (int j = 0; j < n2; ++j)
-      for (int c = 0; c < 3; ++c) g.transfer[p * g.transferStride() + (size_t(j) * n2 + j) * 3 + c] = 1.0f;
-  g.validity.assign(count, 1.0f);
-  g.offset.assign(count, glm::vec3(0.0f));
-  g.skyVisibility.assign(count, 1.0f);
-  std::array<glm::vec2, 6> m;
-  m.fill(glm::vec2(miss, miss * miss));
-  g.moments.assign(count, m);
-  g.buildIndex();
-  return g;
-}
 
 float* transferOf(ProbeGrid& g, size_t p) { return g.transfer.data() + p * g.transferStride(); }
 
@@ -186,7 +159,7 @@ TEST(ProbeGridIndex, FindsActiveProbesOnly) {
 
 TEST(ProbeGridRelight, IdentityTransferGivesTheLight) {
   std::mt19937 rng(1);
-  const ProbeGrid g = emptySceneGrid(3, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
+  const ProbeGrid g = test::identityProbeGrid(3, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
   const sh::ShRgb light = randomLight(3, rng);
   const std::vector<glm::vec3> c = relightProbes(g, light);
   ASSERT_EQ(c.size(), g.probeCount() * 9);
@@ -198,7 +171,7 @@ TEST(ProbeGridRelight, IdentityTransferGivesTheLight) {
 TEST(ProbeGridRelight, MatchesDirectMatrixProduct) {
   std::mt19937 rng(2);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  ProbeGrid g = emptySceneGrid(3, {3, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
+  ProbeGrid g = test::identityProbeGrid(3, {3, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
   for (float& v : g.transfer) v = u(rng);
   // More bands in the light than in the grid (truncated) and fewer (zero-padded).
   for (int lightBands : {4, 2}) {
@@ -220,7 +193,7 @@ TEST(ProbeGridRelight, MatchesDirectMatrixProduct) {
 
 TEST(ProbeGridInterpolate, EmptySceneGivesTheLightEverywhere) {
   std::mt19937 rng(3);
-  const ProbeGrid g = emptySceneGrid(3, {4, 3, 5}, glm::dvec3(-1.0, 0.5, 2.0), glm::dvec3(0.5, 0.7, 0.6));
+  const ProbeGrid g = test::identityProbeGrid(3, {4, 3, 5}, glm::dvec3(-1.0, 0.5, 2.0), glm::dvec3(0.5, 0.7, 0.6));
   const sh::ShRgb light = randomLight(3, rng);
   const std::vector<glm::vec3> relit = relightProbes(g, light);
   for (int k = 0; k < 200; ++k) {
@@ -249,7 +222,7 @@ TEST(ProbeGridInterpolate, EmptySceneGivesTheLightEverywhere) {
 
 TEST(ProbeGridInterpolate, TrilinearReproducesLinearField) {
   std::mt19937 rng(4);
-  ProbeGrid g = emptySceneGrid(2, {4, 3, 3}, glm::dvec3(1.0, -2.0, 0.5), glm::dvec3(0.8, 0.8, 0.8));
+  ProbeGrid g = test::identityProbeGrid(2, {4, 3, 3}, glm::dvec3(1.0, -2.0, 0.5), glm::dvec3(0.8, 0.8, 0.8));
   auto a = [](const glm::dvec3& p) { return 1.0 + 0.2 * p.x - 0.15 * p.y + 0.1 * p.z; };
   const int n2 = g.coeffs();
   for (size_t p = 0; p < g.probeCount(); ++p)
@@ -272,7 +245,7 @@ TEST(ProbeGridInterpolate, TrilinearReproducesLinearField) {
 // look through the wall (+X of the left probes, −X of the right ones) see it at depth 0.5 along x
 // with a spread σ = 0.01; every other face sees nothing within the miss distance.
 ProbeGrid wallGrid(bool withWall) {
-  ProbeGrid g = emptySceneGrid(2, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
+  ProbeGrid g = test::identityProbeGrid(2, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
   for (size_t p = 0; p < g.probeCount(); ++p) {
     const bool left = g.coord[p].x == 0;
     // The left room is lit (M = I), the right one dark (M = 0).
@@ -373,7 +346,7 @@ TEST(ProbeGridInterpolate, BakedWallMomentsCutTheLeakBehindTheWall) {
 }
 
 TEST(ProbeGridInterpolate, EveryProbeBlockedFallsBackToTrilinear) {
-  ProbeGrid g = emptySceneGrid(1, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
+  ProbeGrid g = test::identityProbeGrid(1, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
   std::array<glm::vec2, 6> m;
   m.fill(glm::vec2(0.01f, 0.01f * 0.01f));  // geometry right around every probe
   g.moments.assign(g.probeCount(), m);
@@ -389,7 +362,7 @@ TEST(ProbeGridInterpolate, EveryProbeBlockedFallsBackToTrilinear) {
 }
 
 TEST(ProbeGridInterpolate, InvalidProbesAreNeverRead) {
-  ProbeGrid g = emptySceneGrid(2, {3, 3, 3}, glm::dvec3(0.0), glm::dvec3(1.0));
+  ProbeGrid g = test::identityProbeGrid(2, {3, 3, 3}, glm::dvec3(0.0), glm::dvec3(1.0));
   const float nan = std::numeric_limits<float>::quiet_NaN();
   // Probe (1, 1, 1) is inside geometry: its data is garbage that would poison any sum.
   const int bad = g.find({1, 1, 1});
@@ -411,7 +384,7 @@ TEST(ProbeGridInterpolate, InvalidProbesAreNeverRead) {
     EXPECT_NEAR(c.c[0].z, 3.0f, 1e-5f);  // all valid probes hold the light exactly
   }
   // A cell whose probes are all invalid gives nothing.
-  ProbeGrid allBad = emptySceneGrid(1, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
+  ProbeGrid allBad = test::identityProbeGrid(1, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
   allBad.validity.assign(allBad.probeCount(), 0.0f);
   EXPECT_EQ(probeWeights(allBad, glm::vec3(0.5f), nullptr).count, 0);
 }
@@ -419,7 +392,7 @@ TEST(ProbeGridInterpolate, InvalidProbesAreNeverRead) {
 // The domain is the lattice's box grown by half a spacing (the probes' cells): beyond it no
 // probe applies (count 0, cover Outside), within it every point gets probes.
 TEST(ProbeGridInterpolate, OutsideTheDomainGivesNothing) {
-  const ProbeGrid g = emptySceneGrid(1, {3, 2, 2}, glm::dvec3(-1.0, 0.0, 2.0), glm::dvec3(0.5));
+  const ProbeGrid g = test::identityProbeGrid(1, {3, 2, 2}, glm::dvec3(-1.0, 0.0, 2.0), glm::dvec3(0.5));
   const std::vector<glm::vec3> relit = relightProbes(g, sh::ShRgb(1));
   glm::dvec3 lo, hi;
   probeDomain(g, lo, hi);
@@ -444,7 +417,7 @@ TEST(ProbeGridInterpolate, OutsideTheDomainGivesNothing) {
 // to the box: a field linear in position takes its value on the box's nearest face (on every
 // axis that lies outside), and the cover says Shell; inside the box it says Lattice.
 TEST(ProbeGridInterpolate, HalfCellShellClampsToTheNearestProbes) {
-  ProbeGrid g = emptySceneGrid(1, {3, 3, 2}, glm::dvec3(0.5, 1.0, -1.0), glm::dvec3(1.0, 0.5, 2.0));
+  ProbeGrid g = test::identityProbeGrid(1, {3, 3, 2}, glm::dvec3(0.5, 1.0, -1.0), glm::dvec3(1.0, 0.5, 2.0));
   auto field = [](const glm::dvec3& p) { return 1.0 + 0.5 * p.x - 2.0 * p.y + 0.25 * p.z; };
   for (size_t p = 0; p < g.probeCount(); ++p) transferOf(g, p)[0] = float(field(g.latticePosition(g.coord[p])));
   sh::ShRgb white(1);
@@ -478,7 +451,7 @@ TEST(ProbeGridInterpolate, HalfCellShellClampsToTheNearestProbes) {
 // receiverRadiance: the probes' value where they apply; the light itself (M = I) outside the
 // domain and in a cell whose probes are all invalid, with the cover saying why.
 TEST(ProbeGridInterpolate, ReceiverRadianceFallsBackToTheUnoccludedLight) {
-  ProbeGrid g = emptySceneGrid(3, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
+  ProbeGrid g = test::identityProbeGrid(3, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
   for (float& v : g.transfer) v *= 0.5f;
   std::mt19937 rng(5);
   const sh::ShRgb light = randomLight(3, rng);
@@ -596,7 +569,7 @@ TEST(ProbeGridVdb, BandsOneAndEmptyGrid) {
   const ProbeGrid one = randomGrid(1, glm::dvec3(1.0), rng);
   writeProbeGrid(one, dir.file("one.vdb"));
   expectSameGrid(one, readProbeGrid(dir.file("one.vdb")), [](float) { return 0.0f; });
-  ProbeGrid none = emptySceneGrid(2, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
+  ProbeGrid none = test::identityProbeGrid(2, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
   none.coord.clear();
   none.transfer.clear();
   none.validity.clear();
@@ -645,7 +618,7 @@ TEST(ProbeGridVdb, VdbPrintReadsTheFile) {
 TEST(ProbeGridVdb, PyopenvdbReadsTheFile) {
   if (!havePyopenvdb()) GTEST_SKIP() << "pyopenvdb not available for " << kPython;
   TempDir dir;
-  ProbeGrid g = emptySceneGrid(3, {4, 3, 2}, glm::dvec3(-1.0, 0.5, 2.0), glm::dvec3(0.5, 0.25, 1.0));
+  ProbeGrid g = test::identityProbeGrid(3, {4, 3, 2}, glm::dvec3(-1.0, 0.5, 2.0), glm::dvec3(0.5, 0.25, 1.0));
   const int p = g.find({1, 2, 0});
   transferOf(g, size_t(p))[(4 * 9 + 0) * 3 + 1] = 0.375f;  // M_40, green
   const std::string path = dir.file("probes.vdb");
@@ -766,7 +739,7 @@ vdb.write(dst, grids=grids, metadata=meta)
 }
 
 TEST(ProbeGridVdb, WriteIntoMissingDirectoryRaisesError) {
-  const ProbeGrid g = emptySceneGrid(1, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
+  const ProbeGrid g = test::identityProbeGrid(1, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
   const std::string path = "/nonexistent-prt-dir/probes.vdb";
   expectError([&] { writeProbeGrid(g, path); }, path, "does not exist");
 }

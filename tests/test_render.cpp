@@ -22,6 +22,7 @@
 #include "prt/probe_grid.h"
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
+#include "test_util.h"
 
 namespace prt::render {
 namespace {
@@ -904,34 +905,6 @@ TEST(RenderReceivers, BakedGridMatchesOracleOnBothBackends) {
   EXPECT_LE(diff, 2 * 10 * kReceiverTolerance);
 }
 
-// A grid of `bands` bands with M = scale · I at every lattice point, moments at twice the
-// largest spacing, zero variance: the probes of an empty scene.
-ProbeGrid identityGrid(int bands, glm::ivec3 dims, glm::dvec3 origin, glm::dvec3 spacing, float scale = 1.0f) {
-  ProbeGrid g;
-  g.bands = bands;
-  g.dims = dims;
-  g.origin = origin;
-  g.spacing = spacing;
-  const float miss = float(2.0 * std::max({spacing.x, spacing.y, spacing.z}));
-  for (int z = 0; z < dims.z; ++z)
-    for (int y = 0; y < dims.y; ++y)
-      for (int x = 0; x < dims.x; ++x) g.coord.emplace_back(x, y, z);
-  const size_t count = g.coord.size();
-  const int n2 = g.coeffs();
-  g.transfer.assign(count * g.transferStride(), 0.0f);
-  for (size_t p = 0; p < count; ++p)
-    for (int j = 0; j < n2; ++j)
-      for (int c = 0; c < 3; ++c) g.transfer[p * g.transferStride() + (size_t(j) * n2 + j) * 3 + c] = scale;
-  g.validity.assign(count, 1.0f);
-  g.offset.assign(count, glm::vec3(0.0f));
-  g.skyVisibility.assign(count, 1.0f);
-  std::array<glm::vec2, 6> m;
-  m.fill(glm::vec2(miss, miss * miss));
-  g.moments.assign(count, m);
-  g.buildIndex();
-  return g;
-}
-
 // Irradiance of 3-band SH radiance l at unit normal n, written out from the Cartesian basis of
 // prt/sh.h and the clamped-cosine factors π, 2π/3, π/4 (no prt code involved).
 glm::dvec3 closedFormIrradiance(const sh::ShRgb& l, const glm::dvec3& n) {
@@ -967,7 +940,7 @@ TEST(RenderReceivers, EmptySceneLitLikeAnUnoccludedSurface) {
   ps.boundsMax = glm::dvec3(1.0);
   ps.samples = 1024;
   const ProbeGrid baked = bake::bakeProbes(s, {}, ps);
-  const ProbeGrid identity = identityGrid(3, glm::ivec3(4), glm::dvec3(-1.0), glm::dvec3(2.0 / 3.0));
+  const ProbeGrid identity = test::identityProbeGrid(3, glm::ivec3(4), glm::dvec3(-1.0), glm::dvec3(2.0 / 3.0));
   const sh::ShRgb light = skyLight(3);
   const CameraView cam = lookAt({0.3, 0.4, 2.5}, {0.1, 0.0, -0.05}, 35.0);
   GlContext ctx(GlBackend::OSMesa, kWidth, kHeight);
@@ -1019,7 +992,7 @@ TEST(RenderReceivers, OutsideTheLatticeLitByTheLight) {
   s.meshes.push_back(ball);
   updateBounds(s);
   // The lattice covers x ≤ −0.25 only, its domain x ≤ 0.
-  const ProbeGrid half = identityGrid(3, glm::ivec3(3, 4, 4), glm::dvec3(-1.25, -1.0, -1.0),
+  const ProbeGrid half = test::identityProbeGrid(3, glm::ivec3(3, 4, 4), glm::dvec3(-1.25, -1.0, -1.0),
                                       glm::dvec3(0.5, 2.0 / 3.0, 2.0 / 3.0), 0.5f);
   const sh::ShRgb light = skyLight(3);
   const ProbeLighting pl = probeLighting(half, light);
@@ -1301,7 +1274,7 @@ TEST(RenderCommand, ProbesLightTheMovingReceiver) {
   const std::string input = std::string(PRT_SOURCE_DIR) + "/scenes/cornell_open.gltf";
   const std::string baked = (dir / "c.glb").string(), probes = (dir / "p.vdb").string();
   writeBakedScene(input, unshadowedCornell(input, 3), "{}", baked);
-  writeProbeGrid(identityGrid(3, glm::ivec3(5), glm::dvec3(-1.0, 0.0, -1.0), glm::dvec3(0.5)), probes);
+  writeProbeGrid(test::identityProbeGrid(3, glm::ivec3(5), glm::dvec3(-1.0, 0.0, -1.0), glm::dvec3(0.5)), probes);
   const Scene file = loadScene(baked);
   ASSERT_EQ(file.animations.size(), 1u);  // the receiver's path survives the baked file
   ASSERT_GT(animationDuration(file), 2.0);

@@ -16,8 +16,11 @@
 
 #include "prt/error.h"
 #include "prt/scene.h"
+#include "test_util.h"
 
 namespace {
+
+using prt::test::base64;
 
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
@@ -27,21 +30,6 @@ constexpr int kUnsignedByte = 5121;
 constexpr int kUnsignedInt = 5125;
 // Positions and normals go through float and a double matrix: a few ulps.
 constexpr float kTol = 1e-5f;
-
-std::string base64(const std::string& in) {
-  static const char* digits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  for (size_t i = 0; i < in.size(); i += 3) {
-    uint32_t n = uint32_t(uint8_t(in[i])) << 16;
-    if (i + 1 < in.size()) n |= uint32_t(uint8_t(in[i + 1])) << 8;
-    if (i + 2 < in.size()) n |= uint32_t(uint8_t(in[i + 2]));
-    out += digits[(n >> 18) & 63];
-    out += digits[(n >> 12) & 63];
-    out += i + 1 < in.size() ? digits[(n >> 6) & 63] : '=';
-    out += i + 2 < in.size() ? digits[n & 63] : '=';
-  }
-  return out;
-}
 
 void appendBigEndian(std::string& s, uint32_t v) {
   for (int shift = 24; shift >= 0; shift -= 8) s += char((v >> shift) & 0xFF);

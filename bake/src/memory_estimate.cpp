@@ -68,13 +68,9 @@ constexpr uint64_t kProbeSlotBytes = 72, kProbeAttributeBytes = 80, kProbeIndexB
 constexpr uint64_t kVdbVec3Grids = 6, kVdbFloatGrids = 2;
 constexpr uint64_t kVdbUpperEntries = 32768, kVdbLowerEntries = 4096, kVdbLeafVoxels = 512;
 constexpr uint64_t kVdbNodeOverhead = 8192, kVdbLeafOverhead = 256;
-// The written .vdb holds the active values (Blosc barely shrinks these floats: measured 0.9 of
-// the raw 12·n2² + 80 bytes per probe) and per leaf and grid two 64-byte masks. It is read
-// back whole into a string to derive its UUID (probe_grid_vdb.cpp, stampContentUuid) while the
-// grids are alive. The string grows by doubling: when its capacity C is exceeded, the old C
-// bytes and their copy in the new buffer are resident (the new buffer's untouched pages are
-// not), and C < the file's size: at most 2 file sizes at once.
-constexpr uint64_t kVdbFileMaskBytes = 128, kVdbFileReadCopies = 2;
+// The written .vdb is hashed for its UUID (probe_grid_vdb.cpp, stampContentUuid) in 1 MiB
+// pieces while the grids are alive; the file's size no longer enters the peak.
+constexpr uint64_t kVdbHashBuffer = uint64_t(1) << 20;
 // The checkpoint's save buffer (checkpoint.cpp FdWriter) and its read buffer on resume.
 constexpr uint64_t kCheckpointBuffers = uint64_t(5) << 20;
 // Writing the .vdb besides the trees: OpenVDB's registries, Blosc and stream buffers.
@@ -134,12 +130,9 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   // the attribute vectors grow by doubling.
   const uint64_t gridBytes = points * (matrix + kProbeAttributeBytes + kProbeIndexBytes);
   const uint64_t assemble = lattice + points * (matrix * 4 / 5 + 2 * kProbeAttributeBytes + kProbeIndexBytes);
-  const uint64_t leaves = ((dims.x + 7) / 8) * ((dims.y + 7) / 8) * ((dims.z + 7) / 8);
-  const uint64_t grids = pn2 * pn2 + kVdbVec3Grids + kVdbFloatGrids;
   const uint64_t trees =
       (pn2 * pn2 + kVdbVec3Grids) * vdbTreeBytes(12, 16, dims) + kVdbFloatGrids * vdbTreeBytes(4, 8, dims);
-  const uint64_t file = points * (matrix + kProbeAttributeBytes) + leaves * grids * kVdbFileMaskBytes;
-  const uint64_t write = gridBytes + trees + kVdbFileReadCopies * file + kVdbWriteBytes;
+  const uint64_t write = gridBytes + trees + kVdbHashBuffer + kVdbWriteBytes;
   return std::max({trace, assemble, write});
 }
 

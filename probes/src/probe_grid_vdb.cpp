@@ -360,24 +360,29 @@ constexpr size_t kUuidOffset = 21, kUuidLength = 36;
 
 void stampContentUuid(const std::string& tempPath, const std::string& path) {
   std::fstream f(tempPath, std::ios::in | std::ios::out | std::ios::binary);
-  std::string bytes((std::istreambuf_iterator<char>(f)), {});
+  // Hashed in pieces: a grid of a few GB must not be held in memory twice over.
+  std::vector<char> buf(size_t(1) << 20);
+  f.read(buf.data(), std::streamsize(kUuidOffset + kUuidLength));
   auto isUuid = [&] {
-    if (bytes.size() < kUuidOffset + kUuidLength) return false;
+    if (!f || f.gcount() != std::streamsize(kUuidOffset + kUuidLength)) return false;
     for (size_t i = 0; i < kUuidLength; ++i) {
-      const char c = bytes[kUuidOffset + i];
+      const char c = buf[kUuidOffset + i];
       const bool dash = i == 8 || i == 13 || i == 18 || i == 23;
       const bool hex = (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F');
       if (dash ? c != '-' : !hex) return false;
     }
     return true;
   };
-  if (!f || !isUuid()) throw Error(cat(path, ": cannot write VDB file (unexpected header layout)"));
+  if (!isUuid()) throw Error(cat(path, ": cannot write VDB file (unexpected header layout)"));
   // Two FNV-1a 64-bit hashes (different offset bases) of everything but the UUID.
   uint64_t h[2] = {0xcbf29ce484222325ull, 0x84222325cbf29ce4ull};
-  for (size_t i = 0; i < bytes.size(); ++i) {
-    if (i >= kUuidOffset && i < kUuidOffset + kUuidLength) continue;
-    for (uint64_t& x : h) x = (x ^ static_cast<unsigned char>(bytes[i])) * 0x100000001b3ull;
-  }
+  auto hash = [&](const char* p, size_t n) {
+    for (size_t i = 0; i < n; ++i)
+      for (uint64_t& x : h) x = (x ^ static_cast<unsigned char>(p[i])) * 0x100000001b3ull;
+  };
+  hash(buf.data(), kUuidOffset);
+  while (f.read(buf.data(), std::streamsize(buf.size())) || f.gcount() > 0) hash(buf.data(), size_t(f.gcount()));
+  if (f.bad()) throw Error(cat(path, ": cannot write VDB file (reading it back failed)"));
   char uuid[kUuidLength + 1];
   std::snprintf(uuid, sizeof uuid, "%08x-%04x-%04x-%04x-%012llx", unsigned(h[0] >> 32), unsigned(h[0] >> 16 & 0xffff),
                 unsigned(h[0] & 0xffff), unsigned(h[1] >> 48), static_cast<unsigned long long>(h[1] & 0xffffffffffffull));
