@@ -782,9 +782,14 @@ TEST(CliResumeProbes, SigintInTheProbeStageThenKillNineThenResume) {
   fs::create_directories(dir / "out");
   const std::string out = (dir / "out" / "b.glb").string(), vdb = (dir / "out" / "b.vdb").string();
   const std::string ckpt = out + ".prt-checkpoint";
-  // 8000 probes of 256 rays: several seconds here, so that the bake is still running.
+  // 8000 probes of 256 rays: several seconds on the 2-core development machine.
   const std::vector<std::string> args = probeBakeArgs(out, vdb, 20, 256);
+  const auto tRef = std::chrono::steady_clock::now();
   ASSERT_EQ(prtBake(probeBakeArgs((dir / "ref.glb").string(), (dir / "ref.vdb").string(), 20, 256), dir).status, 0);
+  // The signal goes a tenth of the reference bake's time into the probe stage (at most 0.3 s):
+  // on a machine fast enough to bake it all in a fraction of a second it still lands.
+  const double refSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tRef).count();
+  const auto waitInProbeStage = std::chrono::duration<double>(std::min(0.3, 0.1 * refSeconds));
   const std::string refGlb = slurp(dir / "ref.glb"), refVdb = slurp(dir / "ref.vdb");
   // The previous good outputs at the paths: some other bake.
   ASSERT_EQ(prtBake(probeBakeArgs(out, vdb, 3, 16), dir).status, 0);
@@ -797,7 +802,7 @@ TEST(CliResumeProbes, SigintInTheProbeStageThenKillNineThenResume) {
   // stage has begun once the file is there.
   for (int i = 0; i < 1000 && !fs::exists(ckpt); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ASSERT_TRUE(fs::exists(ckpt)) << "the surface stage did not finish in 10 s";
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  std::this_thread::sleep_for(waitInProbeStage);
   auto tSignal = std::chrono::steady_clock::now();
   ::kill(pid, SIGINT);
   ChildRun r = finish(pid, errFile, t0);
