@@ -24,6 +24,7 @@
 #include <sys/resource.h>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <random>
 #include <string>
@@ -187,6 +188,57 @@ ProbeGrid randomGrid(int n, int bands) {
   g.moments.assign(g.probeCount(), m);
   g.buildIndex();
   return g;
+}
+
+// The receivers' cost per pixel, apart from the frame: an orbit camera close to the receivers
+// (their bounds at rest) so that they fill much of the frame; CPU time of full frames with the
+// per-pixel and the per-vertex lookup, frames of the baked instances alone and flat frames, the
+// kinds interleaved. A receiver pixel costs (full − baked alone) / receiver pixels; a flat
+// frame's pixel costs flat / (width · height). Their quotient, times the share of the frame a
+// receiver covers, is what the receiver adds to a frame's ratio to the raster floor.
+nlohmann::json receiverCloseup(render::Renderer& renderer, render::Renderer& bakedOnly, const Scene& scene, int width,
+                               int height, int frames) {
+  glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  for (const MeshInstance& m : scene.meshes)
+    if (m.receiverOnly)
+      for (const glm::vec3& p : m.positions) {
+        lo = glm::min(lo, glm::dvec3(p));
+        hi = glm::max(hi, glm::dvec3(p));
+      }
+  if (lo.x > hi.x) return nullptr;
+  render::OrbitCamera orbit;
+  orbit.target = glm::vec3(0.5 * (lo + hi));
+  orbit.distance = 0.8 * glm::length(hi - lo);
+  orbit.azimuthDegrees = 30.0;
+  orbit.elevationDegrees = 10.0;
+  render::Frame f;
+  f.camera = render::orbitView(scene, orbit, double(width) / height);
+  f.light = sky(30.0);
+  render::Frame flatFrame = f, vertexFrame = f;
+  flatFrame.shading = render::Shading::Flat;
+  vertexFrame.probeLookup = render::ProbeLookup::PerVertex;
+  Timing full, vertex, baked, flat;
+  for (int i = -2; i < frames; ++i)
+    for (int k = 0; k < 4; ++k) switch ((k + std::max(i, 0)) % 4) {
+        case 0: timedRender(renderer, f, i >= 0 ? &full : nullptr); break;
+        case 1: timedRender(renderer, vertexFrame, i >= 0 ? &vertex : nullptr); break;
+        case 2: timedRender(bakedOnly, f, i >= 0 ? &baked : nullptr); break;
+        default: timedRender(renderer, flatFrame, i >= 0 ? &flat : nullptr); break;
+      }
+  const size_t pixels = differingPixels(renderer.render(f), bakedOnly.render(f));
+  const double flatNs = median(flat.cpu) * 1e6 / (double(width) * height);
+  const double pixelNs = (median(full.cpu) - median(baked.cpu)) * 1e6 / double(std::max<size_t>(pixels, 1));
+  const double vertexNs = (median(vertex.cpu) - median(baked.cpu)) * 1e6 / double(std::max<size_t>(pixels, 1));
+  return {{"receiver_pixels", pixels},
+          {"prt_cpu_ms", median(full.cpu)},
+          {"per_vertex_cpu_ms", median(vertex.cpu)},
+          {"baked_only_cpu_ms", median(baked.cpu)},
+          {"flat_cpu_ms", median(flat.cpu)},
+          {"flat_ns_per_frame_pixel", flatNs},
+          {"receiver_ns_per_pixel", pixelNs},
+          {"receiver_ns_per_pixel_per_vertex_lookup", vertexNs},
+          {"receiver_pixel_in_flat_pixels", pixelNs / flatNs},
+          {"receiver_pixel_in_flat_pixels_per_vertex_lookup", vertexNs / flatNs}};
 }
 
 // The light updates: 1M baked vertices (a uniform; the dot product runs per vertex), and a 32³
@@ -370,6 +422,7 @@ int main(int argc, char** argv) {
                   {"per_vertex_ratio", medianRatio(vertexTiming.total, flatTiming.total)},
                   {"per_vertex_cpu_ratio", medianRatio(vertexTiming.cpu, flatTiming.cpu)},
                   {"target_ratio", 1.5}};
+    j["receiver_closeup"] = receiverCloseup(renderer, bakedOnly, scene, width, height, frames);
     if (!framesOnly) j.update(lightUpdates(context, scene, view));
     const std::string text = j.dump(2);
     std::printf("%s\n", text.c_str());
