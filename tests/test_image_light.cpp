@@ -530,6 +530,24 @@ TEST(LightEquirect, RoundTrip) {
   }
 }
 
+TEST(LightEquirect, SampleIsBilinearBetweenPixelCentresWrappingInU) {
+  prt::ImageRgb m(4, 3);
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 4; ++x) m.at(x, y) = glm::vec3(float(x + 10 * y), float(y), 1.0f);
+  auto at = [&](double u, double v) { return prt::sampleEquirect(m, prt::equirectDirection(u, v)); };
+  auto near = [](const glm::dvec3& a, const glm::dvec3& b) { return glm::length(a - b) < 1e-9; };
+  // At a pixel centre: the pixel.
+  EXPECT_TRUE(near(at(1.5 / 4, 1.5 / 3), glm::dvec3(11, 1, 1)));
+  // Halfway between two centres in u and in v: their means.
+  EXPECT_TRUE(near(at(2.0 / 4, 1.5 / 3), glm::dvec3(11.5, 1, 1)));
+  EXPECT_TRUE(near(at(1.5 / 4, 1.0 / 3), glm::dvec3(6, 0.5, 1)));
+  // Across the seam: between the last column and the first.
+  EXPECT_TRUE(near(at(0.01 / 4, 1.5 / 3), glm::dvec3(0.49 * 13 + 0.51 * 10, 1, 1)));
+  // Above the first row's centres and below the last's: clamped to the row.
+  EXPECT_TRUE(near(at(1.5 / 4, 0.1 / 3), glm::dvec3(1, 0, 1)));
+  EXPECT_TRUE(near(at(1.5 / 4, 2.9 / 3), glm::dvec3(21, 2, 1)));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Environment projection
 

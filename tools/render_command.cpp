@@ -45,6 +45,7 @@ struct RenderArgs {
   std::string probes;  // probe grid (.vdb) lighting the receivers
   std::string exrCompression = "zip";
   std::string probeLookup = "pixel";  // where receivers interpolate the grid: pixel or vertex
+  std::string background = "black";   // black, or sky: the lights as the camera sees them
   std::string mp4, contactSheet;
   int sheetColumns = 0, sheetTile = 192;
   double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitFov = 45.0, orbitDistance = 0.0;
@@ -325,6 +326,10 @@ CLI::App* addRenderCommand(CLI::App& app) {
                 "Where receivers interpolate the probe grid: pixel (exact) or vertex (faster, exact only where "
                 "the probe field is linear over each triangle)")
       ->capture_default_str();
+  r->add_option("--background", args.background,
+                "What pixels without geometry show: black, or sky (the rig's maps, suns and disks as seen "
+                "along each pixel's ray)")
+      ->capture_default_str();
   r->add_option("--contact-sheet", args.contactSheet, "Also write a PNG grid of all frames, downscaled");
   r->add_option("--sheet-columns", args.sheetColumns, "Contact sheet columns (0 = about square)")->capture_default_str();
   r->add_option("--sheet-tile", args.sheetTile, "Contact sheet: largest tile side in pixels")->capture_default_str();
@@ -353,6 +358,9 @@ void runRenderCommand() {
     throw Error(cat("--probe-lookup ", a.probeLookup, ": expected pixel or vertex"));
   const render::ProbeLookup lookup =
       a.probeLookup == "vertex" ? render::ProbeLookup::PerVertex : render::ProbeLookup::PerPixel;
+  if (a.background != "black" && a.background != "sky")
+    throw Error(cat("--background ", a.background, ": expected black or sky"));
+  const bool skyBackground = a.background == "sky";
 
   // Lighting first (a bad rig or map fails before any GL work). A rig file's keyframe range is
   // the default frame range; the shortcuts' START:END need the range to place their keys.
@@ -361,6 +369,17 @@ void runRenderCommand() {
   const FrameRange frames = given(a.framesOption) || !rig || !rig->animated() ? parseFrames(a.frames)
                                                                                 : rigFrames(*rig, a.light.rig);
   if (!rig) rig = buildRig(a.light, int(frames.first), int(frames.last));
+  if (skyBackground) {
+    size_t maps = 0, caps = 0;
+    for (const RigLight& l : rig->lights) {
+      maps += l.type == RigLight::Type::Environment;
+      caps += l.type == RigLight::Type::Sun || l.type == RigLight::Type::Disk;
+    }
+    if (maps > size_t(render::kMaxBackgroundMaps) || caps > size_t(render::kMaxBackgroundCaps))
+      throw Error(cat("--background sky: the rig has ", maps, " environment maps and ", caps,
+                      " suns and disks; at most ", render::kMaxBackgroundMaps, " and ", render::kMaxBackgroundCaps,
+                      " can be drawn"));
+  }
 
   const FramePattern output(a.output);
   checkOutput(output, frames);
@@ -421,6 +440,11 @@ void runRenderCommand() {
     frame.light = light;
     frame.time = double(f) / fps;
     frame.probeLookup = lookup;
+    RigBackground background;
+    if (skyBackground) {
+      background = rig->background(double(f));
+      frame.background = &background;
+    }
     frame.width = width;
     frame.height = height;
     ImageRgb image = renderer.render(frame);
@@ -454,11 +478,12 @@ void runRenderCommand() {
                "prt render: %lld frame%s %dx%d written (%s .. %s)%s on %s\n"
                "  camera: %s\n"
                "  %.2f ms/frame draw + %.2f ms/frame readback, %.3f ms per light update (%zu lights, %d bands, "
-               "window %s; maps projected once in %.1f ms), %.2f ms/frame writing\n",
+               "window %s; maps projected once in %.1f ms), %.2f ms/frame writing; background %s\n",
                static_cast<long long>(n), n == 1 ? "" : "s", width, height, output.path(frames.first).c_str(),
                output.path(frames.last).c_str(), a.png ? " + PNG" : "", context.description().c_str(),
                camera.description.c_str(), drawMs * perFrame, readbackMs * perFrame, lightMs * perFrame,
-               rig->lights.size(), bands, sh::windowName(rig->window), prepareMs, writeMs * perFrame);
+               rig->lights.size(), bands, sh::windowName(rig->window), prepareMs, writeMs * perFrame,
+               a.background.c_str());
   if (video)
     std::fprintf(stderr, "  video %s: %lld frames at %g fps, %.2f ms/frame encoding (%s)\n", a.mp4.c_str(),
                  static_cast<long long>(n), fps, encodeMs * perFrame, video->ffmpeg().c_str());

@@ -3,6 +3,7 @@
 #include "prt/light.h"
 
 #include <array>
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -104,6 +105,20 @@ glm::dvec2 equirectUv(const glm::dvec3& d) {
   return {0.5 + std::atan2(d.z, d.x) / (2.0 * kPi), std::acos(y) / kPi};
 }
 
+glm::dvec3 sampleEquirect(const ImageRgb& equirect, const glm::dvec3& d) {
+  const int w = equirect.width, h = equirect.height;
+  PRT_CHECK(w > 0 && h > 0);
+  const glm::dvec2 uv = equirectUv(d);
+  const double x = uv.x * w - 0.5, y = uv.y * h - 0.5;
+  const double x0 = std::floor(x), y0 = std::floor(y);
+  const double fx = x - x0, fy = y - y0;
+  auto wrap = [w](double i) { return int(((long long)i % w + w) % w); };
+  auto clampRow = [h](double j) { return int(std::clamp(j, 0.0, double(h - 1))); };
+  const int xa = wrap(x0), xb = wrap(x0 + 1.0), ya = clampRow(y0), yb = clampRow(y0 + 1.0);
+  auto at = [&](int px, int py) { return glm::dvec3(equirect.at(px, py)); };
+  return (1.0 - fy) * ((1.0 - fx) * at(xa, ya) + fx * at(xb, ya)) + fy * ((1.0 - fx) * at(xa, yb) + fx * at(xb, yb));
+}
+
 sh::ShRgb projectEnvironment(const ImageRgb& equirect, int bands) {
   checkBands(bands);
   const int w = equirect.width, h = equirect.height;
@@ -160,13 +175,12 @@ sh::ShRgb projectSun(int bands, const glm::dvec3& toLight, double radius,
   // E · y_lm(d), which r = 0 uses directly.
   //
   // Note 3: small radii. Band l deviates from the delta by a factor 1 + r²/4 − l(l+1) r²/8 +
-  // O(r⁴), at most 7 r² for l <= 7: 7e-12 below kPointSunRadius = 1e-6, far under float's
+  // O(r⁴), at most 7 r² for l <= 7: 7e-12 below kPointSunRadians = 1e-6, far under float's
   // rounding (6e-8), so the delta is used there. The disk formula would hold much lower (s and
   // sin² r keep their relative precision until they underflow near r = 1e-154, where s / sin² r
   // becomes 0/0), but gains nothing.
-  constexpr double kPointSunRadius = 1e-6;
   std::array<double, sh::kMaxBands> factor{};
-  if (radius < kPointSunRadius) {
+  if (radius < kPointSunRadians) {
     factor.fill(1.0);
   } else {
     const double halfSin = std::sin(radius / 2.0);

@@ -353,6 +353,49 @@ sh::ShRgb LightRig::evaluate(double frame, int bands) const {
   return sum;
 }
 
+RigBackground LightRig::background(double frame) const {
+  RigBackground b;
+  for (const RigLight& light : lights) {
+    switch (light.type) {
+      case RigLight::Type::Environment: {
+        const ImageRgb* image = nullptr;
+        {
+          std::lock_guard<std::mutex> lock(cache_->mutex);
+          image = &cache_->get(light.file).image;  // std::map nodes do not move
+        }
+        const double angle = light.rotation.scalarAt(frame);
+        const glm::dmat3 rotation = angle == 0.0 ? glm::dmat3(1.0) : sh::rotationAxis(light.axis.at(frame), angle);
+        // Turned by R, the map lights direction d with what it held at R⁻¹ d = Rᵀ d.
+        b.maps.push_back({std::shared_ptr<const ImageRgb>(cache_, image), glm::transpose(rotation),
+                          light.intensity.at(frame)});
+        break;
+      }
+      case RigLight::Type::Sun:
+      case RigLight::Type::Disk: {
+        const double r = glm::radians(light.radius.scalarAt(frame));
+        const bool irradiance = light.type == RigLight::Type::Sun || light.colorIsIrradiance;
+        if (irradiance && r < kPointSunRadians) break;  // a delta: projectSun's point-sun limit
+        const double sin2 = std::sin(r) * std::sin(r);
+        const glm::dvec3 c = light.color.at(frame);
+        b.caps.push_back({light.directionAt(frame), std::cos(r), irradiance ? c / (M_PI * sin2) : c});
+        break;
+      }
+      case RigLight::Type::Uniform:
+        b.uniform += light.color.at(frame);
+        break;
+    }
+  }
+  return b;
+}
+
+glm::dvec3 RigBackground::radiance(const glm::dvec3& d) const {
+  glm::dvec3 sum = uniform;
+  for (const Map& m : maps) sum += m.scale * sampleEquirect(*m.image, m.worldToMap * d);
+  for (const Cap& c : caps)
+    if (glm::dot(d, c.direction) >= c.cosRadius) sum += c.radiance;
+  return sum;
+}
+
 bool LightRig::animated() const {
   for (const RigLight& l : lights)
     for (const Track* t : {&l.axis, &l.rotation, &l.intensity, &l.direction, &l.azimuth, &l.elevation, &l.radius, &l.color})

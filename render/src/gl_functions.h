@@ -45,6 +45,7 @@ namespace prt::render {
   X(PFNGLVERTEXARRAYATTRIBBINDINGPROC, VertexArrayAttribBinding)                    \
   X(PFNGLENABLEVERTEXARRAYATTRIBPROC, EnableVertexArrayAttrib)                      \
   X(PFNGLDRAWELEMENTSPROC, DrawElements)                                            \
+  X(PFNGLDRAWARRAYSPROC, DrawArrays)                                                \
   X(PFNGLCREATETEXTURESPROC, CreateTextures)                                        \
   X(PFNGLDELETETEXTURESPROC, DeleteTextures)                                        \
   X(PFNGLTEXTURESTORAGE2DPROC, TextureStorage2D)                                    \
@@ -82,6 +83,7 @@ namespace prt::render {
   X(PFNGLPROGRAMUNIFORM3IVPROC, ProgramUniform3iv)                                  \
   X(PFNGLPROGRAMUNIFORM3FVPROC, ProgramUniform3fv)                                  \
   X(PFNGLPROGRAMUNIFORM4FVPROC, ProgramUniform4fv)                                  \
+  X(PFNGLPROGRAMUNIFORM2FVPROC, ProgramUniform2fv)                                  \
   X(PFNGLPROGRAMUNIFORMMATRIX3FVPROC, ProgramUniformMatrix3fv)                      \
   X(PFNGLPROGRAMUNIFORMMATRIX4FVPROC, ProgramUniformMatrix4fv)
 

@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <string>
 
 #include "gl_functions.h"
@@ -212,6 +213,15 @@ struct Renderer::Impl {
   // Probe grid: lattice index, static per-probe data, per-frame radiance (buffer + texture each).
   const ProbeGrid* grid = nullptr;
   GLuint probeBuffers[3] = {}, probeTextures[3] = {};
+  // Background (Frame::background): its program, an empty vertex array for the full-screen
+  // triangle, and the environment maps uploaded so far, by image (kept alive while uploaded).
+  struct BackgroundProgram {
+    GLuint id = 0;
+    GLint camera = -1, tan = -1, ortho = -1, viewport = -1, mapCount = -1, worldToMap = -1, mapScale = -1,
+          capCount = -1, caps = -1, capRadiance = -1, uniformRadiance = -1;
+  } background;
+  GLuint emptyVao = 0;
+  std::map<const ImageRgb*, std::pair<std::shared_ptr<const ImageRgb>, GLuint>> envTextures;
   GLuint fbo = 0, colorRb = 0, depthRb = 0;
   int fboWidth = 0, fboHeight = 0;
   std::vector<glm::vec4> readback;
@@ -229,6 +239,8 @@ struct Renderer::Impl {
   void uploadProbes(const ProbeGrid& grid);
   void releaseProbes();
   void ensureFramebuffer(int width, int height);
+  GLuint environmentTexture(const std::shared_ptr<const ImageRgb>& image);
+  void drawBackground(const RigBackground& b, const CameraView& camera, int width, int height);
   void release();
 };
 
@@ -514,6 +526,154 @@ void Renderer::Impl::ensureFramebuffer(int width, int height) {
   fboHeight = height;
 }
 
+// The background: a full-screen triangle at the far depth, drawn last with GL_EQUAL so that only
+// pixels no instance covered run it. Each pixel's centre ray (the same as the orbit and glTF
+// cameras' rays, docs/render.md) looks up RigBackground::radiance.
+constexpr const char* kBackgroundVertexGlsl = R"(#version 450 core
+void main() {
+  vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0);
+  gl_Position = vec4(p, 0.0, 1.0);  // depth 0: the cleared far depth (reversed depth)
+}
+)";
+
+std::string backgroundFragmentGlsl() {
+  return cat(R"(#version 450 core
+const int kMaxMaps = )", kMaxBackgroundMaps, R"(;
+const int kMaxCaps = )", kMaxBackgroundCaps, R"(;
+layout(binding = 4) uniform sampler2D uMaps[kMaxMaps];
+uniform mat3 uCamera;            // camera to world rotation
+uniform vec2 uTan;               // tan of half the horizontal and vertical fields of view
+uniform int uOrtho;              // 1: every ray looks down the camera's -Z
+uniform vec2 uViewport;
+uniform int uMapCount;
+uniform mat3 uWorldToMap[kMaxMaps];
+uniform vec3 uMapScale[kMaxMaps];
+uniform int uCapCount;
+uniform vec4 uCaps[kMaxCaps];         // direction, cos radius
+uniform vec4 uCapRadiance[kMaxCaps];
+uniform vec3 uUniformRadiance;
+out vec4 fragColor;
+const float kPi = 3.14159265358979;
+// atan(y, x) to about float's precision: GLSL's atan and acos are polynomial approximations
+// (Mesa's acos is off by up to ~1e-4 rad, a visible fraction of a texel in a large map).
+// Cephes' atanf: |t| <= tan(π/8) by atan t = π/4 + atan((t − 1)/(t + 1)), then an odd
+// polynomial; the octant from the signs and which of |x|, |y| is larger.
+float atan2Accurate(float y, float x) {
+  float ax = abs(x), ay = abs(y);
+  float t = min(ax, ay) / max(max(ax, ay), 1e-30);
+  bool reduce = t > 0.41421356;
+  float r = reduce ? (t - 1.0) / (t + 1.0) : t;
+  float z = r * r;
+  float a = (((8.05374449538e-2 * z - 1.38776856032e-1) * z + 1.99777106478e-1) * z - 3.33329491539e-1) * z * r + r;
+  a += reduce ? 0.78539816339 : 0.0;
+  a = ay > ax ? 1.57079632679 - a : a;
+  a = x < 0.0 ? kPi - a : a;
+  return y < 0.0 ? -a : a;
+}
+void main() {
+  vec2 ndc = gl_FragCoord.xy / uViewport * 2.0 - 1.0;
+  vec3 dir = uOrtho != 0 ? vec3(0.0, 0.0, -1.0) : vec3(ndc * uTan, -1.0);
+  vec3 d = normalize(uCamera * dir);
+  vec3 L = uUniformRadiance;
+  for (int i = 0; i < kMaxMaps; ++i) {
+    if (i >= uMapCount) break;
+    vec3 m = uWorldToMap[i] * d;
+    // equirectUv (prt/light.h); θ as atan2(√(x² + z²), y), which keeps its precision at the poles.
+    vec2 uv = vec2(0.5 + atan2Accurate(m.z, m.x) / (2.0 * kPi), atan2Accurate(length(m.xz), m.y) / kPi);
+    L += uMapScale[i] * textureLod(uMaps[i], uv, 0.0).rgb;
+  }
+  for (int i = 0; i < kMaxCaps; ++i) {
+    if (i >= uCapCount) break;
+    if (dot(d, uCaps[i].xyz) >= uCaps[i].w) L += uCapRadiance[i].rgb;
+  }
+  fragColor = vec4(L, 1.0);
+}
+)");
+}
+
+GLuint Renderer::Impl::environmentTexture(const std::shared_ptr<const ImageRgb>& image) {
+  auto it = envTextures.find(image.get());
+  if (it != envTextures.end()) return it->second.second;
+  GLint maxSize = 0;
+  gl.GetIntegerv(GL_MAX_TEXTURE_SIZE, &maxSize);
+  if (image->width < 1 || image->height < 1 || image->width > maxSize || image->height > maxSize)
+    throw Error(cat("background: environment map of ", image->width, "x", image->height,
+                    " pixels exceeds the GL's texture size limit of ", maxSize));
+  GLuint tex = 0;
+  gl.CreateTextures(GL_TEXTURE_2D, 1, &tex);
+  // Row 0 (v near 0, towards +Y) at t = 0: texture(u, v) is sampleEquirect's bilinear lookup.
+  gl.TextureStorage2D(tex, 1, GL_RGB32F, image->width, image->height);
+  gl.PixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  gl.TextureSubImage2D(tex, 0, 0, 0, image->width, image->height, GL_RGB, GL_FLOAT, image->pixels.data());
+  gl.TextureParameteri(tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  gl.TextureParameteri(tex, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_S, GL_REPEAT);
+  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  checkError("uploading an environment map for the background");
+  envTextures.emplace(image.get(), std::make_pair(image, tex));
+  return tex;
+}
+
+void Renderer::Impl::drawBackground(const RigBackground& b, const CameraView& camera, int width, int height) {
+  if (b.maps.size() > size_t(kMaxBackgroundMaps))
+    throw Error(cat("background: ", b.maps.size(), " environment maps, at most ", kMaxBackgroundMaps, " can be drawn"));
+  if (b.caps.size() > size_t(kMaxBackgroundCaps))
+    throw Error(cat("background: ", b.caps.size(), " suns and disks, at most ", kMaxBackgroundCaps, " can be drawn"));
+  if (!background.id) {
+    const Program p = link(kBackgroundVertexGlsl, backgroundFragmentGlsl(), "background");
+    background.id = p.id;
+    auto loc = [&](const char* name) { return gl.GetUniformLocation(background.id, name); };
+    background.camera = loc("uCamera");
+    background.tan = loc("uTan");
+    background.ortho = loc("uOrtho");
+    background.viewport = loc("uViewport");
+    background.mapCount = loc("uMapCount");
+    background.worldToMap = loc("uWorldToMap");
+    background.mapScale = loc("uMapScale");
+    background.capCount = loc("uCapCount");
+    background.caps = loc("uCaps");
+    background.capRadiance = loc("uCapRadiance");
+    background.uniformRadiance = loc("uUniformRadiance");
+    gl.CreateVertexArrays(1, &emptyVao);
+  }
+  const GLuint id = background.id;
+  const glm::mat3 rotation(glm::dmat3(camera.cameraToWorld));
+  const double tanY = std::tan(0.5 * camera.yfov);
+  const glm::vec2 tans(float(tanY * width / height), float(tanY));
+  const glm::vec2 viewport{float(width), float(height)};
+  gl.ProgramUniformMatrix3fv(id, background.camera, 1, GL_FALSE, &rotation[0][0]);
+  gl.ProgramUniform2fv(id, background.tan, 1, &tans.x);
+  gl.ProgramUniform1i(id, background.ortho, camera.perspective ? 0 : 1);
+  gl.ProgramUniform2fv(id, background.viewport, 1, &viewport.x);
+  gl.ProgramUniform1i(id, background.mapCount, GLint(b.maps.size()));
+  for (size_t i = 0; i < b.maps.size(); ++i) {
+    const glm::mat3 m(b.maps[i].worldToMap);
+    const glm::vec3 scale(b.maps[i].scale);
+    gl.ProgramUniformMatrix3fv(id, background.worldToMap + GLint(i), 1, GL_FALSE, &m[0][0]);
+    gl.ProgramUniform3fv(id, background.mapScale + GLint(i), 1, &scale.x);
+    gl.BindTextureUnit(GLuint(4 + i), environmentTexture(b.maps[i].image));
+  }
+  std::vector<glm::vec4> caps, capRadiance;
+  for (const RigBackground::Cap& c : b.caps) {
+    caps.emplace_back(glm::vec3(c.direction), float(c.cosRadius));
+    capRadiance.emplace_back(glm::vec3(c.radiance), 0.0f);
+  }
+  gl.ProgramUniform1i(id, background.capCount, GLint(caps.size()));
+  if (!caps.empty()) {
+    gl.ProgramUniform4fv(id, background.caps, GLsizei(caps.size()), &caps[0].x);
+    gl.ProgramUniform4fv(id, background.capRadiance, GLsizei(caps.size()), &capRadiance[0].x);
+  }
+  const glm::vec3 uniform(b.uniform);
+  gl.ProgramUniform3fv(id, background.uniformRadiance, 1, &uniform.x);
+  gl.UseProgram(id);
+  gl.Disable(GL_CULL_FACE);
+  gl.DepthFunc(GL_EQUAL);
+  gl.BindVertexArray(emptyVao);
+  gl.DrawArrays(GL_TRIANGLES, 0, 3);
+  gl.DepthFunc(GL_GREATER);
+  checkError("drawing the background");
+}
+
 void Renderer::Impl::release() {
   for (std::vector<Instance>* list : {&instances, &receivers})
     for (Instance& in : *list) {
@@ -526,6 +686,10 @@ void Renderer::Impl::release() {
   for (const Program& p : programs)
     if (p.id) gl.DeleteProgram(p.id);
   if (flatProgram.id) gl.DeleteProgram(flatProgram.id);
+  if (background.id) gl.DeleteProgram(background.id);
+  if (emptyVao) gl.DeleteVertexArrays(1, &emptyVao);
+  for (auto& [image, entry] : envTextures) gl.DeleteTextures(1, &entry.second);
+  envTextures.clear();
   if (fbo) {
     gl.DeleteFramebuffers(1, &fbo);
     gl.DeleteRenderbuffers(1, &colorRb);
@@ -708,6 +872,7 @@ ImageRgb Renderer::render(const Frame& frame) {
       return mirrored;
     });
   }
+  if (!flat && frame.background) r.drawBackground(*frame.background, camera, width, height);
   gl.BindVertexArray(0);
   gl.Finish();
   r.checkError("drawing the frame");

@@ -20,6 +20,11 @@ glm::dvec3 equirectDirection(double u, double v);
 /// Texture coordinates of unit direction d: inverse of equirectDirection.
 glm::dvec2 equirectUv(const glm::dvec3& d);
 
+/// The map's radiance towards unit direction d, bilinear between pixel centres (pixel (x, y) at
+/// u = (x + ½)/W, v = (y + ½)/H), wrapping around in u and clamped to the first and last row
+/// in v: what a GL_LINEAR texture with GL_REPEAT in s and GL_CLAMP_TO_EDGE in t returns.
+glm::dvec3 sampleEquirect(const ImageRgb& equirect, const glm::dvec3& d);
+
 /// Projects an equirectangular radiance map onto n bands, each pixel weighted by its exact
 /// solid angle (2π/W)·(cos θ₀ - cos θ₁) (θ₀, θ₁ the pixel's row edges).
 sh::ShRgb projectEnvironment(const ImageRgb& equirect, int bands);
@@ -28,6 +33,9 @@ sh::ShRgb projectEnvironment(const ImageRgb& equirect, int bands);
 /// direction `toLight`, with uniform radiance `radiance`. radius = 0 is not allowed here.
 sh::ShRgb projectDiskRadiance(int bands, const glm::dvec3& toLight, double radius,
                               const glm::dvec3& radiance);
+
+/// Below this angular radius (radians) a sun is a delta direction (projectSun, Note 3 there).
+constexpr double kPointSunRadians = 1e-6;
 
 /// SH of a sun: a disk of angular radius `radius` (radians, 0 = a delta direction) whose
 /// irradiance on a surface facing it is `irradiance` (as Blender's sun "strength", W/m²).

@@ -107,6 +107,30 @@ struct RigLight {
 /// Unit direction of azimuth/elevation in degrees: (cos el · sin az, sin el, cos el · cos az).
 glm::dvec3 azimuthElevationDirection(double azimuthDegrees, double elevationDegrees);
 
+/// What a camera sees of a rig's lights at one frame: their radiance itself (not its SH
+/// projection, and without the rig's window), for backgrounds (docs/lights.md, "Seen by the
+/// camera"). Suns of radius 0 (below 10⁻⁶ rad) are deltas and are not seen.
+struct RigBackground {
+  struct Map {
+    std::shared_ptr<const ImageRgb> image;  // equirectangular, oriented as in prt/light.h
+    glm::dmat3 worldToMap{1.0};             // the inverse of the light's rotation
+    glm::dvec3 scale{1.0};                  // the light's intensity
+  };
+  /// A sun or disk of non-zero radius: uniform radiance inside the cap dot(d, direction) ≥ cosRadius.
+  struct Cap {
+    glm::dvec3 direction{0.0, 1.0, 0.0};
+    double cosRadius = 1.0;
+    glm::dvec3 radiance{0.0};
+  };
+  std::vector<Map> maps;
+  std::vector<Cap> caps;
+  glm::dvec3 uniform{0.0};  // the sum of the uniform lights
+
+  /// Radiance arriving from unit direction d (pointing away from the viewer, towards the
+  /// light): Σ scale · sampleEquirect(map, worldToMap · d) + the caps containing d + uniform.
+  glm::dvec3 radiance(const glm::dvec3& d) const;
+};
+
 /// A set of lights summed, windowed against ringing, with an optional frame rate.
 /// Copies share the cache of environment maps. evaluate() may be called from several threads.
 class LightRig {
@@ -136,6 +160,10 @@ public:
   /// The rig's SH radiance at `frame` on `bands` bands (sum of all lights, window last).
   /// Precondition: validate() succeeded. Projects each map once per band count (cached).
   sh::ShRgb evaluate(double frame, int bands) const;
+
+  /// What a camera sees of the lights at `frame` (RigBackground). Precondition: validate()
+  /// succeeded. The maps are shared with the rig's cache, not copied.
+  RigBackground background(double frame) const;
 
   /// Whether any parameter changes over frames.
   bool animated() const;

@@ -14,6 +14,7 @@
 #include <glm/glm.hpp>
 
 #include "prt/image.h"
+#include "prt/light_rig.h"
 #include "prt/probe_grid.h"
 #include "prt/render/gl_context.h"
 #include "prt/scene.h"
@@ -80,7 +81,14 @@ struct Frame {
   int height = 0;
   Shading shading = Shading::Prt;
   ProbeLookup probeLookup = ProbeLookup::PerPixel;
+  /// What pixels that no instance covers show: null = 0 (black); else the lights' radiance
+  /// seen along each pixel's centre ray (RigBackground::radiance, LightRig::background). At
+  /// most kMaxBackgroundMaps environment maps and kMaxBackgroundCaps suns and disks.
+  const RigBackground* background = nullptr;
 };
+
+inline constexpr int kMaxBackgroundMaps = 8;
+inline constexpr int kMaxBackgroundCaps = 64;
 
 /// The scene uploaded to one GlContext; renders frames of it under any SH light. Baked instances
 /// are lit by their transfer; receivers (MeshInstance::receiverOnly) from the probe grid given to
@@ -103,8 +111,8 @@ public:
   /// the GL cannot hold the grid.
   void setProbes(const ProbeGrid& grid);
 
-  /// Renders a frame of exitant radiance (background 0), row 0 at the top. Makes the context
-  /// current.
+  /// Renders a frame of exitant radiance (background 0 unless Frame::background), row 0 at the
+  /// top. Makes the context current.
   ImageRgb render(const Frame& frame);
   /// A frame at time 0, width × height.
   ImageRgb render(const CameraView& camera, const sh::ShRgb& light, int width, int height);
