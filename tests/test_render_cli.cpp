@@ -247,6 +247,8 @@ TEST(RenderCli, BadOptionsAreOneLineAndWriteNothing) {
       {"--camera Front -o " + frames, "no camera named 'Front'"},
       {"--probe-lookup texel -o " + frames, "--probe-lookup texel: expected pixel or vertex"},
       {"--background blue -o " + frames, "--background blue: expected black or sky"},
+      {"--msaa 3 -o " + frames, "--msaa 3: expected 1, 2, 4, 8"},
+      {"--msaa 64 -o " + frames, "--msaa 64: llvmpipe"},
       {"--frames 0-20000 --size 100x100 --contact-sheet " + (out / "s.png").string() + " -o " + frames,
        "--contact-sheet " + (out / "s.png").string() + ": 20001 frames make a 14482x14380 sheet"},
   };

@@ -46,6 +46,7 @@ struct RenderArgs {
   std::string exrCompression = "zip";
   std::string probeLookup = "pixel";  // where receivers interpolate the grid: pixel or vertex
   std::string background = "black";   // black, or sky: the lights as the camera sees them
+  int msaa = 1;                        // samples per pixel
   std::string mp4, contactSheet;
   int sheetColumns = 0, sheetTile = 192;
   double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitFov = 45.0, orbitDistance = 0.0;
@@ -330,6 +331,10 @@ CLI::App* addRenderCommand(CLI::App& app) {
                 "What pixels without geometry show: black, or sky (the rig's maps, suns and disks as seen "
                 "along each pixel's ray)")
       ->capture_default_str();
+  r->add_option("--msaa", args.msaa,
+                "Anti-aliasing: samples per pixel, 1 (off), 2, 4 ... up to the GL's limit (4 on llvmpipe); each "
+                "pixel is the mean of its samples")
+      ->capture_default_str();
   r->add_option("--contact-sheet", args.contactSheet, "Also write a PNG grid of all frames, downscaled");
   r->add_option("--sheet-columns", args.sheetColumns, "Contact sheet columns (0 = about square)")->capture_default_str();
   r->add_option("--sheet-tile", args.sheetTile, "Contact sheet: largest tile side in pixels")->capture_default_str();
@@ -361,6 +366,7 @@ void runRenderCommand() {
   if (a.background != "black" && a.background != "sky")
     throw Error(cat("--background ", a.background, ": expected black or sky"));
   const bool skyBackground = a.background == "sky";
+  if (a.msaa < 1 || (a.msaa & (a.msaa - 1)) != 0) throw Error(cat("--msaa ", a.msaa, ": expected 1, 2, 4, 8 ..."));
 
   // Lighting first (a bad rig or map fails before any GL work). A rig file's keyframe range is
   // the default frame range; the shortcuts' START:END need the range to place their keys.
@@ -411,6 +417,8 @@ void runRenderCommand() {
     warnings = checkProbesMatch(probes, scene, a);
   }
   render::GlContext context(backend, width, height);
+  if (a.msaa > context.maxSamples())
+    throw Error(cat("--msaa ", a.msaa, ": ", context.renderer(), " allows at most ", context.maxSamples(), " samples"));
   render::Renderer renderer(context, scene);
   if (!a.probes.empty()) renderer.setProbes(probes);
   for (const std::string& w : renderer.warnings()) warnings.push_back(w);
@@ -440,6 +448,7 @@ void runRenderCommand() {
     frame.light = light;
     frame.time = double(f) / fps;
     frame.probeLookup = lookup;
+    frame.samples = a.msaa;
     RigBackground background;
     if (skyBackground) {
       background = rig->background(double(f));
@@ -478,12 +487,12 @@ void runRenderCommand() {
                "prt render: %lld frame%s %dx%d written (%s .. %s)%s on %s\n"
                "  camera: %s\n"
                "  %.2f ms/frame draw + %.2f ms/frame readback, %.3f ms per light update (%zu lights, %d bands, "
-               "window %s; maps projected once in %.1f ms), %.2f ms/frame writing; background %s\n",
+               "window %s; maps projected once in %.1f ms), %.2f ms/frame writing; background %s, %d sample%s per pixel\n",
                static_cast<long long>(n), n == 1 ? "" : "s", width, height, output.path(frames.first).c_str(),
                output.path(frames.last).c_str(), a.png ? " + PNG" : "", context.description().c_str(),
                camera.description.c_str(), drawMs * perFrame, readbackMs * perFrame, lightMs * perFrame,
                rig->lights.size(), bands, sh::windowName(rig->window), prepareMs, writeMs * perFrame,
-               a.background.c_str());
+               a.background.c_str(), renderer.lastFrame().samples, renderer.lastFrame().samples == 1 ? "" : "s");
   if (video)
     std::fprintf(stderr, "  video %s: %lld frames at %g fps, %.2f ms/frame encoding (%s)\n", a.mp4.c_str(),
                  static_cast<long long>(n), fps, encodeMs * perFrame, video->ffmpeg().c_str());

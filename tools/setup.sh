@@ -117,7 +117,7 @@ case "$mode" in
     run mkdir -p out/frames
     run build/tools/prt render out/cornell.baked.glb --probes out/cornell.probes.vdb \
       --env scenes/env/royal_esplanade_128.hdr --env-rotate 0:315 --frames 0-7 --fps 2 \
-      --size 640x360 --gl osmesa --png --exposure 1 --contact-sheet out/contact_sheet.png \
+      --size 640x360 --gl osmesa --msaa 4 --png --exposure 1 --contact-sheet out/contact_sheet.png \
       -o out/frames/frame_%04d.exr
     say "done. Outputs in $root/out:"
     printf '    %s\n' \

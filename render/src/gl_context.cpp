@@ -1,6 +1,7 @@
 // The one file that talks to OSMesa and EGL.
 #include "prt/render/gl_context.h"
 
+#include <algorithm>
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -335,6 +336,12 @@ const std::string& GlContext::platform() const { return impl_->platform; }
 const std::string& GlContext::renderer() const { return impl_->renderer; }
 const std::string& GlContext::version() const { return impl_->version; }
 const GlFunctions& GlContext::gl() const { return impl_->gl; }
+
+int GlContext::maxSamples() const {
+  GLint n = 0;
+  impl_->gl.GetIntegerv(GL_MAX_SAMPLES, &n);
+  return std::max(n, 1);
+}
 
 std::string GlContext::description() const {
   return cat(glBackendName(impl_->backend), ": ", impl_->platform, ", ", impl_->renderer, ", ",

@@ -64,6 +64,9 @@ namespace prt::render {
   X(PFNGLCREATERENDERBUFFERSPROC, CreateRenderbuffers)                              \
   X(PFNGLDELETERENDERBUFFERSPROC, DeleteRenderbuffers)                              \
   X(PFNGLNAMEDRENDERBUFFERSTORAGEPROC, NamedRenderbufferStorage)                    \
+  X(PFNGLNAMEDRENDERBUFFERSTORAGEMULTISAMPLEPROC, NamedRenderbufferStorageMultisample) \
+  X(PFNGLBLITNAMEDFRAMEBUFFERPROC, BlitNamedFramebuffer)                            \
+  X(PFNGLGETNAMEDRENDERBUFFERPARAMETERIVPROC, GetNamedRenderbufferParameteriv)      \
   X(PFNGLCREATESHADERPROC, CreateShader)                                            \
   X(PFNGLSHADERSOURCEPROC, ShaderSource)                                            \
   X(PFNGLCOMPILESHADERPROC, CompileShader)                                          \

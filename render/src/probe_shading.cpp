@@ -285,9 +285,9 @@ out vec3 vNormal;
 
 std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
   const bool perVertex = lookup == ProbeLookup::PerVertex;
-  std::string s = cat("#version 450 core\nin vec3 vWorld;\nin vec3 vNormal;\n", kAlbedoInputsGlsl);
+  std::string s = cat("#version 450 core\ncentroid in vec3 vWorld;\ncentroid in vec3 vNormal;\n", kAlbedoInputsGlsl);
   if (perVertex)
-    s += cat("const int kTexels = ", radianceTexels(bands), ";\nin vec4 vRadiance[kTexels];\n");
+    s += cat("const int kTexels = ", radianceTexels(bands), ";\ncentroid in vec4 vRadiance[kTexels];\n");
   else
     s += probeLookupGlsl(bands);
   s += irradianceGlsl(bands);

@@ -18,13 +18,16 @@ namespace prt::render {
 /// GLSL of the fragment shaders (baked and receivers): the material's inputs and
 /// albedo() = baseColorFactor × baseColorTexture(texcoord) × COLOR_0. Texcoords and colours are
 /// read only in the variants compiled with HAS_TEXTURE / HAS_COLOR defined (withMaterialDefines):
-/// a material without them interpolates no varyings for them and runs no branch.
+/// a material without them interpolates no varyings for them and runs no branch. Fragment inputs
+/// are `centroid` everywhere: with multisampling, a pixel on an edge is shaded at its covered
+/// samples' centroid instead of its centre, which may lie outside the triangle (extrapolated
+/// attributes); without it, or in a covered pixel, the centroid is the centre.
 inline constexpr const char* kAlbedoInputsGlsl = R"(#ifdef HAS_TEXTURE
-in vec2 vTexcoord;
+centroid in vec2 vTexcoord;
 layout(binding = 0) uniform sampler2D uBaseColorTexture;
 #endif
 #ifdef HAS_COLOR
-in vec4 vColor;
+centroid in vec4 vColor;
 #endif
 uniform vec4 uBaseColor;
 vec3 albedo() {

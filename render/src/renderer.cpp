@@ -80,7 +80,7 @@ void main() {
 // ignored.
 std::string bakedFragmentShader() {
   return cat(R"(#version 450 core
-in vec3 vTransferLight;
+centroid in vec3 vTransferLight;
 )", kAlbedoInputsGlsl, R"(out vec4 fragColor;
 void main() { fragColor = vec4(albedo() * vTransferLight * 0.31830988618379067, 1.0); }
 )");
@@ -222,8 +222,10 @@ struct Renderer::Impl {
   } background;
   GLuint emptyVao = 0;
   std::map<const ImageRgb*, std::pair<std::shared_ptr<const ImageRgb>, GLuint>> envTextures;
-  GLuint fbo = 0, colorRb = 0, depthRb = 0;
-  int fboWidth = 0, fboHeight = 0;
+  // The framebuffer drawn into (multisampled when Frame::samples > 1) and, when it is, the
+  // single-sample one it is resolved into for the read-back.
+  GLuint fbo = 0, colorRb = 0, depthRb = 0, resolveFbo = 0, resolveRb = 0;
+  int fboWidth = 0, fboHeight = 0, fboSamples = 0, fboActualSamples = 1;
   std::vector<glm::vec4> readback;
   std::vector<glm::vec4> radiance;  // per-frame upload: c_p as RGBA (see uploadProbes)
   FrameStats stats;
@@ -238,7 +240,8 @@ struct Renderer::Impl {
   void upload(const Scene& scene);
   void uploadProbes(const ProbeGrid& grid);
   void releaseProbes();
-  void ensureFramebuffer(int width, int height);
+  void ensureFramebuffer(int width, int height, int samples);
+  void releaseFramebuffer();
   GLuint environmentTexture(const std::shared_ptr<const ImageRgb>& image);
   void drawBackground(const RigBackground& b, const CameraView& camera, int width, int height);
   void release();
@@ -498,32 +501,56 @@ void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
   grid = &g;
 }
 
-void Renderer::Impl::ensureFramebuffer(int width, int height) {
-  if (fbo && width == fboWidth && height == fboHeight) return;
-  GLint maxSize = 0;
+void Renderer::Impl::releaseFramebuffer() {
+  if (fbo) gl.DeleteFramebuffers(1, &fbo);
+  if (resolveFbo) gl.DeleteFramebuffers(1, &resolveFbo);
+  for (GLuint* rb : {&colorRb, &depthRb, &resolveRb})
+    if (*rb) gl.DeleteRenderbuffers(1, rb);
+  fbo = resolveFbo = colorRb = depthRb = resolveRb = 0;
+}
+
+void Renderer::Impl::ensureFramebuffer(int width, int height, int samples) {
+  if (fbo && width == fboWidth && height == fboHeight && samples == fboSamples) return;
+  GLint maxSize = 0, maxSamples = 0;
   gl.GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &maxSize);
+  gl.GetIntegerv(GL_MAX_SAMPLES, &maxSamples);
   if (width <= 0 || height <= 0 || width > maxSize || height > maxSize)
     throw Error(cat("render: frame size ", width, "x", height, " outside 1..", maxSize));
-  if (fbo) {
-    gl.DeleteFramebuffers(1, &fbo);
-    gl.DeleteRenderbuffers(1, &colorRb);
-    gl.DeleteRenderbuffers(1, &depthRb);
-  }
-  gl.CreateRenderbuffers(1, &colorRb);
-  gl.NamedRenderbufferStorage(colorRb, GL_RGBA32F, width, height);
-  gl.CreateRenderbuffers(1, &depthRb);
-  gl.NamedRenderbufferStorage(depthRb, GL_DEPTH_COMPONENT32F, width, height);
-  gl.CreateFramebuffers(1, &fbo);
-  gl.NamedFramebufferRenderbuffer(fbo, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colorRb);
-  gl.NamedFramebufferRenderbuffer(fbo, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depthRb);
-  gl.NamedFramebufferDrawBuffer(fbo, GL_COLOR_ATTACHMENT0);
-  gl.NamedFramebufferReadBuffer(fbo, GL_COLOR_ATTACHMENT0);
-  const GLenum status = gl.CheckNamedFramebufferStatus(fbo, GL_FRAMEBUFFER);
-  if (status != GL_FRAMEBUFFER_COMPLETE)
-    throw Error(cat("GL: RGBA32F framebuffer incomplete (", glErrorName(status), ")"));
+  if (samples < 1 || samples > std::max(maxSamples, 1) || (samples & (samples - 1)) != 0)
+    throw Error(cat("render: ", samples, " samples per pixel; this GL allows 1, 2, 4 ... up to ", std::max(maxSamples, 1)));
+  releaseFramebuffer();
+  auto makeFbo = [&](GLuint& f, GLuint& color, GLuint* depth, int n) {
+    gl.CreateRenderbuffers(1, &color);
+    if (n > 1)
+      gl.NamedRenderbufferStorageMultisample(color, n, GL_RGBA32F, width, height);
+    else
+      gl.NamedRenderbufferStorage(color, GL_RGBA32F, width, height);
+    gl.CreateFramebuffers(1, &f);
+    gl.NamedFramebufferRenderbuffer(f, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color);
+    if (depth) {
+      gl.CreateRenderbuffers(1, depth);
+      if (n > 1)
+        gl.NamedRenderbufferStorageMultisample(*depth, n, GL_DEPTH_COMPONENT32F, width, height);
+      else
+        gl.NamedRenderbufferStorage(*depth, GL_DEPTH_COMPONENT32F, width, height);
+      gl.NamedFramebufferRenderbuffer(f, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, *depth);
+    }
+    gl.NamedFramebufferDrawBuffer(f, GL_COLOR_ATTACHMENT0);
+    gl.NamedFramebufferReadBuffer(f, GL_COLOR_ATTACHMENT0);
+    const GLenum status = gl.CheckNamedFramebufferStatus(f, GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE)
+      throw Error(cat("GL: RGBA32F framebuffer of ", n, " samples incomplete (", glErrorName(status), ")"));
+  };
+  makeFbo(fbo, colorRb, &depthRb, samples);
+  if (samples > 1) makeFbo(resolveFbo, resolveRb, nullptr, 1);
+  // The GL may give more samples than asked for (llvmpipe: 4 for 2).
+  GLint actual = 0;
+  gl.GetNamedRenderbufferParameteriv(colorRb, GL_RENDERBUFFER_SAMPLES, &actual);
+  fboActualSamples = std::max(actual, 1);
   checkError("creating the framebuffer");
   fboWidth = width;
   fboHeight = height;
+  fboSamples = samples;
 }
 
 // The background: a full-screen triangle at the far depth, drawn last with GL_EQUAL so that only
@@ -690,11 +717,7 @@ void Renderer::Impl::release() {
   if (emptyVao) gl.DeleteVertexArrays(1, &emptyVao);
   for (auto& [image, entry] : envTextures) gl.DeleteTextures(1, &entry.second);
   envTextures.clear();
-  if (fbo) {
-    gl.DeleteFramebuffers(1, &fbo);
-    gl.DeleteRenderbuffers(1, &colorRb);
-    gl.DeleteRenderbuffers(1, &depthRb);
-  }
+  releaseFramebuffer();
 }
 
 Renderer::Renderer(GlContext& context, const Scene& scene) : impl_(std::make_unique<Impl>(context)) {
@@ -783,7 +806,8 @@ ImageRgb Renderer::render(const Frame& frame) {
   r.stats.lightMs = msSince(t0);
 
   const auto t1 = std::chrono::steady_clock::now();
-  r.ensureFramebuffer(width, height);
+  r.ensureFramebuffer(width, height, frame.samples);
+  r.stats.samples = r.fboActualSamples;
   const double aspect = double(width) / height;
   const glm::dmat4 view = glm::inverse(camera.cameraToWorld);
   double orthoFar = 1.0;
@@ -880,6 +904,12 @@ ImageRgb Renderer::render(const Frame& frame) {
 
   const auto t2 = std::chrono::steady_clock::now();
   r.readback.resize(size_t(width) * height);
+  if (r.resolveFbo) {
+    // The average of each pixel's samples (a box filter over the pixel).
+    gl.BlitNamedFramebuffer(r.fbo, r.resolveFbo, 0, 0, width, height, 0, 0, width, height, GL_COLOR_BUFFER_BIT,
+                            GL_NEAREST);
+    gl.BindFramebuffer(GL_FRAMEBUFFER, r.resolveFbo);
+  }
   gl.PixelStorei(GL_PACK_ALIGNMENT, 4);
   gl.ReadPixels(0, 0, width, height, GL_RGBA, GL_FLOAT, r.readback.data());
   r.checkError("reading the frame back");

@@ -56,6 +56,8 @@ public:
   const std::string& renderer() const;
   /// GL_VERSION, e.g. "4.5 (Core Profile) Mesa 22.3.6".
   const std::string& version() const;
+  /// GL_MAX_SAMPLES: the most samples per pixel a multisampled frame may have (4 on llvmpipe).
+  int maxSamples() const;
   /// One line for summaries: "egl: EGL surfaceless, llvmpipe (...), 4.5 (Core Profile) Mesa ...".
   std::string description() const;
 

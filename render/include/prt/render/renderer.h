@@ -58,6 +58,7 @@ struct FrameStats {
   double readbackMs = 0.0;  // glReadPixels and the row flip
   size_t triangles = 0;     // drawn in the last frame (baked and receivers)
   size_t receiverTriangles = 0;
+  int samples = 1;          // samples per pixel the GL gave (>= Frame::samples; llvmpipe: 4 for 2)
 };
 
 /// How a frame is shaded. Flat draws the same instances with the same vertex buffers, depth
@@ -85,6 +86,11 @@ struct Frame {
   /// seen along each pixel's centre ray (RigBackground::radiance, LightRig::background). At
   /// most kMaxBackgroundMaps environment maps and kMaxBackgroundCaps suns and disks.
   const RigBackground* background = nullptr;
+  /// Multisample anti-aliasing: samples per pixel, 1 (off) or a power of two up to the GL's
+  /// GL_MAX_SAMPLES (4 on llvmpipe). Each pixel is shaded once (at its centre, or at the
+  /// centroid of its covered samples on an edge) and the written pixel is the mean of its
+  /// samples: pixels that one surface covers entirely are unchanged.
+  int samples = 1;
 };
 
 inline constexpr int kMaxBackgroundMaps = 8;
