@@ -230,6 +230,20 @@ TEST_F(ProbeCli, AtAgreesWithPointsAndTheLibrary) {
   // (the renderer's rule): Σ_j Â_l y_j(+Y) l_j.
   EXPECT_EQ(splitCsv(out.back())[9], "outside");
   EXPECT_NEAR(std::stod(splitCsv(out.back())[7]), sh::irradiance(l, glm::vec3(0, 1, 0)).g, 1e-5);
+
+  // Half a spacing above the domain: the probes and the light half and half, with a warning.
+  glm::dvec3 lo, hi;
+  probeDomain(grid, lo, hi);
+  const glm::vec3 x(0.1f, float(hi.y + 0.5 * grid.spacing.y), 0.2f), up(0.0f, 1.0f, 0.0f);
+  const Exec fade = prt(cat("probe ", file("p.vdb"), " --env ", env(), " --at ", x.x, ",", x.y, ",", x.z,
+                            " --normal 0,1,0"));
+  ASSERT_EQ(fade.status, 0) << fade.err;
+  const nlohmann::json j = nlohmann::json::parse(fade.out);
+  EXPECT_EQ(j["status"], "fade");
+  EXPECT_NEAR(j["light_share"].get<double>(), 0.5, 1e-3);
+  EXPECT_NE(fade.err.find("beyond the probe grid's domain"), std::string::npos) << fade.err;
+  const glm::vec3 lib = sh::irradiance(receiverRadiance(grid, relit, l, x, &up), up);
+  EXPECT_NEAR(j["irradiance"][1].get<double>(), lib.g, 1e-6 * std::fabs(lib.g));
 }
 
 // The CSV path keeps the input's own text (0.01 stays "0.01", extra columns and spacing are

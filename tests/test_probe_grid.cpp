@@ -389,9 +389,10 @@ TEST(ProbeGridInterpolate, InvalidProbesAreNeverRead) {
   EXPECT_EQ(probeWeights(allBad, glm::vec3(0.5f), nullptr).count, 0);
 }
 
-// The domain is the lattice's box grown by half a spacing (the probes' cells): beyond it no
-// probe applies (count 0, cover Outside), within it every point gets probes.
-TEST(ProbeGridInterpolate, OutsideTheDomainGivesNothing) {
+// The domain is the lattice's box grown by half a spacing (the probes' cells): within it every
+// point gets probes; up to one spacing beyond it too, with a fade (cover Fade); farther, no
+// probe applies (count 0, cover Outside).
+TEST(ProbeGridInterpolate, BeyondTheDomainFadesThenGivesNothing) {
   const ProbeGrid g = test::identityProbeGrid(1, {3, 2, 2}, glm::dvec3(-1.0, 0.0, 2.0), glm::dvec3(0.5));
   const std::vector<glm::vec3> relit = relightProbes(g, sh::ShRgb(1));
   glm::dvec3 lo, hi;
@@ -399,16 +400,28 @@ TEST(ProbeGridInterpolate, OutsideTheDomainGivesNothing) {
   EXPECT_EQ(lo, glm::dvec3(-1.25, -0.25, 1.75));
   EXPECT_EQ(hi, glm::dvec3(0.25, 0.75, 2.75));
   for (int a = 0; a < 3; ++a) {
+    for (double beyond : {0.01, 0.2, 0.49}) {  // world units; the spacing is 0.5
+      glm::vec3 below = glm::vec3(0.5 * (lo + hi)), above = below;
+      below[a] = float(lo[a] - beyond);
+      above[a] = float(hi[a] + beyond);
+      for (const glm::vec3& x : {below, above}) {
+        const ProbeWeights w = probeWeights(g, x, nullptr);
+        EXPECT_GT(w.count, 0) << a;
+        EXPECT_EQ(w.cover, ProbeCover::Fade) << a;
+        EXPECT_NEAR(w.fade, beyond / 0.5 - 1e-4, 1e-5) << a;
+      }
+    }
     glm::vec3 below = glm::vec3(0.5 * (lo + hi)), above = below;
-    below[a] = float(lo[a]) - 0.01f;
-    above[a] = float(hi[a]) + 0.01f;
+    below[a] = float(lo[a]) - 0.51f;
+    above[a] = float(hi[a]) + 0.51f;
     EXPECT_EQ(probeWeights(g, below, nullptr).count, 0) << a;
     EXPECT_EQ(probeWeights(g, below, nullptr).cover, ProbeCover::Outside) << a;
     EXPECT_EQ(probeWeights(g, above, nullptr).count, 0) << a;
     EXPECT_EQ(interpolateRadiance(g, relit, above, nullptr).c[0], glm::vec3(0.0f));
   }
-  // The domain's box itself is inside, corners included.
+  // The domain's box itself is inside, corners included, without a fade.
   EXPECT_GT(probeWeights(g, glm::vec3(lo), nullptr).count, 0);
+  EXPECT_EQ(probeWeights(g, glm::vec3(lo), nullptr).fade, 0.0f);
   EXPECT_GT(probeWeights(g, glm::vec3(hi), nullptr).count, 0);
   EXPECT_EQ(probeWeights(g, glm::vec3(NAN), nullptr).count, 0);
 }
@@ -448,8 +461,9 @@ TEST(ProbeGridInterpolate, HalfCellShellClampsToTheNearestProbes) {
   EXPECT_GT(shell, 50);
 }
 
-// receiverRadiance: the probes' value where they apply; the light itself (M = I) outside the
-// domain and in a cell whose probes are all invalid, with the cover saying why.
+// receiverRadiance: the probes' value where they apply; blended into the light beyond the
+// domain; the light itself (M = I) farther out and in a cell whose probes are all invalid, with
+// the cover saying why.
 TEST(ProbeGridInterpolate, ReceiverRadianceFallsBackToTheUnoccludedLight) {
   ProbeGrid g = test::identityProbeGrid(3, {2, 2, 2}, glm::dvec3(0.0), glm::dvec3(1.0));
   for (float& v : g.transfer) v *= 0.5f;
@@ -461,9 +475,19 @@ TEST(ProbeGridInterpolate, ReceiverRadianceFallsBackToTheUnoccludedLight) {
   sh::ShRgb c = receiverRadiance(g, relit, light, glm::vec3(0.5f, 1.3f, 0.5f), &n, &cover);  // shell
   EXPECT_EQ(cover, ProbeCover::Shell);
   for (int j = 0; j < 9; ++j) EXPECT_NEAR(c.c[size_t(j)].g, 0.5f * light.c[size_t(j)].g, 1e-6f) << j;
-  c = receiverRadiance(g, relit, light, glm::vec3(0.5f, 1.6f, 0.5f), &n, &cover);  // outside
+  // Beyond the domain's edge y = 1.5: the probes (half the light) fade into the light over one
+  // spacing, continuously, share f = (y − 1.5) − 10⁻⁴; from y = 2.5 on, the light itself.
+  for (float y : {1.5f, 1.6f, 2.0f, 2.4f, 2.4999f}) {
+    c = receiverRadiance(g, relit, light, glm::vec3(0.5f, y, 0.5f), &n, &cover);
+    const double f = std::clamp(double(y) - 1.5 - 1e-4, 0.0, 1.0);
+    EXPECT_EQ(cover, f > 0.0 ? ProbeCover::Fade : ProbeCover::Shell) << y;
+    for (int j = 0; j < 9; ++j)
+      EXPECT_NEAR(c.c[size_t(j)].g, ((1.0 - f) * 0.5 + f) * light.c[size_t(j)].g, 1e-6) << y << " " << j;
+  }
+  c = receiverRadiance(g, relit, light, glm::vec3(0.5f, 2.6f, 0.5f), &n, &cover);  // outside
   EXPECT_EQ(cover, ProbeCover::Outside);
   for (int j = 0; j < 9; ++j) EXPECT_EQ(c.c[size_t(j)], light.c[size_t(j)]) << j;
+  EXPECT_STREQ(probeCoverName(ProbeCover::Fade), "fade");
   g.validity.assign(g.probeCount(), 0.0f);
   c = receiverRadiance(g, relit, light, glm::vec3(0.5f), &n, &cover);
   EXPECT_EQ(cover, ProbeCover::NoValidProbe);

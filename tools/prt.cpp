@@ -303,6 +303,8 @@ void probeAt(const ProbeArgs& a, const ProbeQuery& q) {
     probes.push_back({{"index", {ijk.x, ijk.y, ijk.z}}, {"weight", w.weight[size_t(i)]}});
   }
   j["probes"] = probes;
+  // The unoccluded light's share of radiance_sh: 1 outside, 0 within the domain (docs/probes.md).
+  j["light_share"] = w.count == 0 ? 1.0f : w.fade;
   if (np) {
     glm::vec3 e = sh::irradiance(c, n);
     j["normal"] = {n.x, n.y, n.z};
@@ -311,6 +313,11 @@ void probeAt(const ProbeArgs& a, const ProbeQuery& q) {
   if (w.count == 0)
     std::fprintf(stderr, "prt: warning: (%g, %g, %g) is %s: reporting the unoccluded light, as the renderer does\n",
                  x.x, x.y, x.z, cover == ProbeCover::Outside ? "outside the probe grid" : "in a cell with no valid probe");
+  else if (cover == ProbeCover::Fade)
+    std::fprintf(stderr,
+                 "prt: warning: (%g, %g, %g) is beyond the probe grid's domain: reporting its nearest probes blended "
+                 "with the unoccluded light (light share %.3g), as the renderer does\n",
+                 x.x, x.y, x.z, w.fade);
   std::printf("%s\n", j.dump(2).c_str());
 }
 
@@ -362,12 +369,12 @@ std::string probePointsCsv(const std::string& path, const ProbeQuery& q) {
     n = glm::normalize(n);
     ProbeCover cover;
     const glm::vec3 e = sh::irradiance(q.radiance(x, &n, cover), n);
-    outside += cover == ProbeCover::Outside || cover == ProbeCover::NoValidProbe;
+    outside += cover == ProbeCover::Outside || cover == ProbeCover::NoValidProbe || cover == ProbeCover::Fade;
     out += cat(line, ",", std::setprecision(9), e.r, ",", e.g, ",", e.b, ",", probeCoverName(cover), "\n");
   }
   if (outside)
-    std::fprintf(stderr, "prt: warning: %s: %d points outside the probe grid or without a valid probe got the "
-                 "unoccluded light (status column)\n", path.c_str(), outside);
+    std::fprintf(stderr, "prt: warning: %s: %d points beyond the probe grid's domain or without a valid probe got "
+                 "the unoccluded light, in whole or in part (status column)\n", path.c_str(), outside);
   return out;
 }
 

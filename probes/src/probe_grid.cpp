@@ -24,6 +24,9 @@ constexpr double kDomainMargin = 0.5;
 // receiver lying exactly on the boundary must not flicker in and out because of float rounding
 // of its world position.
 constexpr double kBoundaryTolerance = 1e-4;
+// Beyond the domain the probes' answer fades into the unoccluded light over this many spacings
+// (per axis, the farthest axis decides), so that a receiver leaving the grid does not jump.
+constexpr double kFadeSpacings = 1.0;
 // Floor of the variance in the Chebyshev test, as a fraction of the smallest spacing. Without
 // it a face whose rays all hit at one distance (σ² = 0, or slightly negative from rounding)
 // would divide by zero; with it the visibility falls to ~1e-6 within 0.1 spacing past μ.
@@ -148,18 +151,24 @@ ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::
   // Cell of x and its fractional position t in it, x clamped to the lattice's box (a point in
   // the half-cell shell takes the values of the box's nearest face). An axis with one lattice
   // point has a cell of zero width: t = 0 there.
+  // Beyond the domain (by `over` spacings on the farthest axis) the share of the unoccluded
+  // light rises linearly from 0 at the domain's edge (plus the boundary tolerance) to 1 one
+  // fade width further, where the probes stop.
   const glm::dvec3 u = (glm::dvec3(x) - grid.origin) / grid.spacing;
   glm::ivec3 base;
   glm::dvec3 t;
   bool shell = false;
+  double over = 0.0;
   for (int a = 0; a < 3; ++a) {
-    const double hi = double(grid.dims[a] - 1), margin = kDomainMargin + kBoundaryTolerance;
-    if (!(u[a] >= -margin && u[a] <= hi + margin)) return out;  // NaN too
+    const double hi = double(grid.dims[a] - 1), margin = kDomainMargin + kFadeSpacings + kBoundaryTolerance;
+    if (!(u[a] > -margin && u[a] < hi + margin)) return out;  // NaN too
     shell |= u[a] < -kBoundaryTolerance || u[a] > hi + kBoundaryTolerance;
+    over = std::max({over, -kDomainMargin - u[a], u[a] - (hi + kDomainMargin)});
     const double v = std::clamp(u[a], 0.0, hi);
     base[a] = std::min(int(std::floor(v)), std::max(grid.dims[a] - 2, 0));
     t[a] = v - base[a];
   }
+  const double fade = std::clamp((over - kBoundaryTolerance) / kFadeSpacings, 0.0, 1.0);
   out.cover = ProbeCover::NoValidProbe;
 
   glm::dvec3 n(0.0);
@@ -196,7 +205,8 @@ ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::
     sum += weight[size_t(c)];
   }
   if (!(sum > 0.0)) return out;
-  out.cover = shell ? ProbeCover::Shell : ProbeCover::Lattice;
+  out.cover = fade > 0.0 ? ProbeCover::Fade : shell ? ProbeCover::Shell : ProbeCover::Lattice;
+  out.fade = float(fade);
   for (int c = 0; c < 8; ++c) {
     if (weight[size_t(c)] <= 0.0) continue;
     out.probe[size_t(out.count)] = corners[c].probe;
@@ -210,6 +220,7 @@ const char* probeCoverName(ProbeCover c) {
   switch (c) {
     case ProbeCover::Lattice: return "lattice";
     case ProbeCover::Shell: return "shell";
+    case ProbeCover::Fade: return "fade";
     case ProbeCover::Outside: return "outside";
     case ProbeCover::NoValidProbe: return "no_valid_probe";
   }
@@ -246,8 +257,12 @@ sh::ShRgb receiverRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& 
                            const glm::vec3& x, const glm::vec3* normal, ProbeCover* cover) {
   const ProbeWeights w = probeWeights(grid, x, normal);
   if (cover) *cover = w.cover;
-  if (w.count == 0) return sh::resize(light, grid.bands);
-  return blend(grid, relit, w);
+  const sh::ShRgb l = sh::resize(light, grid.bands);
+  if (w.count == 0) return l;
+  sh::ShRgb out = blend(grid, relit, w);
+  if (w.fade > 0.0f)
+    for (size_t i = 0; i < out.c.size(); ++i) out.c[i] = (1.0f - w.fade) * out.c[i] + w.fade * l.c[i];
+  return out;
 }
 
 }  // namespace prt

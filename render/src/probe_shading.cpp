@@ -58,6 +58,7 @@ double minSpacing(const ProbeGrid& grid) {
 constexpr const char* kProbeWeightsHeadGlsl = R"(
 const float kBoundaryTolerance = 1e-4;
 const float kDomainMargin = 0.5;  // the domain: the lattice's box grown by half a cell
+const float kFadeSpacings = 1.0;  // beyond it, the probes fade into the light over one cell
 const float kMinWeight = 1e-6;
 const float kTrilinearFloor = 1e-3;
 
@@ -88,12 +89,15 @@ float leakWeight(int p, vec3 d, float r, vec3 n) {
   return max(wv * wb, kMinWeight);
 }
 
-float probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8]) {
+float probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8], out float fade) {
   vec3 u = (x - uOrigin) / uSpacing;
   vec3 hi = vec3(uDims - 1);
-  const float margin = kDomainMargin + kBoundaryTolerance;
-  bool inside = all(greaterThanEqual(u, vec3(-margin))) &&
-                all(lessThanEqual(u, hi + margin));  // false for NaN too
+  const float margin = kDomainMargin + kFadeSpacings + kBoundaryTolerance;
+  bool inside = all(greaterThan(u, vec3(-margin))) &&
+                all(lessThan(u, hi + margin));  // false for NaN too
+  vec3 over3 = max(vec3(-kDomainMargin) - u, u - (hi + kDomainMargin));
+  float over = max(max(max(over3.x, over3.y), over3.z), 0.0);
+  fade = clamp((over - kBoundaryTolerance) / kFadeSpacings, 0.0, 1.0);
   vec3 v = clamp(u, vec3(0.0), hi);
   ivec3 base = min(ivec3(floor(v)), max(uDims - 2, ivec3(0)));
   vec3 t = v - vec3(base);
@@ -229,13 +233,15 @@ uniform vec4 uLightPacked[kTexels];
   s += probeWeightsGlsl();
   // Per corner, the weighted packed texels are summed (T_i += w · texel_i) and divided by Σ w once.
   s += "\nvoid incidentRadiance(vec3 x, vec3 n, out vec4 T[kTexels]) {\n";
-  s += "  int probe[8];\n  float w[8];\n  float sum = probeWeights(x, n, probe, w);\n";
+  s += "  int probe[8];\n  float w[8];\n  float fade;\n  float sum = probeWeights(x, n, probe, w, fade);\n";
   for (int i = 0; i < texels; ++i) s += cat("  T[", i, "] = vec4(0.0);\n");
   std::string corner = "  {  // corner C\n    int base = probe[C] * kTexels;\n";
   for (int i = 0; i < texels; ++i) corner += cat("    T[", i, "] += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
   corner += "  }\n";
   s += perCorner(corner.c_str());
-  for (int i = 0; i < texels; ++i) s += cat("  T[", i, "] = sum > 0.0 ? T[", i, "] / sum : uLightPacked[", i, "];\n");
+  // Beyond the domain (fade > 0) the probes' answer blends into the light: receiverRadiance.
+  for (int i = 0; i < texels; ++i)
+    s += cat("  T[", i, "] = sum > 0.0 ? mix(T[", i, "] / sum, uLightPacked[", i, "], fade) : uLightPacked[", i, "];\n");
   s += "}\n";
   return s;
 }

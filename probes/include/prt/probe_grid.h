@@ -73,10 +73,12 @@ std::vector<glm::vec3> relightProbes(const ProbeGrid& grid, const sh::ShRgb& lig
 enum class ProbeCover {
   Lattice,       // inside the lattice's box [origin, origin + spacing ⊙ (dims − 1)]: interpolated
   Shell,         // in the half-cell shell around it: clamped to the box, nearest probes
-  Outside,       // beyond the domain (the box grown by half a spacing): no probe
+  Fade,          // beyond the domain (the box grown by half a spacing) by less than one spacing:
+                 // the nearest probes blended with the unoccluded light (ProbeWeights::fade)
+  Outside,       // farther: no probe
   NoValidProbe,  // inside the domain, but every probe of its cell is invalid or inactive
 };
-/// "lattice", "shell", "outside", "no_valid_probe" (prt probe's JSON and CSV).
+/// "lattice", "shell", "fade", "outside", "no_valid_probe" (prt probe's JSON and CSV).
 const char* probeCoverName(ProbeCover c);
 
 /// Weights of one interpolation: up to 8 probes and their normalised weights.
@@ -84,7 +86,10 @@ struct ProbeWeights {
   int count = 0;
   std::array<int, 8> probe{};
   std::array<float, 8> weight{};
-  ProbeCover cover = ProbeCover::Outside;  // count > 0 exactly for Lattice and Shell
+  ProbeCover cover = ProbeCover::Outside;  // count > 0 exactly for Lattice, Shell and Fade
+  /// The unoccluded light's share (receiverRadiance): 0 within the domain, rising linearly
+  /// with the distance beyond it to 1 one spacing further (on the farthest axis).
+  float fade = 0.0f;
 };
 
 /// The domain of the grid: the lattice's box grown by half a spacing on every side, i.e. the
@@ -97,18 +102,20 @@ void probeDomain(const ProbeGrid& grid, glm::dvec3& lo, glm::dvec3& hi);
 /// x lies towards (no light through walls between probe and x) × a soft back-face weight when n
 /// is given; then normalised (exact formula: docs/probes.md). Falls back to plain trilinear
 /// over valid probes when every weight vanishes. A point in the half-cell shell around the
-/// lattice's box has its trilinear position clamped to the box (the nearest probes light it).
-/// count == 0 when x is outside the domain or no valid probe surrounds it (`cover` says which).
+/// lattice's box has its trilinear position clamped to the box (the nearest probes light it),
+/// and so does a point less than one spacing beyond the domain, with `fade` > 0. count == 0
+/// when x is farther out or no valid probe surrounds it (`cover` says which).
 ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::vec3* normal);
 
 /// Interpolated incident radiance SH at x from relit probes (relightProbes()); zero where
-/// probeWeights finds no probe.
+/// probeWeights finds no probe. The probes only: receiverRadiance applies the fade.
 sh::ShRgb interpolateRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit,
                               const glm::vec3& x, const glm::vec3* normal);
 
 /// Incident radiance SH at x as the renderer lights a receiver there: interpolated from the
 /// probes where probeWeights finds any, else the unoccluded light itself (M = I: nothing
-/// around x blocks or reflects). `light` is the one the probes were relit with. `cover` (if
+/// around x blocks or reflects); beyond the domain (cover Fade) the two blended,
+/// (1 − fade) · probes + fade · light, so the light changes continuously as x leaves the grid. `light` is the one the probes were relit with. `cover` (if
 /// given) receives where x lies. prt probe and the renderer's shader both follow this rule.
 sh::ShRgb receiverRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const sh::ShRgb& light,
                            const glm::vec3& x, const glm::vec3* normal, ProbeCover* cover = nullptr);
