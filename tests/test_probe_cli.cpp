@@ -255,6 +255,12 @@ TEST_F(ProbeCli, PointsRepeatTheInputVerbatim) {
   EXPECT_EQ(out[0], "x,y,z,nx,ny,nz,name,E_r,E_g,E_b,status");
   EXPECT_EQ(out[1].substr(0, 26), "0.01,0.5,-0.1,0,1,0,first,");
   EXPECT_EQ(out[2].substr(0, 29), " 0.3 ,1e-1,0.25,1,0,0,second,");
+  // RFC 4180 quoting: a quoted name may hold commas and "" quotes; a number may be quoted.
+  const std::string quoted = "\"0.01\",0.5,-0.1,0,1,0,\"Smith, \"\"J\"\"\"";
+  const std::vector<std::string> q = queryPoints(file("p.vdb"), "x,y,z,nx,ny,nz,name", quoted + "\n");
+  ASSERT_EQ(q.size(), 2u);
+  EXPECT_EQ(q[1].substr(0, quoted.size() + 1), quoted + ",");
+  EXPECT_EQ(q[1].substr(quoted.size() + 1), out[1].substr(26));  // the same point, the same answer
 }
 
 // A malformed row: one line naming FILE:LINE and the problem, exit 1, no output file.
@@ -268,6 +274,7 @@ TEST_F(ProbeCli, MalformedPointsAreOneLineWithFileAndLine) {
       {"x,y,z,nx,ny,nz\n0,0.5,0,nan,1,0\n", ":2: nx 'nan' is not a finite number"},
       {"x,y,z,nx,ny,nz\n0,0.5x,0,0,1,0\n", ":2: y '0.5x' is not a finite number"},
       {"x,y,z\n0,0.5,0\n", ":1: header is 'x,y,z'"},
+      {"x,y,z,nx,ny,nz,name\n0,0.5,0,0,1,0,\"open\n", ":2: a quoted field is not closed on its line"},
       {"", ":1: empty file"},
   };
   for (const auto& [text, message] : cases) {

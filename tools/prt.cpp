@@ -321,13 +321,30 @@ void probeAt(const ProbeArgs& a, const ProbeQuery& q) {
   std::printf("%s\n", j.dump(2).c_str());
 }
 
-// Splits one CSV line at commas (no quoting).
-std::vector<std::string> csvFields(const std::string& line) {
-  std::vector<std::string> out;
-  std::istringstream ls(line);
-  std::string cell;
-  while (std::getline(ls, cell, ',')) out.push_back(cell);
-  if (!line.empty() && line.back() == ',') out.emplace_back();
+// Splits one CSV line at commas, RFC 4180 quoting: a field in double quotes may hold commas,
+// and "" inside it is one quote; the quotes are removed. nullopt: a quoted field is not closed
+// on its line (fields spanning lines are not supported).
+std::optional<std::vector<std::string>> csvFields(const std::string& line) {
+  std::vector<std::string> out(1);
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c != '"')
+        out.back() += c;
+      else if (i + 1 < line.size() && line[i + 1] == '"')
+        out.back() += '"', ++i;
+      else
+        quoted = false;
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      out.emplace_back();
+    } else {
+      out.back() += c;
+    }
+  }
+  if (quoted) return std::nullopt;
   return out;
 }
 
@@ -342,7 +359,9 @@ std::string probePointsCsv(const std::string& path, const ProbeQuery& q) {
   };
   if (!std::getline(in, line)) throw Error(cat(path, ":1: empty file, expected a header x,y,z,nx,ny,nz"));
   chomp();
-  const std::vector<std::string> header = csvFields(line);
+  const std::optional<std::vector<std::string>> headerFields = csvFields(line);
+  if (!headerFields) throw Error(cat(path, ":1: a quoted field is not closed on its line"));
+  const std::vector<std::string>& header = *headerFields;
   const std::vector<std::string> expected{"x", "y", "z", "nx", "ny", "nz"};
   if (header.size() < 6 || !std::equal(expected.begin(), expected.end(), header.begin()))
     throw Error(cat(path, ":1: header is '", line, "', expected it to start with x,y,z,nx,ny,nz"));
@@ -351,7 +370,9 @@ std::string probePointsCsv(const std::string& path, const ProbeQuery& q) {
   for (int row = 2; std::getline(in, line); ++row) {
     chomp();
     if (line.empty()) continue;
-    const std::vector<std::string> f = csvFields(line);
+    const std::optional<std::vector<std::string>> fields = csvFields(line);
+    if (!fields) throw Error(cat(path, ":", row, ": a quoted field is not closed on its line"));
+    const std::vector<std::string>& f = *fields;
     if (f.size() != header.size())
       throw Error(cat(path, ":", row, ": ", f.size(), " fields, the header has ", header.size()));
     std::array<float, 6> v{};
