@@ -491,6 +491,47 @@ void expectDir(const glm::dvec3& a, const glm::dvec3& b) {
   EXPECT_NEAR(a.z, b.z, 1e-12);
 }
 
+// srgb8 reads a table instead of calling pow: it must give exactly lround(linearToSrgb(v)·255)
+// for every v, so it is checked at every threshold between two codes (the last float below it
+// and the threshold itself), on random values, and on the clamped ones.
+TEST(ImageSrgb8, EqualsRoundedTransferFunctionExactly) {
+  auto reference = [](float v) {
+    v = v > 0.0f ? std::min(v, 1.0f) : 0.0f;
+    return int(std::lround(prt::linearToSrgb(v) * 255.0f));
+  };
+  int boundaries = 0;
+  float v = 0.0f;
+  for (int k = 1; k < 256; ++k) {
+    // Step up to the first float whose code is k (bisection over the bit patterns), then check
+    // it and its neighbours.
+    uint32_t lo, hi;
+    std::memcpy(&lo, &v, 4);
+    const float one = 1.0f;
+    std::memcpy(&hi, &one, 4);
+    while (lo < hi) {
+      const uint32_t mid = lo + (hi - lo) / 2;
+      float m;
+      std::memcpy(&m, &mid, 4);
+      if (reference(m) >= k) hi = mid; else lo = mid + 1;
+    }
+    std::memcpy(&v, &lo, 4);
+    for (float x : {std::nextafter(v, 0.0f), v, std::nextafter(v, 2.0f)}) {
+      EXPECT_EQ(int(prt::srgb8(x)), reference(x)) << x;
+      ++boundaries;
+    }
+  }
+  EXPECT_EQ(boundaries, 255 * 3);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int i = 0; i < 200000; ++i) {
+    const float x = i % 2 ? u(rng) : u(rng) * u(rng) * u(rng);  // many near 0, where codes are dense
+    ASSERT_EQ(int(prt::srgb8(x)), reference(x)) << x;
+  }
+  for (float x : {-1.0f, -0.0f, 0.0f, 1.0f, 1.5f, 1e30f, std::numeric_limits<float>::infinity(),
+                  std::numeric_limits<float>::quiet_NaN()})
+    EXPECT_EQ(int(prt::srgb8(x)), reference(x)) << x;
+}
+
 TEST(LightEquirect, Orientation) {
   expectDir(prt::equirectDirection(0.5, 0.5), {1, 0, 0});
   expectDir(prt::equirectDirection(0.75, 0.5), {0, 0, 1});

@@ -25,19 +25,6 @@ extern char** environ;
 
 namespace prt::tools {
 
-std::vector<unsigned char> toneMapSrgb8(const ImageRgb& image, float exposure) {
-  // The same arithmetic as prt::writePng, so video frames and PNGs agree byte for byte.
-  const float scale = std::exp2(exposure);
-  std::vector<unsigned char> bytes(image.pixels.size() * 3);
-  for (size_t i = 0; i < image.pixels.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      float v = image.pixels[i][c] * scale;
-      v = v > 0.0f ? std::min(v, 1.0f) : 0.0f;  // also maps NaN to 0
-      bytes[3 * i + c] = static_cast<unsigned char>(std::lround(linearToSrgb(v) * 255.0f));
-    }
-  return bytes;
-}
-
 std::string findOnPath(const std::string& program) {
   const char* env = std::getenv("PATH");
   if (!env) return "";
@@ -139,7 +126,7 @@ void VideoEncoder::failWithLog(const std::string& what) {
 void VideoEncoder::addFrame(const ImageRgb& image, float exposure) {
   PRT_CHECK(pipe_ >= 0);
   PRT_CHECK(image.width == width_ && image.height == height_);
-  std::vector<unsigned char> bytes = toneMapSrgb8(image, exposure);
+  std::vector<unsigned char> bytes = prt::toneMapSrgb8(image, exposure);
   size_t done = 0;
   while (done < bytes.size()) {
     ssize_t n = ::write(pipe_, bytes.data() + done, bytes.size() - done);

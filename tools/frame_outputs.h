@@ -12,10 +12,6 @@
 
 namespace prt::tools {
 
-/// The frame as 8-bit sRGB bytes, RGB interleaved, exactly as writePng encodes it:
-/// value·2^exposure clamped to [0, 1] (NaN -> 0), sRGB-encoded, rounded.
-std::vector<unsigned char> toneMapSrgb8(const ImageRgb& image, float exposure);
-
 /// The absolute path of `program` found on $PATH, or "" when it is not there.
 std::string findOnPath(const std::string& program);
 
@@ -34,7 +30,7 @@ public:
   /// Starts ffmpeg for frames of width × height at `fps` frames per second, writing to a
   /// temporary file next to the path. Throws prt::Error if the folder cannot be written.
   void start(int width, int height, double fps);
-  /// Sends one frame (tone-mapped as toneMapSrgb8). Throws prt::Error if ffmpeg failed.
+  /// Sends one frame (tone-mapped as prt::toneMapSrgb8). Throws prt::Error if ffmpeg failed.
   void addFrame(const ImageRgb& image, float exposure);
   /// Waits for ffmpeg, checks it succeeded, renames the file into place.
   void finish();

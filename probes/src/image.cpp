@@ -2,13 +2,16 @@
 #include "prt/image.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <exception>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <ImfChannelList.h>
@@ -17,8 +20,11 @@
 #include <ImfIO.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <ImfThreading.h>
 #include <stb_image.h>
 #include <stb_image_write.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "prt/atomic_file.h"
 #include "prt/error.h"
@@ -244,6 +250,10 @@ ImageRgb loadHdrImage(const std::string& path) {
 }
 
 void writeExr(const std::string& path, const ImageRgb& image, ExrCompression compression) {
+  // OpenEXR compresses blocks of lines on its own thread pool, which is empty by default: ZIP
+  // at 1080p took 870 ms on one core, 500 ms on two (measured 2026-12-01).
+  static std::once_flag threads;
+  std::call_once(threads, [] { Imf::setGlobalThreadCount(int(std::max(1u, std::thread::hardware_concurrency()))); });
   checkWritable(path, image);
   AtomicFile out(path);
   try {
@@ -275,14 +285,10 @@ void writeExr(const std::string& path, const ImageRgb& image, ExrCompression com
 
 void writePng(const std::string& path, const ImageRgb& image, float exposure) {
   checkWritable(path, image);
-  const float scale = std::exp2(exposure);
-  std::vector<unsigned char> bytes(image.pixels.size() * 3);
-  for (size_t i = 0; i < image.pixels.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      float v = image.pixels[i][c] * scale;
-      v = v > 0.0f ? std::min(v, 1.0f) : 0.0f;  // also maps NaN to 0
-      bytes[3 * i + c] = static_cast<unsigned char>(std::lround(linearToSrgb(v) * 255.0f));
-    }
+  const std::vector<unsigned char> bytes = toneMapSrgb8(image, exposure);
+  // stb's deflate effort: level 1 writes a 1080p frame ~20% faster than its default 8, for files
+  // ~3% larger (measured 2026-12-01). The variable is stb's global; prt is its only user here.
+  stbi_write_png_compression_level = 1;
   AtomicFile out(path);
   if (!stbi_write_png(out.tempPath().c_str(), image.width, image.height, 3, bytes.data(),
                       image.width * 3))
@@ -294,6 +300,68 @@ void writePng(const std::string& path, const ImageRgb& image, float exposure) {
 float linearToSrgb(float v) {
   const double x = v;
   return static_cast<float>(x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055);
+}
+
+namespace {
+
+int srgbCode(float v) { return int(std::lround(linearToSrgb(v) * 255.0f)); }
+
+// threshold[k] (k = 1..255): the smallest float v in [0, 1] with srgbCode(v) >= k. srgbCode is
+// monotone in v, and the bit patterns of non-negative floats order like their values, so a
+// bisection over the patterns finds each threshold exactly. bucket[i]: the code of i / 4096,
+// where a search for v in [i, i + 1) / 4096 starts (at most ~1 code per bucket: the steepest
+// part of the curve, 255 · 12.92 per unit near 0, puts 0.8 codes in one).
+struct SrgbTable {
+  std::array<float, 256> threshold{};
+  std::array<unsigned char, 4097> bucket{};
+  SrgbTable() {
+    auto fromBits = [](uint32_t b) {
+      float f;
+      std::memcpy(&f, &b, sizeof f);
+      return f;
+    };
+    uint32_t one;
+    const float oneF = 1.0f;
+    std::memcpy(&one, &oneF, sizeof one);
+    for (int k = 1; k < 256; ++k) {
+      uint32_t lo = 0, hi = one;  // srgbCode(1) = 255 >= k
+      while (lo < hi) {
+        const uint32_t mid = lo + (hi - lo) / 2;
+        if (srgbCode(fromBits(mid)) >= k)
+          hi = mid;
+        else
+          lo = mid + 1;
+      }
+      threshold[size_t(k)] = fromBits(lo);
+    }
+    for (size_t i = 0; i < bucket.size(); ++i) bucket[i] = (unsigned char)srgbCode(float(i) / 4096.0f);
+  }
+};
+
+const SrgbTable& srgbTable() {
+  static const SrgbTable table;
+  return table;
+}
+
+}  // namespace
+
+unsigned char srgb8(float v) {
+  v = v > 0.0f ? std::min(v, 1.0f) : 0.0f;  // also maps NaN to 0
+  const SrgbTable& t = srgbTable();
+  int code = t.bucket[size_t(v * 4096.0f)];
+  while (code < 255 && t.threshold[size_t(code + 1)] <= v) ++code;
+  return (unsigned char)code;
+}
+
+std::vector<unsigned char> toneMapSrgb8(const ImageRgb& image, float exposure) {
+  const float scale = std::exp2(exposure);
+  std::vector<unsigned char> bytes(image.pixels.size() * 3);
+  srgbTable();  // built once, before the threads
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, image.pixels.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i)
+      for (int c = 0; c < 3; ++c) bytes[3 * i + size_t(c)] = srgb8(image.pixels[i][c] * scale);
+  });
+  return bytes;
 }
 
 float srgbToLinear(float v) {

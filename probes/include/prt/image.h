@@ -32,11 +32,19 @@ enum class ExrCompression { None, Zip, Piz };
 /// Writes float32 RGB OpenEXR, atomically (temporary file, then rename).
 void writeExr(const std::string& path, const ImageRgb& image, ExrCompression compression = ExrCompression::Zip);
 
-/// Writes 8-bit sRGB PNG, atomically: value·2^exposure, clamped to [0, 1], sRGB-encoded.
+/// Writes 8-bit sRGB PNG, atomically: toneMapSrgb8(image, exposure).
 void writePng(const std::string& path, const ImageRgb& image, float exposure = 0.0f);
 
 /// sRGB transfer function (linear -> encoded) and its inverse, for one channel.
 float linearToSrgb(float v);
 float srgbToLinear(float v);
+
+/// The 8-bit sRGB code of a linear value: v clamped to [0, 1] (NaN to 0), then
+/// lround(linearToSrgb(v) · 255), exactly, from a table of the 255 thresholds between codes
+/// (no pow per pixel).
+unsigned char srgb8(float v);
+/// Every pixel's value·2^exposure as srgb8, RGB interleaved, row 0 first: what PNGs, contact
+/// sheets and videos hold.
+std::vector<unsigned char> toneMapSrgb8(const ImageRgb& image, float exposure);
 
 }  // namespace prt
