@@ -212,6 +212,27 @@ TEST(RenderCli, BackgroundSkyShowsTheMapAlongEachRay) {
   EXPECT_LT(worst, 2e-5);  // float rays and texture coordinates (measured 4e-6)
 }
 
+// Frames are written on a thread of their own while the next one renders: a write that fails
+// (frame 2's name is taken by a folder) stops the run with that one error, exit 1; the frames
+// before it are whole, none after it is written, and no temporary file is left.
+TEST(RenderCli, AFailedWriteStopsTheRunWithOneLine) {
+  const fs::path d = freshDir("write_error");
+  const std::string glb = bake(source("scenes/plane.gltf"), d, "plane");
+  const fs::path out = d / "out";
+  fs::create_directories(out / "f_02.exr");
+  const Result r = prt(cat("render ", glb, " --env ", whiteSky(), " --frames 0-5 --size 48x32 --png -q -o ",
+                           (out / "f_%02d.exr").string()),
+                       d);
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("f_02.exr"), std::string::npos) << r.err;
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(out)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"f_00.exr", "f_00.png", "f_01.exr", "f_01.png", "f_02.exr"}));
+  EXPECT_EQ(loadHdrImage((out / "f_01.exr").string()).width, 48);
+}
+
 // Each bad value is one line, exit 1, and nothing written (the output folder stays absent:
 // -o's folder is created only when the first frame is written).
 TEST(RenderCli, BadOptionsAreOneLineAndWriteNothing) {

@@ -7,6 +7,10 @@
 #include <cerrno>
 #include <charconv>
 #include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <functional>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -14,9 +18,11 @@
 #include <filesystem>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -107,6 +113,75 @@ std::pair<int, int> parseSize(const std::string& text) {
     throw Error(cat("--size ", text, ": ", *w * *h, " pixels, more than the ", kMaxPixels, " (8192x8192) allowed"));
   return {int(*w), int(*h)};
 }
+
+// Writes frames on a thread of its own, in order, while the next frame renders: a frame's EXR,
+// PNG, contact-sheet tile and video frame are one job. At most `maxQueued` jobs wait (each holds
+// a frame). The first job that throws stops the writer: push() and finish() rethrow its error on
+// the rendering thread, so the command stops with that one message; files already written stay
+// whole (each is written atomically). Destroyed before finish() (the render failed), it drops
+// the frames still queued.
+class FrameWriter {
+public:
+  explicit FrameWriter(size_t maxQueued) : maxQueued_(maxQueued), thread_([this] { run(); }) {}
+  ~FrameWriter() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+      jobs_.clear();
+    }
+    changed_.notify_all();
+    thread_.join();
+  }
+  FrameWriter(const FrameWriter&) = delete;
+  FrameWriter& operator=(const FrameWriter&) = delete;
+
+  void push(std::function<void()> job) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [&] { return jobs_.size() < maxQueued_ || error_; });
+    if (error_) std::rethrow_exception(error_);
+    jobs_.push_back(std::move(job));
+    changed_.notify_all();
+  }
+  /// Waits until every job ran; rethrows the first error.
+  void finish() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [&] { return (jobs_.empty() && !busy_) || error_; });
+    if (error_) std::rethrow_exception(error_);
+  }
+
+private:
+  void run() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (;;) {
+      changed_.wait(lock, [&] { return !jobs_.empty() || stop_; });
+      if (stop_ || error_) return;
+      std::function<void()> job = std::move(jobs_.front());
+      jobs_.pop_front();
+      busy_ = true;
+      changed_.notify_all();
+      lock.unlock();
+      std::exception_ptr error;
+      try {
+        job();
+      } catch (...) {
+        error = std::current_exception();
+      }
+      lock.lock();
+      busy_ = false;
+      if (error) error_ = error;
+      changed_.notify_all();
+      if (error_) return;
+    }
+  }
+
+  const size_t maxQueued_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::deque<std::function<void()>> jobs_;
+  bool busy_ = false, stop_ = false;
+  std::exception_ptr error_;
+  std::thread thread_;  // last: starts once the members above exist
+};
 
 // Without --frames, a rig with keyframes renders its keyframe range, rounded outwards and cut
 // at frame 0. The range is computed in double: a key at 1e12 must not wrap an int.
@@ -439,6 +514,8 @@ void runRenderCommand() {
   rig->prepare(bands);
   const double prepareMs = msSince(tPrepare);
   double lightMs = 0.0, drawMs = 0.0, readbackMs = 0.0, writeMs = 0.0, encodeMs = 0.0;
+  // Frame f is written while frame f + 1 renders (two frames queued at most).
+  FrameWriter writer(2);
   for (int64_t f = frames.first; f <= frames.last; ++f) {
     auto t0 = std::chrono::steady_clock::now();
     sh::ShRgb light = rig->evaluate(double(f), bands);
@@ -456,27 +533,31 @@ void runRenderCommand() {
     }
     frame.width = width;
     frame.height = height;
-    ImageRgb image = renderer.render(frame);
+    auto image = std::make_shared<const ImageRgb>(renderer.render(frame));
     // The light update: the rig's SH plus, with probes, relighting and uploading the grid.
     const double frameLightMs = rigMs + renderer.lastFrame().lightMs;
-    auto t1 = std::chrono::steady_clock::now();
-    std::string path = output.path(f);
-    writeExr(path, image, compression);
-    if (a.png) writePng(std::filesystem::path(path).replace_extension(".png").string(), image, float(a.exposure));
-    if (sheet) sheet->add(image);
-    const double frameWriteMs = msSince(t1);
-    auto t2 = std::chrono::steady_clock::now();
-    if (video) video->addFrame(image, float(a.exposure));
-    encodeMs += msSince(t2);
+    const render::FrameStats stats = renderer.lastFrame();
     lightMs += frameLightMs;
-    drawMs += renderer.lastFrame().drawMs;
-    readbackMs += renderer.lastFrame().readbackMs;
-    writeMs += frameWriteMs;
-    if (!a.quiet)
-      std::fprintf(stderr, "frame %lld -> %s: light %.3f ms, draw %.1f ms, readback %.1f ms, write %.1f ms\n",
-                   static_cast<long long>(f), path.c_str(), frameLightMs, renderer.lastFrame().drawMs,
-                   renderer.lastFrame().readbackMs, frameWriteMs);
+    drawMs += stats.drawMs;
+    readbackMs += stats.readbackMs;
+    writer.push([&, f, image, frameLightMs, stats] {
+      auto t1 = std::chrono::steady_clock::now();
+      const std::string path = output.path(f);
+      writeExr(path, *image, compression);
+      if (a.png) writePng(std::filesystem::path(path).replace_extension(".png").string(), *image, float(a.exposure));
+      if (sheet) sheet->add(*image);
+      const double frameWriteMs = msSince(t1);
+      auto t2 = std::chrono::steady_clock::now();
+      if (video) video->addFrame(*image, float(a.exposure));
+      encodeMs += msSince(t2);
+      writeMs += frameWriteMs;
+      if (!a.quiet)
+        std::fprintf(stderr, "frame %lld -> %s: light %.3f ms, draw %.1f ms, readback %.1f ms, write %.1f ms\n",
+                     static_cast<long long>(f), path.c_str(), frameLightMs, stats.drawMs, stats.readbackMs,
+                     frameWriteMs);
+    });
   }
+  writer.finish();
   auto tEnd = std::chrono::steady_clock::now();
   if (video) video->finish();
   encodeMs += msSince(tEnd);
