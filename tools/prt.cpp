@@ -6,10 +6,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
-#include <cerrno>
 #include <cstring>
 #include <optional>
 #include <filesystem>
@@ -290,13 +290,13 @@ void probeAt(const ProbeArgs& a, const ProbeQuery& q) {
     n = glm::normalize(n);
     np = &n;
   }
-  ProbeCover cover;
-  const sh::ShRgb c = q.radiance(x, np, cover);
+  const ProbeWeights w = probeWeights(q.grid, x, np);
+  const ProbeCover cover = w.cover;
+  const sh::ShRgb c = receiverRadiance(q.grid, q.relit, q.light, w);
   j["status"] = probeCoverName(cover);
   nlohmann::json coeffs = nlohmann::json::array();
   for (const glm::vec3& v : c.c) coeffs.push_back({v.r, v.g, v.b});
   j["radiance_sh"] = coeffs;
-  const ProbeWeights w = probeWeights(q.grid, x, np);
   nlohmann::json probes = nlohmann::json::array();
   for (int i = 0; i < w.count; ++i) {
     glm::ivec3 ijk = q.grid.coord[size_t(w.probe[size_t(i)])];

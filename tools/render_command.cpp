@@ -7,15 +7,15 @@
 #include <cerrno>
 #include <charconv>
 #include <chrono>
-#include <condition_variable>
-#include <deque>
-#include <exception>
-#include <functional>
 #include <cmath>
+#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <deque>
+#include <exception>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -456,10 +456,7 @@ void runRenderCommand() {
       maps += l.type == RigLight::Type::Environment;
       caps += l.type == RigLight::Type::Sun || l.type == RigLight::Type::Disk;
     }
-    if (maps > size_t(render::kMaxBackgroundMaps) || caps > size_t(render::kMaxBackgroundCaps))
-      throw Error(cat("--background sky: the rig has ", maps, " environment maps and ", caps,
-                      " suns and disks; at most ", render::kMaxBackgroundMaps, " and ", render::kMaxBackgroundCaps,
-                      " can be drawn"));
+    render::checkBackgroundSize(cat("--background sky: ", a.light.rig.empty() ? "the lights" : a.light.rig), maps, caps);
   }
 
   const FramePattern output(a.output);

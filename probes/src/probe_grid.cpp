@@ -257,6 +257,11 @@ sh::ShRgb receiverRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& 
                            const glm::vec3& x, const glm::vec3* normal, ProbeCover* cover) {
   const ProbeWeights w = probeWeights(grid, x, normal);
   if (cover) *cover = w.cover;
+  return receiverRadiance(grid, relit, light, w);
+}
+
+sh::ShRgb receiverRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const sh::ShRgb& light,
+                           const ProbeWeights& w) {
   const sh::ShRgb l = sh::resize(light, grid.bands);
   if (w.count == 0) return l;
   sh::ShRgb out = blend(grid, relit, w);

@@ -579,7 +579,8 @@ std::string describeProbeFile(const std::string& path) {
   os << "  world bounds  " << vec3Text(grid.origin) << " .. "
      << vec3Text(grid.origin + grid.spacing * glm::dvec3(grid.dims - 1)) << " (probe positions)\n";
   os << "  domain        " << vec3Text(domainLo) << " .. " << vec3Text(domainHi)
-     << " (half a cell more: queried here; outside, receivers get the unoccluded light)\n";
+     << " (half a cell more: queried here; beyond it receivers fade into the unoccluded light over one "
+        "spacing)\n";
   os << "  probes        " << grid.probeCount() << " active of " << lattice << ", " << valid << " valid\n";
   os << "  grids         " << file.byName.size() << ": " << firstTransfer << " .. " << lastTransfer << " ("
      << transferGrids << " Vec3f grids)";

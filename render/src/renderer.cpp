@@ -235,6 +235,9 @@ struct Renderer::Impl {
   void checkError(const char* where) const;
   GLuint compile(GLenum type, const char* source, const char* what) const;
   Program link(const std::string& vs, const std::string& fs, const char* what) const;
+  // A 2D float texture, bilinear, one level, the given wrap modes.
+  GLuint linearFloatTexture(GLenum internalFormat, GLenum format, int width, int height, const void* texels,
+                            GLint wrapS, GLint wrapT) const;
   GLuint uploadTexture(const Texture& t);
   void setMaterial(const Scene& scene, const MeshInstance& m, Instance& in);
   void upload(const Scene& scene);
@@ -307,18 +310,25 @@ Renderer::Impl::Program Renderer::Impl::link(const std::string& vsSource, const 
   return p;
 }
 
-GLuint Renderer::Impl::uploadTexture(const Texture& t) {
+GLuint Renderer::Impl::linearFloatTexture(GLenum internalFormat, GLenum format, int width, int height,
+                                          const void* texels, GLint wrapS, GLint wrapT) const {
   GLuint tex = 0;
   gl.CreateTextures(GL_TEXTURE_2D, 1, &tex);
-  // Texels are already linear (sRGB-decoded by the loader), so a float texture keeps them
-  // exact; row 0 (v = 0) goes to t = 0, which is where glTF's v = 0 samples it.
-  gl.TextureStorage2D(tex, 1, GL_RGBA32F, t.width, t.height);
+  gl.TextureStorage2D(tex, 1, internalFormat, width, height);
   gl.PixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  gl.TextureSubImage2D(tex, 0, 0, 0, t.width, t.height, GL_RGBA, GL_FLOAT, t.texels.data());
+  gl.TextureSubImage2D(tex, 0, 0, 0, width, height, format, GL_FLOAT, texels);
   gl.TextureParameteri(tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   gl.TextureParameteri(tex, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_S, wrapMode(t.wrapS));
-  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_T, wrapMode(t.wrapT));
+  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_S, wrapS);
+  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_T, wrapT);
+  return tex;
+}
+
+GLuint Renderer::Impl::uploadTexture(const Texture& t) {
+  // Texels are already linear (sRGB-decoded by the loader), so a float texture keeps them
+  // exact; row 0 (v = 0) goes to t = 0, which is where glTF's v = 0 samples it.
+  const GLuint tex = linearFloatTexture(GL_RGBA32F, GL_RGBA, t.width, t.height, t.texels.data(), wrapMode(t.wrapS),
+                                        wrapMode(t.wrapT));
   checkError(cat("uploading texture '", t.name, "'").c_str());
   return tex;
 }
@@ -626,26 +636,24 @@ GLuint Renderer::Impl::environmentTexture(const std::shared_ptr<const ImageRgb>&
   if (image->width < 1 || image->height < 1 || image->width > maxSize || image->height > maxSize)
     throw Error(cat("background: environment map of ", image->width, "x", image->height,
                     " pixels exceeds the GL's texture size limit of ", maxSize));
-  GLuint tex = 0;
-  gl.CreateTextures(GL_TEXTURE_2D, 1, &tex);
-  // Row 0 (v near 0, towards +Y) at t = 0: texture(u, v) is sampleEquirect's bilinear lookup.
-  gl.TextureStorage2D(tex, 1, GL_RGB32F, image->width, image->height);
-  gl.PixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  gl.TextureSubImage2D(tex, 0, 0, 0, image->width, image->height, GL_RGB, GL_FLOAT, image->pixels.data());
-  gl.TextureParameteri(tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-  gl.TextureParameteri(tex, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_S, GL_REPEAT);
-  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  // Row 0 (v near 0, towards +Y) at t = 0, repeating in u, clamped in v: texture(u, v) is
+  // sampleEquirect's bilinear lookup.
+  const GLuint tex = linearFloatTexture(GL_RGB32F, GL_RGB, image->width, image->height, image->pixels.data(),
+                                        GL_REPEAT, GL_CLAMP_TO_EDGE);
   checkError("uploading an environment map for the background");
   envTextures.emplace(image.get(), std::make_pair(image, tex));
   return tex;
 }
 
+void checkBackgroundSize(const std::string& what, size_t maps, size_t caps) {
+  if (maps > size_t(kMaxBackgroundMaps))
+    throw Error(cat(what, ": ", maps, " environment maps, at most ", kMaxBackgroundMaps, " can be drawn"));
+  if (caps > size_t(kMaxBackgroundCaps))
+    throw Error(cat(what, ": ", caps, " suns and disks, at most ", kMaxBackgroundCaps, " can be drawn"));
+}
+
 void Renderer::Impl::drawBackground(const RigBackground& b, const CameraView& camera, int width, int height) {
-  if (b.maps.size() > size_t(kMaxBackgroundMaps))
-    throw Error(cat("background: ", b.maps.size(), " environment maps, at most ", kMaxBackgroundMaps, " can be drawn"));
-  if (b.caps.size() > size_t(kMaxBackgroundCaps))
-    throw Error(cat("background: ", b.caps.size(), " suns and disks, at most ", kMaxBackgroundCaps, " can be drawn"));
+  checkBackgroundSize("background", b.maps.size(), b.caps.size());
   if (!background.id) {
     const Program p = link(kBackgroundVertexGlsl, backgroundFragmentGlsl(), "background");
     background.id = p.id;

@@ -119,6 +119,9 @@ sh::ShRgb interpolateRadiance(const ProbeGrid& grid, const std::vector<glm::vec3
 /// given) receives where x lies. prt probe and the renderer's shader both follow this rule.
 sh::ShRgb receiverRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const sh::ShRgb& light,
                            const glm::vec3& x, const glm::vec3* normal, ProbeCover* cover = nullptr);
+/// The same from weights already found by probeWeights (for callers that report them too).
+sh::ShRgb receiverRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const sh::ShRgb& light,
+                           const ProbeWeights& w);
 
 /// Writes the grid as OpenVDB (standard grid types only), atomically. `half` stores floats
 /// as 16-bit. Layout: docs/probes.md.

@@ -95,6 +95,9 @@ struct Frame {
 
 inline constexpr int kMaxBackgroundMaps = 8;
 inline constexpr int kMaxBackgroundCaps = 64;
+/// Throws prt::Error "WHAT: N environment maps, at most 8 can be drawn" (or the suns and disks'
+/// limit) when a background has more than the renderer draws.
+void checkBackgroundSize(const std::string& what, size_t maps, size_t caps);
 
 /// The scene uploaded to one GlContext; renders frames of it under any SH light. Baked instances
 /// are lit by their transfer; receivers (MeshInstance::receiverOnly) from the probe grid given to
