@@ -1017,7 +1017,7 @@ TEST(RenderReceivers, BeyondTheDomainFadesIntoTheLight) {
     const double x = h.position.x;
     const double f = std::clamp(2.0 * x - 1e-4, 0.0, 1.0);
     const double unoccluded = kInvPi * closedFormIrradiance(light, h.normal).y;
-    EXPECT_NEAR(img.at(px, kHeight / 2).y, ((1.0 - f) * 0.5 + f) * unoccluded, 1e-4 * unoccluded) << px << " x " << x;
+    EXPECT_NEAR(img.at(px, kHeight / 2).y, ((1.0 - f) * 0.5 + f) * unoccluded, 1e-5 * unoccluded) << px << " x " << x;
     inside += f == 0.0;
     fading += f > 0.0 && f < 1.0;
     beyond += f == 1.0;
