@@ -143,7 +143,7 @@ TEST(ProbeBake, FlatSceneBoundsArePaddedToAVolume) {
     bake::validate(flat);
     ADD_FAILURE() << "flat --probe-bounds accepted";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("--probe-bounds: the box is flat (y extent"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("probe bounds: the box is flat (y extent"), std::string::npos) << e.what();
   }
 }
 

@@ -421,7 +421,7 @@ TEST_F(ProbeCli, ProbeOptionErrorsAreOneLine) {
   // Values that parse but make no grid: bad input (exit 1), one line.
   const Exec flat = prt(base + probes + " --probe-bounds -1,0,-1,1,0.0000001,1");
   EXPECT_EQ(flat.status, 1) << flat.err;
-  EXPECT_NE(flat.err.find("--probe-bounds: the box is flat (y extent"), std::string::npos) << flat.err;
+  EXPECT_NE(flat.err.find("probe bounds: the box is flat (y extent"), std::string::npos) << flat.err;
   EXPECT_EQ(std::count(flat.err.begin(), flat.err.end(), '\n'), 1) << flat.err;
   EXPECT_TRUE(fs::is_empty(d));
 }

@@ -18,15 +18,13 @@
 #include <optional>
 #include <type_traits>
 
-#include <tbb/global_control.h>
-#include <tbb/parallel_for.h>
-
 #include "albedo_lookup.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
 #include "prt/progress.h"
 #include "prt/sh.h"
+#include "stage_runner.h"
 
 namespace prt::bake {
 
@@ -254,25 +252,24 @@ struct ProbeBaker {
 }  // namespace
 
 void validate(const ProbeSettings& s) {
-  if (s.bands < 1 || s.bands > sh::kMaxBands)
-    throw Error(cat("--bands ", s.bands, ": must be between 1 and ", sh::kMaxBands));
+  validateBands(s.bands);
   if (s.samples < 1 || s.samples > (1 << 24))
-    throw Error(cat("--probe-samples ", s.samples, ": must be between 1 and ", 1 << 24));
-  if (!(s.spacing >= 0.0) || !std::isfinite(s.spacing)) throw Error("--probe-spacing: must be a positive number");
+    throw Error(cat("probe samples ", s.samples, ": must be between 1 and ", 1 << 24));
+  if (!(s.spacing >= 0.0) || !std::isfinite(s.spacing)) throw Error("probe spacing: must be a positive number");
   if (s.spacing == 0.0 && (s.dims.x < 1 || s.dims.y < 1 || s.dims.z < 1))
-    throw Error("--probe-dims: give three positive counts (or --probe-spacing)");
+    throw Error("probe dims: give three positive counts (or a probe spacing)");
   if (s.spacing == 0.0 && double(s.dims.x) * s.dims.y * s.dims.z > 512.0 * 512 * 512)
-    throw Error("--probe-dims: more than 512³ probes");
-  if (s.threads < 0) throw Error(cat("--threads ", s.threads, ": must be 0 (all cores) or more"));
+    throw Error("probe dims: more than 512³ probes");
+  if (s.threads < 0) throw Error(cat("threads ", s.threads, ": must be 0 (all cores) or more"));
   if (s.boundsMin && s.boundsMax) {
     glm::dvec3 lo = *s.boundsMin, hi = *s.boundsMax;
     if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z) || !std::isfinite(lo.x + lo.y + lo.z + hi.x + hi.y + hi.z))
-      throw Error("--probe-bounds: MIN must be below MAX on every axis");
+      throw Error("probe bounds: the minimum must be below the maximum on every axis");
     const glm::dvec3 size = hi - lo;
     const double largest = std::max({size.x, size.y, size.z});
     for (int a = 0; a < 3; ++a)
       if (size[a] < kFlatFraction * largest)
-        throw Error(cat("--probe-bounds: the box is flat (", "xyz"[a], " extent ", size[a], " against ", largest,
+        throw Error(cat("probe bounds: the box is flat (", "xyz"[a], " extent ", size[a], " against ", largest,
                         "): give the probes a volume, at least ", kFlatFraction, " of the largest extent on every axis"));
   }
 }
@@ -283,7 +280,7 @@ void probeBounds(const ProbeSettings& s, const Scene& scene, glm::dvec3& lo, glm
   if (s.boundsMin) return;  // given bounds were checked by validate()
   const glm::dvec3 size = hi - lo;
   const double largest = std::max({size.x, size.y, size.z});
-  if (!(largest > 0.0)) throw Error("the scene's bounds are a single point: give --probe-bounds");
+  if (!(largest > 0.0)) throw Error("the scene's bounds are a single point: give probe bounds");
   for (int a = 0; a < 3; ++a)
     if (size[a] < kFlatFraction * largest) {  // pad symmetrically: the scene may lie on either side
       const double mid = 0.5 * (lo[a] + hi[a]);
@@ -297,7 +294,7 @@ void layoutGrid(const ProbeSettings& s, const glm::dvec3& lo, const glm::dvec3& 
   if (s.spacing > 0.0) {
     glm::dvec3 n = glm::ceil(size / s.spacing);
     if (n.x * n.y * n.z > 512.0 * 512 * 512)
-      throw Error(cat("--probe-spacing ", s.spacing, ": gives ", n.x, "×", n.y, "×", n.z, " probes (at most 512³)"));
+      throw Error(cat("probe spacing ", s.spacing, ": gives ", n.x, "×", n.y, "×", n.z, " probes (at most 512³)"));
     grid.dims = glm::max(glm::ivec3(n), glm::ivec3(1));
     grid.spacing = glm::dvec3(s.spacing);
     // Centre the lattice on the bounds.
@@ -326,110 +323,14 @@ void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& s) {
   fp.add("probe inside threshold", num(s.insideThreshold));
 }
 
-// Checkpointing (checkpoint.h): one stage, kProbeStage, of kProbeChunk lattice points per
-// chunk in lattice order; a chunk record holds its points' slots and transfer, the very values
-// the grid is assembled from, so a resumed bake assembles the same bits.
-ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3>>& lowerOrder,
-                     const ProbeSettings& settings, ProbeStats* statsOut, Checkpoint* cp) {
-  validate(settings);
-  const auto t0 = std::chrono::steady_clock::now();
-  std::unique_ptr<tbb::global_control> threadLimit;
-  if (settings.threads > 0)
-    threadLimit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                        size_t(settings.threads));
-  ProbeGrid grid;
-  grid.bands = settings.bands;
-  grid.info.bounces = settings.bounces;
-  grid.info.samples = settings.samples;
-  grid.info.seed = settings.seed;
-  glm::dvec3 lo, hi;
-  probeBounds(settings, scene, lo, hi);
-  layoutGrid(settings, lo, hi, grid);
-  if (!lowerOrder.empty()) PRT_CHECK_EQ(lowerOrder.size(), scene.meshes.size());
+namespace {
 
+// Active: valid probes, and invalid ones next to a valid probe (so the file shows where
+// interpolation must not read); solid interiors far from free space are not stored. Moves the
+// lattice's results into the grid, compacted to the active probes in lattice order.
+void assembleGrid(const std::vector<ProbeSlot>& slots, std::vector<float> transfer, size_t stride, ProbeGrid& grid,
+                  ProbeStats& stats) {
   const glm::ivec3 dims = grid.dims;
-  const size_t total = size_t(dims.x) * dims.y * dims.z;
-  const int n2 = settings.bands * settings.bands;
-  const size_t stride = size_t(n2) * n2 * 3;
-  const size_t chunks = (total + kProbeChunk - 1) / kProbeChunk;
-  auto chunkRange = [&](size_t c) { return std::pair(c * kProbeChunk, std::min(total, (c + 1) * kProbeChunk)); };
-  auto res = std::make_shared<LatticeResults>();
-  res->slots.resize(total);
-  res->transfer.assign(total * stride, 0.0f);  // lattice order; compacted below
-  res->stride = stride;
-
-  // The stage's writer holds `res`; forget it however this function ends, so that the
-  // checkpoint does not keep the lattice alive (or save chunks of it) after the stage.
-  struct Release {
-    Checkpoint* cp;
-    ~Release() {
-      if (cp) cp->releaseStages();
-    }
-  } release{cp};
-  std::vector<uint8_t> chunkDone(chunks, 0);
-  uint64_t restored = 0;
-  if (cp) {
-    restored = cp->restoreChunks(kProbeStage, [&](uint64_t c, ByteReader& r) {
-      if (c >= chunks) r.fail("probe chunk index");
-      auto [begin, end] = chunkRange(c);
-      readProbeChunk(*res, begin, end, r);
-      chunkDone[c] = 1;
-    });
-    Checkpoint::StageIo io;
-    io.chunksOutliveStage = true;
-    io.writeChunk = [res, chunkRange](uint64_t c, ByteWriter& w) {
-      auto [begin, end] = chunkRange(c);
-      writeProbeChunk(*res, begin, end, w);
-    };
-    cp->beginStage(kProbeStage, "probe stage", chunks, restored, std::move(io));
-  }
-
-  ProbeStats stats;
-  stats.probes = total;
-  std::atomic<uint64_t> raysCast{0}, restoredPoints{0};
-  {
-    RayScene rays(scene);
-    AlbedoLookup albedo(scene);
-    const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
-    Tracer tracer{scene, rays, lowerOrder, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing)};
-    const ProbeBaker baker(tracer, grid, settings);
-    Progress progress("probes", total, "probes", settings.progress);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1), [&](const tbb::blocked_range<size_t>& r) {
-      ProbeAccum acc;  // reused by the probes of this range
-      for (size_t c = r.begin(); c != r.end(); ++c) {
-        auto [begin, end] = chunkRange(c);
-        if (chunkDone[c]) {
-          restoredPoints += end - begin;
-          progress.add(end - begin);
-          continue;
-        }
-        uint64_t cast = 0;
-        bool finished = !interruptRequested();
-        for (size_t idx = begin; finished && idx < end; ++idx) {
-          finished = baker.bake(idx, acc, res->slots[idx], res->transfer.data() + idx * stride);
-          cast += res->slots[idx].traced;
-        }
-        if (!finished) continue;  // interrupted: the chunk is done again on resume
-        raysCast += cast;
-        if (cp) cp->complete(c);
-        progress.add(end - begin);
-      }
-    });
-    progress.finish();
-  }
-  if (cp) cp->stopIfInterrupted();
-  if (interruptRequested()) throw Interrupted("interrupted");
-  if (cp) {
-    cp->endStage();
-    cp->releaseStages();
-  }
-  stats.rays = raysCast.load();
-  stats.restored = restoredPoints.load();
-  const std::vector<ProbeSlot>& slots = res->slots;
-  std::vector<float> transfer = std::move(res->transfer);
-
-  // Active: valid probes, and invalid ones next to a valid probe (so the file shows where
-  // interpolation must not read); solid interiors far from free space are not stored.
   auto validAt = [&](const glm::ivec3& c) {
     if (glm::any(glm::lessThan(c, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(c, dims))) return false;
     return slots[size_t(c.x) + size_t(dims.x) * (size_t(c.y) + size_t(dims.y) * c.z)].valid != 0;
@@ -465,6 +366,72 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   if (transfer.capacity() > transfer.size() + transfer.size() / 4) transfer.shrink_to_fit();
   grid.transfer = std::move(transfer);
   grid.buildIndex();
+}
+
+}  // namespace
+
+// Checkpointing (checkpoint.h): one stage, kProbeStage, of kProbeChunk lattice points per
+// chunk in lattice order; a chunk record holds its points' slots and transfer, the very values
+// the grid is assembled from, so a resumed bake assembles the same bits.
+ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3>>& lowerOrder,
+                     const ProbeSettings& settings, ProbeStats* statsOut, Checkpoint* cp) {
+  validate(settings);
+  const auto t0 = std::chrono::steady_clock::now();
+  const ThreadLimit threadLimit(settings.threads);
+  ProbeGrid grid;
+  grid.bands = settings.bands;
+  grid.info.bounces = settings.bounces;
+  grid.info.samples = settings.samples;
+  grid.info.seed = settings.seed;
+  glm::dvec3 lo, hi;
+  probeBounds(settings, scene, lo, hi);
+  layoutGrid(settings, lo, hi, grid);
+  if (!lowerOrder.empty()) PRT_CHECK_EQ(lowerOrder.size(), scene.meshes.size());
+
+  const size_t total = size_t(grid.dims.x) * grid.dims.y * grid.dims.z;
+  const int n2 = settings.bands * settings.bands;
+  const size_t stride = size_t(n2) * n2 * 3;
+  auto res = std::make_shared<LatticeResults>();
+  res->slots.resize(total);
+  res->transfer.assign(total * stride, 0.0f);  // lattice order; compacted below
+  res->stride = stride;
+
+  // The stage's writer holds `res`; forget it however this function ends, so that the
+  // checkpoint does not keep the lattice alive (or save chunks of it) after the stage.
+  const StageRelease release(cp);
+  ChunkedStage stage({kProbeStage, "probe stage", "probes", "probes", total, kProbeChunk, settings.progress}, cp);
+  stage.restore([&](const Chunk& c, ByteReader& r) { readProbeChunk(*res, c.begin, c.end, r); }, "probe chunk index");
+  Checkpoint::StageIo io;
+  io.chunksOutliveStage = true;
+  io.writeChunk = [res, total](uint64_t c, ByteWriter& w) {
+    const Chunk ch = chunkOf(total, kProbeChunk, c);
+    writeProbeChunk(*res, ch.begin, ch.end, w);
+  };
+  stage.begin(std::move(io));
+
+  ProbeStats stats;
+  stats.probes = total;
+  {
+    RayScene rays(scene);
+    AlbedoLookup albedo(scene);
+    const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
+    Tracer tracer{scene, rays, lowerOrder, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing)};
+    const ProbeBaker baker(tracer, grid, settings);
+    stats.rays = stage
+                     .run([&](const Chunk& c) {
+                       ProbeAccum acc;  // reused by the probes of this chunk
+                       ChunkOutcome outcome;
+                       for (size_t idx = c.begin; outcome.finished && idx < c.end; ++idx) {
+                         outcome.finished = baker.bake(idx, acc, res->slots[idx], res->transfer.data() + idx * stride);
+                         outcome.rays += res->slots[idx].traced;
+                       }
+                       return outcome;
+                     })
+                     .rays;
+  }
+  if (cp) cp->releaseStages();
+  stats.restored = stage.restoredItems();
+  assembleGrid(res->slots, std::move(res->transfer), stride, grid, stats);
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (statsOut) *statsOut = stats;
   return grid;

@@ -21,7 +21,6 @@
 #include <optional>
 
 #include <nlohmann/json.hpp>
-#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
 #include "albedo_lookup.h"
@@ -30,6 +29,7 @@
 #include "prt/error.h"
 #include "prt/progress.h"
 #include "prt/sh.h"
+#include "stage_runner.h"
 
 namespace prt::bake {
 
@@ -215,15 +215,283 @@ double pilotFrontHitShare(const Scene& scene, const Layout& lay, const RayScene&
   return std::min(1.0, mean + 3.0 * std::sqrt(var / double(m)) + 0.02);
 }
 
+// What the stages of one surface bake share: the layout, the settings, and the buffers each
+// stage hands to the next (values = vertices × n2 RGB, in the layout's vertex order).
+struct SurfaceBake {
+  const Scene& scene;
+  const BakeSettings& settings;
+  const Layout& lay;
+  int n2;
+  size_t values;
+  uint32_t N;          // samples per vertex
+  bool keepHits;       // bounces follow: keep the direct pass's hit records
+  int bounces;
+  uint32_t stageDone;  // checkpoint stage id of the finished surface stage
+  std::vector<ChunkHits> chunkHits;
+  std::vector<glm::vec3> direct, total, lowerOrder, prev, cur;
+  uint64_t hitCount = 0;
+  // Direct chunk records carry their transfer while it exists: with hit records kept,
+  // checkpoints saved during the bounces still write the direct chunks, without it.
+  bool directAlive = true;
+
+  SurfaceBake(const Scene& sc, const BakeSettings& s, const Layout& l)
+      : scene(sc), settings(s), lay(l), n2(s.bands * s.bands), values(l.vertices * n2), N(uint32_t(s.samples)),
+        keepHits(s.bounces > 0), bounces(keepHits ? s.bounces : 0), stageDone(uint32_t(2 + bounces)),
+        chunkHits(keepHits ? (l.vertices + kChunk - 1) / kChunk : 0) {}
+
+  Chunk chunk(uint64_t c) const { return chunkOf(lay.vertices, kChunk, c); }
+  StageSpec spec(uint32_t id, const std::string& label, const std::string& name) const {
+    return StageSpec{id, label, name, "vertices", lay.vertices, kChunk, settings.progress};
+  }
+  void countHits() {
+    hitCount = 0;
+    for (const ChunkHits& ch : chunkHits) hitCount += ch.hits.size();
+  }
+};
+
+// ---- The direct pass of one chunk: t⁰_i ≈ (π/N) Σ_s V_s y_i(ω_s), and the front-face hits.
+struct DirectPass {
+  SurfaceBake& b;
+  const RayScene& rays;
+  const std::vector<glm::vec3>& origins;
+  float tnear;
+
+  ChunkOutcome operator()(const Chunk& c) const {
+    alignas(64) Ray batch[kStream];
+    double acc[sh::kMaxBands * sh::kMaxBands];
+    float y[sh::kMaxBands * sh::kMaxBands];
+    const int n2 = b.n2;
+    const uint32_t N = b.N;
+    ChunkHits* ch = b.keepHits ? &b.chunkHits[c.index] : nullptr;
+    if (ch) ch->begin.assign(1, 0);
+    for (size_t v = c.begin; v < c.end; ++v) {
+      if (interruptRequested()) {  // a chunk can take long at a huge sample count
+        if (ch) *ch = ChunkHits{};
+        return {false, 0};
+      }
+      const VertexSampler sampler(origins[v], normalOf(b.scene, b.lay, v), b.settings.seed, v, tnear);
+      std::fill_n(acc, n2, 0.0);
+      for (uint32_t first = 0; first < N; first += kStream) {
+        const uint32_t count = std::min<uint32_t>(kStream, N - first);
+        for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
+        if (ch)
+          rays.intersect(batch, count);
+        else
+          rays.occluded(batch, count);
+        for (uint32_t j = 0; j < count; ++j) {
+          const Ray& ray = batch[j];
+          const bool blocked = ch ? ray.hit() : ray.occludedHit();
+          if (!blocked) {
+            sh::evaluate(b.settings.bands, ray.dir, y);
+            for (int i = 0; i < n2; ++i) acc[i] += y[i];
+          } else if (ch && !ray.backface()) {
+            ch->hits.push_back({b.lay.triOffset[ray.mesh] + ray.tri, quantise(ray.u), quantise(ray.v)});
+          }
+        }
+      }
+      const double w = M_PI / N;
+      for (int i = 0; i < n2; ++i) b.direct[v * n2 + i] = glm::vec3(float(acc[i] * w));
+      if (ch) ch->begin.push_back(uint32_t(ch->hits.size()));
+    }
+    if (ch) ch->hits.shrink_to_fit();
+    return {true, uint64_t(c.end - c.begin) * N};
+  }
+};
+
+// ---- One bounce of one chunk: t^k ≈ (1/N) Σ_{s hits} ρ(h_s) t^{k−1}(h_s), over the hit records.
+ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk& c) {
+  const Layout& lay = b.lay;
+  const int n2 = b.n2;
+  const ChunkHits& ch = b.chunkHits[c.index];
+  glm::vec3 acc[sh::kMaxBands * sh::kMaxBands];
+  for (size_t v = c.begin; v < c.end; ++v) {
+    std::fill_n(acc, n2, glm::vec3(0.0f));
+    for (uint32_t h = ch.begin[v - c.begin]; h < ch.begin[v - c.begin + 1]; ++h) {
+      const HitRecord& rec = ch.hits[h];
+      const float b1 = rec.b1 * (1.0f / 65535.0f), b2 = rec.b2 * (1.0f / 65535.0f);
+      const float b0 = 1.0f - b1 - b2;
+      const uint32_t mesh = lay.meshOfTri[rec.tri];
+      const glm::vec3 rho = albedo.at(mesh, rec.tri - lay.triOffset[mesh], b1, b2);
+      const glm::vec3* t0 = &b.prev[size_t(lay.triVerts[3 * rec.tri + 0]) * n2];
+      const glm::vec3* t1 = &b.prev[size_t(lay.triVerts[3 * rec.tri + 1]) * n2];
+      const glm::vec3* t2 = &b.prev[size_t(lay.triVerts[3 * rec.tri + 2]) * n2];
+      for (int i = 0; i < n2; ++i) acc[i] += rho * (b0 * t0[i] + b1 * t1[i] + b2 * t2[i]);
+    }
+    const float w = 1.0f / float(b.N);
+    for (int i = 0; i < n2; ++i) b.cur[v * n2 + i] = acc[i] * w;
+  }
+  return {true, 0};
+}
+
+// ---- Checkpoint records of the surface stages (checkpoint.h).
+// Direct chunk: u8 has transfer, [its transfer, one float per coefficient: the pass is
+// colourless], [CSR offsets, hit records].
+void writeDirectChunk(const SurfaceBake& b, const Chunk& c, ByteWriter& w) {
+  w.put<uint8_t>(b.directAlive);
+  if (b.directAlive) {
+    std::vector<float> v((c.end - c.begin) * b.n2);
+    for (size_t i = 0; i < v.size(); ++i) v[i] = b.direct[c.begin * b.n2 + i].r;
+    w.putArray(v.data(), v.size());
+  }
+  if (b.keepHits) {
+    w.putArray(b.chunkHits[c.index].begin.data(), b.chunkHits[c.index].begin.size());
+    w.putArray(b.chunkHits[c.index].hits.data(), b.chunkHits[c.index].hits.size());
+  }
+}
+
+void readDirectChunk(SurfaceBake& b, const Chunk& c, bool wantValues, ByteReader& r) {
+  const bool hasValues = r.get<uint8_t>() != 0;
+  if (wantValues && !hasValues) r.fail("direct chunk without transfer");
+  std::vector<float> v = hasValues ? r.getVector<float>() : std::vector<float>();
+  if (hasValues && v.size() != (c.end - c.begin) * b.n2) r.fail("direct chunk size");
+  if (wantValues)
+    for (size_t i = 0; i < v.size(); ++i) b.direct[c.begin * b.n2 + i] = glm::vec3(v[i]);
+  if (b.keepHits) {
+    ChunkHits& ch = b.chunkHits[c.index];
+    ch.begin = r.getVector<uint32_t>();
+    ch.hits = r.getVector<HitRecord>();
+    if (ch.begin.size() != c.end - c.begin + 1 || ch.begin.front() != 0 || ch.begin.back() != ch.hits.size())
+      r.fail("hit records");
+    for (const HitRecord& h : ch.hits)
+      if (h.tri >= b.lay.triangles) r.fail("hit records");
+  }
+}
+
+void readTransfer(const SurfaceBake& b, ByteReader& r, std::vector<glm::vec3>& v) {
+  v = r.getVector<glm::vec3>();
+  if (v.size() != b.values && !v.empty()) r.fail("transfer size");
+}
+
+// Where a checkpoint left off: 0 = in (or before) the direct pass, 1 + k = in bounce k,
+// stageDone = the whole surface stage. Restores what that point needs: the finished surface
+// stage's sums; or the direct chunks (their hit records, and their transfer while the direct
+// pass is unfinished) and the state the bounce starts from.
+uint32_t restoreSurface(SurfaceBake& b, Checkpoint* cp, ChunkedStage& direct) {
+  if (!cp) return 0;
+  const uint32_t resumeStage = std::min(cp->restoredStateStage(), b.stageDone);
+  if (resumeStage == b.stageDone) {
+    cp->restoreState(b.stageDone, [&](ByteReader& r) {
+      b.hitCount = r.get<uint64_t>();
+      readTransfer(b, r, b.total);
+      readTransfer(b, r, b.lowerOrder);
+      if (b.total.size() != b.values) r.fail("transfer size");
+    });
+    return resumeStage;
+  }
+  const bool wantValues = resumeStage == 0;
+  if (wantValues) b.direct.resize(b.values);
+  direct.restore([&](const Chunk& c, ByteReader& r) { readDirectChunk(b, c, wantValues, r); });
+  if (resumeStage != 0) {
+    if (direct.chunksLeft() != 0)
+      throw Error(cat(cp->path(), ": corrupt checkpoint (hit records of the direct pass missing); delete it to "
+                                  "start over"));
+    cp->restoreState(resumeStage, [&](ByteReader& r) {
+      readTransfer(b, r, b.prev);
+      readTransfer(b, r, b.total);
+      if (b.prev.size() != b.values || b.total.size() != b.values) r.fail("transfer size");
+    });
+  }
+  b.countHits();
+  return resumeStage;
+}
+
+// The direct pass: visibility-weighted SH, and the hit records for the bounces. Hands the
+// bounces t⁰ as both the running sum and the previous order.
+void runDirectPass(SurfaceBake& b, ChunkedStage& stage, const BakeControl& control, BakeStats& stats) {
+  b.direct.resize(b.values);
+  const size_t left = stage.chunksLeft();
+  auto tBuild = Clock::now();
+  std::optional<RayScene> rays;
+  std::vector<glm::vec3> origins;
+  float tnear = 0.0f;
+  if (left > 0) {
+    rays.emplace(b.scene);
+    origins = rayOrigins(b.scene, b.lay, rays->sceneExtent());
+    tnear = tnearFor(rays->sceneExtent());
+    stats.stages.push_back({"bvh", secondsSince(tBuild), 0});
+  }
+  if (control.checkMemory) {
+    double share = 0.0;
+    if (b.keepHits && left == 0 && b.lay.vertices > 0) share = double(b.hitCount) / (double(b.lay.vertices) * b.N);
+    if (b.keepHits && left > 0) share = pilotFrontHitShare(b.scene, b.lay, *rays, origins, b.settings, tnear);
+    control.checkMemory(share);
+  }
+  Checkpoint::StageIo io;
+  io.chunksOutliveStage = b.keepHits;
+  io.writeChunk = [&b](uint64_t c, ByteWriter& w) { writeDirectChunk(b, b.chunk(c), w); };
+  stage.begin(std::move(io));
+  const StageStats run = left > 0 ? stage.run(DirectPass{b, *rays, origins, tnear}) : stage.run({});
+  stats.rays = run.rays;
+  if (left > 0) stats.stages.push_back(run);
+  b.countHits();
+  b.total = b.direct;
+  b.prev = std::move(b.direct);
+  b.directAlive = false;
+}
+
+// The bounces from `resumeStage` on: t^k = W t^{k−1}, summed into the total.
+void runBounces(SurfaceBake& b, uint32_t resumeStage, Checkpoint* cp, BakeStats& stats) {
+  AlbedoLookup albedo(b.scene);
+  b.cur.resize(b.values);
+  const int n2 = b.n2;
+  for (int k = int(resumeStage) - 1; k <= b.bounces; ++k) {
+    const StageSpec spec = b.spec(uint32_t(1 + k), cat("bounce ", k), cat("bounce ", k));
+    Checkpoint::StageIo io;
+    io.writeState = [&b](ByteWriter& w) {
+      w.putArray(b.prev.data(), b.prev.size());
+      w.putArray(b.total.data(), b.total.size());
+    };
+    io.writeChunk = [&b, n2](uint64_t c, ByteWriter& w) {
+      const Chunk ch = b.chunk(c);
+      w.putArray(&b.cur[ch.begin * n2], (ch.end - ch.begin) * n2);
+    };
+    auto restore = [&](const Chunk& c, ByteReader& r) { r.getArray(&b.cur[c.begin * n2], (c.end - c.begin) * n2); };
+    stats.stages.push_back(
+        runChunkedStage(spec, cp, restore, std::move(io), [&](const Chunk& c) { return gatherChunk(b, albedo, c); }));
+    if (k == b.bounces && b.settings.keepLowerOrder) b.lowerOrder = b.total;
+    for (size_t i = 0; i < b.total.size(); ++i) b.total[i] += b.cur[i];
+    std::swap(b.prev, b.cur);
+  }
+}
+
+// A probe bake follows: keep the finished surface stage, so that resuming an interrupted
+// probe stage does not redo it.
+void keepSurfaceStage(SurfaceBake& b, Checkpoint& cp) {
+  cp.releaseStages();
+  Checkpoint::StageIo io;
+  io.writeState = [&b](ByteWriter& w) {
+    w.put(b.hitCount);
+    w.putArray(b.total.data(), b.total.size());
+    w.putArray(b.lowerOrder.data(), b.lowerOrder.size());
+  };
+  cp.beginStage(b.stageDone, "surface stage", 0, 0, std::move(io));
+  cp.save();
+}
+
+// Per Scene::meshes entry: its vertices' part of a buffer in layout order.
+std::vector<std::vector<glm::vec3>> perMesh(const Scene& scene, const Layout& lay, int n2,
+                                            const std::vector<glm::vec3>& all) {
+  std::vector<std::vector<glm::vec3>> out(scene.meshes.size());
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    if (lay.vertexOffset[k] == SIZE_MAX) continue;
+    auto first = all.begin() + ptrdiff_t(lay.vertexOffset[k] * n2);
+    out[k].assign(first, first + ptrdiff_t(scene.meshes[k].vertexCount() * n2));
+  }
+  return out;
+}
+
 }  // namespace
 
+void validateBands(int bands) {
+  if (bands < 1 || bands > sh::kMaxBands) throw Error(cat("bands ", bands, ": must be between 1 and ", sh::kMaxBands));
+}
+
 void validate(const BakeSettings& s) {
-  if (s.bands < 1 || s.bands > sh::kMaxBands)
-    throw Error(cat("--bands ", s.bands, ": must be between 1 and ", sh::kMaxBands));
+  validateBands(s.bands);
   if (s.samples < 1 || s.samples > (1 << 24))
-    throw Error(cat("--samples ", s.samples, ": must be between 1 and ", 1 << 24));
-  if (s.bounces < 0 || s.bounces > 64) throw Error(cat("--bounces ", s.bounces, ": must be between 0 and 64"));
-  if (s.threads < 0) throw Error(cat("--threads ", s.threads, ": must be 0 (all cores) or more"));
+    throw Error(cat("samples ", s.samples, ": must be between 1 and ", 1 << 24));
+  if (s.bounces < 0 || s.bounces > 64) throw Error(cat("bounces ", s.bounces, ": must be between 0 and 64"));
+  if (s.threads < 0) throw Error(cat("threads ", s.threads, ": must be 0 (all cores) or more"));
 }
 
 // Checkpointing (checkpoint.h): the direct pass saves per chunk its transfer and hit records;
@@ -234,314 +502,44 @@ void validate(const BakeSettings& s) {
 SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, const BakeControl& control) {
   validate(settings);
   const auto tStart = Clock::now();
-  std::unique_ptr<tbb::global_control> threadLimit;
-  if (settings.threads > 0)
-    threadLimit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                        size_t(settings.threads));
-  const int bands = settings.bands;
-  const int n2 = bands * bands;
-
+  const ThreadLimit threadLimit(settings.threads);
   SurfaceTransfer out;
-  out.bands = bands;
+  out.bands = settings.bands;
   out.perMesh.resize(scene.meshes.size());
-  Layout lay = makeLayout(scene);
+  const Layout lay = makeLayout(scene);
   out.stats.vertices = lay.vertices;
-
   if (!settings.shadowed) {
     auto t0 = Clock::now();
     for (size_t k = 0; k < scene.meshes.size(); ++k)
-      if (!scene.meshes[k].receiverOnly) out.perMesh[k] = unshadowedTransfer(scene.meshes[k], bands);
+      if (!scene.meshes[k].receiverOnly) out.perMesh[k] = unshadowedTransfer(scene.meshes[k], settings.bands);
     out.stats.stages.push_back({"unshadowed", secondsSince(t0), 0});
     out.stats.seconds = secondsSince(tStart);
     return out;
   }
 
   Checkpoint* cp = control.checkpoint;
-  // The stages' writers point into this function's buffers: forget them however it ends.
-  struct Release {
-    Checkpoint* cp;
-    ~Release() {
-      if (cp) cp->releaseStages();
-    }
-  } release{cp};
-  auto stopIfInterrupted = [&] {
-    if (cp) cp->stopIfInterrupted();
-    if (interruptRequested()) throw Interrupted("interrupted");
-  };
-
-  const bool keepHits = settings.bounces > 0;
-  const int bounces = keepHits ? settings.bounces : 0;
-  const uint32_t stageDone = uint32_t(2 + bounces);
-  const uint32_t N = uint32_t(settings.samples);
-  const size_t chunks = (lay.vertices + kChunk - 1) / kChunk;
-  const size_t values = lay.vertices * n2;
-  auto chunkRange = [&](size_t c) { return std::pair(c * kChunk, std::min(lay.vertices, (c + 1) * kChunk)); };
-  std::vector<ChunkHits> chunkHits(keepHits ? chunks : 0);
-  std::vector<uint8_t> chunkDone(chunks, 0);
-  std::vector<glm::vec3> direct, total, lowerOrder, prev, cur;
-  auto readVec3 = [&](ByteReader& r, std::vector<glm::vec3>& v) {
-    v = r.getVector<glm::vec3>();
-    if (v.size() != values && !v.empty()) r.fail("transfer size");
-  };
-
-  // ---- Where a checkpoint left off: 0 = in (or before) the direct pass, 1 + k = in bounce k,
-  // stageDone = the whole surface stage.
-  uint32_t resumeStage = 0;
-  uint64_t hitCount = 0;
-  if (cp) {
-    resumeStage = std::min(cp->restoredStateStage(), stageDone);
-    out.stats.resumed = cp->exists();
-  }
-  const bool restoredDone = resumeStage == stageDone;
-  if (restoredDone) {
-    cp->restoreState(stageDone, [&](ByteReader& r) {
-      hitCount = r.get<uint64_t>();
-      readVec3(r, total);
-      readVec3(r, lowerOrder);
-      if (total.size() != values) r.fail("transfer size");
-    });
-  } else if (cp) {
-    const bool wantValues = resumeStage == 0;
-    if (wantValues) direct.resize(values);
-    cp->restoreChunks(kSurfaceStageDirect, [&](uint64_t c, ByteReader& r) {
-      if (c >= chunks) r.fail("chunk index");
-      auto [vBegin, vEnd] = chunkRange(c);
-      const bool hasValues = r.get<uint8_t>() != 0;
-      if (wantValues && !hasValues) r.fail("direct chunk without transfer");
-      std::vector<float> v = hasValues ? r.getVector<float>() : std::vector<float>();
-      if (hasValues && v.size() != (vEnd - vBegin) * n2) r.fail("direct chunk size");
-      if (wantValues)
-        for (size_t i = 0; i < v.size(); ++i) direct[vBegin * n2 + i] = glm::vec3(v[i]);
-      if (keepHits) {
-        ChunkHits& ch = chunkHits[c];
-        ch.begin = r.getVector<uint32_t>();
-        ch.hits = r.getVector<HitRecord>();
-        if (ch.begin.size() != vEnd - vBegin + 1 || ch.begin.front() != 0 || ch.begin.back() != ch.hits.size())
-          r.fail("hit records");
-        for (const HitRecord& h : ch.hits)
-          if (h.tri >= lay.triangles) r.fail("hit records");
-      }
-      chunkDone[c] = 1;
-    });
-    if (resumeStage != 0) {
-      if (std::count(chunkDone.begin(), chunkDone.end(), 1) != ptrdiff_t(chunks))
-        throw Error(cat(cp->path(), ": corrupt checkpoint (hit records of the direct pass missing); delete it to "
-                                    "start over"));
-      cp->restoreState(resumeStage, [&](ByteReader& r) {
-        readVec3(r, prev);
-        readVec3(r, total);
-        if (prev.size() != values || total.size() != values) r.fail("transfer size");
-      });
-    }
-  }
-  for (const ChunkHits& ch : chunkHits) hitCount += ch.hits.size();
-  const size_t directLeft = chunks - size_t(std::count(chunkDone.begin(), chunkDone.end(), 1));
-
-  // Direct chunk records carry their transfer while it exists. Outside the block below: with
-  // hit records kept, checkpoints saved during the bounces still write the direct chunks.
-  bool directAlive = true;
+  const StageRelease release(cp);  // the stages' writers point into `b`
+  SurfaceBake b(scene, settings, lay);
+  ChunkedStage direct(b.spec(kSurfaceStageDirect, "direct pass", "direct"), cp);
+  uint32_t resumeStage = restoreSurface(b, cp, direct);
+  out.stats.resumed = cp && cp->exists();
+  const bool restoredDone = resumeStage == b.stageDone;
   if (resumeStage == 0) {
-    direct.resize(values);
-    // ---- Direct pass: visibility-weighted SH, and the hit records for the bounces.
-    auto tBuild = Clock::now();
-    std::optional<RayScene> rays;
-    std::vector<glm::vec3> origins;
-    float tnear = 0.0f;
-    if (directLeft > 0) {
-      rays.emplace(scene);
-      origins = rayOrigins(scene, lay, rays->sceneExtent());
-      tnear = tnearFor(rays->sceneExtent());
-      out.stats.stages.push_back({"bvh", secondsSince(tBuild), 0});
-    }
-    if (control.checkMemory) {
-      double share = 0.0;
-      if (keepHits && directLeft == 0 && lay.vertices > 0) share = double(hitCount) / (double(lay.vertices) * N);
-      if (keepHits && directLeft > 0) share = pilotFrontHitShare(scene, lay, *rays, origins, settings, tnear);
-      control.checkMemory(share);
-    }
-    if (cp) {
-      Checkpoint::StageIo io;
-      io.chunksOutliveStage = keepHits;
-      io.writeChunk = [&](uint64_t c, ByteWriter& w) {
-        auto [vBegin, vEnd] = chunkRange(c);
-        w.put<uint8_t>(directAlive);
-        if (directAlive) {
-          std::vector<float> v((vEnd - vBegin) * n2);
-          for (size_t i = 0; i < v.size(); ++i) v[i] = direct[vBegin * n2 + i].r;
-          w.putArray(v.data(), v.size());
-        }
-        if (keepHits) {
-          w.putArray(chunkHits[c].begin.data(), chunkHits[c].begin.size());
-          w.putArray(chunkHits[c].hits.data(), chunkHits[c].hits.size());
-        }
-      };
-      cp->beginStage(kSurfaceStageDirect, "direct pass", chunks, chunks - directLeft, std::move(io));
-    }
-    auto tDirect = Clock::now();
-    std::atomic<uint64_t> raysCast{0};
-    if (directLeft > 0) {
-      Progress progress("direct", lay.vertices, "vertices", settings.progress);
-      progress.add((chunks - directLeft) * kChunk);
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1), [&](const tbb::blocked_range<size_t>& r) {
-        alignas(64) Ray batch[kStream];
-        double acc[sh::kMaxBands * sh::kMaxBands];
-        float y[sh::kMaxBands * sh::kMaxBands];
-        for (size_t c = r.begin(); c != r.end(); ++c) {
-          if (chunkDone[c] || interruptRequested()) continue;
-          auto [vBegin, vEnd] = chunkRange(c);
-          ChunkHits* ch = keepHits ? &chunkHits[c] : nullptr;
-          if (ch) ch->begin.assign(1, 0);
-          bool abandoned = false;
-          for (size_t v = vBegin; v < vEnd; ++v) {
-            if (interruptRequested()) {  // a chunk can take long at huge --samples
-              abandoned = true;
-              break;
-            }
-            const VertexSampler sampler(origins[v], normalOf(scene, lay, v), settings.seed, v, tnear);
-            std::fill_n(acc, n2, 0.0);
-            for (uint32_t first = 0; first < N; first += kStream) {
-              const uint32_t count = std::min<uint32_t>(kStream, N - first);
-              for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
-              if (keepHits)
-                rays->intersect(batch, count);
-              else
-                rays->occluded(batch, count);
-              for (uint32_t j = 0; j < count; ++j) {
-                const Ray& ray = batch[j];
-                const bool blocked = keepHits ? ray.hit() : ray.occludedHit();
-                if (!blocked) {
-                  sh::evaluate(bands, ray.dir, y);
-                  for (int i = 0; i < n2; ++i) acc[i] += y[i];
-                } else if (keepHits && !ray.backface()) {
-                  ch->hits.push_back({lay.triOffset[ray.mesh] + ray.tri, quantise(ray.u), quantise(ray.v)});
-                }
-              }
-            }
-            const double w = M_PI / N;
-            for (int i = 0; i < n2; ++i) direct[v * n2 + i] = glm::vec3(float(acc[i] * w));
-            if (ch) ch->begin.push_back(uint32_t(ch->hits.size()));
-          }
-          if (abandoned) {
-            if (ch) *ch = ChunkHits{};
-            continue;
-          }
-          if (ch) ch->hits.shrink_to_fit();
-          chunkDone[c] = 1;
-          raysCast += uint64_t(vEnd - vBegin) * N;
-          if (cp) cp->complete(c);
-          progress.add(vEnd - vBegin);
-        }
-      });
-      progress.finish();
-    }
-    stopIfInterrupted();
-    if (cp) cp->endStage();
-    out.stats.rays = raysCast.load();
-    if (directLeft > 0) out.stats.stages.push_back({"direct", secondsSince(tDirect), out.stats.rays});
-    hitCount = 0;
-    for (const ChunkHits& ch : chunkHits) hitCount += ch.hits.size();
-    total = direct;
-    prev = std::move(direct);
-    directAlive = false;
+    runDirectPass(b, direct, control, out.stats);
     resumeStage = 2;  // bounce 1 starts from the direct pass
   } else if (control.checkMemory) {
-    control.checkMemory(keepHits ? double(hitCount) / (double(lay.vertices) * N) : 0.0);
+    control.checkMemory(b.keepHits ? double(b.hitCount) / (double(lay.vertices) * b.N) : 0.0);
   }
-  out.stats.hitRecords = hitCount;
-
-  // ---- Bounces: t^k = W t^{k-1}, gathered over the hit records.
-  if (resumeStage < stageDone) {
-    AlbedoLookup albedo(scene);
-    cur.resize(values);
-    for (int k = int(resumeStage) - 1; k <= bounces; ++k) {
-      const uint32_t stage = uint32_t(1 + k);
-      auto tBounce = Clock::now();
-      std::fill(chunkDone.begin(), chunkDone.end(), 0);
-      uint64_t restored = 0;
-      if (cp)
-        restored = cp->restoreChunks(stage, [&](uint64_t c, ByteReader& r) {
-          if (c >= chunks) r.fail("chunk index");
-          auto [vBegin, vEnd] = chunkRange(c);
-          r.getArray(&cur[vBegin * n2], (vEnd - vBegin) * n2);
-          chunkDone[c] = 1;
-        });
-      if (cp) {
-        Checkpoint::StageIo io;
-        io.writeState = [&](ByteWriter& w) {
-          w.putArray(prev.data(), prev.size());
-          w.putArray(total.data(), total.size());
-        };
-        io.writeChunk = [&](uint64_t c, ByteWriter& w) {
-          auto [vBegin, vEnd] = chunkRange(c);
-          w.putArray(&cur[vBegin * n2], (vEnd - vBegin) * n2);
-        };
-        cp->beginStage(stage, cat("bounce ", k), chunks, restored, std::move(io));
-      }
-      Progress progress(cat("bounce ", k), lay.vertices, "vertices", settings.progress);
-      progress.add(restored * kChunk);
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1), [&](const tbb::blocked_range<size_t>& r) {
-        glm::vec3 acc[sh::kMaxBands * sh::kMaxBands];
-        for (size_t c = r.begin(); c != r.end(); ++c) {
-          if (chunkDone[c] || interruptRequested()) continue;
-          const ChunkHits& ch = chunkHits[c];
-          auto [vBegin, vEnd] = chunkRange(c);
-          for (size_t v = vBegin; v < vEnd; ++v) {
-            std::fill_n(acc, n2, glm::vec3(0.0f));
-            for (uint32_t h = ch.begin[v - vBegin]; h < ch.begin[v - vBegin + 1]; ++h) {
-              const HitRecord& rec = ch.hits[h];
-              const float b1 = rec.b1 * (1.0f / 65535.0f), b2 = rec.b2 * (1.0f / 65535.0f);
-              const float b0 = 1.0f - b1 - b2;
-              const uint32_t mesh = lay.meshOfTri[rec.tri];
-              const glm::vec3 rho = albedo.at(mesh, rec.tri - lay.triOffset[mesh], b1, b2);
-              const glm::vec3* t0 = &prev[size_t(lay.triVerts[3 * rec.tri + 0]) * n2];
-              const glm::vec3* t1 = &prev[size_t(lay.triVerts[3 * rec.tri + 1]) * n2];
-              const glm::vec3* t2 = &prev[size_t(lay.triVerts[3 * rec.tri + 2]) * n2];
-              for (int i = 0; i < n2; ++i) acc[i] += rho * (b0 * t0[i] + b1 * t1[i] + b2 * t2[i]);
-            }
-            const float w = 1.0f / float(N);
-            for (int i = 0; i < n2; ++i) cur[v * n2 + i] = acc[i] * w;
-          }
-          if (cp) cp->complete(c);
-          progress.add(vEnd - vBegin);
-        }
-      });
-      progress.finish();
-      stopIfInterrupted();
-      if (cp) cp->endStage();
-      if (k == bounces && settings.keepLowerOrder) lowerOrder = total;
-      for (size_t i = 0; i < total.size(); ++i) total[i] += cur[i];
-      std::swap(prev, cur);
-      out.stats.stages.push_back({cat("bounce ", k), secondsSince(tBounce), 0});
-    }
-  }
+  out.stats.hitRecords = b.hitCount;
+  if (resumeStage < b.stageDone) runBounces(b, resumeStage, cp, out.stats);
   // Free what the bounces needed before the per-instance copies below.
-  std::vector<glm::vec3>().swap(prev);
-  std::vector<glm::vec3>().swap(cur);
-  std::vector<ChunkHits>().swap(chunkHits);
-  // A probe bake follows: keep the finished surface stage, so that resuming an interrupted
-  // probe stage does not redo it.
-  if (cp && settings.keepLowerOrder && !restoredDone) {
-    cp->releaseStages();
-    Checkpoint::StageIo io;
-    io.writeState = [&](ByteWriter& w) {
-      w.put(hitCount);
-      w.putArray(total.data(), total.size());
-      w.putArray(lowerOrder.data(), lowerOrder.size());
-    };
-    cp->beginStage(stageDone, "surface stage", 0, 0, std::move(io));
-    cp->save();
-  }
+  std::vector<glm::vec3>().swap(b.prev);
+  std::vector<glm::vec3>().swap(b.cur);
+  std::vector<ChunkHits>().swap(b.chunkHits);
+  if (cp && settings.keepLowerOrder && !restoredDone) keepSurfaceStage(b, *cp);
 
-  auto split = [&](const std::vector<glm::vec3>& all, std::vector<std::vector<glm::vec3>>& perMesh) {
-    perMesh.assign(scene.meshes.size(), {});
-    for (size_t k = 0; k < scene.meshes.size(); ++k) {
-      if (lay.vertexOffset[k] == SIZE_MAX) continue;
-      auto first = all.begin() + ptrdiff_t(lay.vertexOffset[k] * n2);
-      perMesh[k].assign(first, first + ptrdiff_t(scene.meshes[k].vertexCount() * n2));
-    }
-  };
-  split(total, out.perMesh);
-  if (!lowerOrder.empty()) split(lowerOrder, out.perMeshLowerOrder);
+  out.perMesh = perMesh(scene, lay, b.n2, b.total);
+  if (!b.lowerOrder.empty()) out.perMeshLowerOrder = perMesh(scene, lay, b.n2, b.lowerOrder);
   out.stats.seconds = secondsSince(tStart);
   return out;
 }

@@ -31,7 +31,7 @@ struct ProbeSettings {
   double insideThreshold = 0.25;
 };
 
-/// Throws prt::Error on bad values.
+/// Throws prt::Error on bad values; the message names the field ("probe spacing: ...").
 void validate(const ProbeSettings& s);
 
 /// The bounds the probe lattice fills: s.boundsMin/Max if given, else the scene's bounds with

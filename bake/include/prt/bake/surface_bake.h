@@ -26,7 +26,11 @@ struct BakeSettings {
   bool keepLowerOrder = false;  // also return the transfer summed to K−1 bounces (for probes)
 };
 
-/// Throws prt::Error if a setting is out of range.
+/// Throws prt::Error unless 1 <= bands <= sh::kMaxBands ("bands 9: must be between 1 and 8").
+/// The one check of an SH band count for every bake setting.
+void validateBands(int bands);
+
+/// Throws prt::Error if a setting is out of range; the message names the field.
 void validate(const BakeSettings& s);
 
 struct StageStats {
