@@ -9,7 +9,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -22,7 +21,6 @@
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
-#include "prt/progress.h"
 #include "prt/sh.h"
 #include "stage_runner.h"
 

@@ -40,8 +40,8 @@ void ChunkedStage::restore(const RestoreFn& fn, const std::string& what) {
     if (c >= chunks()) r.fail(what);
     const Chunk ch = chunk(c);
     fn(ch, r);
+    if (!done_[c]) restoredItems_ += ch.end - ch.begin;
     done_[c] = 1;
-    restoredItems_ += ch.end - ch.begin;
   });
 }
 

@@ -14,7 +14,6 @@
 #include "prt/bake/surface_bake.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -27,7 +26,6 @@
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
-#include "prt/progress.h"
 #include "prt/sh.h"
 #include "stage_runner.h"
 
