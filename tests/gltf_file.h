@@ -13,24 +13,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "harness.h"
 #include "prt/error.h"
 #include "prt/scene.h"
 
 namespace prt::test {
-
-inline std::string base64(const std::vector<unsigned char>& in) {
-  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  for (size_t i = 0; i < in.size(); i += 3) {
-    const uint32_t v = uint32_t(in[i]) << 16 | (i + 1 < in.size() ? uint32_t(in[i + 1]) << 8 : 0) |
-                       (i + 2 < in.size() ? uint32_t(in[i + 2]) : 0);
-    out += k[(v >> 18) & 63];
-    out += k[(v >> 12) & 63];
-    out += i + 1 < in.size() ? k[(v >> 6) & 63] : '=';
-    out += i + 2 < in.size() ? k[v & 63] : '=';
-  }
-  return out;
-}
 
 struct GltfFile {
   using Json = nlohmann::json;

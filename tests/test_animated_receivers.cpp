@@ -8,9 +8,6 @@
 // through `prt bake` + `prt render`.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -23,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gltf_file.h"
+#include "harness.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/image.h"
@@ -77,13 +75,6 @@ std::string writeCubeScene(const fs::path& dir, const std::string& name, bool wi
   return f.write(name, dir);
 }
 
-fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / cat("prt_test_animrecv_", ::getpid(), "_", name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
 const MeshInstance& instanceOf(const Scene& s, const std::string& node) {
   for (const MeshInstance& m : s.meshes)
     if (m.node >= 0 && s.nodes[size_t(m.node)].name == node) return m;
@@ -93,8 +84,9 @@ const MeshInstance& instanceOf(const Scene& s, const std::string& node) {
 // ---------------------------------------------------------------------------------------------
 // Loading and baking
 
-TEST(AnimatedReceivers, AnimatedNodeIsAReceiverWithItsReason) {
-  const fs::path dir = freshDir("load");
+TEST(SceneAnimatedReceivers, AnimatedNodeIsAReceiverWithItsReason) {
+  const test::TempDir tmp("load");
+  const fs::path dir = tmp.path();
   const Scene s = loadScene(writeCubeScene(dir, "scene", true));
   EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
   EXPECT_FALSE(instanceOf(s, "Floor").receiverOnly);
@@ -111,7 +103,6 @@ TEST(AnimatedReceivers, AnimatedNodeIsAReceiverWithItsReason) {
   EXPECT_EQ(instanceOf(marked, "Floor").receiverReason, ReceiverReason::Option);
   EXPECT_EQ(describeReceivers(marked), (std::vector<std::string>{"node 0 'Floor': named by --receiver",
                                                                   "node 1 'Cube': extras.prt.receiver, animated (translation)"}));
-  fs::remove_all(dir);
 }
 
 // Transfer of the floor's vertices under the cube's rest pose (|x|, |z| < half side).
@@ -122,8 +113,9 @@ std::vector<size_t> verticesUnderTheCube(const MeshInstance& floor) {
   return under;
 }
 
-TEST(AnimatedReceivers, BakeLeavesTheMovingCubeOut) {
-  const fs::path dir = freshDir("bake");
+TEST(SceneAnimatedReceivers, BakeLeavesTheMovingCubeOut) {
+  const test::TempDir tmp("bake");
+  const fs::path dir = tmp.path();
   const Scene s = loadScene(writeCubeScene(dir, "scene", true));
   bake::BakeSettings set;
   set.samples = 1024;
@@ -157,7 +149,6 @@ TEST(AnimatedReceivers, BakeLeavesTheMovingCubeOut) {
   const float ratio = shadowed.perMesh[floor][centre * 9].g / t.perMesh[floor][centre * 9].g;
   std::printf("  coefficient 0 under the cube's centre, cube baked static / receiver: %.3f\n", ratio);
   EXPECT_LT(ratio, 0.5f);
-  fs::remove_all(dir);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -239,7 +230,8 @@ constexpr double kOracleTolerance = 1e-4;
 // The cube alone: the probe grid of an empty scene is M = I up to the bake's quadrature, so the
 // top face is lit like an unoccluded upward surface, ρ/π · E(+Y), wherever the cube is.
 TEST(RenderAnimatedReceivers, MovingCubeMatchesTheProbeOracleAndTheClosedForm) {
-  const fs::path dir = freshDir("render");
+  const test::TempDir tmp("render");
+  const fs::path dir = tmp.path();
   const Scene s = loadScene(writeCubeScene(dir, "scene", false));
   ASSERT_TRUE(instanceOf(s, "Cube").receiverOnly);
   ASSERT_EQ(s.cameras.size(), 1u);
@@ -281,44 +273,34 @@ TEST(RenderAnimatedReceivers, MovingCubeMatchesTheProbeOracleAndTheClosedForm) {
   ASSERT_NE(centres[0], centres[1]);
   EXPECT_GT(frames[0].at(centres[0].x, centres[0].y).g, 0.1f);
   EXPECT_EQ(frames[1].at(centres[0].x, centres[0].y), glm::vec3(0.0f));
-  fs::remove_all(dir);
 }
 
 // ---------------------------------------------------------------------------------------------
 // The command line: prt bake names the receiver and leaves it out; prt render moves it with the
 // rig's fps (frame f at f / fps seconds) and lights it from the baked probe grid.
 
-struct CommandRun {
-  int status = -1;
-  std::string err;
-};
-
-CommandRun prtCommand(const std::string& args, const fs::path& dir) {
-  const fs::path log = dir / "stderr.txt";
-  const int raw = std::system(cat(PRT_EXE, " ", args, " 2> ", log.string()).c_str());
-  std::ifstream in(log);
-  return CommandRun{WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, std::string(std::istreambuf_iterator<char>(in), {})};
-}
+using test::RunResult;
+using test::runPrt;
 
 TEST(RenderAnimatedReceivers, BakeAndRenderCommandsMoveTheCube) {
-  const fs::path dir = freshDir("cli");
+  const test::TempDir tmp("cli");
+  const fs::path dir = tmp.path();
   const std::string scene = writeCubeScene(dir, "scene", true);
   const fs::path rig = dir / "rig.json";
   std::ofstream(rig) << R"({"version": 1, "fps": 2, "lights": [
       {"type": "uniform", "radiance": [0.4, 0.45, 0.5]},
       {"type": "sun", "direction": [0.3, 1, 0.2], "radius": 3, "irradiance": [2.0, 1.8, 1.5]}]})";
   const std::string baked = (dir / "b.glb").string(), probes = (dir / "p.vdb").string();
-  const CommandRun bakeRun = prtCommand(cat("bake ", scene, " -o ", baked, " --samples 64 --bounces 1 --probes ", probes,
-                                     " --probe-dims 4,3,4 --probe-bounds -1.2,0.05,-1.2,1.2,1.2,1.2 --probe-samples 256"),
-                                 dir);
+  const RunResult bakeRun = runPrt({"bake", scene, "-o", baked, "--samples", "64", "--bounces", "1", "--probes", probes,
+                                    "--probe-dims", "4,3,4", "--probe-bounds", "-1.2,0.05,-1.2,1.2,1.2,1.2",
+                                    "--probe-samples", "256"});
   ASSERT_EQ(bakeRun.status, 0) << bakeRun.err;
   EXPECT_NE(bakeRun.err.find("(1 receivers skipped)"), std::string::npos) << bakeRun.err;
   EXPECT_NE(bakeRun.err.find("receiver node 1 'Cube': animated (translation)"), std::string::npos) << bakeRun.err;
 
-  const CommandRun renderRun = prtCommand(cat("render ", baked, " --rig ", rig.string(), " --probes ", probes,
-                                       " --camera Top --frames 0-2 --size 64x48 --exr-compression none -q -o ",
-                                       (dir / "f_%d.exr").string()),
-                                   dir);
+  const RunResult renderRun = runPrt({"render", baked, "--rig", rig.string(), "--probes", probes, "--camera", "Top",
+                                      "--frames", "0-2", "--size", "64x48", "--exr-compression", "none", "-q", "-o",
+                                      (dir / "f_%d.exr").string()});
   ASSERT_EQ(renderRun.status, 0) << renderRun.err;
 
   // The oracle from the files the command read: the receiver survives the baked file.
@@ -348,26 +330,24 @@ TEST(RenderAnimatedReceivers, BakeAndRenderCommandsMoveTheCube) {
   ASSERT_NE(centres[0], centres[1]);
   const glm::vec3 a = frames[0].at(centres[0].x, centres[0].y), b = frames[1].at(centres[0].x, centres[0].y);
   EXPECT_GT(std::abs(a.g - b.g), 0.01f * a.g) << a.g << " vs " << b.g;
-  fs::remove_all(dir);
 }
 
 // A scene whose every mesh moves bakes no transfer at all (only the settings and the probes);
 // prt render still lights the receivers from the grid, with the bands of the bake settings:
 // here an empty scene, so the top face is the unoccluded closed form ρ/π · E(+Y).
 TEST(RenderAnimatedReceivers, SceneOfReceiversOnlyRendersFromTheProbes) {
-  const fs::path dir = freshDir("cli_receivers_only");
+  const test::TempDir tmp("cli_receivers_only");
+  const fs::path dir = tmp.path();
   const std::string scene = writeCubeScene(dir, "scene", false);
   const fs::path rig = dir / "rig.json";
   std::ofstream(rig) << R"({"version": 1, "fps": 2, "lights": [{"type": "uniform", "radiance": [0.4, 0.45, 0.5]}]})";
   const std::string baked = (dir / "b.glb").string(), probes = (dir / "p.vdb").string();
-  const CommandRun bakeRun = prtCommand(cat("bake ", scene, " -o ", baked, " --samples 16 --probes ", probes,
-                                            " --probe-dims 4,3,4 --probe-bounds -1.2,0.05,-1.2,1.2,1.2,1.2 -q"),
-                                        dir);
+  const RunResult bakeRun = runPrt({"bake", scene, "-o", baked, "--samples", "16", "--probes", probes, "--probe-dims",
+                                    "4,3,4", "--probe-bounds", "-1.2,0.05,-1.2,1.2,1.2,1.2", "-q"});
   ASSERT_EQ(bakeRun.status, 0) << bakeRun.err;
   ASSERT_EQ(loadScene(baked).transferBands, 0);  // nothing baked: the case under test
-  const CommandRun renderRun = prtCommand(cat("render ", baked, " --rig ", rig.string(), " --probes ", probes,
-                                              " --camera Top --frames 1 --size 64x48 -q -o ", (dir / "f.exr").string()),
-                                          dir);
+  const RunResult renderRun = runPrt({"render", baked, "--rig", rig.string(), "--probes", probes, "--camera", "Top",
+                                      "--frames", "1", "--size", "64x48", "-q", "-o", (dir / "f.exr").string()});
   ASSERT_EQ(renderRun.status, 0) << renderRun.err;
   const Scene file = loadScene(baked);
   const sh::ShRgb light = loadLightRig(rig.string()).evaluate(1, 3);
@@ -377,11 +357,10 @@ TEST(RenderAnimatedReceivers, SceneOfReceiversOnlyRendersFromTheProbes) {
   EXPECT_GE(got.pixels, 9);
   EXPECT_LT(got.maxError, 1e-2);
   // Without --probes the receivers are not drawn, as in any scene, and the run says so.
-  const CommandRun noProbes =
-      prtCommand(cat("render ", baked, " --rig ", rig.string(), " --size 8x8 -o ", (dir / "g.exr").string()), dir);
+  const RunResult noProbes =
+      runPrt({"render", baked, "--rig", rig.string(), "--size", "8x8", "-o", (dir / "g.exr").string()});
   EXPECT_EQ(noProbes.status, 0) << noProbes.err;
   EXPECT_NE(noProbes.err.find("warning"), std::string::npos) << noProbes.err;
-  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -21,6 +21,7 @@
 #include "prt/light.h"
 #include "prt/light_rig.h"
 #include "prt/sh.h"
+#include "harness.h"
 #include "test_util.h"
 
 namespace {
@@ -37,28 +38,7 @@ constexpr double kPi = 3.14159265358979323846;
 std::string sourceFile(const std::string& rel) { return std::string(PRT_SOURCE_DIR) + "/" + rel; }
 const std::string kEsplanade = sourceFile("scenes/env/royal_esplanade_128.hdr");
 
-// A fresh directory per test, removed afterwards.
-class TempDir {
-public:
-  TempDir() {
-    static int counter = 0;
-    path_ = fs::temp_directory_path() / prt::cat("prt_test_light_rig_", ::getpid(), "_", counter++);
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream(file(name)) << text;
-    return file(name);
-  }
-
-private:
-  fs::path path_;
-};
+using prt::test::TempDir;
 
 // A double written for JSON without losing digits (prt::cat keeps only 6).
 std::string num(double v) {

@@ -4,9 +4,6 @@
 // reproduced exactly by trilinear weights, a wall must stop light.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "harness.h"
 #include "prt/error.h"
 #include "prt/probe_grid.h"
 #include "prt/sh.h"
@@ -68,43 +66,10 @@ float weightOfColumn(const ProbeGrid& g, const ProbeWeights& w, int ix) {
   return s;
 }
 
-// A directory of its own per test, removed at the end.
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            (std::string("prt_probe_grid_") + info->name() + "_" + std::to_string(::getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-struct RunResult {
-  int status = -1;
-  std::string output;
-};
-
-RunResult run(const std::string& command) {
-  RunResult r;
-  FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
-  if (!pipe) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, pipe)) > 0) r.output.append(buf, n);
-  const int raw = ::pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
+using test::TempDir;
 
 bool havePyopenvdb() {
-  return fs::exists(kPython) && run(std::string(kPython) + " -c 'import pyopenvdb'").status == 0;
+  return fs::exists(kPython) && test::run(kPython, {"-c", "import pyopenvdb"}).status == 0;
 }
 
 void writeText(const std::string& path, const std::string& text) {
@@ -630,11 +595,11 @@ TEST(ProbeGridVdb, VdbPrintReadsTheFile) {
   std::mt19937 rng(9);
   const std::string path = dir.file("probes.vdb");
   writeProbeGrid(randomGrid(2, glm::dvec3(0.5), rng), path, true);
-  const RunResult r = run(cat(kVdbPrint, " -l -m '", path, "'"));
-  EXPECT_EQ(r.status, 0) << r.output;
+  const test::RunResult r = test::run(kVdbPrint, {"-l", "-m", path}, {.mergeOutput = true});
+  EXPECT_EQ(r.status, 0) << r.out;
   for (const char* name : {"transfer_00_00", "transfer_03_03", "validity", "offset", "sky_visibility",
                            "irradiance_preview", "moments_mean_pos", "moments_sq_neg", "prt_format_version"})
-    EXPECT_NE(r.output.find(name), std::string::npos) << name << " not in:\n" << r.output;
+    EXPECT_NE(r.out.find(name), std::string::npos) << name << " not in:\n" << r.out;
 }
 
 // pyopenvdb (what Blender and Houdini scripts use) sees the values, the transform, the shared
@@ -659,9 +624,9 @@ print('active', *sorted({g.activeVoxelCount() for g in grids}))
 print('grids', len(grids))
 print('bands', meta['bands'], 'dims', *meta['dims'], 'seed', meta['seed'])
 )");
-  const RunResult r = run(cat(kPython, " '", script, "' '", path, "'"));
-  ASSERT_EQ(r.status, 0) << r.output;
-  std::istringstream in(r.output);
+  const test::RunResult r = test::run(kPython, {script, path}, {.mergeOutput = true});
+  ASSERT_EQ(r.status, 0) << r.out;
+  std::istringstream in(r.out);
   std::string word;
   double value = 0, wx = 0, wy = 0, wz = 0, irradiance = 0;
   long active = 0, grids = 0;
@@ -675,7 +640,7 @@ print('bands', meta['bands'], 'dims', *meta['dims'], 'seed', meta['seed'])
   EXPECT_NEAR(irradiance, M_PI, 1e-5);
   EXPECT_EQ(active, 24);  // one active count shared by every grid: the same topology
   EXPECT_EQ(grids, 81 + 8);
-  EXPECT_NE(r.output.find("bands 3 dims 4 3 2 seed 0"), std::string::npos) << r.output;
+  EXPECT_NE(r.out.find("bands 3 dims 4 3 2 seed 0"), std::string::npos) << r.out;
 }
 
 // ---- Bad files
@@ -756,8 +721,8 @@ vdb.write(dst, grids=grids, metadata=meta)
   };
   for (const auto& [mode, what] : cases) {
     const std::string bad = dir.file(cat(mode, ".vdb"));
-    const RunResult r = run(cat(kPython, " '", script, "' '", good, "' '", bad, "' ", mode));
-    ASSERT_EQ(r.status, 0) << r.output;
+    const test::RunResult r = test::run(kPython, {script, good, bad, mode}, {.mergeOutput = true});
+    ASSERT_EQ(r.status, 0) << r.out;
     expectError([&] { readProbeGrid(bad); }, bad, what);
   }
 }

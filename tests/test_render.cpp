@@ -13,9 +13,9 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
 #include <unistd.h>
 
+#include "harness.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
@@ -413,17 +413,13 @@ TEST(RenderContext, DISABLED_EglFailureChild) {
 
 TEST(RenderContext, EglFailureIsOneLine) {
   // GLVND reads its vendor list once per process, hence the child process.
-  const std::string cmd =
-      "__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json PRT_RENDER_TEST_CHILD=1 /proc/" +
-      std::to_string(::getpid()) + "/exe --gtest_also_run_disabled_tests --gtest_filter=RenderContext.DISABLED_EglFailureChild 2>&1";
-  std::FILE* p = ::popen(cmd.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  std::string out;
-  char buf[256];
-  while (std::fgets(buf, sizeof buf, p)) out += buf;
-  const int status = ::pclose(p);
-  EXPECT_EQ(status, 0) << out;
-  EXPECT_NE(out.find("[  PASSED  ] 1 test"), std::string::npos) << out;
+  const test::RunResult child =
+      test::run(cat("/proc/", ::getpid(), "/exe"),
+                {"--gtest_also_run_disabled_tests", "--gtest_filter=RenderContext.DISABLED_EglFailureChild"},
+                {.env = {{"__EGL_VENDOR_LIBRARY_FILENAMES", "/nonexistent.json"}, {"PRT_RENDER_TEST_CHILD", "1"}},
+                 .mergeOutput = true});
+  EXPECT_EQ(child.status, 0) << child.out;
+  EXPECT_NE(child.out.find("[  PASSED  ] 1 test"), std::string::npos) << child.out;
 }
 
 TEST(RenderContext, RejectsBadFrameSize) {
@@ -656,7 +652,7 @@ TEST(RenderShading, BakedFileOfTheDemoSceneMatchesOracle) {
   // (t_i = Â_l y_i(N), so t · l is the irradiance of the light at the vertex normal) written as
   // a baked .glb, loaded back and seen through the scene's own camera. Checks that world
   // transforms, materials and the baked attributes reach the renderer as the loader means them.
-  const std::string input = std::string(PRT_SOURCE_DIR) + "/scenes/cornell_open.gltf";
+  const std::string input = test::sourcePath("scenes/cornell_open.gltf");
   const int bands = 3;
   Scene scene = unshadowedCornell(input, bands);
   const std::filesystem::path out =
@@ -1264,26 +1260,13 @@ TEST(RenderReceivers, MovingReceiverFollowsItsAnimation) {
 
 // The command line: `prt render --probes --fps` on the demo scene written as a baked file, with a
 // probe grid file. Without --probes: one warning and the receiver is not drawn.
-struct Command {
-  int status = -1;
-  std::string err;
-};
+using test::RunResult;
+using test::runPrt;
 
-Command runPrt(const std::string& args, const std::filesystem::path& dir) {
-  const std::filesystem::path errFile = dir / "stderr.txt";
-  Command c;
-  const int raw = std::system(cat(PRT_EXE, " ", args, " 2> ", errFile.string()).c_str());
-  c.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  std::ifstream in(errFile);
-  c.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  return c;
-}
-
-TEST(RenderCommand, ProbesLightTheMovingReceiver) {
-  namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / cat("prt_test_render_cmd_", ::getpid());
-  fs::create_directories(dir);
-  const std::string input = std::string(PRT_SOURCE_DIR) + "/scenes/cornell_open.gltf";
+TEST(CliRender, ProbesLightTheMovingReceiver) {
+  const test::TempDir tmp("render_cmd");
+  const std::filesystem::path& dir = tmp.path();
+  const std::string input = test::sourcePath("scenes/cornell_open.gltf");
   const std::string baked = (dir / "c.glb").string(), probes = (dir / "p.vdb").string();
   writeBakedScene(input, unshadowedCornell(input, 3), "{}", baked);
   writeProbeGrid(test::identityProbeGrid(3, glm::ivec3(5), glm::dvec3(-1.0, 0.0, -1.0), glm::dvec3(0.5)), probes);
@@ -1291,8 +1274,9 @@ TEST(RenderCommand, ProbesLightTheMovingReceiver) {
   ASSERT_EQ(file.animations.size(), 1u);  // the receiver's path survives the baked file
   ASSERT_GT(animationDuration(file), 2.0);
 
-  const std::string common = cat("render ", baked, " --env ", PRT_SOURCE_DIR, "/scenes/env/white_sky_64.hdr --size 64x36 ");
-  const Command none = runPrt(common + "--frames 0-0 -o " + (dir / "n_%02d.exr").string(), dir);
+  const std::vector<std::string> common = {"render", baked, "--env", test::sourcePath("scenes/env/white_sky_64.hdr"),
+                                           "--size", "64x36"};
+  const RunResult none = runPrt(test::plus(common, {"--frames", "0-0", "-o", (dir / "n_%02d.exr").string()}));
   EXPECT_EQ(none.status, 0) << none.err;
   size_t warnings = 0;
   for (size_t p = none.err.find("warning"); p != std::string::npos; p = none.err.find("warning", p + 1)) ++warnings;
@@ -1300,7 +1284,8 @@ TEST(RenderCommand, ProbesLightTheMovingReceiver) {
   EXPECT_NE(none.err.find("receiver instance ('Receiver"), std::string::npos) << none.err;
 
   // --fps 0.5: frame 1 is at t = 2 s, where the receiver has moved up and right.
-  const Command lit = runPrt(common + "--probes " + probes + " --fps 0.5 --frames 0-1 -o " + (dir / "f_%02d.exr").string(), dir);
+  const RunResult lit = runPrt(
+      test::plus(common, {"--probes", probes, "--fps", "0.5", "--frames", "0-1", "-o", (dir / "f_%02d.exr").string()}));
   EXPECT_EQ(lit.status, 0) << lit.err;
   EXPECT_EQ(lit.err.find("warning"), std::string::npos) << lit.err;
   const ImageRgb unlit = loadHdrImage((dir / "n_00.exr").string());
@@ -1309,11 +1294,10 @@ TEST(RenderCommand, ProbesLightTheMovingReceiver) {
   EXPECT_GT(maxDifference(f0, unlit), 0.1);  // the receiver is drawn
   EXPECT_GT(maxDifference(f0, f1), 0.1);     // and moves
 
-  const Command bad = runPrt(common + "--fps 0 -o " + (dir / "b_%02d.exr").string(), dir);
+  const RunResult bad = runPrt(test::plus(common, {"--fps", "0", "-o", (dir / "b_%02d.exr").string()}));
   EXPECT_EQ(bad.status, 1);
   EXPECT_NE(bad.err.find("--fps"), std::string::npos) << bad.err;
   EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
-  fs::remove_all(dir);
 }
 
 }  // namespace

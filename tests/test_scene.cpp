@@ -14,6 +14,7 @@
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
 
+#include "harness.h"
 #include "prt/error.h"
 #include "prt/scene.h"
 #include "test_util.h"

@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cstdint>
 #include <exception>
 #include <functional>
 #include <string>
@@ -12,22 +11,6 @@
 #include "prt/probe_grid.h"
 
 namespace prt::test {
-
-/// Standard base64 with padding (data: URIs in glTF files written by the tests).
-inline std::string base64(const std::string& in) {
-  static const char* digits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  for (size_t i = 0; i < in.size(); i += 3) {
-    uint32_t n = uint32_t(uint8_t(in[i])) << 16;
-    if (i + 1 < in.size()) n |= uint32_t(uint8_t(in[i + 1])) << 8;
-    if (i + 2 < in.size()) n |= uint32_t(uint8_t(in[i + 2]));
-    out += digits[(n >> 18) & 63];
-    out += digits[(n >> 12) & 63];
-    out += i + 1 < in.size() ? digits[(n >> 6) & 63] : '=';
-    out += i + 2 < in.size() ? digits[n & 63] : '=';
-  }
-  return out;
-}
 
 /// The message of the prt::Error that f throws, or a marker that fails every check on it.
 inline std::string errorOf(const std::function<void()>& f) {

@@ -4,9 +4,6 @@
 // baked file read by vdb_print and pyopenvdb; --probe-half; option errors; `prt info`.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -21,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "harness.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
@@ -38,29 +36,12 @@ namespace fs = std::filesystem;
 constexpr const char* kPython = "/usr/bin/python3";  // Debian's: the one with pyopenvdb
 constexpr const char* kVdbPrint = "/usr/bin/vdb_print";
 
-struct Exec {
-  int status = -1;
-  std::string out, err;
-};
+using test::RunResult;
+using Args = std::vector<std::string>;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+std::string slurp(const fs::path& p) { return test::fileBytes(p); }
 
-// Runs a shell command line with stdout and stderr captured apart, in files of `dir`.
-Exec execIn(const fs::path& dir, const std::string& command) {
-  const fs::path out = dir / ".stdout", err = dir / ".stderr";
-  const int raw = std::system((command + " >'" + out.string() + "' 2>'" + err.string() + "'").c_str());
-  Exec r{WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, slurp(out), slurp(err)};
-  fs::remove(out);
-  fs::remove(err);
-  return r;
-}
-
-std::string sourceFile(const std::string& rel) { return std::string(PRT_SOURCE_DIR) + "/" + rel; }
+std::string sourceFile(const std::string& rel) { return test::sourcePath(rel); }
 
 std::vector<std::string> splitCsv(const std::string& line) {
   std::vector<std::string> out;
@@ -74,24 +55,27 @@ std::vector<std::string> splitCsv(const std::string& line) {
 // probes over its default bounds: flat, so padded to y ∈ [−1, 1]; 6³ probes, spacing 1/3, the
 // lattice at the cell centres ±0.833. One bounce: the probes see the plane with its direct light
 // (K − 1 = 0 bounces), which is all the light it has, as the plane has nothing to bounce off.
-class ProbeCli : public ::testing::Test {
+class CliProbe : public ::testing::Test {
 protected:
   static void SetUpTestSuite() {
-    dir_ = fs::temp_directory_path() / ("prt_probe_cli_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    const std::string bake = cat("bake ", sourceFile("scenes/plane.gltf"), " --samples 256 --bounces 1 --seed 7",
-                                 " --probe-dims 6,6,6 --probe-samples 4096 -q");
-    bakeStatus_ = prt(cat(bake, " -o ", file("p.glb"), " --probes ", file("p.vdb"))).status;
-    lightStatus_ = prt(cat("light ", env(), " --bands 3 -o ", file("light.json"))).status;
+    tmp_ = new test::TempDir("cli_probe");
+    dir_ = tmp_->path();
+    bakeStatus_ = prt({"bake", sourceFile("scenes/plane.gltf"), "--samples", "256", "--bounces", "1", "--seed", "7",
+                       "--probe-dims", "6,6,6", "--probe-samples", "4096", "-q", "-o", file("p.glb"), "--probes",
+                       file("p.vdb")})
+                      .status;
+    lightStatus_ = prt({"light", env(), "--bands", "3", "-o", file("light.json")}).status;
   }
-  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static void TearDownTestSuite() {
+    delete tmp_;
+    tmp_ = nullptr;
+  }
   void SetUp() override {
     ASSERT_EQ(bakeStatus_, 0);
     ASSERT_EQ(lightStatus_, 0);
   }
 
-  static Exec prt(const std::string& args) { return execIn(dir_, std::string(PRT_EXE) + " " + args); }
+  static RunResult prt(const Args& args) { return test::runPrt(args); }
   static std::string file(const std::string& name) { return (dir_ / name).string(); }
   // A sky that is far from uniform, so the normal and the plane's occlusion matter.
   static std::string env() { return sourceFile("scenes/env/royal_esplanade_128.hdr"); }
@@ -109,7 +93,7 @@ protected:
   static std::vector<std::string> queryPoints(const std::string& vdb, const std::string& header,
                                               const std::string& rows) {
     std::ofstream(file("in.csv")) << header << "\n" << rows;
-    const Exec q = prt(cat("probe ", vdb, " --env ", env(), " --points ", file("in.csv"), " -o ", file("out.csv")));
+    const RunResult q = prt({"probe", vdb, "--env", env(), "--points", file("in.csv"), "-o", file("out.csv")});
     EXPECT_EQ(q.status, 0) << q.err;
     std::istringstream out(slurp(file("out.csv")));
     std::vector<std::string> lines;
@@ -117,12 +101,14 @@ protected:
     return lines;
   }
 
+  static test::TempDir* tmp_;
   static fs::path dir_;
   static int bakeStatus_, lightStatus_;
 };
 
-fs::path ProbeCli::dir_;
-int ProbeCli::bakeStatus_ = -1, ProbeCli::lightStatus_ = -1;
+test::TempDir* CliProbe::tmp_ = nullptr;
+fs::path CliProbe::dir_;
+int CliProbe::bakeStatus_ = -1, CliProbe::lightStatus_ = -1;
 
 struct Point {
   std::string text;  // x,y,z,nx,ny,nz as written to the CSV
@@ -152,7 +138,7 @@ std::vector<Point> randomPoints(int count, uint32_t seed) {
 // here (std::mt19937 cosine-weighted directions traced with Embree over the baked .glb's
 // triangles; the sky is the light's SH, the plane's radiance ρ/π · (t · l) with the transfer read
 // from the baked .glb), against `prt probe --points`.
-TEST_F(ProbeCli, PointsMatchIndependentMonteCarlo) {
+TEST_F(CliProbe, PointsMatchIndependentMonteCarlo) {
   const std::vector<Point> pts = randomPoints(20, 2024);
   std::string rows;
   for (const Point& p : pts) rows += p.text + "\n";
@@ -197,7 +183,7 @@ TEST_F(ProbeCli, PointsMatchIndependentMonteCarlo) {
 
 // --at with --normal, --points and the library (readProbeGrid + relightProbes + receiverRadiance
 // + sh::irradiance) give the same irradiance for the same point: one rule in one place.
-TEST_F(ProbeCli, AtAgreesWithPointsAndTheLibrary) {
+TEST_F(CliProbe, AtAgreesWithPointsAndTheLibrary) {
   std::vector<Point> pts = randomPoints(4, 7);
   pts.push_back({"0.1,1.5,0.2,0,1,0", {0.1f, 1.5f, 0.2f}, {0, 1, 0}});  // outside the domain
   std::string rows;
@@ -209,8 +195,8 @@ TEST_F(ProbeCli, AtAgreesWithPointsAndTheLibrary) {
   const std::vector<glm::vec3> relit = relightProbes(grid, l);
   for (size_t k = 0; k < pts.size(); ++k) {
     const std::vector<std::string> f = splitCsv(pts[k].text);
-    const Exec at = prt(cat("probe ", file("p.vdb"), " --env ", env(), " --at ", f[0], ",", f[1], ",", f[2],
-                            " --normal ", f[3], ",", f[4], ",", f[5]));
+    const RunResult at = prt({"probe", file("p.vdb"), "--env", env(), "--at", cat(f[0], ",", f[1], ",", f[2]),
+                              "--normal", cat(f[3], ",", f[4], ",", f[5])});
     ASSERT_EQ(at.status, 0) << at.err;
     const nlohmann::json j = nlohmann::json::parse(at.out);
     const std::vector<std::string> row = splitCsv(out[k + 1]);
@@ -235,8 +221,8 @@ TEST_F(ProbeCli, AtAgreesWithPointsAndTheLibrary) {
   glm::dvec3 lo, hi;
   probeDomain(grid, lo, hi);
   const glm::vec3 x(0.1f, float(hi.y + 0.5 * grid.spacing.y), 0.2f), up(0.0f, 1.0f, 0.0f);
-  const Exec fade = prt(cat("probe ", file("p.vdb"), " --env ", env(), " --at ", x.x, ",", x.y, ",", x.z,
-                            " --normal 0,1,0"));
+  const RunResult fade =
+      prt({"probe", file("p.vdb"), "--env", env(), "--at", cat(x.x, ",", x.y, ",", x.z), "--normal", "0,1,0"});
   ASSERT_EQ(fade.status, 0) << fade.err;
   const nlohmann::json j = nlohmann::json::parse(fade.out);
   EXPECT_EQ(j["status"], "fade");
@@ -248,7 +234,7 @@ TEST_F(ProbeCli, AtAgreesWithPointsAndTheLibrary) {
 
 // The CSV path keeps the input's own text (0.01 stays "0.01", extra columns and spacing are
 // kept) and appends E_r,E_g,E_b,status.
-TEST_F(ProbeCli, PointsRepeatTheInputVerbatim) {
+TEST_F(CliProbe, PointsRepeatTheInputVerbatim) {
   const std::vector<std::string> out =
       queryPoints(file("p.vdb"), "x,y,z,nx,ny,nz,name", "0.01,0.5,-0.1,0,1,0,first\n 0.3 ,1e-1,0.25,1,0,0,second\n");
   ASSERT_EQ(out.size(), 3u);
@@ -264,7 +250,7 @@ TEST_F(ProbeCli, PointsRepeatTheInputVerbatim) {
 }
 
 // A malformed row: one line naming FILE:LINE and the problem, exit 1, no output file.
-TEST_F(ProbeCli, MalformedPointsAreOneLineWithFileAndLine) {
+TEST_F(CliProbe, MalformedPointsAreOneLineWithFileAndLine) {
   const std::string in = file("bad.csv"), out = file("bad_out.csv");
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"x,y,z,nx,ny,nz\n0,0.5,0,0,1,0\n0,abc,0,0,1,0\n", ":3: y 'abc' is not a finite number"},
@@ -279,7 +265,7 @@ TEST_F(ProbeCli, MalformedPointsAreOneLineWithFileAndLine) {
   };
   for (const auto& [text, message] : cases) {
     std::ofstream(in) << text;
-    const Exec q = prt(cat("probe ", file("p.vdb"), " --env ", env(), " --points ", in, " -o ", out));
+    const RunResult q = prt({"probe", file("p.vdb"), "--env", env(), "--points", in, "-o", out});
     EXPECT_EQ(q.status, 1) << text;
     EXPECT_EQ(q.err.rfind(cat("prt: ", in, message), 0), 0u) << q.err;
     EXPECT_EQ(std::count(q.err.begin(), q.err.end(), '\n'), 1) << q.err;
@@ -288,9 +274,9 @@ TEST_F(ProbeCli, MalformedPointsAreOneLineWithFileAndLine) {
 }
 
 // vdb_print lists the documented grids of the baked file, with their metadata.
-TEST_F(ProbeCli, VdbPrintListsTheBakedGrids) {
+TEST_F(CliProbe, VdbPrintListsTheBakedGrids) {
   if (!fs::exists(kVdbPrint)) GTEST_SKIP() << kVdbPrint << " not installed";
-  const Exec r = execIn(dir_, cat(kVdbPrint, " -l -m '", file("p.vdb"), "'"));
+  const RunResult r = test::run(kVdbPrint, {"-l", "-m", file("p.vdb")});
   ASSERT_EQ(r.status, 0) << r.err;
   std::vector<std::string> names = {"validity", "offset", "sky_visibility", "irradiance_preview", "moments_mean_pos",
                                     "moments_mean_neg", "moments_sq_pos", "moments_sq_neg"};
@@ -303,8 +289,8 @@ TEST_F(ProbeCli, VdbPrintListsTheBakedGrids) {
 
 // pyopenvdb reads the baked file's metadata (the bake's settings) and its transfer: at a valid
 // probe's lattice point, `prt probe --at` gives c = M · l with M exactly as pyopenvdb reads it.
-TEST_F(ProbeCli, PyopenvdbReadsTheBakedFile) {
-  if (!fs::exists(kPython) || execIn(dir_, cat(kPython, " -c 'import pyopenvdb'")).status != 0)
+TEST_F(CliProbe, PyopenvdbReadsTheBakedFile) {
+  if (!fs::exists(kPython) || test::run(kPython, {"-c", "import pyopenvdb"}).status != 0)
     GTEST_SKIP() << "pyopenvdb not available for " << kPython;
   std::ofstream(file("read.py")) << R"(import sys
 import pyopenvdb as vdb
@@ -317,7 +303,7 @@ for j in range(9):
     for i in range(9):
         print('m', j, i, *g['transfer_%02d_%02d' % (j, i)].getConstAccessor().getValue(ijk))
 )";
-  const Exec r = execIn(dir_, cat(kPython, " '", file("read.py"), "' '", file("p.vdb"), "'"));
+  const RunResult r = test::run(kPython, {file("read.py"), file("p.vdb")});
   ASSERT_EQ(r.status, 0) << r.err;
   std::istringstream in(r.out);
   std::string word, scene, seed;
@@ -339,7 +325,8 @@ for j in range(9):
     in >> m[j][i][0] >> m[j][i][1] >> m[j][i][2];
   }
   ASSERT_TRUE(bool(in)) << r.out;
-  const Exec at = prt(cat("probe ", file("p.vdb"), " --env ", env(), " --at ", std::setprecision(17), wx, ",", wy, ",", wz));
+  const RunResult at =
+      prt({"probe", file("p.vdb"), "--env", env(), "--at", cat(std::setprecision(17), wx, ",", wy, ",", wz)});
   ASSERT_EQ(at.status, 0) << at.err;
   const nlohmann::json j = nlohmann::json::parse(at.out);
   // On a lattice point (up to float rounding of its world position): that probe alone.
@@ -366,11 +353,11 @@ for j in range(9):
 // terms of one sign, so 1e-3 of E bounds it at these points). A 16³ grid: on tiny grids the
 // per-grid overhead of 89 grids dominates and half saves nothing (the 6³ file of this suite
 // was measured at 999 KB with --probe-half, 799 KB without).
-TEST_F(ProbeCli, ProbeHalfIsSmallerAndWithinHalfPrecision) {
-  const std::string bake = cat("bake ", sourceFile("scenes/plane.gltf"), " -o ", file("16.glb"),
-                               " --samples 16 --probe-dims 16,16,16 --probe-samples 64 -q --probes ");
-  ASSERT_EQ(prt(bake + file("f16.vdb")).status, 0);
-  ASSERT_EQ(prt(bake + file("h16.vdb") + " --probe-half").status, 0);
+TEST_F(CliProbe, ProbeHalfIsSmallerAndWithinHalfPrecision) {
+  const Args bake = {"bake", sourceFile("scenes/plane.gltf"), "-o", file("16.glb"), "--samples", "16", "--probe-dims",
+                     "16,16,16", "--probe-samples", "64", "-q", "--probes"};
+  ASSERT_EQ(prt(test::plus(bake, {file("f16.vdb")})).status, 0);
+  ASSERT_EQ(prt(test::plus(bake, {file("h16.vdb"), "--probe-half"})).status, 0);
   // Measured 3.88 MB and 2.70 MB (0.70).
   EXPECT_LT(fs::file_size(file("h16.vdb")), fs::file_size(file("f16.vdb")) * 4 / 5);
   const std::vector<Point> pts = randomPoints(10, 5);
@@ -391,35 +378,38 @@ TEST_F(ProbeCli, ProbeHalfIsSmallerAndWithinHalfPrecision) {
 
 // Probe options of prt bake: conflicts, options without --probes and malformed values are usage
 // errors (exit 2) in one line naming the option; nothing is written.
-TEST_F(ProbeCli, ProbeOptionErrorsAreOneLine) {
+TEST_F(CliProbe, ProbeOptionErrorsAreOneLine) {
   const fs::path d = dir_ / "options";
   fs::create_directories(d);
-  const std::string base = cat("bake ", sourceFile("scenes/plane.gltf"), " -o ", (d / "o.glb").string(), " -q ");
-  const std::string probes = cat(" --probes ", (d / "o.vdb").string());
-  const std::vector<std::pair<std::string, std::string>> usage = {
-      {probes + " --probe-dims 4,4,4 --probe-spacing 0.5", "--probe-spacing excludes --probe-dims"},
-      {" --probe-dims 4,4,4", "--probe-dims requires --probes"},
-      {" --probe-spacing 0.5", "--probe-spacing requires --probes"},
-      {" --probe-bounds 0,0,0,1,1,1", "--probe-bounds requires --probes"},
-      {" --probe-samples 64", "--probe-samples requires --probes"},
-      {" --probe-half", "--probe-half requires --probes"},
-      {probes + " --probe-dims 8x8x9", "--probe-dims: '8x8x9' is not three integer counts"},
-      {probes + " --probe-dims 4,4", "--probe-dims: '4,4' is not three integer counts"},
-      {probes + " --probe-dims 4,4,4.5", "--probe-dims: '4,4,4.5' is not three integer counts"},
-      {probes + " --probe-dims 4,4,4,", "--probe-dims: '4,4,4,' is not three integer counts"},
-      {probes + " --probe-bounds 0,0,0,1,1", "--probe-bounds: '0,0,0,1,1' is not six numbers"},
-      {probes + " --probe-bounds 0,0,0,1,1,inf", "--probe-bounds: '0,0,0,1,1,inf' is not six numbers"},
-      {probes + " --probe-spacing -1", "--probe-spacing"},
+  const Args base = {"bake", sourceFile("scenes/plane.gltf"), "-o", (d / "o.glb").string(), "-q"};
+  const Args probes = {"--probes", (d / "o.vdb").string()};
+  using test::plus;
+  const std::vector<std::pair<Args, std::string>> usage = {
+      {plus(probes, {"--probe-dims", "4,4,4", "--probe-spacing", "0.5"}), "--probe-spacing excludes --probe-dims"},
+      {{"--probe-dims", "4,4,4"}, "--probe-dims requires --probes"},
+      {{"--probe-spacing", "0.5"}, "--probe-spacing requires --probes"},
+      {{"--probe-bounds", "0,0,0,1,1,1"}, "--probe-bounds requires --probes"},
+      {{"--probe-samples", "64"}, "--probe-samples requires --probes"},
+      {{"--probe-half"}, "--probe-half requires --probes"},
+      {plus(probes, {"--probe-dims", "8x8x9"}), "--probe-dims: '8x8x9' is not three integer counts"},
+      {plus(probes, {"--probe-dims", "4,4"}), "--probe-dims: '4,4' is not three integer counts"},
+      {plus(probes, {"--probe-dims", "4,4,4.5"}), "--probe-dims: '4,4,4.5' is not three integer counts"},
+      {plus(probes, {"--probe-dims", "4,4,4,"}), "--probe-dims: '4,4,4,' is not three integer counts"},
+      {plus(probes, {"--probe-bounds", "0,0,0,1,1"}), "--probe-bounds: '0,0,0,1,1' is not six numbers"},
+      {plus(probes, {"--probe-bounds", "0,0,0,1,1,inf"}), "--probe-bounds: '0,0,0,1,1,inf' is not six numbers"},
+      {plus(probes, {"--probe-spacing", "-1"}), "--probe-spacing"},
   };
-  for (const auto& [args, message] : usage) {
-    const Exec r = prt(base + args);
+  for (const auto& [extra, message] : usage) {
+    const RunResult r = prt(plus(base, extra));
+    std::string args;
+    for (const std::string& a : extra) args += " " + a;
     EXPECT_EQ(r.status, 2) << args << ": " << r.err;
     EXPECT_NE(r.err.find(message), std::string::npos) << args << ": " << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_TRUE(fs::is_empty(d)) << args;
   }
   // Values that parse but make no grid: bad input (exit 1), one line.
-  const Exec flat = prt(base + probes + " --probe-bounds -1,0,-1,1,0.0000001,1");
+  const RunResult flat = prt(plus(plus(base, probes), {"--probe-bounds", "-1,0,-1,1,0.0000001,1"}));
   EXPECT_EQ(flat.status, 1) << flat.err;
   EXPECT_NE(flat.err.find("probe bounds: the box is flat (y extent"), std::string::npos) << flat.err;
   EXPECT_EQ(std::count(flat.err.begin(), flat.err.end(), '\n'), 1) << flat.err;
@@ -429,9 +419,8 @@ TEST_F(ProbeCli, ProbeOptionErrorsAreOneLine) {
 // prt info: a file that is neither glTF nor VDB is named for what it is, and the next file is
 // still described; a scene shows its size, memory, cameras and animations; a probe file says
 // what its memory figures mean.
-TEST_F(ProbeCli, InfoNamesFileKindsAndDescribesScenes) {
-  const Exec r = prt(cat("info ", env(), " ", sourceFile("scenes/cornell_open.gltf"), " ", file("p.vdb"), " ",
-                         file("p.glb")));
+TEST_F(CliProbe, InfoNamesFileKindsAndDescribesScenes) {
+  const RunResult r = prt({"info", env(), sourceFile("scenes/cornell_open.gltf"), file("p.vdb"), file("p.glb")});
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err, cat("prt: ", env(),
                        ": not a glTF scene (.gltf, .glb) or a probe grid (.vdb): the file is a Radiance HDR image\n"));
@@ -443,17 +432,54 @@ TEST_F(ProbeCli, InfoNamesFileKindsAndDescribesScenes) {
         std::string("transfer    3 bands")})
     EXPECT_NE(r.out.find(s), std::string::npos) << "missing '" << s << "' in:\n" << r.out;
   EXPECT_EQ(r.out.find("as VDB grids"), std::string::npos) << r.out;
-  const Exec json = prt("info " + file("light.json"));
+  const RunResult json = prt({"info", file("light.json")});
   EXPECT_EQ(json.status, 1);
   EXPECT_NE(json.err.find("light.json: not a glTF scene (.gltf, .glb) or a probe grid (.vdb): the file is JSON"),
             std::string::npos)
       << json.err;
   // A file claiming to be glTF by its extension is reported by the glTF reader.
   std::ofstream(file("fake.glb")) << "not a scene";
-  const Exec fake = prt("info " + file("fake.glb"));
+  const RunResult fake = prt({"info", file("fake.glb")});
   EXPECT_EQ(fake.status, 1);
   EXPECT_NE(fake.err.find("fake.glb"), std::string::npos) << fake.err;
   EXPECT_EQ(fake.err.find("not a glTF scene (.gltf"), std::string::npos) << fake.err;
+}
+
+// Probes through the command line: bake (a bake of its own, not the suite's), inspect, query.
+// Above the unoccluded plane, under a uniform sky of radiance 1, an upward receiver gets
+// irradiance π (the plane is behind it).
+TEST_F(CliProbe, BakeInfoAndPointsQuery) {
+  test::TempDir d;
+  std::string baked = d.file("p.glb"), vdb = d.file("p.vdb");
+  RunResult b = prt({"bake", sourceFile("scenes/plane.gltf"), "-o", baked, "--samples", "64", "--probes", vdb, "--probe-dims",
+                        "3,3,3", "--probe-bounds", "-0.5,0.2,-0.5,0.5,1.2,0.5", "--probe-samples", "1024", "-q"});
+  ASSERT_EQ(b.status, 0) << b.err;
+  RunResult info = prt({"info", vdb});
+  ASSERT_EQ(info.status, 0) << info.err;
+  EXPECT_NE(info.out.find("27 active"), std::string::npos) << info.out;
+  const std::string in = d.write("in.csv", "x,y,z,nx,ny,nz\n0,0.5,0,0,1,0\n0.1,0.9,-0.2,0,1,0\n");
+  RunResult q = prt({"probe", vdb, "--env", sourceFile("scenes/env/white_sky_64.hdr"), "--points", in, "-o", d.file("out.csv")});
+  ASSERT_EQ(q.status, 0) << q.err;
+  std::ifstream out(d.file("out.csv"));
+  std::string line;
+  std::getline(out, line);
+  EXPECT_EQ(line, "x,y,z,nx,ny,nz,E_r,E_g,E_b,status");
+  int rows = 0;
+  while (std::getline(out, line)) {
+    EXPECT_EQ(line.substr(line.rfind(',') + 1), "lattice") << line;
+    line.erase(line.rfind(','));
+    double e = std::stod(line.substr(line.rfind(',') + 1));
+    // The probes' direct part integrates y_j y_i with 1024 Sobol directions (~1e-3); the
+    // 3-band irradiance of a constant sky is exact. 1% bounds it.
+    EXPECT_NEAR(e, M_PI, 0.01 * M_PI) << line;
+    ++rows;
+  }
+  EXPECT_EQ(rows, 2);
+  // Outside the grid: the unoccluded light, as the renderer shows it, and said so.
+  RunResult far = prt({"probe", vdb, "--env", sourceFile("scenes/env/white_sky_64.hdr"), "--at", "0,100,0"});
+  EXPECT_EQ(far.status, 0) << far.err;
+  EXPECT_NE(far.out.find("\"status\": \"outside\""), std::string::npos) << far.out;
+  EXPECT_NE(far.err.find("outside"), std::string::npos) << far.err;
 }
 
 }  // namespace
