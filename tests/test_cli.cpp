@@ -71,8 +71,8 @@ bool dirHoldsOnly(const fs::path& dir, const std::vector<std::string>& names) {
   return n == names.size();
 }
 
-void expectCleanFailure(const CliRun& r, const std::string& mention, const fs::path& dir) {
-  EXPECT_EQ(r.status, 1) << r.err;
+void expectCleanFailure(const CliRun& r, const std::string& mention, const fs::path& dir, int status = 1) {
+  EXPECT_EQ(r.status, status) << r.err;
   EXPECT_EQ(lineCount(r.err), 1) << r.err;
   EXPECT_NE(r.err.find(mention), std::string::npos) << r.err;
   EXPECT_TRUE(dirHoldsOnly(dir, {})) << "output left behind";
@@ -191,11 +191,11 @@ TEST(Cli, RelightRefusesBadMapAndLeavesNothing) {
               " --csv " + (d / "lit.csv").string());
   expectCleanFailure(r, "prt_cli_not_a_map.hdr", d);
   CliRun r2 = prt("relight " + baked.string() + " -o " + (d / "lit.glb").string());
-  EXPECT_EQ(r2.status, 1);
+  EXPECT_EQ(r2.status, 2);
   EXPECT_NE(r2.err.find("no lighting"), std::string::npos) << r2.err;
   CliRun r3 = prt("relight " + baked.string() + " --env " + scene("env/white_sky_64.hdr") + " --window bogus -o " +
                (d / "lit.glb").string());
-  expectCleanFailure(r3, "bogus", d);
+  expectCleanFailure(r3, "bogus", d, 2);
 }
 
 // Orientation through the whole chain: a map lit only around +X (u = 0.5) gives positive
@@ -285,7 +285,7 @@ TEST(CliRender, FramesOnBothBackEndsAndCleanErrors) {
   }
   CliRun bad = prt("render " + baked + " --env " + scene("env/white_sky_64.hdr") + " --gl vulkan -o " +
                    (d / "x_%02d.exr").string());
-  EXPECT_EQ(bad.status, 1);
+  EXPECT_EQ(bad.status, 2);
   EXPECT_EQ(lineCount(bad.err), 1) << bad.err;
   EXPECT_FALSE(fs::exists(d / "x_00.exr"));
 }
@@ -407,22 +407,22 @@ TEST(CliRig, BadRigMapCameraOrBackEndIsOneLineAndWritesNothing) {
                      out);
   expectCleanFailure(prt(render + " --env /nonexistent/sky.hdr"), "/nonexistent/sky.hdr", out);
   expectCleanFailure(prt(render + " --env " + esplanade() + " --camera nope"), "no camera named 'nope'", out);
-  expectCleanFailure(prt(render + " --env " + esplanade() + " --gl vulkan"), "vulkan", out);
+  expectCleanFailure(prt(render + " --env " + esplanade() + " --gl vulkan"), "vulkan", out, 2);
   expectCleanFailure(prt(render + " --env " + esplanade() + " --exr-compression lzma"),
-                     "--exr-compression lzma: expected zip, piz or none", out);
-  expectCleanFailure(prt(render + " --rig " + bad.string() + " --env " + esplanade()), "--rig and --env", out);
+                     "--exr-compression: 'lzma' is not zip, piz or none", out, 2);
+  expectCleanFailure(prt(render + " --rig " + bad.string() + " --env " + esplanade()), "--rig excludes --env", out, 2);
   // A GL back end that cannot start: libglvnd finds no EGL vendor library.
   ::setenv("__EGL_VENDOR_LIBRARY_FILENAMES", "/nonexistent/vendor.json", 1);
   CliRun noEgl = prt(render + " --env " + esplanade() + " --gl egl");
   ::unsetenv("__EGL_VENDOR_LIBRARY_FILENAMES");
   expectCleanFailure(noEgl, "EGL: no display", out);
-  expectCleanFailure(prt(render + " --env " + esplanade() + " --env-rotate 1:x"), "--env-rotate 1:x", out);
+  expectCleanFailure(prt(render + " --env " + esplanade() + " --env-rotate 1:x"), "--env-rotate 1:x", out, 2);
   expectCleanFailure(prt(render + " --sun-elevation 100"), "--sun-elevation: elevation must be in [-90, 90]", out);
   expectCleanFailure(prt(render + " --env " + esplanade() + " --env-axis 0,0,0"), "--env-axis: direction is zero", out);
   // Stills: --frame without a rig, and START:END without a frame range.
-  expectCleanFailure(prt("light --env " + esplanade() + " --frame 2 -o " + (out / "l.json").string()), "--frame", out);
+  expectCleanFailure(prt("light --env " + esplanade() + " --frame 2 -o " + (out / "l.json").string()), "--frame", out, 2);
   expectCleanFailure(prt("light --env " + esplanade() + " --env-rotate 0:90 -o " + (out / "l.json").string()),
-                     "START:END needs a frame range", out);
+                     "START:END needs a frame range", out, 2);
 }
 
 TEST(CliRender, Mp4ThroughFfmpeg) {

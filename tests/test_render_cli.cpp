@@ -233,8 +233,9 @@ TEST(RenderCli, AFailedWriteStopsTheRunWithOneLine) {
   EXPECT_EQ(loadHdrImage((out / "f_01.exr").string()).width, 48);
 }
 
-// Each bad value is one line, exit 1, and nothing written (the output folder stays absent:
-// -o's folder is created only when the first frame is written).
+// Each bad value is one line, exit 2 for a usage error and 1 for bad input (a file, a folder, the
+// GL), and nothing written (the output folder stays absent: -o's folder is created only when
+// the first frame is written).
 TEST(RenderCli, BadOptionsAreOneLineAndWriteNothing) {
   const fs::path d = freshDir("bad_options");
   const std::string glb = bake(planeWithCamera(d), d, "plane_camera");
@@ -242,6 +243,7 @@ TEST(RenderCli, BadOptionsAreOneLineAndWriteNothing) {
   const std::string frames = (out / "f_%04d.exr").string();
   struct Case {
     std::string args, message;
+    int status = 2;
   };
   const std::vector<Case> cases = {
       {"--frames 0-1junk -o " + frames, "--frames 0-1junk: expected A-B"},
@@ -258,24 +260,24 @@ TEST(RenderCli, BadOptionsAreOneLineAndWriteNothing) {
       {"-o " + (out / "f_%5d.exr").string(), "bad frame field '%5d'"},
       {"-o " + (out / "f_%d_%d.exr").string(), "more than one '%'"},
       {"-o " + (out / "%d/f.exr").string(), "the frame field must be in the file name"},
-      {"-o " + glb + "/f.exr", "is not a folder"},
-      {"--contact-sheet " + glb + "/s.png -o " + frames, "--contact-sheet " + glb + "/s.png: '" + glb + "' is not a folder"},
-      {"--camera Side --orbit-azimuth 10 -o " + frames, "--camera and --orbit-azimuth: give either"},
-      {"--orbit-fov 180 -o " + frames, "--orbit-fov 180: the vertical field of view must be between 0 and 180"},
-      {"--orbit-elevation 90 -o " + frames, "--orbit-elevation 90: must be within -89..89"},
-      {"--orbit-distance 0 -o " + frames, "--orbit-distance 0: must be > 0"},
-      {"--orbit-target 1,nan,0 -o " + frames, "--orbit-target: not three finite numbers"},
-      {"--camera Front -o " + frames, "no camera named 'Front'"},
-      {"--probe-lookup texel -o " + frames, "--probe-lookup texel: expected pixel or vertex"},
-      {"--background blue -o " + frames, "--background blue: expected black or sky"},
-      {"--msaa 3 -o " + frames, "--msaa 3: expected 1, 2, 4, 8"},
-      {"--msaa 64 -o " + frames, "--msaa 64: llvmpipe"},
+      {"-o " + glb + "/f.exr", "is not a folder", 1},
+      {"--contact-sheet " + glb + "/s.png -o " + frames, "--contact-sheet " + glb + "/s.png: '" + glb + "' is not a folder", 1},
+      {"--camera Side --orbit-azimuth 10 -o " + frames, "--camera excludes --orbit-azimuth"},
+      {"--orbit-fov 180 -o " + frames, "--orbit-fov: 180 is not a finite number between 0 and 180"},
+      {"--orbit-elevation 90 -o " + frames, "--orbit-elevation: 90 is not a finite number within -89..89"},
+      {"--orbit-distance 0 -o " + frames, "--orbit-distance: 0 is not a finite number > 0"},
+      {"--orbit-target 1,nan,0 -o " + frames, "--orbit-target: nan is not a finite number"},
+      {"--camera Front -o " + frames, "no camera named 'Front'", 1},
+      {"--probe-lookup texel -o " + frames, "--probe-lookup: 'texel' is not pixel or vertex"},
+      {"--background blue -o " + frames, "--background: 'blue' is not black or sky"},
+      {"--msaa 3 -o " + frames, "--msaa: 3 is not a power of two: 1, 2, 4, 8"},
+      {"--msaa 64 -o " + frames, "--msaa 64: llvmpipe", 1},
       {"--frames 0-20000 --size 100x100 --contact-sheet " + (out / "s.png").string() + " -o " + frames,
        "--contact-sheet " + (out / "s.png").string() + ": 20001 frames make a 14482x14380 sheet"},
   };
   for (const Case& c : cases) {
     const Result r = prt(cat("render ", glb, " --env ", whiteSky(), " ", c.args), d);
-    EXPECT_EQ(r.status, 1) << c.args << "\n" << r.err;
+    EXPECT_EQ(r.status, c.status) << c.args << "\n" << r.err;
     EXPECT_EQ(lines(r.err), 1) << c.args << "\n" << r.err;
     EXPECT_NE(r.err.find(c.message), std::string::npos) << c.args << "\n" << r.err;
     EXPECT_FALSE(fs::exists(out)) << c.args << ": output folder created";
