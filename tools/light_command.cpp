@@ -11,10 +11,9 @@
 namespace prt::tools {
 
 void addLight(CLI::App& cmd, LightArgs& a) {
-  cmd.add_option("env", a.light.env, "Environment map (.exr or .hdr)");
   cmd.add_option("-o,--output", a.output, "Output JSON")->required();
   cmd.add_option("--bands", a.bands, "SH bands (n bands = n² coefficients)")->check(kBandsRange)->capture_default_str();
-  addLightOptions(cmd, a.light);
+  addLightOptions(cmd, a.light, /*animated=*/false, /*envPositional=*/true);
 }
 
 int runLight(const LightArgs& a) {

@@ -57,7 +57,7 @@ Track constantTrack(const glm::dvec3& v, const char* option) {
 
 }  // namespace
 
-void addLightOptions(CLI::App& app, LightOptions& o, bool animated) {
+void addLightOptions(CLI::App& app, LightOptions& o, bool animated, bool envPositional) {
   o.animated = animated;
   const char* angleForm = animated ? "DEG or START:END (linear across --frames)" : "DEG";
   CLI::Option* rig =
@@ -66,7 +66,9 @@ void addLightOptions(CLI::App& app, LightOptions& o, bool animated) {
     app.add_option("--frame", o.frame, "Frame of the --rig to use (fractional allowed)")
         ->check(finite())
         ->capture_default_str();
-  CLI::Option* env = app.add_option("--env", o.env, "Environment map, equirectangular (.exr or .hdr), linear radiance");
+  // One option for both spellings, so that --env-rotate and the others see the map either way.
+  CLI::Option* env = app.add_option(envPositional ? "env,--env" : "--env", o.env,
+                                    "Environment map, equirectangular (.exr or .hdr), linear radiance");
   std::vector<CLI::Option*> envOptions = {
       app.add_option("--env-rotate", o.envRotate,
                      cat("Turn the environment about --env-axis (right-handed), degrees: ", angleForm))};

@@ -36,9 +36,10 @@ struct LightOptions {
 
 /// Adds --rig, --env, --env-rotate, --env-axis, --env-intensity, --sun-dir, --sun-azimuth,
 /// --sun-elevation, --sun-irradiance, --sun-radius, --window; with `animated` (prt render)
-/// START:END ranges and --env-rotate-end, otherwise --frame. CLI11 checks what it can state:
+/// START:END ranges and --env-rotate-end, otherwise --frame; with `envPositional` (prt light) the
+/// map may also be given as the positional argument `env`. CLI11 checks what it can state:
 /// --rig excludes the shortcuts, the --env-* options need --env, --sun-dir excludes the angles.
-void addLightOptions(CLI::App& app, LightOptions& o, bool animated = false);
+void addLightOptions(CLI::App& app, LightOptions& o, bool animated = false, bool envPositional = false);
 
 /// The lighting as a validated rig. START:END ranges become keys at firstFrame and lastFrame.
 /// Throws UsageError on options that do not go together or do not parse, prt::Error (one line
