@@ -17,11 +17,11 @@
 #include <map>
 #include <string>
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
-#include "bench_options.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
@@ -29,10 +29,6 @@
 #include "prt/scene.h"
 
 namespace {
-
-constexpr const char* kUsage =
-    "usage: prt_bench_bake [--scene FILE.gltf] [--min-vertices 100000] [--samples 256] [--bounces 2]\n"
-    "                      [--threads 0] [--ceiling-fraction 0.1] [--json out.json]\n";
 
 using namespace prt;
 using Clock = std::chrono::steady_clock;
@@ -78,16 +74,26 @@ int main(int argc, char** argv) {
   settings.samples = 256;
   settings.bounces = 2;
   double ceilingFraction = 0.1;
-  const int exit = bench::parseOptions(
-      argc, argv, "prt_bench_bake", kUsage,
-      {{"--scene", [&](const std::string& v) { scenePath = v; }},
-       {"--min-vertices", [&](const std::string& v) { minVertices = size_t(std::max(0, bench::toInt(v))); }},
-       {"--samples", [&](const std::string& v) { settings.samples = bench::toInt(v); }},
-       {"--bounces", [&](const std::string& v) { settings.bounces = bench::toInt(v); }},
-       {"--threads", [&](const std::string& v) { settings.threads = bench::toInt(v); }},
-       {"--ceiling-fraction", [&](const std::string& v) { ceilingFraction = bench::toDouble(v); }},
-       {"--json", [&](const std::string& v) { jsonPath = v; }}});
-  if (exit >= 0) return exit;
+  CLI::App app{"Surface-bake benchmark: the bake's rays/s next to the Embree ceiling for the same rays",
+               "prt_bench_bake"};
+  app.add_option("--scene", scenePath, "Scene to bake (.gltf)")->capture_default_str();
+  app.add_option("--min-vertices", minVertices, "Refine the scene until it has at least this many baked vertices")
+      ->capture_default_str();
+  app.add_option("--samples", settings.samples, "Hemisphere directions per vertex")->capture_default_str();
+  app.add_option("--bounces", settings.bounces, "Interreflection bounces")->capture_default_str();
+  app.add_option("--threads", settings.threads, "Worker threads (0 = all cores)")->capture_default_str();
+  app.add_option("--ceiling-fraction", ceilingFraction, "Share of the vertices the ceiling traces")
+      ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
+  app.add_option("--json", jsonPath, "Also write the results to this file");
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return std::string("prt_bench_bake: ") + e.what() + " (see --help)\n";
+  });
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help: 0; a bad command line: one line, 2
+  }
   try {
     Scene scene = loadScene(scenePath);
     while (bakedVertices(scene) < minVertices)

@@ -26,12 +26,12 @@
 #include <memory>
 #include <string>
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
 #include "prt/bake/probe_bake.h"
-#include "bench_options.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
@@ -40,11 +40,6 @@
 #include "prt/scene.h"
 
 namespace {
-
-constexpr const char* kUsage =
-    "usage: prt_bench_probes [--scene FILE.gltf] [--dims 32] [--samples 1024] [--bounces 2]\n"
-    "                        [--surface-samples 256] [--threads 0] [--ceiling-fraction 0.1]\n"
-    "                        [--repeat 2] [--json out.json]\n";
 
 using namespace prt;
 using Clock = std::chrono::steady_clock;
@@ -89,20 +84,33 @@ int main(int argc, char** argv) {
   settings.samples = 1024;
   double ceilingFraction = 0.1;
   int repeat = 2;
-  const int exit = bench::parseOptions(
-      argc, argv, "prt_bench_probes", kUsage,
-      {{"--scene", [&](const std::string& v) { scenePath = v; }},
-       {"--dims", [&](const std::string& v) { dims = bench::toInt(v); }},
-       {"--samples", [&](const std::string& v) { settings.samples = bench::toInt(v); }},
-       {"--bounces", [&](const std::string& v) { surface.bounces = bench::toInt(v); }},
-       {"--surface-samples", [&](const std::string& v) { surface.samples = bench::toInt(v); }},
-       {"--threads", [&](const std::string& v) { threads = bench::toInt(v); }},
-       {"--ceiling-fraction", [&](const std::string& v) { ceilingFraction = bench::toDouble(v); }},
-       {"--repeat", [&](const std::string& v) { repeat = std::max(1, bench::toInt(v)); }},
-       {"--json", [&](const std::string& v) { jsonPath = v; }}});
-  if (exit >= 0) return exit;
+  CLI::App app{"Probe-bake benchmark: probes/s and rays/s next to the Embree ceiling, bytes per probe, peak memory",
+               "prt_bench_probes"};
+  app.add_option("--scene", scenePath, "Scene to bake (.gltf)")->capture_default_str();
+  app.add_option("--dims", dims, "Probe lattice N³ over the scene's bounds")
+      ->check(CLI::Range(1, 512))
+      ->capture_default_str();
+  app.add_option("--samples", settings.samples, "Sphere directions per probe")->capture_default_str();
+  app.add_option("--bounces", surface.bounces, "Interreflection bounces (surface and probes)")->capture_default_str();
+  app.add_option("--surface-samples", surface.samples, "Hemisphere directions per vertex of the surface bake")
+      ->capture_default_str();
+  app.add_option("--threads", threads, "Worker threads (0 = all cores)")->capture_default_str();
+  app.add_option("--ceiling-fraction", ceilingFraction, "Share of the lattice the ceiling traces")
+      ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
+  app.add_option("--repeat", repeat, "Rounds; every timing is the fastest")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  app.add_option("--json", jsonPath, "Also write the results to this file");
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return std::string("prt_bench_probes: ") + e.what() + " (see --help)\n";
+  });
   try {
-    if (dims < 1 || dims > 512) throw Error(cat("--dims ", dims, ": must be between 1 and 512"));
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help: 0; a bad command line: one line, 2
+  }
+  try {
     settings.dims = glm::ivec3(dims);
     settings.bounces = surface.bounces;
     surface.threads = threads;

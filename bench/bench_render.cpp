@@ -30,9 +30,8 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
-
-#include "bench_options.h"
 
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
@@ -49,11 +48,6 @@ namespace {
 
 using namespace prt;
 using Clock = std::chrono::steady_clock;
-
-constexpr const char* kUsage =
-    "usage: prt_bench_render [--width 1920] [--height 1080] [--frames 12] [--gl osmesa|egl]\n"
-    "                        [--baked FILE.glb --probes FILE.vdb] [--samples 128] [--probe-dims 16]\n"
-    "                        [--frames-only 0|1] [--json out.json]\n";
 
 // CPU time of the whole process (all threads), ms.
 double processCpuMs() {
@@ -319,22 +313,33 @@ int main(int argc, char** argv) {
   std::string bakedPath, probesPath, jsonPath, gl = "osmesa";
   int width = 1920, height = 1080, frames = 12, samples = 128, probeDims = 16;
   int framesOnly = 0;
-  const int exit = bench::parseOptions(
-      argc, argv, "prt_bench_render", kUsage,
-      {{"--width", [&](const std::string& v) { width = bench::toInt(v); }},
-       {"--height", [&](const std::string& v) { height = bench::toInt(v); }},
-       {"--frames", [&](const std::string& v) { frames = bench::toInt(v); }},
-       {"--gl", [&](const std::string& v) { gl = v; }},
-       {"--baked", [&](const std::string& v) { bakedPath = v; }},
-       {"--probes", [&](const std::string& v) { probesPath = v; }},
-       {"--samples", [&](const std::string& v) { samples = bench::toInt(v); }},
-       {"--probe-dims", [&](const std::string& v) { probeDims = bench::toInt(v); }},
-       {"--frames-only", [&](const std::string& v) { framesOnly = bench::toInt(v); }},
-       {"--json", [&](const std::string& v) { jsonPath = v; }}});
-  if (exit >= 0) return exit;
-  if (frames < 1 || bakedPath.empty() != probesPath.empty()) {
-    std::fprintf(stderr, "prt_bench_render: --frames must be >= 1, and --baked and --probes go together\n");
-    return 2;
+  CLI::App app{"Render benchmark: ms per frame of full relighting next to the flat raster floor, light-update costs",
+               "prt_bench_render"};
+  app.add_option("--width", width, "Frame width")->check(CLI::Range(1, 16384))->capture_default_str();
+  app.add_option("--height", height, "Frame height")->check(CLI::Range(1, 16384))->capture_default_str();
+  app.add_option("--frames", frames, "Timed frames")->check(CLI::Range(1, 100000))->capture_default_str();
+  app.add_option("--gl", gl, "OpenGL back end")
+      ->check(CLI::IsMember({"osmesa", "egl"}, CLI::ignore_case))
+      ->capture_default_str();
+  CLI::Option* baked = app.add_option("--baked", bakedPath, "Baked scene (.glb) instead of baking the Cornell room");
+  CLI::Option* probes = app.add_option("--probes", probesPath, "Probe grid (.vdb) baked with --baked");
+  baked->needs(probes);
+  probes->needs(baked);
+  app.add_option("--samples", samples, "Hemisphere directions per vertex of the in-process bake")->capture_default_str();
+  app.add_option("--probe-dims", probeDims, "Probe lattice N³ of the in-process bake")
+      ->check(CLI::Range(1, 512))
+      ->capture_default_str();
+  app.add_option("--frames-only", framesOnly, "1: skip the light-update part")
+      ->check(CLI::IsMember({0, 1}))
+      ->capture_default_str();
+  app.add_option("--json", jsonPath, "Also write the results to this file");
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return std::string("prt_bench_render: ") + e.what() + " (see --help)\n";
+  });
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help: 0; a bad command line: one line, 2
   }
   try {
     // --- The scene: baked here or read from files ---------------------------------------------

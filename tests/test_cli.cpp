@@ -40,8 +40,8 @@ bool dirHoldsOnly(const fs::path& dir, const std::vector<std::string>& names) {
   return n == names.size();
 }
 
-void expectCleanFailure(const RunResult& r, const std::string& mention, const fs::path& dir) {
-  EXPECT_EQ(r.status, 1) << r.err;
+void expectCleanFailure(const RunResult& r, const std::string& mention, const fs::path& dir, int status = 1) {
+  EXPECT_EQ(r.status, status) << r.err;
   EXPECT_EQ(lineCount(r.err), 1) << r.err;
   EXPECT_NE(r.err.find(mention), std::string::npos) << r.err;
   EXPECT_TRUE(dirHoldsOnly(dir, {})) << "output left behind";
@@ -144,11 +144,11 @@ TEST(Cli, RelightRefusesBadMapAndLeavesNothing) {
   RunResult r = runPrt({"relight", baked, "--env", map, "-o", d.file("lit.glb"), "--csv", d.file("lit.csv")});
   expectCleanFailure(r, "prt_cli_not_a_map.hdr", d.path());
   RunResult r2 = runPrt({"relight", baked, "-o", d.file("lit.glb")});
-  EXPECT_EQ(r2.status, 1);
+  EXPECT_EQ(r2.status, 2);
   EXPECT_NE(r2.err.find("no lighting"), std::string::npos) << r2.err;
   RunResult r3 =
       runPrt({"relight", baked, "--env", scene("env/white_sky_64.hdr"), "--window", "bogus", "-o", d.file("lit.glb")});
-  expectCleanFailure(r3, "bogus", d.path());
+  expectCleanFailure(r3, "bogus", d.path(), 2);
 }
 
 // Orientation through the whole chain: a map lit only around +X (u = 0.5) gives positive

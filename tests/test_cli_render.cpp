@@ -218,8 +218,9 @@ TEST(CliRender, AFailedWriteStopsTheRunWithOneLine) {
   EXPECT_EQ(loadHdrImage((out / "f_01.exr").string()).width, 48);
 }
 
-// Each bad value is one line, exit 1, and nothing written (the output folder stays absent:
-// -o's folder is created only when the first frame is written).
+// Each bad value is one line, exit 2 for a usage error and 1 for bad input (a file, a folder, the
+// GL), and nothing written (the output folder stays absent: -o's folder is created only when
+// the first frame is written).
 TEST(CliRender, BadOptionsAreOneLineAndWriteNothing) {
   const TempDir tmp("bad_options");
   const fs::path& d = tmp.path();
@@ -229,6 +230,7 @@ TEST(CliRender, BadOptionsAreOneLineAndWriteNothing) {
   struct Case {
     Args args;
     std::string message;
+    int status = 2;
   };
   const std::vector<Case> cases = {
       {{"--frames", "0-1junk", "-o", frames}, "--frames 0-1junk: expected A-B"},
@@ -245,18 +247,18 @@ TEST(CliRender, BadOptionsAreOneLineAndWriteNothing) {
       {{"-o", (out / "f_%5d.exr").string()}, "bad frame field '%5d'"},
       {{"-o", (out / "f_%d_%d.exr").string()}, "more than one '%'"},
       {{"-o", (out / "%d/f.exr").string()}, "the frame field must be in the file name"},
-      {{"-o", glb + "/f.exr"}, "is not a folder"},
-      {{"--contact-sheet", glb + "/s.png", "-o", frames}, "--contact-sheet " + glb + "/s.png: '" + glb + "' is not a folder"},
-      {{"--camera", "Side", "--orbit-azimuth", "10", "-o", frames}, "--camera and --orbit-azimuth: give either"},
-      {{"--orbit-fov", "180", "-o", frames}, "--orbit-fov 180: the vertical field of view must be between 0 and 180"},
-      {{"--orbit-elevation", "90", "-o", frames}, "--orbit-elevation 90: must be within -89..89"},
-      {{"--orbit-distance", "0", "-o", frames}, "--orbit-distance 0: must be > 0"},
-      {{"--orbit-target", "1,nan,0", "-o", frames}, "--orbit-target: not three finite numbers"},
-      {{"--camera", "Front", "-o", frames}, "no camera named 'Front'"},
-      {{"--probe-lookup", "texel", "-o", frames}, "--probe-lookup texel: expected pixel or vertex"},
-      {{"--background", "blue", "-o", frames}, "--background blue: expected black or sky"},
-      {{"--msaa", "3", "-o", frames}, "--msaa 3: expected 1, 2, 4, 8"},
-      {{"--msaa", "64", "-o", frames}, "--msaa 64: llvmpipe"},
+      {{"-o", glb + "/f.exr"}, "is not a folder", 1},
+      {{"--contact-sheet", glb + "/s.png", "-o", frames}, "--contact-sheet " + glb + "/s.png: '" + glb + "' is not a folder", 1},
+      {{"--camera", "Side", "--orbit-azimuth", "10", "-o", frames}, "--camera excludes --orbit-azimuth"},
+      {{"--orbit-fov", "180", "-o", frames}, "--orbit-fov: 180 is not a finite number between 0 and 180"},
+      {{"--orbit-elevation", "90", "-o", frames}, "--orbit-elevation: 90 is not a finite number within -89..89"},
+      {{"--orbit-distance", "0", "-o", frames}, "--orbit-distance: 0 is not a finite number > 0"},
+      {{"--orbit-target", "1,nan,0", "-o", frames}, "--orbit-target: nan is not a finite number"},
+      {{"--camera", "Front", "-o", frames}, "no camera named 'Front'", 1},
+      {{"--probe-lookup", "texel", "-o", frames}, "--probe-lookup: 'texel' is not pixel or vertex"},
+      {{"--background", "blue", "-o", frames}, "--background: 'blue' is not black or sky"},
+      {{"--msaa", "3", "-o", frames}, "--msaa: 3 is not a power of two: 1, 2, 4, 8"},
+      {{"--msaa", "64", "-o", frames}, "--msaa 64: llvmpipe", 1},
       {{"--frames", "0-20000", "--size", "100x100", "--contact-sheet", (out / "s.png").string(), "-o", frames},
        "--contact-sheet " + (out / "s.png").string() + ": 20001 frames make a 14482x14380 sheet"},
   };
@@ -264,7 +266,7 @@ TEST(CliRender, BadOptionsAreOneLineAndWriteNothing) {
     const RunResult r = prt(plus({"render", glb, "--env", whiteSky()}, c.args));
     std::string args;
     for (const std::string& a : c.args) args += a + " ";
-    EXPECT_EQ(r.status, 1) << args << "\n" << r.err;
+    EXPECT_EQ(r.status, c.status) << args << "\n" << r.err;
     EXPECT_EQ(lines(r.err), 1) << args << "\n" << r.err;
     EXPECT_NE(r.err.find(c.message), std::string::npos) << args << "\n" << r.err;
     EXPECT_FALSE(fs::exists(out)) << args << ": output folder created";
@@ -440,8 +442,8 @@ bool dirHoldsOnly(const fs::path& dir, const std::vector<std::string>& names) {
   return n == names.size();
 }
 
-void expectCleanFailure(const RunResult& r, const std::string& mention, const fs::path& dir) {
-  EXPECT_EQ(r.status, 1) << r.err;
+void expectCleanFailure(const RunResult& r, const std::string& mention, const fs::path& dir, int status = 1) {
+  EXPECT_EQ(r.status, status) << r.err;
   EXPECT_EQ(lineCount(r.err), 1) << r.err;
   EXPECT_NE(r.err.find(mention), std::string::npos) << r.err;
   EXPECT_TRUE(dirHoldsOnly(dir, {})) << "output left behind";
@@ -552,21 +554,21 @@ TEST(CliRig, BadRigMapCameraOrBackEndIsOneLineAndWritesNothing) {
                      out);
   expectCleanFailure(prt(plus(render, {"--env", "/nonexistent/sky.hdr"})), "/nonexistent/sky.hdr", out);
   expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--camera", "nope"})), "no camera named 'nope'", out);
-  expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--gl", "vulkan"})), "vulkan", out);
+  expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--gl", "vulkan"})), "vulkan", out, 2);
   expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--exr-compression", "lzma"})),
-                     "--exr-compression lzma: expected zip, piz or none", out);
-  expectCleanFailure(prt(plus(render, {"--rig", bad.string(), "--env", esplanade()})), "--rig and --env", out);
+                     "--exr-compression: 'lzma' is not zip, piz or none", out, 2);
+  expectCleanFailure(prt(plus(render, {"--rig", bad.string(), "--env", esplanade()})), "--rig excludes --env", out, 2);
   // A GL back end that cannot start: libglvnd finds no EGL vendor library.
   RunResult noEgl = test::runPrt(plus(render, {"--env", esplanade(), "--gl", "egl"}),
                                  {.env = {{"__EGL_VENDOR_LIBRARY_FILENAMES", "/nonexistent/vendor.json"}}});
   expectCleanFailure(noEgl, "EGL: no display", out);
-  expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--env-rotate", "1:x"})), "--env-rotate 1:x", out);
+  expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--env-rotate", "1:x"})), "--env-rotate 1:x", out, 2);
   expectCleanFailure(prt(plus(render, {"--sun-elevation", "100"})), "--sun-elevation: elevation must be in [-90, 90]", out);
   expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--env-axis", "0,0,0"})), "--env-axis: direction is zero", out);
   // Stills: --frame without a rig, and START:END without a frame range.
-  expectCleanFailure(prt({"light", "--env", esplanade(), "--frame", "2", "-o", (out / "l.json").string()}), "--frame", out);
+  expectCleanFailure(prt({"light", "--env", esplanade(), "--frame", "2", "-o", (out / "l.json").string()}), "--frame", out, 2);
   expectCleanFailure(prt({"light", "--env", esplanade(), "--env-rotate", "0:90", "-o", (out / "l.json").string()}),
-                     "START:END needs a frame range", out);
+                     "START:END needs a frame range", out, 2);
 }
 
 TEST(CliRender, Mp4ThroughFfmpeg) {
@@ -669,7 +671,7 @@ TEST(CliRender, FramesOnBothBackEndsAndCleanErrors) {
   }
   RunResult bad = prt({"render", baked, "--env", scene("env/white_sky_64.hdr"), "--gl", "vulkan", "-o",
                       (d / "x_%02d.exr").string()});
-  EXPECT_EQ(bad.status, 1);
+  EXPECT_EQ(bad.status, 2);
   EXPECT_EQ(lineCount(bad.err), 1) << bad.err;
   EXPECT_FALSE(fs::exists(d / "x_00.exr"));
 }

@@ -316,7 +316,7 @@ TEST(CliMemory, RefusalWritesNothingAndEstimateBoundsThePeak) {
   EXPECT_NE(r.err.find("--max-memory"), std::string::npos) << r.err;
   EXPECT_TRUE(dirNames(dir / "out").empty());
   r = prtBake({"bake", scenePath("cornell_open.gltf"), "-o", out, "--max-memory", "lots"});
-  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("--max-memory lots"), std::string::npos) << r.err;
 
   // A moderate bake: the estimate printed is at least the measured peak, and not far above.

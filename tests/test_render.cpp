@@ -1295,7 +1295,7 @@ TEST(CliRender, ProbesLightTheMovingReceiver) {
   EXPECT_GT(maxDifference(f0, f1), 0.1);     // and moves
 
   const RunResult bad = runPrt(test::plus(common, {"--fps", "0", "-o", (dir / "b_%02d.exr").string()}));
-  EXPECT_EQ(bad.status, 1);
+  EXPECT_EQ(bad.status, 2);
   EXPECT_NE(bad.err.find("--fps"), std::string::npos) << bad.err;
   EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
 }

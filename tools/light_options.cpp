@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "cli_checks.h"
 #include "prt/error.h"
 
 namespace prt::tools {
@@ -19,7 +20,7 @@ double parseNumber(const std::string& option, const std::string& text, const std
   char* end = nullptr;
   double v = std::strtod(part.c_str(), &end);
   if (part.empty() || end != part.c_str() + part.size() || !std::isfinite(v))
-    throw Error(cat(option, " ", text, ": expected DEG or START:END (finite numbers, degrees)"));
+    throw UsageError(cat(option, " ", text, ": expected DEG or START:END (finite numbers, degrees)"));
   return v;
 }
 
@@ -31,7 +32,7 @@ Angle parseAngle(const std::string& option, const std::string& text, bool ranges
     return a;
   }
   if (!ranges)
-    throw Error(cat(option, " ", text, ": START:END needs a frame range (prt render); give one angle here, "
+    throw UsageError(cat(option, " ", text, ": START:END needs a frame range (prt render); give one angle here, "
                                        "or a --rig with keyframes and --frame N"));
   a.start = parseNumber(option, text, text.substr(0, colon));
   a.end = parseNumber(option, text, text.substr(colon + 1));
@@ -54,76 +55,81 @@ Track constantTrack(const glm::dvec3& v, const char* option) {
   return t;
 }
 
-bool given(const CLI::Option* o) { return o && o->count() > 0; }
-
 }  // namespace
 
-void addLightOptions(CLI::App& app, LightOptions& o, bool animated) {
+void addLightOptions(CLI::App& app, LightOptions& o, bool animated, bool envPositional) {
   o.animated = animated;
   const char* angleForm = animated ? "DEG or START:END (linear across --frames)" : "DEG";
-  o.shortcutOptions.clear();
-  app.add_option("--rig", o.rig, "Light rig (JSON, keyframed lights; docs/lights.md) instead of --env/--sun-*");
-  if (!animated) app.add_option("--frame", o.frame, "Frame of the --rig to use (fractional allowed)")->capture_default_str();
-  auto shortcut = [&](CLI::Option* opt) {
-    o.shortcutOptions.push_back(opt);
-    return opt;
-  };
-  shortcut(app.add_option("--env", o.env, "Environment map, equirectangular (.exr or .hdr), linear radiance"));
-  shortcut(app.add_option("--env-rotate", o.envRotate,
-                          cat("Turn the environment about --env-axis (right-handed), degrees: ", angleForm)));
+  CLI::Option* rig =
+      app.add_option("--rig", o.rig, "Light rig (JSON, keyframed lights; docs/lights.md) instead of --env/--sun-*");
+  if (!animated)
+    app.add_option("--frame", o.frame, "Frame of the --rig to use (fractional allowed)")
+        ->check(finite())
+        ->capture_default_str();
+  // One option for both spellings, so that --env-rotate and the others see the map either way.
+  CLI::Option* env = app.add_option(envPositional ? "env,--env" : "--env", o.env,
+                                    "Environment map, equirectangular (.exr or .hdr), linear radiance");
+  std::vector<CLI::Option*> envOptions = {
+      app.add_option("--env-rotate", o.envRotate,
+                     cat("Turn the environment about --env-axis (right-handed), degrees: ", angleForm))};
   if (animated)
-    shortcut(app.add_option("--env-rotate-end", o.envRotateEnd,
-                            "Rotation at the last frame (same as --env-rotate START:END)"));
-  shortcut(app.add_option("--env-axis", o.envAxis, "Axis of --env-rotate X,Y,Z (world, glTF axes)")
-               ->delimiter(',')->expected(3)->capture_default_str());
-  shortcut(app.add_option("--env-intensity", o.envIntensity, "Multiply the environment's radiance: one value or R,G,B")
-               ->delimiter(',')->expected(1, 3)->capture_default_str());
-  shortcut(app.add_option("--sun-dir", o.sunDir, "Direction towards the sun X,Y,Z (world, glTF axes)")
-               ->delimiter(',')->expected(3));
-  shortcut(app.add_option("--sun-azimuth", o.sunAzimuth,
-                          cat("Sun azimuth, degrees: ", angleForm, "; 0 = towards +Z, 90 = +X")));
-  shortcut(app.add_option("--sun-elevation", o.sunElevation,
-                          cat("Sun elevation, degrees: ", angleForm, "; instead of --sun-dir")));
-  shortcut(app.add_option("--sun-irradiance", o.sunIrradiance,
-                          "Sun irradiance on a surface facing it, R,G,B or one value (W/m², as Blender's strength)")
-               ->delimiter(',')->expected(1, 3)->capture_default_str());
-  shortcut(app.add_option("--sun-radius", o.sunRadius, "Angular radius of the sun disk in degrees (0 = a point)")
-               ->capture_default_str());
-  o.windowOption = app.add_option("--window", o.window,
-                                  "Windowing of the light against ringing: none, hann, lanczos (default none, "
-                                  "or the rig's)");
+    envOptions.push_back(app.add_option("--env-rotate-end", o.envRotateEnd,
+                                        "Rotation at the last frame (same as --env-rotate START:END)")
+                             ->check(finite()));
+  envOptions.push_back(app.add_option("--env-axis", o.envAxis, "Axis of --env-rotate X,Y,Z (world, glTF axes)")
+                           ->delimiter(',')->expected(3)->capture_default_str());
+  envOptions.push_back(app.add_option("--env-intensity", o.envIntensity,
+                                      "Multiply the environment's radiance: one value or R,G,B")
+                           ->delimiter(',')->expected(1, 3)->capture_default_str());
+  CLI::Option* sunDir = app.add_option("--sun-dir", o.sunDir, "Direction towards the sun X,Y,Z (world, glTF axes)")
+                            ->delimiter(',')->expected(3);
+  CLI::Option* sunAzimuth = app.add_option("--sun-azimuth", o.sunAzimuth,
+                                           cat("Sun azimuth, degrees: ", angleForm, "; 0 = towards +Z, 90 = +X"));
+  CLI::Option* sunElevation = app.add_option("--sun-elevation", o.sunElevation,
+                                             cat("Sun elevation, degrees: ", angleForm, "; instead of --sun-dir"));
+  // The sun's size and strength need a sun, given either way: checked in buildRig.
+  auto sunProperty = [&o](CLI::Option* opt) {
+    return opt->each([&o, name = opt->get_name()](const std::string&) {
+      if (o.sunOptionGiven.empty()) o.sunOptionGiven = name;
+    });
+  };
+  CLI::Option* sunIrradiance = sunProperty(
+      app.add_option("--sun-irradiance", o.sunIrradiance,
+                     "Sun irradiance on a surface facing it, R,G,B or one value (W/m², as Blender's strength)")
+          ->delimiter(',')->expected(1, 3)->capture_default_str());
+  CLI::Option* sunRadius = sunProperty(
+      app.add_option("--sun-radius", o.sunRadius, "Angular radius of the sun disk in degrees (0 = a point)")
+          ->capture_default_str());
+  app.add_option_function<sh::Window>(
+         "--window", [&o](const sh::Window& w) { o.window = w; },
+         "Windowing of the light against ringing (default none, or the rig's)")
+      ->transform(choice<sh::Window>({{"none", sh::Window::None}, {"hann", sh::Window::Hann},
+                                      {"lanczos", sh::Window::Lanczos}}));
+  for (CLI::Option* opt : envOptions) opt->needs(env);
+  sunAzimuth->needs(sunElevation);
+  sunDir->excludes(sunAzimuth)->excludes(sunElevation);
+  for (CLI::Option* opt : envOptions) rig->excludes(opt);
+  for (CLI::Option* opt : {env, sunDir, sunAzimuth, sunElevation, sunIrradiance, sunRadius}) rig->excludes(opt);
 }
 
 LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame) {
   LightRig rig;
   if (!o.rig.empty()) {
-    for (const CLI::Option* opt : o.shortcutOptions)
-      if (given(opt))
-        throw Error(cat("--rig and ", opt->get_name(), ": give the lights either in the rig file or with --env/--sun-*, "
-                        "not both"));
     rig = loadLightRig(o.rig);
   } else {
-    auto need = [&](const char* option, const char* what) {
-      for (const CLI::Option* opt : o.shortcutOptions)
-        if (given(opt) && opt->get_name() == option) throw Error(cat(option, " needs ", what));
-    };
     const bool sunByAngles = !o.sunAzimuth.empty() || !o.sunElevation.empty();
-    if (o.env.empty()) {
-      for (const char* opt : {"--env-rotate", "--env-rotate-end", "--env-axis", "--env-intensity"})
-        need(opt, "--env MAP");
-    }
-    if (o.sunDir.empty() && !sunByAngles)
-      for (const char* opt : {"--sun-irradiance", "--sun-radius"}) need(opt, "a sun: --sun-dir or --sun-elevation");
+    if (o.sunDir.empty() && !sunByAngles && !o.sunOptionGiven.empty())
+      throw UsageError(cat(o.sunOptionGiven, " needs a sun: --sun-dir or --sun-elevation"));
     if (o.env.empty() && o.sunDir.empty() && !sunByAngles)
-      throw Error("no lighting: give --rig RIG.json, or --env MAP and/or a sun (--sun-dir X,Y,Z or --sun-elevation DEG)");
+      throw UsageError(
+          "no lighting: give --rig RIG.json, or --env MAP and/or a sun (--sun-dir X,Y,Z or --sun-elevation DEG)");
     if (!o.env.empty()) {
       RigLight env;
       env.type = RigLight::Type::Environment;
       env.file = o.env;
       Angle rotate = o.envRotate.empty() ? Angle{} : parseAngle("--env-rotate", o.envRotate, o.animated);
       if (!std::isnan(o.envRotateEnd)) {
-        if (rotate.range) throw Error("--env-rotate-end: --env-rotate already gives START:END");
-        if (!std::isfinite(o.envRotateEnd)) throw Error("--env-rotate-end: not a finite number");
+        if (rotate.range) throw UsageError("--env-rotate-end: --env-rotate already gives START:END");
         rotate.end = o.envRotateEnd;
         rotate.range = true;
       }
@@ -137,10 +143,8 @@ LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame) {
       sun.type = RigLight::Type::Sun;
       sun.colorIsIrradiance = true;
       if (!o.sunDir.empty()) {
-        if (sunByAngles) throw Error("--sun-dir: give either --sun-dir or --sun-azimuth/--sun-elevation, not both");
         sun.direction = constantTrack(glm::dvec3(o.sunDir[0], o.sunDir[1], o.sunDir[2]), "--sun-dir");
       } else {
-        if (o.sunElevation.empty()) throw Error("--sun-azimuth needs --sun-elevation");
         sun.useAzimuthElevation = true;
         sun.azimuth = angleTrack(o.sunAzimuth.empty() ? Angle{} : parseAngle("--sun-azimuth", o.sunAzimuth, o.animated),
                                  firstFrame, lastFrame, "--sun-azimuth");
@@ -153,14 +157,14 @@ LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame) {
     }
     rig.validate();
   }
-  if (!o.window.empty()) rig.window = sh::parseWindow(o.window);
+  if (o.window) rig.window = *o.window;
   return rig;
 }
 
 LightRig buildStillRig(const LightOptions& o) {
-  if (!std::isfinite(o.frame)) throw Error("--frame: not a finite number");
+  // Not ->needs(--rig): --frame 0, the default, is allowed without a rig.
   if (o.rig.empty() && o.frame != 0.0)
-    throw Error("--frame: needs --rig (the --env/--sun-* shortcuts do not change over frames here)");
+    throw UsageError("--frame: needs --rig (the --env/--sun-* shortcuts do not change over frames here)");
   return buildRig(o, 0, 0);
 }
 

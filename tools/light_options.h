@@ -6,6 +6,7 @@
 #pragma once
 
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,19 +29,21 @@ struct LightOptions {
   std::string sunAzimuth, sunElevation;   // "DEG" or "START:END", degrees
   std::vector<double> sunIrradiance{1.0, 1.0, 1.0};  // W/m² on a surface facing it
   double sunRadius = 0.265;               // degrees (the real sun's angular radius)
-  std::string window;                     // none, hann, lanczos; "" = none (or the rig's)
+  std::optional<sh::Window> window;       // none: sh::Window::None, or the rig's
   bool animated = false;                  // START:END allowed (prt render)
-  std::vector<CLI::Option*> shortcutOptions;  // filled by addLightOptions
-  CLI::Option* windowOption = nullptr;
+  std::string sunOptionGiven;             // the first of --sun-irradiance, --sun-radius given, if any
 };
 
 /// Adds --rig, --env, --env-rotate, --env-axis, --env-intensity, --sun-dir, --sun-azimuth,
 /// --sun-elevation, --sun-irradiance, --sun-radius, --window; with `animated` (prt render)
-/// START:END ranges and --env-rotate-end, otherwise --frame.
-void addLightOptions(CLI::App& app, LightOptions& o, bool animated = false);
+/// START:END ranges and --env-rotate-end, otherwise --frame; with `envPositional` (prt light) the
+/// map may also be given as the positional argument `env`. CLI11 checks what it can state:
+/// --rig excludes the shortcuts, the --env-* options need --env, --sun-dir excludes the angles.
+void addLightOptions(CLI::App& app, LightOptions& o, bool animated = false, bool envPositional = false);
 
 /// The lighting as a validated rig. START:END ranges become keys at firstFrame and lastFrame.
-/// Throws prt::Error (one line naming the option or file) on bad or conflicting options.
+/// Throws UsageError on options that do not go together or do not parse, prt::Error (one line
+/// naming the option or file) on a bad rig, map or light.
 LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame);
 
 /// Stills (relight, light, probe): the rig to evaluate at o.frame. Refuses --frame without --rig.

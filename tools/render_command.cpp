@@ -23,10 +23,12 @@
 #include <string>
 #include <string_view>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "cli_checks.h"
 #include "frame_outputs.h"
 #include "light_options.h"
 #include "prt/atomic_file.h"
@@ -42,31 +44,6 @@ namespace prt::tools {
 
 namespace {
 
-struct RenderArgs {
-  std::string baked, output = "out/frame_%04d.exr", frames = "0-0", size = "640x360", camera, gl = "osmesa";
-  LightOptions light;
-  bool png = false;
-  double exposure = 0.0;
-  double fps = 0.0;  // 0: the rig's fps, else 24; frame f is at time f / fps of the animations
-  std::string probes;  // probe grid (.vdb) lighting the receivers
-  std::string exrCompression = "zip";
-  std::string probeLookup = "pixel";  // where receivers interpolate the grid: pixel or vertex
-  std::string background = "black";   // black, or sky: the lights as the camera sees them
-  int msaa = 1;                        // samples per pixel
-  std::string mp4, contactSheet;
-  int sheetColumns = 0, sheetTile = 192;
-  double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitFov = 45.0, orbitDistance = 0.0;
-  std::vector<double> orbitTarget;  // empty: the centre of the scene bounds
-  bool quiet = false;
-  CLI::Option* framesOption = nullptr;
-  CLI::Option* fpsOption = nullptr;
-  CLI::Option* cameraOption = nullptr;
-  CLI::Option* orbitDistanceOption = nullptr;
-  std::vector<CLI::Option*> orbitOptions;  // any of them given selects the orbit camera
-};
-
-RenderArgs args;
-
 constexpr double kDefaultFps = 24.0;
 // Frame numbers stay below INT_MAX so that f + 1, the rig's frames and %d never overflow.
 constexpr int64_t kMaxFrame = std::numeric_limits<int>::max() - 1;
@@ -78,11 +55,6 @@ constexpr int64_t kMaxDefaultFrames = 100000;
 constexpr int kMaxSide = 16384;
 constexpr int64_t kMaxPixels = int64_t(8192) * 8192;
 
-struct FrameRange {
-  int64_t first = 0, last = 0;
-  int64_t count() const { return last - first + 1; }
-};
-
 // A whole non-negative decimal number: digits only ("12", not "+12", "12x" or " 12").
 std::optional<int64_t> parseWhole(std::string_view text) {
   uint64_t v = 0;
@@ -92,25 +64,27 @@ std::optional<int64_t> parseWhole(std::string_view text) {
   return int64_t(v);
 }
 
-// --frames A-B (inclusive) or A.
+// --frames A-B (inclusive) or A. Throws CLI::ValidationError: a usage error, with the whole
+// message (CLI11 would put the option's name in front of a validator's).
 FrameRange parseFrames(const std::string& text) {
   const size_t dash = text.find('-');
   std::optional<int64_t> a = parseWhole(std::string_view(text).substr(0, dash));
   std::optional<int64_t> b = dash == std::string::npos ? a : parseWhole(std::string_view(text).substr(dash + 1));
-  if (!a || !b) throw Error(cat("--frames ", text, ": expected A-B or A, whole frame numbers 0..", kMaxFrame));
-  if (*b < *a) throw Error(cat("--frames ", text, ": the last frame comes before the first"));
+  if (!a || !b)
+    throw CLI::ValidationError(cat("--frames ", text, ": expected A-B or A, whole frame numbers 0..", kMaxFrame));
+  if (*b < *a) throw CLI::ValidationError(cat("--frames ", text, ": the last frame comes before the first"));
   return {*a, *b};
 }
 
-// --size WxH.
+// --size WxH. Throws CLI::ValidationError, as parseFrames.
 std::pair<int, int> parseSize(const std::string& text) {
   const size_t x = text.find('x');
   std::optional<int64_t> w = parseWhole(std::string_view(text).substr(0, x));
   std::optional<int64_t> h = x == std::string::npos ? std::nullopt : parseWhole(std::string_view(text).substr(x + 1));
   if (!w || !h || *w < 1 || *h < 1 || *w > kMaxSide || *h > kMaxSide)
-    throw Error(cat("--size ", text, ": expected WxH, each 1..", kMaxSide));
+    throw CLI::ValidationError(cat("--size ", text, ": expected WxH, each 1..", kMaxSide));
   if (*w * *h > kMaxPixels)
-    throw Error(cat("--size ", text, ": ", *w * *h, " pixels, more than the ", kMaxPixels, " (8192x8192) allowed"));
+    throw CLI::ValidationError(cat("--size ", text, ": ", *w * *h, " pixels, more than the ", kMaxPixels, " (8192x8192) allowed"));
   return {int(*w), int(*h)};
 }
 
@@ -196,7 +170,8 @@ FrameRange rigFrames(const LightRig& rig, const std::string& rigPath) {
   return {int64_t(first), int64_t(last)};
 }
 
-// The -o pattern: a name with at most one frame field, %d or %0Nd, in the file name.
+// The -o pattern: a name with at most one frame field, %d or %0Nd, in the file name. A bad
+// pattern is a usage error.
 class FramePattern {
 public:
   explicit FramePattern(std::string pattern) : pattern_(std::move(pattern)) {
@@ -207,11 +182,11 @@ public:
     while (d < pattern_.size() && d - p <= 3 && std::isdigit(static_cast<unsigned char>(pattern_[d]))) ++d;
     const std::string width = pattern_.substr(p + 1, d - p - 1);
     if (d >= pattern_.size() || pattern_[d] != 'd' || !(width.empty() || (width.size() >= 2 && width[0] == '0')))
-      throw Error(cat("-o ", pattern_, ": bad frame field '", pattern_.substr(p, d - p + 1), "': use %d or %0Nd, e.g. %04d"));
+      throw UsageError(cat("-o ", pattern_, ": bad frame field '", pattern_.substr(p, d - p + 1), "': use %d or %0Nd, e.g. %04d"));
     if (pattern_.find('%', d) != std::string::npos)
-      throw Error(cat("-o ", pattern_, ": more than one '%' (one frame field, %d or %0Nd)"));
+      throw UsageError(cat("-o ", pattern_, ": more than one '%' (one frame field, %d or %0Nd)"));
     if (pattern_.find('/', d) != std::string::npos)
-      throw Error(cat("-o ", pattern_, ": the frame field must be in the file name, not in a folder"));
+      throw UsageError(cat("-o ", pattern_, ": the frame field must be in the file name, not in a folder"));
     prefix_ = pattern_.substr(0, p);
     suffix_ = pattern_.substr(d + 1);
     width_ = width.empty() ? 0 : std::stoi(width);
@@ -253,51 +228,28 @@ void createFolderFor(const std::string& what, const std::filesystem::path& file)
   if (ec) throw Error(cat(what, ": cannot create folder '", dir.string(), "' (", ec.message(), ")"));
 }
 
-// Checks -o before any work: a frame field when there is more than one frame, the .exr
-// extension, a folder that can be written or created.
+// Checks -o before any work: a frame field when there is more than one frame and the .exr
+// extension (usage errors), a folder that can be written or created.
 void checkOutput(const FramePattern& out, const FrameRange& frames) {
   const std::string what = cat("-o ", out.text());
   if (!out.hasField() && frames.count() > 1)
-    throw Error(cat(what, ": ", frames.count(), " frames need a frame-number field in the name, "
+    throw UsageError(cat(what, ": ", frames.count(), " frames need a frame-number field in the name, "
                     "e.g. frame_%04d.exr (only a single frame may have a plain name)"));
   const std::filesystem::path first = out.path(frames.first);
   std::string ext = first.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  if (ext != ".exr") throw Error(cat(what, ": expected an .exr file name (--png writes PNGs next to the EXRs)"));
+  if (ext != ".exr") throw UsageError(cat(what, ": expected an .exr file name (--png writes PNGs next to the EXRs)"));
   checkFolderFor(what, first);
 }
 
-bool given(const CLI::Option* o) { return o && o->count() > 0; }
-
-const CLI::Option* firstOrbitOption(const RenderArgs& a) {
-  for (const CLI::Option* o : a.orbitOptions)
-    if (given(o)) return o;
-  return nullptr;
-}
-
-// The orbit options, validated before the scene is loaded.
+// The orbit options (their ranges checked by CLI11, the camera excluding them).
 render::OrbitCamera orbitCamera(const RenderArgs& a) {
-  if (given(a.cameraOption))
-    if (const CLI::Option* o = firstOrbitOption(a))
-      throw Error(cat("--camera and ", o->get_name(), ": give either a glTF camera or orbit options, not both"));
-  if (!std::isfinite(a.orbitAzimuth)) throw Error("--orbit-azimuth: not a finite number");
-  if (!(std::fabs(a.orbitElevation) <= 89.0))
-    throw Error(cat("--orbit-elevation ", a.orbitElevation, ": must be within -89..89 degrees (straight up or down "
-                    "leaves the view's roll undefined)"));
-  if (!(a.orbitFov > 0.0 && a.orbitFov < 180.0))
-    throw Error(cat("--orbit-fov ", a.orbitFov, ": the vertical field of view must be between 0 and 180 degrees"));
-  if (given(a.orbitDistanceOption) && !(std::isfinite(a.orbitDistance) && a.orbitDistance > 0.0))
-    throw Error(cat("--orbit-distance ", a.orbitDistance, ": must be > 0"));
   render::OrbitCamera orbit;
   orbit.azimuthDegrees = a.orbitAzimuth;
   orbit.elevationDegrees = a.orbitElevation;
   orbit.yfovDegrees = a.orbitFov;
   orbit.distance = a.orbitDistance;
-  if (!a.orbitTarget.empty()) {
-    const glm::dvec3 t(a.orbitTarget[0], a.orbitTarget[1], a.orbitTarget[2]);
-    if (!std::isfinite(t.x + t.y + t.z)) throw Error("--orbit-target: not three finite numbers");
-    orbit.target = glm::vec3(t);
-  }
+  if (!a.orbitTarget.empty()) orbit.target = glm::vec3(glm::dvec3(a.orbitTarget[0], a.orbitTarget[1], a.orbitTarget[2]));
   return orbit;
 }
 
@@ -309,7 +261,7 @@ struct ChosenCamera {
 // --camera NAME: that glTF camera. Any --orbit-* option: the orbit. Neither: the file's first
 // camera, else the orbit.
 ChosenCamera chooseCamera(const RenderArgs& a, const render::OrbitCamera& orbit, const Scene& scene, double aspect) {
-  if (!a.camera.empty() || (!firstOrbitOption(a) && !scene.cameras.empty())) {
+  if (!a.camera.empty() || (a.orbitOption.empty() && !scene.cameras.empty())) {
     auto cam = std::find_if(scene.cameras.begin(), scene.cameras.end(),
                             [&](const Camera& c) { return a.camera.empty() || c.name == a.camera; });
     if (cam == scene.cameras.end()) throw Error(cat(a.baked, ": no camera named '", a.camera, "'"));
@@ -323,7 +275,7 @@ ChosenCamera chooseCamera(const RenderArgs& a, const render::OrbitCamera& orbit,
   const double distance = glm::length(glm::dvec3(view.cameraToWorld[3]) - target);
   return {view, cat("orbit (target ", target.x, ",", target.y, ",", target.z, ", distance ", distance, ", azimuth ",
                     orbit.azimuthDegrees, ", elevation ", orbit.elevationDegrees, ", vertical fov ",
-                    orbit.yfovDegrees, " deg", firstOrbitOption(a) ? "" : "; the file has no camera", ")")};
+                    orbit.yfovDegrees, " deg", a.orbitOption.empty() ? "; the file has no camera" : "", ")")};
 }
 
 // A bake in which every instance is a receiver (all of them animated, say) writes no transfer
@@ -360,95 +312,110 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
-CLI::App* addRenderCommand(CLI::App& app) {
-  CLI::App* r = app.add_subcommand("render", "Render relit frames of a baked scene headlessly (EXR, PNG, MP4)");
-  r->add_option("baked", args.baked, "Baked scene (.glb from prt bake)")->required();
-  r->add_option("-o,--output", args.output,
-                "Frame path (.exr) with a frame field %d or %0Nd, e.g. out/frame_%04d.exr (a plain name for one "
-                "frame); its folder is created")
+void addRender(CLI::App& r, RenderArgs& a) {
+  r.add_option("baked", a.baked, "Baked scene (.glb from prt bake)")->required();
+  r.add_option("-o,--output", a.output,
+               "Frame path (.exr) with a frame field %d or %0Nd, e.g. out/frame_%04d.exr (a plain name for one "
+               "frame); its folder is created")
       ->capture_default_str();
-  args.framesOption = r->add_option("--frames", args.frames,
-                                    "Frame range A-B (inclusive) or A; default 0-0, or the --rig's keyframe range "
-                                    "(up to 100000 frames)")
-                          ->capture_default_str();
-  r->add_option("--size", args.size, "Image size WxH (each 1..16384, at most 8192x8192 pixels)")->capture_default_str();
-  args.cameraOption =
-      r->add_option("--camera", args.camera, "glTF camera name (default: the first camera, else the orbit camera)");
-  args.orbitOptions = {
-      r->add_option("--orbit-azimuth", args.orbitAzimuth, "Orbit camera azimuth, degrees about +Y (0: looking down -Z)")
+  r.add_option_function<std::string>(
+       "--frames", [&a](const std::string& v) { a.frames = parseFrames(v); },
+       "Frame range A-B (inclusive) or A; default 0-0, or the --rig's keyframe range (up to 100000 frames)")
+      ->default_str("0-0");
+  r.add_option_function<std::string>(
+       "--size", [&a](const std::string& v) { std::tie(a.width, a.height) = parseSize(v); },
+       "Image size WxH (each 1..16384, at most 8192x8192 pixels)")
+      ->default_str(cat(a.width, "x", a.height));
+  CLI::Option* camera =
+      r.add_option("--camera", a.camera, "glTF camera name (default: the first camera, else the orbit camera)");
+  const std::vector<CLI::Option*> orbit = {
+      r.add_option("--orbit-azimuth", a.orbitAzimuth, "Orbit camera azimuth, degrees about +Y (0: looking down -Z)")
+          ->check(finite())
           ->capture_default_str(),
-      r->add_option("--orbit-elevation", args.orbitElevation, "Orbit camera elevation, degrees (-89..89)")
+      r.add_option("--orbit-elevation", a.orbitElevation,
+                   "Orbit camera elevation, degrees (-89..89: straight up or down leaves the view's roll undefined)")
+          ->check(finiteIn(-89.0, 89.0))
           ->capture_default_str(),
-      args.orbitDistanceOption = r->add_option(
-          "--orbit-distance", args.orbitDistance,
-          "Orbit camera distance from the target (default: the scene's bounding sphere fills the view)"),
-      r->add_option("--orbit-target", args.orbitTarget, "Point the orbit camera looks at X,Y,Z (default: bounds centre)")
+      r.add_option("--orbit-distance", a.orbitDistance,
+                   "Orbit camera distance from the target (default: the scene's bounding sphere fills the view)")
+          ->check(finitePositive()),
+      r.add_option("--orbit-target", a.orbitTarget, "Point the orbit camera looks at X,Y,Z (default: bounds centre)")
           ->delimiter(',')
-          ->expected(3),
-      r->add_option("--orbit-fov", args.orbitFov, "Orbit camera vertical field of view, degrees")->capture_default_str()};
-  for (CLI::Option* o : args.orbitOptions) o->group("Camera (any --orbit-* option selects the orbit camera)");
-  r->add_option("--gl", args.gl, "OpenGL back end: osmesa or egl")->capture_default_str();
-  addLightOptions(*r, args.light, /*animated=*/true);
-  r->add_option("--exr-compression", args.exrCompression, "EXR compression, all lossless: zip, piz or none (fastest)")
+          ->expected(3)
+          ->check(finite()),
+      r.add_option("--orbit-fov", a.orbitFov, "Orbit camera vertical field of view, degrees")
+          ->check(finiteIn(0.0, 180.0, /*open=*/true))
+          ->capture_default_str()};
+  for (CLI::Option* o : orbit) {
+    o->group("Camera (any --orbit-* option selects the orbit camera)");
+    o->excludes(camera);
+    o->each([&a, name = o->get_name()](const std::string&) {
+      if (a.orbitOption.empty()) a.orbitOption = name;
+    });
+  }
+  r.add_option("--gl", a.gl, "OpenGL back end")
+      ->transform(choice<render::GlBackend>({{"osmesa", render::GlBackend::OSMesa}, {"egl", render::GlBackend::Egl}}))
+      ->default_str("osmesa");
+  addLightOptions(r, a.light, /*animated=*/true);
+  r.add_option("--exr-compression", a.exrCompression, "EXR compression, all lossless (none is the fastest)")
+      ->transform(choice<ExrCompression>(
+          {{"zip", ExrCompression::Zip}, {"piz", ExrCompression::Piz}, {"none", ExrCompression::None}}))
+      ->default_str("zip");
+  r.add_flag("--png", a.png, "Also write tone-mapped sRGB PNGs next to the EXRs");
+  r.add_option("--exposure", a.exposure, "Exposure in stops for PNG, MP4 and contact sheet")
+      ->check(finite())
       ->capture_default_str();
-  r->add_flag("--png", args.png, "Also write tone-mapped sRGB PNGs next to the EXRs");
-  r->add_option("--exposure", args.exposure, "Exposure in stops for PNG, MP4 and contact sheet")->capture_default_str();
-  r->add_option("--mp4", args.mp4, "Also encode the frames as H.264 MP4 with ffmpeg (must be on PATH)");
-  args.fpsOption = r->add_option("--fps", args.fps,
-                "Frames per second: frame f shows the scene's animations at time f/fps; also the --mp4 rate "
-                "(default: the rig's fps, else 24)");
-  r->add_option("--probes", args.probes, "Probe grid (.vdb from prt bake --probes) lighting the receivers");
-  r->add_option("--probe-lookup", args.probeLookup,
-                "Where receivers interpolate the probe grid: pixel (exact) or vertex (faster, exact only where "
-                "the probe field is linear over each triangle)")
+  r.add_option("--mp4", a.mp4, "Also encode the frames as H.264 MP4 with ffmpeg (must be on PATH)");
+  r.add_option_function<double>(
+       "--fps", [&a](const double& v) { a.fps = v; },
+       "Frames per second: frame f shows the scene's animations at time f/fps; also the --mp4 rate "
+       "(default: the rig's fps, else 24)")
+      ->check(finitePositive());
+  r.add_option("--probes", a.probes, "Probe grid (.vdb from prt bake --probes) lighting the receivers");
+  r.add_option("--probe-lookup", a.probeLookup,
+               "Where receivers interpolate the probe grid: pixel (exact) or vertex (faster, exact only where "
+               "the probe field is linear over each triangle)")
+      ->transform(choice<render::ProbeLookup>(
+          {{"pixel", render::ProbeLookup::PerPixel}, {"vertex", render::ProbeLookup::PerVertex}}))
+      ->default_str("pixel");
+  r.add_option("--background", a.background,
+               "What pixels without geometry show: black, or sky (the rig's maps, suns and disks as seen along "
+               "each pixel's ray)")
+      ->transform(choice<Background>({{"black", Background::Black}, {"sky", Background::Sky}}))
+      ->default_str("black");
+  r.add_option("--msaa", a.msaa,
+               "Anti-aliasing: samples per pixel, 1 (off), 2, 4 ... up to the GL's limit (4 on llvmpipe); each "
+               "pixel is the mean of its samples")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            int n = 0;
+            const bool ok = CLI::detail::lexical_cast(v, n) && n >= 1 && (n & (n - 1)) == 0;
+            return ok ? std::string() : cat(v, " is not a power of two: 1, 2, 4, 8 ...");
+          },
+          "power of two"))
       ->capture_default_str();
-  r->add_option("--background", args.background,
-                "What pixels without geometry show: black, or sky (the rig's maps, suns and disks as seen "
-                "along each pixel's ray)")
+  r.add_option("--contact-sheet", a.contactSheet, "Also write a PNG grid of all frames, downscaled");
+  r.add_option("--sheet-columns", a.sheetColumns, "Contact sheet columns (0 = about square)")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()).description(">= 0"))
       ->capture_default_str();
-  r->add_option("--msaa", args.msaa,
-                "Anti-aliasing: samples per pixel, 1 (off), 2, 4 ... up to the GL's limit (4 on llvmpipe); each "
-                "pixel is the mean of its samples")
+  r.add_option("--sheet-tile", a.sheetTile, "Contact sheet: largest tile side in pixels")
+      ->check(CLI::Range(1, std::numeric_limits<int>::max()).description(">= 1"))
       ->capture_default_str();
-  r->add_option("--contact-sheet", args.contactSheet, "Also write a PNG grid of all frames, downscaled");
-  r->add_option("--sheet-columns", args.sheetColumns, "Contact sheet columns (0 = about square)")->capture_default_str();
-  r->add_option("--sheet-tile", args.sheetTile, "Contact sheet: largest tile side in pixels")->capture_default_str();
-  r->add_flag("-q,--quiet", args.quiet, "No per-frame lines, no summary");
-  return r;
+  r.add_flag("-q,--quiet", a.quiet, "No per-frame lines, no summary");
 }
 
-void runRenderCommand() {
-  const RenderArgs& a = args;
+int runRender(const RenderArgs& a) {
   const auto tStart = std::chrono::steady_clock::now();
-  const auto [width, height] = parseSize(a.size);
-  render::GlBackend backend = render::parseGlBackend(a.gl);
-  if (!std::isfinite(a.exposure)) throw Error("--exposure: not a finite number");
-  if (a.fpsOption->count() > 0 && !(std::isfinite(a.fps) && a.fps > 0)) throw Error(cat("--fps ", a.fps, ": must be > 0"));
-  if (a.sheetColumns < 0) throw Error(cat("--sheet-columns ", a.sheetColumns, ": must be >= 0"));
-  if (a.sheetTile < 1) throw Error(cat("--sheet-tile ", a.sheetTile, ": must be >= 1"));
+  const int width = a.width, height = a.height;
   const render::OrbitCamera orbit = orbitCamera(a);
-  ExrCompression compression = ExrCompression::Zip;
-  if (a.exrCompression == "none")
-    compression = ExrCompression::None;
-  else if (a.exrCompression == "piz")
-    compression = ExrCompression::Piz;
-  else if (a.exrCompression != "zip")
-    throw Error(cat("--exr-compression ", a.exrCompression, ": expected zip, piz or none"));
-  if (a.probeLookup != "pixel" && a.probeLookup != "vertex")
-    throw Error(cat("--probe-lookup ", a.probeLookup, ": expected pixel or vertex"));
-  const render::ProbeLookup lookup =
-      a.probeLookup == "vertex" ? render::ProbeLookup::PerVertex : render::ProbeLookup::PerPixel;
-  if (a.background != "black" && a.background != "sky")
-    throw Error(cat("--background ", a.background, ": expected black or sky"));
-  const bool skyBackground = a.background == "sky";
-  if (a.msaa < 1 || (a.msaa & (a.msaa - 1)) != 0) throw Error(cat("--msaa ", a.msaa, ": expected 1, 2, 4, 8 ..."));
+  const bool skyBackground = a.background == Background::Sky;
 
   // Lighting first (a bad rig or map fails before any GL work). A rig file's keyframe range is
   // the default frame range; the shortcuts' START:END need the range to place their keys.
   std::optional<LightRig> rig;
   if (!a.light.rig.empty()) rig = buildRig(a.light, 0, 0);
-  const FrameRange frames = given(a.framesOption) || !rig || !rig->animated() ? parseFrames(a.frames)
-                                                                                : rigFrames(*rig, a.light.rig);
+  const FrameRange frames = a.frames || !rig || !rig->animated() ? a.frames.value_or(FrameRange{})
+                                                                   : rigFrames(*rig, a.light.rig);
   if (!rig) rig = buildRig(a.light, int(frames.first), int(frames.last));
   if (skyBackground) {
     size_t maps = 0, caps = 0;
@@ -469,12 +436,12 @@ void runRenderCommand() {
   if (!a.contactSheet.empty()) {
     const ContactSheet::Layout sheet = ContactSheet::layout(width, height, frames.count(), a.sheetColumns, a.sheetTile);
     if (sheet.width > kMaxSide || sheet.height > kMaxSide || sheet.width * sheet.height > kMaxPixels)
-      throw Error(cat("--contact-sheet ", a.contactSheet, ": ", frames.count(), " frames make a ", sheet.width, "x",
+      throw UsageError(cat("--contact-sheet ", a.contactSheet, ": ", frames.count(), " frames make a ", sheet.width, "x",
                       sheet.height, " sheet, over ", kMaxSide, " pixels a side or ", kMaxPixels,
                       " in all; lower --sheet-tile or render fewer frames"));
     checkFolderFor(cat("--contact-sheet ", a.contactSheet), a.contactSheet);
   }
-  const double fps = a.fpsOption->count() > 0 ? a.fps : rig->fps.value_or(kDefaultFps);
+  const double fps = a.fps ? *a.fps : rig->fps.value_or(kDefaultFps);
 
   Scene scene = loadScene(a.baked);
   if (scene.transferBands == 0) scene.transferBands = receiversOnlyBands(scene);
@@ -488,7 +455,7 @@ void runRenderCommand() {
     probes = readProbeGrid(a.probes);
     warnings = checkProbesMatch(probes, scene, a);
   }
-  render::GlContext context(backend, width, height);
+  render::GlContext context(a.gl, width, height);
   if (a.msaa > context.maxSamples())
     throw Error(cat("--msaa ", a.msaa, ": ", context.renderer(), " allows at most ", context.maxSamples(), " samples"));
   render::Renderer renderer(context, scene);
@@ -521,7 +488,7 @@ void runRenderCommand() {
     frame.camera = camera.view;
     frame.light = light;
     frame.time = double(f) / fps;
-    frame.probeLookup = lookup;
+    frame.probeLookup = a.probeLookup;
     frame.samples = a.msaa;
     RigBackground background;
     if (skyBackground) {
@@ -540,7 +507,7 @@ void runRenderCommand() {
     writer.push([&, f, image, frameLightMs, stats] {
       auto t1 = std::chrono::steady_clock::now();
       const std::string path = output.path(f);
-      writeExr(path, *image, compression);
+      writeExr(path, *image, a.exrCompression);
       if (a.png) writePng(std::filesystem::path(path).replace_extension(".png").string(), *image, float(a.exposure));
       if (sheet) sheet->add(*image);
       const double frameWriteMs = msSince(t1);
@@ -559,7 +526,7 @@ void runRenderCommand() {
   if (video) video->finish();
   encodeMs += msSince(tEnd);
   if (sheet) sheet->write(a.contactSheet, float(a.exposure));
-  if (a.quiet) return;
+  if (a.quiet) return 0;
   const double perFrame = 1.0 / double(n);
   std::fprintf(stderr,
                "prt render: %lld frame%s %dx%d written (%s .. %s)%s on %s\n"
@@ -570,7 +537,7 @@ void runRenderCommand() {
                output.path(frames.last).c_str(), a.png ? " + PNG" : "", context.description().c_str(),
                camera.description.c_str(), drawMs * perFrame, readbackMs * perFrame, lightMs * perFrame,
                rig->lights.size(), bands, sh::windowName(rig->window), prepareMs, writeMs * perFrame,
-               a.background.c_str(), renderer.lastFrame().samples, renderer.lastFrame().samples == 1 ? "" : "s");
+               skyBackground ? "sky" : "black", renderer.lastFrame().samples, renderer.lastFrame().samples == 1 ? "" : "s");
   if (video)
     std::fprintf(stderr, "  video %s: %lld frames at %g fps, %.2f ms/frame encoding (%s)\n", a.mp4.c_str(),
                  static_cast<long long>(n), fps, encodeMs * perFrame, video->ffmpeg().c_str());
@@ -578,6 +545,7 @@ void runRenderCommand() {
     std::fprintf(stderr, "  contact sheet %s: %d columns of %dx%d tiles (1/%d)\n", a.contactSheet.c_str(),
                  sheet->columns(), sheet->tileWidth(), sheet->tileHeight(), sheet->factor());
   std::fprintf(stderr, "  total %.2f s (%.1f ms/frame)\n", msSince(tStart) / 1000.0, msSince(tStart) * perFrame);
+  return 0;
 }
 
 }  // namespace prt::tools

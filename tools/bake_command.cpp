@@ -1,0 +1,289 @@
+#include "bake_command.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iomanip>
+#include <optional>
+#include <sstream>
+
+#include "cli_checks.h"
+#include "number_list.h"
+#include "prt/atomic_file.h"
+#include "prt/bake/checkpoint.h"
+#include "prt/bake/memory_estimate.h"
+#include "prt/bake/probe_bake.h"
+#include "prt/error.h"
+#include "prt/probe_grid.h"
+#include "prt/progress.h"
+#include "prt/version.h"
+#include "scene_warnings.h"
+
+namespace prt::tools {
+
+namespace {
+
+// Signals: the first SIGINT/SIGTERM asks the bake to stop (every stage, surface and probes,
+// saves its checkpoint and unwinds to main); a second one exits at once without saving. Only
+// async-signal-safe calls here. The handler's state (whether an interrupt was requested, and by
+// which signal) is the bake library's process-wide flag: a signal handler can reach nothing else,
+// and the stages poll it.
+void onSignal(int sig) {
+  if (bake::interruptRequested()) {
+    const char msg[] = "prt: interrupted again: stopping without saving\n";
+    ssize_t ignored = ::write(STDERR_FILENO, msg, sizeof msg - 1);
+    (void)ignored;
+    ::_exit(128 + sig);
+  }
+  bake::requestInterrupt(sig);
+}
+
+// Installs the handlers for the lifetime of a bake and restores the previous ones after.
+class SignalScope {
+public:
+  SignalScope() {
+    struct sigaction sa{};
+    sa.sa_handler = onSignal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    sigaction(SIGINT, &sa, &oldInt_);
+    sigaction(SIGTERM, &sa, &oldTerm_);
+  }
+  ~SignalScope() {
+    sigaction(SIGINT, &oldInt_, nullptr);
+    sigaction(SIGTERM, &oldTerm_, nullptr);
+  }
+  SignalScope(const SignalScope&) = delete;
+  SignalScope& operator=(const SignalScope&) = delete;
+
+private:
+  struct sigaction oldInt_{}, oldTerm_{};
+};
+
+// What must match for a checkpoint to be resumed: the scene's content and every setting that
+// changes the output bits (not --threads, not -q).
+bake::Fingerprint bakeFingerprint(const Scene& scene, const BakeArgs& a, const bake::BakeSettings& s,
+                                  const bake::ProbeSettings* ps) {
+  bake::Fingerprint fp;
+  fp.add("prt", kVersion);
+  bake::addSceneFingerprint(fp, scene);
+  fp.add("bands", std::to_string(s.bands));
+  fp.add("samples", std::to_string(s.samples));
+  fp.add("bounces", std::to_string(s.bounces));
+  fp.add("seed", std::to_string(s.seed));
+  fp.add("probes", ps ? "yes" : "no");
+  if (ps) {
+    bake::addProbeFingerprint(fp, *ps);
+    fp.add("probe half", a.probeHalf ? "yes" : "no");  // the .vdb written from the same results
+  }
+  return fp;
+}
+
+// The test suite interrupts bakes at chosen points with PRT_TEST_INTERRUPT_AFTER=N (an
+// interrupt once N chunks have finished in this run), as a user's Ctrl-C would.
+uint64_t testInterruptAfter() {
+  const char* v = std::getenv("PRT_TEST_INTERRUPT_AFTER");
+  return v ? std::strtoull(v, nullptr, 10) : 0;
+}
+
+// The probe options of prt bake: each needs --probes (never silently ignored), --probe-dims and
+// --probe-spacing exclude each other, and malformed values are one-line usage errors. Returns
+// --probes.
+CLI::Option* addProbeOptions(CLI::App& bake, BakeArgs& a) {
+  CLI::Option* probes = bake.add_option("--probes", a.probes, "Also bake a probe grid into this OpenVDB file (.vdb)");
+  CLI::Option* spacing = bake.add_option("--probe-spacing", a.probeSpacing, "Probe spacing in world units (else --probe-dims)")
+                             ->check(CLI::PositiveNumber);
+  CLI::Option* dims = bake.add_option_function<std::string>(
+      "--probe-dims",
+      [&a](const std::string& v) {
+        std::vector<double> d = parseNumberList("--probe-dims", v, 3, true, "three integer counts X,Y,Z (e.g. 16,16,8)");
+        a.probeDims.clear();
+        for (double x : d) a.probeDims.push_back(int(x));
+      },
+      "Probe counts X,Y,Z (default 16,16,16)");
+  CLI::Option* bounds = bake.add_option_function<std::string>(
+      "--probe-bounds",
+      [&a](const std::string& v) {
+        a.probeBounds = parseNumberList("--probe-bounds", v, 6, false, "six numbers MINX,MINY,MINZ,MAXX,MAXY,MAXZ");
+      },
+      "Probe grid bounds MINX,MINY,MINZ,MAXX,MAXY,MAXZ (default: scene bounds, flat axes padded)");
+  CLI::Option* samples = bake.add_option("--probe-samples", a.probeSamples, "Sphere directions per probe")->capture_default_str();
+  CLI::Option* half = bake.add_flag("--probe-half", a.probeHalf, "Store probe grids as 16-bit floats");
+  dims->excludes(spacing);
+  for (CLI::Option* o : {spacing, dims, bounds, samples, half}) o->needs(probes);
+  return probes;
+}
+
+}  // namespace
+
+void addBake(CLI::App& bake, BakeArgs& a) {
+  bake.add_option("scene", a.scene, "Input scene (.gltf or .glb)")->required();
+  bake.add_option("-o,--output", a.output, "Output baked scene (.glb)")->required();
+  bake.add_option("--bands", a.settings.bands, "SH bands (n bands = n² coefficients)")
+      ->check(kBandsRange)
+      ->capture_default_str();
+  bake.add_option("--samples", a.settings.samples, "Hemisphere directions per vertex")->capture_default_str();
+  bake.add_option("--bounces", a.settings.bounces, "Interreflection bounces (0 = direct shadowed only)")
+      ->capture_default_str();
+  CLI::Option* unshadowed =
+      bake.add_flag("--unshadowed", a.unshadowed, "Unshadowed transfer (closed form, no rays, no bounces)");
+  bake.add_option("--seed", a.settings.seed, "Random seed (same seed, same output, any thread count)")
+      ->capture_default_str();
+  bake.add_option("--threads", a.settings.threads, "Worker threads (0 = all cores)")->capture_default_str();
+  bake.add_option("--receiver", a.load.receiverNodes, "Node (name or index) baked as receiver only; repeatable");
+  bake.add_flag("--allow-degenerate", a.load.allowDegenerate,
+                "Drop zero-area triangles with a warning instead of refusing");
+  bake.add_flag("--allow-external-uris", a.load.allowExternalUris,
+                "Read buffers and images outside the scene's folder (absolute paths, ..)");
+  bake.add_flag("-q,--quiet", a.quiet, "No progress bar, no summary");
+  // Probes are baked with the bounces, and a checkpoint holds rays: neither exists unshadowed.
+  addProbeOptions(bake, a)->excludes(unshadowed);
+  bake.add_flag("--resume", a.resume, "Continue an interrupted bake from its checkpoint (same scene and settings)")
+      ->excludes(unshadowed);
+  bake.add_option("--checkpoint", a.checkpoint, "Checkpoint file (default: OUTPUT.prt-checkpoint)");
+  bake.add_option("--checkpoint-interval", a.checkpointInterval,
+                  "Seconds between checkpoint saves (0 = only when interrupted)")
+      ->check(finiteAtLeast(0.0))
+      ->capture_default_str();
+  bake.add_option_function<std::string>(
+      "--max-memory",
+      [&a](const std::string& v) {
+        try {
+          a.maxMemory = bake::parseByteSize(v, "--max-memory");
+        } catch (const Error& e) {
+          throw CLI::ValidationError(e.what());
+        }
+      },
+      "Refuse bakes estimated above this (e.g. 8G, 500M; default: available memory)");
+}
+
+int runBake(const BakeArgs& a) {
+  bake::BakeSettings s = a.settings;
+  s.shadowed = !a.unshadowed;
+  s.progress = !a.quiet && Progress::terminalDefault();
+  bake::validate(s);
+  AtomicFile probe(a.output);  // fail on an unwritable output before hours of work
+  std::optional<AtomicFile> probeFile;
+  bake::ProbeSettings ps;
+  if (!a.probes.empty()) {
+    probeFile.emplace(a.probes);
+    ps.bands = s.bands;
+    ps.samples = a.probeSamples;
+    ps.bounces = s.shadowed ? s.bounces : 0;
+    ps.seed = s.seed;
+    ps.progress = s.progress;
+    ps.threads = s.threads;
+    ps.spacing = a.probeSpacing;
+    if (!a.probeDims.empty()) ps.dims = glm::ivec3(a.probeDims[0], a.probeDims[1], a.probeDims[2]);
+    if (a.probeSpacing == 0.0 && a.probeDims.empty()) ps.dims = glm::ivec3(16);
+    if (!a.probeBounds.empty()) {
+      ps.boundsMin = glm::dvec3(a.probeBounds[0], a.probeBounds[1], a.probeBounds[2]);
+      ps.boundsMax = glm::dvec3(a.probeBounds[3], a.probeBounds[4], a.probeBounds[5]);
+    }
+    bake::validate(ps);
+    s.keepLowerOrder = true;
+  }
+
+  const bake::ProbeSettings* psp = a.probes.empty() ? nullptr : &ps;
+
+  SignalScope signals;
+  Scene scene = loadScene(a.scene, a.load);
+  printWarnings(scene, a.quiet);
+
+  // Memory guard: first without the hit records (before the BVH is built), then with the
+  // bound the bake measures on a pilot of its own rays (BakeControl::checkMemory).
+  std::optional<bake::MemoryLimit> limit = bake::memoryLimit(a.maxMemory);
+  bake::MemoryEstimate estimate = bake::estimateBakeMemory(scene, s, psp, 0.0);
+  if (limit) bake::checkMemory(estimate, *limit, scene, s, psp);
+
+  std::optional<bake::Checkpoint> checkpoint;
+  if (s.shadowed) {
+    bake::CheckpointOptions co;
+    co.path = a.checkpoint.empty() ? a.output + ".prt-checkpoint" : a.checkpoint;
+    co.intervalSeconds = a.checkpointInterval;
+    co.resume = a.resume;
+    co.interruptAfterChunks = testInterruptAfter();
+    checkpoint.emplace(co, bakeFingerprint(scene, a, s, psp));
+  }
+  bake::BakeControl control;
+  control.checkpoint = checkpoint ? &*checkpoint : nullptr;
+  control.checkMemory = [&](double share) {
+    estimate = bake::estimateBakeMemory(scene, s, psp, share);
+    if (limit) bake::checkMemory(estimate, *limit, scene, s, psp);
+  };
+  // Runs a stage; an interruption names the checkpoint and how far the bake got.
+  auto runStage = [&](auto&& run) {
+    try {
+      return run();
+    } catch (const Interrupted&) {
+      if (!checkpoint) throw;
+      throw Interrupted(cat("interrupted: checkpoint saved to ", checkpoint->path(), " (",
+                            checkpoint->progressText(), "); rerun with --resume to continue"));
+    }
+  };
+  bake::SurfaceTransfer result = runStage([&] { return bake::bakeSurface(scene, s, control); });
+  std::string sceneName = std::filesystem::path(a.scene).filename().string();
+  bake::ProbeStats probeStats;
+  if (!a.probes.empty()) {
+    if (result.perMeshLowerOrder.empty()) result.perMeshLowerOrder.assign(scene.meshes.size(), {});
+    ProbeGrid grid = runStage([&] {
+      return bake::bakeProbes(scene, result.perMeshLowerOrder, ps, &probeStats, checkpoint ? &*checkpoint : nullptr);
+    });
+    grid.info.scene = sceneName;
+    writeProbeGrid(grid, a.probes, a.probeHalf);
+  }
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    scene.meshes[k].transfer = std::move(result.perMesh[k]);
+    scene.meshes[k].transferBands = scene.meshes[k].transfer.empty() ? 0 : s.bands;
+  }
+  scene.transferBands = s.bands;
+  auto tWrite = std::chrono::steady_clock::now();
+  writeBakedScene(a.scene, scene, bake::settingsJson(s, sceneName), a.output);
+  double writeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tWrite).count();
+  // The outputs are in place: the checkpoint has served.
+  if (checkpoint) checkpoint->remove();
+
+  if (a.quiet) return 0;
+  const bake::BakeStats& st = result.stats;
+  size_t receivers = 0;
+  for (const MeshInstance& m : scene.meshes) receivers += m.receiverOnly;
+  std::ostringstream stages;
+  for (const bake::StageStats& stage : st.stages) stages << stage.name << " " << std::fixed
+                                                         << std::setprecision(2) << stage.seconds << " s, ";
+  double directSeconds = 0;
+  for (const auto& stage : st.stages)
+    if (stage.name == "direct") directSeconds = stage.seconds;
+  std::fprintf(stderr,
+               "prt bake: %s -> %s\n  %s vertices in %zu instances (%zu receivers skipped), %d bands, "
+               "%d samples, %d bounces%s\n  %s rays (%s rays/s in the direct pass), %s hit records%s\n"
+               "  time: %s write %.2f s; total %.2f s\n  memory: estimated %s, peak %s (estimated by phase: %s)\n",
+               a.scene.c_str(), a.output.c_str(), formatCount(double(st.vertices)).c_str(),
+               scene.meshes.size() - receivers, receivers, s.bands, s.samples, s.shadowed ? s.bounces : 0,
+               s.shadowed ? "" : " (unshadowed)", formatCount(double(st.rays)).c_str(),
+               formatCount(directSeconds > 0 ? double(st.rays) / directSeconds : 0.0).c_str(),
+               formatCount(double(st.hitRecords)).c_str(), st.resumed ? "; resumed from the checkpoint" : "",
+               stages.str().c_str(), writeSeconds, st.seconds + writeSeconds, formatBytes(estimate.total).c_str(),
+               formatBytes(peakMemoryBytes()).c_str(), estimate.phases().c_str());
+  for (const std::string& line : describeReceivers(scene)) std::fprintf(stderr, "  receiver %s\n", line.c_str());
+  if (a.probes.empty()) return 0;
+  const std::string restored =
+      probeStats.restored ? cat("; ", formatCount(double(probeStats.restored)), " restored from the checkpoint") : "";
+  std::fprintf(stderr,
+               "  probes: %s lattice points, %s active, %s inside geometry, %s moved out; %s rays in %.2f s "
+               "(%s probes/s, %s rays/s)%s -> %s\n",
+               formatCount(double(probeStats.probes)).c_str(), formatCount(double(probeStats.active)).c_str(),
+               formatCount(double(probeStats.invalid)).c_str(), formatCount(double(probeStats.moved)).c_str(),
+               formatCount(double(probeStats.rays)).c_str(), probeStats.seconds,
+               formatCount(double(probeStats.probes - probeStats.restored) / std::max(probeStats.seconds, 1e-9)).c_str(),
+               formatCount(probeStats.rays / std::max(probeStats.seconds, 1e-9)).c_str(), restored.c_str(),
+               a.probes.c_str());
+  return 0;
+}
+
+}  // namespace prt::tools

@@ -1,0 +1,40 @@
+// `prt bake`: per-vertex SH transfer of a glTF scene into a .glb, and optionally a probe grid.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "prt/bake/surface_bake.h"
+#include "prt/scene.h"
+
+namespace prt::tools {
+
+struct BakeArgs {
+  std::string scene, output;
+  std::string probes;  // optional .vdb
+  double probeSpacing = 0.0;
+  std::vector<int> probeDims;
+  std::vector<double> probeBounds;
+  int probeSamples = 1024;
+  bool probeHalf = false;
+  bake::BakeSettings settings;
+  bool unshadowed = false;
+  bool quiet = false;
+  LoadOptions load;
+  std::string checkpoint;          // default OUTPUT.prt-checkpoint
+  double checkpointInterval = 60;  // seconds; 0 = only when interrupted
+  bool resume = false;
+  std::optional<uint64_t> maxMemory;  // bytes; none: the available memory
+};
+
+/// Adds the options of `prt bake` to its subcommand.
+void addBake(CLI::App& cmd, BakeArgs& a);
+/// Bakes, with SIGINT/SIGTERM saving a checkpoint. Throws prt::Error on bad input,
+/// prt::Interrupted when interrupted.
+int runBake(const BakeArgs& a);
+
+}  // namespace prt::tools

@@ -1,0 +1,91 @@
+#include "info_command.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+
+#include "file_kind.h"
+#include "prt/bake/memory_estimate.h"
+#include "prt/bake/surface_bake.h"
+#include "prt/error.h"
+#include "prt/probe_grid.h"
+#include "prt/progress.h"
+#include "prt/scene.h"
+
+namespace prt::tools {
+
+namespace {
+
+// A glTF scene: what it holds, what it costs in memory, and its bake settings if baked.
+void infoGlb(const std::string& path) {
+  Scene scene = loadScene(path);
+  size_t vertices = 0, triangles = 0, receivers = 0, baked = 0;
+  for (const MeshInstance& m : scene.meshes) {
+    vertices += m.vertexCount();
+    triangles += m.triangleCount();
+    receivers += m.receiverOnly;
+    baked += m.transferBands > 0;
+  }
+  std::printf("%s: glTF scene\n", path.c_str());
+  std::printf("  file        %s on disk\n", formatBytes(std::filesystem::file_size(path)).c_str());
+  std::printf("  instances   %zu (%zu with transfer, %zu receivers)\n", scene.meshes.size(), baked, receivers);
+  for (const std::string& line : describeReceivers(scene)) std::printf("  receiver    %s\n", line.c_str());
+  std::printf("  vertices    %zu\n  triangles   %zu\n", vertices, triangles);
+  std::printf("  materials   %zu, textures %zu, cameras %zu, lights %zu\n", scene.materials.size(),
+              scene.textures.size(), scene.cameras.size(), scene.lights.size());
+  for (size_t k = 0; k < scene.cameras.size(); ++k) {
+    const Camera& c = scene.cameras[k];
+    std::printf("  camera %zu    '%s', %s\n", k, c.name.c_str(),
+                c.perspective ? cat("perspective, yfov ", c.yfov, " rad").c_str() : "orthographic");
+  }
+  for (const Animation& an : scene.animations) {
+    double end = 0.0;
+    for (const AnimationChannel& ch : an.channels) end = std::max(end, ch.times.back());
+    std::printf("  animation   '%s', %zu channels, %g s\n", an.name.c_str(), an.channels.size(), end);
+  }
+  std::printf("  bounds      (%g, %g, %g) .. (%g, %g, %g)\n", scene.boundsMin.x, scene.boundsMin.y,
+              scene.boundsMin.z, scene.boundsMax.x, scene.boundsMax.y, scene.boundsMax.z);
+  // The memory figures come from the bake's own estimate (the one --max-memory checks).
+  const bake::BakeSettings defaults;
+  const bake::MemoryEstimate loaded = bake::estimateBakeMemory(scene, defaults, nullptr, 1.0);
+  std::printf("  memory      %s when loaded (geometry, transfer, textures); baking it with the defaults "
+              "(%d bands, %d samples, %d bounces) needs at most %s\n",
+              formatBytes(loaded.scene).c_str(), defaults.bands, defaults.samples, defaults.bounces,
+              formatBytes(loaded.total).c_str());
+  if (scene.transferBands > 0) {
+    std::printf("  transfer    %d bands (%d RGB coefficients per vertex)\n", scene.transferBands,
+                scene.transferBands * scene.transferBands);
+    if (!scene.bakeSettingsJson.empty()) std::printf("  bake        %s\n", scene.bakeSettingsJson.c_str());
+  } else {
+    std::printf("  transfer    none (not baked)\n");
+  }
+  for (const std::string& w : scene.warnings) std::printf("  warning     %s\n", w.c_str());
+}
+
+}  // namespace
+
+void addInfo(CLI::App& cmd, InfoArgs& a) {
+  cmd.add_option("files", a.files, "Files to describe (.gltf, .glb, .vdb)")->required();
+}
+
+int runInfo(const InfoArgs& a) {
+  int status = 0;
+  for (const std::string& f : a.files) {
+    try {
+      std::string what;
+      switch (sniffFile(f, what)) {
+        case FileKind::ProbeGrid: std::printf("%s", describeProbeFile(f).c_str()); break;
+        case FileKind::Gltf: infoGlb(f); break;
+        case FileKind::Other:
+          throw Error(cat(f, ": not a glTF scene (.gltf, .glb) or a probe grid (.vdb): the file is ", what));
+      }
+    } catch (const Error& e) {
+      std::fprintf(stderr, "prt: %s\n", e.what());
+      status = 1;
+    }
+  }
+  return status;
+}
+
+
+}  // namespace prt::tools

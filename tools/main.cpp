@@ -1,0 +1,104 @@
+// prt: bake precomputed radiance transfer, relight it, inspect it.
+// Thin on purpose: parse the command line, call the libraries, report. Each subcommand is one
+// file (X_command.{h,cpp}: an XArgs struct, addX, runX) and one row of the table below, as the
+// commands of pbrt-v4's cmd/imgtool.cpp. Errors are caught once, here: bad input prints one line
+// and exits 1; usage errors (CLI11's checks, UsageError) print one line with a hint and exit 2.
+#include <csignal>
+#include <cstdio>
+#include <functional>
+#include <new>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "bake_command.h"
+#include "cli_checks.h"
+#include "info_command.h"
+#include "light_command.h"
+#include "probe_command.h"
+#include "prt/bake/checkpoint.h"
+#include "prt/error.h"
+#include "prt/version.h"
+#include "relight_command.h"
+#include "render_command.h"
+
+namespace {
+
+using namespace prt;
+using namespace prt::tools;
+
+constexpr int kUsageExit = 2;
+
+// One line for a usage error, with where to look.
+std::string usageLine(const std::string& what) { return cat("prt: ", what, " (see --help)\n"); }
+
+// One subcommand: its name and summary, how it adds its options, how it runs.
+struct Command {
+  const char* name;
+  const char* summary;
+  std::function<void(CLI::App&)> add;
+  std::function<int()> run;
+  CLI::App* app = nullptr;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"prt: precomputed radiance transfer. Bake once, relight with a dot product."};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", cat("prt ", kVersion));
+  app.get_formatter()->column_width(34);
+  // Usage errors in one line (CLI11's default adds a second).
+  app.failure_message([](const CLI::App*, const CLI::Error& e) { return usageLine(e.what()); });
+
+  BakeArgs bake;
+  RelightArgs relight;
+  LightArgs light;
+  ProbeArgs probe;
+  RenderArgs render;
+  InfoArgs info;
+  std::vector<Command> commands = {
+      {"bake", "Bake per-vertex SH transfer of a glTF scene into a .glb", [&](CLI::App& c) { addBake(c, bake); },
+       [&] { return runBake(bake); }},
+      {"relight", "Relight a baked scene: per-vertex exitant radiance as COLOR_0",
+       [&](CLI::App& c) { addRelight(c, relight); }, [&] { return runRelight(relight); }},
+      {"light", "Project lighting to SH and write it as JSON", [&](CLI::App& c) { addLight(c, light); },
+       [&] { return runLight(light); }},
+      {"probe", "Query a probe grid: incident radiance SH and irradiance at points",
+       [&](CLI::App& c) { addProbe(c, probe); }, [&] { return runProbe(probe); }},
+      {"render", "Render relit frames of a baked scene headlessly (EXR, PNG, MP4)",
+       [&](CLI::App& c) { addRender(c, render); }, [&] { return runRender(render); }},
+      {"info", "Describe baked or input files", [&](CLI::App& c) { addInfo(c, info); }, [&] { return runInfo(info); }},
+  };
+  for (Command& c : commands) {
+    c.app = app.add_subcommand(c.name, c.summary);
+    c.add(*c.app);
+  }
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : kUsageExit;
+  }
+  try {
+    for (const Command& c : commands)
+      if (c.app->parsed()) return c.run();
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "%s", usageLine(e.what()).c_str());
+    return kUsageExit;
+  } catch (const Interrupted& e) {
+    std::fprintf(stderr, "prt: %s\n", e.what());
+    return 128 + (bake::interruptSignal() ? bake::interruptSignal() : SIGINT);
+  } catch (const Error& e) {
+    std::fprintf(stderr, "prt: %s\n", e.what());
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "prt: out of memory\n");
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "prt: unexpected error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

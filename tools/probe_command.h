@@ -1,0 +1,24 @@
+// `prt probe`: query a probe grid, incident radiance SH and irradiance at points.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "light_options.h"
+
+namespace prt::tools {
+
+struct ProbeArgs {
+  std::string file, points, output;
+  std::vector<double> at, normal;
+  LightOptions light;
+};
+
+/// Adds the options of `prt probe` to its subcommand.
+void addProbe(CLI::App& cmd, ProbeArgs& a);
+/// Prints JSON for --at, writes the CSV for --points. Throws prt::Error on bad input.
+int runProbe(const ProbeArgs& a);
+
+}  // namespace prt::tools

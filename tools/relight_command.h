@@ -1,0 +1,23 @@
+// `prt relight`: per-vertex exitant radiance of a baked scene under new light, as COLOR_0.
+#pragma once
+
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "light_options.h"
+
+namespace prt::tools {
+
+struct RelightArgs {
+  std::string baked, output, csv;
+  LightOptions light;
+  bool quiet = false;
+};
+
+/// Adds the options of `prt relight` to its subcommand.
+void addRelight(CLI::App& cmd, RelightArgs& a);
+/// Writes the lit scene (and the CSV). Throws prt::Error on bad input.
+int runRelight(const RelightArgs& a);
+
+}  // namespace prt::tools
