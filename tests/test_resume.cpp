@@ -513,7 +513,7 @@ TEST(BakeMemory, PilotBoundsTheHitRecordsAndTheRefusalSuggestsAWayOut) {
     std::string msg = err.what();
     EXPECT_NE(msg.find("not enough memory"), std::string::npos) << msg;
     std::smatch m;
-    ASSERT_TRUE(std::regex_search(msg, m, std::regex("--samples ([0-9]+)"))) << msg;
+    ASSERT_TRUE(std::regex_search(msg, m, std::regex("samples ([0-9]+)"))) << msg;
     BakeSettings fewer = s;
     fewer.samples = std::stoi(m[1]);
     EXPECT_LT(fewer.samples, s.samples);

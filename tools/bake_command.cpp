@@ -87,6 +87,26 @@ bake::Fingerprint bakeFingerprint(const Scene& scene, const BakeArgs& a, const b
 
 // The test suite interrupts bakes at chosen points with PRT_TEST_INTERRUPT_AFTER=N (an
 // interrupt once N chunks have finished in this run), as a user's Ctrl-C would.
+// The memory guard's refusal in this command's terms: the options that would make the bake fit.
+void guardMemory(const bake::MemoryEstimate& e, const std::optional<bake::MemoryLimit>& limit, const Scene& scene,
+                 const bake::BakeSettings& s, const bake::ProbeSettings* probes) {
+  if (!limit) return;
+  const std::optional<bake::MemoryAdvice> advice = bake::memoryShortfall(e, *limit, scene, s, probes);
+  if (!advice) return;
+  std::vector<std::string> ways;
+  if (advice->samples) ways.push_back(cat("--samples ", *advice->samples));
+  if (const auto& p = advice->probes)
+    ways.push_back(p->spacing > 0 ? cat("--probe-spacing ", p->spacing)
+                                  : cat("--probe-dims ", p->dims.x, ",", p->dims.y, ",", p->dims.z));
+  if (advice->bands) ways.push_back(cat("--bands ", *advice->bands));
+  std::string how;
+  for (const std::string& w : ways) how += (how.empty() ? "" : " or ") + w;
+  how += how.empty() ? cat("raise --max-memory above ", formatBytes(e.total)) : ", or raise --max-memory";
+  const std::string source = limit->source == bake::kGivenLimit ? "--max-memory" : limit->source;
+  throw Error(cat("not enough memory: the bake needs up to ", e.describe(), ", more than the ",
+                  formatBytes(limit->bytes), " allowed by ", source, "; use ", how));
+}
+
 uint64_t testInterruptAfter() {
   const char* v = std::getenv("PRT_TEST_INTERRUPT_AFTER");
   return v ? std::strtoull(v, nullptr, 10) : 0;
@@ -200,7 +220,7 @@ int runBake(const BakeArgs& a) {
   // bound the bake measures on a pilot of its own rays (BakeControl::checkMemory).
   std::optional<bake::MemoryLimit> limit = bake::memoryLimit(a.maxMemory);
   bake::MemoryEstimate estimate = bake::estimateBakeMemory(scene, s, psp, 0.0);
-  if (limit) bake::checkMemory(estimate, *limit, scene, s, psp);
+  guardMemory(estimate, limit, scene, s, psp);
 
   std::optional<bake::Checkpoint> checkpoint;
   if (s.shadowed) {
@@ -209,13 +229,18 @@ int runBake(const BakeArgs& a) {
     co.intervalSeconds = a.checkpointInterval;
     co.resume = a.resume;
     co.interruptAfterChunks = testInterruptAfter();
-    checkpoint.emplace(co, bakeFingerprint(scene, a, s, psp));
+    try {
+      checkpoint.emplace(co, bakeFingerprint(scene, a, s, psp));
+    } catch (const bake::CheckpointExists&) {
+      throw Error(cat(co.path, ": a checkpoint of an interrupted bake exists; add --resume to continue it, "
+                               "or delete it to start over"));
+    }
   }
   bake::BakeControl control;
   control.checkpoint = checkpoint ? &*checkpoint : nullptr;
   control.checkMemory = [&](double share) {
     estimate = bake::estimateBakeMemory(scene, s, psp, share);
-    if (limit) bake::checkMemory(estimate, *limit, scene, s, psp);
+    guardMemory(estimate, limit, scene, s, psp);
   };
   // Runs a stage; an interruption names the checkpoint and how far the bake got.
   auto runStage = [&](auto&& run) {

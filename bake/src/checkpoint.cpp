@@ -149,8 +149,8 @@ Checkpoint::Checkpoint(CheckpointOptions options, Fingerprint fingerprint) : imp
   } else {
     std::error_code ec;
     if (std::filesystem::exists(impl_->opt.path, ec))
-      throw Error(cat(impl_->opt.path, ": a checkpoint of an interrupted bake exists; add --resume to continue it, "
-                                       "or delete it to start over"));
+      throw CheckpointExists(cat(impl_->opt.path, ": a checkpoint of an interrupted bake exists; resume it to continue, "
+                                                  "or delete it to start over"));
     AtomicFile probe(impl_->opt.path);  // fail now on an unwritable directory
   }
 }

@@ -239,7 +239,7 @@ uint64_t residentBytes() {
 }  // namespace
 
 std::optional<MemoryLimit> memoryLimit(std::optional<uint64_t> maxMemory) {
-  if (maxMemory) return MemoryLimit{*maxMemory, "--max-memory"};
+  if (maxMemory) return MemoryLimit{*maxMemory, kGivenLimit};
   std::optional<MemoryLimit> best;
   auto consider = [&](uint64_t free, const std::string& source) {
     // What this process holds already counts towards its peak, so it is available to it.
@@ -268,19 +268,19 @@ std::optional<MemoryLimit> memoryLimit(std::optional<uint64_t> maxMemory) {
   return best;
 }
 
-void checkMemory(const MemoryEstimate& e, const MemoryLimit& limit, const Scene& scene, const BakeSettings& s,
-                 const ProbeSettings* probes) {
-  if (e.total <= limit.bytes) return;
+std::optional<MemoryAdvice> memoryShortfall(const MemoryEstimate& e, const MemoryLimit& limit, const Scene& scene,
+                                            const BakeSettings& s, const ProbeSettings* probes) {
+  if (e.total <= limit.bytes) return std::nullopt;
   // A concrete way out: the largest power-of-two sample count that fits, else a coarser probe
   // lattice, else fewer bands.
-  std::vector<std::string> ways;
+  MemoryAdvice advice;
   if (e.hits > 0) {
     for (int n = 1 << 20; n >= 16; n /= 2) {
       if (n >= s.samples) continue;
       BakeSettings t = s;
       t.samples = n;
       if (estimateBakeMemory(scene, t, probes, e.frontHitShare).total <= limit.bytes) {
-        ways.push_back(cat("--samples ", n));
+        advice.samples = n;
         break;
       }
     }
@@ -293,23 +293,36 @@ void checkMemory(const MemoryEstimate& e, const MemoryLimit& limit, const Scene&
       else
         p.dims = glm::max(glm::ivec3(1), (p.dims * 2 + 2) / 3);
       if (estimateBakeMemory(scene, s, &p, e.frontHitShare).total <= limit.bytes) {
-        ways.push_back(p.spacing > 0 ? cat("--probe-spacing ", p.spacing)
-                                     : cat("--probe-dims ", p.dims.x, ",", p.dims.y, ",", p.dims.z));
+        advice.probes = p;
         break;
       }
     }
   }
-  for (int b = s.bands - 1; ways.empty() && b >= 1; --b) {
+  for (int b = s.bands - 1; !advice.samples && !advice.probes && !advice.bands && b >= 1; --b) {
     BakeSettings t = s;
     t.bands = b;
     ProbeSettings p = probes ? *probes : ProbeSettings{};
     p.bands = b;
     if (estimateBakeMemory(scene, t, probes ? &p : nullptr, e.frontHitShare).total <= limit.bytes)
-      ways.push_back(cat("--bands ", b));
+      advice.bands = b;
   }
+  return advice;
+}
+
+void checkMemory(const MemoryEstimate& e, const MemoryLimit& limit, const Scene& scene, const BakeSettings& s,
+                 const ProbeSettings* probes) {
+  const std::optional<MemoryAdvice> advice = memoryShortfall(e, limit, scene, s, probes);
+  if (!advice) return;
+  std::vector<std::string> ways;
+  if (advice->samples) ways.push_back(cat("samples ", *advice->samples));
+  if (advice->probes)
+    ways.push_back(advice->probes->spacing > 0 ? cat("probe spacing ", advice->probes->spacing)
+                                               : cat("probe dims ", advice->probes->dims.x, ",",
+                                                     advice->probes->dims.y, ",", advice->probes->dims.z));
+  if (advice->bands) ways.push_back(cat("bands ", *advice->bands));
   std::string how;
   for (const std::string& w : ways) how += (how.empty() ? "" : " or ") + w;
-  how += how.empty() ? cat("raise --max-memory above ", formatBytes(e.total)) : ", or raise --max-memory";
+  how += how.empty() ? cat("a limit above ", formatBytes(e.total)) : ", or a higher limit";
   throw Error(cat("not enough memory: the bake needs up to ", e.describe(), ", more than the ",
                   formatBytes(limit.bytes), " allowed by ", limit.source, "; use ", how));
 }

@@ -26,6 +26,7 @@
 
 #include "prt/bake/interrupt.h"
 #include "prt/bake/serialize.h"
+#include "prt/error.h"
 #include "prt/scene.h"
 
 namespace prt::bake {
@@ -42,6 +43,12 @@ struct Fingerprint {
 /// colours, materials, texels). A scene file, a buffer or a texture edited since the
 /// checkpoint, or other --receiver nodes, change them.
 void addSceneFingerprint(Fingerprint& fp, const Scene& scene);
+
+/// Thrown by Checkpoint when a checkpoint exists where a fresh bake would start one.
+class CheckpointExists : public Error {
+public:
+  using Error::Error;
+};
 
 struct CheckpointOptions {
   std::string path;

@@ -41,7 +41,20 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& settin
 
 struct MemoryLimit {
   uint64_t bytes = 0;
-  std::string source;  // "--max-memory", "the available memory (MemAvailable)", "the cgroup limit (memory.max)"
+  /// What set it: kGivenLimit (a limit the caller gave), "the available memory (MemAvailable)",
+  /// "the cgroup limit (memory.max)".
+  std::string source;
+};
+/// MemoryLimit::source of a limit given to memoryLimit() (a tool names its own option instead).
+inline constexpr const char* kGivenLimit = "the given limit";
+
+/// Ways to make a refused bake fit, each alone enough: the largest power-of-two sample count
+/// that fits, else a coarser probe lattice, else fewer bands. None set: only a higher limit
+/// (above the estimate) helps.
+struct MemoryAdvice {
+  std::optional<int> samples;
+  std::optional<ProbeSettings> probes;  // the same settings with a coarser spacing or dims
+  std::optional<int> bands;
 };
 
 /// The memory this process may use: `maxMemory` if given, else what the system has available
@@ -53,8 +66,13 @@ std::optional<MemoryLimit> memoryLimit(std::optional<uint64_t> maxMemory);
 /// Throws prt::Error naming `option` on anything else.
 uint64_t parseByteSize(const std::string& text, const std::string& option);
 
+/// nullopt when the estimate fits the limit; else the settings that would fit.
+std::optional<MemoryAdvice> memoryShortfall(const MemoryEstimate& estimate, const MemoryLimit& limit,
+                                            const Scene& scene, const BakeSettings& settings,
+                                            const ProbeSettings* probes);
+
 /// Throws prt::Error when the estimate exceeds the limit: one line with the estimate, the
-/// limit and a concrete suggestion (fewer samples, coarser probes, or a higher limit).
+/// limit and the advice of memoryShortfall, in the settings' field names ("samples 256").
 void checkMemory(const MemoryEstimate& estimate, const MemoryLimit& limit, const Scene& scene,
                  const BakeSettings& settings, const ProbeSettings* probes);
 
