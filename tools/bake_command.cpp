@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iomanip>
+#include <limits>
 #include <optional>
 #include <sstream>
 
@@ -133,7 +134,9 @@ CLI::Option* addProbeOptions(CLI::App& bake, BakeArgs& a) {
         a.probeBounds = parseNumberList("--probe-bounds", v, 6, false, "six numbers MINX,MINY,MINZ,MAXX,MAXY,MAXZ");
       },
       "Probe grid bounds MINX,MINY,MINZ,MAXX,MAXY,MAXZ (default: scene bounds, flat axes padded)");
-  CLI::Option* samples = bake.add_option("--probe-samples", a.probeSamples, "Sphere directions per probe")->capture_default_str();
+  CLI::Option* samples = bake.add_option("--probe-samples", a.probeSamples, "Sphere directions per probe")
+                             ->check(CLI::Range(1, bake::kMaxSamples))
+                             ->capture_default_str();
   CLI::Option* half = bake.add_flag("--probe-half", a.probeHalf, "Store probe grids as 16-bit floats");
   dims->excludes(spacing);
   for (CLI::Option* o : {spacing, dims, bounds, samples, half}) o->needs(probes);
@@ -148,14 +151,19 @@ void addBake(CLI::App& bake, BakeArgs& a) {
   bake.add_option("--bands", a.settings.bands, "SH bands (n bands = n² coefficients)")
       ->check(kBandsRange)
       ->capture_default_str();
-  bake.add_option("--samples", a.settings.samples, "Hemisphere directions per vertex")->capture_default_str();
+  bake.add_option("--samples", a.settings.samples, "Hemisphere directions per vertex")
+      ->check(CLI::Range(1, bake::kMaxSamples))
+      ->capture_default_str();
   bake.add_option("--bounces", a.settings.bounces, "Interreflection bounces (0 = direct shadowed only)")
+      ->check(CLI::Range(0, bake::kMaxBounces))
       ->capture_default_str();
   CLI::Option* unshadowed =
       bake.add_flag("--unshadowed", a.unshadowed, "Unshadowed transfer (closed form, no rays, no bounces)");
   bake.add_option("--seed", a.settings.seed, "Random seed (same seed, same output, any thread count)")
       ->capture_default_str();
-  bake.add_option("--threads", a.settings.threads, "Worker threads (0 = all cores)")->capture_default_str();
+  bake.add_option("--threads", a.settings.threads, "Worker threads (0 = all cores)")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()))
+      ->capture_default_str();
   bake.add_option("--receiver", a.load.receiverNodes, "Node (name or index) baked as receiver only; repeatable");
   bake.add_flag("--allow-degenerate", a.load.allowDegenerate,
                 "Drop zero-area triangles with a warning instead of refusing");

@@ -251,8 +251,8 @@ struct ProbeBaker {
 
 void validate(const ProbeSettings& s) {
   validateBands(s.bands);
-  if (s.samples < 1 || s.samples > (1 << 24))
-    throw Error(cat("probe samples ", s.samples, ": must be between 1 and ", 1 << 24));
+  if (s.samples < 1 || s.samples > kMaxSamples)
+    throw Error(cat("probe samples ", s.samples, ": must be between 1 and ", kMaxSamples));
   if (!(s.spacing >= 0.0) || !std::isfinite(s.spacing)) throw Error("probe spacing: must be a positive number");
   if (s.spacing == 0.0 && (s.dims.x < 1 || s.dims.y < 1 || s.dims.z < 1))
     throw Error("probe dims: give three positive counts (or a probe spacing)");

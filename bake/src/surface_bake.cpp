@@ -486,9 +486,10 @@ void validateBands(int bands) {
 
 void validate(const BakeSettings& s) {
   validateBands(s.bands);
-  if (s.samples < 1 || s.samples > (1 << 24))
-    throw Error(cat("samples ", s.samples, ": must be between 1 and ", 1 << 24));
-  if (s.bounces < 0 || s.bounces > 64) throw Error(cat("bounces ", s.bounces, ": must be between 0 and 64"));
+  if (s.samples < 1 || s.samples > kMaxSamples)
+    throw Error(cat("samples ", s.samples, ": must be between 1 and ", kMaxSamples));
+  if (s.bounces < 0 || s.bounces > kMaxBounces)
+    throw Error(cat("bounces ", s.bounces, ": must be between 0 and ", kMaxBounces));
   if (s.threads < 0) throw Error(cat("threads ", s.threads, ": must be 0 (all cores) or more"));
 }
 

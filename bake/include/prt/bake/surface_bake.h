@@ -30,6 +30,11 @@ struct BakeSettings {
 /// The one check of an SH band count for every bake setting.
 void validateBands(int bands);
 
+/// Limits of BakeSettings and ProbeSettings (validate() checks them): directions per vertex or
+/// probe, and bounces.
+constexpr int kMaxSamples = 1 << 24;
+constexpr int kMaxBounces = 64;
+
 /// Throws prt::Error if a setting is out of range; the message names the field.
 void validate(const BakeSettings& s);
 
