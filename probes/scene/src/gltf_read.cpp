@@ -1,13 +1,14 @@
-// glTF 2.0 reading (loadScene) and writing (writeBakedScene, writeLitScene).
+// glTF 2.0 reading (loadScene, loadSceneFromMemory). The writers are in gltf_write.cpp, the URI
+// sandbox in uri_guard.cpp, animation sampling in animation.cpp.
 //
-// The only file that sees tinygltf. Reading goes through tinygltf's parser but never trusts
-// it with bounds: every accessor is checked against its buffer view and buffer before a byte
-// is read. Images are kept encoded at load time (keepEncodedImage) and only base-colour
-// textures are decoded, with stb, so a scene full of normal maps costs nothing and the
-// writers can embed the original PNG/JPEG bytes instead of re-encoding them.
+// One of the two files that see tinygltf (through gltf_model.h). Reading goes through
+// tinygltf's parser but never trusts it with bounds: every accessor is checked against its
+// buffer view and buffer before a byte is read. Images are kept encoded at load time
+// (keepEncodedImage) and only base-colour textures are decoded, with stb, so a scene full of
+// normal maps costs nothing and the writers can embed the original PNG/JPEG bytes instead of
+// re-encoding them.
 #include "prt/scene.h"
 
-#include <tiny_gltf.h>
 #include <stb_image.h>
 
 #include <algorithm>
@@ -27,10 +28,16 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <nlohmann/json.hpp>
 
-#include "prt/atomic_file.h"
+#include "animation_labels.h"
+#include "gltf_model.h"
 #include "prt/error.h"
+#include "uri_guard.h"
 
 namespace prt {
+
+using namespace gltf;
+using detail::nodeLabel;
+using detail::pathName;
 
 namespace {
 
@@ -39,12 +46,7 @@ using Json = nlohmann::json;
 
 constexpr int kMaxNodeDepth = 1000;
 // Limits on hostile input, checked before anything that scales with them is allocated
-// (docs/robustness.md). JSON nesting: tinygltf converts extras and extensions recursively,
-// so a deeply nested document would overflow the stack; real files nest fewer than 20 levels.
-constexpr int kMaxJsonDepth = 64;
-// A .gltf/.glb and every file it refers to: tinygltf holds sizes in 32-bit fields (GLB
-// lengths, its string loaders), so 4 GiB is its own limit.
-constexpr uint64_t kMaxFileBytes = 0xFFFFFFFFull;
+// (docs/robustness.md; the file size and JSON nesting limits are in uri_guard.h and uri_guard.cpp).
 // Base colour textures are decoded to float RGBA (16 bytes a texel): at most 1 GiB, and no
 // side beyond what GPUs load (16384).
 constexpr int64_t kMaxTextureSide = 16384;
@@ -52,27 +54,9 @@ constexpr int64_t kMaxTexels = int64_t(1) << 26;
 // An accessor without a buffer view reads as zeros: its count is not backed by bytes of the
 // file, so it is bounded here instead of by the buffer.
 constexpr size_t kMaxBufferlessCount = size_t(1) << 24;
-constexpr const char* kTransferPrefix = "_PRT_SH_";
-constexpr const char* kUnlit = "KHR_materials_unlit";
-constexpr const char* kLights = "KHR_lights_punctual";
-constexpr const char* kTextureTransform = "KHR_texture_transform";
 
 // ---------------------------------------------------------------------------------------------
 // Small helpers
-
-/// A loaded glTF document and the path its messages start with.
-struct Gltf {
-  std::string path;
-  tinygltf::Model model;
-};
-
-[[noreturn]] void fail(const Gltf& g, const std::string& what) {
-  throw Error(cat(g.path, ": ", what));
-}
-
-std::string primitiveWhere(int mesh, int primitive) {
-  return cat("mesh ", mesh, " / primitive ", primitive);
-}
 
 std::string firstLine(const std::string& text) {
   std::string line = text.substr(0, text.find('\n'));
@@ -116,34 +100,6 @@ Json toJson(const tinygltf::Value& v) {
   return nullptr;
 }
 
-tinygltf::Value toValue(const Json& j) {
-  switch (j.type()) {
-    case Json::value_t::boolean: return tinygltf::Value(j.get<bool>());
-    case Json::value_t::number_integer:
-    case Json::value_t::number_unsigned: {
-      // tinygltf's Value holds 32-bit ints; larger integers survive as doubles.
-      if (j.is_number_unsigned() ? j.get<uint64_t>() <= uint64_t(std::numeric_limits<int>::max())
-                                 : (j.get<int64_t>() >= std::numeric_limits<int>::min() &&
-                                    j.get<int64_t>() <= std::numeric_limits<int>::max()))
-        return tinygltf::Value(static_cast<int>(j.get<int64_t>()));
-      return tinygltf::Value(j.get<double>());
-    }
-    case Json::value_t::number_float: return tinygltf::Value(j.get<double>());
-    case Json::value_t::string: return tinygltf::Value(j.get<std::string>());
-    case Json::value_t::array: {
-      tinygltf::Value::Array a;
-      for (const Json& e : j) a.push_back(toValue(e));
-      return tinygltf::Value(std::move(a));
-    }
-    case Json::value_t::object: {
-      tinygltf::Value::Object o;
-      for (const auto& [key, value] : j.items()) o[key] = toValue(value);
-      return tinygltf::Value(std::move(o));
-    }
-    default: return tinygltf::Value();
-  }
-}
-
 // ---------------------------------------------------------------------------------------------
 // Reading the file
 
@@ -170,112 +126,11 @@ bool keepEncodedImage(tinygltf::Image* image, const int index, std::string* err,
   return true;
 }
 
-/// tinygltf image writer callback that writes nothing: the writers embed every image as a
-/// buffer view first, and an image they could not read keeps its URI as it was.
-bool keepImageUri(const std::string*, const std::string*, const tinygltf::Image*, bool,
-                  std::string*, void*) {
-  return false;
-}
-
 bool looksBinary(const std::string& path, const std::string& bytes) {
   if (bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0) return true;
   std::string ext = fs::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   return ext == ".glb";
-}
-
-/// Where the files a glTF refers to may come from (buffers and images by URI). The scene's
-/// folder, resolved through symbolic links, unless external URIs are allowed; nothing when
-/// the document was read from memory.
-struct UriGuard {
-  std::string baseDir;    // as tinygltf joins URIs to it ("" = read from memory)
-  fs::path canonicalDir;  // the folder every file must lie in
-  bool allowExternal = false;
-  std::string refusal;    // first refused file, reported once parsing returns
-};
-
-bool isWithin(const fs::path& p, const fs::path& dir) {
-  auto [d, q] = std::mismatch(dir.begin(), dir.end(), p.begin(), p.end());
-  return d == dir.end();
-}
-
-/// Why `uri` (of a buffer or an image) may not be read, or "" if it may.
-std::string uriProblem(const UriGuard& guard, const std::string& uri) {
-  if (uri.rfind("data:", 0) == 0) return "";
-  size_t colon = uri.find(':');
-  bool scheme = colon != std::string::npos && colon > 0 && std::isalpha(static_cast<unsigned char>(uri[0])) &&
-                std::all_of(uri.begin(), uri.begin() + std::ptrdiff_t(colon), [](unsigned char c) {
-                  return std::isalnum(c) || c == '+' || c == '-' || c == '.';
-                });
-  if (scheme) return cat("uses scheme '", uri.substr(0, colon), "'; only relative file paths and data: URIs are read");
-  if (guard.baseDir.empty()) return "refers to a file, but the document was read from memory (no folder)";
-  bool absolute = !uri.empty() && (uri[0] == '/' || uri[0] == '\\');
-  if (absolute && !guard.allowExternal)
-    return "is an absolute path; refused unless external URIs are allowed (--allow-external-uris)";
-  std::error_code ec;
-  fs::path target = fs::weakly_canonical(absolute ? fs::path(uri) : guard.canonicalDir / uri, ec);
-  if (!guard.allowExternal && (ec || !isWithin(target, guard.canonicalDir)))
-    return "points outside the scene folder; refused unless external URIs are allowed (--allow-external-uris)";
-  if (fs::exists(target, ec) && !fs::is_regular_file(target, ec)) return "is not a regular file";
-  return "";
-}
-
-/// Why tinygltf may not open `path` (a URI joined to a search folder), or "".
-std::string fileProblem(const UriGuard& guard, const std::string& path) {
-  if (guard.baseDir.empty()) return "refers to a file, but the document was read from memory (no folder)";
-  std::error_code ec;
-  if (!guard.allowExternal && !isWithin(fs::weakly_canonical(path, ec), guard.canonicalDir))
-    return "lies outside the scene folder; refused unless external URIs are allowed (--allow-external-uris)";
-  if (fs::exists(path, ec) && !fs::is_regular_file(path, ec)) return "is not a regular file";
-  return "";
-}
-
-// tinygltf file-system callbacks: every file it opens passes the guard (tinygltf also looks
-// in the working directory, and follows whatever path a URI spells).
-bool guardedFileExists(const std::string& path, void* user) {
-  auto& guard = *static_cast<UriGuard*>(user);
-  std::error_code ec;
-  if (guard.baseDir.empty() || !fs::exists(path, ec)) return false;  // tinygltf: "File not found"
-  if (std::string why = fileProblem(guard, path); !why.empty()) {
-    if (guard.refusal.empty()) guard.refusal = cat("file '", path, "' ", why);
-    return false;
-  }
-  return true;
-}
-
-std::string guardedExpandFilePath(const std::string& path, void* user) {
-  // tinygltf joins an absolute URI to its folder ("dir//abs"); when external files are
-  // allowed, it means what it says.
-  const auto& guard = *static_cast<const UriGuard*>(user);
-  for (const std::string& dir : {guard.baseDir, std::string(".")})
-    if (guard.allowExternal && !dir.empty() && path.rfind(dir + "//", 0) == 0) return path.substr(dir.size() + 1);
-  return path;
-}
-
-bool guardedReadWholeFile(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
-  auto& guard = *static_cast<UriGuard*>(user);
-  if (std::string why = fileProblem(guard, path); !why.empty()) {
-    if (err) *err += why;
-    return false;
-  }
-  std::error_code ec;
-  uintmax_t size = fs::file_size(path, ec);
-  if (ec || size > kMaxFileBytes) {
-    if (err) *err += ec ? ec.message() : cat("larger than ", kMaxFileBytes, " bytes");
-    return false;
-  }
-  std::ifstream in(path, std::ios::binary);
-  out->resize(size_t(size));
-  if (!in.read(reinterpret_cast<char*>(out->data()), std::streamsize(size))) {
-    if (err) *err += "cannot read";
-    return false;
-  }
-  return true;
-}
-
-bool refuseWrite(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
-  if (err) *err += "prt never writes through tinygltf's file callbacks";
-  return false;
 }
 
 /// The JSON text of a .gltf, or the JSON chunk of a .glb ("" if the container is malformed:
@@ -286,35 +141,6 @@ std::string jsonText(const std::string& bytes, bool binary) {
   uint32_t length = 0;
   std::memcpy(&length, bytes.data() + 12, 4);
   return length <= bytes.size() - 20 ? bytes.substr(20, length) : "";
-}
-
-/// Checks what tinygltf would trust: the nesting depth of the document and the URIs of
-/// buffers and images. Syntax errors are left to tinygltf, which reports them.
-void checkDocument(const std::string& path, const std::string& text, const UriGuard& guard) {
-  Json doc = Json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (doc.is_discarded()) return;
-  std::vector<std::pair<const Json*, int>> stack{{&doc, 1}};
-  while (!stack.empty()) {
-    auto [j, depth] = stack.back();
-    stack.pop_back();
-    if (depth > kMaxJsonDepth)
-      throw Error(cat(path, ": JSON nested deeper than ", kMaxJsonDepth, " levels"));
-    if (j->is_structured())
-      for (const Json& child : *j) stack.emplace_back(&child, depth + 1);
-  }
-  if (!doc.is_object()) return;
-  for (const char* array : {"buffers", "images"}) {
-    auto it = doc.find(array);
-    if (it == doc.end() || !it->is_array()) continue;
-    for (size_t i = 0; i < it->size(); ++i) {
-      const Json& element = (*it)[i];
-      if (!element.is_object() || !element.contains("uri") || !element["uri"].is_string()) continue;
-      const std::string uri = element["uri"].get<std::string>();
-      if (std::string why = uriProblem(guard, uri); !why.empty())
-        throw Error(cat(path, ": ", std::string(array) == "buffers" ? "buffer " : "image ", i, ": uri '",
-                        uri.size() > 200 ? uri.substr(0, 200) + "..." : uri, "' ", why));
-    }
-  }
 }
 
 /// Parses .gltf or .glb bytes; tinygltf's warnings go to `warnings`, its errors become one
@@ -355,6 +181,10 @@ Gltf parseGltf(const std::string& path, const std::string& bytes, const std::str
   return g;
 }
 
+}  // namespace
+
+namespace gltf {
+
 /// Reads and parses a .gltf or .glb file (see parseGltf).
 Gltf readGltf(const std::string& path, std::vector<std::string>* warnings, bool allowExternal) {
   std::error_code ec;
@@ -371,6 +201,10 @@ Gltf readGltf(const std::string& path, std::vector<std::string>* warnings, bool 
   return parseGltf(path, bytes, dir.empty() ? "." : dir, allowExternal, warnings);
 }
 
+}  // namespace gltf
+
+namespace {
+
 void checkRequiredExtensions(const Gltf& g, std::vector<std::string>& warnings) {
   for (const std::string& ext : g.model.extensionsRequired) {
     if (ext == kUnlit || ext == kLights) continue;
@@ -384,19 +218,7 @@ void checkRequiredExtensions(const Gltf& g, std::vector<std::string>& warnings) 
 }
 
 // ---------------------------------------------------------------------------------------------
-// Accessors
-
-int componentSize(int componentType) {
-  switch (componentType) {
-    case TINYGLTF_COMPONENT_TYPE_BYTE:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
-    case TINYGLTF_COMPONENT_TYPE_SHORT:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
-    default: return 0;  // INT and DOUBLE are not glTF 2.0 accessor types
-  }
-}
+// Accessors (componentSize and AccessorData are in gltf_model.h)
 
 int componentCount(int type) {
   switch (type) {
@@ -418,42 +240,9 @@ const char* typeName(int type) {
   }
 }
 
-/// A validated view of an accessor's elements; every read is within the buffer.
-struct AccessorData {
-  const unsigned char* bytes = nullptr;  // null: no buffer view, all values zero
-  size_t count = 0;
-  size_t stride = 0;
-  int componentType = 0;
-  int components = 0;
-  bool normalized = false;
+}  // namespace
 
-  /// Component c of element i, with normalized integers mapped as the glTF spec says.
-  double get(size_t i, int c) const {
-    if (!bytes) return 0.0;
-    const unsigned char* p = bytes + i * stride + static_cast<size_t>(c) * componentSize(componentType);
-    switch (componentType) {
-      case TINYGLTF_COMPONENT_TYPE_FLOAT: { float v; std::memcpy(&v, p, 4); return v; }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0 : p[0];
-      case TINYGLTF_COMPONENT_TYPE_BYTE: {
-        int8_t v; std::memcpy(&v, p, 1);
-        return normalized ? std::max(v / 127.0, -1.0) : v;
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-        uint16_t v; std::memcpy(&v, p, 2);
-        return normalized ? v / 65535.0 : v;
-      }
-      case TINYGLTF_COMPONENT_TYPE_SHORT: {
-        int16_t v; std::memcpy(&v, p, 2);
-        return normalized ? std::max(v / 32767.0, -1.0) : v;
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
-        uint32_t v; std::memcpy(&v, p, 4);
-        return normalized ? v / 4294967295.0 : v;
-      }
-      default: return 0.0;
-    }
-  }
-};
+namespace gltf {
 
 /// Checks accessor `index` (range, types, byte ranges of accessor, buffer view and buffer) and
 /// returns a view on it. `where` names the user of the accessor, e.g. "mesh 0 / primitive 1 /
@@ -507,6 +296,10 @@ AccessorData openAccessor(const Gltf& g, int index, const std::string& where) {
   return d;
 }
 
+}  // namespace gltf
+
+namespace {
+
 void requireType(const Gltf& g, const AccessorData& d, const std::string& where,
                  std::initializer_list<int> componentCounts) {
   if (std::find(componentCounts.begin(), componentCounts.end(), d.components) == componentCounts.end()) {
@@ -529,6 +322,10 @@ std::vector<glm::vec<N, float>> readVectors(const AccessorData& d) {
     for (int c = 0; c < N; ++c) out[i][c] = static_cast<float>(d.get(i, c));
   return out;
 }
+
+}  // namespace
+
+namespace gltf {
 
 /// Index values of a primitive (or 0..n-1 without indices), each checked against the vertex count.
 std::vector<uint32_t> readIndices(const Gltf& g, const tinygltf::Primitive& prim,
@@ -579,6 +376,10 @@ std::vector<uint32_t> toTriangleList(const Gltf& g, int mode, const std::vector<
   return out;
 }
 
+}  // namespace gltf
+
+namespace {
+
 // ---------------------------------------------------------------------------------------------
 // Primitives (read once per mesh/primitive, in the primitive's own space)
 
@@ -594,10 +395,6 @@ struct PrimitiveData {
   int transferBands = 0;
   std::vector<glm::vec3> transfer;
 };
-
-std::string coefficientName(int i) {
-  return cat(kTransferPrefix, i < 10 ? "0" : "", i);
-}
 
 const char* modeName(int mode) {
   static const char* names[] = {"POINTS", "LINES", "LINE_LOOP", "LINE_STRIP"};
@@ -951,6 +748,9 @@ MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, 
 // ---------------------------------------------------------------------------------------------
 // Materials and textures
 
+static_assert(Texture::kRepeat == TINYGLTF_TEXTURE_WRAP_REPEAT && Texture::kClampToEdge == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE &&
+              Texture::kMirroredRepeat == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT);
+
 bool isWrapMode(int mode) {
   return mode == TINYGLTF_TEXTURE_WRAP_REPEAT || mode == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE ||
          mode == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT;
@@ -1190,15 +990,6 @@ void readNodes(const Gltf& g, Scene& scene) {
   }
 }
 
-const char* pathName(AnimationPath p) {
-  switch (p) {
-    case AnimationPath::Translation: return "translation";
-    case AnimationPath::Rotation: return "rotation";
-    case AnimationPath::Scale: return "scale";
-  }
-  return "?";
-}
-
 /// Reads and validates one channel; false if it is skipped (with a warning).
 bool readChannel(const Gltf& g, const tinygltf::Animation& anim, const tinygltf::AnimationChannel& ch,
                  const std::string& where, AnimationChannel& out, std::vector<std::string>& warnings) {
@@ -1312,12 +1103,6 @@ void readAnimations(const Gltf& g, Scene& scene) {
   }
 }
 
-/// "node 3 'Box'" (the name only where the node has one).
-std::string nodeLabel(const Scene& scene, int node) {
-  const bool named = node >= 0 && size_t(node) < scene.nodes.size() && !scene.nodes[size_t(node)].name.empty();
-  return cat("node ", node, named ? cat(" '", scene.nodes[size_t(node)].name, "'") : std::string());
-}
-
 /// The bake is static: an instance that moves can be neither baked nor an occluder of the bake
 /// (its shadow would stay where it was at rest), so every animated instance becomes a receiver,
 /// except under an explicit {"prt": {"receiver": false}}, which keeps it baked in its rest pose
@@ -1337,41 +1122,6 @@ void makeAnimatedInstancesReceivers(const Gltf& g, Scene& scene, const std::vect
   }
 }
 
-
-}  // namespace
-
-// ---------------------------------------------------------------------------------------------
-// Public: loading
-
-glm::vec4 Texture::sample(const glm::vec2& uv) const {
-  if (width <= 0 || height <= 0 || texels.empty()) return glm::vec4(1.0f);
-  // Texel i covers [i, i+1)/w, its centre at (i+0.5)/w; x is in texel units from the first centre.
-  auto wrap = [](double i, int n, int mode) -> int {
-    if (mode == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE) return static_cast<int>(std::clamp(i, 0.0, double(n - 1)));
-    if (mode == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT) {
-      double m = i - 2.0 * n * std::floor(i / (2.0 * n));  // in [0, 2n)
-      return static_cast<int>(m < n ? m : 2.0 * n - 1.0 - m);
-    }
-    return static_cast<int>(i - n * std::floor(i / n));  // REPEAT
-  };
-  auto axis = [&](float t, int n, int mode, int& i0, int& i1, double& f) {
-    double x = std::isfinite(t) ? std::clamp(double(t), -1e6, 1e6) * n - 0.5 : 0.0;
-    double x0 = std::floor(x);
-    f = x - x0;
-    i0 = std::clamp(wrap(x0, n, mode), 0, n - 1);
-    i1 = std::clamp(wrap(x0 + 1.0, n, mode), 0, n - 1);
-  };
-  int x0, x1, y0, y1;
-  double fx, fy;
-  axis(uv.x, width, wrapS, x0, x1, fx);
-  axis(uv.y, height, wrapT, y0, y1, fy);
-  auto at = [&](int x, int y) { return glm::dvec4(texels[size_t(y) * size_t(width) + size_t(x)]); };
-  glm::dvec4 top = at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx;
-  glm::dvec4 bottom = at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx;
-  return glm::vec4(top * (1.0 - fy) + bottom * fy);
-}
-
-namespace {
 /// loadScene and loadSceneFromMemory: `memory` holds the document, or null to read `path`.
 Scene loadSceneFrom(const std::string& path, const std::string* memory, const LoadOptions& options) {
   Scene scene;
@@ -1398,7 +1148,11 @@ Scene loadSceneFrom(const std::string& path, const std::string* memory, const Lo
   makeAnimatedInstancesReceivers(g, scene, keepStatic);
   return scene;
 }
+
 }  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Public: loading
 
 Scene loadScene(const std::string& path, const LoadOptions& options) {
   return loadSceneFrom(path, nullptr, options);
@@ -1406,622 +1160,6 @@ Scene loadScene(const std::string& path, const LoadOptions& options) {
 
 Scene loadSceneFromMemory(const std::string& name, const std::string& bytes, const LoadOptions& options) {
   return loadSceneFrom(name, &bytes, options);
-}
-
-glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v) {
-  PRT_CHECK_LT(size_t(v), mesh.vertexCount());
-  glm::vec3 albedo(1.0f);
-  if (mesh.material >= 0) {
-    const Material& mat = scene.materials[size_t(mesh.material)];
-    albedo = glm::vec3(mat.baseColorFactor);
-    if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty())
-      albedo *= glm::vec3(scene.textures[size_t(mat.baseColorTexture)].sample(mesh.texcoords[v]));
-  }
-  if (!mesh.colors.empty()) albedo *= glm::vec3(mesh.colors[v]);
-  return albedo;
-}
-
-glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2) {
-  PRT_CHECK_LT(size_t(tri), mesh.triangleCount());
-  const uint32_t* i = &mesh.indices[3 * size_t(tri)];
-  float b0 = 1.0f - b1 - b2;
-  glm::vec3 albedo(1.0f);
-  if (mesh.material >= 0) {
-    const Material& mat = scene.materials[size_t(mesh.material)];
-    albedo = glm::vec3(mat.baseColorFactor);
-    if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty()) {
-      // Interpolate the coordinates, not the texels: the texture varies inside the triangle.
-      glm::vec2 uv = b0 * mesh.texcoords[i[0]] + b1 * mesh.texcoords[i[1]] + b2 * mesh.texcoords[i[2]];
-      albedo *= glm::vec3(scene.textures[size_t(mat.baseColorTexture)].sample(uv));
-    }
-  }
-  if (!mesh.colors.empty())
-    albedo *= glm::vec3(b0 * mesh.colors[i[0]] + b1 * mesh.colors[i[1]] + b2 * mesh.colors[i[2]]);
-  return albedo;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Public: animation sampling (glTF 2.0 spec, Appendix C "Animation Sampler Interpolation Modes")
-
-namespace {
-
-glm::dvec4 unitQuaternion(const glm::dvec4& q) {
-  const double len = glm::length(q);
-  return len > 0.0 ? q / len : glm::dvec4(0, 0, 0, 1);
-}
-
-/// The spec's slerp: along the shorter arc (q and −q are one rotation), linear where the two
-/// are nearly parallel (sin of the angle → 0).
-glm::dvec4 slerp(glm::dvec4 a, glm::dvec4 b, double s) {
-  a = unitQuaternion(a);
-  b = unitQuaternion(b);
-  double d = glm::dot(a, b);
-  if (d < 0.0) {
-    b = -b;
-    d = -d;
-  }
-  if (d > 1.0 - 1e-12) return unitQuaternion(a + s * (b - a));
-  const double angle = std::acos(d), sinAngle = std::sin(angle);
-  return (std::sin((1.0 - s) * angle) * a + std::sin(s * angle) * b) / sinAngle;
-}
-
-glm::dmat4 trs(const glm::dvec3& t, const glm::dvec4& q, const glm::dvec3& s) {
-  const glm::dquat r(q.w, q.x, q.y, q.z);  // glm: (w, x, y, z); glTF: (x, y, z, w)
-  return glm::translate(glm::dmat4(1.0), t) * glm::mat4_cast(r) * glm::scale(glm::dmat4(1.0), s);
-}
-
-glm::dmat4 nodeLocalAt(const Scene& scene, int node, double t) {
-  const Node& n = scene.nodes[size_t(node)];
-  if (n.hasMatrix) return n.matrix;  // never animated (refused at load)
-  glm::dvec3 translation = n.translation, scale = n.scale;
-  glm::dvec4 rotation = n.rotation;
-  for (const Animation& a : scene.animations)
-    for (const AnimationChannel& c : a.channels) {
-      if (c.node != node) continue;
-      const glm::dvec4 v = sampleChannel(c, t);
-      if (c.path == AnimationPath::Translation) translation = glm::dvec3(v);
-      if (c.path == AnimationPath::Rotation) rotation = v;
-      if (c.path == AnimationPath::Scale) scale = glm::dvec3(v);
-    }
-  return trs(translation, rotation, scale);
-}
-
-bool nodeDriven(const Scene& scene, int node) {
-  for (const Animation& a : scene.animations)
-    for (const AnimationChannel& c : a.channels)
-      if (c.node == node) return true;
-  return false;
-}
-
-}  // namespace
-
-glm::dvec4 sampleChannel(const AnimationChannel& ch, double t) {
-  PRT_CHECK(!ch.times.empty());
-  const bool cubic = ch.interpolation == Interpolation::CubicSpline;
-  const bool rotation = ch.path == AnimationPath::Rotation;
-  PRT_CHECK_EQ(ch.values.size(), ch.times.size() * (cubic ? 3 : 1));
-  auto value = [&](size_t k) { return cubic ? ch.values[3 * k + 1] : ch.values[k]; };
-  auto finish = [&](const glm::dvec4& v) { return rotation ? unitQuaternion(v) : v; };
-  const size_t n = ch.times.size();
-  if (!(t > ch.times.front())) return finish(value(0));  // before the first key (and NaN)
-  if (t >= ch.times.back()) return finish(value(n - 1));
-  // times[k] <= t < times[k + 1]
-  const size_t k = size_t(std::upper_bound(ch.times.begin(), ch.times.end(), t) - ch.times.begin()) - 1;
-  const double td = ch.times[k + 1] - ch.times[k];
-  const double s = (t - ch.times[k]) / td;
-  switch (ch.interpolation) {
-    case Interpolation::Step:
-      return finish(value(k));
-    case Interpolation::Linear:
-      return rotation ? slerp(value(k), value(k + 1), s) : value(k) + s * (value(k + 1) - value(k));
-    case Interpolation::CubicSpline: {
-      // Hermite spline with the out-tangent b_k of key k and the in-tangent a_{k+1} of key k+1,
-      // both scaled by the interval t_d:
-      // p(s) = (2s³−3s²+1) v_k + t_d (s³−2s²+s) b_k + (−2s³+3s²) v_{k+1} + t_d (s³−s²) a_{k+1}
-      const double s2 = s * s, s3 = s2 * s;
-      const glm::dvec4 p = (2 * s3 - 3 * s2 + 1) * value(k) + td * (s3 - 2 * s2 + s) * ch.values[3 * k + 2] +
-                           (-2 * s3 + 3 * s2) * value(k + 1) + td * (s3 - s2) * ch.values[3 * (k + 1)];
-      return finish(p);
-    }
-  }
-  return finish(value(k));
-}
-
-bool isAnimated(const Scene& scene, int node) {
-  // Bounded walk: a malformed hierarchy outside the default scene must not loop forever.
-  for (size_t steps = 0; node >= 0 && size_t(node) < scene.nodes.size() && steps <= scene.nodes.size(); ++steps) {
-    if (nodeDriven(scene, node)) return true;
-    node = scene.nodes[size_t(node)].parent;
-  }
-  return false;
-}
-
-glm::dmat4 nodeWorldAt(const Scene& scene, int node, double t) {
-  PRT_CHECK(node >= 0 && size_t(node) < scene.nodes.size());
-  glm::dmat4 world = nodeLocalAt(scene, node, t);
-  int p = scene.nodes[size_t(node)].parent;
-  for (size_t steps = 0; p >= 0 && steps <= scene.nodes.size(); ++steps) {
-    world = nodeLocalAt(scene, p, t) * world;
-    p = scene.nodes[size_t(p)].parent;
-  }
-  return world;
-}
-
-glm::dmat4 instanceMotion(const Scene& scene, const MeshInstance& mesh, double t) {
-  if (!isAnimated(scene, mesh.node)) return glm::dmat4(1.0);
-  return nodeWorldAt(scene, mesh.node, t) * glm::inverse(mesh.world);
-}
-
-double animationDuration(const Scene& scene) {
-  double end = 0.0;
-  for (const Animation& a : scene.animations)
-    for (const AnimationChannel& c : a.channels) end = std::max(end, c.times.back());
-  return end;
-}
-
-namespace {
-
-/// "translation, scale of node 2 'Arm'": the properties that animations drive on `node` and
-/// its ancestors, each once.
-std::string drivenProperties(const Scene& scene, int node) {
-  std::vector<std::string> parts;
-  for (int n = node, steps = 0; n >= 0 && size_t(n) < scene.nodes.size() && size_t(steps) <= scene.nodes.size();
-       n = scene.nodes[size_t(n)].parent, ++steps)
-    for (const Animation& a : scene.animations)
-      for (const AnimationChannel& c : a.channels) {
-        if (c.node != n) continue;
-        std::string part = n == node ? std::string(pathName(c.path)) : cat(pathName(c.path), " of ", nodeLabel(scene, n));
-        if (std::find(parts.begin(), parts.end(), part) == parts.end()) parts.push_back(std::move(part));
-      }
-  std::string out;
-  for (const std::string& p : parts) out += (out.empty() ? "" : ", ") + p;
-  return out;
-}
-
-}  // namespace
-
-std::vector<std::string> describeReceivers(const Scene& scene) {
-  std::vector<std::string> lines;
-  std::set<int> seen;
-  for (const MeshInstance& m : scene.meshes) {
-    if (!m.receiverOnly || (m.node >= 0 && !seen.insert(m.node).second)) continue;
-    std::string why = m.receiverReason == ReceiverReason::Option   ? "named by --receiver"
-                      : m.receiverReason == ReceiverReason::Extras ? "extras.prt.receiver"
-                                                                   : "";
-    if (isAnimated(scene, m.node))
-      why += cat(why.empty() ? "" : ", ", "animated (", drivenProperties(scene, m.node), ")");
-    if (why.empty()) why = "receiverOnly set by the caller";
-    lines.push_back(cat(m.node >= 0 ? nodeLabel(scene, m.node) : cat("'", m.name, "'"), ": ", why));
-  }
-  return lines;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Writing: edits on the reloaded input model, then one packed buffer and an atomic .glb
-
-namespace {
-
-/// Appends `bytes` as a new buffer view of `buffer` (4-byte aligned, as float data needs).
-int appendBufferView(tinygltf::Model& m, int buffer, const void* bytes, size_t size, int target) {
-  std::vector<unsigned char>& data = m.buffers[size_t(buffer)].data;
-  data.resize((data.size() + 3) / 4 * 4, 0);
-  tinygltf::BufferView view;
-  view.buffer = buffer;
-  view.byteOffset = data.size();
-  view.byteLength = size;
-  view.target = target;
-  const auto* p = static_cast<const unsigned char*>(bytes);
-  data.insert(data.end(), p, p + size);
-  m.bufferViews.push_back(view);
-  return static_cast<int>(m.bufferViews.size() - 1);
-}
-
-/// The buffer new data goes to before packing; created on first use.
-int stagingBuffer(tinygltf::Model& m, int& staging) {
-  if (staging < 0) {
-    m.buffers.emplace_back();
-    staging = static_cast<int>(m.buffers.size() - 1);
-  }
-  return staging;
-}
-
-int addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec3>& values,
-                    const std::string& name) {
-  tinygltf::Accessor a;
-  a.name = name;
-  a.bufferView = appendBufferView(m, stagingBuffer(m, staging), values.data(),
-                                  values.size() * sizeof(glm::vec3), TINYGLTF_TARGET_ARRAY_BUFFER);
-  a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
-  a.type = TINYGLTF_TYPE_VEC3;
-  a.count = values.size();
-  m.accessors.push_back(a);
-  return static_cast<int>(m.accessors.size() - 1);
-}
-
-/// The instances must still describe the file: same node → mesh, primitive and vertex count.
-void checkMatchesScene(const Gltf& g, const Scene& scene) {
-  const tinygltf::Model& m = g.model;
-  for (const MeshInstance& inst : scene.meshes) {
-    bool ok = inst.node >= 0 && size_t(inst.node) < m.nodes.size() && m.nodes[size_t(inst.node)].mesh == inst.mesh &&
-              inst.mesh >= 0 && size_t(inst.mesh) < m.meshes.size() && inst.primitive >= 0 &&
-              size_t(inst.primitive) < m.meshes[size_t(inst.mesh)].primitives.size();
-    if (ok) {
-      const auto& attrs = m.meshes[size_t(inst.mesh)].primitives[size_t(inst.primitive)].attributes;
-      auto pos = attrs.find("POSITION");
-      ok = pos != attrs.end() && pos->second >= 0 && size_t(pos->second) < m.accessors.size() &&
-           m.accessors[size_t(pos->second)].count == inst.vertexCount();
-    }
-    if (!ok)
-      fail(g, cat("node ", inst.node, " / ", primitiveWhere(inst.mesh, inst.primitive),
-                  " does not match the loaded scene (was the file changed?)"));
-  }
-}
-
-/// Rewrites every strip and fan as a triangle list with its own index accessor.
-void rewriteStripsAndFans(Gltf& g, int& staging) {
-  tinygltf::Model& m = g.model;
-  for (size_t mi = 0; mi < m.meshes.size(); ++mi) {
-    for (size_t pi = 0; pi < m.meshes[mi].primitives.size(); ++pi) {
-      tinygltf::Primitive& prim = m.meshes[mi].primitives[pi];
-      if (prim.mode != TINYGLTF_MODE_TRIANGLE_STRIP && prim.mode != TINYGLTF_MODE_TRIANGLE_FAN) continue;
-      std::string where = primitiveWhere(int(mi), int(pi));
-      auto pos = prim.attributes.find("POSITION");
-      if (pos == prim.attributes.end()) continue;
-      size_t n = openAccessor(g, pos->second, cat(where, " / POSITION")).count;
-      std::vector<uint32_t> list = toTriangleList(g, prim.mode, readIndices(g, prim, where, n), where);
-      tinygltf::Accessor a;
-      a.bufferView = appendBufferView(m, stagingBuffer(m, staging), list.data(), list.size() * 4,
-                                      TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
-      a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
-      a.type = TINYGLTF_TYPE_SCALAR;
-      a.count = list.size();
-      m.accessors.push_back(a);
-      prim.indices = static_cast<int>(m.accessors.size() - 1);
-      prim.mode = TINYGLTF_MODE_TRIANGLES;
-    }
-  }
-}
-
-/// Per-vertex data belongs to a (node, primitive) pair, but glTF attaches attributes to
-/// meshes: a mesh placed by several nodes gets one copy per extra node.
-void giveEachNodeItsOwnMesh(tinygltf::Model& m, const Scene& scene) {
-  std::map<int, int> owner;  // mesh -> the node that keeps it
-  for (const MeshInstance& inst : scene.meshes) {
-    auto [it, first] = owner.emplace(inst.mesh, inst.node);
-    if (first || it->second == inst.node) continue;
-    tinygltf::Node& node = m.nodes[size_t(inst.node)];
-    if (node.mesh != inst.mesh) continue;  // already given its copy
-    m.meshes.push_back(m.meshes[size_t(inst.mesh)]);
-    node.mesh = static_cast<int>(m.meshes.size() - 1);
-  }
-}
-
-tinygltf::Primitive& primitiveOf(tinygltf::Model& m, const MeshInstance& inst) {
-  return m.meshes[size_t(m.nodes[size_t(inst.node)].mesh)].primitives[size_t(inst.primitive)];
-}
-
-void dropTransferAttributes(tinygltf::Model& m) {
-  for (tinygltf::Mesh& mesh : m.meshes)
-    for (tinygltf::Primitive& prim : mesh.primitives)
-      std::erase_if(prim.attributes, [](const auto& a) { return a.first.rfind(kTransferPrefix, 0) == 0; });
-}
-
-void addTransferAttributes(tinygltf::Model& m, int& staging, const Scene& scene) {
-  size_t k = size_t(scene.transferBands) * size_t(scene.transferBands);
-  for (const MeshInstance& inst : scene.meshes) {
-    if (inst.transfer.empty()) continue;
-    PRT_CHECK_GT(scene.transferBands, 0);
-    PRT_CHECK_EQ(inst.transfer.size(), inst.vertexCount() * k);
-    tinygltf::Primitive& prim = primitiveOf(m, inst);
-    std::vector<glm::vec3> column(inst.vertexCount());
-    for (size_t i = 0; i < k; ++i) {
-      for (size_t v = 0; v < column.size(); ++v) column[v] = inst.transfer[v * k + i];
-      prim.attributes[coefficientName(int(i))] = addVec3Accessor(m, staging, column, coefficientName(int(i)));
-    }
-  }
-}
-
-/// Receivers named only by LoadOptions::receiverNodes (prt bake --receiver) get extras
-/// {"prt": {"receiver": true}} on their node in the written file, so that loading it again
-/// (prt render, prt info) finds the same receivers. Other extras are kept.
-void markOptionReceivers(tinygltf::Model& m, const Scene& scene) {
-  using Object = tinygltf::Value::Object;
-  for (const MeshInstance& inst : scene.meshes) {
-    if (inst.receiverReason != ReceiverReason::Option) continue;
-    tinygltf::Value& extras = m.nodes[size_t(inst.node)].extras;
-    Object root = extras.IsObject() ? extras.Get<Object>() : Object{};
-    Object prt = root.count("prt") && root["prt"].IsObject() ? root["prt"].Get<Object>() : Object{};
-    prt["receiver"] = tinygltf::Value(true);
-    root["prt"] = tinygltf::Value(std::move(prt));
-    extras = tinygltf::Value(std::move(root));
-  }
-}
-
-void storeSettings(const Gltf& g, tinygltf::Model& m, const std::string& settingsJson) {
-  if (settingsJson.empty()) return;
-  Json settings;
-  try {
-    settings = Json::parse(settingsJson);
-  } catch (const Json::exception& e) {
-    fail(g, cat("bake settings are not valid JSON: ", e.what()));
-  }
-  if (!m.asset.extras.IsObject()) m.asset.extras = tinygltf::Value(tinygltf::Value::Object{});
-  m.asset.extras.Get<tinygltf::Value::Object>()["prt"] = toValue(settings);
-}
-
-std::string sniffMimeType(const std::vector<unsigned char>& b) {
-  auto starts = [&](const char* magic, size_t n, size_t at = 0) {
-    return b.size() >= at + n && std::memcmp(b.data() + at, magic, n) == 0;
-  };
-  if (starts("\x89PNG", 4)) return "image/png";
-  if (starts("\xFF\xD8\xFF", 3)) return "image/jpeg";
-  if (starts("RIFF", 4) && starts("WEBP", 4, 8)) return "image/webp";
-  if (starts("\xABKTX 20\xBB", 8)) return "image/ktx2";
-  return "";
-}
-
-/// Moves every image held by URI (file or data:) into a buffer view, with its original
-/// encoded bytes: nothing is re-encoded, and the .glb is self-contained.
-void embedImages(tinygltf::Model& m, int& staging) {
-  for (tinygltf::Image& image : m.images) {
-    if (image.bufferView >= 0 || image.image.empty()) continue;  // unreadable ones keep their URI
-    std::string mime = sniffMimeType(image.image);
-    if (mime.empty()) mime = image.mimeType;
-    if (mime.empty()) continue;
-    image.bufferView = appendBufferView(m, stagingBuffer(m, staging), image.image.data(), image.image.size(), 0);
-    image.mimeType = mime;
-    image.uri.clear();
-    image.image.clear();
-  }
-}
-
-/// True when every extension used is known not to refer to accessors or buffer views, so
-/// unreferenced ones can be dropped without breaking an index hidden in an extension.
-bool onlyKnownExtensions(const tinygltf::Model& m) {
-  for (const std::string& e : m.extensionsUsed) {
-    bool known = e.rfind("KHR_materials_", 0) == 0 || e == kLights || e == kTextureTransform ||
-                 e == "KHR_mesh_quantization" || e == "KHR_texture_basisu" || e == "EXT_texture_webp";
-    if (!known) return false;
-  }
-  return true;
-}
-
-/// Marks the accessors that core glTF objects refer to.
-std::vector<char> usedAccessors(const tinygltf::Model& m) {
-  std::vector<char> used(m.accessors.size(), 0);
-  auto mark = [&](int a) { if (a >= 0 && size_t(a) < used.size()) used[size_t(a)] = 1; };
-  for (const tinygltf::Mesh& mesh : m.meshes) {
-    for (const tinygltf::Primitive& prim : mesh.primitives) {
-      for (const auto& [name, a] : prim.attributes) mark(a);
-      mark(prim.indices);
-      for (const auto& target : prim.targets)
-        for (const auto& [name, a] : target) mark(a);
-    }
-  }
-  for (const tinygltf::Skin& skin : m.skins) mark(skin.inverseBindMatrices);
-  for (const tinygltf::Animation& anim : m.animations)
-    for (const tinygltf::AnimationSampler& s : anim.samplers) { mark(s.input); mark(s.output); }
-  return used;
-}
-
-void remapAccessors(tinygltf::Model& m, const std::vector<char>& keep) {
-  std::vector<int> to(m.accessors.size(), -1);
-  std::vector<tinygltf::Accessor> kept;
-  for (size_t i = 0; i < m.accessors.size(); ++i) {
-    if (!keep[i]) continue;
-    to[i] = static_cast<int>(kept.size());
-    kept.push_back(std::move(m.accessors[i]));
-  }
-  m.accessors = std::move(kept);
-  auto map = [&](int& a) { if (a >= 0 && size_t(a) < to.size()) a = to[size_t(a)]; };
-  for (tinygltf::Mesh& mesh : m.meshes) {
-    for (tinygltf::Primitive& prim : mesh.primitives) {
-      for (auto& [name, a] : prim.attributes) map(a);
-      map(prim.indices);
-      for (auto& target : prim.targets)
-        for (auto& [name, a] : target) map(a);
-    }
-  }
-  for (tinygltf::Skin& skin : m.skins) map(skin.inverseBindMatrices);
-  for (tinygltf::Animation& anim : m.animations)
-    for (tinygltf::AnimationSampler& s : anim.samplers) { map(s.input); map(s.output); }
-}
-
-/// GLB holds one binary buffer: copies every kept buffer view into a new buffer 0, dropping
-/// views (and, with only known extensions, accessors) that nothing refers to any more —
-/// a lit scene then no longer carries the transfer it was made from.
-void packIntoOneBuffer(const Gltf& g, tinygltf::Model& m) {
-  bool prune = onlyKnownExtensions(m);
-  if (prune) remapAccessors(m, usedAccessors(m));
-  std::vector<char> keepView(m.bufferViews.size(), prune ? 0 : 1);
-  auto mark = [&](int v) { if (v >= 0 && size_t(v) < keepView.size()) keepView[size_t(v)] = 1; };
-  for (const tinygltf::Accessor& a : m.accessors) {
-    mark(a.bufferView);
-    if (a.sparse.isSparse) { mark(a.sparse.indices.bufferView); mark(a.sparse.values.bufferView); }
-  }
-  for (const tinygltf::Image& image : m.images) mark(image.bufferView);
-
-  tinygltf::Buffer packed;
-  std::vector<int> to(m.bufferViews.size(), -1);
-  std::vector<tinygltf::BufferView> views;
-  for (size_t i = 0; i < m.bufferViews.size(); ++i) {
-    if (!keepView[i]) continue;
-    tinygltf::BufferView view = m.bufferViews[i];
-    if (view.buffer < 0 || size_t(view.buffer) >= m.buffers.size())
-      fail(g, cat("buffer view ", i, " uses buffer ", view.buffer, ", which does not exist"));
-    const std::vector<unsigned char>& src = m.buffers[size_t(view.buffer)].data;
-    if (view.byteOffset > src.size() || view.byteLength > src.size() - view.byteOffset)
-      fail(g, cat("buffer view ", i, " runs past the end of buffer ", view.buffer));
-    // 4-byte alignment keeps every accessor's offset a multiple of its component size.
-    packed.data.resize((packed.data.size() + 3) / 4 * 4, 0);
-    size_t offset = packed.data.size();
-    packed.data.insert(packed.data.end(), src.begin() + std::ptrdiff_t(view.byteOffset),
-                       src.begin() + std::ptrdiff_t(view.byteOffset + view.byteLength));
-    view.buffer = 0;
-    view.byteOffset = offset;
-    to[i] = static_cast<int>(views.size());
-    views.push_back(std::move(view));
-  }
-  auto map = [&](int& v) { if (v >= 0 && size_t(v) < to.size()) v = to[size_t(v)]; };
-  for (tinygltf::Accessor& a : m.accessors) {
-    map(a.bufferView);
-    if (a.sparse.isSparse) { map(a.sparse.indices.bufferView); map(a.sparse.values.bufferView); }
-  }
-  for (tinygltf::Image& image : m.images) map(image.bufferView);
-  m.bufferViews = std::move(views);
-  m.buffers.assign(1, std::move(packed));
-}
-
-void addExtensionUsed(tinygltf::Model& m, const std::string& name) {
-  if (std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), name) == m.extensionsUsed.end())
-    m.extensionsUsed.push_back(name);
-}
-
-void writeGlb(const Gltf& g, tinygltf::Model& m, int& staging, const std::string& outPath) {
-  m.asset.generator = "prt";
-  embedImages(m, staging);
-  packIntoOneBuffer(g, m);
-  AtomicFile file(outPath);
-  tinygltf::TinyGLTF writer;
-  writer.SetImageWriter(&keepImageUri, nullptr);
-  bool ok = writer.WriteGltfSceneToFile(&m, file.tempPath(), /*embedImages=*/true, /*embedBuffers=*/true,
-                                        /*prettyPrint=*/false, /*writeBinary=*/true);
-  // tinygltf does not check its stream writes; a truncated file shows in its size.
-  std::error_code ec;
-  uintmax_t size = fs::file_size(file.tempPath(), ec);
-  if (!ok || ec || size < 12) throw Error(cat(outPath, ": cannot write the .glb file"));
-  file.commit();
-}
-
-/// glTF requires min/max on POSITION accessors; inputs that lack them get them here, so the
-/// output validates whatever the input did.
-void addPositionBounds(Gltf& g) {
-  for (size_t mi = 0; mi < g.model.meshes.size(); ++mi) {
-    for (size_t pi = 0; pi < g.model.meshes[mi].primitives.size(); ++pi) {
-      const auto& attrs = g.model.meshes[mi].primitives[pi].attributes;
-      auto pos = attrs.find("POSITION");
-      if (pos == attrs.end()) continue;
-      std::string where = cat(primitiveWhere(int(mi), int(pi)), " / POSITION");
-      AccessorData d = openAccessor(g, pos->second, where);
-      tinygltf::Accessor& a = g.model.accessors[size_t(pos->second)];
-      if (d.count == 0 || d.components != 3 || (a.minValues.size() == 3 && a.maxValues.size() == 3)) continue;
-      glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-      for (size_t v = 0; v < d.count; ++v) {
-        glm::dvec3 p(d.get(v, 0), d.get(v, 1), d.get(v, 2));
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-      }
-      a.minValues = {lo.x, lo.y, lo.z};
-      a.maxValues = {hi.x, hi.y, hi.z};
-    }
-  }
-}
-
-/// Loads the input again and makes it ready to carry per-instance vertex data.
-Gltf reloadForWriting(const std::string& inputPath, const Scene& scene, int& staging) {
-  Gltf g = readGltf(inputPath, nullptr, scene.allowExternalUris);
-  checkMatchesScene(g, scene);
-  addPositionBounds(g);
-  rewriteStripsAndFans(g, staging);
-  giveEachNodeItsOwnMesh(g.model, scene);
-  dropTransferAttributes(g.model);
-  return g;
-}
-
-/// Every material becomes unlit white, so a viewer shows COLOR_0 (the radiance) unchanged.
-void makeMaterialsUnlitWhite(tinygltf::Model& m) {
-  auto unlitWhite = [](const std::string& name, bool doubleSided) {
-    tinygltf::Material mat;
-    mat.name = name;
-    mat.doubleSided = doubleSided;
-    mat.pbrMetallicRoughness.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
-    mat.pbrMetallicRoughness.metallicFactor = 0.0;  // the fallback the unlit spec suggests
-    mat.pbrMetallicRoughness.roughnessFactor = 0.9;
-    mat.extensions[kUnlit] = tinygltf::Value(tinygltf::Value::Object{});
-    return mat;
-  };
-  for (tinygltf::Material& mat : m.materials) mat = unlitWhite(mat.name, mat.doubleSided);
-  int fallback = -1;  // for primitives on the glTF default material, which is lit
-  for (tinygltf::Mesh& mesh : m.meshes) {
-    for (tinygltf::Primitive& prim : mesh.primitives) {
-      if (prim.material >= 0) continue;
-      if (fallback < 0) {
-        m.materials.push_back(unlitWhite("prt unlit", false));
-        fallback = static_cast<int>(m.materials.size() - 1);
-      }
-      prim.material = fallback;
-    }
-  }
-  m.textures.clear();
-  m.images.clear();
-  m.samplers.clear();
-  // Material and texture extensions have nothing left to apply to.
-  auto gone = [](const std::string& e) {
-    return (e.rfind("KHR_materials_", 0) == 0 && e != kUnlit) || e == kTextureTransform ||
-           e == "KHR_texture_basisu" || e == "EXT_texture_webp";
-  };
-  std::erase_if(m.extensionsUsed, gone);
-  std::erase_if(m.extensionsRequired, gone);
-  addExtensionUsed(m, kUnlit);
-}
-
-/// Removes meshes without primitives (glTF requires at least one) and the nodes' references.
-void removeEmptyMeshes(tinygltf::Model& m) {
-  std::vector<int> to(m.meshes.size(), -1);
-  std::vector<tinygltf::Mesh> kept;
-  for (size_t i = 0; i < m.meshes.size(); ++i) {
-    if (m.meshes[i].primitives.empty()) continue;
-    to[i] = static_cast<int>(kept.size());
-    kept.push_back(std::move(m.meshes[i]));
-  }
-  m.meshes = std::move(kept);
-  for (tinygltf::Node& n : m.nodes)
-    if (n.mesh >= 0) n.mesh = size_t(n.mesh) < to.size() ? to[size_t(n.mesh)] : -1;
-}
-
-/// Removes the primitives of instances without radiance; a node left without primitives
-/// loses its mesh.
-void removeUnlitInstances(tinygltf::Model& m, const Scene& scene,
-                          const std::vector<std::vector<glm::vec3>>& radiance) {
-  std::map<int, std::set<int>> drop;  // node -> primitives
-  for (size_t k = 0; k < scene.meshes.size(); ++k)
-    if (radiance[k].empty()) drop[scene.meshes[k].node].insert(scene.meshes[k].primitive);
-  for (const auto& [node, prims] : drop) {
-    auto& list = m.meshes[size_t(m.nodes[size_t(node)].mesh)].primitives;
-    for (auto it = prims.rbegin(); it != prims.rend(); ++it) list.erase(list.begin() + *it);
-  }
-  removeEmptyMeshes(m);
-}
-
-}  // namespace
-
-void writeBakedScene(const std::string& inputPath, const Scene& scene, const std::string& settingsJson,
-                     const std::string& outPath) {
-  int staging = -1;
-  Gltf g = reloadForWriting(inputPath, scene, staging);
-  addTransferAttributes(g.model, staging, scene);
-  markOptionReceivers(g.model, scene);
-  storeSettings(g, g.model, settingsJson);
-  writeGlb(g, g.model, staging, outPath);
-}
-
-void writeLitScene(const std::string& inputPath, const Scene& scene,
-                   const std::vector<std::vector<glm::vec3>>& radiance, const std::string& outPath) {
-  PRT_CHECK_EQ(radiance.size(), scene.meshes.size());
-  int staging = -1;
-  // reloadForWriting drops the _PRT_SH_* attributes: a lit file is for looking at, and the
-  // transfer would make it bands² × 12 bytes per vertex larger. packIntoOneBuffer then leaves
-  // their data out.
-  Gltf g = reloadForWriting(inputPath, scene, staging);
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    if (radiance[k].empty()) continue;
-    PRT_CHECK_EQ(radiance[k].size(), scene.meshes[k].vertexCount());
-    primitiveOf(g.model, scene.meshes[k]).attributes["COLOR_0"] =
-        addVec3Accessor(g.model, staging, radiance[k], "radiance");
-  }
-  removeUnlitInstances(g.model, scene, radiance);
-  makeMaterialsUnlitWhite(g.model);
-  writeGlb(g, g.model, staging, outPath);
 }
 
 }  // namespace prt

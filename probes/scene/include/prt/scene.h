@@ -24,8 +24,10 @@ struct Texture {
   int width = 0;
   int height = 0;
   std::vector<glm::vec4> texels;  // row-major, row 0 = top of the image (v = 0)
-  int wrapS = 10497;              // glTF sampler wrap modes (REPEAT)
-  int wrapT = 10497;
+  /// glTF sampler wrap modes, as the file stores them.
+  static constexpr int kRepeat = 10497, kClampToEdge = 33071, kMirroredRepeat = 33648;
+  int wrapS = kRepeat;
+  int wrapT = kRepeat;
   /// Bilinear lookup at glTF texture coordinates (u right, v down), honouring the wrap modes.
   glm::vec4 sample(const glm::vec2& uv) const;
 };

@@ -1,0 +1,16 @@
+// Names of animation parts for messages, shared by the reader's warnings (gltf_read.cpp) and
+// describeReceivers (animation.cpp).
+#pragma once
+
+#include <string>
+
+#include "prt/scene.h"
+
+namespace prt::detail {
+
+/// "translation", "rotation" or "scale".
+const char* pathName(AnimationPath p);
+/// "node 3 'Box'" (the name only where the node has one).
+std::string nodeLabel(const Scene& scene, int node);
+
+}  // namespace prt::detail

@@ -1,0 +1,72 @@
+// Material lookups: bilinear texture sampling with the glTF wrap modes, and base colour at a
+// vertex or at a point of a triangle.
+#include "prt/scene.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "prt/error.h"
+
+namespace prt {
+
+glm::vec4 Texture::sample(const glm::vec2& uv) const {
+  if (width <= 0 || height <= 0 || texels.empty()) return glm::vec4(1.0f);
+  // Texel i covers [i, i+1)/w, its centre at (i+0.5)/w; x is in texel units from the first centre.
+  auto wrap = [](double i, int n, int mode) -> int {
+    if (mode == kClampToEdge) return static_cast<int>(std::clamp(i, 0.0, double(n - 1)));
+    if (mode == kMirroredRepeat) {
+      double m = i - 2.0 * n * std::floor(i / (2.0 * n));  // in [0, 2n)
+      return static_cast<int>(m < n ? m : 2.0 * n - 1.0 - m);
+    }
+    return static_cast<int>(i - n * std::floor(i / n));  // REPEAT
+  };
+  auto axis = [&](float t, int n, int mode, int& i0, int& i1, double& f) {
+    double x = std::isfinite(t) ? std::clamp(double(t), -1e6, 1e6) * n - 0.5 : 0.0;
+    double x0 = std::floor(x);
+    f = x - x0;
+    i0 = std::clamp(wrap(x0, n, mode), 0, n - 1);
+    i1 = std::clamp(wrap(x0 + 1.0, n, mode), 0, n - 1);
+  };
+  int x0, x1, y0, y1;
+  double fx, fy;
+  axis(uv.x, width, wrapS, x0, x1, fx);
+  axis(uv.y, height, wrapT, y0, y1, fy);
+  auto at = [&](int x, int y) { return glm::dvec4(texels[size_t(y) * size_t(width) + size_t(x)]); };
+  glm::dvec4 top = at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx;
+  glm::dvec4 bottom = at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx;
+  return glm::vec4(top * (1.0 - fy) + bottom * fy);
+}
+
+glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v) {
+  PRT_CHECK_LT(size_t(v), mesh.vertexCount());
+  glm::vec3 albedo(1.0f);
+  if (mesh.material >= 0) {
+    const Material& mat = scene.materials[size_t(mesh.material)];
+    albedo = glm::vec3(mat.baseColorFactor);
+    if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty())
+      albedo *= glm::vec3(scene.textures[size_t(mat.baseColorTexture)].sample(mesh.texcoords[v]));
+  }
+  if (!mesh.colors.empty()) albedo *= glm::vec3(mesh.colors[v]);
+  return albedo;
+}
+
+glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2) {
+  PRT_CHECK_LT(size_t(tri), mesh.triangleCount());
+  const uint32_t* i = &mesh.indices[3 * size_t(tri)];
+  float b0 = 1.0f - b1 - b2;
+  glm::vec3 albedo(1.0f);
+  if (mesh.material >= 0) {
+    const Material& mat = scene.materials[size_t(mesh.material)];
+    albedo = glm::vec3(mat.baseColorFactor);
+    if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty()) {
+      // Interpolate the coordinates, not the texels: the texture varies inside the triangle.
+      glm::vec2 uv = b0 * mesh.texcoords[i[0]] + b1 * mesh.texcoords[i[1]] + b2 * mesh.texcoords[i[2]];
+      albedo *= glm::vec3(scene.textures[size_t(mat.baseColorTexture)].sample(uv));
+    }
+  }
+  if (!mesh.colors.empty())
+    albedo *= glm::vec3(b0 * mesh.colors[i[0]] + b1 * mesh.colors[i[1]] + b2 * mesh.colors[i[2]]);
+  return albedo;
+}
+
+}  // namespace prt
