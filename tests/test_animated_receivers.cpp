@@ -101,7 +101,7 @@ TEST(SceneAnimatedReceivers, AnimatedNodeIsAReceiverWithItsReason) {
   const Scene marked = loadScene(writeCubeScene(dir, "marked", true, {{"prt", {{"receiver", true}}}}), named);
   EXPECT_EQ(instanceOf(marked, "Cube").receiverReason, ReceiverReason::Extras);
   EXPECT_EQ(instanceOf(marked, "Floor").receiverReason, ReceiverReason::Option);
-  EXPECT_EQ(describeReceivers(marked), (std::vector<std::string>{"node 0 'Floor': named by --receiver",
+  EXPECT_EQ(describeReceivers(marked), (std::vector<std::string>{"node 0 'Floor': named in LoadOptions::receiverNodes",
                                                                   "node 1 'Cube': extras.prt.receiver, animated (translation)"}));
 }
 

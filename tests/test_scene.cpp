@@ -467,7 +467,8 @@ TEST_F(SceneLoad, ReceiversByNameIndexAndExtrasCoverSubtrees) {
   EXPECT_TRUE(receiverOf(marked, floor));  // by index
   EXPECT_TRUE(receiverOf(marked, toy));
   EXPECT_EQ(prt::describeReceivers(marked),
-            (std::vector<std::string>{"node 0 'Ball': named by --receiver", "node 2 'Floor': named by --receiver",
+            (std::vector<std::string>{"node 0 'Ball': named in LoadOptions::receiverNodes",
+                                      "node 2 'Floor': named in LoadOptions::receiverNodes",
                                       "node 3 'Toy': extras.prt.receiver"}));
 
   // The baked file marks the --receiver nodes in their extras: loaded again without options

@@ -11,6 +11,7 @@
 
 #include "gl_functions.h"
 #include "probe_shading.h"
+#include "prt/animation.h"
 #include "prt/error.h"
 
 namespace prt::render {
@@ -204,7 +205,7 @@ struct Renderer::Impl {
   glm::vec3 boundsMin{0.0f}, boundsMax{0.0f};
   std::vector<Instance> instances;  // baked
   std::vector<Instance> receivers;
-  Scene animation;                  // the scene's nodes and animations only
+  SceneAnimation animation;         // moves the receivers
   std::vector<GLuint> textures;     // per Scene texture, 0 where unused
   // Per material variant (id 0: no instance needs it).
   std::array<Program, kVariants> programs;
@@ -353,8 +354,7 @@ void Renderer::Impl::setMaterial(const Scene& scene, const MeshInstance& m, Inst
 void Renderer::Impl::upload(const Scene& scene) {
   boundsMin = scene.boundsMin;
   boundsMax = scene.boundsMax;
-  animation.nodes = scene.nodes;
-  animation.animations = scene.animations;
+  animation = scene;  // the SceneAnimation part only
   const size_t n2 = size_t(bands) * bands;
   GLint maxSsbo = 0;
   gl.GetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &maxSsbo);
@@ -944,7 +944,7 @@ std::vector<std::string> Renderer::warnings() const {
       names += cat(i ? ", '" : "'", rs[i].placement.name, "'");
     if (rs.size() > 3) names += cat(" and ", rs.size() - 3, " more");
     out.push_back(cat(rs.size(), " receiver instance", rs.size() > 1 ? "s" : "", " (", names,
-                      ") not drawn: receivers are lit from a probe grid and none was given (prt render --probes)"));
+                      ") not drawn: receivers are lit from a probe grid and none was given (Renderer::setProbes)"));
   }
   return out;
 }

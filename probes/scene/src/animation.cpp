@@ -1,6 +1,6 @@
 // Animation sampling (glTF 2.0 spec, Appendix C "Animation Sampler Interpolation Modes"): node
 // transforms at a time t, and why each receiver is one.
-#include "prt/scene.h"
+#include "prt/animation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +11,7 @@
 
 #include "animation_labels.h"
 #include "prt/error.h"
+#include "prt/scene.h"
 
 namespace prt {
 
@@ -26,9 +27,9 @@ const char* pathName(AnimationPath p) {
 }
 
 /// "node 3 'Box'" (the name only where the node has one).
-std::string nodeLabel(const Scene& scene, int node) {
-  const bool named = node >= 0 && size_t(node) < scene.nodes.size() && !scene.nodes[size_t(node)].name.empty();
-  return cat("node ", node, named ? cat(" '", scene.nodes[size_t(node)].name, "'") : std::string());
+std::string nodeLabel(const SceneAnimation& animation, int node) {
+  const bool named = node >= 0 && size_t(node) < animation.nodes.size() && !animation.nodes[size_t(node)].name.empty();
+  return cat("node ", node, named ? cat(" '", animation.nodes[size_t(node)].name, "'") : std::string());
 }
 
 }  // namespace detail
@@ -63,12 +64,12 @@ glm::dmat4 trs(const glm::dvec3& t, const glm::dvec4& q, const glm::dvec3& s) {
   return glm::translate(glm::dmat4(1.0), t) * glm::mat4_cast(r) * glm::scale(glm::dmat4(1.0), s);
 }
 
-glm::dmat4 nodeLocalAt(const Scene& scene, int node, double t) {
-  const Node& n = scene.nodes[size_t(node)];
+glm::dmat4 nodeLocalAt(const SceneAnimation& animation, int node, double t) {
+  const Node& n = animation.nodes[size_t(node)];
   if (n.hasMatrix) return n.matrix;  // never animated (refused at load)
   glm::dvec3 translation = n.translation, scale = n.scale;
   glm::dvec4 rotation = n.rotation;
-  for (const Animation& a : scene.animations)
+  for (const Animation& a : animation.animations)
     for (const AnimationChannel& c : a.channels) {
       if (c.node != node) continue;
       const glm::dvec4 v = sampleChannel(c, t);
@@ -79,8 +80,8 @@ glm::dmat4 nodeLocalAt(const Scene& scene, int node, double t) {
   return trs(translation, rotation, scale);
 }
 
-bool nodeDriven(const Scene& scene, int node) {
-  for (const Animation& a : scene.animations)
+bool nodeDriven(const SceneAnimation& animation, int node) {
+  for (const Animation& a : animation.animations)
     for (const AnimationChannel& c : a.channels)
       if (c.node == node) return true;
   return false;
@@ -120,34 +121,34 @@ glm::dvec4 sampleChannel(const AnimationChannel& ch, double t) {
   return finish(value(k));
 }
 
-bool isAnimated(const Scene& scene, int node) {
+bool isAnimated(const SceneAnimation& animation, int node) {
   // Bounded walk: a malformed hierarchy outside the default scene must not loop forever.
-  for (size_t steps = 0; node >= 0 && size_t(node) < scene.nodes.size() && steps <= scene.nodes.size(); ++steps) {
-    if (nodeDriven(scene, node)) return true;
-    node = scene.nodes[size_t(node)].parent;
+  for (size_t steps = 0; node >= 0 && size_t(node) < animation.nodes.size() && steps <= animation.nodes.size(); ++steps) {
+    if (nodeDriven(animation, node)) return true;
+    node = animation.nodes[size_t(node)].parent;
   }
   return false;
 }
 
-glm::dmat4 nodeWorldAt(const Scene& scene, int node, double t) {
-  PRT_CHECK(node >= 0 && size_t(node) < scene.nodes.size());
-  glm::dmat4 world = nodeLocalAt(scene, node, t);
-  int p = scene.nodes[size_t(node)].parent;
-  for (size_t steps = 0; p >= 0 && steps <= scene.nodes.size(); ++steps) {
-    world = nodeLocalAt(scene, p, t) * world;
-    p = scene.nodes[size_t(p)].parent;
+glm::dmat4 nodeWorldAt(const SceneAnimation& animation, int node, double t) {
+  PRT_CHECK(node >= 0 && size_t(node) < animation.nodes.size());
+  glm::dmat4 world = nodeLocalAt(animation, node, t);
+  int p = animation.nodes[size_t(node)].parent;
+  for (size_t steps = 0; p >= 0 && steps <= animation.nodes.size(); ++steps) {
+    world = nodeLocalAt(animation, p, t) * world;
+    p = animation.nodes[size_t(p)].parent;
   }
   return world;
 }
 
-glm::dmat4 instanceMotion(const Scene& scene, const MeshInstance& mesh, double t) {
-  if (!isAnimated(scene, mesh.node)) return glm::dmat4(1.0);
-  return nodeWorldAt(scene, mesh.node, t) * glm::inverse(mesh.world);
+glm::dmat4 instanceMotion(const SceneAnimation& animation, const MeshInstance& mesh, double t) {
+  if (!isAnimated(animation, mesh.node)) return glm::dmat4(1.0);
+  return nodeWorldAt(animation, mesh.node, t) * glm::inverse(mesh.world);
 }
 
-double animationDuration(const Scene& scene) {
+double animationDuration(const SceneAnimation& animation) {
   double end = 0.0;
-  for (const Animation& a : scene.animations)
+  for (const Animation& a : animation.animations)
     for (const AnimationChannel& c : a.channels) end = std::max(end, c.times.back());
   return end;
 }
@@ -156,14 +157,14 @@ namespace {
 
 /// "translation, scale of node 2 'Arm'": the properties that animations drive on `node` and
 /// its ancestors, each once.
-std::string drivenProperties(const Scene& scene, int node) {
+std::string drivenProperties(const SceneAnimation& animation, int node) {
   std::vector<std::string> parts;
-  for (int n = node, steps = 0; n >= 0 && size_t(n) < scene.nodes.size() && size_t(steps) <= scene.nodes.size();
-       n = scene.nodes[size_t(n)].parent, ++steps)
-    for (const Animation& a : scene.animations)
+  for (int n = node, steps = 0; n >= 0 && size_t(n) < animation.nodes.size() && size_t(steps) <= animation.nodes.size();
+       n = animation.nodes[size_t(n)].parent, ++steps)
+    for (const Animation& a : animation.animations)
       for (const AnimationChannel& c : a.channels) {
         if (c.node != n) continue;
-        std::string part = n == node ? std::string(pathName(c.path)) : cat(pathName(c.path), " of ", nodeLabel(scene, n));
+        std::string part = n == node ? std::string(pathName(c.path)) : cat(pathName(c.path), " of ", nodeLabel(animation, n));
         if (std::find(parts.begin(), parts.end(), part) == parts.end()) parts.push_back(std::move(part));
       }
   std::string out;
@@ -178,7 +179,7 @@ std::vector<std::string> describeReceivers(const Scene& scene) {
   std::set<int> seen;
   for (const MeshInstance& m : scene.meshes) {
     if (!m.receiverOnly || (m.node >= 0 && !seen.insert(m.node).second)) continue;
-    std::string why = m.receiverReason == ReceiverReason::Option   ? "named by --receiver"
+    std::string why = m.receiverReason == ReceiverReason::Option   ? "named in LoadOptions::receiverNodes"
                       : m.receiverReason == ReceiverReason::Extras ? "extras.prt.receiver"
                                                                    : "";
     if (isAnimated(scene, m.node))

@@ -4,13 +4,13 @@
 
 #include <string>
 
-#include "prt/scene.h"
+#include "prt/animation.h"
 
 namespace prt::detail {
 
 /// "translation", "rotation" or "scale".
 const char* pathName(AnimationPath p);
 /// "node 3 'Box'" (the name only where the node has one).
-std::string nodeLabel(const Scene& scene, int node);
+std::string nodeLabel(const SceneAnimation& animation, int node);
 
 }  // namespace prt::detail

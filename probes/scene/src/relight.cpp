@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "prt/error.h"
+#include "prt/math.h"
 
 namespace prt {
 
@@ -20,7 +21,7 @@ std::vector<std::vector<glm::vec3>> relightVertices(const Scene& scene, const sh
     out[k].resize(m.vertexCount());
     for (size_t v = 0; v < m.vertexCount(); ++v) {
       glm::vec3 e = sh::dot(m.transferOf(v), l.c.data(), n2);
-      out[k][v] = albedoAtVertex(scene, m, uint32_t(v)) * e * float(1.0 / M_PI);
+      out[k][v] = albedoAtVertex(scene, m, uint32_t(v)) * e * float(1.0 / kPi);
     }
   }
   return out;

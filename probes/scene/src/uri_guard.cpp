@@ -40,11 +40,11 @@ std::string uriProblem(const UriGuard& guard, const std::string& uri) {
   if (guard.baseDir.empty()) return "refers to a file, but the document was read from memory (no folder)";
   bool absolute = !uri.empty() && (uri[0] == '/' || uri[0] == '\\');
   if (absolute && !guard.allowExternal)
-    return "is an absolute path; refused unless external URIs are allowed (--allow-external-uris)";
+    return "is an absolute path; refused unless external URIs are allowed (LoadOptions::allowExternalUris)";
   std::error_code ec;
   fs::path target = fs::weakly_canonical(absolute ? fs::path(uri) : guard.canonicalDir / uri, ec);
   if (!guard.allowExternal && (ec || !isWithin(target, guard.canonicalDir)))
-    return "points outside the scene folder; refused unless external URIs are allowed (--allow-external-uris)";
+    return "points outside the scene folder; refused unless external URIs are allowed (LoadOptions::allowExternalUris)";
   if (fs::exists(target, ec) && !fs::is_regular_file(target, ec)) return "is not a regular file";
   return "";
 }
@@ -54,7 +54,7 @@ std::string fileProblem(const UriGuard& guard, const std::string& path) {
   if (guard.baseDir.empty()) return "refers to a file, but the document was read from memory (no folder)";
   std::error_code ec;
   if (!guard.allowExternal && !isWithin(fs::weakly_canonical(path, ec), guard.canonicalDir))
-    return "lies outside the scene folder; refused unless external URIs are allowed (--allow-external-uris)";
+    return "lies outside the scene folder; refused unless external URIs are allowed (LoadOptions::allowExternalUris)";
   if (fs::exists(path, ec) && !fs::is_regular_file(path, ec)) return "is not a regular file";
   return "";
 }
