@@ -21,6 +21,7 @@
 #include <tbb/parallel_for.h>
 
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/sh.h"
 
 namespace prt::render {
@@ -154,7 +155,7 @@ std::string probeWeightsGlsl() {
 double shNorm(int l, int m) {
   double ratio = 1.0;
   for (int j = l - m + 1; j <= l + m; ++j) ratio /= j;
-  const double v = std::sqrt((2.0 * l + 1.0) / (4.0 * M_PI) * ratio);
+  const double v = std::sqrt((2.0 * l + 1.0) / (4.0 * kPi) * ratio);
   return m == 0 ? v : std::sqrt(2.0) * v;
 }
 

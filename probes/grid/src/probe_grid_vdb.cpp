@@ -21,6 +21,7 @@
 
 #include "prt/atomic_file.h"
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/probe_grid.h"
 #include "prt/progress.h"
 
@@ -466,7 +467,7 @@ void writeProbeGrid(const ProbeGrid& grid, const std::string& path, bool half) {
   std::vector<float> upFactor(static_cast<size_t>(n2));
   for (int j = 0; j < n2; ++j)
     upFactor[size_t(j)] =
-        float(sh::clampedCosineFactor(sh::bandOf(j)) * 2.0 * std::sqrt(M_PI)) * yUp[size_t(j)];
+        float(sh::clampedCosineFactor(sh::bandOf(j)) * 2.0 * std::sqrt(kPi)) * yUp[size_t(j)];
 
   {
     auto va = validity->getAccessor();

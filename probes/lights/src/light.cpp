@@ -11,12 +11,11 @@
 #include <tbb/parallel_for.h>
 
 #include "prt/error.h"
+#include "prt/math.h"
 
 namespace prt {
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 void checkBands(int bands) {
   if (bands < 1 || bands > sh::kMaxBands)

@@ -16,12 +16,12 @@
 #include "prt/error.h"
 #include "prt/image.h"
 #include "prt/light.h"
+#include "prt/math.h"
 
 namespace prt {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kRigVersion = 1;
 
 using Json = nlohmann::json;
@@ -377,7 +377,7 @@ RigBackground LightRig::background(double frame) const {
         if (irradiance && r < kPointSunRadians) break;  // a delta: projectSun's point-sun limit
         const double sin2 = std::sin(r) * std::sin(r);
         const glm::dvec3 c = light.color.at(frame);
-        b.caps.push_back({light.directionAt(frame), std::cos(r), irradiance ? c / (M_PI * sin2) : c});
+        b.caps.push_back({light.directionAt(frame), std::cos(r), irradiance ? c / (kPi * sin2) : c});
         break;
       }
       case RigLight::Type::Uniform:

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "prt/error.h"
+#include "prt/math.h"
 
 namespace prt::sh {
 
@@ -18,7 +19,7 @@ struct Norms {
       for (int m = 0; m <= l; ++m) {
         double ratio = 1.0;  // (l-m)!/(l+m)!
         for (int j = l - m + 1; j <= l + m; ++j) ratio /= j;
-        double v = std::sqrt((2.0 * l + 1.0) / (4.0 * M_PI) * ratio);
+        double v = std::sqrt((2.0 * l + 1.0) / (4.0 * kPi) * ratio);
         k[l][m] = m == 0 ? v : std::sqrt(2.0) * v;
       }
   }
@@ -89,15 +90,15 @@ std::vector<float> evaluate(int bands, const glm::vec3& d) {
 
 double clampedCosineFactor(int l) {
   PRT_CHECK_GE(l, 0);
-  if (l == 0) return M_PI;
-  if (l == 1) return 2.0 * M_PI / 3.0;
+  if (l == 0) return kPi;
+  if (l == 1) return 2.0 * kPi / 3.0;
   if (l % 2 == 1) return 0.0;
   // Â_l = 2π (-1)^(l/2-1) / ((l+2)(l-1)) · l! / (2^l ((l/2)!)²)   [Ramamoorthi & Hanrahan 2001]
   double ratio = 1.0;  // l! / (2^l ((l/2)!)²) = C(l, l/2) / 2^l
   for (int j = 1; j <= l / 2; ++j) ratio *= double(l / 2 + j) / double(j);
   ratio /= std::ldexp(1.0, l);
   double sign = ((l / 2 - 1) % 2 == 0) ? 1.0 : -1.0;
-  return 2.0 * M_PI * sign / double((l + 2) * (l - 1)) * ratio;
+  return 2.0 * kPi * sign / double((l + 2) * (l - 1)) * ratio;
 }
 
 ShRgb& ShRgb::operator+=(const ShRgb& o) {

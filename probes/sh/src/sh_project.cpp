@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/sh.h"
 
 namespace prt::sh {
@@ -25,7 +26,7 @@ GaussLegendre gaussLegendre(int n) {
   g.x.resize(static_cast<size_t>(n));
   g.w.resize(static_cast<size_t>(n));
   for (int i = 0; i < (n + 1) / 2; ++i) {
-    double t = std::cos(M_PI * (i + 0.75) / (n + 0.5));
+    double t = std::cos(kPi * (i + 0.75) / (n + 0.5));
     double dp = 1.0;
     for (int iter = 0; iter < 100; ++iter) {
       double p0 = 1.0, p1 = t;  // P_{k-1}, P_k
@@ -60,7 +61,7 @@ ShRgb projectFunction(int bands, const std::function<glm::vec3(const glm::dvec3&
   // frequency 2·thetaSamples - 1.
   const GaussLegendre gl = gaussLegendre(thetaSamples);
   const int nPhi = 2 * thetaSamples;
-  const double dPhi = 2.0 * M_PI / nPhi;
+  const double dPhi = 2.0 * kPi / nPhi;
   std::vector<double> cosPhi(static_cast<size_t>(nPhi)), sinPhi(static_cast<size_t>(nPhi));
   for (int j = 0; j < nPhi; ++j) {
     double phi = (j + 0.5) * dPhi;
@@ -110,8 +111,8 @@ double windowFactor(Window w, int l, int bands) {
   const double x = double(l) / double(bands);
   switch (w) {
     case Window::None: return 1.0;
-    case Window::Hann: return 0.5 * (1.0 + std::cos(M_PI * x));
-    case Window::Lanczos: return l == 0 ? 1.0 : std::sin(M_PI * x) / (M_PI * x);
+    case Window::Hann: return 0.5 * (1.0 + std::cos(kPi * x));
+    case Window::Lanczos: return l == 0 ? 1.0 : std::sin(kPi * x) / (kPi * x);
   }
   return 1.0;
 }

@@ -21,6 +21,7 @@
 #include <cstdlib>
 
 #include "prt/error.h"
+#include "prt/math.h"
 
 namespace prt::sh {
 
@@ -163,7 +164,7 @@ glm::dmat3 rotationAxis(const glm::dvec3& axis, double degrees) {
   const double len = glm::length(axis);
   PRT_CHECK_GT(len, 0.0);
   const glm::dvec3 k = axis / len;
-  const double a = degrees * M_PI / 180.0;
+  const double a = degrees * kPi / 180.0;
   const double c = std::cos(a), s = std::sin(a), t = 1.0 - c;
   // Rodrigues: R = c I + s [k]× + (1 - c) k kᵀ, right-handed. Written by columns (glm).
   const glm::dvec3 col0(c + t * k.x * k.x, t * k.x * k.y + s * k.z, t * k.x * k.z - s * k.y);
