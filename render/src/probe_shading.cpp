@@ -28,7 +28,7 @@ namespace prt::render {
 
 namespace {
 
-// Constants of prt::probeWeights (probes/src/probe_grid.cpp), private there; the receiver tests
+// Constants of prt::probeWeights (probes/grid/src/probe_grid.cpp), private there; the receiver tests
 // (RenderReceivers.*) compare this port with the C++ function at pixel centres, so a change on
 // one side without the other fails there.
 constexpr double kVarianceFloorFraction = 0.01;  // kVarianceFloor
@@ -45,7 +45,7 @@ double minSpacing(const ProbeGrid& grid) {
 }
 
 // ============================================================================================
-// BEGIN probeWeights port. Mirrors prt::probeWeights (probes/src/probe_grid.cpp) step by step;
+// BEGIN probeWeights port. Mirrors prt::probeWeights (probes/grid/src/probe_grid.cpp) step by step;
 // the C++ works in double, this in float, and without branches: a corner without a valid probe
 // reads the null probe 0 (all texels zero) and gets weight 0 instead of being skipped, so every
 // pixel runs the same straight-line code (llvmpipe shades 8 pixels per SIMD instruction and
@@ -150,7 +150,7 @@ std::string probeWeightsGlsl() {
          perCorner(kCornerWeightGlsl) + kProbeWeightsTailGlsl;
 }
 
-// Normalisation K_l^m of the real SH basis (as in probes/src/sh.cpp): sqrt((2l+1)/(4π) ·
+// Normalisation K_l^m of the real SH basis (as in probes/sh/src/sh.cpp): sqrt((2l+1)/(4π) ·
 // (l−m)!/(l+m)!), times √2 for m > 0.
 double shNorm(int l, int m) {
   double ratio = 1.0;
