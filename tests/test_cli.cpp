@@ -237,6 +237,7 @@ TEST(CliHostileInput, CliRefusesOutsideUriLeavesOutputsAloneAndAllowsOnRequest) 
   EXPECT_EQ(r.status, 1) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_NE(r.err.find("up.gltf: buffer 0: uri '../outside.bin' points outside"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("(--allow-external-uris)"), std::string::npos) << r.err;
   EXPECT_EQ(readFile(glb), "previous contents");
   EXPECT_FALSE(fs::exists(vdb));
   std::vector<std::string> left;

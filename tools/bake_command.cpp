@@ -221,7 +221,12 @@ int runBake(const BakeArgs& a) {
   const bake::ProbeSettings* psp = a.probes.empty() ? nullptr : &ps;
 
   SignalScope signals;
-  Scene scene = loadScene(a.scene, a.load);
+  Scene scene;
+  try {
+    scene = loadScene(a.scene, a.load);
+  } catch (const ExternalUriRefused& e) {
+    throw Error(cat(e.what(), " (--allow-external-uris)"));
+  }
   printWarnings(scene, a.quiet);
 
   // Memory guard: first without the hit records (before the BVH is built), then with the
@@ -303,7 +308,7 @@ int runBake(const BakeArgs& a) {
                formatCount(double(st.hitRecords)).c_str(), st.resumed ? "; resumed from the checkpoint" : "",
                stages.str().c_str(), writeSeconds, st.seconds + writeSeconds, formatBytes(estimate.total).c_str(),
                formatBytes(peakMemoryBytes()).c_str(), estimate.phases().c_str());
-  for (const std::string& line : describeReceivers(scene)) std::fprintf(stderr, "  receiver %s\n", line.c_str());
+  for (const std::string& line : describeReceivers(scene, "--receiver")) std::fprintf(stderr, "  receiver %s\n", line.c_str());
   if (a.probes.empty()) return 0;
   const std::string restored =
       probeStats.restored ? cat("; ", formatCount(double(probeStats.restored)), " restored from the checkpoint") : "";

@@ -29,7 +29,7 @@ void infoGlb(const std::string& path) {
   std::printf("%s: glTF scene\n", path.c_str());
   std::printf("  file        %s on disk\n", formatBytes(std::filesystem::file_size(path)).c_str());
   std::printf("  instances   %zu (%zu with transfer, %zu receivers)\n", scene.meshes.size(), baked, receivers);
-  for (const std::string& line : describeReceivers(scene)) std::printf("  receiver    %s\n", line.c_str());
+  for (const std::string& line : describeReceivers(scene, "--receiver")) std::printf("  receiver    %s\n", line.c_str());
   std::printf("  vertices    %zu\n  triangles   %zu\n", vertices, triangles);
   std::printf("  materials   %zu, textures %zu, cameras %zu, lights %zu\n", scene.materials.size(),
               scene.textures.size(), scene.cameras.size(), scene.lights.size());

@@ -944,7 +944,7 @@ std::vector<std::string> Renderer::warnings() const {
       names += cat(i ? ", '" : "'", rs[i].placement.name, "'");
     if (rs.size() > 3) names += cat(" and ", rs.size() - 3, " more");
     out.push_back(cat(rs.size(), " receiver instance", rs.size() > 1 ? "s" : "", " (", names,
-                      ") not drawn: receivers are lit from a probe grid and none was given (Renderer::setProbes)"));
+                      ") not drawn: receivers are lit from a probe grid and none was given"));
   }
   return out;
 }

@@ -174,12 +174,12 @@ std::string drivenProperties(const SceneAnimation& animation, int node) {
 
 }  // namespace
 
-std::vector<std::string> describeReceivers(const Scene& scene) {
+std::vector<std::string> describeReceivers(const Scene& scene, const std::string& receiverOption) {
   std::vector<std::string> lines;
   std::set<int> seen;
   for (const MeshInstance& m : scene.meshes) {
     if (!m.receiverOnly || (m.node >= 0 && !seen.insert(m.node).second)) continue;
-    std::string why = m.receiverReason == ReceiverReason::Option   ? "named in LoadOptions::receiverNodes"
+    std::string why = m.receiverReason == ReceiverReason::Option   ? cat("named in ", receiverOption)
                       : m.receiverReason == ReceiverReason::Extras ? "extras.prt.receiver"
                                                                    : "";
     if (isAnimated(scene, m.node))

@@ -172,7 +172,10 @@ Gltf parseGltf(const std::string& path, const std::string& bytes, const std::str
     // throw from the standard library.
     err = e.what();
   }
-  if (!guard.refusal.empty()) throw Error(cat(path, ": ", guard.refusal));
+  if (!guard.refusal.empty()) {
+    if (guard.refusalIsExternal) throw ExternalUriRefused(cat(path, ": ", guard.refusal));
+    throw Error(cat(path, ": ", guard.refusal));
+  }
   if (!ok) throw Error(cat(path, ": malformed glTF: ", err.empty() ? "unknown error" : firstLine(err)));
   if (warnings) {
     for (const std::string& line : lines(warn)) warnings->push_back(cat(path, ": ", line));

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "prt/error.h"
+#include "prt/scene.h"
 
 namespace prt::gltf {
 
@@ -40,11 +41,11 @@ std::string uriProblem(const UriGuard& guard, const std::string& uri) {
   if (guard.baseDir.empty()) return "refers to a file, but the document was read from memory (no folder)";
   bool absolute = !uri.empty() && (uri[0] == '/' || uri[0] == '\\');
   if (absolute && !guard.allowExternal)
-    return "is an absolute path; refused unless external URIs are allowed (LoadOptions::allowExternalUris)";
+    return cat("is an absolute path; ", kExternalRefused);
   std::error_code ec;
   fs::path target = fs::weakly_canonical(absolute ? fs::path(uri) : guard.canonicalDir / uri, ec);
   if (!guard.allowExternal && (ec || !isWithin(target, guard.canonicalDir)))
-    return "points outside the scene folder; refused unless external URIs are allowed (LoadOptions::allowExternalUris)";
+    return cat("points outside the scene folder; ", kExternalRefused);
   if (fs::exists(target, ec) && !fs::is_regular_file(target, ec)) return "is not a regular file";
   return "";
 }
@@ -54,7 +55,7 @@ std::string fileProblem(const UriGuard& guard, const std::string& path) {
   if (guard.baseDir.empty()) return "refers to a file, but the document was read from memory (no folder)";
   std::error_code ec;
   if (!guard.allowExternal && !isWithin(fs::weakly_canonical(path, ec), guard.canonicalDir))
-    return "lies outside the scene folder; refused unless external URIs are allowed (LoadOptions::allowExternalUris)";
+    return cat("lies outside the scene folder; ", kExternalRefused);
   if (fs::exists(path, ec) && !fs::is_regular_file(path, ec)) return "is not a regular file";
   return "";
 }
@@ -68,7 +69,10 @@ bool guardedFileExists(const std::string& path, void* user) {
   std::error_code ec;
   if (guard.baseDir.empty() || !fs::exists(path, ec)) return false;  // tinygltf: "File not found"
   if (std::string why = fileProblem(guard, path); !why.empty()) {
-    if (guard.refusal.empty()) guard.refusal = cat("file '", path, "' ", why);
+    if (guard.refusal.empty()) {
+      guard.refusal = cat("file '", path, "' ", why);
+      guard.refusalIsExternal = why.find(kExternalRefused) != std::string::npos;
+    }
     return false;
   }
   return true;
@@ -131,9 +135,12 @@ void checkDocument(const std::string& path, const std::string& text, const UriGu
       const Json& element = (*it)[i];
       if (!element.is_object() || !element.contains("uri") || !element["uri"].is_string()) continue;
       const std::string uri = element["uri"].get<std::string>();
-      if (std::string why = uriProblem(guard, uri); !why.empty())
-        throw Error(cat(path, ": ", std::string(array) == "buffers" ? "buffer " : "image ", i, ": uri '",
-                        uri.size() > 200 ? uri.substr(0, 200) + "..." : uri, "' ", why));
+      if (std::string why = uriProblem(guard, uri); !why.empty()) {
+        std::string message = cat(path, ": ", std::string(array) == "buffers" ? "buffer " : "image ", i, ": uri '",
+                                  uri.size() > 200 ? uri.substr(0, 200) + "..." : uri, "' ", why);
+        if (why.find(kExternalRefused) != std::string::npos) throw ExternalUriRefused(message);
+        throw Error(message);
+      }
     }
   }
 }

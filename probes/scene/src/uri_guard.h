@@ -22,7 +22,11 @@ struct UriGuard {
   std::filesystem::path canonicalDir;  // the folder every file must lie in
   bool allowExternal = false;
   std::string refusal;                 // first refused file, reported once parsing returns
+  bool refusalIsExternal = false;      // ... refused for lying outside the folder (ExternalUriRefused)
 };
+
+/// The end of every refusal of a URI outside the scene's folder.
+inline constexpr const char* kExternalRefused = "refused unless external URIs are allowed";
 
 // tinygltf file-system callbacks: every file it opens passes the guard (tinygltf also looks
 // in the working directory, and follows whatever path a URI spells).

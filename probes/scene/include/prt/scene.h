@@ -15,6 +15,7 @@
 #include <glm/glm.hpp>
 
 #include "prt/animation.h"
+#include "prt/error.h"
 #include "prt/sh.h"
 
 namespace prt {
@@ -142,6 +143,12 @@ struct LoadOptions {
 /// malformed animations (accessor types or counts, key times not increasing, NaN values),
 /// URIs outside the scene's folder (unless allowed), limits in docs/robustness.md.
 Scene loadScene(const std::string& path, const LoadOptions& options = {});
+/// What loadScene throws for a buffer or image URI outside the scene's folder while
+/// LoadOptions::allowExternalUris is off (a tool adds the option that allows it).
+class ExternalUriRefused : public Error {
+public:
+  using Error::Error;
+};
 /// Loads .gltf or .glb bytes held in memory; `name` stands for the file in messages and its
 /// extension picks the format when the bytes lack the GLB magic. URIs may only be data: URIs
 /// (there is no folder). Same checks and errors as loadScene.
@@ -149,7 +156,9 @@ Scene loadSceneFromMemory(const std::string& name, const std::string& bytes, con
 
 /// One line per receiver node (in the order of Scene::meshes, each node once) saying why it is
 /// one, e.g. "node 5 'Ball': extras.prt.receiver, animated (translation of node 2 'Arm')".
-std::vector<std::string> describeReceivers(const Scene& scene);
+/// `receiverOption` names LoadOptions::receiverNodes in these lines (a tool passes its option).
+std::vector<std::string> describeReceivers(const Scene& scene,
+                                           const std::string& receiverOption = "LoadOptions::receiverNodes");
 
 /// Base colour (linear RGB, baseColorFactor × texture × COLOR_0) at vertex v.
 glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v);
