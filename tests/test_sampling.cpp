@@ -101,7 +101,9 @@ const Chart kDisk{0.0, 1.0, 0.5,
                     return glm::dvec3(r * std::cos(phi), r * std::sin(phi), 0.0);
                   },
                   [](const glm::vec3& p) { return double(p.x) * p.x + double(p.y) * p.y; },
-                  [](const glm::vec3& p) { return p.z == 0.0f && double(p.x) * p.x + double(p.y) * p.y <= 1.0 + 1e-6; }};
+                  [](const glm::vec3& p) {
+                    return p.z == 0.0f && double(p.x) * p.x + double(p.y) * p.y <= 1.0 + 1e-6;
+                  }};
 
 // ---- The χ² goodness-of-fit test.
 
@@ -299,8 +301,8 @@ TEST(BakeSampling, CosineHemisphereFitsItsPdf) {
 }
 
 TEST(BakeSampling, UniformSphereFitsItsPdf) {
-  ChiSquareResult r =
-      chiSquareTest(kSphere, bake::sampleUniformSphere, [](const glm::vec3&) { return double(bake::uniformSpherePdf()); }, 3);
+  ChiSquareResult r = chiSquareTest(kSphere, bake::sampleUniformSphere,
+                                    [](const glm::vec3&) { return double(bake::uniformSpherePdf()); }, 3);
   expectFits(r);
   EXPECT_EQ(r.pooledCells, 0);
 }
