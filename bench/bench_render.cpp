@@ -67,8 +67,8 @@ double median(std::vector<double> v) {
 
 // Splits every triangle into 4 (midpoints shared through an edge map), interpolating normals and
 // transfer: the refined mesh a denser bake would give.
-void refine(MeshInstance& m) {
-  const size_t n2 = size_t(m.transferBands) * m.transferBands;
+void refine(MeshInstance& m, int bands) {
+  const size_t n2 = size_t(bands) * size_t(bands);
   std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
   auto midpoint = [&](uint32_t a, uint32_t b) {
     const auto key = std::minmax(a, b);
@@ -243,7 +243,7 @@ nlohmann::json lightUpdates(render::GlContext& context, const Scene& scene, cons
   dense.meshes.erase(std::remove_if(dense.meshes.begin(), dense.meshes.end(),
                                     [](const MeshInstance& m) { return m.receiverOnly; }),
                      dense.meshes.end());
-  for (size_t k = 0; bakedVertices(dense) < 1000000; k = (k + 1) % dense.meshes.size()) refine(dense.meshes[k]);
+  for (size_t k = 0; bakedVertices(dense) < 1000000; k = (k + 1) % dense.meshes.size()) refine(dense.meshes[k], dense.transferBands);
   size_t denseTriangles = 0;
   for (const MeshInstance& m : dense.meshes) denseTriangles += m.triangleCount();
   std::vector<double> cpuRelight;
@@ -354,7 +354,6 @@ int main(int argc, char** argv) {
       const bake::SurfaceTransfer t = bake::bakeSurface(scene, bs);
       for (size_t k = 0; k < scene.meshes.size(); ++k) {
         if (scene.meshes[k].receiverOnly) continue;
-        scene.meshes[k].transferBands = t.bands;
         scene.meshes[k].transfer = t.perMesh[k];
       }
       scene.transferBands = t.bands;

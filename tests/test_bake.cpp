@@ -128,7 +128,6 @@ TEST(BakeSurface, UnoccludedPlaneMatchesClosedForm) {
   // Units: a uniform sky of radiance 1 over an unoccluded upward surface of albedo ρ gives ρ.
   Scene baked = s;
   baked.transferBands = 4;
-  baked.meshes[0].transferBands = 4;
   baked.meshes[0].transfer = t.perMesh[0];
   auto lo = relightVertices(baked, projectUniform(4, glm::dvec3(1.0)));
   for (const glm::vec3& c : lo[0]) EXPECT_NEAR(c.g, 0.8f, 0.8f * 1e-3f);
@@ -182,7 +181,6 @@ TEST_P(BakeCavity, MatchesGeometricSeries) {
   bake::SurfaceTransfer t = bake::bakeSurface(s, set);
   Scene baked = s;
   baked.transferBands = 3;
-  baked.meshes[0].transferBands = 3;
   baked.meshes[0].transfer = t.perMesh[0];
   auto lo = relightVertices(baked, projectUniform(3, glm::dvec3(1.0)));
 

@@ -26,6 +26,7 @@
 #include "prt/progress.h"
 #include "prt/scene.h"
 #include "prt/sh.h"
+#include "prt/version.h"
 #include "probe_brute_force.h"
 
 namespace prt {
@@ -429,7 +430,8 @@ TEST_F(CliProbe, InfoNamesFileKindsAndDescribesScenes) {
         std::string("animation   'ReceiverPath', 1 channels, 3 s"), std::string("when loaded"),
         std::string("baking it with the defaults"), cat("file        ", formatBytes(fs::file_size(file("p.glb")))),
         std::string("once loaded by prt"), std::string("domain        (-1, -1, -1) .. (1, 1, 1)"),
-        std::string("transfer    3 bands")})
+        std::string("transfer    3 bands"),
+        cat("bake        3 bands, 256 samples, 1 bounce, shadowed, seed 7, from plane.gltf, prt ", kVersion, "\n")})
     EXPECT_NE(r.out.find(s), std::string::npos) << "missing '" << s << "' in:\n" << r.out;
   EXPECT_EQ(r.out.find("as VDB grids"), std::string::npos) << r.out;
   const RunResult json = prt({"info", file("light.json")});

@@ -44,7 +44,6 @@ GlContextOptions surfaceless() {
 void fillTransfer(MeshInstance& m, int bands, uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(-0.2f, 1.0f);
-  m.transferBands = bands;
   m.transfer.resize(m.vertexCount() * size_t(bands) * bands);
   for (glm::vec3& t : m.transfer) t = glm::vec3(u(rng), u(rng), u(rng));
 }
@@ -186,7 +185,7 @@ Hit oracle(const Scene& s, const CameraView& c, const sh::ShRgb& light, int widt
   double bestT = 1e300;
   for (const MeshInstance& original : s.meshes) {
     const bool receiver = original.receiverOnly;
-    if (receiver ? probes == nullptr : original.transferBands == 0) continue;
+    if (receiver ? probes == nullptr : original.transfer.empty()) continue;
     const MeshInstance moved = receiver ? placed(s, original, probes->time) : MeshInstance{};
     const MeshInstance& m = receiver ? moved : original;
     const Material mat = m.material >= 0 ? s.materials[size_t(m.material)] : Material{};
@@ -211,7 +210,7 @@ Hit oracle(const Scene& s, const CameraView& c, const sh::ShRgb& light, int widt
       glm::vec2 uv(0.0f);
       if (!m.colors.empty()) color = glm::dvec3(0.0);
       for (int k = 0; k < 3; ++k) {
-        if (!receiver) e += b[k] * glm::dvec3(sh::dot(m.transferOf(v[k]), light.c.data(), light.size()));
+        if (!receiver) e += b[k] * glm::dvec3(sh::dot(m.transferOf(v[k], s.transferBands), light.c.data(), light.size()));
         if (receiver) normal += b[k] * glm::dvec3(m.normals[v[k]]);
         if (!m.colors.empty()) color += b[k] * glm::dvec3(m.colors[v[k]]);
         if (!m.texcoords.empty()) uv += float(b[k]) * m.texcoords[v[k]];
@@ -501,7 +500,6 @@ TEST(RenderShading, TexturedQuadAlbedoPerPixel) {
   m.texcoords = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};  // glTF: v = 0 at the top of the image
   m.indices = {0, 1, 2, 0, 2, 3};
   m.material = 0;
-  m.transferBands = 1;
   m.transfer.assign(4, glm::vec3(float(M_PI / 0.2820947917738781)));
   s.meshes.push_back(m);
   s.transferBands = 1;
@@ -604,7 +602,6 @@ TEST(RenderShading, ReceiversWithoutProbesSkippedWithWarning) {
   MeshInstance receiver = s.meshes[0];
   receiver.name = "mover";
   receiver.receiverOnly = true;
-  receiver.transferBands = 0;
   receiver.transfer.clear();
   for (glm::vec3& p : receiver.positions) p.z += 1.0f;  // in front: would hide the quad if drawn
   s.meshes.push_back(receiver);
@@ -623,8 +620,7 @@ TEST(RenderShading, SceneWithoutTransferIsAnError) {
   GlContext ctx(GlBackend::OSMesa, kWidth, kHeight);
   EXPECT_THROW(Renderer(ctx, s), Error);
   s = tiltedQuad(2);
-  s.meshes[0].transferBands = 0;  // unbaked and not a receiver: skipped, nothing left to draw
-  s.meshes[0].transfer.clear();
+  s.meshes[0].transfer.clear();  // unbaked and not a receiver: skipped, nothing left to draw
   EXPECT_THROW(Renderer(ctx, s), Error);
 }
 
@@ -634,7 +630,6 @@ Scene unshadowedCornell(const std::string& input, int bands) {
   Scene scene = loadScene(input);
   for (MeshInstance& m : scene.meshes) {
     if (m.receiverOnly) continue;
-    m.transferBands = bands;
     m.transfer.clear();
     for (const glm::vec3& n : m.normals) {
       std::vector<float> y(size_t(bands) * bands);
@@ -657,7 +652,7 @@ TEST(RenderShading, BakedFileOfTheDemoSceneMatchesOracle) {
   Scene scene = unshadowedCornell(input, bands);
   const std::filesystem::path out =
       std::filesystem::temp_directory_path() / cat("prt_test_render_", ::getpid(), ".glb");
-  writeBakedScene(input, scene, "{}", out.string());
+  writeBakedScene(input, scene, nullptr, out.string());
   const Scene baked = loadScene(out.string());
   std::filesystem::remove(out);
   ASSERT_EQ(baked.transferBands, bands);
@@ -851,7 +846,6 @@ const BakedRoom& bakedRoom() {
     const bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
     for (size_t k = 0; k < s.meshes.size(); ++k) {
       if (s.meshes[k].receiverOnly) continue;
-      s.meshes[k].transferBands = 3;
       s.meshes[k].transfer = t.perMesh[k];
     }
     s.transferBands = 3;
@@ -1268,7 +1262,7 @@ TEST(CliRender, ProbesLightTheMovingReceiver) {
   const std::filesystem::path& dir = tmp.path();
   const std::string input = test::sourcePath("scenes/cornell_open.gltf");
   const std::string baked = (dir / "c.glb").string(), probes = (dir / "p.vdb").string();
-  writeBakedScene(input, unshadowedCornell(input, 3), "{}", baked);
+  writeBakedScene(input, unshadowedCornell(input, 3), nullptr, baked);
   writeProbeGrid(test::identityProbeGrid(3, glm::ivec3(5), glm::dvec3(-1.0, 0.0, -1.0), glm::dvec3(0.5)), probes);
   const Scene file = loadScene(baked);
   ASSERT_EQ(file.animations.size(), 1u);  // the receiver's path survives the baked file

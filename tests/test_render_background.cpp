@@ -50,7 +50,6 @@ Scene smallQuad() {
   m.positions = {{-0.5f, -0.35f, -3.0f}, {0.5f, -0.35f, -3.0f}, {0.5f, 0.35f, -3.0f}, {-0.5f, 0.35f, -3.0f}};
   m.normals.assign(4, glm::vec3(0, 0, 1));
   m.indices = {0, 1, 2, 0, 2, 3};
-  m.transferBands = 2;
   m.transfer.assign(4 * 4, glm::vec3(0.0f));
   for (size_t v = 0; v < 4; ++v) m.transfer[v * 4] = glm::vec3(1.0f);
   s.meshes.push_back(m);

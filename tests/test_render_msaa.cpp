@@ -29,7 +29,6 @@ Scene constantQuad() {
   m.positions.assign(std::begin(kCorners), std::end(kCorners));
   m.normals.assign(4, glm::vec3(0, 0, 1));
   m.indices = {0, 1, 2, 0, 2, 3};
-  m.transferBands = 1;
   m.transfer.assign(4, glm::vec3(1.0f));
   s.meshes.push_back(m);
   s.transferBands = 1;

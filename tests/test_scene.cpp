@@ -15,6 +15,8 @@
 #include <nlohmann/json.hpp>
 
 #include "harness.h"
+#include "prt/bake/surface_bake.h"
+#include "prt/bake_record.h"
 #include "prt/error.h"
 #include "prt/scene.h"
 #include "test_util.h"
@@ -477,7 +479,7 @@ TEST_F(SceneLoad, ReceiversByNameIndexAndExtrasCoverSubtrees) {
   path = b.write(dir_ / "receivers_extras.gltf");
   prt::Scene named = prt::loadScene(path, options);
   const std::string baked = (dir_ / "receivers.glb").string();
-  prt::writeBakedScene(path, named, "", baked);
+  prt::writeBakedScene(path, named, nullptr, baked);
   prt::Scene reread = prt::loadScene(baked);
   for (const prt::MeshInstance& m : reread.meshes) {
     EXPECT_TRUE(m.receiverOnly) << m.name;
@@ -654,13 +656,24 @@ std::string writeInstancedScene(const fs::path& dir) {
   return b.write(dir / "instanced.gltf");
 }
 
+/// A record of a made-up bake of instanced.gltf.
+prt::BakeRecord bakeRecordOf(int bands, int samples) {
+  prt::BakeRecord r;
+  r.scene = "instanced.gltf";
+  r.bands = bands;
+  r.samples = samples;
+  r.bounces = 1;
+  r.seed = 11;
+  r.prtVersion = "9.8.7";
+  return r;
+}
+
 /// Distinct made-up transfer for every instance, vertex and coefficient.
 void fillTransfer(prt::Scene& scene, int bands) {
   scene.transferBands = bands;
   size_t k = size_t(bands) * bands;
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     prt::MeshInstance& inst = scene.meshes[m];
-    inst.transferBands = bands;
     inst.transfer.resize(inst.vertexCount() * k);
     for (size_t v = 0; v < inst.vertexCount(); ++v)
       for (size_t i = 0; i < k; ++i)
@@ -673,17 +686,18 @@ TEST_F(SceneWrite, BakedRoundTripKeepsTransferPerInstance) {
   prt::Scene scene = prt::loadScene(input);
   ASSERT_EQ(scene.meshes.size(), 3u);
   fillTransfer(scene, 2);
-  const std::string settings = R"({"bands": 2, "samples": 256, "sky": "studio.exr", "bounces": [0, 1]})";
+  const prt::BakeRecord record = bakeRecordOf(2, 256);
   fs::path out = dir_ / "baked.glb";
-  prt::writeBakedScene(input, scene, settings, out.string());
+  prt::writeBakedScene(input, scene, &record, out.string());
 
   prt::Scene baked = prt::loadScene(out.string());
   EXPECT_EQ(baked.transferBands, 2);
-  EXPECT_EQ(Json::parse(baked.bakeSettingsJson), Json::parse(settings));
+  ASSERT_TRUE(baked.bakeRecord.has_value());
+  EXPECT_EQ(*baked.bakeRecord, record);
   ASSERT_EQ(baked.meshes.size(), 3u);
   for (size_t k = 0; k < 3; ++k) {
     EXPECT_EQ(baked.meshes[k].node, scene.meshes[k].node);
-    EXPECT_EQ(baked.meshes[k].transferBands, 2);
+    EXPECT_EQ(baked.meshes[k].transfer.size(), baked.meshes[k].vertexCount() * 4);  // 2 bands
     EXPECT_EQ(baked.meshes[k].transfer, scene.meshes[k].transfer) << "instance " << k;
     EXPECT_EQ(baked.meshes[k].indices, scene.meshes[k].indices);
     for (size_t v = 0; v < scene.meshes[k].vertexCount(); ++v)
@@ -719,14 +733,15 @@ TEST_F(SceneWrite, RebakingReplacesTransfer) {
   prt::Scene scene = prt::loadScene(input);
   fillTransfer(scene, 3);
   fs::path first = dir_ / "first.glb", second = dir_ / "second.glb";
-  prt::writeBakedScene(input, scene, "{}", first.string());
+  const prt::BakeRecord firstRecord = bakeRecordOf(3, 64), secondRecord = bakeRecordOf(2, 128);
+  prt::writeBakedScene(input, scene, &firstRecord, first.string());
   prt::Scene again = prt::loadScene(first.string());
   fillTransfer(again, 2);
-  prt::writeBakedScene(first.string(), again, R"({"pass": 2})", second.string());
+  prt::writeBakedScene(first.string(), again, &secondRecord, second.string());
   prt::Scene result = prt::loadScene(second.string());
   EXPECT_EQ(result.transferBands, 2);
   EXPECT_EQ(result.meshes[1].transfer, again.meshes[1].transfer);
-  EXPECT_EQ(Json::parse(result.bakeSettingsJson), Json::parse(R"({"pass": 2})"));
+  EXPECT_EQ(result.bakeRecord, secondRecord);
   EXPECT_LT(fs::file_size(second), fs::file_size(first));  // old coefficients are not carried along
 }
 
@@ -738,9 +753,9 @@ TEST_F(SceneWrite, TexturedSceneKeepsItsImageAndAlbedo) {
     prt::Scene scene = prt::loadScene(input);
     fillTransfer(scene, 1);
     fs::path out = dir_ / "textured.glb";
-    prt::writeBakedScene(input, scene, "", out.string());
+    prt::writeBakedScene(input, scene, nullptr, out.string());
     prt::Scene baked = prt::loadScene(out.string());
-    EXPECT_EQ(baked.bakeSettingsJson, "");
+    EXPECT_FALSE(baked.bakeRecord.has_value());
     for (uint32_t v = 0; v < 3; ++v)
       expectNear(prt::albedoAtVertex(baked, baked.meshes[0], v), prt::albedoAtVertex(scene, scene.meshes[0], v));
     // The image travels as its original PNG bytes in a buffer view.
@@ -753,7 +768,7 @@ TEST_F(SceneWrite, TexturedSceneKeepsItsImageAndAlbedo) {
     EXPECT_EQ(bin.substr(view.value("byteOffset", 0), view["byteLength"].get<size_t>()), png);
     // Writing again from the .glb keeps the image that is now in a buffer view.
     fs::path again = dir_ / "again.glb";
-    prt::writeBakedScene(out.string(), baked, "", again.string());
+    prt::writeBakedScene(out.string(), baked, nullptr, again.string());
     prt::Scene twice = prt::loadScene(again.string());
     for (uint32_t v = 0; v < 3; ++v)
       expectNear(prt::albedoAtVertex(twice, twice.meshes[0], v), prt::albedoAtVertex(scene, scene.meshes[0], v));
@@ -765,7 +780,8 @@ TEST_F(SceneWrite, LitSceneHasColorsUnlitMaterialsAndNoTransfer) {
   prt::Scene scene = prt::loadScene(input);
   fillTransfer(scene, 3);
   fs::path baked = dir_ / "baked.glb", lit = dir_ / "lit.glb";
-  prt::writeBakedScene(input, scene, "{}", baked.string());
+  const prt::BakeRecord record = bakeRecordOf(3, 64);
+  prt::writeBakedScene(input, scene, &record, baked.string());
   prt::Scene bakedScene = prt::loadScene(baked.string());
   std::vector<std::vector<glm::vec3>> radiance(bakedScene.meshes.size());
   for (size_t k = 0; k < radiance.size(); ++k)
@@ -813,7 +829,7 @@ TEST_F(SceneWrite, MissingDirectoryThrowsAndLeavesNoFile) {
   std::string input = writeInstancedScene(dir_);
   prt::Scene scene = prt::loadScene(input);
   fs::path out = dir_ / "no" / "such" / "dir" / "baked.glb";
-  EXPECT_THROW(prt::writeBakedScene(input, scene, "{}", out.string()), prt::Error);
+  EXPECT_THROW(prt::writeBakedScene(input, scene, nullptr, out.string()), prt::Error);
   EXPECT_FALSE(fs::exists(out));
   EXPECT_FALSE(fs::exists(dir_ / "no"));
   std::vector<std::vector<glm::vec3>> radiance(scene.meshes.size());
@@ -821,12 +837,172 @@ TEST_F(SceneWrite, MissingDirectoryThrowsAndLeavesNoFile) {
   EXPECT_FALSE(fs::exists(out));
 }
 
-TEST_F(SceneWrite, BadSettingsJsonIsRefusedWithoutOutput) {
+// The writer checks a record as the reader would: prt never writes a file it refuses to load.
+TEST_F(SceneWrite, InvalidBakeRecordIsRefusedWithoutOutput) {
   std::string input = writeInstancedScene(dir_);
   prt::Scene scene = prt::loadScene(input);
+  fillTransfer(scene, 2);
   fs::path out = dir_ / "baked.glb";
-  EXPECT_THROW(prt::writeBakedScene(input, scene, "{not json", out.string()), prt::Error);
-  EXPECT_FALSE(fs::exists(out));
+  prt::BakeRecord noBands = bakeRecordOf(0, 64), otherBands = bakeRecordOf(3, 64);
+  for (const auto& [record, message] :
+       {std::pair{&noBands, "asset.extras.prt.bands: expected an integer 1..8, got 0"},
+        std::pair{&otherBands, "asset.extras.prt.bands: 3, but the transfer holds 2 bands"}}) {
+    try {
+      prt::writeBakedScene(input, scene, record, out.string());
+      ADD_FAILURE() << "no error for " << message;
+    } catch (const prt::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(prt::cat(out.string(), ": ", message)), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+using SceneBakeRecord = SceneTest;
+
+/// asset.extras.prt exactly as prt bake wrote it before prt_version was recorded.
+Json olderRecord() {
+  return Json::parse(R"({"version": 1, "scene": "room.gltf", "bands": 3, "samples": 1024, "bounces": 2,
+      "shadowed": true, "seed": 1, "transfer": "irradiance",
+      "sh_convention": "real orthonormal, no Condon-Shortley phase, index l(l+1)+m, glTF axes",
+      "units": "E = transfer . light (irradiance); L_o = albedo / pi * E"})");
+}
+
+/// A one-triangle .glb whose asset.extras.prt is `record` (null: none); the node is a receiver
+/// when asked.
+std::string writeRecordScene(const fs::path& path, const Json& record, bool receiver = false) {
+  GltfBuilder b;
+  Json node = {{"mesh", b.mesh(Json::array({trianglePrimitive(b)}))}};
+  if (receiver) node["extras"] = {{"prt", {{"receiver", true}}}};
+  b.scene({b.node(node)});
+  if (!record.is_null()) b.doc["asset"]["extras"] = {{"prt", record}, {"other_tool", 5}};
+  return b.writeGlb(path);
+}
+
+TEST_F(SceneBakeRecord, BakedFileGivesBackTheSameRecord) {
+  const std::string input = writeInstancedScene(dir_);
+  prt::bake::BakeSettings big;
+  big.bands = 2;
+  big.samples = 8;
+  big.bounces = 1;
+  big.seed = 3000000000u;  // above tinygltf's 32-bit integers: stored as a double, exactly
+  prt::bake::BakeSettings unshadowed = big;
+  unshadowed.shadowed = false;  // recorded with 0 bounces
+  unshadowed.seed = 5;
+  for (const prt::bake::BakeSettings& settings : {big, unshadowed}) {
+    prt::Scene scene = prt::loadScene(input);
+    const prt::bake::SurfaceTransfer t = prt::bake::bakeSurface(scene, settings);
+    for (size_t k = 0; k < scene.meshes.size(); ++k) scene.meshes[k].transfer = t.perMesh[k];
+    scene.transferBands = t.bands;
+    const prt::BakeRecord record = prt::bake::bakeRecord(settings, "instanced.gltf", "0.1.0");
+    EXPECT_EQ(record.bounces, settings.shadowed ? 1 : 0);
+    const fs::path out = dir_ / "baked.glb";
+    prt::writeBakedScene(input, scene, &record, out.string());
+    const prt::Scene baked = prt::loadScene(out.string());
+    ASSERT_TRUE(baked.bakeRecord.has_value());
+    EXPECT_EQ(*baked.bakeRecord, record);
+    EXPECT_EQ(baked.bakeRecord->seed, settings.seed);
+    EXPECT_EQ(baked.bakeRecord->prtVersion, "0.1.0");
+    // The fixed descriptions travel with the fields, for readers without prt.
+    const Json stored = glbJson(out)["asset"]["extras"]["prt"];
+    EXPECT_EQ(stored["transfer"], prt::BakeRecord::kTransfer);
+    EXPECT_EQ(stored["sh_convention"], prt::BakeRecord::kShConvention);
+    EXPECT_EQ(stored["units"], prt::BakeRecord::kUnits);
+    EXPECT_EQ(stored["version"], prt::BakeRecord::kLayoutVersion);
+  }
+}
+
+TEST_F(SceneBakeRecord, OlderRecordWithoutPrtVersionReads) {
+  Json record = olderRecord();
+  record["sky"] = "studio.exr";  // keys this prt does not know are ignored
+  const prt::Scene scene = prt::loadScene(writeRecordScene(dir_ / "older.glb", record));
+  ASSERT_TRUE(scene.bakeRecord.has_value());
+  const prt::BakeRecord& r = *scene.bakeRecord;
+  EXPECT_EQ(r.scene, "room.gltf");
+  EXPECT_EQ(r.bands, 3);
+  EXPECT_EQ(r.samples, 1024);
+  EXPECT_EQ(r.bounces, 2);
+  EXPECT_TRUE(r.shadowed);
+  EXPECT_EQ(r.seed, 1u);
+  EXPECT_EQ(r.prtVersion, "");
+  EXPECT_EQ(prt::describeBakeRecord(r), "3 bands, 1024 samples, 2 bounces, shadowed, seed 1, from room.gltf");
+  record["prt_version"] = "0.1.0";
+  record["bounces"] = 1;
+  record["shadowed"] = false;
+  EXPECT_EQ(prt::describeBakeRecord(*prt::loadScene(writeRecordScene(dir_ / "newer.glb", record)).bakeRecord),
+            "3 bands, 1024 samples, 1 bounce, unshadowed, seed 1, from room.gltf, prt 0.1.0");
+}
+
+TEST_F(SceneBakeRecord, FileWithoutRecordLoads) {
+  const prt::Scene scene = prt::loadScene(writeRecordScene(dir_ / "plain.glb", nullptr));
+  EXPECT_FALSE(scene.bakeRecord.has_value());
+  EXPECT_EQ(scene.transferBands, 0);
+}
+
+TEST_F(SceneBakeRecord, MalformedRecordIsRefusedNamingFileAndField) {
+  struct Case {
+    const char* key;
+    Json value;  // null: the key is removed
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {"bands", "x", R"(asset.extras.prt.bands: expected an integer 1..8, got "x")"},
+      {"bands", 99, "asset.extras.prt.bands: expected an integer 1..8, got 99"},
+      {"bands", 0, "asset.extras.prt.bands: expected an integer 1..8, got 0"},
+      {"bands", 2.5, "asset.extras.prt.bands: expected an integer 1..8, got 2.5"},
+      {"bands", nullptr, "asset.extras.prt.bands: missing"},
+      {"samples", 0, "asset.extras.prt.samples: expected an integer >= 1, got 0"},
+      {"bounces", -1, "asset.extras.prt.bounces: expected an integer >= 0, got -1"},
+      {"seed", -1, "asset.extras.prt.seed: expected an unsigned integer, got -1"},
+      {"seed", 1.5, "asset.extras.prt.seed: expected an unsigned integer, got 1.5"},
+      {"seed", "7", R"(asset.extras.prt.seed: expected an unsigned integer, got "7")"},
+      {"shadowed", "yes", R"(asset.extras.prt.shadowed: expected true or false, got "yes")"},
+      {"scene", 3, "asset.extras.prt.scene: expected a string, got 3"},
+      {"transfer", "radiance", R"(asset.extras.prt.transfer: expected "irradiance", got "radiance")"},
+      {"units", nullptr, "asset.extras.prt.units: missing"},
+      {"prt_version", 1, "asset.extras.prt.prt_version: expected a string, got 1"},
+      {"version", 2, "asset.extras.prt.version: 2: written by a newer prt (this one reads version 1)"},
+      {"version", 0, "asset.extras.prt.version: expected 1, got 0"},
+      {"version", "1", R"(asset.extras.prt.version: expected an integer, got "1")"},
+  };
+  for (size_t k = 0; k < cases.size(); ++k) {
+    SCOPED_TRACE(cases[k].message);
+    Json record = olderRecord();
+    if (cases[k].value.is_null())
+      record.erase(cases[k].key);
+    else
+      record[cases[k].key] = cases[k].value;
+    // A newer layout is named before anything else in it is judged.
+    if (cases[k].message.find("newer") != std::string::npos) record["bands"] = "whatever";
+    expectError(writeRecordScene(dir_ / prt::cat("bad", k, ".glb"), record), {cases[k].message});
+  }
+  expectError(writeRecordScene(dir_ / "string.glb", "x"), {R"(asset.extras.prt: expected an object, got "x")"});
+}
+
+TEST_F(SceneBakeRecord, RecordBandsMustAgreeWithTransferAttributes) {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  for (const char* name : {"_PRT_SH_00", "_PRT_SH_01", "_PRT_SH_02", "_PRT_SH_03"})
+    prim["attributes"][name] = b.vec3(std::vector<float>(9, 0.25f));
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  Json record = olderRecord();
+  record["bands"] = 2;
+  b.doc["asset"]["extras"]["prt"] = record;
+  const prt::Scene two = prt::loadScene(b.writeGlb(dir_ / "two.glb"));
+  EXPECT_EQ(two.transferBands, 2);
+  EXPECT_EQ(two.bakeRecord->bands, 2);
+  b.doc["asset"]["extras"]["prt"]["bands"] = 3;
+  expectError(b.writeGlb(dir_ / "three.glb"), {"asset.extras.prt.bands: 3, but the transfer attributes hold 2 bands"});
+}
+
+// A bake whose every instance is a receiver writes no transfer attribute: the scene's band
+// count is the record's, so the receivers can be lit from probes baked with it.
+TEST_F(SceneBakeRecord, ReceiversOnlyBakeTakesItsBandsFromTheRecord) {
+  EXPECT_EQ(prt::loadScene(writeRecordScene(dir_ / "receivers.glb", olderRecord(), true)).transferBands, 3);
+  // An instance that is not a receiver and has no transfer: simply not baked, no bands.
+  EXPECT_EQ(prt::loadScene(writeRecordScene(dir_ / "unbaked.glb", olderRecord(), false)).transferBands, 0);
+  EXPECT_EQ(prt::loadScene(writeRecordScene(dir_ / "no_record.glb", nullptr, true)).transferBands, 0);
 }
 
 }  // namespace

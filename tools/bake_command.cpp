@@ -276,13 +276,11 @@ int runBake(const BakeArgs& a) {
     grid.info.scene = sceneName;
     writeProbeGrid(grid, a.probes, a.probeHalf);
   }
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    scene.meshes[k].transfer = std::move(result.perMesh[k]);
-    scene.meshes[k].transferBands = scene.meshes[k].transfer.empty() ? 0 : s.bands;
-  }
+  for (size_t k = 0; k < scene.meshes.size(); ++k) scene.meshes[k].transfer = std::move(result.perMesh[k]);
   scene.transferBands = s.bands;
   auto tWrite = std::chrono::steady_clock::now();
-  writeBakedScene(a.scene, scene, bake::settingsJson(s, sceneName), a.output);
+  const BakeRecord record = bake::bakeRecord(s, sceneName, kVersion);
+  writeBakedScene(a.scene, scene, &record, a.output);
   double writeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tWrite).count();
   // The outputs are in place: the checkpoint has served.
   if (checkpoint) checkpoint->remove();

@@ -7,6 +7,7 @@
 #include "file_kind.h"
 #include "prt/bake/memory_estimate.h"
 #include "prt/bake/surface_bake.h"
+#include "prt/bake_record.h"
 #include "prt/error.h"
 #include "prt/probe_grid.h"
 #include "prt/progress.h"
@@ -24,7 +25,7 @@ void infoGlb(const std::string& path) {
     vertices += m.vertexCount();
     triangles += m.triangleCount();
     receivers += m.receiverOnly;
-    baked += m.transferBands > 0;
+    baked += !m.transfer.empty();
   }
   std::printf("%s: glTF scene\n", path.c_str());
   std::printf("  file        %s on disk\n", formatBytes(std::filesystem::file_size(path)).c_str());
@@ -52,13 +53,13 @@ void infoGlb(const std::string& path) {
               "(%d bands, %d samples, %d bounces) needs at most %s\n",
               formatBytes(loaded.scene).c_str(), defaults.bands, defaults.samples, defaults.bounces,
               formatBytes(loaded.total).c_str());
-  if (scene.transferBands > 0) {
+  if (baked > 0) {
     std::printf("  transfer    %d bands (%d RGB coefficients per vertex)\n", scene.transferBands,
                 scene.transferBands * scene.transferBands);
-    if (!scene.bakeSettingsJson.empty()) std::printf("  bake        %s\n", scene.bakeSettingsJson.c_str());
   } else {
     std::printf("  transfer    none (not baked)\n");
   }
+  if (scene.bakeRecord) std::printf("  bake        %s\n", describeBakeRecord(*scene.bakeRecord).c_str());
   for (const std::string& w : scene.warnings) std::printf("  warning     %s\n", w.c_str());
 }
 

@@ -1,5 +1,6 @@
 #include "relight_command.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 
@@ -47,7 +48,10 @@ int runRelight(const RelightArgs& a) {
   AtomicFile probe(a.output);
   Scene scene = loadScene(a.baked);
   printWarnings(scene, a.quiet);
-  if (scene.transferBands == 0) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
+  // A bake whose every instance is a receiver has bands (its record's) but nothing to relight.
+  const bool anyTransfer =
+      std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& m) { return !m.transfer.empty(); });
+  if (!anyTransfer) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
   sh::ShRgb light = buildLight(a.light, scene.transferBands);
   std::vector<std::vector<glm::vec3>> radiance = relightVertices(scene, light);
   if (!a.csv.empty()) AtomicFile csvProbe(a.csv);

@@ -26,8 +26,6 @@
 #include <tuple>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "cli_checks.h"
 #include "frame_outputs.h"
 #include "light_options.h"
@@ -278,32 +276,18 @@ ChosenCamera chooseCamera(const RenderArgs& a, const render::OrbitCamera& orbit,
                     orbit.yfovDegrees, " deg", a.orbitOption.empty() ? "; the file has no camera" : "", ")")};
 }
 
-// A bake in which every instance is a receiver (all of them animated, say) writes no transfer
-// attribute; its band count is then the one of the bake settings (asset.extras.prt), so the
-// receivers can still be lit from the probes. 0 when the file is not such a bake.
-int receiversOnlyBands(const Scene& scene) {
-  if (scene.meshes.empty()) return 0;
-  for (const MeshInstance& m : scene.meshes)
-    if (!m.receiverOnly) return 0;
-  const auto settings = nlohmann::json::parse(scene.bakeSettingsJson, nullptr, /*allow_exceptions=*/false);
-  if (!settings.is_object() || !settings.contains("bands") || !settings["bands"].is_number_integer()) return 0;
-  const int bands = settings["bands"].get<int>();
-  return bands >= 1 && bands <= sh::kMaxBands ? bands : 0;
-}
-
 // A probe grid baked for another scene still renders, but wrongly: the bake's scene name and
 // seed, stored in both files, must agree (a warning if not); bands must match (an error).
 std::vector<std::string> checkProbesMatch(const ProbeGrid& grid, const Scene& scene, const RenderArgs& a) {
   if (grid.bands != scene.transferBands)
     throw Error(cat(a.probes, ": ", grid.bands, " bands, but ", a.baked, " is baked with ", scene.transferBands,
                     " (bake the surface and the probes together, with one --bands)"));
-  const auto settings = nlohmann::json::parse(scene.bakeSettingsJson, nullptr, /*allow_exceptions=*/false);
-  if (!settings.is_object() || !settings.contains("scene") || grid.info.scene.empty()) return {};
-  const std::string bakedFrom = settings.value("scene", std::string());
-  const uint64_t seed = settings.value("seed", uint64_t(0));
-  if (bakedFrom == grid.info.scene && seed == grid.info.seed) return {};
+  // A .glb without a record (baked before records existed, or made by hand) says nothing.
+  const std::optional<BakeRecord>& record = scene.bakeRecord;
+  if (!record || grid.info.scene.empty()) return {};
+  if (record->scene == grid.info.scene && record->seed == grid.info.seed) return {};
   return {cat(a.probes, " was baked from '", grid.info.scene, "' (seed ", grid.info.seed, "), ", a.baked, " from '",
-              bakedFrom, "' (seed ", seed, "): the probes may belong to another scene or bake")};
+              record->scene, "' (seed ", record->seed, "): the probes may belong to another scene or bake")};
 }
 
 double msSince(std::chrono::steady_clock::time_point t0) {
@@ -444,7 +428,6 @@ int runRender(const RenderArgs& a) {
   const double fps = a.fps ? *a.fps : rig->fps.value_or(kDefaultFps);
 
   Scene scene = loadScene(a.baked);
-  if (scene.transferBands == 0) scene.transferBands = receiversOnlyBands(scene);
   if (scene.transferBands == 0) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
   const int bands = scene.transferBands;
   const ChosenCamera camera = chooseCamera(a, orbit, scene, double(width) / height);

@@ -19,7 +19,6 @@
 #include <limits>
 #include <optional>
 
-#include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
 
 #include "albedo_lookup.h"
@@ -557,19 +556,16 @@ std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& setting
   return out;
 }
 
-std::string settingsJson(const BakeSettings& s, const std::string& sceneName) {
-  nlohmann::json j;
-  j["version"] = 1;
-  j["scene"] = sceneName;
-  j["bands"] = s.bands;
-  j["samples"] = s.samples;
-  j["bounces"] = s.shadowed ? s.bounces : 0;
-  j["shadowed"] = s.shadowed;
-  j["seed"] = s.seed;
-  j["transfer"] = "irradiance";
-  j["sh_convention"] = "real orthonormal, no Condon-Shortley phase, index l(l+1)+m, glTF axes";
-  j["units"] = "E = transfer . light (irradiance); L_o = albedo / pi * E";
-  return j.dump();
+BakeRecord bakeRecord(const BakeSettings& s, const std::string& sceneName, const std::string& prtVersion) {
+  BakeRecord r;
+  r.scene = sceneName;
+  r.bands = s.bands;
+  r.samples = s.samples;
+  r.bounces = s.shadowed ? s.bounces : 0;  // an unshadowed bake casts no rays, so no bounce
+  r.shadowed = s.shadowed;
+  r.seed = s.seed;
+  r.prtVersion = prtVersion;
+  return r;
 }
 
 }  // namespace prt::bake

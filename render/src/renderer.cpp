@@ -398,14 +398,14 @@ void Renderer::Impl::upload(const Scene& scene) {
       receivers.push_back(in);
       continue;
     }
-    if (m.transferBands == 0) {
+    if (m.transfer.empty()) {
       warnings.push_back(cat("skipping unbaked instance '", m.name, "': no transfer and not a receiver"));
       continue;
     }
-    if (m.transferBands != bands || m.transfer.size() != m.vertexCount() * n2)
+    if (m.transfer.size() != m.vertexCount() * n2)
       throw Error(cat(scene.path, ": instance '", m.name, "': transfer holds ", m.transfer.size(),
-                      " values of ", m.transferBands, " bands, expected ", m.vertexCount() * n2,
-                      " of ", bands));
+                      " values, expected ", m.vertexCount() * n2, " (", m.vertexCount(), " vertices, ", bands,
+                      " bands)"));
     const size_t transferBytes = m.transfer.size() * sizeof(glm::vec3);
     if (bands > kMaxAttributeBands && transferBytes > size_t(maxSsbo))
       throw Error(cat(scene.path, ": instance '", m.name, "': transfer of ", transferBytes >> 20,

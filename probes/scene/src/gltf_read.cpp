@@ -29,6 +29,7 @@
 #include <nlohmann/json.hpp>
 
 #include "animation_labels.h"
+#include "bake_record_json.h"
 #include "gltf_model.h"
 #include "prt/error.h"
 #include "uri_guard.h"
@@ -743,7 +744,6 @@ MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, 
                            repaired, " zero or non-finite normals replaced by face normals"));
   inst.texcoords = p.texcoords;
   inst.colors = p.colors;
-  inst.transferBands = p.transferBands;
   inst.transfer = p.transfer;
   return inst;
 }
@@ -938,16 +938,38 @@ void addNodeContents(const Gltf& g, const NodeVisit& v, const LoadOptions& optio
   }
 }
 
-void checkTransferBands(const Gltf& g, Scene& scene) {
+/// One band count for the whole file: every primitive with transfer has the same, and the
+/// bake record, if any, says that count too.
+void checkTransferBands(const Gltf& g, const std::map<std::pair<int, int>, PrimitiveData>& primitives,
+                        Scene& scene) {
   for (const MeshInstance& inst : scene.meshes) {
-    if (inst.transferBands == 0) continue;
-    if (scene.transferBands == 0) scene.transferBands = inst.transferBands;
-    if (inst.transferBands != scene.transferBands)
-      fail(g, cat(primitiveWhere(inst.mesh, inst.primitive), ": transfer has ", inst.transferBands,
-                  " bands, other primitives have ", scene.transferBands));
+    const int bands = primitives.at({inst.mesh, inst.primitive}).transferBands;
+    if (bands == 0) continue;
+    if (scene.transferBands == 0) scene.transferBands = bands;
+    if (bands != scene.transferBands)
+      fail(g, cat(primitiveWhere(inst.mesh, inst.primitive), ": transfer has ", bands, " bands, other primitives have ",
+                  scene.transferBands));
   }
+  if (scene.bakeRecord && scene.transferBands != 0 && scene.bakeRecord->bands != scene.transferBands)
+    fail(g, cat("asset.extras.prt.bands: ", scene.bakeRecord->bands, ", but the transfer attributes hold ",
+                scene.transferBands, " bands"));
+}
+
+/// asset.extras.prt, validated, if the file has one.
+void readBakeRecord(const Gltf& g, Scene& scene) {
   const tinygltf::Value& extras = g.model.asset.extras;
-  if (extras.IsObject() && extras.Has("prt")) scene.bakeSettingsJson = toJson(extras.Get("prt")).dump();
+  if (extras.IsObject() && extras.Has("prt"))
+    scene.bakeRecord = bakeRecordFromJson(toJson(extras.Get("prt")), cat(g.path, ": asset.extras.prt"));
+}
+
+/// A bake in which every instance is a receiver (all of them animated, say) writes no transfer
+/// attribute; its band count is the record's, so the receivers can still be lit from probes
+/// baked with it. Called once the receivers are known.
+void takeBandsFromRecord(Scene& scene) {
+  if (scene.transferBands != 0 || !scene.bakeRecord || scene.meshes.empty()) return;
+  for (const MeshInstance& m : scene.meshes)
+    if (!m.receiverOnly) return;
+  scene.transferBands = scene.bakeRecord->bands;
 }
 
 void computeBounds(const Gltf& g, Scene& scene) {
@@ -1144,11 +1166,13 @@ Scene loadSceneFrom(const std::string& path, const std::string* memory, const Lo
     addNodeContents(g, v, options, scene, cache);
     keepStatic[size_t(v.node)] = v.keepStatic;
   }
-  checkTransferBands(g, scene);
+  readBakeRecord(g, scene);
+  checkTransferBands(g, cache, scene);
   computeBounds(g, scene);
   readNodes(g, scene);
   readAnimations(g, scene);
   makeAnimatedInstancesReceivers(g, scene, keepStatic);
+  takeBandsFromRecord(scene);
   return scene;
 }
 

@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bake_record_json.h"
 #include "gltf_model.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
@@ -199,16 +200,19 @@ void markOptionReceivers(tinygltf::Model& m, const Scene& scene) {
   }
 }
 
-void storeSettings(const Gltf& g, tinygltf::Model& m, const std::string& settingsJson) {
-  if (settingsJson.empty()) return;
-  Json settings;
-  try {
-    settings = Json::parse(settingsJson);
-  } catch (const Json::exception& e) {
-    fail(g, cat("bake settings are not valid JSON: ", e.what()));
-  }
+/// Stores the record as asset.extras.prt. It is read back through the reader's checks first,
+/// so that prt never writes a record it would refuse to load.
+void storeRecord(const Scene& scene, tinygltf::Model& m, const BakeRecord* record, const std::string& outPath) {
+  if (!record) return;
+  const std::string where = cat(outPath, ": asset.extras.prt");
+  const Json json = bakeRecordToJson(*record);
+  bakeRecordFromJson(json, where);
+  const bool anyTransfer =
+      std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& i) { return !i.transfer.empty(); });
+  if (anyTransfer && record->bands != scene.transferBands)
+    throw Error(cat(where, ".bands: ", record->bands, ", but the transfer holds ", scene.transferBands, " bands"));
   if (!m.asset.extras.IsObject()) m.asset.extras = tinygltf::Value(tinygltf::Value::Object{});
-  m.asset.extras.Get<tinygltf::Value::Object>()["prt"] = toValue(settings);
+  m.asset.extras.Get<tinygltf::Value::Object>()["prt"] = toValue(json);
 }
 
 std::string sniffMimeType(const std::vector<unsigned char>& b) {
@@ -457,13 +461,13 @@ void removeUnlitInstances(tinygltf::Model& m, const Scene& scene,
 
 }  // namespace
 
-void writeBakedScene(const std::string& inputPath, const Scene& scene, const std::string& settingsJson,
+void writeBakedScene(const std::string& inputPath, const Scene& scene, const BakeRecord* record,
                      const std::string& outPath) {
   int staging = -1;
   Gltf g = reloadForWriting(inputPath, scene, staging);
   addTransferAttributes(g.model, staging, scene);
   markOptionReceivers(g.model, scene);
-  storeSettings(g, g.model, settingsJson);
+  storeRecord(scene, g.model, record, outPath);
   writeGlb(g, g.model, staging, outPath);
 }
 

@@ -15,12 +15,11 @@ std::vector<std::vector<glm::vec3>> relightVertices(const Scene& scene, const sh
   std::vector<std::vector<glm::vec3>> out(scene.meshes.size());
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     const MeshInstance& m = scene.meshes[k];
-    if (m.transferBands == 0) continue;
-    PRT_CHECK_EQ(m.transferBands, scene.transferBands);
+    if (m.transfer.empty()) continue;
     PRT_CHECK_EQ(m.transfer.size(), m.vertexCount() * size_t(n2));
     out[k].resize(m.vertexCount());
     for (size_t v = 0; v < m.vertexCount(); ++v) {
-      glm::vec3 e = sh::dot(m.transferOf(v), l.c.data(), n2);
+      glm::vec3 e = sh::dot(m.transferOf(v, scene.transferBands), l.c.data(), n2);
       out[k][v] = albedoAtVertex(scene, m, uint32_t(v)) * e * float(1.0 / kPi);
     }
   }

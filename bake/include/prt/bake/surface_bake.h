@@ -11,6 +11,7 @@
 
 #include "prt/bake/checkpoint.h"
 #include "prt/bake/ray_scene.h"
+#include "prt/bake_record.h"
 #include "prt/scene.h"
 
 namespace prt::bake {
@@ -92,7 +93,8 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
 std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& settings, float extent,
                                  const std::vector<size_t>& vertices);
 
-/// The settings as the JSON object stored in asset.extras.prt of a baked file.
-std::string settingsJson(const BakeSettings& settings, const std::string& sceneName);
+/// The record of a bake with these settings, as a baked file stores it (asset.extras.prt):
+/// `sceneName` is the scene's file name, `prtVersion` the prt that bakes.
+BakeRecord bakeRecord(const BakeSettings& settings, const std::string& sceneName, const std::string& prtVersion);
 
 }  // namespace prt::bake

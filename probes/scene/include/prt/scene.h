@@ -9,12 +9,14 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
 
 #include "prt/animation.h"
+#include "prt/bake_record.h"
 #include "prt/error.h"
 #include "prt/sh.h"
 
@@ -70,14 +72,15 @@ struct MeshInstance {
   bool receiverOnly = false;         // excluded from the bake (moving / unbaked object)
   ReceiverReason receiverReason = ReceiverReason::None;  // why, as the loader decided
 
-  /// Per-vertex transfer when read from a baked file: vertexCount × bands² RGB, vertex-major.
-  int transferBands = 0;
+  /// Per-vertex transfer when read from a baked file: vertexCount × bands² RGB, vertex-major,
+  /// bands = Scene::transferBands. Empty: the instance is not baked.
   std::vector<glm::vec3> transfer;
 
   size_t vertexCount() const { return positions.size(); }
   size_t triangleCount() const { return indices.size() / 3; }
-  const glm::vec3* transferOf(size_t vertex) const {
-    return transfer.data() + vertex * static_cast<size_t>(transferBands) * transferBands;
+  /// The bands² coefficients of `vertex`; `bands` is the scene's (Scene::transferBands).
+  const glm::vec3* transferOf(size_t vertex, int bands) const {
+    return transfer.data() + vertex * static_cast<size_t>(bands) * static_cast<size_t>(bands);
   }
 };
 
@@ -119,8 +122,10 @@ struct Scene : SceneAnimation {
   std::vector<PunctualLight> lights;
   glm::vec3 boundsMin{0.0f}, boundsMax{0.0f};  // of all instances
   std::vector<std::string> warnings;            // skipped or repaired input, one line each
-  std::string bakeSettingsJson;                 // asset.extras.prt of a baked file, else ""
-  int transferBands = 0;                        // > 0 when read from a baked file
+  std::optional<BakeRecord> bakeRecord;         // asset.extras.prt of a baked file, validated
+  /// The band count of every instance's transfer: the _PRT_SH_ attributes', or, in a bake
+  /// whose every instance is a receiver (no attributes), the record's. 0: not baked.
+  int transferBands = 0;
   bool allowExternalUris = false;  // loaded with LoadOptions::allowExternalUris (writers reread so)
 };
 
@@ -169,11 +174,12 @@ glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, f
 /// Writes `inputPath`'s scene as .glb with each baked instance's transfer (scene.meshes[k].
 /// transfer, scene.transferBands) as attributes _PRT_SH_00 .. (VEC3 float, RGB of coefficient
 /// i), meshes duplicated where one is used by several nodes, strips and fans rewritten as
-/// triangle lists, and `settingsJson` stored in asset.extras.prt. Receivers named by
+/// triangle lists, and `record` (if not null) stored in asset.extras.prt; its bands must be
+/// scene.transferBands when the scene holds transfer. Receivers named by
 /// LoadOptions::receiverNodes get extras {"prt": {"receiver": true}}, so the file keeps them
 /// receivers. Atomic (temp + rename).
-void writeBakedScene(const std::string& inputPath, const Scene& scene,
-                     const std::string& settingsJson, const std::string& outPath);
+void writeBakedScene(const std::string& inputPath, const Scene& scene, const BakeRecord* record,
+                     const std::string& outPath);
 
 /// Writes the scene as .glb with per-vertex linear radiance as COLOR_0 (float VEC3,
 /// unclamped), materials replaced by KHR_materials_unlit white so viewers show it as is.

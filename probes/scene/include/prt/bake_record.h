@@ -1,0 +1,38 @@
+// The bake record: what a baked .glb says about the bake that made it, stored as the JSON
+// object asset.extras.prt (docs/formats.md, "The bake record"). loadScene reads and validates
+// it (Scene::bakeRecord), writeBakedScene writes it; both go through one piece of code
+// (scene/src/bake_record.cpp), so the keys and their checks are written once.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace prt {
+
+struct BakeRecord {
+  /// The record's layout. A reader refuses any other value ("written by a newer prt"), so a
+  /// record in memory is always of this layout and holds no field for it.
+  static constexpr int kLayoutVersion = 1;
+  /// Fixed descriptions written beside the fields, for whoever reads the file without prt.
+  /// kTransfer is checked on read: it says what the _PRT_SH_ attributes hold.
+  static constexpr const char* kTransfer = "irradiance";
+  static constexpr const char* kShConvention =
+      "real orthonormal, no Condon-Shortley phase, index l(l+1)+m, glTF axes";
+  static constexpr const char* kUnits = "E = transfer . light (irradiance); L_o = albedo / pi * E";
+
+  std::string scene;       // file name of the scene baked (no folder)
+  int bands = 0;           // 1 .. sh::kMaxBands
+  int samples = 0;         // rays per vertex, >= 1
+  int bounces = 0;         // interreflection bounces, >= 0 (0 when unshadowed)
+  bool shadowed = true;
+  uint64_t seed = 0;
+  std::string prtVersion;  // the prt that baked it; empty for files baked before it was recorded
+
+  bool operator==(const BakeRecord&) const = default;
+};
+
+/// One line for people, e.g. "3 bands, 1024 samples, 2 bounces, shadowed, seed 1, from
+/// cornell_open.gltf, prt 0.1.0" (the prt part only when the record names it).
+std::string describeBakeRecord(const BakeRecord& record);
+
+}  // namespace prt
