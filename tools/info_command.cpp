@@ -17,7 +17,7 @@ namespace prt::tools {
 
 namespace {
 
-// A glTF scene: what it holds, what it costs in memory, and its bake settings if baked.
+// A glTF scene: what it holds, what it costs in memory, and its bake record if it has one.
 void infoGlb(const std::string& path) {
   Scene scene = loadScene(path);
   size_t vertices = 0, triangles = 0, receivers = 0, baked = 0;

@@ -126,6 +126,14 @@ def hierarchy():
     return g
 
 
+# asset.extras.prt as prt bake writes it (docs/formats.md, "The bake record"): loadScene
+# validates every key, so the seed carries a whole record for the fuzzer to mutate.
+BAKE_RECORD = {"version": 1, "scene": "baked.gltf", "bands": 2, "samples": 16, "bounces": 1, "shadowed": True,
+               "seed": 1, "transfer": "irradiance",
+               "sh_convention": "real orthonormal, no Condon-Shortley phase, index l(l+1)+m, glTF axes",
+               "units": "E = transfer . light (irradiance); L_o = albedo / pi * E", "prt_version": "0.1.0"}
+
+
 def baked():
     """Per-vertex transfer attributes (_PRT_SH_00.._03, 2 bands) as prt bake writes them."""
     g = Gltf()
@@ -134,7 +142,7 @@ def baked():
     for i in range(4):
         attrs["_PRT_SH_%02d" % i] = g.floats([0.1 * (i + 1)] * 9, "VEC3", 3)
     g.doc.update(scene=0, scenes=[{"nodes": [0]}], nodes=[{"mesh": 0}],
-                 meshes=[{"primitives": [{"attributes": attrs}]}], asset={"version": "2.0", "extras": {"prt": {"bands": 2}}})
+                 meshes=[{"primitives": [{"attributes": attrs}]}], asset={"version": "2.0", "extras": {"prt": BAKE_RECORD}})
     return g
 
 
