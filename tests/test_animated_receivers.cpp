@@ -333,7 +333,7 @@ TEST(RenderAnimatedReceivers, BakeAndRenderCommandsMoveTheCube) {
 }
 
 // A scene whose every mesh moves bakes no transfer at all (only the settings and the probes);
-// prt render still lights the receivers from the grid, with the bands of the bake settings:
+// prt render still lights the receivers from the grid, with the bands of the bake record:
 // here an empty scene, so the top face is the unoccluded closed form ρ/π · E(+Y).
 TEST(RenderAnimatedReceivers, SceneOfReceiversOnlyRendersFromTheProbes) {
   const test::TempDir tmp("cli_receivers_only");
