@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <stb_image.h>
 
+#include "cli_expect.h"
 #include "harness.h"
 #include "prt/error.h"
 #include "prt/image.h"
@@ -432,22 +433,8 @@ TEST(CliRender, ProbeLookupVertexChangesOnlyTheReceivers) {
 std::string scene(const std::string& name) { return source("scenes/" + name); }
 using test::lineCount;
 
-// Only the requested output may exist in the directory: no temporary leftovers.
-bool dirHoldsOnly(const fs::path& dir, const std::vector<std::string>& names) {
-  size_t n = 0;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    ++n;
-    if (std::find(names.begin(), names.end(), e.path().filename().string()) == names.end()) return false;
-  }
-  return n == names.size();
-}
-
-void expectCleanFailure(const RunResult& r, const std::string& mention, const fs::path& dir, int status = 1) {
-  EXPECT_EQ(r.status, status) << r.err;
-  EXPECT_EQ(lineCount(r.err), 1) << r.err;
-  EXPECT_NE(r.err.find(mention), std::string::npos) << r.err;
-  EXPECT_TRUE(dirHoldsOnly(dir, {})) << "output left behind";
-}
+using test::dirHoldsOnly;
+using test::expectCleanFailure;
 
 // The bundled Cornell scene baked once per test process (16 samples, 1 bounce: about a second).
 const std::string& bakedCornell() {
