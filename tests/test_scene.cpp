@@ -269,17 +269,40 @@ TEST_F(SceneLoad, NormalsUseInverseTransposeUnderNonUniformScale) {
   expectNear(scene.meshes[0].positions[1], {2, 0, 0});
 }
 
-TEST_F(SceneLoad, ComputedNormalsAreAreaWeighted) {
+TEST_F(SceneLoad, ZeroNormalsAreRepairedAreaWeighted) {
   GltfBuilder b;
-  // Triangle A (area 2, normal +Z) and triangle B (area 0.5, normal +Y) share vertex 0.
+  // Triangle A (area 2, normal +Z) and triangle B (area 0.5, normal +Y) share vertex 0, whose
+  // given normal is zero.
   Json prim = trianglePrimitive(b, {0, 0, 0, 2, 0, 0, 0, 2, 0, 0, 0, 1, 1, 0, 0});
+  prim["attributes"]["NORMAL"] = b.vec3({0, 0, 0, 0, 0, 1, 0, 0, 1, 0, 1, 0, 0, 1, 0});
   prim["indices"] = b.indices({0, 1, 2, 0, 3, 4});
   b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
   prt::Scene scene = prt::loadScene(b.write(dir_ / "normals.gltf"));
   const prt::MeshInstance& m = scene.meshes[0];
+  EXPECT_EQ(m.vertexCount(), 5u);
   expectNear(m.normals[0], glm::normalize(glm::vec3(0, 1, 4)));  // weights 2·area: 4 and 1
   expectNear(m.normals[1], {0, 0, 1});
   expectNear(m.normals[3], {0, 1, 0});
+  ASSERT_EQ(scene.warnings.size(), 1u);
+  EXPECT_NE(scene.warnings[0].find("1 zero or non-finite normals replaced"), std::string::npos) << scene.warnings[0];
+}
+
+TEST_F(SceneLoad, WithoutNormalsTheSameMeshIsSplitForFlatNormals) {
+  GltfBuilder b;
+  // The same two triangles without NORMAL: glTF asks for flat normals, so vertex 0, shared by
+  // faces of two orientations, becomes two vertices.
+  Json prim = trianglePrimitive(b, {0, 0, 0, 2, 0, 0, 0, 2, 0, 0, 0, 1, 1, 0, 0});
+  prim["indices"] = b.indices({0, 1, 2, 0, 3, 4});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  prt::Scene scene = prt::loadScene(b.write(dir_ / "flat.gltf"));
+  const prt::MeshInstance& m = scene.meshes[0];
+  ASSERT_EQ(m.vertexCount(), 6u);
+  EXPECT_EQ(m.fileVertex, (std::vector<uint32_t>{0, 1, 2, 3, 4, 0}));
+  EXPECT_EQ(m.indices, (std::vector<uint32_t>{0, 1, 2, 5, 3, 4}));
+  for (uint32_t v : {0, 1, 2}) expectNear(m.normals[v], {0, 0, 1});
+  for (uint32_t v : {3, 4, 5}) expectNear(m.normals[v], {0, 1, 0});
+  expectNear(m.positions[5], m.positions[0]);
+  EXPECT_TRUE(scene.warnings.empty());
 }
 
 TEST_F(SceneLoad, StripsAndFansBecomeTriangleLists) {
@@ -590,20 +613,26 @@ TEST_F(SceneErrors, NonFinitePosition) {
   expectError(b.write(dir_ / "nan.gltf"), {"mesh 0 / primitive 0 / POSITION: vertex 1 is not finite"});
 }
 
-TEST_F(SceneErrors, DegenerateTriangleRefusedOrDropped) {
+TEST_F(SceneLoad, DegenerateTrianglesDroppedWithOneWarningPerPrimitive) {
   GltfBuilder b;
   Json prim = trianglePrimitive(b, {0, 0, 0, 1, 0, 0, 0, 1, 0, 2, 0, 0});
-  prim["indices"] = b.indices({0, 1, 2, 0, 1, 3});  // the second one is collinear
-  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
-  std::string path = b.write(dir_ / "degenerate.gltf");
-  expectError(path, {"mesh 0 / primitive 0: triangle 1 is degenerate (zero area)"});
-  prt::LoadOptions options;
-  options.allowDegenerate = true;
-  prt::Scene scene = prt::loadScene(path, options);
-  EXPECT_EQ(scene.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2}));
-  EXPECT_EQ(scene.meshes[0].vertexCount(), 4u);  // vertices stay one to one
+  prim["attributes"]["NORMAL"] = b.vec3({0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1});
+  // Triangle 1 is collinear, triangle 2 repeats an index.
+  prim["indices"] = b.indices({0, 1, 2, 0, 1, 3, 2, 2, 1});
+  const int mesh = b.mesh(Json::array({prim}));
+  b.scene({b.node({{"mesh", mesh}}), b.node({{"mesh", mesh}, {"translation", {0, 0, 1}}})});
+  prt::Scene scene = prt::loadScene(b.write(dir_ / "degenerate.gltf"));
+  ASSERT_EQ(scene.meshes.size(), 2u);
+  for (const prt::MeshInstance& m : scene.meshes) {
+    EXPECT_EQ(m.indices, (std::vector<uint32_t>{0, 1, 2}));
+    EXPECT_EQ(m.vertexCount(), 4u);  // vertices stay one to one
+  }
+  // One warning for the primitive, though two nodes place it.
   ASSERT_EQ(scene.warnings.size(), 1u);
-  EXPECT_NE(scene.warnings[0].find("dropped 1 degenerate"), std::string::npos) << scene.warnings[0];
+  EXPECT_NE(scene.warnings[0].find("mesh 0 / primitive 0: dropped 2 degenerate (zero-area) triangles (the first is "
+                                   "triangle 1) of 3"),
+            std::string::npos)
+      << scene.warnings[0];
 }
 
 TEST_F(SceneErrors, UnknownRequiredExtension) {

@@ -165,8 +165,8 @@ void addBake(CLI::App& bake, BakeArgs& a) {
       ->check(CLI::Range(0, std::numeric_limits<int>::max()))
       ->capture_default_str();
   bake.add_option("--receiver", a.load.receiverNodes, "Node (name or index) baked as receiver only; repeatable");
-  bake.add_flag("--allow-degenerate", a.load.allowDegenerate,
-                "Drop zero-area triangles with a warning instead of refusing");
+  bake.add_flag("--allow-degenerate", a.allowDegenerate,
+                "Deprecated, no effect: zero-area triangles are always dropped with a warning");
   bake.add_flag("--allow-external-uris", a.load.allowExternalUris,
                 "Read buffers and images outside the scene's folder (absolute paths, ..)");
   bake.add_flag("-q,--quiet", a.quiet, "No progress bar, no summary");
@@ -227,6 +227,9 @@ int runBake(const BakeArgs& a) {
   } catch (const ExternalUriRefused& e) {
     throw Error(cat(e.what(), " (--allow-external-uris)"));
   }
+  if (a.allowDegenerate && !a.quiet)
+    std::fprintf(stderr, "prt: warning: --allow-degenerate is deprecated and does nothing: every command drops "
+                         "zero-area triangles with a warning\n");
   printWarnings(scene, a.quiet);
 
   // Memory guard: first without the hit records (before the BVH is built), then with the

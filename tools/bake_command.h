@@ -24,6 +24,7 @@ struct BakeArgs {
   bake::BakeSettings settings;
   bool unshadowed = false;
   bool quiet = false;
+  bool allowDegenerate = false;  // deprecated --allow-degenerate: dropping them is the default
   LoadOptions load;
   std::string checkpoint;          // default OUTPUT.prt-checkpoint
   double checkpointInterval = 60;  // seconds; 0 = only when interrupted

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include <glm/glm.hpp>
 #include <tiny_gltf.h>
 
 #include "prt/error.h"
@@ -20,6 +21,7 @@ constexpr const char* kTransferPrefix = "_PRT_SH_";
 constexpr const char* kUnlit = "KHR_materials_unlit";
 constexpr const char* kLights = "KHR_lights_punctual";
 constexpr const char* kTextureTransform = "KHR_texture_transform";
+constexpr const char* kSpecularGlossiness = "KHR_materials_pbrSpecularGlossiness";
 
 /// A loaded glTF document and the path its messages start with.
 struct Gltf {
@@ -106,5 +108,12 @@ std::vector<uint32_t> readIndices(const Gltf& g, const tinygltf::Primitive& prim
 /// (strips alternate: triangle i is p_i, p_{i+1+i%2}, p_{i+2-i%2}; fans are p_{i+1}, p_{i+2}, p_0).
 std::vector<uint32_t> toTriangleList(const Gltf& g, int mode, const std::vector<uint32_t>& in,
                                      const std::string& where);
+
+/// The normals of a primitive without NORMAL once its vertices are split for flat normals
+/// (gltf_read.cpp): per vertex, the normalised area-weighted sum of its triangles' normals,
+/// which are one orientation after the split; (0, 1, 0) where no triangle uses the vertex.
+/// The reader and the writer both compute them with this, so a baked file holds the normals
+/// the bake used.
+std::vector<glm::vec3> flatVertexNormals(const std::vector<glm::vec3>& positions, const std::vector<uint32_t>& indices);
 
 }  // namespace prt::gltf

@@ -209,14 +209,9 @@ Gltf readGltf(const std::string& path, std::vector<std::string>* warnings, bool 
 
 namespace {
 
-void checkRequiredExtensions(const Gltf& g, std::vector<std::string>& warnings) {
+void checkRequiredExtensions(const Gltf& g) {
   for (const std::string& ext : g.model.extensionsRequired) {
-    if (ext == kUnlit || ext == kLights) continue;
-    if (ext == kTextureTransform) {
-      warnings.push_back(cat(g.path, ": required extension ", ext,
-                             " is ignored (textures are sampled untransformed)"));
-      continue;
-    }
+    if (ext == kUnlit || ext == kLights || ext == kTextureTransform || ext == kSpecularGlossiness) continue;
     fail(g, cat("required extension ", ext, " is not supported"));
   }
 }
@@ -380,6 +375,23 @@ std::vector<uint32_t> toTriangleList(const Gltf& g, int mode, const std::vector<
   return out;
 }
 
+/// Per vertex, the area-weighted sum of the normals of the triangles that use it, normalised;
+/// (0, 1, 0) for a vertex no triangle uses.
+std::vector<glm::vec3> flatVertexNormals(const std::vector<glm::vec3>& positions, const std::vector<uint32_t>& indices) {
+  std::vector<glm::dvec3> sum(positions.size(), glm::dvec3(0.0));
+  for (size_t t = 0; t + 2 < indices.size(); t += 3) {
+    const glm::dvec3 p0(positions[indices[t]]);
+    const glm::dvec3 n = glm::cross(glm::dvec3(positions[indices[t + 1]]) - p0, glm::dvec3(positions[indices[t + 2]]) - p0);
+    for (size_t k = 0; k < 3; ++k) sum[indices[t + k]] += n;
+  }
+  std::vector<glm::vec3> out(positions.size(), glm::vec3(0, 1, 0));
+  for (size_t v = 0; v < sum.size(); ++v) {
+    const double len = glm::length(sum[v]);
+    if (len > 0.0 && std::isfinite(len)) out[v] = glm::vec3(sum[v] / len);
+  }
+  return out;
+}
+
 }  // namespace gltf
 
 namespace {
@@ -395,9 +407,23 @@ struct PrimitiveData {
   std::vector<glm::vec2> texcoords;
   std::vector<glm::vec4> colors;
   std::vector<uint32_t> indices;   // triangle list, glTF winding, degenerate triangles dropped
+  std::vector<uint32_t> fileVertex;  // MeshInstance::fileVertex
   int material = -1;
   int transferBands = 0;
   std::vector<glm::vec3> transfer;
+};
+
+/// Faces whose unit normals have a dot product at least this share a vertex under flat
+/// normals: within 0.1°, which float positions of one plane never exceed, while real edges of
+/// a mesh that needs flat shading are far sharper.
+constexpr double kSameOrientation = 0.99999848;  // cos(0.1°)
+
+/// Where a material's base colour comes from: the glTF texture (decoded later, only if an
+/// instance uses the material), the TEXCOORD_n it reads and its KHR_texture_transform.
+struct BaseColorSource {
+  int texture = -1;
+  int texCoord = 0;
+  glm::dmat3 uvTransform{1.0};
 };
 
 const char* modeName(int mode) {
@@ -426,14 +452,15 @@ std::vector<glm::vec3> readPositions(const Gltf& g, int accessor, const std::str
   return p;
 }
 
-/// Drops zero-area and repeated-index triangles, or refuses them. The test is exact (area
-/// computed in double from float inputs): only truly degenerate triangles are caught, the
-/// ones whose normal is undefined.
-void removeDegenerate(const Gltf& g, PrimitiveData& p, const std::string& where,
-                      const LoadOptions& options, std::vector<std::string>& warnings) {
+/// Drops zero-area and repeated-index triangles, with one warning for the primitive. The test
+/// is exact (area computed in double from float inputs): only truly degenerate triangles are
+/// caught, the ones whose normal is undefined. Vertices stay as they are, so per-vertex
+/// transfer still lines up with the file's vertices, and every command that reads the file
+/// (the baked one too, which keeps the file's indices) drops the same triangles.
+void removeDegenerate(const Gltf& g, PrimitiveData& p, const std::string& where, std::vector<std::string>& warnings) {
   std::vector<uint32_t> kept;
   kept.reserve(p.indices.size());
-  size_t dropped = 0;
+  size_t dropped = 0, first = 0;
   for (size_t t = 0; t < p.indices.size() / 3; ++t) {
     uint32_t a = p.indices[3 * t], b = p.indices[3 * t + 1], c = p.indices[3 * t + 2];
     glm::dvec3 e1 = glm::dvec3(p.positions[b]) - glm::dvec3(p.positions[a]);
@@ -443,14 +470,66 @@ void removeDegenerate(const Gltf& g, PrimitiveData& p, const std::string& where,
       kept.insert(kept.end(), {a, b, c});
       continue;
     }
-    if (!options.allowDegenerate)
-      fail(g, cat(where, ": triangle ", t, " is degenerate (zero area)"));
-    ++dropped;
+    if (dropped++ == 0) first = t;
   }
   if (dropped)
     warnings.push_back(cat(g.path, ": ", where, ": dropped ", dropped, " degenerate (zero-area) triangle",
-                           dropped == 1 ? "" : "s"));
+                           dropped == 1 ? cat(" (triangle ", first, ")") : cat("s (the first is triangle ", first, ")"),
+                           " of ", p.indices.size() / 3));
   p.indices = std::move(kept);
+}
+
+template <class T>
+void gather(std::vector<T>& values, const std::vector<uint32_t>& from, size_t perVertex = 1) {
+  if (values.empty()) return;
+  std::vector<T> out;
+  out.reserve(from.size() * perVertex);
+  for (uint32_t v : from) out.insert(out.end(), values.begin() + std::ptrdiff_t(v * perVertex),
+                                     values.begin() + std::ptrdiff_t((v + 1) * perVertex));
+  values = std::move(out);
+}
+
+/// glTF: a primitive without NORMAL has flat normals. Transfer is stored per vertex, so a
+/// vertex shared by faces of different orientation is split, one copy per orientation, each
+/// with the vertex's UVs, colour and (in an old baked file) transfer; faces of one orientation
+/// keep sharing it (a floor of many triangles is not unwelded). The first copy keeps the file's
+/// index, so a primitive that needs no split keeps its vertices as they are.
+void splitForFlatNormals(PrimitiveData& p) {
+  const size_t n = p.positions.size(), triangles = p.indices.size() / 3;
+  std::vector<glm::dvec3> face(triangles);
+  for (size_t t = 0; t < triangles; ++t) {
+    const uint32_t* i = &p.indices[3 * t];
+    glm::dvec3 p0(p.positions[i[0]]);
+    face[t] = glm::normalize(glm::cross(glm::dvec3(p.positions[i[1]]) - p0, glm::dvec3(p.positions[i[2]]) - p0));
+  }
+  // Per file vertex, the orientations met so far: (the first face's normal, its vertex).
+  std::vector<std::vector<std::pair<glm::dvec3, uint32_t>>> copies(n);
+  std::vector<uint32_t> fileVertex(n);
+  for (size_t v = 0; v < n; ++v) fileVertex[v] = uint32_t(v);
+  for (size_t t = 0; t < triangles; ++t) {
+    for (int k = 0; k < 3; ++k) {
+      uint32_t& index = p.indices[3 * t + size_t(k)];
+      auto& list = copies[index];
+      auto same = std::find_if(list.begin(), list.end(),
+                               [&](const auto& c) { return glm::dot(c.first, face[t]) >= kSameOrientation; });
+      if (same != list.end()) {
+        index = same->second;
+        continue;
+      }
+      const uint32_t copy = list.empty() ? index : uint32_t(fileVertex.size());
+      if (!list.empty()) fileVertex.push_back(index);
+      list.emplace_back(face[t], copy);
+      index = copy;
+    }
+  }
+  if (fileVertex.size() > n) {
+    gather(p.positions, fileVertex);
+    gather(p.texcoords, fileVertex);
+    gather(p.colors, fileVertex);
+    gather(p.transfer, fileVertex, size_t(p.transferBands) * size_t(p.transferBands));
+    p.fileVertex = std::move(fileVertex);
+  }
+  p.normals = flatVertexNormals(p.positions, p.indices);
 }
 
 /// Reads _PRT_SH_00 .. _PRT_SH_{n²-1} into vertex-major transfer, if the primitive has any.
@@ -487,8 +566,8 @@ void readTransfer(const Gltf& g, const tinygltf::Primitive& prim, PrimitiveData&
   }
 }
 
-PrimitiveData readPrimitive(const Gltf& g, const Scene& scene, int meshIndex, int primIndex,
-                            const LoadOptions& options, std::vector<std::string>& warnings) {
+PrimitiveData readPrimitive(const Gltf& g, const std::vector<BaseColorSource>& materials, int meshIndex,
+                            int primIndex, std::vector<std::string>& warnings) {
   const tinygltf::Primitive& prim = g.model.meshes[size_t(meshIndex)].primitives[size_t(primIndex)];
   std::string where = primitiveWhere(meshIndex, primIndex);
   PrimitiveData p;
@@ -518,15 +597,17 @@ PrimitiveData readPrimitive(const Gltf& g, const Scene& scene, int meshIndex, in
     requireCount(g, d, here, n);
     p.normals = readVectors<3>(d);
   }
-  int texCoord = p.material >= 0 ? scene.materials[size_t(p.material)].baseColorTexCoord : 0;
-  std::string uvName = cat("TEXCOORD_", texCoord);
+  const BaseColorSource* source = p.material >= 0 ? &materials[size_t(p.material)] : nullptr;
+  std::string uvName = cat("TEXCOORD_", source ? source->texCoord : 0);
   if (auto it = prim.attributes.find(uvName); it != prim.attributes.end()) {
     std::string here = cat(where, " / ", uvName);
     AccessorData d = openAccessor(g, it->second, here);
     requireType(g, d, here, {2});
     requireCount(g, d, here, n);
     p.texcoords = readVectors<2>(d);
-  } else if (p.material >= 0 && scene.materials[size_t(p.material)].baseColorTexture >= 0) {
+    if (source && source->uvTransform != glm::dmat3(1.0))
+      for (glm::vec2& uv : p.texcoords) uv = glm::vec2(source->uvTransform * glm::dvec3(uv, 1.0));
+  } else if (source && source->texture >= 0) {
     warnings.push_back(cat(g.path, ": ", where, ": no ", uvName, " for the base colour texture; texture ignored"));
   }
   if (auto it = prim.attributes.find("COLOR_0"); it != prim.attributes.end()) {
@@ -540,8 +621,9 @@ PrimitiveData readPrimitive(const Gltf& g, const Scene& scene, int meshIndex, in
     requireFinite(g, p.colors, here);
   }
   p.indices = toTriangleList(g, prim.mode, readIndices(g, prim, where, n), cat(where, " / indices"));
-  removeDegenerate(g, p, where, options, warnings);
+  removeDegenerate(g, p, where, warnings);
   readTransfer(g, prim, p, where);
+  if (p.normals.empty()) splitForFlatNormals(p);
   return p;
 }
 
@@ -744,6 +826,7 @@ MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, 
                            repaired, " zero or non-finite normals replaced by face normals"));
   inst.texcoords = p.texcoords;
   inst.colors = p.colors;
+  inst.fileVertex = p.fileVertex;
   inst.transfer = p.transfer;
   return inst;
 }
@@ -824,35 +907,113 @@ Texture decodeBaseColorTexture(const Gltf& g, int index) {
   return out;
 }
 
-void readMaterials(const Gltf& g, Scene& scene, std::vector<std::string>& warnings) {
+/// A number array of `size` values (glTF JSON held by tinygltf), checked as it is read.
+std::vector<double> numbers(const Gltf& g, const tinygltf::Value& v, size_t size, const std::string& where) {
+  if (!v.IsArray() || v.ArrayLen() != size) fail(g, cat(where, ": expected an array of ", size, " numbers"));
+  std::vector<double> out;
+  for (size_t i = 0; i < size; ++i) {
+    const tinygltf::Value& x = v.Get(int(i));
+    if (!x.IsNumber() || !std::isfinite(x.GetNumberAsDouble())) fail(g, cat(where, ": value ", i, " is not a finite number"));
+    out.push_back(x.GetNumberAsDouble());
+  }
+  return out;
+}
+
+/// KHR_texture_transform as the affine map uv -> T·R·S·uv of its specification (rotation
+/// counter-clockwise in the image, whose v points down: u' = u cos r + v sin r,
+/// v' = -u sin r + v cos r), and its texCoord override if it has one.
+void readTextureTransform(const Gltf& g, const tinygltf::ExtensionMap& extensions, const std::string& where,
+                          BaseColorSource& out) {
+  auto it = extensions.find(kTextureTransform);
+  if (it == extensions.end() || !it->second.IsObject()) return;
+  const tinygltf::Value& t = it->second;
+  const std::string here = cat(where, " / ", kTextureTransform);
+  glm::dvec2 offset(0.0), scale(1.0);
+  double rotation = 0.0;
+  if (t.Has("offset")) offset = glm::make_vec2(numbers(g, t.Get("offset"), 2, cat(here, " / offset")).data());
+  if (t.Has("scale")) scale = glm::make_vec2(numbers(g, t.Get("scale"), 2, cat(here, " / scale")).data());
+  if (t.Has("rotation")) {
+    const tinygltf::Value& r = t.Get("rotation");
+    if (!r.IsNumber() || !std::isfinite(r.GetNumberAsDouble())) fail(g, cat(here, " / rotation: not a finite number"));
+    rotation = r.GetNumberAsDouble();
+  }
+  if (t.Has("texCoord")) {
+    const tinygltf::Value& c = t.Get("texCoord");
+    if (!c.IsInt() || c.Get<int>() < 0) fail(g, cat(here, " / texCoord: not a non-negative integer"));
+    out.texCoord = c.Get<int>();
+  }
+  const double c = std::cos(rotation), s = std::sin(rotation);
+  const glm::dmat3 translate(1, 0, 0, 0, 1, 0, offset.x, offset.y, 1);  // glm is column-major
+  const glm::dmat3 rotate(c, -s, 0, s, c, 0, 0, 0, 1);
+  const glm::dmat3 scaling(scale.x, 0, 0, 0, scale.y, 0, 0, 0, 1);
+  out.uvTransform = translate * rotate * scaling;
+}
+
+/// Reads the materials; their base colour textures are decoded later (decodeUsedTextures),
+/// once the instances show which materials the default scene uses.
+std::vector<BaseColorSource> readMaterials(const Gltf& g, Scene& scene) {
   const tinygltf::Model& m = g.model;
-  std::map<int, int> textureSlot;  // glTF texture -> Scene::textures
+  std::vector<BaseColorSource> sources;
   for (size_t i = 0; i < m.materials.size(); ++i) {
     const tinygltf::Material& src = m.materials[i];
+    const std::string where = cat("material ", i);
     Material mat;
     mat.name = src.name;
-    const std::vector<double>& f = src.pbrMetallicRoughness.baseColorFactor;
-    if (f.size() == 4) mat.baseColorFactor = glm::vec4(f[0], f[1], f[2], f[3]);
-    else if (!f.empty()) fail(g, cat("material ", i, ": baseColorFactor has ", f.size(), " values, expected 4"));
+    BaseColorSource source;
+    int texture = -1;
+    auto specGloss = src.extensions.find(kSpecularGlossiness);
+    if (specGloss != src.extensions.end() && specGloss->second.IsObject()) {
+      // The extension replaces the metallic-roughness model: its diffuse colour is the albedo.
+      const tinygltf::Value& sg = specGloss->second;
+      const std::string here = cat(where, " / ", kSpecularGlossiness);
+      if (sg.Has("diffuseFactor"))
+        mat.baseColorFactor = glm::vec4(glm::make_vec4(numbers(g, sg.Get("diffuseFactor"), 4, cat(here, " / diffuseFactor")).data()));
+      if (sg.Has("diffuseTexture")) {
+        const tinygltf::Value& info = sg.Get("diffuseTexture");
+        const tinygltf::Value& index = info.Get("index");
+        if (!info.IsObject() || !index.IsInt())
+          fail(g, cat(here, " / diffuseTexture: expected an object with an integer index"));
+        texture = index.Get<int>();
+        const tinygltf::Value& texCoord = info.Get("texCoord");
+        if (texCoord.IsInt()) source.texCoord = texCoord.Get<int>();
+        const tinygltf::Value& ext = info.Get("extensions");
+        if (ext.IsObject()) readTextureTransform(g, ext.Get<tinygltf::Value::Object>(), cat(here, " / diffuseTexture"), source);
+      }
+    } else {
+      const std::vector<double>& f = src.pbrMetallicRoughness.baseColorFactor;
+      if (f.size() == 4) mat.baseColorFactor = glm::vec4(f[0], f[1], f[2], f[3]);
+      else if (!f.empty()) fail(g, cat(where, ": baseColorFactor has ", f.size(), " values, expected 4"));
+      const tinygltf::TextureInfo& info = src.pbrMetallicRoughness.baseColorTexture;
+      texture = info.index;
+      source.texCoord = info.texCoord;
+      readTextureTransform(g, info.extensions, cat(where, " / baseColorTexture"), source);
+    }
     if (!std::isfinite(glm::dot(mat.baseColorFactor, mat.baseColorFactor)))  // as floats
-      fail(g, cat("material ", i, ": baseColorFactor is not finite"));
+      fail(g, cat(where, ": baseColorFactor is not finite"));
+    if (texture >= 0 && size_t(texture) >= m.textures.size())
+      fail(g, cat(where, ": base colour texture ", texture, " does not exist"));
+    source.texture = texture;
+    mat.baseColorTexCoord = source.texCoord;
     mat.doubleSided = src.doubleSided;
     mat.unlit = src.extensions.count(kUnlit) > 0;
-    const tinygltf::TextureInfo& info = src.pbrMetallicRoughness.baseColorTexture;
-    if (info.index >= 0) {
-      if (size_t(info.index) >= m.textures.size())
-        fail(g, cat("material ", i, ": baseColorTexture ", info.index, " does not exist"));
-      if (!textureSlot.count(info.index)) {
-        textureSlot[info.index] = static_cast<int>(scene.textures.size());
-        scene.textures.push_back(decodeBaseColorTexture(g, info.index));
-      }
-      mat.baseColorTexture = textureSlot[info.index];
-      mat.baseColorTexCoord = info.texCoord;
-      if (info.extensions.count(kTextureTransform))
-        warnings.push_back(cat(g.path, ": material ", i, ": ", kTextureTransform,
-                               " on baseColorTexture is ignored"));
-    }
     scene.materials.push_back(mat);
+    sources.push_back(source);
+  }
+  return sources;
+}
+
+/// Decodes the base colour textures of the materials the instances use, each glTF texture
+/// once, in the order of the materials: a texture only unused meshes need is never read.
+void decodeUsedTextures(const Gltf& g, const std::vector<BaseColorSource>& sources, Scene& scene) {
+  std::vector<char> used(scene.materials.size(), 0);
+  for (const MeshInstance& inst : scene.meshes)
+    if (inst.material >= 0) used[size_t(inst.material)] = 1;
+  std::map<int, int> slot;  // glTF texture -> Scene::textures
+  for (size_t i = 0; i < sources.size(); ++i) {
+    if (!used[i] || sources[i].texture < 0) continue;
+    auto [it, fresh] = slot.emplace(sources[i].texture, int(scene.textures.size()));
+    if (fresh) scene.textures.push_back(decodeBaseColorTexture(g, sources[i].texture));
+    scene.materials[i].baseColorTexture = it->second;
   }
 }
 
@@ -918,7 +1079,7 @@ std::optional<PunctualLight> readLight(const Gltf& g, const NodeVisit& v, std::v
 // ---------------------------------------------------------------------------------------------
 // Assembling the scene
 
-void addNodeContents(const Gltf& g, const NodeVisit& v, const LoadOptions& options, Scene& scene,
+void addNodeContents(const Gltf& g, const NodeVisit& v, const std::vector<BaseColorSource>& materials, Scene& scene,
                      std::map<std::pair<int, int>, PrimitiveData>& cache) {
   const tinygltf::Node& n = g.model.nodes[size_t(v.node)];
   if (n.camera >= 0) scene.cameras.push_back(readCamera(g, v));
@@ -932,7 +1093,7 @@ void addNodeContents(const Gltf& g, const NodeVisit& v, const LoadOptions& optio
     auto key = std::make_pair(n.mesh, int(p));
     auto it = cache.find(key);
     if (it == cache.end())
-      it = cache.emplace(key, readPrimitive(g, scene, n.mesh, int(p), options, scene.warnings)).first;
+      it = cache.emplace(key, readPrimitive(g, materials, n.mesh, int(p), scene.warnings)).first;
     if (it->second.skipped) continue;
     scene.meshes.push_back(makeInstance(g, v, n.mesh, int(p), it->second, scene.warnings));
   }
@@ -1154,8 +1315,8 @@ Scene loadSceneFrom(const std::string& path, const std::string* memory, const Lo
   Gltf g = memory ? parseGltf(path, *memory, "", false, &scene.warnings)
                   : readGltf(path, &scene.warnings, options.allowExternalUris);
   scene.allowExternalUris = options.allowExternalUris;
-  checkRequiredExtensions(g, scene.warnings);
-  readMaterials(g, scene, scene.warnings);
+  checkRequiredExtensions(g);
+  const std::vector<BaseColorSource> materials = readMaterials(g, scene);
   const NodeMarks marks = nodeMarks(g, options);
   Traversal traversal{g, marks, std::vector<char>(g.model.nodes.size(), 0),
                       std::vector<char>(g.model.nodes.size(), 0), {}};
@@ -1163,9 +1324,10 @@ Scene loadSceneFrom(const std::string& path, const std::string* memory, const Lo
   std::map<std::pair<int, int>, PrimitiveData> cache;
   std::vector<char> keepStatic(g.model.nodes.size(), 0);  // inherited, per node of the default scene
   for (const NodeVisit& v : traversal.out) {
-    addNodeContents(g, v, options, scene, cache);
+    addNodeContents(g, v, materials, scene, cache);
     keepStatic[size_t(v.node)] = v.keepStatic;
   }
+  decodeUsedTextures(g, materials, scene);
   readBakeRecord(g, scene);
   checkTransferBands(g, cache, scene);
   computeBounds(g, scene);

@@ -101,7 +101,8 @@ int addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec
   return static_cast<int>(m.accessors.size() - 1);
 }
 
-/// The instances must still describe the file: same node → mesh, primitive and vertex count.
+/// The instances must still describe the file: same node → mesh, primitive and vertex count
+/// (or, for a primitive split for flat normals, file vertices that exist).
 void checkMatchesScene(const Gltf& g, const Scene& scene) {
   const tinygltf::Model& m = g.model;
   for (const MeshInstance& inst : scene.meshes) {
@@ -111,8 +112,12 @@ void checkMatchesScene(const Gltf& g, const Scene& scene) {
     if (ok) {
       const auto& attrs = m.meshes[size_t(inst.mesh)].primitives[size_t(inst.primitive)].attributes;
       auto pos = attrs.find("POSITION");
-      ok = pos != attrs.end() && pos->second >= 0 && size_t(pos->second) < m.accessors.size() &&
-           m.accessors[size_t(pos->second)].count == inst.vertexCount();
+      ok = pos != attrs.end() && pos->second >= 0 && size_t(pos->second) < m.accessors.size();
+      const size_t count = ok ? m.accessors[size_t(pos->second)].count : 0;
+      if (ok && inst.fileVertex.empty()) ok = count == inst.vertexCount();
+      if (ok && !inst.fileVertex.empty())
+        ok = inst.fileVertex.size() == inst.vertexCount() &&
+             std::all_of(inst.fileVertex.begin(), inst.fileVertex.end(), [&](uint32_t v) { return v < count; });
     }
     if (!ok)
       fail(g, cat("node ", inst.node, " / ", primitiveWhere(inst.mesh, inst.primitive),
@@ -120,10 +125,19 @@ void checkMatchesScene(const Gltf& g, const Scene& scene) {
   }
 }
 
+/// The meshes the scene's instances come from: the writers touch only these, so meshes no node
+/// of the default scene uses pass through as they are, whatever they hold.
+std::set<int> usedMeshes(const Scene& scene) {
+  std::set<int> used;
+  for (const MeshInstance& inst : scene.meshes) used.insert(inst.mesh);
+  return used;
+}
+
 /// Rewrites every strip and fan as a triangle list with its own index accessor.
-void rewriteStripsAndFans(Gltf& g, int& staging) {
+void rewriteStripsAndFans(Gltf& g, int& staging, const std::set<int>& meshes) {
   tinygltf::Model& m = g.model;
-  for (size_t mi = 0; mi < m.meshes.size(); ++mi) {
+  for (int mesh : meshes) {
+    const size_t mi = size_t(mesh);
     for (size_t pi = 0; pi < m.meshes[mi].primitives.size(); ++pi) {
       tinygltf::Primitive& prim = m.meshes[mi].primitives[pi];
       if (prim.mode != TINYGLTF_MODE_TRIANGLE_STRIP && prim.mode != TINYGLTF_MODE_TRIANGLE_FAN) continue;
@@ -161,6 +175,72 @@ void giveEachNodeItsOwnMesh(tinygltf::Model& m, const Scene& scene) {
 
 tinygltf::Primitive& primitiveOf(tinygltf::Model& m, const MeshInstance& inst) {
   return m.meshes[size_t(m.nodes[size_t(inst.node)].mesh)].primitives[size_t(inst.primitive)];
+}
+
+/// A new accessor whose element i is element from[i] of accessor `index`, byte for byte (any
+/// component type, normalized or not; min and max stay valid, every element being kept).
+int gatheredAccessor(Gltf& g, int& staging, int index, const std::vector<uint32_t>& from, const std::string& where) {
+  const AccessorData d = openAccessor(g, index, where);
+  tinygltf::Accessor a = g.model.accessors[size_t(index)];
+  for (uint32_t v : from)
+    if (v >= d.count) fail(g, cat(where, ": vertex ", v, " does not exist (", d.count, " values)"));
+  a.count = from.size();
+  a.byteOffset = 0;
+  if (d.bytes) {
+    // glTF aligns each vertex attribute element to 4 bytes (a VEC3 of bytes takes 4).
+    const size_t element = size_t(componentSize(d.componentType)) * size_t(d.components);
+    const size_t stride = (element + 3) / 4 * 4;
+    std::vector<unsigned char> bytes(from.size() * stride, 0);
+    for (size_t i = 0; i < from.size(); ++i) std::memcpy(&bytes[i * stride], d.bytes + from[i] * d.stride, element);
+    a.bufferView = appendBufferView(g.model, stagingBuffer(g.model, staging), bytes.data(), bytes.size(),
+                                    TINYGLTF_TARGET_ARRAY_BUFFER);
+    if (stride != element) g.model.bufferViews[size_t(a.bufferView)].byteStride = stride;
+  }
+  g.model.accessors.push_back(a);
+  return static_cast<int>(g.model.accessors.size() - 1);
+}
+
+/// A primitive whose vertices the reader split for flat normals (MeshInstance::fileVertex) is
+/// written with the split vertices: every attribute and morph target gathered, the instance's
+/// triangles (in the file's winding) and the flat normals as NORMAL, so that reading the baked
+/// file gives the vertices its transfer belongs to. Mesh copies of one primitive share the
+/// rewrite.
+void rewriteSplitPrimitives(Gltf& g, int& staging, const Scene& scene) {
+  tinygltf::Model& m = g.model;
+  std::map<std::pair<int, int>, tinygltf::Primitive> done;  // (mesh, primitive) of the file -> rewrite
+  for (const MeshInstance& inst : scene.meshes) {
+    if (inst.fileVertex.empty()) continue;
+    tinygltf::Primitive& prim = primitiveOf(m, inst);
+    const auto key = std::make_pair(inst.mesh, inst.primitive);
+    if (auto it = done.find(key); it != done.end()) {
+      prim = it->second;
+      continue;
+    }
+    const std::string where = primitiveWhere(inst.mesh, inst.primitive);
+    for (auto& [name, a] : prim.attributes) a = gatheredAccessor(g, staging, a, inst.fileVertex, cat(where, " / ", name));
+    for (size_t t = 0; t < prim.targets.size(); ++t)
+      for (auto& [name, a] : prim.targets[t])
+        a = gatheredAccessor(g, staging, a, inst.fileVertex, cat(where, " / target ", t, " / ", name));
+    std::vector<uint32_t> indices = inst.indices;
+    if (glm::determinant(glm::dmat3(inst.world)) < 0.0)  // the reader swapped two corners
+      for (size_t t = 0; t + 2 < indices.size(); t += 3) std::swap(indices[t + 1], indices[t + 2]);
+    const AccessorData pos = openAccessor(g, prim.attributes.at("POSITION"), cat(where, " / POSITION"));
+    std::vector<glm::vec3> positions(pos.count);
+    for (size_t v = 0; v < pos.count; ++v)
+      for (int c = 0; c < 3; ++c) positions[v][c] = static_cast<float>(pos.get(v, c));
+    prim.attributes["NORMAL"] = addVec3Accessor(m, staging, flatVertexNormals(positions, indices), "flat normals");
+    tinygltf::Accessor a;
+    a.bufferView = appendBufferView(m, stagingBuffer(m, staging), indices.data(), indices.size() * 4,
+                                    TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+    a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+    a.type = TINYGLTF_TYPE_SCALAR;
+    a.count = indices.size();
+    m.accessors.push_back(a);
+    prim.indices = static_cast<int>(m.accessors.size() - 1);
+    prim.mode = TINYGLTF_MODE_TRIANGLES;
+    prim.extensions.erase("KHR_draco_mesh_compression");  // the new accessors are plain
+    done.emplace(key, prim);
+  }
 }
 
 void dropTransferAttributes(tinygltf::Model& m) {
@@ -361,8 +441,9 @@ void writeGlb(const Gltf& g, tinygltf::Model& m, int& staging, const std::string
 
 /// glTF requires min/max on POSITION accessors; inputs that lack them get them here, so the
 /// output validates whatever the input did.
-void addPositionBounds(Gltf& g) {
-  for (size_t mi = 0; mi < g.model.meshes.size(); ++mi) {
+void addPositionBounds(Gltf& g, const std::set<int>& meshes) {
+  for (int mesh : meshes) {
+    const size_t mi = size_t(mesh);
     for (size_t pi = 0; pi < g.model.meshes[mi].primitives.size(); ++pi) {
       const auto& attrs = g.model.meshes[mi].primitives[pi].attributes;
       auto pos = attrs.find("POSITION");
@@ -387,10 +468,12 @@ void addPositionBounds(Gltf& g) {
 Gltf reloadForWriting(const std::string& inputPath, const Scene& scene, int& staging) {
   Gltf g = readGltf(inputPath, nullptr, scene.allowExternalUris);
   checkMatchesScene(g, scene);
-  addPositionBounds(g);
-  rewriteStripsAndFans(g, staging);
+  const std::set<int> meshes = usedMeshes(scene);
+  addPositionBounds(g, meshes);
+  rewriteStripsAndFans(g, staging, meshes);
   giveEachNodeItsOwnMesh(g.model, scene);
   dropTransferAttributes(g.model);
+  rewriteSplitPrimitives(g, staging, scene);
   return g;
 }
 

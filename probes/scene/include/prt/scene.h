@@ -1,11 +1,14 @@
 // The scene model: what prt reads from glTF 2.0 (.gltf / .glb) and writes back.
 //
 // A Scene is flat and in world space: one MeshInstance per (node, primitive) pair of the
-// default scene (a mesh used by two nodes gives two instances). Vertices of an instance are
-// the primitive's vertices one to one (same order, same count), so vertex i of an instance is
-// vertex i of the glTF primitive: per-vertex transfer can be written back as attributes.
-// Triangle strips and fans become triangle lists; points and lines are refused or skipped
-// with a warning.
+// default scene (a mesh used by two nodes gives two instances); meshes no node of it uses are
+// ignored. Vertices of an instance are the primitive's vertices one to one (same order, same
+// count), so vertex i of an instance is vertex i of the glTF primitive and per-vertex transfer
+// can be written back as attributes; the one exception is a primitive without NORMAL, whose
+// flat normals split the vertices shared by faces of different orientation
+// (MeshInstance::fileVertex), and whose split geometry the baked file then holds. Triangle
+// strips and fans become triangle lists; zero-area triangles are dropped (one warning per
+// primitive, their vertices kept); points and lines are skipped with a warning.
 #pragma once
 
 #include <cstdint>
@@ -36,11 +39,15 @@ struct Texture {
   glm::vec4 sample(const glm::vec2& uv) const;
 };
 
+/// The base colour is pbrMetallicRoughness's, or KHR_materials_pbrSpecularGlossiness's
+/// diffuse colour where the material has that extension (the extension replaces the
+/// metallic-roughness model). Its texture's KHR_texture_transform is already applied to
+/// MeshInstance::texcoords.
 struct Material {
   std::string name;
   glm::vec4 baseColorFactor{1.0f};  // linear
   int baseColorTexture = -1;        // index into Scene::textures, -1 if none
-  int baseColorTexCoord = 0;        // which TEXCOORD_n the texture uses
+  int baseColorTexCoord = 0;        // which TEXCOORD_n the texture uses (after the transform's override)
   bool doubleSided = false;
   bool unlit = false;               // KHR_materials_unlit
 };
@@ -64,10 +71,17 @@ struct MeshInstance {
   glm::dmat4 world{1.0};   // node's world transform
 
   std::vector<glm::vec3> positions;  // world space
-  std::vector<glm::vec3> normals;    // world space, unit; computed (area-weighted) if absent
-  std::vector<glm::vec2> texcoords;  // the material's TEXCOORD_n; empty if none
+  std::vector<glm::vec3> normals;    // world space, unit; flat (per face) if the file has none
+  /// The base colour texture's TEXCOORD_n (KHR_texture_transform's texCoord if it names one),
+  /// with the texture's KHR_texture_transform applied, so a lookup at an interpolated
+  /// coordinate is the transformed lookup glTF defines; empty if none.
+  std::vector<glm::vec2> texcoords;
   std::vector<glm::vec4> colors;     // COLOR_0, linear RGBA; empty if none
   std::vector<uint32_t> indices;     // triangle list, 3 per triangle
+  /// Which vertex of the glTF primitive each vertex is: empty when they are one to one. Filled
+  /// only for a primitive without NORMAL whose flat normals split vertices: the first copy of
+  /// a file vertex keeps its index, the extra copies follow the file's vertices.
+  std::vector<uint32_t> fileVertex;
   int material = -1;                 // index into Scene::materials, -1 = glTF default (white)
   bool receiverOnly = false;         // excluded from the bake (moving / unbaked object)
   ReceiverReason receiverReason = ReceiverReason::None;  // why, as the loader decided
@@ -135,16 +149,14 @@ struct LoadOptions {
   /// animation channel (on themselves or an ancestor) unless their extras hold
   /// {"prt": {"receiver": false}} (then they are baked in their rest pose, with a warning).
   std::vector<std::string> receiverNodes;
-  /// Skip zero-area triangles with a warning instead of refusing the file.
-  bool allowDegenerate = false;
   /// Read buffer and image URIs that point outside the scene's folder (absolute paths, `..`,
   /// symbolic links leading out). Off: such a URI is refused with an error.
   bool allowExternalUris = false;
 };
 
 /// Loads .gltf or .glb. Throws prt::Error naming the file and the element on bad input:
-/// missing or malformed file, non-finite positions, out-of-range indices, degenerate
-/// triangles (unless allowed), unsupported required extensions, a scene with no triangles,
+/// missing or malformed file, non-finite positions, out-of-range indices, unsupported required
+/// extensions (named), a scene with no triangles,
 /// malformed animations (accessor types or counts, key times not increasing, NaN values),
 /// URIs outside the scene's folder (unless allowed), limits in docs/robustness.md.
 Scene loadScene(const std::string& path, const LoadOptions& options = {});
@@ -174,7 +186,8 @@ glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, f
 /// Writes `inputPath`'s scene as .glb with each baked instance's transfer (scene.meshes[k].
 /// transfer, scene.transferBands) as attributes _PRT_SH_00 .. (VEC3 float, RGB of coefficient
 /// i), meshes duplicated where one is used by several nodes, strips and fans rewritten as
-/// triangle lists, and `record` (if not null) stored in asset.extras.prt; its bands must be
+/// triangle lists, primitives whose vertices were split for flat normals (MeshInstance::
+/// fileVertex) rewritten with the split vertices and their NORMAL, and `record` (if not null) stored in asset.extras.prt; its bands must be
 /// scene.transferBands when the scene holds transfer. Receivers named by
 /// LoadOptions::receiverNodes get extras {"prt": {"receiver": true}}, so the file keeps them
 /// receivers. Atomic (temp + rename).
