@@ -47,12 +47,24 @@ uint32_t crc32(const std::string& bytes) {
   return ~crc;
 }
 
-/// A minimal RGBA8 PNG (zlib "stored" block, no compression), enough for stb to decode.
-std::string encodePng(int w, int h, const std::vector<uint8_t>& rgba) {
+/// A PNG chunk: length, type, data, CRC.
+std::string pngChunk(const std::string& type, const std::string& data) {
+  std::string c;
+  appendBigEndian(c, uint32_t(data.size()));
+  c += type + data;
+  appendBigEndian(c, crc32(type + data));
+  return c;
+}
+
+/// A minimal PNG (zlib "stored" block, no compression), enough for stb to decode: `rows` holds
+/// h rows of `rowBytes` bytes each, packed as the PNG colour type and bit depth say (16-bit
+/// samples big-endian); `chunks` (PLTE, tRNS, ...) go before the image data.
+std::string encodePngRaw(int w, int h, int bitDepth, int colorType, const std::vector<uint8_t>& rows,
+                         size_t rowBytes, const std::string& chunks = "") {
   std::string raw;
   for (int y = 0; y < h; ++y) {
     raw += '\0';  // filter: none
-    raw.append(reinterpret_cast<const char*>(rgba.data()) + size_t(y) * w * 4, size_t(w) * 4);
+    raw.append(reinterpret_cast<const char*>(rows.data()) + size_t(y) * rowBytes, rowBytes);
   }
   std::string z = "\x78\x01\x01";
   uint16_t len = uint16_t(raw.size());
@@ -67,19 +79,18 @@ std::string encodePng(int w, int h, const std::vector<uint8_t>& rgba) {
     b = (b + a) % 65521;
   }
   appendBigEndian(z, (b << 16) | a);
-  auto chunk = [](const std::string& type, const std::string& data) {
-    std::string c;
-    appendBigEndian(c, uint32_t(data.size()));
-    std::string body = type + data;
-    c += body;
-    appendBigEndian(c, crc32(body));
-    return c;
-  };
   std::string ihdr;
   appendBigEndian(ihdr, uint32_t(w));
   appendBigEndian(ihdr, uint32_t(h));
-  ihdr += std::string("\x08\x06\x00\x00\x00", 5);  // 8 bits, RGBA
-  return std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) + chunk("IDAT", z) + chunk("IEND", "");
+  ihdr += char(bitDepth);
+  ihdr += char(colorType);
+  ihdr += std::string(3, '\0');  // deflate, adaptive filtering, no interlace
+  return std::string("\x89PNG\r\n\x1a\n", 8) + pngChunk("IHDR", ihdr) + chunks + pngChunk("IDAT", z) + pngChunk("IEND", "");
+}
+
+/// An RGBA8 PNG.
+std::string encodePng(int w, int h, const std::vector<uint8_t>& rgba) {
+  return encodePngRaw(w, h, 8, 6, rgba, size_t(w) * 4);
 }
 
 /// Builds a glTF document with one binary buffer.
@@ -1032,6 +1043,323 @@ TEST_F(SceneBakeRecord, ReceiversOnlyBakeTakesItsBandsFromTheRecord) {
   // An instance that is not a receiver and has no transfer: simply not baked, no bands.
   EXPECT_EQ(prt::loadScene(writeRecordScene(dir_ / "unbaked.glb", olderRecord(), false)).transferBands, 0);
   EXPECT_EQ(prt::loadScene(writeRecordScene(dir_ / "no_record.glb", nullptr, true)).transferBands, 0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// What real files hold (issue 13): flat normals, KHR_texture_transform, spec-gloss, PNG kinds,
+// percent-encoded URIs, unused meshes.
+
+using SceneFlatNormals = SceneTest;
+
+/// The cube [-1, 1]³, faces counter-clockwise seen from outside: 8 shared corners (`flat`) or
+/// 24 vertices with their face normals (the same cube as an exporter with normals writes it).
+GltfBuilder cube(bool withNormals) {
+  std::vector<float> positions, normals;
+  std::vector<uint32_t> indices;
+  auto corner = [](const glm::vec3& p) { return uint32_t((p.x > 0) | (p.y > 0) << 1 | (p.z > 0) << 2); };
+  if (!withNormals)
+    for (uint32_t c = 0; c < 8; ++c)
+      positions.insert(positions.end(), {c & 1 ? 1.f : -1.f, c & 2 ? 1.f : -1.f, c & 4 ? 1.f : -1.f});
+  for (int axis = 0; axis < 3; ++axis) {
+    for (float sign : {1.0f, -1.0f}) {
+      glm::vec3 n(0.0f), u(0.0f), v(0.0f);
+      n[axis] = sign;
+      u[(axis + 1) % 3] = 1.0f;
+      v[(axis + 2) % 3] = 1.0f;  // (u, v, n) right-handed for sign +1
+      std::vector<glm::vec3> quad = {n - u - v, n + u - v, n + u + v, n - u + v};
+      if (sign < 0) std::reverse(quad.begin(), quad.end());
+      std::vector<uint32_t> ids;
+      for (const glm::vec3& p : quad) {
+        if (withNormals) {
+          ids.push_back(uint32_t(positions.size() / 3));
+          positions.insert(positions.end(), {p.x, p.y, p.z});
+          normals.insert(normals.end(), {n.x, n.y, n.z});
+        } else {
+          ids.push_back(corner(p));
+        }
+      }
+      indices.insert(indices.end(), {ids[0], ids[1], ids[2], ids[0], ids[2], ids[3]});
+    }
+  }
+  GltfBuilder b;
+  Json prim = {{"attributes", {{"POSITION", b.vec3(positions)}}}, {"indices", b.indices(indices)}};
+  if (withNormals) prim["attributes"]["NORMAL"] = b.vec3(normals);
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}, {"scale", {1, 1, -1}}})});  // mirrored, to check winding
+  return b;
+}
+
+/// Bakes `scene` unshadowed (closed form: transfer depends on the normal only) into its instances.
+void bakeUnshadowed(prt::Scene& scene) {
+  prt::bake::BakeSettings settings;
+  settings.bands = 2;
+  settings.shadowed = false;
+  const prt::bake::SurfaceTransfer t = prt::bake::bakeSurface(scene, settings);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) scene.meshes[k].transfer = t.perMesh[k];
+  scene.transferBands = t.bands;
+}
+
+TEST_F(SceneFlatNormals, CubeWithoutNormalsGetsFaceNormalsAndBakesAsWithThem) {
+  const std::string flatPath = cube(false).write(dir_ / "flat_cube.gltf");
+  prt::Scene flat = prt::loadScene(flatPath);
+  prt::Scene given = prt::loadScene(cube(true).write(dir_ / "cube.gltf"));
+  ASSERT_EQ(flat.meshes.size(), 1u);
+  const prt::MeshInstance& f = flat.meshes[0];
+  ASSERT_EQ(f.vertexCount(), 24u);  // each corner once per face it belongs to
+  ASSERT_EQ(f.fileVertex.size(), 24u);
+  ASSERT_EQ(f.triangleCount(), 12u);
+  // Every face corner's normal is its face's, pointing away from the centre.
+  for (size_t t = 0; t < f.triangleCount(); ++t) {
+    const uint32_t* i = &f.indices[3 * t];
+    const glm::vec3 face = glm::normalize(glm::cross(f.positions[i[1]] - f.positions[i[0]], f.positions[i[2]] - f.positions[i[0]]));
+    for (int k = 0; k < 3; ++k) expectNear(f.normals[i[k]], face);
+    EXPECT_GT(glm::dot(face, f.positions[i[0]]), 0.0f);
+  }
+  bakeUnshadowed(flat);
+  bakeUnshadowed(given);
+  // Same transfer at the same (position, normal), whatever the vertex order.
+  const prt::MeshInstance& g = given.meshes[0];
+  ASSERT_EQ(g.vertexCount(), 24u);
+  for (size_t v = 0; v < 24; ++v) {
+    size_t match = 24;
+    for (size_t w = 0; w < 24; ++w)
+      if (glm::length(g.positions[w] - f.positions[v]) < kTol && glm::length(g.normals[w] - f.normals[v]) < kTol) match = w;
+    ASSERT_LT(match, 24u) << "vertex " << v;
+    for (int c = 0; c < 4; ++c) expectNear(f.transferOf(v, 2)[c], g.transferOf(match, 2)[c]);
+  }
+
+  // The baked file holds the split vertices with their normals: read back, it has the
+  // vertices the transfer belongs to.
+  const fs::path out = dir_ / "flat_cube.glb";
+  prt::writeBakedScene(flatPath, flat, nullptr, out.string());
+  const prt::Scene baked = prt::loadScene(out.string());
+  ASSERT_EQ(baked.meshes.size(), 1u);
+  const prt::MeshInstance& b = baked.meshes[0];
+  EXPECT_TRUE(b.fileVertex.empty());  // the file now has NORMAL: nothing to split
+  ASSERT_EQ(b.vertexCount(), 24u);
+  EXPECT_EQ(b.indices, f.indices);
+  EXPECT_EQ(b.transfer, f.transfer);
+  for (size_t v = 0; v < 24; ++v) {
+    expectNear(b.positions[v], f.positions[v]);
+    expectNear(b.normals[v], f.normals[v]);
+  }
+  const Json prim = glbJson(out)["meshes"][0]["primitives"][0];
+  EXPECT_TRUE(prim["attributes"].contains("NORMAL"));
+  EXPECT_EQ(glbJson(out)["accessors"][prim["attributes"]["POSITION"].get<int>()]["count"], 24);
+}
+
+TEST_F(SceneFlatNormals, CoplanarTrianglesKeepSharingVertices) {
+  GltfBuilder b;
+  // A quad of two triangles in one plane, with colours: no vertex needs splitting.
+  Json prim = trianglePrimitive(b, {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0});
+  prim["indices"] = b.indices({0, 1, 2, 0, 2, 3});
+  prim["attributes"]["COLOR_0"] = b.floats({1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1}, "VEC3", 3);
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  const prt::Scene scene = prt::loadScene(b.write(dir_ / "quad.gltf"));
+  const prt::MeshInstance& m = scene.meshes[0];
+  EXPECT_EQ(m.vertexCount(), 4u);
+  EXPECT_TRUE(m.fileVertex.empty());
+  for (const glm::vec3& n : m.normals) expectNear(n, {0, 0, 1});
+  EXPECT_EQ(m.colors[2], glm::vec4(0, 0, 1, 1));
+}
+
+using SceneTextureTransform = SceneTest;
+
+/// 2×2 texture: red, green / blue, grey 188 (sRGB), REPEAT.
+std::string quadrantsPng() {
+  return encodePng(2, 2, {255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 188, 188, 188, 255});
+}
+
+TEST_F(SceneTextureTransform, AlbedoIsTheTransformedLookupOnTheOverriddenTexCoord) {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  prim["attributes"]["NORMAL"] = b.vec3({0, 0, 1, 0, 0, 1, 0, 0, 1});
+  // TEXCOORD_0 would sample green everywhere; the transform's texCoord picks TEXCOORD_1.
+  prim["attributes"]["TEXCOORD_0"] = b.floats({0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f}, "VEC2", 2);
+  const std::vector<float> uv1 = {0.5f, 0.5f, 1.5f, 0.5f, 0.5f, 1.5f};
+  prim["attributes"]["TEXCOORD_1"] = b.floats(uv1, "VEC2", 2);
+  prim["material"] = 0;
+  const std::string png = quadrantsPng();
+  b.doc["images"] = Json::array({{{"uri", "data:image/png;base64," + base64(png)}}});
+  b.doc["textures"] = Json::array({{{"source", 0}}});
+  // The specification's example: the lower-left quadrant, rotated 90°.
+  Json transform = {{"offset", {0, 1}}, {"rotation", 1.57079632679}, {"scale", {0.5, 0.5}}, {"texCoord", 1}};
+  b.doc["materials"] = Json::array(
+      {{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}, {"extensions", {{"KHR_texture_transform", transform}}}}}}}}});
+  b.doc["extensionsUsed"] = {"KHR_texture_transform"};
+  b.doc["extensionsRequired"] = {"KHR_texture_transform"};
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  const prt::Scene scene = prt::loadScene(b.write(dir_ / "transform.gltf"));
+  EXPECT_TRUE(scene.warnings.empty());
+  const prt::MeshInstance& m = scene.meshes[0];
+  ASSERT_EQ(scene.textures.size(), 1u);
+  const prt::Texture& tex = scene.textures[0];
+  // uv' = T·R·S·uv with R rotating counter-clockwise in the image (v down):
+  // u' = 0.5 v, v' = 1 − 0.5 u for this transform.
+  for (uint32_t v = 0; v < 3; ++v) {
+    const glm::vec2 uv(uv1[2 * v], uv1[2 * v + 1]);
+    const glm::vec2 expected(0.5f * uv.y, 1.0f - 0.5f * uv.x);
+    expectNear(glm::vec3(m.texcoords[v], 0), glm::vec3(expected, 0));
+    expectNear(prt::albedoAtVertex(scene, m, v), glm::vec3(tex.sample(expected)));
+  }
+  // Texel centres: vertex 0 lands on blue (lower left), 1 on red, 2 on grey.
+  const float grey = float(srgbToLinearRef(188.0 / 255.0));
+  expectNear(prt::albedoAtVertex(scene, m, 0), {0, 0, 1});
+  expectNear(prt::albedoAtVertex(scene, m, 1), {1, 0, 0});
+  expectNear(prt::albedoAtVertex(scene, m, 2), glm::vec3(grey));
+  // Inside the triangle the transformed coordinates interpolate: the centroid's lookup.
+  const glm::vec2 centroid = (glm::vec2(0.25f, 0.75f) + glm::vec2(0.25f, 0.25f) + glm::vec2(0.75f, 0.75f)) / 3.0f;
+  expectNear(prt::albedoAt(scene, m, 0, 1.0f / 3, 1.0f / 3), glm::vec3(tex.sample(centroid)));
+}
+
+using SceneSpecularGlossiness = SceneTest;
+
+TEST_F(SceneSpecularGlossiness, DiffuseFactorAndTextureAreTheAlbedo) {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  prim["attributes"]["TEXCOORD_0"] = b.floats({0.25f, 0.5f, 0.75f, 0.5f, 0.75f, 0.5f}, "VEC2", 2);
+  prim["material"] = 0;
+  const std::string png = encodePng(2, 1, {255, 0, 0, 255, 0, 255, 0, 255});
+  b.doc["images"] = Json::array({{{"uri", "data:image/png;base64," + base64(png)}}});
+  b.doc["textures"] = Json::array({{{"source", 0}}});
+  Json specGloss = {{"diffuseFactor", {0.5, 0.25, 1.0, 1.0}}, {"diffuseTexture", {{"index", 0}}},
+                    {"specularFactor", {1, 1, 1}}, {"glossinessFactor", 0.5}};
+  // The metallic-roughness colour is what a viewer without the extension shows; prt must not.
+  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorFactor", {0.1, 0.1, 0.1, 1}}}},
+                                     {"extensions", {{"KHR_materials_pbrSpecularGlossiness", specGloss}}}}});
+  b.doc["extensionsUsed"] = {"KHR_materials_pbrSpecularGlossiness"};
+  b.doc["extensionsRequired"] = {"KHR_materials_pbrSpecularGlossiness"};
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  const prt::Scene scene = prt::loadScene(b.write(dir_ / "specgloss.gltf"));
+  const prt::MeshInstance& m = scene.meshes[0];
+  expectNear(prt::albedoAtVertex(scene, m, 0), {0.5f, 0, 0});
+  expectNear(prt::albedoAtVertex(scene, m, 1), {0, 0.25f, 0});
+}
+
+using ScenePng = SceneTest;
+
+/// A one-triangle scene textured with `png`, its three vertices at the centres of texels 0, 1, 2
+/// of a 3×1 image.
+prt::Scene loadWithTexture(const fs::path& dir, const std::string& png) {
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  prim["attributes"]["TEXCOORD_0"] = b.floats({0.5f / 3, 0.5f, 1.5f / 3, 0.5f, 2.5f / 3, 0.5f}, "VEC2", 2);
+  prim["material"] = 0;
+  b.doc["images"] = Json::array({{{"uri", "data:image/png;base64," + base64(png)}}});
+  b.doc["textures"] = Json::array({{{"source", 0}}});
+  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  return prt::loadScene(b.write(dir / "png.gltf"));
+}
+
+TEST_F(ScenePng, SixteenBitSamplesKeepTheirPrecision) {
+  // RGBA, 16 bits a sample, big-endian. 1000/65535 and 40000/65535 fall between 8-bit steps,
+  // so a decoder that dropped the low byte would miss them by up to 1/255 before sRGB decoding.
+  const std::vector<uint16_t> samples = {1000, 40000, 65535, 65535, 0, 12345, 257, 32768, 65535, 1, 0, 0};
+  std::vector<uint8_t> rows;
+  for (uint16_t v : samples) rows.insert(rows.end(), {uint8_t(v >> 8), uint8_t(v & 0xFF)});
+  const prt::Scene scene = loadWithTexture(dir_, encodePngRaw(3, 1, 16, 6, rows, 3 * 8));
+  ASSERT_EQ(scene.textures.size(), 1u);
+  const prt::Texture& tex = scene.textures[0];
+  ASSERT_EQ(tex.width, 3);
+  for (size_t t = 0; t < 3; ++t)
+    for (int c = 0; c < 4; ++c) {
+      const double x = samples[4 * t + size_t(c)] / 65535.0;
+      const double expected = c < 3 ? srgbToLinearRef(x) : x;  // colour is sRGB, alpha linear
+      EXPECT_NEAR(tex.texels[t][c], expected, 1e-6) << "texel " << t << " channel " << c;
+    }
+}
+
+TEST_F(ScenePng, PaletteWithTransparencyReadsItsColours) {
+  // 4-bit palette indices 2, 0, 1 (two to a byte); tRNS gives entry 0 alpha 128, entry 1
+  // alpha 0, entry 2 none (opaque).
+  const std::string plte("\xC8\x64\x0A" "\x00\x80\xFF" "\xFF\xFF\xFF", 9);
+  const std::string trns("\x80\x00", 2);
+  const std::vector<uint8_t> rows = {0x20, 0x10};
+  const std::string png = encodePngRaw(3, 1, 4, 3, rows, 2, pngChunk("PLTE", plte) + pngChunk("tRNS", trns));
+  const prt::Scene scene = loadWithTexture(dir_, png);
+  ASSERT_EQ(scene.textures.size(), 1u);
+  const prt::Texture& tex = scene.textures[0];
+  ASSERT_EQ(tex.width, 3);
+  auto expected = [](int r, int g, int b, int a) {
+    return glm::vec4(srgbToLinearRef(r / 255.0), srgbToLinearRef(g / 255.0), srgbToLinearRef(b / 255.0), a / 255.0);
+  };
+  const glm::vec4 want[3] = {expected(255, 255, 255, 255), expected(200, 100, 10, 128), expected(0, 128, 255, 0)};
+  for (size_t t = 0; t < 3; ++t)
+    for (int c = 0; c < 4; ++c) EXPECT_NEAR(tex.texels[t][c], want[t][c], 1e-6) << "texel " << t << " channel " << c;
+  expectNear(prt::albedoAtVertex(scene, scene.meshes[0], 1), glm::vec3(want[1]));
+}
+
+using SceneUri = SceneTest;
+
+TEST_F(SceneUri, PercentEncodedImageUriIsDecoded) {
+  const std::string png = quadrantsPng();
+  fs::create_directories(dir_ / "tex dir");
+  std::ofstream(dir_ / "tex dir" / "a b+c.png", std::ios::binary) << png;
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  prim["attributes"]["TEXCOORD_0"] = b.floats({0.25f, 0.25f, 0.75f, 0.25f, 0.25f, 0.75f}, "VEC2", 2);
+  prim["material"] = 0;
+  // RFC 3986: space as %20, the folder separator as %2F, '+' as %2B.
+  b.doc["images"] = Json::array({{{"uri", "tex%20dir%2Fa%20b%2Bc.png"}}});
+  b.doc["textures"] = Json::array({{{"source", 0}}});
+  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  const prt::Scene scene = prt::loadScene(b.write(dir_ / "encoded.gltf"));
+  ASSERT_EQ(scene.textures.size(), 1u);
+  expectNear(prt::albedoAtVertex(scene, scene.meshes[0], 0), {1, 0, 0});
+  expectNear(prt::albedoAtVertex(scene, scene.meshes[0], 1), {0, 1, 0});
+}
+
+TEST_F(SceneUri, PercentEncodedDotsStillCannotLeaveTheFolder) {
+  fs::create_directories(dir_ / "scene");
+  std::ofstream(dir_ / "outside.png", std::ios::binary) << quadrantsPng();
+  GltfBuilder b;
+  Json prim = trianglePrimitive(b);
+  prim["attributes"]["TEXCOORD_0"] = b.floats({0.25f, 0.25f, 0.75f, 0.25f, 0.25f, 0.75f}, "VEC2", 2);
+  prim["material"] = 0;
+  b.doc["images"] = Json::array({{{"uri", "%2E%2E%2Foutside.png"}}});
+  b.doc["textures"] = Json::array({{{"source", 0}}});
+  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+  b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
+  const std::string path = b.write(dir_ / "scene" / "escape.gltf");
+  try {
+    prt::loadScene(path);
+    ADD_FAILURE() << "an encoded ../ was read";
+  } catch (const prt::ExternalUriRefused& e) {
+    EXPECT_NE(std::string(e.what()).find("image 0: uri '%2E%2E%2Foutside.png' points outside the scene folder"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+using SceneUnusedMesh = SceneTest;
+
+TEST_F(SceneUnusedMesh, IsIgnoredByLoadingAndWriting) {
+  GltfBuilder b;
+  const int used = b.mesh(Json::array({trianglePrimitive(b)}));
+  // Mesh 1, which no node uses: a fan whose indices run past its vertices, and a material
+  // whose texture's image does not exist. Either would be an error in a mesh of the scene.
+  Json broken = trianglePrimitive(b);
+  broken["mode"] = 6;
+  broken["indices"] = b.indices({0, 1, 7});
+  broken["material"] = 0;
+  b.mesh(Json::array({broken}));
+  b.doc["textures"] = Json::array({{{"source", 5}}});
+  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+  b.scene({b.node({{"mesh", used}})});
+  const std::string input = b.write(dir_ / "unused.gltf");
+  prt::Scene scene = prt::loadScene(input);
+  ASSERT_EQ(scene.meshes.size(), 1u);
+  EXPECT_EQ(scene.meshes[0].mesh, used);
+  EXPECT_TRUE(scene.textures.empty());
+  EXPECT_TRUE(scene.warnings.empty());
+  fillTransfer(scene, 1);
+  const fs::path out = dir_ / "unused.glb";
+  prt::writeBakedScene(input, scene, nullptr, out.string());
+  const prt::Scene baked = prt::loadScene(out.string());
+  ASSERT_EQ(baked.meshes.size(), 1u);
+  EXPECT_EQ(baked.meshes[0].transfer, scene.meshes[0].transfer);
+  EXPECT_EQ(glbJson(out)["meshes"].size(), 2u);  // passed through untouched
 }
 
 }  // namespace

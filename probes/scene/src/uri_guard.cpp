@@ -29,9 +29,33 @@ bool isWithin(const fs::path& p, const fs::path& dir) {
   return d == dir.end();
 }
 
-/// Why `uri` (of a buffer or an image) may not be read, or "" if it may.
-std::string uriProblem(const UriGuard& guard, const std::string& uri) {
-  if (uri.rfind("data:", 0) == 0) return "";
+int hexValue(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+/// The path a relative URI spells, its %XX escapes decoded (RFC 3986), as tinygltf reads it.
+std::string percentDecoded(const std::string& uri) {
+  std::string out;
+  for (size_t i = 0; i < uri.size(); ++i) {
+    if (uri[i] == '%' && i + 2 < uri.size() && hexValue(uri[i + 1]) >= 0 &&
+        hexValue(uri[i + 2]) >= 0) {
+      out += char(hexValue(uri[i + 1]) * 16 + hexValue(uri[i + 2]));
+      i += 2;
+    } else {
+      out += uri[i];
+    }
+  }
+  return out;
+}
+
+/// Why `uri` (of a buffer or an image) may not be read, or "" if it may. The checks see the
+/// decoded path, so that an escaped "../" is refused here, by the URI it was written as.
+std::string uriProblem(const UriGuard& guard, const std::string& encoded) {
+  if (encoded.rfind("data:", 0) == 0) return "";
+  const std::string uri = percentDecoded(encoded);
   size_t colon = uri.find(':');
   bool scheme = colon != std::string::npos && colon > 0 && std::isalpha(static_cast<unsigned char>(uri[0])) &&
                 std::all_of(uri.begin(), uri.begin() + std::ptrdiff_t(colon), [](unsigned char c) {
