@@ -17,6 +17,7 @@
 #include <stb_image.h>
 
 #include "cli_expect.h"
+#include "gltf_file.h"
 #include "harness.h"
 #include "prt/error.h"
 #include "prt/image.h"
@@ -384,6 +385,48 @@ TEST(CliRender, ProbesFromAnotherBakeWarnOrFail) {
   EXPECT_EQ(lines(bands.err), 1) << bands.err;
   EXPECT_NE(bands.err.find("two_bands.vdb: 2 bands, but " + glb + " is baked with 3"), std::string::npos) << bands.err;
   EXPECT_TRUE(fs::is_empty(out));
+}
+
+// A file with a zero-area triangle goes through every command with default options: each one
+// that reads a scene drops the triangle with the same one warning, and what prt bake wrote is
+// read by prt relight, prt render and prt info.
+TEST(CliRender, DegenerateTrianglesAreDroppedByEveryCommand) {
+  const TempDir tmp("degenerate");
+  const fs::path& d = tmp.path();
+  test::GltfFile f;
+  // The floor [-1, 1]² facing +Y, and triangle 2: three points on its edge z = -1.
+  const int floor = f.mesh({-1, 0, -1, 1, 0, -1, 1, 0, 1, -1, 0, 1, 0, 0, -1},
+                           {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0}, {0, 2, 1, 0, 3, 2, 0, 1, 4});
+  f.node({{"mesh", floor}}, true);
+  const std::string gltf = f.write("degenerate", d);
+  const std::string warning = "mesh 1 / primitive 0: dropped 1 degenerate (zero-area) triangle (triangle 2) of 3";
+  auto warnsOnce = [&](const std::string& text) {
+    const size_t at = text.find(warning);
+    return at != std::string::npos && text.find(warning, at + 1) == std::string::npos;
+  };
+
+  const std::string glb = (d / "floor.glb").string(), vdb = (d / "floor.vdb").string();
+  const RunResult baked = prt({"bake", gltf, "-o", glb, "--samples", "16", "--bounces", "1", "--probes", vdb,
+                               "--probe-dims", "2,2,2", "--probe-samples", "16"});
+  ASSERT_EQ(baked.status, 0) << baked.err;
+  EXPECT_TRUE(warnsOnce(baked.err)) << baked.err;
+  const RunResult relit = prt({"relight", glb, "--env", whiteSky(), "-o", (d / "lit.glb").string()});
+  EXPECT_EQ(relit.status, 0) << relit.err;
+  EXPECT_TRUE(warnsOnce(relit.err)) << relit.err;
+  const RunResult rendered = prt({"render", glb, "--probes", vdb, "--env", whiteSky(), "--size", "16x8", "-o",
+                                  (d / "f.exr").string(), "--png"});
+  EXPECT_EQ(rendered.status, 0) << rendered.err;
+  EXPECT_TRUE(warnsOnce(rendered.err)) << rendered.err;
+  EXPECT_TRUE(fs::exists(d / "f.png"));
+  const RunResult info = prt({"info", glb, vdb});
+  EXPECT_EQ(info.status, 0) << info.err;
+  EXPECT_TRUE(warnsOnce(info.out)) << info.out;
+  EXPECT_NE(info.out.find("triangles   2"), std::string::npos) << info.out;
+
+  // The old option is accepted and says it does nothing.
+  const RunResult old = prt({"bake", gltf, "-o", (d / "old.glb").string(), "--samples", "4", "--allow-degenerate"});
+  EXPECT_EQ(old.status, 0) << old.err;
+  EXPECT_NE(old.err.find("--allow-degenerate is deprecated and does nothing"), std::string::npos) << old.err;
 }
 
 // --probe-lookup vertex moves the receivers' probe lookup to their vertices: static surfaces are

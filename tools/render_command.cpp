@@ -433,10 +433,10 @@ int runRender(const RenderArgs& a) {
   const ChosenCamera camera = chooseCamera(a, orbit, scene, double(width) / height);
 
   ProbeGrid probes;
-  std::vector<std::string> warnings;
+  std::vector<std::string> warnings = scene.warnings;  // as every command that reads a scene prints them
   if (!a.probes.empty()) {
     probes = readProbeGrid(a.probes);
-    warnings = checkProbesMatch(probes, scene, a);
+    for (const std::string& w : checkProbesMatch(probes, scene, a)) warnings.push_back(w);
   }
   render::GlContext context(a.gl, width, height);
   if (a.msaa > context.maxSamples())
