@@ -4,7 +4,8 @@
 // One of the two files that see tinygltf (through gltf_model.h). Reading goes through
 // tinygltf's parser but never trusts it with bounds: every accessor is checked against its
 // buffer view and buffer before a byte is read. Images are kept encoded at load time
-// (keepEncodedImage) and only base-colour textures are decoded, with stb, so a scene full of
+// (keepEncodedImage) and only the base-colour textures of materials the default scene uses are
+// decoded, with stb, so a scene full of
 // normal maps costs nothing and the writers can embed the original PNG/JPEG bytes instead of
 // re-encoding them.
 #include "prt/scene.h"
