@@ -5,9 +5,8 @@
 // tinygltf's parser but never trusts it with bounds: every accessor is checked against its
 // buffer view and buffer before a byte is read. Images are kept encoded at load time
 // (keepEncodedImage) and only the base-colour textures of materials the default scene uses are
-// decoded, with stb, so a scene full of
-// normal maps costs nothing and the writers can embed the original PNG/JPEG bytes instead of
-// re-encoding them.
+// decoded, with stb, so a scene full of normal maps costs nothing and the writers can embed the
+// original PNG/JPEG bytes instead of re-encoding them.
 #include "prt/scene.h"
 
 #include <stb_image.h>
