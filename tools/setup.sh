@@ -22,7 +22,7 @@ PACKAGES=(
   libopenvdb-dev libopenvdb-tools python3-openvdb libboost-iostreams-dev
   libembree-dev libglm-dev libopenexr-dev libtinygltf-dev nlohmann-json3-dev libstb-dev
   libtbb-dev libcli11-dev libosmesa6-dev libegl-dev libegl1-mesa-dev libgl1-mesa-dri
-  libgtest-dev
+  libgtest-dev libdraco-dev libmeshoptimizer-dev libwebp-dev gltfpack
   clang-14 libclang-rt-14-dev llvm-14
 )
 

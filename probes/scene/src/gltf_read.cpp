@@ -30,7 +30,9 @@
 
 #include "animation_labels.h"
 #include "bake_record_json.h"
+#include "gltf_decode.h"
 #include "gltf_model.h"
+#include "image_webp.h"
 #include "prt/error.h"
 #include "uri_guard.h"
 
@@ -156,6 +158,10 @@ Gltf parseGltf(const std::string& path, const std::string& bytes, const std::str
   if (!baseDir.empty()) guard.canonicalDir = fs::weakly_canonical(baseDir, ec);
   bool binary = looksBinary(path, bytes);
   checkDocument(path, jsonText(bytes, binary), guard);
+  // Draco and meshopt data become an ordinary GLB first (gltf_decode.h).
+  const std::optional<std::string> decoded = decodeCompressed(path, bytes, binary, guard);
+  const std::string& input = decoded ? *decoded : bytes;
+  binary = binary || decoded.has_value();
   Gltf g;
   g.path = path;
   tinygltf::TinyGLTF parser;
@@ -164,10 +170,10 @@ Gltf parseGltf(const std::string& path, const std::string& bytes, const std::str
                                               &refuseWrite, &guard});
   std::string err, warn;
   bool ok = false;
-  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  const auto* data = reinterpret_cast<const unsigned char*>(input.data());
   try {
-    ok = binary ? parser.LoadBinaryFromMemory(&g.model, &err, &warn, data, unsigned(bytes.size()), baseDir)
-                : parser.LoadASCIIFromString(&g.model, &err, &warn, bytes.data(), unsigned(bytes.size()), baseDir);
+    ok = binary ? parser.LoadBinaryFromMemory(&g.model, &err, &warn, data, unsigned(input.size()), baseDir)
+                : parser.LoadASCIIFromString(&g.model, &err, &warn, input.data(), unsigned(input.size()), baseDir);
   } catch (const std::exception& e) {
     // tinygltf mostly reports through `err`, but a few inputs (an empty data: image) make it
     // throw from the standard library.
@@ -211,7 +217,9 @@ namespace {
 
 void checkRequiredExtensions(const Gltf& g) {
   for (const std::string& ext : g.model.extensionsRequired) {
-    if (ext == kUnlit || ext == kLights || ext == kTextureTransform || ext == kSpecularGlossiness) continue;
+    if (ext == kUnlit || ext == kLights || ext == kTextureTransform || ext == kSpecularGlossiness ||
+        ext == kMeshQuantization || ext == kTextureWebp)
+      continue;
     fail(g, cat("required extension ", ext, " is not supported"));
   }
 }
@@ -857,15 +865,25 @@ void checkTextureHeader(const Gltf& g, const std::vector<unsigned char>& bytes, 
                 kMaxTexels, " texels)"));
 }
 
+/// The image a texture shows: EXT_texture_webp's when it names one (prt decodes WebP, and
+/// `source` is then a PNG/JPEG fallback or absent), else `source`.
+int textureSource(const tinygltf::Texture& t) {
+  auto ext = t.extensions.find(kTextureWebp);
+  if (ext == t.extensions.end() || !ext->second.IsObject() || !ext->second.Has("source")) return t.source;
+  const tinygltf::Value& source = ext->second.Get("source");
+  return source.IsInt() ? source.Get<int>() : -1;
+}
+
 /// Decodes glTF texture `index` as sRGB base colour into linear RGBA.
 Texture decodeBaseColorTexture(const Gltf& g, int index) {
   const tinygltf::Model& m = g.model;
   const tinygltf::Texture& t = m.textures[size_t(index)];
   std::string where = cat("texture ", index);
-  if (t.source < 0 || size_t(t.source) >= m.images.size())
-    fail(g, cat(where, ": image ", t.source, " does not exist"));
-  const tinygltf::Image& image = m.images[size_t(t.source)];
-  where = cat(where, " / image ", t.source, image.uri.empty() ? "" : cat(" ('", image.uri, "')"));
+  const int source = textureSource(t);
+  if (source < 0 || size_t(source) >= m.images.size())
+    fail(g, cat(where, ": image ", source, " does not exist"));
+  const tinygltf::Image& image = m.images[size_t(source)];
+  where = cat(where, " / image ", source, image.uri.empty() ? "" : cat(" ('", image.uri, "')"));
   if (image.image.empty()) fail(g, cat(where, ": could not be read"));
   Texture out;
   out.name = !t.name.empty() ? t.name : !image.name.empty() ? image.name : image.uri;
@@ -880,11 +898,23 @@ Texture decodeBaseColorTexture(const Gltf& g, int index) {
   const auto* bytes = image.image.data();
   int size = static_cast<int>(std::min<size_t>(image.image.size(), std::numeric_limits<int>::max()));
   int w = 0, h = 0, comp = 0;
-  checkTextureHeader(g, image.image, where);
-  bool wide = stbi_is_16_bit_from_memory(bytes, size);
-  void* pixels = wide ? static_cast<void*>(stbi_load_16_from_memory(bytes, size, &w, &h, &comp, 4))
-                      : static_cast<void*>(stbi_load_from_memory(bytes, size, &w, &h, &comp, 4));
-  if (!pixels) fail(g, cat(where, ": cannot decode (", stbi_failure_reason(), ")"));
+  bool wide = false;
+  void* pixels = nullptr;
+  Rgba8 webp;  // EXT_texture_webp, decoded by libwebp (image_webp.h)
+  if (isWebp(image.image)) {
+    std::string error;
+    webp = decodeWebp(image.image, kMaxTextureSide, kMaxTexels, error);
+    if (!error.empty()) fail(g, cat(where, ": ", error));
+    w = webp.width;
+    h = webp.height;
+    pixels = webp.texels.data();
+  } else {
+    checkTextureHeader(g, image.image, where);
+    wide = stbi_is_16_bit_from_memory(bytes, size);
+    pixels = wide ? static_cast<void*>(stbi_load_16_from_memory(bytes, size, &w, &h, &comp, 4))
+                  : static_cast<void*>(stbi_load_from_memory(bytes, size, &w, &h, &comp, 4));
+    if (!pixels) fail(g, cat(where, ": cannot decode (", stbi_failure_reason(), ")"));
+  }
   out.width = w;
   out.height = h;
   out.texels.resize(size_t(w) * size_t(h));
@@ -903,7 +933,7 @@ Texture decodeBaseColorTexture(const Gltf& g, int index) {
       out.texels[i][c] = v;
     }
   }
-  stbi_image_free(pixels);
+  if (webp.texels.empty()) stbi_image_free(pixels);
   return out;
 }
 
