@@ -31,6 +31,7 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
+#include "bench_cli.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
@@ -102,14 +103,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   app.add_option("--json", jsonPath, "Also write the results to this file");
-  app.failure_message([](const CLI::App*, const CLI::Error& e) {
-    return std::string("prt_bench_probes: ") + e.what() + " (see --help)\n";
-  });
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;  // --help: 0; a bad command line: one line, 2
-  }
+  if (std::optional<int> status = bench::parseBenchOptions(app, "prt_bench_probes", argc, argv)) return *status;
   try {
     settings.dims = glm::ivec3(dims);
     settings.bounces = surface.bounces;

@@ -33,6 +33,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "bench_cli.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
@@ -333,14 +334,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({0, 1}))
       ->capture_default_str();
   app.add_option("--json", jsonPath, "Also write the results to this file");
-  app.failure_message([](const CLI::App*, const CLI::Error& e) {
-    return std::string("prt_bench_render: ") + e.what() + " (see --help)\n";
-  });
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;  // --help: 0; a bad command line: one line, 2
-  }
+  if (std::optional<int> status = bench::parseBenchOptions(app, "prt_bench_render", argc, argv)) return *status;
   try {
     // --- The scene: baked here or read from files ---------------------------------------------
     Scene scene;

@@ -92,20 +92,14 @@ bake::Fingerprint bakeFingerprint(const Scene& scene, const BakeArgs& a, const b
 void guardMemory(const bake::MemoryEstimate& e, const std::optional<bake::MemoryLimit>& limit, const Scene& scene,
                  const bake::BakeSettings& s, const bake::ProbeSettings* probes) {
   if (!limit) return;
-  const std::optional<bake::MemoryAdvice> advice = bake::memoryShortfall(e, *limit, scene, s, probes);
-  if (!advice) return;
-  std::vector<std::string> ways;
-  if (advice->samples) ways.push_back(cat("--samples ", *advice->samples));
-  if (const auto& p = advice->probes)
-    ways.push_back(p->spacing > 0 ? cat("--probe-spacing ", p->spacing)
-                                  : cat("--probe-dims ", p->dims.x, ",", p->dims.y, ",", p->dims.z));
-  if (advice->bands) ways.push_back(cat("--bands ", *advice->bands));
-  std::string how;
-  for (const std::string& w : ways) how += (how.empty() ? "" : " or ") + w;
-  how += how.empty() ? cat("raise --max-memory above ", formatBytes(e.total)) : ", or raise --max-memory";
-  const std::string source = limit->source == bake::kGivenLimit ? "--max-memory" : limit->source;
-  throw Error(cat("not enough memory: the bake needs up to ", e.describe(), ", more than the ",
-                  formatBytes(limit->bytes), " allowed by ", source, "; use ", how));
+  bake::MemoryAdviceNames flags;
+  flags.samples = "--samples";
+  flags.probeSpacing = "--probe-spacing";
+  flags.probeDims = "--probe-dims";
+  flags.bands = "--bands";
+  flags.raiseLimit = "raise --max-memory";
+  flags.givenLimit = "--max-memory";
+  bake::checkMemory(e, *limit, scene, s, probes, flags);
 }
 
 uint64_t testInterruptAfter() {

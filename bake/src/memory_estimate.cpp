@@ -310,21 +310,21 @@ std::optional<MemoryAdvice> memoryShortfall(const MemoryEstimate& e, const Memor
 }
 
 void checkMemory(const MemoryEstimate& e, const MemoryLimit& limit, const Scene& scene, const BakeSettings& s,
-                 const ProbeSettings* probes) {
+                 const ProbeSettings* probes, const MemoryAdviceNames& names) {
   const std::optional<MemoryAdvice> advice = memoryShortfall(e, limit, scene, s, probes);
   if (!advice) return;
   std::vector<std::string> ways;
-  if (advice->samples) ways.push_back(cat("samples ", *advice->samples));
-  if (advice->probes)
-    ways.push_back(advice->probes->spacing > 0 ? cat("probe spacing ", advice->probes->spacing)
-                                               : cat("probe dims ", advice->probes->dims.x, ",",
-                                                     advice->probes->dims.y, ",", advice->probes->dims.z));
-  if (advice->bands) ways.push_back(cat("bands ", *advice->bands));
+  if (advice->samples) ways.push_back(cat(names.samples, " ", *advice->samples));
+  if (const auto& p = advice->probes)
+    ways.push_back(p->spacing > 0 ? cat(names.probeSpacing, " ", p->spacing)
+                                  : cat(names.probeDims, " ", p->dims.x, ",", p->dims.y, ",", p->dims.z));
+  if (advice->bands) ways.push_back(cat(names.bands, " ", *advice->bands));
   std::string how;
   for (const std::string& w : ways) how += (how.empty() ? "" : " or ") + w;
-  how += how.empty() ? cat("a limit above ", formatBytes(e.total)) : ", or a higher limit";
+  how += how.empty() ? cat(names.raiseLimit, " above ", formatBytes(e.total)) : cat(", or ", names.raiseLimit);
+  const std::string& source = limit.source == kGivenLimit ? names.givenLimit : limit.source;
   throw Error(cat("not enough memory: the bake needs up to ", e.describe(), ", more than the ",
-                  formatBytes(limit.bytes), " allowed by ", limit.source, "; use ", how));
+                  formatBytes(limit.bytes), " allowed by ", source, "; use ", how));
 }
 
 }  // namespace prt::bake

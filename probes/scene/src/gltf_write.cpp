@@ -101,6 +101,19 @@ int addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec
   return static_cast<int>(m.accessors.size() - 1);
 }
 
+/// Makes `prim` a triangle list with `indices` (UNSIGNED_INT, in the staging buffer).
+void setTriangleList(tinygltf::Model& m, int& staging, tinygltf::Primitive& prim, const std::vector<uint32_t>& indices) {
+  tinygltf::Accessor a;
+  a.bufferView = appendBufferView(m, stagingBuffer(m, staging), indices.data(), indices.size() * sizeof(uint32_t),
+                                  TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+  a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+  a.type = TINYGLTF_TYPE_SCALAR;
+  a.count = indices.size();
+  m.accessors.push_back(a);
+  prim.indices = static_cast<int>(m.accessors.size() - 1);
+  prim.mode = TINYGLTF_MODE_TRIANGLES;
+}
+
 /// The instances must still describe the file: same node → mesh, primitive and vertex count
 /// (or, for a primitive split for flat normals, file vertices that exist).
 void checkMatchesScene(const Gltf& g, const Scene& scene) {
@@ -146,15 +159,7 @@ void rewriteStripsAndFans(Gltf& g, int& staging, const std::set<int>& meshes) {
       if (pos == prim.attributes.end()) continue;
       size_t n = openAccessor(g, pos->second, cat(where, " / POSITION")).count;
       std::vector<uint32_t> list = toTriangleList(g, prim.mode, readIndices(g, prim, where, n), where);
-      tinygltf::Accessor a;
-      a.bufferView = appendBufferView(m, stagingBuffer(m, staging), list.data(), list.size() * 4,
-                                      TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
-      a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
-      a.type = TINYGLTF_TYPE_SCALAR;
-      a.count = list.size();
-      m.accessors.push_back(a);
-      prim.indices = static_cast<int>(m.accessors.size() - 1);
-      prim.mode = TINYGLTF_MODE_TRIANGLES;
+      setTriangleList(m, staging, prim, list);
     }
   }
 }
@@ -229,15 +234,7 @@ void rewriteSplitPrimitives(Gltf& g, int& staging, const Scene& scene) {
     for (size_t v = 0; v < pos.count; ++v)
       for (int c = 0; c < 3; ++c) positions[v][c] = static_cast<float>(pos.get(v, c));
     prim.attributes["NORMAL"] = addVec3Accessor(m, staging, flatVertexNormals(positions, indices), "flat normals");
-    tinygltf::Accessor a;
-    a.bufferView = appendBufferView(m, stagingBuffer(m, staging), indices.data(), indices.size() * 4,
-                                    TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
-    a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
-    a.type = TINYGLTF_TYPE_SCALAR;
-    a.count = indices.size();
-    m.accessors.push_back(a);
-    prim.indices = static_cast<int>(m.accessors.size() - 1);
-    prim.mode = TINYGLTF_MODE_TRIANGLES;
+    setTriangleList(m, staging, prim, indices);
     prim.extensions.erase("KHR_draco_mesh_compression");  // the new accessors are plain
     done.emplace(key, prim);
   }

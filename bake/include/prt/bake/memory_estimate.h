@@ -71,9 +71,17 @@ std::optional<MemoryAdvice> memoryShortfall(const MemoryEstimate& estimate, cons
                                             const Scene& scene, const BakeSettings& settings,
                                             const ProbeSettings* probes);
 
+/// How checkMemory's refusal names the settings: the fields by default ("samples 256"); a tool
+/// passes its options ("--samples 256", "raise --max-memory", "--max-memory" for kGivenLimit).
+struct MemoryAdviceNames {
+  std::string samples = "samples", probeSpacing = "probe spacing", probeDims = "probe dims", bands = "bands";
+  std::string raiseLimit = "raise the limit";
+  std::string givenLimit = kGivenLimit;
+};
+
 /// Throws prt::Error when the estimate exceeds the limit: one line with the estimate, the
-/// limit and the advice of memoryShortfall, in the settings' field names ("samples 256").
+/// limit and the advice of memoryShortfall, in `names`.
 void checkMemory(const MemoryEstimate& estimate, const MemoryLimit& limit, const Scene& scene,
-                 const BakeSettings& settings, const ProbeSettings* probes);
+                 const BakeSettings& settings, const ProbeSettings* probes, const MemoryAdviceNames& names = {});
 
 }  // namespace prt::bake
