@@ -418,5 +418,99 @@ INSTANTIATE_TEST_SUITE_P(Walls, ProbeThinWall,
                          ::testing::Values(std::pair{2.9f, 0.05f},    // 0.3 .. 0.4 of the cell [2.75, 3.25]
                                            std::pair{3.05f, 0.02f}));  // 0.6 .. 0.64 of it
 
+// ---- Where probes go (docs/probes.md, "Where probes go").
+
+// Distance from p to the box [lo, hi] (0 inside).
+double boxDistance(const glm::dvec3& p, const glm::dvec3& lo, const glm::dvec3& hi) {
+  return glm::length(glm::max(glm::max(lo - p, p - hi), glm::dvec3(0.0)));
+}
+
+// A 4 m × 4 m floor in a 16 m lattice of 1 m spacing. Auto keeps free points with a hit within
+// 2 spacings or surfaces over more than 20% of the sphere, and their neighbours: no point
+// farther than 2 + √3 from the floor can be kept (the floor fills under 8% of the sphere from
+// there), and every point within 1 m of its top sees it over a third of the sphere or more.
+// Everywhere keeps them all.
+TEST(ProbeBakeRegion, AutoLeavesOutOpenAirFarFromSurfaces) {
+  const glm::dvec3 lo(-2.0, -0.1, -2.0), hi(2.0, 0.0, 2.0);
+  Scene s = test::makeScene({test::makeSlab(glm::vec3(lo), glm::vec3(hi))}, 0.5f);
+  bake::ProbeSettings ps;
+  ps.spacing = 1.0;
+  ps.boundsMin = glm::dvec3(-8.0);
+  ps.boundsMax = glm::dvec3(8.0);
+  ps.samples = 64;
+  bake::ProbeStats stats;
+  const ProbeGrid g = bake::bakeProbes(s, {}, ps, &stats);
+  ASSERT_EQ(g.dims, glm::ivec3(16));
+  size_t valid = 0, nearTop = 0;
+  for (size_t p = 0; p < g.probeCount(); ++p) {
+    if (g.validity[p] == 0.0f) continue;
+    ++valid;
+    EXPECT_LE(boxDistance(g.position(p), lo, hi), 2.0 + std::sqrt(3.0) + 1e-9) << "probe at lattice " << g.coord[p].x
+                                                                            << "," << g.coord[p].y << "," << g.coord[p].z;
+  }
+  for (int z = 0; z < 16; ++z)
+    for (int x = 0; x < 16; ++x) {
+      const glm::ivec3 c(x, 8, z);  // y = 0.5: the layer above the floor
+      const glm::dvec3 at = g.latticePosition(c);
+      if (std::fabs(at.x) > 1.5 || std::fabs(at.z) > 1.5) continue;
+      ++nearTop;
+      const int k = g.find(c);
+      ASSERT_GE(k, 0);
+      EXPECT_EQ(g.validity[size_t(k)], 1.0f);
+    }
+  EXPECT_EQ(nearTop, 16u);
+  EXPECT_GT(stats.outside, 16u * 16u * 16u / 2);
+  EXPECT_EQ(stats.valid, valid);
+
+  ps.region = bake::ProbeSettings::Region::Everywhere;
+  bake::ProbeStats all;
+  const ProbeGrid e = bake::bakeProbes(s, {}, ps, &all);
+  EXPECT_EQ(all.outside, 0u);
+  EXPECT_EQ(all.valid, uint64_t(16 * 16 * 16));  // no lattice point lies in the floor
+  EXPECT_EQ(all.valid, valid + stats.outside);
+}
+
+// A closed hollow box (6 slabs, cavity [-2, 2]³) in an 8 m lattice of 1 m spacing: Inside keeps
+// exactly the 4³ lattice points of the cavity; Auto keeps the outside near the box as well.
+TEST(ProbeBakeRegion, InsideKeepsOnlySealedSpace) {
+  std::vector<MeshInstance> walls;
+  for (int axis = 0; axis < 3; ++axis)
+    for (float side : {-1.0f, 1.0f}) {
+      glm::vec3 a(-2.2f), b(2.2f);
+      a[axis] = side < 0 ? -2.2f : 2.0f;
+      b[axis] = side < 0 ? -2.0f : 2.2f;
+      walls.push_back(test::makeSlab(a, b));
+    }
+  Scene s = test::makeScene(walls, 0.5f);
+  bake::ProbeSettings ps;
+  ps.spacing = 1.0;
+  ps.boundsMin = glm::dvec3(-4.0);
+  ps.boundsMax = glm::dvec3(4.0);
+  ps.samples = 64;
+  ps.region = bake::ProbeSettings::Region::Inside;
+  bake::ProbeStats stats;
+  const ProbeGrid g = bake::bakeProbes(s, {}, ps, &stats);
+  EXPECT_TRUE(stats.insideOnly);
+  EXPECT_EQ(g.info.region, "inside");
+  size_t valid = 0;
+  for (size_t p = 0; p < g.probeCount(); ++p) {
+    if (g.validity[p] == 0.0f) continue;
+    ++valid;
+    const glm::dvec3 at = g.latticePosition(g.coord[p]);
+    EXPECT_LT(std::max({std::fabs(at.x), std::fabs(at.y), std::fabs(at.z)}), 2.0)
+        << "probe at " << at.x << "," << at.y << "," << at.z;
+  }
+  EXPECT_EQ(valid, 64u);
+  EXPECT_EQ(stats.sealed, 64u);
+  EXPECT_EQ(stats.outside, uint64_t(8 * 8 * 8 - 64));
+
+  ps.region = bake::ProbeSettings::Region::Auto;
+  bake::ProbeStats autoStats;
+  const ProbeGrid a = bake::bakeProbes(s, {}, ps, &autoStats);
+  EXPECT_FALSE(autoStats.insideOnly);
+  EXPECT_EQ(a.info.region, "near");
+  EXPECT_EQ(autoStats.valid, uint64_t(8 * 8 * 8));  // every point is within 2 m of a wall
+}
+
 }  // namespace
 }  // namespace prt

@@ -132,8 +132,16 @@ CLI::Option* addProbeOptions(CLI::App& bake, BakeArgs& a) {
                              ->check(CLI::Range(1, bake::kMaxSamples))
                              ->capture_default_str();
   CLI::Option* half = bake.add_flag("--probe-half", a.probeHalf, "Store probe grids as 16-bit floats");
+  using Region = bake::ProbeSettings::Region;
+  CLI::Option* region =
+      bake.add_option("--probe-region", a.probeRegion,
+                      "Where probes go: inside (only space sealed in by the scene's surfaces), everywhere (all "
+                      "space outside solid geometry), or auto (inside for a closed level, else near "
+                      "surfaces or surrounded by them)")
+          ->transform(choice<Region>({{"auto", Region::Auto}, {"everywhere", Region::Everywhere}, {"inside", Region::Inside}}))
+          ->default_str("auto");
   dims->excludes(spacing);
-  for (CLI::Option* o : {spacing, dims, bounds, samples, half}) o->needs(probes);
+  for (CLI::Option* o : {spacing, dims, bounds, samples, half, region}) o->needs(probes);
   return probes;
 }
 
@@ -202,6 +210,7 @@ int runBake(const BakeArgs& a) {
     ps.progress = s.progress;
     ps.threads = s.threads;
     ps.spacing = a.probeSpacing;
+    ps.region = a.probeRegion;
     if (!a.probeDims.empty()) ps.dims = glm::ivec3(a.probeDims[0], a.probeDims[1], a.probeDims[2]);
     if (a.probeSpacing == 0.0 && a.probeDims.empty()) ps.dims = glm::ivec3(16);
     if (!a.probeBounds.empty()) {
@@ -265,6 +274,7 @@ int runBake(const BakeArgs& a) {
   bake::SurfaceTransfer result = runStage([&] { return bake::bakeSurface(scene, s, control); });
   std::string sceneName = std::filesystem::path(a.scene).filename().string();
   bake::ProbeStats probeStats;
+  uintmax_t probeBytes = 0;
   if (!a.probes.empty()) {
     if (result.perMeshLowerOrder.empty()) result.perMeshLowerOrder.assign(scene.meshes.size(), {});
     ProbeGrid grid = runStage([&] {
@@ -272,6 +282,7 @@ int runBake(const BakeArgs& a) {
     });
     grid.info.scene = sceneName;
     writeProbeGrid(grid, a.probes, a.probeHalf);
+    probeBytes = std::filesystem::file_size(a.probes);
   }
   for (size_t k = 0; k < scene.meshes.size(); ++k) scene.meshes[k].transfer = std::move(result.perMesh[k]);
   scene.transferBands = s.bands;
@@ -307,15 +318,27 @@ int runBake(const BakeArgs& a) {
   if (a.probes.empty()) return 0;
   const std::string restored =
       probeStats.restored ? cat("; ", formatCount(double(probeStats.restored)), " restored from the checkpoint") : "";
+  const std::string outside =
+      probeStats.outside
+          ? cat(", ", formatCount(double(probeStats.outside)),
+                probeStats.insideOnly ? " outside the closed level" : " in open air far from surfaces",
+                " (not baked; --probe-region everywhere bakes them)")
+          : "";
   std::fprintf(stderr,
-               "  probes: %s lattice points, %s active, %s inside geometry, %s moved out; %s rays in %.2f s "
-               "(%s probes/s, %s rays/s)%s -> %s\n",
+               "  probes: %s lattice points, %s active (%s valid), %s inside geometry, %s moved out%s; %s rays in "
+               "%.2f s (%s probes/s, %s rays/s)%s -> %s\n",
                formatCount(double(probeStats.probes)).c_str(), formatCount(double(probeStats.active)).c_str(),
-               formatCount(double(probeStats.invalid)).c_str(), formatCount(double(probeStats.moved)).c_str(),
+               formatCount(double(probeStats.valid)).c_str(), formatCount(double(probeStats.invalid)).c_str(),
+               formatCount(double(probeStats.moved)).c_str(), outside.c_str(),
                formatCount(double(probeStats.rays)).c_str(), probeStats.seconds,
                formatCount(double(probeStats.probes - probeStats.restored) / std::max(probeStats.seconds, 1e-9)).c_str(),
                formatCount(probeStats.rays / std::max(probeStats.seconds, 1e-9)).c_str(), restored.c_str(),
                a.probes.c_str());
+  // Per valid probe: what a level's probe budget is planned in.
+  const double valid = double(std::max<uint64_t>(probeStats.valid, 1));
+  std::fprintf(stderr, "  per valid probe: %s on disk, %.0f µs of bake (%s in the file, %.2f s)\n",
+               formatBytes(uintmax_t(double(probeBytes) / valid)).c_str(), 1e6 * probeStats.seconds / valid,
+               formatBytes(probeBytes).c_str(), probeStats.seconds);
   return 0;
 }
 

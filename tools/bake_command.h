@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/scene.h"
 
@@ -21,6 +22,7 @@ struct BakeArgs {
   std::vector<double> probeBounds;
   int probeSamples = 1024;
   bool probeHalf = false;
+  bake::ProbeSettings::Region probeRegion = bake::ProbeSettings::Region::Auto;
   bake::BakeSettings settings;
   bool unshadowed = false;
   bool quiet = false;

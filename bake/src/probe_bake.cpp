@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -16,6 +17,9 @@
 #include <memory>
 #include <optional>
 #include <type_traits>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "albedo_lookup.h"
 #include "prt/bake/ray_scene.h"
@@ -61,6 +65,7 @@ struct ProbeAccum {
   std::vector<double> direct;    // n2 × n2, colourless
   std::vector<glm::dvec3> indirect;  // n2 × n2 RGB
   uint32_t rays = 0, backfaces = 0, escaped = 0;
+  float nearest = std::numeric_limits<float>::infinity();  // of the hits (any face)
   std::array<double, 6> sumD{}, sumD2{};
   std::array<uint32_t, 6> count{};
 };
@@ -85,6 +90,7 @@ struct Tracer {
       acc.direct.assign(size_t(n2) * n2, 0.0);
       acc.indirect.assign(size_t(n2) * n2, glm::dvec3(0.0));
       acc.rays = acc.backfaces = acc.escaped = 0;
+      acc.nearest = std::numeric_limits<float>::infinity();
       acc.sumD = {};
       acc.sumD2 = {};
       acc.count = {};
@@ -104,6 +110,8 @@ struct Tracer {
         ++acc.rays;
         const bool back = r.hit() && r.backface();
         acc.backfaces += back;
+        acc.escaped += !r.hit();
+        if (r.hit()) acc.nearest = std::min(acc.nearest, r.tfar);
         if (!full) continue;
         // Depth along the face's axis, not the ray's length: a wall perpendicular to the axis
         // then has one depth for every ray of the face (docs/probes.md, "Visibility").
@@ -115,7 +123,6 @@ struct Tracer {
         ++acc.count[face];
         sh::evaluate(bands, r.dir, y);
         if (!r.hit()) {
-          ++acc.escaped;
           for (int a = 0; a < n2; ++a)
             for (int b = 0; b < n2; ++b) acc.direct[size_t(a) * n2 + b] += double(y[a]) * y[b];
         } else if (!back && haveTransfer && !lowerOrder[r.mesh].empty()) {
@@ -142,7 +149,8 @@ double backShare(const ProbeAccum& a) { return a.rays ? double(a.backfaces) / a.
 // as is (no padding, so the record holds no undefined bytes).
 struct ProbeSlot {
   uint8_t valid = 0, moved = 0;
-  uint16_t reserved = 0;
+  uint8_t outside = 0;  // free, but where no receiver goes: not baked (ProbeSettings::region)
+  uint8_t reserved = 0;
   uint32_t traced = 0;  // rays cast for this lattice point: tests, candidates, full set
   glm::vec3 offset{0.0f};
   float skyVisibility = 0.0f;
@@ -170,7 +178,7 @@ void readProbeChunk(LatticeResults& res, size_t begin, size_t end, ByteReader& r
   r.getArray(res.slots.data() + begin, end - begin);
   for (size_t i = begin; i < end; ++i) {
     const ProbeSlot& slot = res.slots[i];
-    if (slot.valid > 1 || slot.moved > 1) r.fail("probe record");
+    if (slot.valid > 1 || slot.moved > 1 || slot.outside > 1 || (slot.valid && slot.outside)) r.fail("probe record");
     if (slot.valid) r.read(res.transfer.data() + i * res.stride, res.stride * sizeof(float));
   }
 }
@@ -196,19 +204,18 @@ struct ProbeBaker {
       candidates.push_back(glm::dvec3(c & 1 ? 0.3 : -0.3, c & 2 ? 0.3 : -0.3, c & 4 ? 0.3 : -0.3));
   }
 
-  // Lattice point idx into slot and out (n2² RGB floats). The double accumulators `acc` live
-  // only during this point's trace: the matrix is converted to float at once, with the same
-  // per-probe arithmetic in a fixed order, so the result does not depend on threads. False
-  // when interrupted first (slot and out are then incomplete).
-  bool bake(size_t idx, ProbeAccum& acc, ProbeSlot& slot, float* out) const {
+  // Lattice point idx into slot and out (n2² RGB floats); quickFree: its quick inside test
+  // (classifyLattice) passed. The double accumulators `acc` live only during this point's
+  // trace: the matrix is converted to float at once, with the same per-probe arithmetic in a
+  // fixed order, so the result does not depend on threads. False when interrupted first (slot
+  // and out are then incomplete).
+  bool bake(size_t idx, bool quickFree, ProbeAccum& acc, ProbeSlot& slot, float* out) const {
     const glm::ivec3 dims = grid.dims;
     const glm::ivec3 c(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
     const glm::dvec3 base = grid.latticePosition(c);
     slot = ProbeSlot{};
-    ProbeAccum test;
-    if (!tracer.trace(glm::vec3(base), kProbeTestRays, 2 * idx, false, test)) return false;
     glm::dvec3 offset(0.0);
-    bool ok = backShare(test) <= settings.insideThreshold;
+    bool ok = quickFree;  // the quick test, traced by classifyLattice
     for (size_t k = 0; !ok && k < candidates.size(); ++k) {
       ProbeAccum cand;
       glm::dvec3 o = candidates[k] * grid.spacing;
@@ -221,7 +228,6 @@ struct ProbeBaker {
         slot.moved = 1;
       }
     }
-    slot.traced += test.rays;
     const float maxD = tracer.maxDistance;
     slot.moments.fill(glm::vec2(maxD, maxD * maxD));  // "nothing hit", kept by invalid probes
     if (ok) {
@@ -246,6 +252,174 @@ struct ProbeBaker {
     return true;
   }
 };
+
+
+// ---- Where probes go (ProbeSettings::region, docs/probes.md "Where probes go").
+// A lattice point is free when its quick test (kProbeTestRays sphere directions, stream 2·idx)
+// sees back faces for at most the inside threshold. Of the free points, Auto keeps those where
+// a receiver can be: near a surface (a hit within kNearSpacings spacings) or surrounded (surfaces
+// fill more than kOpenAirShare of the sphere around it: rooms, streets, the air over a ground),
+// and their neighbours. It drops open air far from everything (the void around a floating
+// level, the sky high above a town), where a receiver gets the unoccluded light: there the
+// scene fills at most kOpenAirShare of the sphere, which bounds what that light gets wrong.
+// A scene with no surface near any lattice point (an empty scene) keeps every free point.
+// Inside keeps only sealed space: two neighbouring free points are joined when the segment
+// between them hits nothing; free points on the lattice's boundary whose ray outwards along
+// that axis escapes touch the outside; what the flood from them does not reach is sealed in by
+// the scene's surfaces. A point in geometry is tried for relocation unless it borders only
+// free space that is not kept (and geometry).
+constexpr double kNearSpacings = 2.0;
+constexpr double kOpenAirShare = 0.2;
+
+struct LatticeRegion {
+  std::vector<uint8_t> free;  // per lattice point: the quick test passed
+  std::vector<uint8_t> skip;  // per lattice point: not baked
+  uint64_t freeCount = 0, sealed = 0, outside = 0;
+  bool insideOnly = false;   // only sealed space is kept
+  uint64_t rays = 0;
+  bool interrupted = false;  // an interrupt was requested before the quick tests finished
+};
+
+// The free points of the lattice that the flood from outside (the comment above LatticeRegion) does not reach.
+std::vector<uint8_t> sealedSpace(const Tracer& tracer, const ProbeGrid& grid, LatticeRegion& reg) {
+  const glm::ivec3 dims = grid.dims;
+  const size_t total = size_t(dims.x) * dims.y * dims.z;
+  const size_t sy = size_t(dims.x), sz = size_t(dims.x) * dims.y;
+  const size_t step[3] = {1, sy, sz};
+  auto coordOf = [&](size_t idx) {
+    return glm::ivec3(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / sz));
+  };
+  // Segments to the +x, +y, +z free neighbours, and outward rays of boundary points.
+  std::vector<uint8_t> links(total, 0);  // bit a: joined to the +a neighbour; bit 3: touches the outside
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, total, 256), [&](const tbb::blocked_range<size_t>& r) {
+    alignas(64) Ray batch[9];
+    uint8_t bitOf[9];
+    for (size_t idx = r.begin(); idx != r.end(); ++idx) {
+      if (!reg.free[idx]) continue;
+      const glm::ivec3 c = coordOf(idx);
+      const glm::vec3 x(grid.latticePosition(c));
+      int n = 0;
+      auto add = [&](int a, float sign, float tfar, uint8_t bit) {
+        Ray& ray = batch[n];
+        ray = Ray{};
+        ray.org = x;
+        ray.dir = glm::vec3(0.0f);
+        ray.dir[a] = sign;
+        ray.tfar = tfar;
+        bitOf[n++] = bit;
+      };
+      for (int a = 0; a < 3; ++a) {
+        if (c[a] + 1 < dims[a] && reg.free[idx + step[a]]) add(a, 1.0f, float(grid.spacing[a]), uint8_t(1u << a));
+        if (c[a] == 0) add(a, -1.0f, std::numeric_limits<float>::infinity(), 8u);
+        if (c[a] == dims[a] - 1) add(a, 1.0f, std::numeric_limits<float>::infinity(), 8u);
+      }
+      if (n == 0) continue;
+      tracer.rays.occluded(batch, size_t(n), false);
+      for (int k = 0; k < n; ++k)
+        if (!batch[k].occludedHit()) links[idx] |= bitOf[k];
+    }
+  });
+  for (size_t idx = 0; idx < total; ++idx) {
+    if (!reg.free[idx]) continue;
+    const glm::ivec3 c = coordOf(idx);
+    for (int a = 0; a < 3; ++a)
+      reg.rays += uint64_t(c[a] + 1 < dims[a] && reg.free[idx + step[a]]) + (c[a] == 0) + (c[a] == dims[a] - 1);
+  }
+  // The flood from the outside: sequential, in lattice order, the same for any thread count.
+  std::vector<uint8_t> out(total, 0);
+  std::vector<size_t> queue;
+  for (size_t idx = 0; idx < total; ++idx)
+    if (reg.free[idx] && (links[idx] & 8u)) {
+      out[idx] = 1;
+      queue.push_back(idx);
+    }
+  for (size_t head = 0; head < queue.size(); ++head) {
+    const size_t idx = queue[head];
+    const glm::ivec3 c = coordOf(idx);
+    for (int a = 0; a < 3; ++a) {
+      if (c[a] + 1 < dims[a] && (links[idx] & (1u << a)) && !out[idx + step[a]]) {
+        out[idx + step[a]] = 1;
+        queue.push_back(idx + step[a]);
+      }
+      if (c[a] > 0 && (links[idx - step[a]] & (1u << a)) && !out[idx - step[a]]) {
+        out[idx - step[a]] = 1;
+        queue.push_back(idx - step[a]);
+      }
+    }
+  }
+  std::vector<uint8_t> sealed(total, 0);
+  for (size_t idx = 0; idx < total; ++idx) {
+    sealed[idx] = reg.free[idx] && !out[idx];
+    reg.sealed += sealed[idx];
+  }
+  return sealed;
+}
+
+LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const ProbeSettings& settings) {
+  using Region = ProbeSettings::Region;
+  const glm::ivec3 dims = grid.dims;
+  const size_t total = size_t(dims.x) * dims.y * dims.z;
+  const size_t sy = size_t(dims.x), sz = size_t(dims.x) * dims.y;
+  auto coordOf = [&](size_t idx) {
+    return glm::ivec3(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / sz));
+  };
+  auto forNeighbours = [&](size_t idx, auto&& f) {  // the 26 neighbours inside the lattice
+    const glm::ivec3 c = coordOf(idx);
+    for (int d = 0; d < 27; ++d) {
+      const glm::ivec3 q = c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1);
+      if (d == 13 || glm::any(glm::lessThan(q, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(q, dims))) continue;
+      if (f(size_t(q.x) + sy * size_t(q.y) + sz * size_t(q.z))) return true;
+    }
+    return false;
+  };
+  LatticeRegion reg;
+  reg.free.assign(total, 0);
+  reg.skip.assign(total, 0);
+  reg.rays = uint64_t(total) * kProbeTestRays;
+  std::vector<uint8_t> wanted(total, 0);  // free, and near a surface or enclosed
+  const float nearDistance = float(kNearSpacings * std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z}));
+  std::atomic<bool> stopped{false};
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, total, 256), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t idx = r.begin(); idx != r.end(); ++idx) {
+      if (stopped.load(std::memory_order_relaxed)) return;
+      ProbeAccum test;
+      const glm::vec3 x(grid.latticePosition(coordOf(idx)));
+      if (!tracer.trace(x, kProbeTestRays, 2 * idx, false, test)) {
+        stopped = true;
+        return;
+      }
+      reg.free[idx] = backShare(test) <= settings.insideThreshold;
+      wanted[idx] = reg.free[idx] && (test.nearest <= nearDistance ||
+                                      double(test.rays - test.escaped) > kOpenAirShare * double(test.rays));
+    }
+  });
+  if (stopped) {
+    reg.interrupted = true;
+    return reg;
+  }
+  for (uint8_t f : reg.free) reg.freeCount += f;
+  const bool anyWanted = std::find(wanted.begin(), wanted.end(), uint8_t(1)) != wanted.end();
+  if (settings.region == Region::Everywhere || (settings.region == Region::Auto && !anyWanted)) return reg;
+  std::vector<uint8_t> keep(total, 0);
+  if (settings.region == Region::Auto) {
+    for (size_t idx = 0; idx < total; ++idx)
+      keep[idx] = reg.free[idx] && (wanted[idx] || forNeighbours(idx, [&](size_t j) { return wanted[j] != 0; }));
+  } else {
+    keep = sealedSpace(tracer, grid, reg);
+    reg.insideOnly = true;
+  }
+  for (size_t idx = 0; idx < total; ++idx) {
+    if (reg.free[idx]) {
+      reg.skip[idx] = !keep[idx];
+      reg.outside += !keep[idx];
+    } else {
+      reg.skip[idx] = !forNeighbours(idx, [&](size_t j) { return keep[j] != 0; }) &&
+                      forNeighbours(idx, [&](size_t j) { return reg.free[j] != 0; });
+    }
+  }
+  return reg;
+}
+
 
 }  // namespace
 
@@ -319,6 +493,9 @@ void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& s) {
   fp.add("probe bounds min", vec(s.boundsMin));
   fp.add("probe bounds max", vec(s.boundsMax));
   fp.add("probe inside threshold", num(s.insideThreshold));
+  fp.add("probe region", s.region == ProbeSettings::Region::Auto         ? "auto"
+                         : s.region == ProbeSettings::Region::Everywhere ? "everywhere"
+                                                                         : "inside");
 }
 
 namespace {
@@ -355,7 +532,8 @@ void assembleGrid(const std::vector<ProbeSlot>& slots, std::vector<float> transf
           std::copy_n(transfer.begin() + ptrdiff_t(idx * stride), stride, transfer.begin() + ptrdiff_t(active * stride));
         ++active;
         stats.active += 1;
-        stats.invalid += !slot.valid;
+        stats.invalid += !slot.valid && !slot.outside;
+        stats.valid += slot.valid;
         stats.moved += slot.valid && slot.moved;
       }
   transfer.resize(active * stride);
@@ -415,17 +593,39 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
     const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
     Tracer tracer{scene, rays, lowerOrder, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing)};
     const ProbeBaker baker(tracer, grid, settings);
-    stats.rays = stage
-                     .run([&](const Chunk& c) {
-                       ProbeAccum acc;  // reused by the probes of this chunk
-                       ChunkOutcome outcome;
-                       for (size_t idx = c.begin; outcome.finished && idx < c.end; ++idx) {
-                         outcome.finished = baker.bake(idx, acc, res->slots[idx], res->transfer.data() + idx * stride);
-                         outcome.rays += res->slots[idx].traced;
-                       }
-                       return outcome;
-                     })
-                     .rays;
+    // Deterministic and cheap (about kProbeTestRays per point of the lattice, a few percent of
+    // the bake), so a resumed bake classifies again rather than storing it.
+    const LatticeRegion region = classifyLattice(tracer, grid, settings);
+    if (region.interrupted) {
+      if (cp) cp->stopIfInterrupted();
+      throw Interrupted("interrupted (probe placement)");
+    }
+    stats.outside = region.outside;
+    stats.sealed = region.sealed;
+    stats.insideOnly = region.insideOnly;
+    grid.info.region = region.insideOnly                                 ? "inside"
+                       : settings.region == ProbeSettings::Region::Everywhere ? "everywhere"
+                                                                              : "near";
+    stats.rays = region.rays;
+    stats.rays += stage
+                      .run([&](const Chunk& c) {
+                        ProbeAccum acc;  // reused by the probes of this chunk
+                        ChunkOutcome outcome;
+                        for (size_t idx = c.begin; outcome.finished && idx < c.end; ++idx) {
+                          ProbeSlot& slot = res->slots[idx];
+                          if (region.skip[idx]) {
+                            slot = ProbeSlot{};
+                            slot.outside = region.free[idx];
+                            slot.moments.fill(glm::vec2(tracer.maxDistance, tracer.maxDistance * tracer.maxDistance));
+                            continue;
+                          }
+                          outcome.finished = baker.bake(idx, region.free[idx] != 0, acc, slot,
+                                                        res->transfer.data() + idx * stride);
+                          outcome.rays += slot.traced;
+                        }
+                        return outcome;
+                      })
+                      .rays;
   }
   if (cp) cp->releaseStages();
   stats.restored = stage.restoredItems();

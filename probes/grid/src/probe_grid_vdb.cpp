@@ -263,6 +263,7 @@ ProbeGrid toProbeGrid(const std::string& path, const LoadedFile& file) {
   if (meta.has("bounces")) grid.info.bounces = int(meta.integer("bounces"));
   if (meta.has("samples")) grid.info.samples = int(meta.integer("samples"));
   if (meta.has("scene")) grid.info.scene = meta.string("scene");
+  if (meta.has("probe_region")) grid.info.region = meta.string("probe_region");
   if (meta.has("seed")) {
     const std::string s = meta.string("seed");
     char* end = nullptr;
@@ -514,6 +515,7 @@ void writeProbeGrid(const ProbeGrid& grid, const std::string& path, bool half) {
   // A string: the seed is a uint64 and metadata has no unsigned 64-bit type.
   meta.insertMeta("seed", vdb::StringMetadata(std::to_string(grid.info.seed)));
   meta.insertMeta("scene", vdb::StringMetadata(grid.info.scene));
+  if (!grid.info.region.empty()) meta.insertMeta("probe_region", vdb::StringMetadata(grid.info.region));
   meta.insertMeta("dims", vdb::Vec3IMetadata(vdb::Vec3i(grid.dims.x, grid.dims.y, grid.dims.z)));
   meta.insertMeta("origin", vdb::Vec3DMetadata(vdb::Vec3d(grid.origin.x, grid.origin.y, grid.origin.z)));
   meta.insertMeta("spacing", vdb::Vec3DMetadata(vdb::Vec3d(grid.spacing.x, grid.spacing.y, grid.spacing.z)));
@@ -598,6 +600,13 @@ std::string describeProbeFile(const std::string& path) {
      << formatBytes(memory) << ", mostly their internal nodes) are freed after conversion\n";
   os << "  bake          " << grid.info.bounces << " bounces, " << grid.info.samples << " samples, seed "
      << grid.info.seed << ", scene '" << grid.info.scene << "'\n";
+  if (!grid.info.region.empty())
+    os << "  region        "
+       << (grid.info.region == "inside"       ? "inside: only space sealed in by the scene's surfaces"
+           : grid.info.region == "everywhere" ? "everywhere outside solid geometry"
+           : grid.info.region == "near"       ? "near: near surfaces or surrounded by them (open air far from all not baked)"
+                                              : grid.info.region)
+       << "\n";
   return os.str();
 }
 

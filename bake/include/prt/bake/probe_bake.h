@@ -29,7 +29,18 @@ struct ProbeSettings {
   int threads = 0;             // 0 = all cores
   /// A probe whose rays hit back faces for more than this share is inside geometry.
   double insideThreshold = 0.25;
+  /// Where probes are baked (docs/probes.md, "Where probes go"):
+  /// - Everywhere: every lattice point outside solid geometry;
+  /// - Inside: only free space sealed from the outside of the lattice by the scene's surfaces
+  ///   (the inside of a closed level), found by a flood fill through free lattice points;
+  /// - Auto: the free points near a surface (a hit within 2 spacings) or surrounded (surfaces
+  ///   fill more than 20% of the sphere around them), and their neighbours: open air far from
+  ///   everything is left out (the void around a floating level, the sky high above a town);
+  ///   a scene with no surface near the lattice keeps every point.
+  enum class Region { Auto, Everywhere, Inside };
+  Region region = Region::Auto;
 };
+
 
 /// Throws prt::Error on bad values; the message names the field ("probe spacing: ...").
 void validate(const ProbeSettings& s);
@@ -48,6 +59,10 @@ struct ProbeStats {
   uint64_t active = 0;       // stored
   uint64_t invalid = 0;      // inside geometry, not moved out
   uint64_t moved = 0;        // moved out of geometry within their cell
+  uint64_t outside = 0;      // free lattice points not baked (open air, or outside a closed level)
+  uint64_t sealed = 0;       // free lattice points sealed inside the scene's surfaces
+  bool insideOnly = false;   // only sealed space was baked (a closed level)
+  uint64_t valid = 0;        // stored with transfer
   uint64_t rays = 0;          // cast by this run: inside tests, relocation candidates, full sets
   uint64_t restored = 0;      // lattice points restored from the checkpoint (not traced again)
   double seconds = 0.0;
@@ -60,7 +75,7 @@ constexpr uint32_t kProbeStage = kProbeStageFirst;
 constexpr size_t kProbeChunk = 64;
 
 /// Adds every setting that changes the probe stage's results to a checkpoint fingerprint
-/// (bands, samples, bounces, seed, spacing or dims, bounds, inside threshold). The scene's
+/// (bands, samples, bounces, seed, spacing or dims, bounds, inside threshold, region). The scene's
 /// own entries come from addSceneFingerprint.
 void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& settings);
 

@@ -29,6 +29,9 @@ struct ProbeGridInfo {
   int samples = 0;
   uint64_t seed = 0;
   std::string scene;  // file name of the scene it was baked from
+  /// Where probes were baked: "everywhere" outside solid geometry, or "inside" a closed
+  /// level's shell only (docs/probes.md, "Where probes go"); empty in files before it.
+  std::string region;
 };
 
 struct ProbeGrid {
