@@ -173,6 +173,20 @@ TEST(SceneMaterial, AlphaModesCutoffAndTransmissionAreRead) {
   EXPECT_FLOAT_EQ(alphaAt(s, s.meshes[1], 0, 0.3f, 0.3f), 0.25f);
   EXPECT_FLOAT_EQ(opacityAt(s, s.meshes[1], 0, 0.3f, 0.3f), 0.25f);
   EXPECT_NEAR(opacityAt(s, s.meshes[2], 0, 0.3f, 0.3f), 1.0f - 0.5f * 128.0f / 255.0f, 1e-6f);
+  // The baked file keeps the materials: prt render reads the same cutouts and panes.
+  Scene withTransfer = s;
+  withTransfer.transferBands = 1;
+  for (MeshInstance& m : withTransfer.meshes) m.transfer.assign(m.vertexCount(), glm::vec3(1.0f));
+  const std::string baked = dir.file("materials.glb");
+  writeBakedScene(s.path, withTransfer, nullptr, baked);
+  const Scene back = loadScene(baked);
+  ASSERT_EQ(back.materials.size(), 3u);
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(back.materials[k].alphaMode, s.materials[k].alphaMode);
+    EXPECT_EQ(back.materials[k].alphaCutoff, s.materials[k].alphaCutoff);
+    EXPECT_EQ(back.materials[k].transmissionFactor, s.materials[k].transmissionFactor);
+    EXPECT_EQ(opacityAt(back, back.meshes[k], 0, 0.3f, 0.3f), opacityAt(s, s.meshes[k], 0, 0.3f, 0.3f));
+  }
 }
 
 TEST(SceneMaterial, OpaqueIgnoresAlphaAndBadAlphaModeIsRefused) {
