@@ -81,13 +81,14 @@ int vec2Accessor(test::GltfFile& f, const std::vector<float>& data) {
   return int(f.j["accessors"].size() - 1);
 }
 
-/// The occluder square facing down, TEXCOORD_0 = (x + kHalf, z + kHalf) / (2 kCell), so one
-/// repeat of a 2×2 texture covers 2×2 cells; placed by a root node.
-void addOccluder(test::GltfFile& f, int material, float height = kHeight) {
-  const float a = kHalf, p = 2.0f * kCell;
+/// The occluder square facing down, TEXCOORD_0 = (x + kHalf, z + kHalf) / (2 kCell) (one
+/// repeat of a 2×2 texture covers 2×2 cells) or, given, (x + kHalf, z + kHalf) · uvScale;
+/// placed by a root node.
+void addOccluder(test::GltfFile& f, int material, float height = kHeight, float uvScale = 0.5f / kCell) {
+  const float a = kHalf, u = 2 * a * uvScale;
   const std::vector<float> positions = {-a, height, -a, a, height, -a, a, height, a, -a, height, a};
   const std::vector<float> normals = {0, -1, 0, 0, -1, 0, 0, -1, 0, 0, -1, 0};
-  const std::vector<float> uv = {0, 0, 2 * a / p, 0, 2 * a / p, 2 * a / p, 0, 2 * a / p};
+  const std::vector<float> uv = {0, 0, u, 0, u, u, 0, u};
   Json prim = {{"attributes",
                 {{"POSITION", f.accessor(positions, "VEC3")}, {"NORMAL", f.accessor(normals, "VEC3")},
                  {"TEXCOORD_0", vec2Accessor(f, uv)}}},
@@ -102,12 +103,13 @@ void addFloor(test::GltfFile& f, int material = -1) {
   f.node({{"mesh", f.mesh(test::makePlane({0, 0, 0}, 2.0f, 4), material)}}, true);
 }
 
-/// A 2×2 RGBA8 texture as image, sampler (REPEAT) and texture 0: texels (0,0) and (1,1) get
-/// alpha a11, the other two a01; RGB `rgb`.
-void addTexture(test::GltfFile& f, uint8_t rgb, uint8_t a11, uint8_t a01) {
+/// A 2×2 RGBA8 texture as image, sampler (REPEAT, or CLAMP_TO_EDGE) and texture 0: texels
+/// (0,0) and (1,1) get alpha a11, the other two a01; RGB `rgb`.
+void addTexture(test::GltfFile& f, uint8_t rgb, uint8_t a11, uint8_t a01, bool clamp = false) {
   const std::string png = test::encodePng(2, 2, {rgb, rgb, rgb, a11, rgb, rgb, rgb, a01, rgb, rgb, rgb, a01, rgb, rgb, rgb, a11});
   f.j["images"].push_back({{"uri", "data:image/png;base64," + test::base64(png)}});
-  f.j["samplers"] = Json::array({{{"wrapS", 10497}, {"wrapT", 10497}}});
+  const int wrap = clamp ? 33071 : 10497;
+  f.j["samplers"] = Json::array({{{"wrapS", wrap}, {"wrapT", wrap}}});
   f.j["textures"].push_back({{"source", f.j["images"].size() - 1}, {"sampler", 0}});
 }
 
@@ -362,30 +364,64 @@ TEST(BakeCutout, SameBitsForAnyThreadCount) {
 }
 
 // Alpha that cannot cut anything changes nothing: an OPAQUE square whose factor and texture
-// alpha are 0 (OPAQUE ignores alpha), and a MASK square whose alpha is everywhere above the
-// cutoff (traced through the filter, which accepts every hit), bake to the bits of the plain
-// opaque square, bounces included.
+// alpha are 0 (OPAQUE ignores alpha), a MASK square whose alpha is 1 (traced without a filter:
+// passesLight), and a MASK square whose texture has a clear texel that its coordinates never
+// reach (traced through the filter, which then accepts every hit) bake to the bits of the
+// plain opaque square, bounces included.
 TEST(BakeCutout, AlphaThatCutsNothingChangesNoBit) {
   test::TempDir dir;
-  auto bakeWith = [&](const Json& material, bool texture) {
+  enum Texture { kNone, kClear, kUnreached };
+  auto bakeWith = [&](const Json& material, Texture texture) {
     test::GltfFile f;
-    if (texture) addTexture(f, 255, 0, 0);
-    addOccluder(f, addMaterial(f, material));
+    // Unreached: texel (0, 0) solid, the others clear, clamped, read only at u, v ∈ [0, ¼],
+    // where the bilinear lookup is texel (0, 0) alone.
+    if (texture != kNone) addTexture(f, 255, texture == kClear ? 0 : 255, 0, texture == kUnreached);
+    addOccluder(f, addMaterial(f, material), kHeight, texture == kUnreached ? 0.125f / kHalf : 0.5f / kCell);
     addFloor(f, addMaterial(f, {{"pbrMetallicRoughness", {{"baseColorFactor", {0.7, 0.7, 0.7, 1.0}}}}}));
     bake::BakeSettings bs;
     bs.samples = 256;
     bs.bounces = 2;
-    return bake::bakeSurface(loadScene(f.write("nocut", dir.path())), bs);
+    const Scene s = loadScene(f.write("nocut", dir.path()));
+    EXPECT_EQ(passesLight(s)[0], texture == kUnreached) << material.dump();
+    return bake::bakeSurface(s, bs);
   };
   const Json grey = {{"baseColorFactor", {0.6, 0.6, 0.6, 1.0}}};
-  const bake::SurfaceTransfer plain = bakeWith({{"pbrMetallicRoughness", grey}}, false);
+  const Json greyTextured = {{"baseColorFactor", {0.6, 0.6, 0.6, 1.0}}, {"baseColorTexture", {{"index", 0}}}};
+  const bake::SurfaceTransfer plain = bakeWith({{"pbrMetallicRoughness", grey}}, kNone);
   Json clear = {{"pbrMetallicRoughness", {{"baseColorFactor", {0.6, 0.6, 0.6, 0.0}}, {"baseColorTexture", {{"index", 0}}}}}};
-  const bake::SurfaceTransfer opaque = bakeWith(clear, true);
-  const bake::SurfaceTransfer mask = bakeWith({{"alphaMode", "MASK"}, {"alphaCutoff", 0.9}, {"pbrMetallicRoughness", grey}}, false);
+  const bake::SurfaceTransfer opaque = bakeWith(clear, kClear);
+  const bake::SurfaceTransfer solidMask = bakeWith({{"alphaMode", "MASK"}, {"alphaCutoff", 0.9}, {"pbrMetallicRoughness", grey}}, kNone);
+  const bake::SurfaceTransfer unreached = bakeWith({{"alphaMode", "MASK"}, {"pbrMetallicRoughness", greyTextured}}, kUnreached);
   for (size_t k = 0; k < 2; ++k) {
     EXPECT_TRUE(sameBits(plain.perMesh[k], opaque.perMesh[k])) << "instance " << k;
-    EXPECT_TRUE(sameBits(plain.perMesh[k], mask.perMesh[k])) << "instance " << k;
+    EXPECT_TRUE(sameBits(plain.perMesh[k], solidMask.perMesh[k])) << "instance " << k;
+    EXPECT_TRUE(sameBits(plain.perMesh[k], unreached.perMesh[k])) << "instance " << k;
   }
+}
+
+// passesLight: which instances the bake tests hits on.
+TEST(SceneMaterial, PassesLightOnlyWhereAlphaCanCut) {
+  test::TempDir dir;
+  test::GltfFile f;
+  addTexture(f, 255, 255, 0);
+  f.j["images"].push_back(f.j["images"][0]);  // image 1: alpha 1 everywhere (a JPEG's)
+  const std::string png = test::encodePng(1, 1, {9, 9, 9, 255});
+  f.j["images"][1]["uri"] = "data:image/png;base64," + test::base64(png);
+  f.j["textures"].push_back({{"source", 1}});
+  const Json solidTexture = {{"baseColorTexture", {{"index", 1}}}};
+  const std::vector<std::pair<Json, bool>> cases = {
+      {checkerMask(), true},
+      {{{"alphaMode", "MASK"}, {"pbrMetallicRoughness", solidTexture}}, false},
+      {{{"alphaMode", "MASK"}, {"alphaCutoff", 0.6}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.5}}}}}, true},
+      {{{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", solidTexture}}, false},
+      {{{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.99}}}}}, true},
+      {{{"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.1}}}}}}, true},
+      {{{"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.0}}}}}, false}};
+  for (const auto& [material, passes] : cases) addOccluder(f, addMaterial(f, material));
+  const Scene s = loadScene(f.write("passes", dir.path()));
+  const std::vector<char> got = passesLight(s);
+  ASSERT_EQ(got.size(), cases.size());
+  for (size_t k = 0; k < cases.size(); ++k) EXPECT_EQ(bool(got[k]), cases[k].second) << cases[k].first.dump();
 }
 
 }  // namespace

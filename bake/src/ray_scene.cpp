@@ -106,6 +106,7 @@ RayScene::RayScene(const Scene& scene, bool includeReceivers) : impl_(std::make_
 
   glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
   impl_->partial.reserve(scene.meshes.size());
+  const std::vector<char> partial = passesLight(scene);
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     const MeshInstance& m = scene.meshes[k];
     if ((m.receiverOnly && !includeReceivers) || m.triangleCount() == 0) continue;
@@ -121,8 +122,8 @@ RayScene::RayScene(const Scene& scene, bool includeReceivers) : impl_(std::make_
         g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), m.triangleCount()));
     std::memcpy(ib, m.indices.data(), m.indices.size() * sizeof(uint32_t));
     rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
-    if (mayPassLight(scene, m)) {
-      // Only these get a filter: opaque instances keep Embree's full speed.
+    if (partial[k]) {
+      // Only these get a filter: solid instances keep Embree's full speed.
       impl_->partial.push_back({&scene, &m, static_cast<uint32_t>(k)});
       rtcSetGeometryUserData(g, &impl_->partial.back());
       rtcSetGeometryIntersectFilterFunction(g, partialOccluderFilter);

@@ -577,8 +577,8 @@ void Renderer::Impl::ensureFramebuffer(int width, int height, int samples) {
   fboSamples = samples;
 }
 
-// The background: a full-screen triangle at the far depth, drawn last with GL_EQUAL so that only
-// pixels no instance covered run it. Each pixel's centre ray (the same as the orbit and glTF
+// The background: a full-screen triangle at the far depth, drawn after the opaque instances
+// (before the blended ones) with GL_EQUAL so that only pixels no opaque instance covered run it. Each pixel's centre ray (the same as the orbit and glTF
 // cameras' rays, docs/render.md) looks up RigBackground::radiance.
 constexpr const char* kBackgroundVertexGlsl = R"(#version 450 core
 void main() {

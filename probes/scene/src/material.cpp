@@ -110,4 +110,32 @@ bool mayPassLight(const Scene& scene, const MeshInstance& mesh) {
   return mat.alphaMode != Material::AlphaMode::Opaque || mat.transmissionFactor > 0.0f;
 }
 
+std::vector<char> passesLight(const Scene& scene) {
+  std::vector<float> textureMin(scene.textures.size(), -1.0f);  // -1: not scanned yet
+  auto minAlpha = [&](int texture) {
+    float& m = textureMin[size_t(texture)];
+    if (m < 0.0f) {
+      m = 1.0f;
+      for (const glm::vec4& t : scene.textures[size_t(texture)].texels) m = std::min(m, std::max(t.a, 0.0f));
+    }
+    return m;
+  };
+  std::vector<char> out(scene.meshes.size(), 0);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& mesh = scene.meshes[k];
+    if (!mayPassLight(scene, mesh)) continue;
+    const Material& mat = scene.materials[size_t(mesh.material)];
+    if (mat.transmissionFactor > 0.0f) {
+      out[k] = 1;
+      continue;
+    }
+    float color = 1.0f;
+    for (const glm::vec4& c : mesh.colors) color = std::min(color, std::max(c.a, 0.0f));
+    const float texture = mat.baseColorTexture >= 0 && !mesh.texcoords.empty() ? minAlpha(mat.baseColorTexture) : 1.0f;
+    const float alpha = std::max(mat.baseColorFactor.a, 0.0f) * texture * color;
+    out[k] = mat.alphaMode == Material::AlphaMode::Mask ? alpha < mat.alphaCutoff : alpha < 1.0f;
+  }
+  return out;
+}
+
 }  // namespace prt

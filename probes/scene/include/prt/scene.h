@@ -197,9 +197,15 @@ float alphaAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float 
 /// Opacity at a point of `tri`: the share of light the surface stops there, in [0, 1]. The
 /// coverage (Opaque 1, Mask alpha >= alphaCutoff ? 1 : 0, Blend alpha) × (1 − transmission).
 float opacityAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2);
-/// False when the instance's opacity is 1 everywhere (opaque, or no material): light never
-/// passes it, and the bake traces it without any per-hit test.
+/// False when the instance's material makes its opacity 1 everywhere (OPAQUE without
+/// transmission, or no material), whatever its alpha.
 bool mayPassLight(const Scene& scene, const MeshInstance& mesh);
+/// Per instance of the scene: whether its opacity can be below 1 anywhere. Sharper than
+/// mayPassLight: a MASK or BLEND instance whose smallest alpha (factor × the texture's smallest
+/// texel alpha × the smallest COLOR_0 alpha: interpolation never goes below them) is at least
+/// the cutoff (MASK) or 1 (BLEND) is solid too, e.g. MASK over a JPEG. Scans each texture
+/// once. The bake tests hits only on these instances.
+std::vector<char> passesLight(const Scene& scene);
 
 /// Writes `inputPath`'s scene as .glb with each baked instance's transfer (scene.meshes[k].
 /// transfer, scene.transferBands) as attributes _PRT_SH_00 .. (VEC3 float, RGB of coefficient
