@@ -578,8 +578,9 @@ void Renderer::Impl::ensureFramebuffer(int width, int height, int samples) {
 }
 
 // The background: a full-screen triangle at the far depth, drawn after the opaque instances
-// (before the blended ones) with GL_EQUAL so that only pixels no opaque instance covered run it. Each pixel's centre ray (the same as the orbit and glTF
-// cameras' rays, docs/render.md) looks up RigBackground::radiance.
+// (before the blended ones) with GL_EQUAL so that only pixels no opaque instance covered run
+// it. Each pixel's centre ray (the same as the orbit and glTF cameras' rays, docs/render.md)
+// looks up RigBackground::radiance.
 constexpr const char* kBackgroundVertexGlsl = R"(#version 450 core
 void main() {
   vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0);
