@@ -220,6 +220,9 @@ TEST(BakeResume, CheckpointOfAnotherBakeIsRefusedNamingTheDifference) {
   Scene recoloured = scene;
   recoloured.materials[0].baseColorFactor.r = 0.5f;
   EXPECT_NE(messageFor(recoloured, s).find("scene materials differs"), std::string::npos);
+  Scene cutOut = scene;
+  cutOut.materials[0].alphaMode = Material::AlphaMode::Mask;
+  EXPECT_NE(messageFor(cutOut, s).find("scene materials differs"), std::string::npos);
   EXPECT_EQ(messageFor(scene, s), "accepted");
   // Without --resume an existing checkpoint is not silently replaced.
   CheckpointOptions fresh;

@@ -46,6 +46,14 @@ void addSceneFingerprint(Fingerprint& fp, const Scene& scene) {
     materials.add(&m.baseColorFactor, sizeof m.baseColorFactor);
     int32_t v[4] = {m.baseColorTexture, m.baseColorTexCoord, m.doubleSided, m.unlit};
     materials.add(v, sizeof v);
+    // Alpha and transmission only where they let light through, so an opaque scene keeps the
+    // fingerprint of the bakes before they were read.
+    if (m.alphaMode != Material::AlphaMode::Opaque || m.transmissionFactor > 0.0f) {
+      const float f[2] = {m.alphaCutoff, m.transmissionFactor};
+      const int32_t w[2] = {int32_t(m.alphaMode), m.transmissionTexture};
+      materials.add(f, sizeof f);
+      materials.add(w, sizeof w);
+    }
   }
   for (const Texture& t : scene.textures) {
     int32_t v[4] = {t.width, t.height, t.wrapS, t.wrapT};

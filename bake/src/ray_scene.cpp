@@ -5,9 +5,11 @@
 #include <cstring>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include <embree3/rtcore.h>
 
+#include "prt/bake/sampling.h"
 #include "prt/error.h"
 
 namespace prt::bake {
@@ -26,10 +28,18 @@ static_assert(offsetof(Ray, mesh) == offsetof(RTCRayHit, hit.geomID));
 static_assert(offsetof(Ray, inst) == offsetof(RTCRayHit, hit.instID));
 static_assert(RTC_INVALID_GEOMETRY_ID == Ray::kInvalid);
 
+// What the filter of an instance that may let light through reads (its geometry's user data).
+struct PartialOccluder {
+  const Scene* scene;
+  const MeshInstance* mesh;
+  uint32_t geometry;
+};
+
 struct RayScene::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   std::string error;  // first error Embree reported (set by its callback)
+  std::vector<PartialOccluder> partial;  // reserved up front: geometries point into it
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
     if (device) rtcReleaseDevice(device);
@@ -47,6 +57,43 @@ void errorCallback(void* user, RTCError code, const char* str) {
                                           : cat("error ", int(code), ": ", str ? str : "");
 }
 
+uint32_t floatBits(float x) {
+  uint32_t u;
+  std::memcpy(&u, &x, sizeof u);
+  return u;
+}
+
+// Cutouts and partial occluders (docs/bake.md, "Materials as light sees them"). Embree calls
+// this for every candidate hit on an instance that may let light through, for intersect and
+// occluded rays alike; clearing valid[i] makes the ray go on as if the triangle were not there.
+// Opacity 0 (a cutout) always passes, 1 always stops. A partial opacity α is decided by a
+// deterministic coin: a hash of the ray (origin and direction bits) and the triangle, stopping
+// the ray when the hash's uniform number is below α. So a partial surface is, per ray, either
+// a full hit (it shadows, and a bounce gathers the light it reflects) or not there at all: the
+// expected transmittance is 1 − α along every path (unbiased), a ray meeting the same triangle
+// twice (Embree may test a hit more than once) gets the same answer, and the result depends on
+// the ray alone, not on the thread or the order it is traced in.
+void partialOccluderFilter(const RTCFilterFunctionNArguments* args) {
+  const auto& occ = *static_cast<const PartialOccluder*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const uint32_t tri = RTCHitN_primID(args->hit, args->N, i);
+    const float opacity = opacityAt(*occ.scene, *occ.mesh, tri, RTCHitN_u(args->hit, args->N, i),
+                                    RTCHitN_v(args->hit, args->N, i));
+    if (opacity >= 1.0f) continue;
+    if (opacity > 0.0f) {
+      RTCRayN* ray = args->ray;
+      const unsigned N = args->N;
+      uint64_t h = splitMix64((uint64_t(occ.geometry) << 32) | tri);
+      for (float x : {RTCRayN_org_x(ray, N, i), RTCRayN_org_y(ray, N, i), RTCRayN_org_z(ray, N, i),
+                      RTCRayN_dir_x(ray, N, i), RTCRayN_dir_y(ray, N, i), RTCRayN_dir_z(ray, N, i)})
+        h = splitMix64(h ^ floatBits(x));
+      if (float(h >> 40) * 0x1p-24f < opacity) continue;  // stopped
+    }
+    args->valid[i] = 0;
+  }
+}
+
 }  // namespace
 
 RayScene::RayScene(const Scene& scene, bool includeReceivers) : impl_(std::make_unique<Impl>()) {
@@ -58,6 +105,8 @@ RayScene::RayScene(const Scene& scene, bool includeReceivers) : impl_(std::make_
   rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
 
   glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  impl_->partial.reserve(scene.meshes.size());
+  const std::vector<char> partial = passesLight(scene);
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     const MeshInstance& m = scene.meshes[k];
     if ((m.receiverOnly && !includeReceivers) || m.triangleCount() == 0) continue;
@@ -73,6 +122,13 @@ RayScene::RayScene(const Scene& scene, bool includeReceivers) : impl_(std::make_
         g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), m.triangleCount()));
     std::memcpy(ib, m.indices.data(), m.indices.size() * sizeof(uint32_t));
     rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
+    if (partial[k]) {
+      // Only these get a filter: solid instances keep Embree's full speed.
+      impl_->partial.push_back({&scene, &m, static_cast<uint32_t>(k)});
+      rtcSetGeometryUserData(g, &impl_->partial.back());
+      rtcSetGeometryIntersectFilterFunction(g, partialOccluderFilter);
+      rtcSetGeometryOccludedFilterFunction(g, partialOccluderFilter);
+    }
     rtcCommitGeometry(g);
     rtcAttachGeometryByID(impl_->scene, g, static_cast<unsigned>(k));
     rtcReleaseGeometry(g);

@@ -26,6 +26,8 @@ namespace prt::render {
   X(PFNGLENABLEPROC, Enable)                                                        \
   X(PFNGLDISABLEPROC, Disable)                                                      \
   X(PFNGLDEPTHFUNCPROC, DepthFunc)                                                  \
+  X(PFNGLDEPTHMASKPROC, DepthMask)                                                  \
+  X(PFNGLBLENDFUNCPROC, BlendFunc)                                                  \
   X(PFNGLCLIPCONTROLPROC, ClipControl)                                              \
   X(PFNGLCULLFACEPROC, CullFace)                                                    \
   X(PFNGLFRONTFACEPROC, FrontFace)                                                  \

@@ -201,6 +201,8 @@ std::string withMaterialDefines(const std::string& source, int variant) {
   std::string defines;
   if (variant & kVariantTexture) defines += "#define HAS_TEXTURE 1\n";
   if (variant & kVariantColor) defines += "#define HAS_COLOR 1\n";
+  if (variant & kVariantMask) defines += "#define HAS_MASK 1\n";
+  if (variant & kVariantBlend) defines += "#define HAS_BLEND 1\n";
   return source.substr(0, eol) + defines + source.substr(eol);
 }
 
@@ -298,12 +300,12 @@ std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
   else
     s += probeLookupGlsl(bands);
   s += irradianceGlsl(bands);
-  s += "out vec4 fragColor;\nvoid main() {\n  vec3 n = normalize(vNormal);\n";
+  s += "out vec4 fragColor;\nvoid main() {\n  float a = coverage();\n  vec3 n = normalize(vNormal);\n";
   if (perVertex)
     s += "  vec3 e = irradiance(vRadiance, n);\n";
   else
     s += "  vec4 T[kTexels];\n  incidentRadiance(vWorld, n, T);\n  vec3 e = irradiance(T, n);\n";
-  return s + "  fragColor = vec4(albedo() * e * 0.31830988618379067, 1.0);\n}\n";
+  return s + "  fragColor = vec4(albedo() * e * 0.31830988618379067, a);\n}\n";
 }
 
 int radianceTexels(int bands) { return int(3 * irradianceCoefficients(bands).size() + 3) / 4; }

@@ -15,8 +15,9 @@
 
 namespace prt::render {
 
-/// GLSL of the fragment shaders (baked and receivers): the material's inputs and
-/// albedo() = baseColorFactor × baseColorTexture(texcoord) × COLOR_0. Texcoords and colours are
+/// GLSL of the fragment shaders (baked and receivers): the material's inputs,
+/// albedo() = baseColorFactor × baseColorTexture(texcoord) × COLOR_0, and coverage(), which
+/// discards a MASK cutout and returns the opacity (alpha × (1 − transmission)). Texcoords and colours are
 /// read only in the variants compiled with HAS_TEXTURE / HAS_COLOR defined (withMaterialDefines):
 /// a material without them interpolates no varyings for them and runs no branch. Fragment inputs
 /// are `centroid` everywhere: with multisampling, a pixel on an edge is shaded at its covered
@@ -40,6 +41,33 @@ vec3 albedo() {
 #endif
   return a;
 }
+#if defined(HAS_MASK) || defined(HAS_BLEND)
+float baseAlpha() {
+  float a = uBaseColor.a;
+#ifdef HAS_COLOR
+  a *= vColor.a;
+#endif
+#ifdef HAS_TEXTURE
+  a *= texture(uBaseColorTexture, vTexcoord).a;
+#endif
+  return a;
+}
+#endif
+#ifdef HAS_MASK
+uniform float uAlphaCutoff;
+#endif
+uniform float uOpacity;  // 1 − transmissionFactor
+// The fragment's opacity, the alpha it is blended with; a MASK cutout is discarded here.
+float coverage() {
+#ifdef HAS_MASK
+  if (baseAlpha() < uAlphaCutoff) discard;
+#endif
+#ifdef HAS_BLEND
+  return clamp(baseAlpha(), 0.0, 1.0) * uOpacity;
+#else
+  return uOpacity;
+#endif
+}
 )";
 
 // The vertex shaders' side of kAlbedoInputsGlsl: declarations, and the copies in main().
@@ -59,10 +87,11 @@ inline constexpr const char* kAlbedoPassGlsl = R"(#ifdef HAS_TEXTURE
 )";
 
 /// Material variant of a shader: bit kVariantTexture (base colour texture sampled), bit
-/// kVariantColor (COLOR_0 present).
-constexpr int kVariantTexture = 1, kVariantColor = 2, kVariants = 4;
-/// `source` (starting with its #version line) with HAS_TEXTURE / HAS_COLOR defined after that
-/// line as `variant` says.
+/// kVariantColor (COLOR_0 present), bit kVariantMask (alphaMode MASK: cutouts discarded), bit
+/// kVariantBlend (alphaMode BLEND: the alpha is the fragment's opacity).
+constexpr int kVariantTexture = 1, kVariantColor = 2, kVariantMask = 4, kVariantBlend = 8, kVariants = 16;
+/// `source` (starting with its #version line) with HAS_TEXTURE / HAS_COLOR / HAS_MASK /
+/// HAS_BLEND defined after that line as `variant` says.
 std::string withMaterialDefines(const std::string& source, int variant);
 
 /// Texels per probe in the static buffer (probeStaticTexels).

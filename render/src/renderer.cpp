@@ -77,13 +77,16 @@ void main() {
   return s;
 }
 
-// Albedo per pixel: baseColorFactor × texture(texcoord) × COLOR_0 (kAlbedoInputsGlsl); alpha is
-// ignored.
+// Albedo per pixel: baseColorFactor × texture(texcoord) × COLOR_0 (kAlbedoInputsGlsl); the
+// alpha is the opacity (coverage(): MASK cutouts discarded, BLEND and transmission blended).
 std::string bakedFragmentShader() {
   return cat(R"(#version 450 core
 centroid in vec3 vTransferLight;
 )", kAlbedoInputsGlsl, R"(out vec4 fragColor;
-void main() { fragColor = vec4(albedo() * vTransferLight * 0.31830988618379067, 1.0); }
+void main() {
+  float a = coverage();
+  fragColor = vec4(albedo() * vTransferLight * 0.31830988618379067, a);
+}
 )");
 }
 
@@ -190,13 +193,15 @@ struct Renderer::Impl {
     GLuint texture = 0;
     bool hasColor = false;
     bool doubleSided = false;
-    int variant = 0;  // kVariantTexture | kVariantColor: the shader variant it is drawn with
+    float alphaCutoff = 0.5f, opacity = 1.0f;  // MASK's cutoff; 1 − transmissionFactor
+    bool blend = false;  // drawn blended after the opaque pass (BLEND or transmission)
+    int variant = 0;  // kVariantTexture | kVariantColor | ...: the shader variant it is drawn with
     MeshInstance placement;  // receivers: node and rest world only (no vertices), for the motion
   };
   struct Program {
     GLuint id = 0;
     GLint viewProj = -1, model = -1, normalMatrix = -1, light = -1, baseColor = -1, origin = -1, spacing = -1,
-          dims = -1, nearZero = -1;
+          dims = -1, nearZero = -1, alphaCutoff = -1, opacity = -1;
   };
 
   GlContext& context;
@@ -308,6 +313,8 @@ Renderer::Impl::Program Renderer::Impl::link(const std::string& vsSource, const 
   p.spacing = loc("uSpacing");
   p.dims = loc("uDims");
   p.nearZero = loc("uNearZero");
+  p.alphaCutoff = loc("uAlphaCutoff");
+  p.opacity = loc("uOpacity");
   return p;
 }
 
@@ -343,6 +350,13 @@ void Renderer::Impl::setMaterial(const Scene& scene, const MeshInstance& m, Inst
   const Material& mat = scene.materials.at(size_t(m.material));
   in.baseColor = mat.baseColorFactor;
   in.doubleSided = mat.doubleSided;
+  // Transmission: thin and untinted, as in the bake, and read from its factor only (the
+  // transmission texture is not sampled here): the background shows through 1 − opacity.
+  in.opacity = 1.0f - std::clamp(mat.transmissionFactor, 0.0f, 1.0f);
+  in.alphaCutoff = mat.alphaCutoff;
+  if (mat.alphaMode == Material::AlphaMode::Mask) in.variant |= kVariantMask;
+  if (mat.alphaMode == Material::AlphaMode::Blend) in.variant |= kVariantBlend;
+  in.blend = mat.alphaMode == Material::AlphaMode::Blend || mat.transmissionFactor > 0.0f;
   if (mat.baseColorTexture >= 0 && !m.texcoords.empty()) {
     GLuint& tex = textures.at(size_t(mat.baseColorTexture));
     if (!tex) tex = uploadTexture(scene.textures[size_t(mat.baseColorTexture)]);
@@ -563,9 +577,10 @@ void Renderer::Impl::ensureFramebuffer(int width, int height, int samples) {
   fboSamples = samples;
 }
 
-// The background: a full-screen triangle at the far depth, drawn last with GL_EQUAL so that only
-// pixels no instance covered run it. Each pixel's centre ray (the same as the orbit and glTF
-// cameras' rays, docs/render.md) looks up RigBackground::radiance.
+// The background: a full-screen triangle at the far depth, drawn after the opaque instances
+// (before the blended ones) with GL_EQUAL so that only pixels no opaque instance covered run
+// it. Each pixel's centre ray (the same as the orbit and glTF cameras' rays, docs/render.md)
+// looks up RigBackground::radiance.
 constexpr const char* kBackgroundVertexGlsl = R"(#version 450 core
 void main() {
   vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0);
@@ -850,6 +865,8 @@ ImageRgb Renderer::render(const Frame& frame) {
     }
     if (!flat) {
       gl.ProgramUniform4fv(p.id, p.baseColor, 1, &in.baseColor.x);
+      gl.ProgramUniform1f(p.id, p.opacity, in.opacity);
+      if (p.alphaCutoff >= 0) gl.ProgramUniform1f(p.id, p.alphaCutoff, in.alphaCutoff);
       if (in.texture) gl.BindTextureUnit(0, in.texture);
     }
     gl.BindVertexArray(in.vao);
@@ -857,14 +874,16 @@ ImageRgb Renderer::render(const Frame& frame) {
   };
   // Draws `list` grouped by program: each material variant's, or the flat one for all.
   // `place(program, instance)` sets the instance's own uniforms and returns whether its motion
-  // mirrors it.
+  // mirrors it. `blended`: the instances drawn blended (Instance::blend), else the others; flat
+  // shading draws every instance opaque.
   auto drawAll = [&](const std::vector<Impl::Instance>& list, const std::array<Impl::Program, kVariants>& programs,
-                     auto&& place) {
+                     auto&& place, bool blended = false) {
     for (int variant = 0; variant < (flat ? 1 : kVariants); ++variant) {
       const Impl::Program& p = flat ? r.flatProgram : programs[size_t(variant)];
       bool used = false;
       for (const Impl::Instance& in : list) {
         if (!flat && in.variant != variant) continue;
+        if (flat ? blended : in.blend != blended) continue;
         if (!used) {
           gl.UseProgram(p.id);
           gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &viewProj[0][0]);
@@ -878,33 +897,50 @@ ImageRgb Renderer::render(const Frame& frame) {
   };
 
   r.stats.triangles = r.stats.receiverTriangles = 0;
-  drawAll(r.instances, r.programs, [&](const Impl::Program&, const Impl::Instance& in) {
+  auto placeBaked = [&](const Impl::Program&, const Impl::Instance& in) {
     if (!flat && r.bands > kMaxAttributeBands) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.buffers[4]);
     return false;
-  });
+  };
+  drawAll(r.instances, r.programs, placeBaked);
+  auto placeReceiver = [&](const Impl::Program& p, const Impl::Instance& in) {
+    const glm::dmat4 motion = instanceMotion(r.animation, in.placement, frame.time);
+    const glm::dmat3 linear(motion);
+    // Cofactor matrix = det · inverse transpose: maps normals, defined even for singular
+    // motions; its scale does not matter (the shader normalises), its sign does.
+    glm::dmat3 cof(glm::cross(linear[1], linear[2]), glm::cross(linear[2], linear[0]),
+                   glm::cross(linear[0], linear[1]));
+    const bool mirrored = glm::determinant(linear) < 0.0;
+    if (mirrored) cof = -cof;
+    const glm::mat4 model(motion);
+    const glm::mat3 normalMatrix(cof);
+    gl.ProgramUniformMatrix4fv(p.id, p.model, 1, GL_FALSE, &model[0][0]);
+    if (!flat) gl.ProgramUniformMatrix3fv(p.id, p.normalMatrix, 1, GL_FALSE, &normalMatrix[0][0]);
+    r.stats.receiverTriangles += in.triangles;
+    return mirrored;
+  };
   if (drawReceivers) {
     // Drawn after the baked instances, so that the depth test rejects hidden receiver pixels
     // before their (costly) probe lookup runs.
     if (!flat)
       for (GLuint unit = 1; unit <= 3; ++unit) gl.BindTextureUnit(unit, r.probeTextures[unit - 1]);
-    drawAll(r.receivers, r.receiverPrograms[size_t(frame.probeLookup)], [&](const Impl::Program& p, const Impl::Instance& in) {
-      const glm::dmat4 motion = instanceMotion(r.animation, in.placement, frame.time);
-      const glm::dmat3 linear(motion);
-      // Cofactor matrix = det · inverse transpose: maps normals, defined even for singular
-      // motions; its scale does not matter (the shader normalises), its sign does.
-      glm::dmat3 cof(glm::cross(linear[1], linear[2]), glm::cross(linear[2], linear[0]),
-                     glm::cross(linear[0], linear[1]));
-      const bool mirrored = glm::determinant(linear) < 0.0;
-      if (mirrored) cof = -cof;
-      const glm::mat4 model(motion);
-      const glm::mat3 normalMatrix(cof);
-      gl.ProgramUniformMatrix4fv(p.id, p.model, 1, GL_FALSE, &model[0][0]);
-      if (!flat) gl.ProgramUniformMatrix3fv(p.id, p.normalMatrix, 1, GL_FALSE, &normalMatrix[0][0]);
-      r.stats.receiverTriangles += in.triangles;
-      return mirrored;
-    });
+    drawAll(r.receivers, r.receiverPrograms[size_t(frame.probeLookup)], placeReceiver);
   }
   if (!flat && frame.background) r.drawBackground(*frame.background, camera, width, height);
+  if (!flat) {
+    // BLEND and transmissive instances last, over the opaque ones and the background: "over"
+    // blending (src·α + dst·(1 − α)), depth tested against the opaque depth but not written,
+    // in the order of the scene, unsorted (exact for one layer, approximate where two overlap).
+    gl.Enable(GL_BLEND);
+    gl.BlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    gl.DepthMask(GL_FALSE);
+    drawAll(r.instances, r.programs, placeBaked, true);
+    if (drawReceivers) {
+      for (GLuint unit = 1; unit <= 3; ++unit) gl.BindTextureUnit(unit, r.probeTextures[unit - 1]);
+      drawAll(r.receivers, r.receiverPrograms[size_t(frame.probeLookup)], placeReceiver, true);
+    }
+    gl.DepthMask(GL_TRUE);
+    gl.Disable(GL_BLEND);
+  }
   gl.BindVertexArray(0);
   gl.Finish();
   r.checkError("drawing the frame");

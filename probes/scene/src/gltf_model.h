@@ -22,6 +22,7 @@ constexpr const char* kUnlit = "KHR_materials_unlit";
 constexpr const char* kLights = "KHR_lights_punctual";
 constexpr const char* kTextureTransform = "KHR_texture_transform";
 constexpr const char* kSpecularGlossiness = "KHR_materials_pbrSpecularGlossiness";
+constexpr const char* kTransmission = "KHR_materials_transmission";
 
 /// A loaded glTF document and the path its messages start with.
 struct Gltf {

@@ -218,7 +218,7 @@ namespace {
 void checkRequiredExtensions(const Gltf& g) {
   for (const std::string& ext : g.model.extensionsRequired) {
     if (ext == kUnlit || ext == kLights || ext == kTextureTransform || ext == kSpecularGlossiness ||
-        ext == kMeshQuantization || ext == kTextureWebp)
+        ext == kMeshQuantization || ext == kTextureWebp || ext == kTransmission)
       continue;
     fail(g, cat("required extension ", ext, " is not supported"));
   }
@@ -432,6 +432,7 @@ struct BaseColorSource {
   int texture = -1;
   int texCoord = 0;
   glm::dmat3 uvTransform{1.0};
+  int transmissionTexture = -1;  // KHR_materials_transmission's, read at the same coordinates
 };
 
 const char* modeName(int mode) {
@@ -874,8 +875,9 @@ int textureSource(const tinygltf::Texture& t) {
   return source.IsInt() ? source.Get<int>() : -1;
 }
 
-/// Decodes glTF texture `index` as sRGB base colour into linear RGBA.
-Texture decodeBaseColorTexture(const Gltf& g, int index) {
+/// Decodes glTF texture `index` into linear RGBA: as sRGB base colour, or (`srgb` false) as
+/// data whose texels are linear already (a transmission texture).
+Texture decodeBaseColorTexture(const Gltf& g, int index, bool srgb = true) {
   const tinygltf::Model& m = g.model;
   const tinygltf::Texture& t = m.textures[size_t(index)];
   std::string where = cat("texture ", index);
@@ -925,10 +927,10 @@ Texture decodeBaseColorTexture(const Gltf& g, int index) {
       float v;
       if (wide) {
         double x = static_cast<const uint16_t*>(pixels)[4 * i + size_t(c)] / 65535.0;
-        v = static_cast<float>(c < 3 ? srgbDecode(x) : x);  // alpha is linear
+        v = static_cast<float>(c < 3 && srgb ? srgbDecode(x) : x);  // alpha is linear
       } else {
         unsigned char x = static_cast<const unsigned char*>(pixels)[4 * i + size_t(c)];
-        v = c < 3 ? lut8[x] : x / 255.0f;
+        v = c < 3 && srgb ? lut8[x] : x / 255.0f;
       }
       out.texels[i][c] = v;
     }
@@ -979,6 +981,52 @@ void readTextureTransform(const Gltf& g, const tinygltf::ExtensionMap& extension
   out.uvTransform = translate * rotate * scaling;
 }
 
+/// alphaMode, alphaCutoff and KHR_materials_transmission. The transmission texture is read at
+/// the base colour's texture coordinates (MeshInstance holds one set): one that names another
+/// TEXCOORD_n or another KHR_texture_transform is ignored with a warning (the factor stays),
+/// unless the material has no base colour texture, whose coordinates it then decides.
+void readAlphaAndTransmission(const Gltf& g, const tinygltf::Material& src, const std::string& where, Material& mat,
+                              BaseColorSource& source, std::vector<std::string>& warnings) {
+  if (src.alphaMode == "MASK") mat.alphaMode = Material::AlphaMode::Mask;
+  else if (src.alphaMode == "BLEND") mat.alphaMode = Material::AlphaMode::Blend;
+  else if (!src.alphaMode.empty() && src.alphaMode != "OPAQUE")
+    fail(g, cat(where, ": alphaMode '", src.alphaMode, "' is not OPAQUE, MASK or BLEND"));
+  if (!std::isfinite(src.alphaCutoff) || src.alphaCutoff < 0.0)
+    fail(g, cat(where, ": alphaCutoff ", src.alphaCutoff, " is not a non-negative number"));
+  mat.alphaCutoff = static_cast<float>(src.alphaCutoff);
+  auto ext = src.extensions.find(kTransmission);
+  if (ext == src.extensions.end() || !ext->second.IsObject()) return;
+  const tinygltf::Value& t = ext->second;
+  const std::string here = cat(where, " / ", kTransmission);
+  if (t.Has("transmissionFactor")) {
+    const tinygltf::Value& f = t.Get("transmissionFactor");
+    if (!f.IsNumber() || !std::isfinite(f.GetNumberAsDouble()) || f.GetNumberAsDouble() < 0.0 ||
+        f.GetNumberAsDouble() > 1.0)
+      fail(g, cat(here, " / transmissionFactor: not a number in [0, 1]"));
+    mat.transmissionFactor = static_cast<float>(f.GetNumberAsDouble());
+  }
+  if (!t.Has("transmissionTexture")) return;
+  const tinygltf::Value& info = t.Get("transmissionTexture");
+  const tinygltf::Value& index = info.Get("index");
+  if (!info.IsObject() || !index.IsInt() || index.Get<int>() < 0 || size_t(index.Get<int>()) >= g.model.textures.size())
+    fail(g, cat(here, " / transmissionTexture: expected an object with the index of a texture"));
+  BaseColorSource own;
+  const tinygltf::Value& texCoord = info.Get("texCoord");
+  if (texCoord.IsInt()) own.texCoord = texCoord.Get<int>();
+  const tinygltf::Value& extensions = info.Get("extensions");
+  if (extensions.IsObject())
+    readTextureTransform(g, extensions.Get<tinygltf::Value::Object>(), cat(here, " / transmissionTexture"), own);
+  if (source.texture < 0) {
+    source.texCoord = own.texCoord;
+    source.uvTransform = own.uvTransform;
+  } else if (own.texCoord != source.texCoord || own.uvTransform != source.uvTransform) {
+    warnings.push_back(cat(g.path, ": ", here, ": transmissionTexture uses other texture coordinates than the base "
+                                              "colour texture; ignored (transmissionFactor only)"));
+    return;
+  }
+  source.transmissionTexture = index.Get<int>();
+}
+
 /// Reads the materials; their base colour textures are decoded later (decodeUsedTextures),
 /// once the instances show which materials the default scene uses.
 std::vector<BaseColorSource> readMaterials(const Gltf& g, Scene& scene) {
@@ -1023,6 +1071,7 @@ std::vector<BaseColorSource> readMaterials(const Gltf& g, Scene& scene) {
     if (texture >= 0 && size_t(texture) >= m.textures.size())
       fail(g, cat(where, ": base colour texture ", texture, " does not exist"));
     source.texture = texture;
+    readAlphaAndTransmission(g, src, where, mat, source, scene.warnings);
     mat.baseColorTexCoord = source.texCoord;
     mat.doubleSided = src.doubleSided;
     mat.unlit = src.extensions.count(kUnlit) > 0;
@@ -1038,12 +1087,17 @@ void decodeUsedTextures(const Gltf& g, const std::vector<BaseColorSource>& sourc
   std::vector<char> used(scene.materials.size(), 0);
   for (const MeshInstance& inst : scene.meshes)
     if (inst.material >= 0) used[size_t(inst.material)] = 1;
-  std::map<int, int> slot;  // glTF texture -> Scene::textures
+  std::map<std::pair<int, bool>, int> slot;  // (glTF texture, sRGB) -> Scene::textures
+  auto decode = [&](int texture, bool srgb) {
+    auto [it, fresh] = slot.emplace(std::make_pair(texture, srgb), int(scene.textures.size()));
+    if (fresh) scene.textures.push_back(decodeBaseColorTexture(g, texture, srgb));
+    return it->second;
+  };
   for (size_t i = 0; i < sources.size(); ++i) {
-    if (!used[i] || sources[i].texture < 0) continue;
-    auto [it, fresh] = slot.emplace(sources[i].texture, int(scene.textures.size()));
-    if (fresh) scene.textures.push_back(decodeBaseColorTexture(g, sources[i].texture));
-    scene.materials[i].baseColorTexture = it->second;
+    if (!used[i]) continue;
+    if (sources[i].texture >= 0) scene.materials[i].baseColorTexture = decode(sources[i].texture, true);
+    if (sources[i].transmissionTexture >= 0)
+      scene.materials[i].transmissionTexture = decode(sources[i].transmissionTexture, false);
   }
 }
 

@@ -1,5 +1,5 @@
-// Material lookups: bilinear texture sampling with the glTF wrap modes, and base colour at a
-// vertex or at a point of a triangle.
+// Material lookups: bilinear texture sampling with the glTF wrap modes, and base colour, alpha
+// and opacity at a vertex or at a point of a triangle.
 #include "prt/scene.h"
 
 #include <algorithm>
@@ -67,6 +67,75 @@ glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, f
   if (!mesh.colors.empty())
     albedo *= glm::vec3(b0 * mesh.colors[i[0]] + b1 * mesh.colors[i[1]] + b2 * mesh.colors[i[2]]);
   return albedo;
+}
+
+float alphaAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2) {
+  PRT_CHECK_LT(size_t(tri), mesh.triangleCount());
+  const uint32_t* i = &mesh.indices[3 * size_t(tri)];
+  const float b0 = 1.0f - b1 - b2;
+  float alpha = 1.0f;
+  if (mesh.material >= 0) {
+    const Material& mat = scene.materials[size_t(mesh.material)];
+    alpha = mat.baseColorFactor.a;
+    if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty()) {
+      glm::vec2 uv = b0 * mesh.texcoords[i[0]] + b1 * mesh.texcoords[i[1]] + b2 * mesh.texcoords[i[2]];
+      alpha *= scene.textures[size_t(mat.baseColorTexture)].sample(uv).a;
+    }
+  }
+  if (!mesh.colors.empty()) alpha *= b0 * mesh.colors[i[0]].a + b1 * mesh.colors[i[1]].a + b2 * mesh.colors[i[2]].a;
+  return alpha;
+}
+
+float opacityAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2) {
+  if (mesh.material < 0) return 1.0f;
+  const Material& mat = scene.materials[size_t(mesh.material)];
+  float coverage = 1.0f;
+  if (mat.alphaMode == Material::AlphaMode::Mask)
+    coverage = alphaAt(scene, mesh, tri, b1, b2) >= mat.alphaCutoff ? 1.0f : 0.0f;
+  else if (mat.alphaMode == Material::AlphaMode::Blend)
+    coverage = std::clamp(alphaAt(scene, mesh, tri, b1, b2), 0.0f, 1.0f);
+  if (coverage == 0.0f || mat.transmissionFactor <= 0.0f) return coverage;
+  float transmission = mat.transmissionFactor;
+  if (mat.transmissionTexture >= 0 && !mesh.texcoords.empty()) {
+    const uint32_t* i = &mesh.indices[3 * size_t(tri)];
+    glm::vec2 uv = (1.0f - b1 - b2) * mesh.texcoords[i[0]] + b1 * mesh.texcoords[i[1]] + b2 * mesh.texcoords[i[2]];
+    transmission *= scene.textures[size_t(mat.transmissionTexture)].sample(uv).r;
+  }
+  return coverage * (1.0f - std::clamp(transmission, 0.0f, 1.0f));
+}
+
+bool mayPassLight(const Scene& scene, const MeshInstance& mesh) {
+  if (mesh.material < 0) return false;
+  const Material& mat = scene.materials[size_t(mesh.material)];
+  return mat.alphaMode != Material::AlphaMode::Opaque || mat.transmissionFactor > 0.0f;
+}
+
+std::vector<char> passesLight(const Scene& scene) {
+  std::vector<float> textureMin(scene.textures.size(), -1.0f);  // -1: not scanned yet
+  auto minAlpha = [&](int texture) {
+    float& m = textureMin[size_t(texture)];
+    if (m < 0.0f) {
+      m = 1.0f;
+      for (const glm::vec4& t : scene.textures[size_t(texture)].texels) m = std::min(m, std::max(t.a, 0.0f));
+    }
+    return m;
+  };
+  std::vector<char> out(scene.meshes.size(), 0);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& mesh = scene.meshes[k];
+    if (!mayPassLight(scene, mesh)) continue;
+    const Material& mat = scene.materials[size_t(mesh.material)];
+    if (mat.transmissionFactor > 0.0f) {
+      out[k] = 1;
+      continue;
+    }
+    float color = 1.0f;
+    for (const glm::vec4& c : mesh.colors) color = std::min(color, std::max(c.a, 0.0f));
+    const float texture = mat.baseColorTexture >= 0 && !mesh.texcoords.empty() ? minAlpha(mat.baseColorTexture) : 1.0f;
+    const float alpha = std::max(mat.baseColorFactor.a, 0.0f) * texture * color;
+    out[k] = mat.alphaMode == Material::AlphaMode::Mask ? alpha < mat.alphaCutoff : alpha < 1.0f;
+  }
+  return out;
 }
 
 }  // namespace prt

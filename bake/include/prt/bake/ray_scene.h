@@ -40,7 +40,10 @@ struct alignas(16) Ray {
 class RayScene {
 public:
   /// Builds a BVH over the scene's non-receiver instances (geometry ids = instance indices).
-  /// `includeReceivers` adds receiver-only instances too.
+  /// `includeReceivers` adds receiver-only instances too. Instances that may let light through
+  /// (passesLight: MASK or BLEND alpha below the cutoff or 1 somewhere, transmission) are cut
+  /// out or partial occluders (opacityAt at the hit, a deterministic per-ray coin for partial
+  /// opacity; ray_scene.cpp); their hits read `scene`, which must then outlive the RayScene.
   explicit RayScene(const Scene& scene, bool includeReceivers = false);
   ~RayScene();
   RayScene(const RayScene&) = delete;

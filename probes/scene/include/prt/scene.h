@@ -50,6 +50,16 @@ struct Material {
   int baseColorTexCoord = 0;        // which TEXCOORD_n the texture uses (after the transform's override)
   bool doubleSided = false;
   bool unlit = false;               // KHR_materials_unlit
+  /// glTF alphaMode. The alpha is baseColorFactor.a × texture alpha × COLOR_0 alpha (alphaAt).
+  /// Opaque: alpha ignored; Mask: a cutout, solid where alpha >= alphaCutoff, absent elsewhere;
+  /// Blend: a partial occluder of opacity alpha (docs/formats.md, "Materials as light sees them").
+  enum class AlphaMode { Opaque, Mask, Blend };
+  AlphaMode alphaMode = AlphaMode::Opaque;
+  float alphaCutoff = 0.5f;         // Mask only
+  /// KHR_materials_transmission: the share of light that goes through (thin and untinted in
+  /// prt), transmissionFactor × transmissionTexture's R channel (linear texels).
+  float transmissionFactor = 0.0f;
+  int transmissionTexture = -1;     // index into Scene::textures (decoded linear), -1 if none
 };
 
 /// Why an instance is a receiver: left out of the bake (neither baked nor an occluder) and lit
@@ -182,6 +192,20 @@ glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t 
 /// Base colour at a point of triangle `tri` with barycentrics (b1, b2) of its 2nd and 3rd
 /// vertices (Embree's u, v).
 glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2);
+/// Base colour alpha (baseColorFactor.a × texture alpha × COLOR_0 alpha) at a point of `tri`.
+float alphaAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2);
+/// Opacity at a point of `tri`: the share of light the surface stops there, in [0, 1]. The
+/// coverage (Opaque 1, Mask alpha >= alphaCutoff ? 1 : 0, Blend alpha) × (1 − transmission).
+float opacityAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2);
+/// False when the instance's material makes its opacity 1 everywhere (OPAQUE without
+/// transmission, or no material), whatever its alpha.
+bool mayPassLight(const Scene& scene, const MeshInstance& mesh);
+/// Per instance of the scene: whether its opacity can be below 1 anywhere. Sharper than
+/// mayPassLight: a MASK or BLEND instance whose smallest alpha (factor × the texture's smallest
+/// texel alpha × the smallest COLOR_0 alpha: interpolation never goes below them) is at least
+/// the cutoff (MASK) or 1 (BLEND) is solid too, e.g. MASK over a JPEG. Scans each texture
+/// once. The bake tests hits only on these instances.
+std::vector<char> passesLight(const Scene& scene);
 
 /// Writes `inputPath`'s scene as .glb with each baked instance's transfer (scene.meshes[k].
 /// transfer, scene.transferBands) as attributes _PRT_SH_00 .. (VEC3 float, RGB of coefficient
