@@ -314,7 +314,7 @@ INSTANTIATE_TEST_SUITE_P(
                   {"pbrMetallicRoughness", {{"baseColorFactor", {0.2, 0.9, 0.4, 0.5}}}},
                   {"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.5}}}}}},
                  0.25}),
-    [](const ::testing::TestParamInfo<PaneCase>& info) { return std::string(info.param.name); });
+    [](const ::testing::TestParamInfo<PaneCase>& c) { return std::string(c.param.name); });
 
 // The bounces gather over accepted hits as over any hit: under a white pane of opacity α
 // facing down (over a black floor, so nothing else reflects), the floor's first bounce is

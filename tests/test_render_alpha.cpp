@@ -159,7 +159,7 @@ INSTANTIATE_TEST_SUITE_P(Materials, RenderAlphaBlend,
                          ::testing::Values(BlendCase{"blend", Material::AlphaMode::Blend, 0.3f, 0.0f, 0.3f},
                                            BlendCase{"transmission", Material::AlphaMode::Opaque, 0.3f, 0.25f, 0.75f},
                                            BlendCase{"blend_transmission", Material::AlphaMode::Blend, 0.5f, 0.5f, 0.25f}),
-                         [](const ::testing::TestParamInfo<BlendCase>& info) { return std::string(info.param.name); });
+                         [](const ::testing::TestParamInfo<BlendCase>& c) { return std::string(c.param.name); });
 
 }  // namespace
 }  // namespace prt::render
