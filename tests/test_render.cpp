@@ -210,7 +210,12 @@ Hit oracle(const Scene& s, const CameraView& c, const sh::ShRgb& light, int widt
       glm::vec2 uv(0.0f);
       if (!m.colors.empty()) color = glm::dvec3(0.0);
       for (int k = 0; k < 3; ++k) {
-        if (!receiver) e += b[k] * glm::dvec3(sh::dot(m.transferOf(v[k], s.transferBands), light.c.data(), light.size()));
+        // A double-sided instance with back-side transfer shows the side the ray sees.
+        const bool backSide = det < 0.0 && m.hasBackTransfer();
+        if (!receiver)
+          e += b[k] * glm::dvec3(sh::dot(backSide ? m.backTransferOf(v[k], s.transferBands)
+                                                  : m.transferOf(v[k], s.transferBands),
+                                         light.c.data(), light.size()));
         if (receiver) normal += b[k] * glm::dvec3(m.normals[v[k]]);
         if (!m.colors.empty()) color += b[k] * glm::dvec3(m.colors[v[k]]);
         if (!m.texcoords.empty()) uv += float(b[k]) * m.texcoords[v[k]];
@@ -554,6 +559,39 @@ TEST(RenderShading, BackFacesCulledUnlessDoubleSided) {
   const Comparison c = compare(r.render(frontCamera(), light), s, frontCamera(), light);
   EXPECT_GT(c.compared, 600);
   EXPECT_LT(c.maxError, shadingTolerance(ctx));
+}
+
+TEST(RenderShading, DoubleSidedQuadSeenFromBehindShowsItsBackSide) {
+  // Front and back transfer differ (random, two seeds); the quad is wound to face away from the
+  // camera, so every pixel shows the back side: its transfer·light, not the front's and not
+  // black. 2 bands read the front from attributes, 5 from a storage buffer; the back always
+  // comes from a storage buffer. The same quad turned to face the camera shows the front.
+  GlContext ctx(GlBackend::OSMesa, kWidth, kHeight);
+  for (int bands : {2, 5}) {
+    SCOPED_TRACE(cat(bands, " bands"));
+    Scene s = tiltedQuad(bands);
+    s.materials[0].doubleSided = true;
+    MeshInstance& m = s.meshes[0];
+    MeshInstance back = m;
+    fillTransfer(back, bands, 1234);
+    m.transferBack = back.transfer;
+    const sh::ShRgb light = randomLight(bands, 21);
+    Scene facing = s;
+    for (size_t i = 0; i < m.indices.size(); i += 3) std::swap(m.indices[i + 1], m.indices[i + 2]);  // faces away
+    Renderer r(ctx, s);
+    const ImageRgb img = r.render(frontCamera(), light);
+    const Comparison c = compare(img, s, frontCamera(), light);
+    EXPECT_GT(c.compared, 600);
+    EXPECT_LT(c.maxError, shadingTolerance(ctx));
+    // The oracle with the back transfer dropped (the front's values) is far from the frame.
+    Scene frontOnly = s;
+    frontOnly.meshes[0].transferBack.clear();
+    EXPECT_GT(compare(img, frontOnly, frontCamera(), light).maxError, 100 * shadingTolerance(ctx));
+    Renderer rf(ctx, facing);
+    const Comparison cf = compare(rf.render(frontCamera(), light), facing, frontCamera(), light);
+    EXPECT_GT(cf.compared, 600);
+    EXPECT_LT(cf.maxError, shadingTolerance(ctx));
+  }
 }
 
 TEST(RenderShading, OcclusionByDepth) {

@@ -201,6 +201,7 @@ std::string withMaterialDefines(const std::string& source, int variant) {
   std::string defines;
   if (variant & kVariantTexture) defines += "#define HAS_TEXTURE 1\n";
   if (variant & kVariantColor) defines += "#define HAS_COLOR 1\n";
+  if (variant & kVariantTwoSided) defines += "#define TWO_SIDED 1\n";
   return source.substr(0, eol) + defines + source.substr(eol);
 }
 

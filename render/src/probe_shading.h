@@ -59,10 +59,11 @@ inline constexpr const char* kAlbedoPassGlsl = R"(#ifdef HAS_TEXTURE
 )";
 
 /// Material variant of a shader: bit kVariantTexture (base colour texture sampled), bit
-/// kVariantColor (COLOR_0 present).
-constexpr int kVariantTexture = 1, kVariantColor = 2, kVariants = 4;
-/// `source` (starting with its #version line) with HAS_TEXTURE / HAS_COLOR defined after that
-/// line as `variant` says.
+/// kVariantColor (COLOR_0 present), bit kVariantTwoSided (a baked double-sided instance with
+/// back-side transfer: each fragment is shaded with the side it is seen from).
+constexpr int kVariantTexture = 1, kVariantColor = 2, kVariantTwoSided = 4, kVariants = 8;
+/// `source` (starting with its #version line) with HAS_TEXTURE / HAS_COLOR / TWO_SIDED defined
+/// after that line as `variant` says.
 std::string withMaterialDefines(const std::string& source, int variant);
 
 /// Texels per probe in the static buffer (probeStaticTexels).
