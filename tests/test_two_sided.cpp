@@ -11,6 +11,7 @@
 
 #include "gltf_file.h"
 #include "harness.h"
+#include "prt/bake/memory_estimate.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/probe_grid.h"
@@ -183,6 +184,19 @@ TEST(BakeTwoSided, SameBitsForAnyThreadCount) {
     EXPECT_TRUE(sameBits(a.perMeshLowerOrder[k], b.perMeshLowerOrder[k])) << k;
   }
   EXPECT_EQ(a.stats.hitRecords, b.stats.hitRecords);
+}
+
+TEST(BakeTwoSided, MemoryEstimateCountsTheBackSides) {
+  // The roof's back sides are vertices of the bake: one transfer buffer holds A's 9 vertices
+  // and both sides of B's 9; the hit records' per-vertex offsets grow alike.
+  const UnderRoof one(false), two(true);
+  bake::BakeSettings bs;
+  const bake::MemoryEstimate a = bake::estimateBakeMemory(one.scene, bs, nullptr, 0.5);
+  const bake::MemoryEstimate b = bake::estimateBakeMemory(two.scene, bs, nullptr, 0.5);
+  EXPECT_EQ(a.transfer, 18u * 9 * 12);
+  EXPECT_EQ(b.transfer, 27u * 9 * 12);
+  EXPECT_GT(b.hits, a.hits);
+  EXPECT_EQ(a.bvh, b.bvh);  // each triangle once in the BVH
 }
 
 TEST(ProbeBakeTwoSided, ProbeSeesTheBackOfADoubleSidedRoof) {
