@@ -275,5 +275,31 @@ TEST(SceneTwoSided, BackTransferRoundTripsThroughTheBakedFile) {
   EXPECT_TRUE(sameBits(r.meshes[1].transfer, s.meshes[1].transfer));
 }
 
+TEST(SceneTwoSided, BackTransferWithoutAMatchingFrontSetIsRefused) {
+  // Back attributes need the front set of as many bands: one back coefficient beside none, or
+  // beside four front ones, refuses the file naming the primitive and the attributes.
+  test::TempDir d;
+  for (int front : {0, 4}) {
+    test::GltfFile f;
+    const int m = f.mesh({0, 0, 0, 1, 0, 0, 0, 0, 1}, {0, 1, 0, 0, 1, 0, 0, 1, 0}, {0, 2, 1});
+    auto& attributes = f.j["meshes"][size_t(m)]["primitives"][0]["attributes"];
+    const std::vector<float> zero(9, 0.0f);
+    for (int i = 0; i < front; ++i) attributes[cat("_PRT_SH_0", i)] = f.accessor(zero, "VEC3");
+    attributes["_PRT_SH_BACK_00"] = f.accessor(zero, "VEC3");
+    f.node({{"mesh", m}}, true);
+    const std::string path = f.write(cat("bad_back_", front), d.path());
+    try {
+      loadScene(path);
+      ADD_FAILURE() << "loaded with " << front << " front coefficients";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("mesh 1 / primitive 0: 1 back-side transfer attributes (_PRT_SH_BACK_NN), but " +
+                          std::to_string(front) + " front ones"),
+                std::string::npos)
+          << what;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace prt
