@@ -22,6 +22,7 @@
 #include "prt/probe_grid.h"
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
+#include "test_scenes.h"
 #include "test_util.h"
 
 namespace prt::render {
@@ -591,6 +592,58 @@ TEST(RenderShading, DoubleSidedQuadSeenFromBehindShowsItsBackSide) {
     const Comparison cf = compare(rf.render(frontCamera(), light), facing, frontCamera(), light);
     EXPECT_GT(cf.compared, 600);
     EXPECT_LT(cf.maxError, shadingTolerance(ctx));
+  }
+}
+
+TEST(RenderShading, DoubleSidedPlaneLitFromBelowShowsEachSidesHemisphere) {
+  // bake → render: a lone double-sided plane (albedo 0.8, facing +Y) under a sky of radiance 1
+  // above and 0.25 below. Each side's irradiance is its hemisphere's, π·L (exact at the poles
+  // for the band-limited step), so seen from above the plane leaves ρ·1, seen from below ρ·0.25:
+  // not black, and not the front's. The light: the step projected by a midpoint rule in
+  // (y, φ) with the horizon on a cell boundary.
+  Scene s = test::makeScene({test::makePlane(glm::vec3(0.0f), 2.0f, 4)}, 0.8f);
+  s.materials[0].doubleSided = true;
+  bake::BakeSettings bs;
+  bs.samples = 1024;
+  bs.bounces = 1;
+  bake::storeTransfer(s, bake::bakeSurface(s, bs).perMesh);
+  s.transferBands = bs.bands;
+  ASSERT_TRUE(s.meshes[0].hasBackTransfer());
+  sh::ShRgb sky(bs.bands);
+  {
+    const int ny = 400, nphi = 400;
+    float y[sh::kMaxBands * sh::kMaxBands];
+    for (int i = 0; i < ny; ++i) {
+      const double cy = -1.0 + (i + 0.5) * 2.0 / ny, r = std::sqrt(1.0 - cy * cy);
+      for (int k = 0; k < nphi; ++k) {
+        const double phi = (k + 0.5) * 2.0 * M_PI / nphi;
+        sh::evaluate(bs.bands, glm::vec3(float(r * std::cos(phi)), float(cy), float(r * std::sin(phi))), y);
+        const double w = (cy > 0.0 ? 1.0 : 0.25) * (2.0 / ny) * (2.0 * M_PI / nphi);
+        for (int j = 0; j < bs.bands * bs.bands; ++j) sky.c[size_t(j)] += glm::vec3(float(w * y[j]));
+      }
+    }
+  }
+  auto looking = [](double fromY) {  // at the origin along ∓Y, image up along ±Z
+    CameraView c;
+    const glm::dvec3 back(0.0, fromY > 0 ? 1.0 : -1.0, 0.0), right(1.0, 0.0, 0.0);
+    c.cameraToWorld = glm::dmat4(glm::dvec4(right, 0), glm::dvec4(glm::cross(back, right), 0), glm::dvec4(back, 0),
+                                 glm::dvec4(0.0, fromY, 0.0, 1.0));
+    c.yfov = glm::radians(40.0);
+    c.znear = 0.1;
+    return c;
+  };
+  GlContext ctx(GlBackend::OSMesa, kWidth, kHeight);
+  Renderer r(ctx, s);
+  for (double fromY : {3.0, -3.0}) {
+    SCOPED_TRACE(fromY > 0 ? "from above" : "from below");
+    const ImageRgb img = r.render(looking(fromY), sky);
+    const double expected = 0.8 * (fromY > 0 ? 1.0 : 0.25);
+    for (int dy = -4; dy <= 4; dy += 4)
+      for (int dx = -4; dx <= 4; dx += 4) EXPECT_NEAR(img.at(kWidth / 2 + dx, kHeight / 2 + dy).g, expected, 0.01 * expected);
+    // And every pixel matches the oracle, which shades the side the ray sees.
+    const Comparison c = compare(img, s, looking(fromY), sky);
+    EXPECT_GT(c.compared, 600);
+    EXPECT_LT(c.maxError, shadingTolerance(ctx));
   }
 }
 

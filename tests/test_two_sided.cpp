@@ -233,6 +233,28 @@ TEST(ProbeBakeTwoSided, ProbeSeesTheBackOfADoubleSidedRoof) {
   }
 }
 
+TEST(ProbeBakeTwoSided, SameGridForAnyThreadCount) {
+  const UnderRoof r(true);
+  bake::BakeSettings bs;
+  bs.samples = 256;
+  bs.bounces = 1;
+  bs.keepLowerOrder = true;
+  bake::SurfaceTransfer t = bake::bakeSurface(r.scene, bs);
+  bake::ProbeSettings ps;
+  ps.dims = glm::ivec3(3, 2, 3);
+  ps.boundsMin = glm::dvec3(-2.0, -0.5, -2.0);
+  ps.boundsMax = glm::dvec3(2.0, 0.9, 2.0);
+  ps.samples = 512;
+  ps.bounces = 1;
+  ps.threads = 1;
+  const ProbeGrid a = bake::bakeProbes(r.scene, t.perMeshLowerOrder, ps);
+  ps.threads = 2;
+  const ProbeGrid b = bake::bakeProbes(r.scene, t.perMeshLowerOrder, ps);
+  ASSERT_EQ(a.probeCount(), 18u);  // all valid under the double-sided roof
+  ASSERT_EQ(a.transfer.size(), b.transfer.size());
+  EXPECT_EQ(0, std::memcmp(a.transfer.data(), b.transfer.data(), a.transfer.size() * sizeof(float)));
+}
+
 TEST(SceneTwoSided, BackTransferRoundTripsThroughTheBakedFile) {
   // A double-sided plane and a one-sided one, written as glTF, loaded, baked, written as a
   // baked .glb and read back: the double-sided primitive carries _PRT_SH_BACK_ with the bake's
