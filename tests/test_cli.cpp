@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_expect.h"
+#include "gltf_file.h"
 #include "harness.h"
 #include "prt/atomic_file.h"
 #include "prt/image.h"
@@ -121,6 +122,47 @@ TEST(Cli, BakeThenRelightPlaneUnderUniformSkyGivesAlbedo) {
   RunResult info = runPrt({"info", baked});
   EXPECT_EQ(info.status, 0) << info.err;
   EXPECT_NE(info.out.find("3 bands"), std::string::npos) << info.out;
+}
+
+TEST(Cli, DoubleSidedPlaneIsBakedRelitAndDescribedOnBothSides) {
+  // A lone double-sided plane (albedo 0.8) under a uniform sky of radiance 1: each side sees a
+  // full hemisphere of sky, so both leave radiance ρ = 0.8. The CSV holds a row per vertex for
+  // the front (normal +Y) and one for the back (normal −Y); prt info names the back transfer.
+  TempDir d;
+  test::GltfFile f;
+  f.j["materials"] = {{{"doubleSided", true}, {"pbrMetallicRoughness", {{"baseColorFactor", {0.8, 0.8, 0.8, 1.0}}}}}};
+  f.node({{"mesh", f.mesh({-1, 0, -1, 1, 0, -1, 1, 0, 1, -1, 0, 1}, {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0},
+                          {0, 2, 1, 0, 3, 2}, 0)}},
+         true);
+  const std::string in = f.write("double_sided_plane", d.path());
+  const std::string baked = d.file("plane.baked.glb"), csv = d.file("plane.csv");
+  RunResult b = runPrt({"bake", in, "-o", baked, "--samples", "64", "--bounces", "1"});
+  ASSERT_EQ(b.status, 0) << b.err;
+  EXPECT_NE(b.err.find("4 vertices (4 of them two-sided)"), std::string::npos) << b.err;
+  RunResult r = runPrt({"relight", baked, "--env", scene("env/white_sky_64.hdr"), "-o", d.file("lit.glb"), "--csv", csv});
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::ifstream csvIn(csv);
+  std::string line;
+  std::getline(csvIn, line);
+  EXPECT_EQ(line, "node,primitive,vertex,px,py,pz,nx,ny,nz,r,g,b");
+  int front = 0, back = 0;
+  while (std::getline(csvIn, line)) {
+    std::array<double, 12> v{};
+    std::stringstream ss(line);
+    for (double& x : v) {
+      std::string cell;
+      std::getline(ss, cell, ',');
+      x = std::stod(cell);
+    }
+    (v[7] > 0 ? front : back) += 1;
+    EXPECT_NEAR(std::fabs(v[7]), 1.0, 1e-6) << line;
+    for (int c = 9; c < 12; ++c) EXPECT_NEAR(v[size_t(c)], 0.8, 2e-3) << line;
+  }
+  EXPECT_EQ(front, 4);
+  EXPECT_EQ(back, 4);
+  RunResult info = runPrt({"info", baked});
+  EXPECT_EQ(info.status, 0) << info.err;
+  EXPECT_NE(info.out.find("two-sided   1 instances, 4 vertices with back-side transfer"), std::string::npos) << info.out;
 }
 
 TEST(Cli, RelightRefusesBadMapAndLeavesNothing) {

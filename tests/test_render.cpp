@@ -22,6 +22,7 @@
 #include "prt/probe_grid.h"
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
+#include "test_scenes.h"
 #include "test_util.h"
 
 namespace prt::render {
@@ -210,7 +211,12 @@ Hit oracle(const Scene& s, const CameraView& c, const sh::ShRgb& light, int widt
       glm::vec2 uv(0.0f);
       if (!m.colors.empty()) color = glm::dvec3(0.0);
       for (int k = 0; k < 3; ++k) {
-        if (!receiver) e += b[k] * glm::dvec3(sh::dot(m.transferOf(v[k], s.transferBands), light.c.data(), light.size()));
+        // A double-sided instance with back-side transfer shows the side the ray sees.
+        const bool backSide = det < 0.0 && m.hasBackTransfer();
+        if (!receiver)
+          e += b[k] * glm::dvec3(sh::dot(backSide ? m.backTransferOf(v[k], s.transferBands)
+                                                  : m.transferOf(v[k], s.transferBands),
+                                         light.c.data(), light.size()));
         if (receiver) normal += b[k] * glm::dvec3(m.normals[v[k]]);
         if (!m.colors.empty()) color += b[k] * glm::dvec3(m.colors[v[k]]);
         if (!m.texcoords.empty()) uv += float(b[k]) * m.texcoords[v[k]];
@@ -554,6 +560,91 @@ TEST(RenderShading, BackFacesCulledUnlessDoubleSided) {
   const Comparison c = compare(r.render(frontCamera(), light), s, frontCamera(), light);
   EXPECT_GT(c.compared, 600);
   EXPECT_LT(c.maxError, shadingTolerance(ctx));
+}
+
+TEST(RenderShading, DoubleSidedQuadSeenFromBehindShowsItsBackSide) {
+  // Front and back transfer differ (random, two seeds); the quad is wound to face away from the
+  // camera, so every pixel shows the back side: its transfer·light, not the front's and not
+  // black. 2 bands read the front from attributes, 5 from a storage buffer; the back always
+  // comes from a storage buffer. The same quad turned to face the camera shows the front.
+  GlContext ctx(GlBackend::OSMesa, kWidth, kHeight);
+  for (int bands : {2, 5}) {
+    SCOPED_TRACE(cat(bands, " bands"));
+    Scene s = tiltedQuad(bands);
+    s.materials[0].doubleSided = true;
+    MeshInstance& m = s.meshes[0];
+    MeshInstance back = m;
+    fillTransfer(back, bands, 1234);
+    m.transferBack = back.transfer;
+    const sh::ShRgb light = randomLight(bands, 21);
+    Scene facing = s;
+    for (size_t i = 0; i < m.indices.size(); i += 3) std::swap(m.indices[i + 1], m.indices[i + 2]);  // faces away
+    Renderer r(ctx, s);
+    const ImageRgb img = r.render(frontCamera(), light);
+    const Comparison c = compare(img, s, frontCamera(), light);
+    EXPECT_GT(c.compared, 600);
+    EXPECT_LT(c.maxError, shadingTolerance(ctx));
+    // The oracle with the back transfer dropped (the front's values) is far from the frame.
+    Scene frontOnly = s;
+    frontOnly.meshes[0].transferBack.clear();
+    EXPECT_GT(compare(img, frontOnly, frontCamera(), light).maxError, 100 * shadingTolerance(ctx));
+    Renderer rf(ctx, facing);
+    const Comparison cf = compare(rf.render(frontCamera(), light), facing, frontCamera(), light);
+    EXPECT_GT(cf.compared, 600);
+    EXPECT_LT(cf.maxError, shadingTolerance(ctx));
+  }
+}
+
+TEST(RenderShading, DoubleSidedPlaneLitFromBelowShowsEachSidesHemisphere) {
+  // bake → render: a lone double-sided plane (albedo 0.8, facing +Y) under a sky of radiance 1
+  // above and 0.25 below. Each side's irradiance is its hemisphere's, π·L (exact at the poles
+  // for the band-limited step), so seen from above the plane leaves ρ·1, seen from below ρ·0.25:
+  // not black, and not the front's. The light: the step projected by a midpoint rule in
+  // (y, φ) with the horizon on a cell boundary.
+  Scene s = test::makeScene({test::makePlane(glm::vec3(0.0f), 2.0f, 4)}, 0.8f);
+  s.materials[0].doubleSided = true;
+  bake::BakeSettings bs;
+  bs.samples = 1024;
+  bs.bounces = 1;
+  bake::storeTransfer(s, bake::bakeSurface(s, bs).perMesh);
+  s.transferBands = bs.bands;
+  ASSERT_TRUE(s.meshes[0].hasBackTransfer());
+  sh::ShRgb sky(bs.bands);
+  {
+    const int ny = 400, nphi = 400;
+    float y[sh::kMaxBands * sh::kMaxBands];
+    for (int i = 0; i < ny; ++i) {
+      const double cy = -1.0 + (i + 0.5) * 2.0 / ny, r = std::sqrt(1.0 - cy * cy);
+      for (int k = 0; k < nphi; ++k) {
+        const double phi = (k + 0.5) * 2.0 * M_PI / nphi;
+        sh::evaluate(bs.bands, glm::vec3(float(r * std::cos(phi)), float(cy), float(r * std::sin(phi))), y);
+        const double w = (cy > 0.0 ? 1.0 : 0.25) * (2.0 / ny) * (2.0 * M_PI / nphi);
+        for (int j = 0; j < bs.bands * bs.bands; ++j) sky.c[size_t(j)] += glm::vec3(float(w * y[j]));
+      }
+    }
+  }
+  auto looking = [](double fromY) {  // at the origin along ∓Y, image up along ±Z
+    CameraView c;
+    const glm::dvec3 back(0.0, fromY > 0 ? 1.0 : -1.0, 0.0), right(1.0, 0.0, 0.0);
+    c.cameraToWorld = glm::dmat4(glm::dvec4(right, 0), glm::dvec4(glm::cross(back, right), 0), glm::dvec4(back, 0),
+                                 glm::dvec4(0.0, fromY, 0.0, 1.0));
+    c.yfov = glm::radians(40.0);
+    c.znear = 0.1;
+    return c;
+  };
+  GlContext ctx(GlBackend::OSMesa, kWidth, kHeight);
+  Renderer r(ctx, s);
+  for (double fromY : {3.0, -3.0}) {
+    SCOPED_TRACE(fromY > 0 ? "from above" : "from below");
+    const ImageRgb img = r.render(looking(fromY), sky);
+    const double expected = 0.8 * (fromY > 0 ? 1.0 : 0.25);
+    for (int dy = -4; dy <= 4; dy += 4)
+      for (int dx = -4; dx <= 4; dx += 4) EXPECT_NEAR(img.at(kWidth / 2 + dx, kHeight / 2 + dy).g, expected, 0.01 * expected);
+    // And every pixel matches the oracle, which shades the side the ray sees.
+    const Comparison c = compare(img, s, looking(fromY), sky);
+    EXPECT_GT(c.compared, 600);
+    EXPECT_LT(c.maxError, shadingTolerance(ctx));
+  }
 }
 
 TEST(RenderShading, OcclusionByDepth) {

@@ -119,6 +119,36 @@ TEST(BakeResume, InterruptedAnywhereResumesToTheSameBits) {
   }
 }
 
+TEST(BakeResume, TwoSidedSceneInterruptedAnywhereResumesToTheSameBits) {
+  // The plane double-sided: its 169 back sides are vertices of the bake after the real ones
+  // (chunks 43 .. 46 of the direct pass and of each bounce), and the fingerprint says so.
+  Scene scene = resumeScene();
+  Material two = scene.materials[0];
+  two.doubleSided = true;
+  scene.materials.push_back(two);
+  scene.meshes[1].material = 1;
+  const BakeSettings s = resumeSettings();
+  const SurfaceTransfer ref = bakeSurface(scene, s);
+  ASSERT_EQ(ref.perMesh[1].size(), 2u * 169 * 9);
+  const uint64_t chunks = (2561 + 169 + 169 + 63) / 64;
+  Fingerprint one, both;
+  addSceneFingerprint(one, resumeScene());
+  addSceneFingerprint(both, scene);
+  EXPECT_EQ(both.entries.back(), std::make_pair(std::string("two-sided vertices"), std::string("169")));
+  EXPECT_NE(one.entries.back().first, "two-sided vertices");
+  const test::TempDir tmp("two-sided");
+  for (uint64_t after : {chunks - 2, chunks + chunks - 1, 2 * chunks + 1}) {
+    SCOPED_TRACE(::testing::Message() << "interrupt after " << after << " chunks");
+    const std::string path = tmp.file("a.ckpt");
+    bakeUntilInterrupted(scene, s, path, false, after, 1e-9);
+    BakeSettings r = s;
+    r.threads = 1;
+    SurfaceTransfer t = bakeResumed(scene, r, path);
+    EXPECT_TRUE(sameBits(ref.perMesh, t.perMesh));
+    EXPECT_TRUE(sameBits(ref.perMeshLowerOrder, t.perMeshLowerOrder));
+  }
+}
+
 TEST(BakeResume, InterruptedTwiceAndWithoutBouncesStillTheSameBits) {
   const Scene scene = resumeScene();
   for (int bounces : {0, 3}) {

@@ -284,7 +284,7 @@ int runBake(const BakeArgs& a) {
     writeProbeGrid(grid, a.probes, a.probeHalf);
     probeBytes = std::filesystem::file_size(a.probes);
   }
-  for (size_t k = 0; k < scene.meshes.size(); ++k) scene.meshes[k].transfer = std::move(result.perMesh[k]);
+  bake::storeTransfer(scene, std::move(result.perMesh));
   scene.transferBands = s.bands;
   auto tWrite = std::chrono::steady_clock::now();
   const BakeRecord record = bake::bakeRecord(s, sceneName, kVersion);
@@ -304,10 +304,11 @@ int runBake(const BakeArgs& a) {
   for (const auto& stage : st.stages)
     if (stage.name == "direct") directSeconds = stage.seconds;
   std::fprintf(stderr,
-               "prt bake: %s -> %s\n  %s vertices in %zu instances (%zu receivers skipped), %d bands, "
+               "prt bake: %s -> %s\n  %s vertices%s in %zu instances (%zu receivers skipped), %d bands, "
                "%d samples, %d bounces%s\n  %s rays (%s rays/s in the direct pass), %s hit records%s\n"
                "  time: %s write %.2f s; total %.2f s\n  memory: estimated %s, peak %s (estimated by phase: %s)\n",
                a.scene.c_str(), a.output.c_str(), formatCount(double(st.vertices)).c_str(),
+               st.backVertices ? cat(" (", formatCount(double(st.backVertices)), " of them two-sided)").c_str() : "",
                scene.meshes.size() - receivers, receivers, s.bands, s.samples, s.shadowed ? s.bounces : 0,
                s.shadowed ? "" : " (unshadowed)", formatCount(double(st.rays)).c_str(),
                formatCount(directSeconds > 0 ? double(st.rays) / directSeconds : 0.0).c_str(),

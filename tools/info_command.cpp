@@ -20,12 +20,14 @@ namespace {
 // A glTF scene: what it holds, what it costs in memory, and its bake record if it has one.
 void infoGlb(const std::string& path) {
   Scene scene = loadScene(path);
-  size_t vertices = 0, triangles = 0, receivers = 0, baked = 0;
+  size_t vertices = 0, triangles = 0, receivers = 0, baked = 0, twoSided = 0, twoSidedVertices = 0;
   for (const MeshInstance& m : scene.meshes) {
     vertices += m.vertexCount();
     triangles += m.triangleCount();
     receivers += m.receiverOnly;
     baked += !m.transfer.empty();
+    twoSided += m.hasBackTransfer();
+    if (m.hasBackTransfer()) twoSidedVertices += m.vertexCount();
   }
   std::printf("%s: glTF scene\n", path.c_str());
   std::printf("  file        %s on disk\n", formatBytes(std::filesystem::file_size(path)).c_str());
@@ -56,6 +58,9 @@ void infoGlb(const std::string& path) {
   if (baked > 0) {
     std::printf("  transfer    %d bands (%d RGB coefficients per vertex)\n", scene.transferBands,
                 scene.transferBands * scene.transferBands);
+    if (twoSided)
+      std::printf("  two-sided   %zu instances, %zu vertices with back-side transfer (_PRT_SH_BACK_)\n", twoSided,
+                  twoSidedVertices);
   } else {
     std::printf("  transfer    none (not baked)\n");
   }

@@ -14,7 +14,10 @@ namespace prt::tools {
 
 namespace {
 
-void writeCsv(const std::string& path, const Scene& scene, const std::vector<std::vector<glm::vec3>>& radiance) {
+// One row per vertex; a double-sided vertex has a second row for its back side, with the
+// normal negated, after its instance's front rows.
+void writeCsv(const std::string& path, const Scene& scene, const std::vector<std::vector<glm::vec3>>& radiance,
+              const std::vector<std::vector<glm::vec3>>& back) {
   AtomicFile file(path);
   {
     std::ofstream out(file.tempPath());
@@ -25,6 +28,11 @@ void writeCsv(const std::string& path, const Scene& scene, const std::vector<std
       const MeshInstance& m = scene.meshes[k];
       for (size_t v = 0; v < radiance[k].size(); ++v) {
         const glm::vec3 &p = m.positions[v], &n = m.normals[v], &c = radiance[k][v];
+        out << m.node << ',' << m.primitive << ',' << v << ',' << p.x << ',' << p.y << ',' << p.z << ','
+            << n.x << ',' << n.y << ',' << n.z << ',' << c.r << ',' << c.g << ',' << c.b << '\n';
+      }
+      for (size_t v = 0; v < back[k].size(); ++v) {
+        const glm::vec3 &p = m.positions[v], n = -m.normals[v], &c = back[k][v];
         out << m.node << ',' << m.primitive << ',' << v << ',' << p.x << ',' << p.y << ',' << p.z << ','
             << n.x << ',' << n.y << ',' << n.z << ',' << c.r << ',' << c.g << ',' << c.b << '\n';
       }
@@ -54,21 +62,25 @@ int runRelight(const RelightArgs& a) {
   if (!anyTransfer) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
   sh::ShRgb light = buildLight(a.light, scene.transferBands);
   std::vector<std::vector<glm::vec3>> radiance = relightVertices(scene, light);
+  std::vector<std::vector<glm::vec3>> back = relightBackVertices(scene, light);
   if (!a.csv.empty()) AtomicFile csvProbe(a.csv);
-  writeLitScene(a.baked, scene, radiance, a.output);
-  if (!a.csv.empty()) writeCsv(a.csv, scene, radiance);
+  writeLitScene(a.baked, scene, radiance, a.output, &back);
+  if (!a.csv.empty()) writeCsv(a.csv, scene, radiance, back);
   if (a.quiet) return 0;
   size_t vertices = 0;
   glm::vec3 sum(0.0f);
+  size_t backSides = 0;
   for (const auto& r : radiance)
     for (const glm::vec3& c : r) {
       sum += c;
       ++vertices;
     }
+  for (const auto& r : back) backSides += r.size();
   glm::vec3 mean = vertices ? sum / float(vertices) : glm::vec3(0);
   std::string lighting = a.light.rig.empty() ? std::string() : cat(", lit by ", a.light.rig, " at frame ", a.light.frame);
-  std::fprintf(stderr, "prt relight: %s -> %s%s%s\n  %zu vertices, %d bands%s, mean exitant radiance (%.4g, %.4g, %.4g)\n",
-               a.baked.c_str(), a.output.c_str(), a.csv.empty() ? "" : " + ", a.csv.c_str(), vertices,
+  const std::string sides = backSides ? cat(" (", backSides, " of them two-sided)") : std::string();
+  std::fprintf(stderr, "prt relight: %s -> %s%s%s\n  %zu vertices%s, %d bands%s, mean exitant radiance (%.4g, %.4g, %.4g)\n",
+               a.baked.c_str(), a.output.c_str(), a.csv.empty() ? "" : " + ", a.csv.c_str(), vertices, sides.c_str(),
                scene.transferBands, lighting.c_str(), mean.r, mean.g, mean.b);
   return 0;
 }

@@ -4,6 +4,7 @@
 // fsync; on resume, everything after the last commit whose records all check out is cut off
 // (ftruncate) before appending again.
 #include "prt/bake/checkpoint.h"
+#include "prt/bake/surface_bake.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -65,6 +66,13 @@ void addSceneFingerprint(Fingerprint& fp, const Scene& scene) {
   fp.add("scene geometry", buf);
   std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(materials.digest()));
   fp.add("scene materials", buf);
+  // The back sides of double-sided instances are vertices of the bake (surface_bake.cpp): a
+  // checkpoint of a prt that baked one side only does not fit. One-sided scenes add nothing,
+  // so their checkpoints stay valid.
+  uint64_t backVertices = 0;
+  for (const MeshInstance& m : scene.meshes)
+    if (bakesBackSide(scene, m)) backVertices += m.vertexCount();
+  if (backVertices) fp.add("two-sided vertices", std::to_string(backVertices));
 }
 
 namespace {

@@ -1,5 +1,6 @@
 // Peak memory of `prt bake`, phase by phase (sizes in bytes; V vertices, T triangles of the
-// baked instances, n2 = bands², N samples, B = V·n2·12 one transfer buffer):
+// baked instances, the back sides of double-sided ones counted as vertices too, n2 = bands²,
+// N samples, B = V·n2·12 one transfer buffer):
 //
 //   surface  scene + layout + BVH + hit records + 3B (t^{k-1}, t^k, running sum)
 //            (+ B for the lower-order sum when probes follow)
@@ -82,7 +83,7 @@ uint64_t sceneBytes(const Scene& scene) {
   uint64_t b = 0;
   for (const MeshInstance& m : scene.meshes)
     b += m.positions.capacity() * 12 + m.normals.capacity() * 12 + m.texcoords.capacity() * 8 +
-         m.colors.capacity() * 16 + m.indices.capacity() * 4 + m.transfer.capacity() * 12 + 256;
+         m.colors.capacity() * 16 + m.indices.capacity() * 4 + (m.transfer.capacity() + m.transferBack.capacity()) * 12 + 256;
   for (const Texture& t : scene.textures) b += t.texels.capacity() * 16;
   return b;
 }
@@ -142,11 +143,18 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
                                   double frontHitShare) {
   MemoryEstimate e;
   uint64_t vertices = 0, triangles = 0;
+  uint64_t backVertices = 0, backTriangles = 0;  // the back sides of double-sided instances
   for (const MeshInstance& m : scene.meshes) {
     if (m.receiverOnly) continue;
     vertices += m.vertexCount();
     triangles += m.triangleCount();
+    if (!bakesBackSide(scene, m)) continue;
+    backVertices += m.vertexCount();
+    backTriangles += m.triangleCount();
   }
+  // A back side is a vertex of the bake like any other (its transfer, rays, hit records and
+  // layout entries); the BVH holds each triangle once.
+  vertices += backVertices;
   const uint64_t n2 = uint64_t(s.bands) * s.bands;
   e.base = kBaseBytes;
   e.scene = sceneBytes(scene);
@@ -159,7 +167,7 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   e.hits = bounces ? uint64_t(std::ceil(e.frontHitShare * double(vertices) * s.samples)) * kHitBytes +
                          vertices * kHitOffsetBytes
                    : 0;
-  const uint64_t layout = shadowed ? vertices * kLayoutPerVertex + triangles * kLayoutPerTriangle : 0;
+  const uint64_t layout = shadowed ? vertices * kLayoutPerVertex + (triangles + backTriangles) * kLayoutPerTriangle : 0;
   const uint64_t lower = probes ? e.transfer : 0;
   // Surface stage: during the last bounce (or the direct pass and its copy without bounces),
   // then the per-instance copies of the sums.

@@ -1,8 +1,10 @@
 // Probe transfer (docs/prt-math.md, docs/probes.md):
 //   M_ji(p) = ∫ y_j(ω) [ V(p,ω) y_i(ω) + (1 − V(p,ω)) (ρ(h)/π) t_i(h(ω)) ] dω
 // estimated with N uniform sphere directions (pdf 1/4π): each ray adds (4π/N) y_j(ω) [...].
-// A ray that hits the back of a surface sends nothing, and counts towards the probe's
-// back-face share: a probe that sees mostly back faces is inside geometry. Per cube face the
+// A ray that hits the back of a one-sided surface sends nothing, and counts towards the probe's
+// back-face share: a probe that sees mostly back faces is inside geometry. The back of a
+// double-sided surface is a lit surface like any front: it sends its back side's transfer
+// (the second half of lowerOrder[k], surface_bake.h) and is no sign of being inside. Per cube face the
 // probe also keeps the mean and mean square of its hits' depth along the face's axis, for the
 // interpolation's visibility test.
 #include "prt/bake/probe_bake.h"
@@ -78,6 +80,7 @@ struct Tracer {
   int bands;
   uint64_t seed;
   float maxDistance;
+  std::vector<char> twoSided;  // per Scene::meshes entry: bakesBackSide
 
   // Traces `n` sphere directions from x. full = reset acc, then accumulate M and moments;
   // otherwise only count rays and back faces into acc (the inside test). False when an
@@ -108,7 +111,8 @@ struct Tracer {
       for (uint32_t j = 0; j < count; ++j) {
         const Ray& r = batch[j];
         ++acc.rays;
-        const bool back = r.hit() && r.backface();
+        const bool backside = r.hit() && r.backface();
+        const bool back = backside && !twoSided[r.mesh];
         acc.backfaces += back;
         acc.escaped += !r.hit();
         if (r.hit()) acc.nearest = std::min(acc.nearest, r.tfar);
@@ -128,9 +132,10 @@ struct Tracer {
         } else if (!back && haveTransfer && !lowerOrder[r.mesh].empty()) {
           const MeshInstance& m = scene.meshes[r.mesh];
           const uint32_t* ix = &m.indices[3 * size_t(r.tri)];
-          const glm::vec3* t0 = &lowerOrder[r.mesh][size_t(ix[0]) * n2];
-          const glm::vec3* t1 = &lowerOrder[r.mesh][size_t(ix[1]) * n2];
-          const glm::vec3* t2 = &lowerOrder[r.mesh][size_t(ix[2]) * n2];
+          const glm::vec3* t = lowerOrder[r.mesh].data() + (backside ? m.vertexCount() * n2 : 0);
+          const glm::vec3* t0 = t + size_t(ix[0]) * n2;
+          const glm::vec3* t1 = t + size_t(ix[1]) * n2;
+          const glm::vec3* t2 = t + size_t(ix[2]) * n2;
           const float b0 = 1.0f - r.u - r.v;
           const glm::vec3 rho = albedo.at(r.mesh, r.tri, r.u, r.v) * float(1.0 / M_PI);
           for (int i = 0; i < n2; ++i) g[i] = rho * (b0 * t0[i] + r.u * t1[i] + r.v * t2[i]);
@@ -591,7 +596,12 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
     RayScene rays(scene);
     AlbedoLookup albedo(scene);
     const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
-    Tracer tracer{scene, rays, lowerOrder, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing)};
+    Tracer tracer{scene, rays, lowerOrder, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing), {}};
+    for (const MeshInstance& m : scene.meshes) tracer.twoSided.push_back(bakesBackSide(scene, m));
+    for (size_t k = 0; k < lowerOrder.size(); ++k)  // both sides' transfer where both are baked
+      if (!lowerOrder[k].empty())
+        PRT_CHECK_EQ(lowerOrder[k].size(),
+                     (tracer.twoSided[k] ? 2 : 1) * scene.meshes[k].vertexCount() * size_t(settings.bands) * settings.bands);
     const ProbeBaker baker(tracer, grid, settings);
     // Deterministic and cheap (about kProbeTestRays per point of the lattice, a few percent of
     // the bake), so a resumed bake classifies again rather than storing it.

@@ -9,8 +9,17 @@
 //                                                        point sends the same radiance along ω)
 // The rays of the direct pass are traced once; each hit on a front face is kept as a compact
 // record (triangle, barycentrics), and every bounce is a gather over those records: a sparse
-// matrix-vector product, no new rays. Back-face hits block light and send none (the back of a
-// one-sided surface has no transfer).
+// matrix-vector product, no new rays. Back-face hits on a one-sided surface block light and
+// send none (its back has no transfer).
+//
+// Double-sided materials: both sides of a vertex receive light and reflect it. The back side of
+// each vertex of a double-sided instance is an extra "virtual vertex" of the layout (normal −n,
+// rays leaving from the back, its own ray stream), numbered after every real vertex so that
+// the real vertices' numbering, chunks and ray streams are those of a one-sided bake; the back
+// faces of its triangles are extra "virtual triangles" whose corners are those virtual
+// vertices. A ray that hits the back of a double-sided face is recorded as a hit on the
+// virtual triangle, so the bounces gather the back side's transfer with the same record format,
+// and the direct pass and every bounce treat virtual vertices like any other.
 #include "prt/bake/surface_bake.h"
 
 #include <algorithm>
@@ -43,26 +52,66 @@ constexpr int kStream = 256;
 // Vertices per task: the unit of parallel work and of hit-record storage.
 constexpr size_t kChunk = 64;
 
-// Global numbering of the baked (non-receiver) instances' vertices and triangles.
+// Global numbering of the baked (non-receiver) instances' vertices and triangles: first every
+// instance's real vertices (front sides) and triangles, in scene order, then the virtual
+// vertices and triangles (back sides) of the double-sided ones, in scene order.
 struct Layout {
-  std::vector<size_t> vertexOffset;  // per Scene::meshes entry (SIZE_MAX for receivers)
-  std::vector<uint32_t> triOffset;   // per mesh, global index of its first triangle
+  static constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
+  std::vector<size_t> vertexOffset;      // per Scene::meshes entry (SIZE_MAX for receivers)
+  std::vector<size_t> backVertexOffset;  // per mesh, its first virtual vertex (SIZE_MAX: one-sided)
+  std::vector<uint32_t> triOffset;       // per mesh, global index of its first triangle
+  std::vector<uint32_t> backTriOffset;   // per mesh, its first virtual triangle (kNone: one-sided)
   std::vector<uint32_t> meshOfVertex;
   std::vector<uint32_t> triVerts;    // global triangle -> 3 global vertex indices
   std::vector<uint32_t> meshOfTri;
+  size_t frontVertices = 0;   // real vertices; virtual ones are [frontVertices, vertices)
+  size_t frontTriangles = 0;  // real triangles; virtual ones are [frontTriangles, triangles)
   size_t vertices = 0;
   size_t triangles = 0;
+
+  bool isBack(size_t v) const { return v >= frontVertices; }
+  /// The instance's own index of global vertex v (a virtual vertex: the vertex it is the back of).
+  size_t localVertex(size_t v) const {
+    const uint32_t k = meshOfVertex[v];
+    return v - (isBack(v) ? backVertexOffset[k] : vertexOffset[k]);
+  }
+  /// The instance's own index of global triangle g.
+  uint32_t localTriangle(uint32_t g) const {
+    const uint32_t k = meshOfTri[g];
+    return g - (g >= frontTriangles ? backTriOffset[k] : triOffset[k]);
+  }
 };
+
+}  // namespace
+
+bool bakesBackSide(const Scene& scene, const MeshInstance& m) {
+  return !m.receiverOnly && m.material >= 0 && size_t(m.material) < scene.materials.size() &&
+         scene.materials[size_t(m.material)].doubleSided;
+}
+
+namespace {
 
 Layout makeLayout(const Scene& scene) {
   Layout lay;
   lay.vertexOffset.assign(scene.meshes.size(), SIZE_MAX);
+  lay.backVertexOffset.assign(scene.meshes.size(), SIZE_MAX);
   lay.triOffset.assign(scene.meshes.size(), 0);
+  lay.backTriOffset.assign(scene.meshes.size(), Layout::kNone);
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     const MeshInstance& m = scene.meshes[k];
     lay.triOffset[k] = static_cast<uint32_t>(lay.triangles);
     if (m.receiverOnly) continue;
     lay.vertexOffset[k] = lay.vertices;
+    lay.vertices += m.vertexCount();
+    lay.triangles += m.triangleCount();
+  }
+  lay.frontVertices = lay.vertices;
+  lay.frontTriangles = lay.triangles;
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (!bakesBackSide(scene, m)) continue;
+    lay.backVertexOffset[k] = lay.vertices;
+    lay.backTriOffset[k] = static_cast<uint32_t>(lay.triangles);  // overflow refused below
     lay.vertices += m.vertexCount();
     lay.triangles += m.triangleCount();
   }
@@ -83,6 +132,16 @@ Layout makeLayout(const Scene& scene) {
       lay.meshOfTri[g] = uint32_t(k);
       for (int c = 0; c < 3; ++c) lay.triVerts[3 * g + c] = uint32_t(v0 + m.indices[3 * t + c]);
     }
+    if (lay.backVertexOffset[k] == SIZE_MAX) continue;
+    // The back side: the same corners, in the same order (so a hit's barycentrics are the
+    // same), numbered as virtual vertices.
+    const size_t b0 = lay.backVertexOffset[k];
+    std::fill_n(lay.meshOfVertex.begin() + b0, m.vertexCount(), uint32_t(k));
+    for (size_t t = 0; t < m.triangleCount(); ++t) {
+      size_t g = lay.backTriOffset[k] + t;
+      lay.meshOfTri[g] = uint32_t(k);
+      for (int c = 0; c < 3; ++c) lay.triVerts[3 * g + c] = uint32_t(b0 + m.indices[3 * t + c]);
+    }
   }
   return lay;
 }
@@ -90,7 +149,8 @@ Layout makeLayout(const Scene& scene) {
 // Where rays of each vertex start. A vertex lies on its own triangles and, at a corner of a
 // room, on the plane of the next wall too: a ray leaving exactly there can slip through that
 // wall and see the sky. The origin is therefore lifted along the normal *and* pulled towards
-// the centroids of the vertex's triangles, by a small fraction of the scene size.
+// the centroids of the vertex's triangles, by a small fraction of the scene size. A virtual
+// vertex (a back side) is lifted along −n instead, with the same pull.
 std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float extent) {
   std::vector<glm::vec3> pull(lay.vertices, glm::vec3(0.0f));
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
@@ -113,11 +173,13 @@ std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float e
     const MeshInstance& m = scene.meshes[k];
     if (m.receiverOnly) continue;
     size_t v0 = lay.vertexOffset[k];
+    const size_t b0 = lay.backVertexOffset[k];
     for (size_t i = 0; i < m.vertexCount(); ++i) {
       glm::vec3 p = pull[v0 + i];
       float len = glm::length(p);
       if (len > 0.0f) p /= len;
       origins[v0 + i] = m.positions[i] + eps * (m.normals[i] + p);
+      if (b0 != SIZE_MAX) origins[b0 + i] = m.positions[i] + eps * (p - m.normals[i]);
     }
   }
   return origins;
@@ -139,15 +201,18 @@ struct ChunkHits {
   std::vector<uint32_t> begin;
 };
 
-std::vector<glm::vec3> unshadowedTransfer(const MeshInstance& m, int bands) {
+// The closed form, for the front side and (`bothSides`) then the back side (normal −n).
+std::vector<glm::vec3> unshadowedTransfer(const MeshInstance& m, int bands, bool bothSides) {
   const int n2 = bands * bands;
-  std::vector<glm::vec3> t(m.vertexCount() * n2);
+  const size_t n = m.vertexCount();
+  std::vector<glm::vec3> t((bothSides ? 2 : 1) * n * n2);
   float y[sh::kMaxBands * sh::kMaxBands];
-  for (size_t v = 0; v < m.vertexCount(); ++v) {
-    sh::evaluate(bands, m.normals[v], y);
+  for (size_t w = 0; w < t.size() / n2; ++w) {
+    const size_t v = w % n;
+    sh::evaluate(bands, w < n ? m.normals[v] : -m.normals[v], y);
     for (int l = 0; l < bands; ++l) {
       float a = float(sh::clampedCosineFactor(l));
-      for (int mm = -l; mm <= l; ++mm) t[v * n2 + sh::index(l, mm)] = glm::vec3(a * y[sh::index(l, mm)]);
+      for (int mm = -l; mm <= l; ++mm) t[w * n2 + sh::index(l, mm)] = glm::vec3(a * y[sh::index(l, mm)]);
     }
   }
   return t;
@@ -174,14 +239,25 @@ struct VertexSampler {
   }
 };
 
-const glm::vec3& normalOf(const Scene& scene, const Layout& lay, size_t v) {
-  uint32_t k = lay.meshOfVertex[v];
-  return scene.meshes[k].normals[v - lay.vertexOffset[k]];
+// The side's normal: a virtual vertex faces away from its vertex's normal.
+glm::vec3 normalOf(const Scene& scene, const Layout& lay, size_t v) {
+  const glm::vec3& n = scene.meshes[lay.meshOfVertex[v]].normals[lay.localVertex(v)];
+  return lay.isBack(v) ? -n : n;
+}
+
+// The triangle a hit records, or kNone when the hit sends nothing: a front face is the real
+// triangle, the back of a double-sided face its virtual triangle, the back of a one-sided face
+// nothing.
+inline uint32_t recordedTriangle(const Layout& lay, const Ray& ray) {
+  if (!ray.backface()) return lay.triOffset[ray.mesh] + ray.tri;
+  const uint32_t b = lay.backTriOffset[ray.mesh];
+  return b == Layout::kNone ? Layout::kNone : b + ray.tri;
 }
 
 float tnearFor(float extent) { return 1e-6f * extent; }
 
-// An upper bound on the share of direct rays that hit a front face, from a pilot: the first
+// An upper bound on the share of direct rays that are kept as hit records (a front face, or
+// the back of a double-sided face), from a pilot: the first
 // kPilotRays rays (a stratified Sobol prefix of the bake's own rays) of up to kPilotVertices
 // vertices spread evenly over the scene. The bound is the mean share plus 3 standard errors
 // of the per-vertex shares plus 0.02 for the difference between a 64-ray prefix and all N
@@ -201,7 +277,7 @@ double pilotFrontHitShare(const Scene& scene, const Layout& lay, const RayScene&
     for (uint32_t j = 0; j < p; ++j) sampler.make(j, batch[j]);
     rays.intersect(batch, p);
     uint32_t front = 0;
-    for (uint32_t j = 0; j < p; ++j) front += batch[j].hit() && !batch[j].backface();
+    for (uint32_t j = 0; j < p; ++j) front += batch[j].hit() && recordedTriangle(lay, batch[j]) != Layout::kNone;
     share[i] = double(front) / p;
   });
   double mean = 0, var = 0;
@@ -281,8 +357,9 @@ struct DirectPass {
           if (!blocked) {
             sh::evaluate(b.settings.bands, ray.dir, y);
             for (int i = 0; i < n2; ++i) acc[i] += y[i];
-          } else if (ch && !ray.backface()) {
-            ch->hits.push_back({b.lay.triOffset[ray.mesh] + ray.tri, quantise(ray.u), quantise(ray.v)});
+          } else if (ch) {
+            const uint32_t tri = recordedTriangle(b.lay, ray);
+            if (tri != Layout::kNone) ch->hits.push_back({tri, quantise(ray.u), quantise(ray.v)});
           }
         }
       }
@@ -308,7 +385,7 @@ ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk
       const float b1 = rec.b1 * (1.0f / 65535.0f), b2 = rec.b2 * (1.0f / 65535.0f);
       const float b0 = 1.0f - b1 - b2;
       const uint32_t mesh = lay.meshOfTri[rec.tri];
-      const glm::vec3 rho = albedo.at(mesh, rec.tri - lay.triOffset[mesh], b1, b2);
+      const glm::vec3 rho = albedo.at(mesh, lay.localTriangle(rec.tri), b1, b2);
       const glm::vec3* t0 = &b.prev[size_t(lay.triVerts[3 * rec.tri + 0]) * n2];
       const glm::vec3* t1 = &b.prev[size_t(lay.triVerts[3 * rec.tri + 1]) * n2];
       const glm::vec3* t2 = &b.prev[size_t(lay.triVerts[3 * rec.tri + 2]) * n2];
@@ -465,14 +542,19 @@ void keepSurfaceStage(SurfaceBake& b, Checkpoint& cp) {
   cp.save();
 }
 
-// Per Scene::meshes entry: its vertices' part of a buffer in layout order.
+// Per Scene::meshes entry: its vertices' part of a buffer in layout order, followed by its
+// virtual vertices' part (the back side) when it is double-sided.
 std::vector<std::vector<glm::vec3>> perMesh(const Scene& scene, const Layout& lay, int n2,
                                             const std::vector<glm::vec3>& all) {
   std::vector<std::vector<glm::vec3>> out(scene.meshes.size());
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     if (lay.vertexOffset[k] == SIZE_MAX) continue;
+    const ptrdiff_t count = ptrdiff_t(scene.meshes[k].vertexCount() * n2);
     auto first = all.begin() + ptrdiff_t(lay.vertexOffset[k] * n2);
-    out[k].assign(first, first + ptrdiff_t(scene.meshes[k].vertexCount() * n2));
+    out[k].assign(first, first + count);
+    if (lay.backVertexOffset[k] == SIZE_MAX) continue;
+    auto back = all.begin() + ptrdiff_t(lay.backVertexOffset[k] * n2);
+    out[k].insert(out[k].end(), back, back + count);
   }
   return out;
 }
@@ -505,11 +587,13 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
   out.bands = settings.bands;
   out.perMesh.resize(scene.meshes.size());
   const Layout lay = makeLayout(scene);
-  out.stats.vertices = lay.vertices;
+  out.stats.vertices = lay.frontVertices;
+  out.stats.backVertices = lay.vertices - lay.frontVertices;
   if (!settings.shadowed) {
     auto t0 = Clock::now();
     for (size_t k = 0; k < scene.meshes.size(); ++k)
-      if (!scene.meshes[k].receiverOnly) out.perMesh[k] = unshadowedTransfer(scene.meshes[k], settings.bands);
+      if (!scene.meshes[k].receiverOnly)
+        out.perMesh[k] = unshadowedTransfer(scene.meshes[k], settings.bands, bakesBackSide(scene, scene.meshes[k]));
     out.stats.stages.push_back({"unshadowed", secondsSince(t0), 0});
     out.stats.seconds = secondsSince(tStart);
     return out;
@@ -554,6 +638,21 @@ std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& setting
     for (uint32_t j = 0; j < uint32_t(settings.samples); ++j) sampler.make(j, out[k * settings.samples + j]);
   });
   return out;
+}
+
+void storeTransfer(Scene& scene, std::vector<std::vector<glm::vec3>> perMesh) {
+  PRT_CHECK_EQ(perMesh.size(), scene.meshes.size());
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    std::vector<glm::vec3>& t = perMesh[k];
+    MeshInstance& m = scene.meshes[k];
+    m.transferBack.clear();
+    if (bakesBackSide(scene, m) && !t.empty()) {  // front vertices, then their back sides
+      const auto half = t.begin() + ptrdiff_t(t.size() / 2);
+      m.transferBack.assign(half, t.end());
+      t.erase(half, t.end());
+    }
+    m.transfer = std::move(t);
+  }
 }
 
 BakeRecord bakeRecord(const BakeSettings& s, const std::string& sceneName, const std::string& prtVersion) {

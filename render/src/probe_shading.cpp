@@ -203,6 +203,7 @@ std::string withMaterialDefines(const std::string& source, int variant) {
   if (variant & kVariantColor) defines += "#define HAS_COLOR 1\n";
   if (variant & kVariantMask) defines += "#define HAS_MASK 1\n";
   if (variant & kVariantBlend) defines += "#define HAS_BLEND 1\n";
+  if (variant & kVariantTwoSided) defines += "#define TWO_SIDED 1\n";
   return source.substr(0, eol) + defines + source.substr(eol);
 }
 

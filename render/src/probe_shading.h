@@ -88,10 +88,13 @@ inline constexpr const char* kAlbedoPassGlsl = R"(#ifdef HAS_TEXTURE
 
 /// Material variant of a shader: bit kVariantTexture (base colour texture sampled), bit
 /// kVariantColor (COLOR_0 present), bit kVariantMask (alphaMode MASK: cutouts discarded), bit
-/// kVariantBlend (alphaMode BLEND: the alpha is the fragment's opacity).
-constexpr int kVariantTexture = 1, kVariantColor = 2, kVariantMask = 4, kVariantBlend = 8, kVariants = 16;
+/// kVariantBlend (alphaMode BLEND: the alpha is the fragment's opacity), bit kVariantTwoSided (a
+/// baked double-sided instance with back-side transfer: each fragment is shaded with the side
+/// it is seen from).
+constexpr int kVariantTexture = 1, kVariantColor = 2, kVariantMask = 4, kVariantBlend = 8, kVariantTwoSided = 16,
+              kVariants = 32;
 /// `source` (starting with its #version line) with HAS_TEXTURE / HAS_COLOR / HAS_MASK /
-/// HAS_BLEND defined after that line as `variant` says.
+/// HAS_BLEND / TWO_SIDED defined after that line as `variant` says.
 std::string withMaterialDefines(const std::string& source, int variant);
 
 /// Texels per probe in the static buffer (probeStaticTexels).

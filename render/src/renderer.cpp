@@ -31,6 +31,10 @@ namespace {
 // - larger n: an SSBO holding the instance's transfer vertex-major ((v·n² + i)·3 + c) indexed
 //   by gl_VertexID (glDrawElements without a base vertex makes it the index value); up to
 //   192 floats per vertex, beyond any attribute budget.
+// A double-sided instance with back-side transfer (the TWO_SIDED variant) also computes the
+// back side's e from a second SSBO (binding 1, same layout, indexed by gl_VertexID) with the
+// same light, whatever the path of the front; the fragment shader picks the side it is seen
+// from by gl_FrontFacing (the loader winds every instance counter-clockwise in world space).
 constexpr int kMaxAttributeBands = 4;
 constexpr GLuint kFirstTransferAttribute = 3;
 
@@ -43,8 +47,13 @@ layout(location = 1) in vec2 aTexcoord;
 layout(location = 2) in vec4 aColor;
 uniform mat4 uViewProj;
 out vec3 vTransferLight;
+#ifdef TWO_SIDED
+out vec3 vTransferLightBack;
+layout(std430, binding = 1) readonly buffer TransferBack { float transferBack[]; };
+#endif
 )";
   s += kAlbedoOutputsGlsl;
+  s += cat("const int kCoeffsAll = ", bands * bands, ";\n");
   if (bands <= kMaxAttributeBands) {
     const int chunks = attributeChunks(bands);
     for (int k = 0; k < chunks; ++k)
@@ -56,6 +65,13 @@ out vec3 vTransferLight;
     s += "  vTransferLight = vec3(a[0].x + a[0].w + a[1].z + a[2].y,\n"
          "                        a[0].y + a[1].x + a[1].w + a[2].z,\n"
          "                        a[0].z + a[1].y + a[2].x + a[2].w);\n";
+    s += R"(#ifdef TWO_SIDED
+  uint baseBack = uint(gl_VertexID) * uint(kCoeffsAll * 3);
+  vec3 eb = vec3(0.0);
+  for (int f = 0; f < kCoeffsAll * 3; ++f) eb[f % 3] += transferBack[baseBack + uint(f)] * uLightFlat[f >> 2][f & 3];
+  vTransferLightBack = eb;
+#endif
+)";
   } else {
     s += cat("const int kCoeffs = ", bands * bands, ";\n");
     s += R"(layout(std430, binding = 0) readonly buffer Transfer { float transfer[]; };
@@ -68,6 +84,14 @@ void main() {
     e += vec3(transfer[k], transfer[k + 1u], transfer[k + 2u]) * uLight[i];
   }
   vTransferLight = e;
+#ifdef TWO_SIDED
+  vec3 eb = vec3(0.0);
+  for (int i = 0; i < kCoeffs; ++i) {
+    uint k = base + uint(i * 3);
+    eb += vec3(transferBack[k], transferBack[k + 1u], transferBack[k + 2u]) * uLight[i];
+  }
+  vTransferLightBack = eb;
+#endif
 )";
   }
   s += kAlbedoPassGlsl;
@@ -79,13 +103,22 @@ void main() {
 
 // Albedo per pixel: baseColorFactor × texture(texcoord) × COLOR_0 (kAlbedoInputsGlsl); the
 // alpha is the opacity (coverage(): MASK cutouts discarded, BLEND and transmission blended).
+// TWO_SIDED: the back side's irradiance where the back of the triangle is seen.
 std::string bakedFragmentShader() {
   return cat(R"(#version 450 core
 centroid in vec3 vTransferLight;
+#ifdef TWO_SIDED
+centroid in vec3 vTransferLightBack;
+#endif
 )", kAlbedoInputsGlsl, R"(out vec4 fragColor;
 void main() {
   float a = coverage();
-  fragColor = vec4(albedo() * vTransferLight * 0.31830988618379067, a);
+#ifdef TWO_SIDED
+  vec3 e = gl_FrontFacing ? vTransferLight : vTransferLightBack;
+#else
+  vec3 e = vTransferLight;
+#endif
+  fragColor = vec4(albedo() * e * 0.31830988618379067, a);
 }
 )");
 }
@@ -187,6 +220,7 @@ struct Renderer::Impl {
   struct Instance {
     GLuint vao = 0;
     GLuint buffers[6] = {};  // positions, texcoords, colours, indices, transfer, normals
+    GLuint backTransfer = 0;  // MeshInstance::transferBack (kVariantTwoSided), 0 if none
     GLsizei indexCount = 0;
     size_t triangles = 0;
     glm::vec4 baseColor{1.0f};
@@ -420,13 +454,19 @@ void Renderer::Impl::upload(const Scene& scene) {
       throw Error(cat(scene.path, ": instance '", m.name, "': transfer holds ", m.transfer.size(),
                       " values, expected ", m.vertexCount() * n2, " (", m.vertexCount(), " vertices, ", bands,
                       " bands)"));
+    // The back side is drawn where the material is double-sided (a one-sided back is culled).
+    const bool twoSided = m.hasBackTransfer() && m.material >= 0 && scene.materials.at(size_t(m.material)).doubleSided;
+    if (twoSided && m.transferBack.size() != m.transfer.size())
+      throw Error(cat(scene.path, ": instance '", m.name, "': back-side transfer holds ", m.transferBack.size(),
+                      " values, expected ", m.transfer.size()));
     const size_t transferBytes = m.transfer.size() * sizeof(glm::vec3);
-    if (bands > kMaxAttributeBands && transferBytes > size_t(maxSsbo))
+    if ((bands > kMaxAttributeBands || twoSided) && transferBytes > size_t(maxSsbo))
       throw Error(cat(scene.path, ": instance '", m.name, "': transfer of ", transferBytes >> 20,
                       " MiB exceeds the GL's shader storage block limit of ", maxSsbo >> 20, " MiB"));
 
     Instance in;
     setMaterial(scene, m, in);
+    if (twoSided) in.variant |= kVariantTwoSided;
     Program& program = programs[size_t(in.variant)];
     if (!program.id)
       program = link(withMaterialDefines(vertexShader(bands), in.variant),
@@ -438,6 +478,10 @@ void Renderer::Impl::upload(const Scene& scene) {
     store(in.buffers[3], m.indices);
     store(in.buffers[4], m.transfer);
     store(in.buffers[5], std::vector<float>());
+    if (twoSided) {
+      gl.CreateBuffers(1, &in.backTransfer);
+      store(in.backTransfer, m.transferBack);
+    }
 
     gl.CreateVertexArrays(1, &in.vao);
     attribute(in.vao, 0, in.buffers[0], 3, true);
@@ -729,6 +773,7 @@ void Renderer::Impl::release() {
     for (Instance& in : *list) {
       gl.DeleteVertexArrays(1, &in.vao);
       gl.DeleteBuffers(6, in.buffers);
+      if (in.backTransfer) gl.DeleteBuffers(1, &in.backTransfer);
     }
   for (GLuint t : textures)
     if (t) gl.DeleteTextures(1, &t);
@@ -856,12 +901,13 @@ ImageRgb Renderer::render(const Frame& frame) {
   auto draw = [&](const Impl::Program& p, const Impl::Instance& in, bool mirrored) {
     // The loader already wound every instance counter-clockwise in world space (it swaps two
     // corners under mirroring transforms), so only a mirroring motion flips the front face.
+    // The front face decides gl_FrontFacing (the side a two-sided instance shows) as well.
+    gl.FrontFace(mirrored ? GL_CW : GL_CCW);
     if (in.doubleSided) {
       gl.Disable(GL_CULL_FACE);
     } else {
       gl.Enable(GL_CULL_FACE);
       gl.CullFace(GL_BACK);
-      gl.FrontFace(mirrored ? GL_CW : GL_CCW);
     }
     if (!flat) {
       gl.ProgramUniform4fv(p.id, p.baseColor, 1, &in.baseColor.x);
@@ -899,6 +945,7 @@ ImageRgb Renderer::render(const Frame& frame) {
   r.stats.triangles = r.stats.receiverTriangles = 0;
   auto placeBaked = [&](const Impl::Program&, const Impl::Instance& in) {
     if (!flat && r.bands > kMaxAttributeBands) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.buffers[4]);
+    if (!flat && in.backTransfer) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, in.backTransfer);
     return false;
   };
   drawAll(r.instances, r.programs, placeBaked);

@@ -97,6 +97,7 @@ Json bakeRecordToJson(const BakeRecord& r) {
   j["transfer"] = BakeRecord::kTransfer;
   j["sh_convention"] = BakeRecord::kShConvention;
   j["units"] = BakeRecord::kUnits;
+  j["back_transfer"] = BakeRecord::kBackTransfer;
   if (!r.prtVersion.empty()) j[kPrtVersionKey] = r.prtVersion;
   return j;
 }
@@ -124,6 +125,7 @@ BakeRecord bakeRecordFromJson(const Json& j, const std::string& where) {
     f.fail("transfer", cat("expected \"", BakeRecord::kTransfer, "\", got ", shown(Json(t))));
   f.string("sh_convention");  // descriptions: any wording, but text
   f.string("units");
+  if (f.has("back_transfer")) f.string("back_transfer");
   if (f.has(kPrtVersionKey)) r.prtVersion = f.string(kPrtVersionKey);
   return r;
 }

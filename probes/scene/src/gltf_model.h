@@ -18,6 +18,10 @@
 namespace prt::gltf {
 
 constexpr const char* kTransferPrefix = "_PRT_SH_";
+/// The back side's transfer of a double-sided primitive: _PRT_SH_BACK_00 .. (docs/formats.md).
+constexpr const char* kBackTransferPrefix = "_PRT_SH_BACK_";
+/// The back side's radiance of a double-sided primitive in a lit scene (COLOR_0 is the front's).
+constexpr const char* kBackRadiance = "_PRT_COLOR_BACK";
 constexpr const char* kUnlit = "KHR_materials_unlit";
 constexpr const char* kLights = "KHR_lights_punctual";
 constexpr const char* kTextureTransform = "KHR_texture_transform";
@@ -39,8 +43,8 @@ inline std::string primitiveWhere(int mesh, int primitive) {
 }
 
 /// The attribute name of transfer coefficient i: _PRT_SH_00, _PRT_SH_01, ...
-inline std::string coefficientName(int i) {
-  return cat(kTransferPrefix, i < 10 ? "0" : "", i);
+inline std::string coefficientName(int i, bool back = false) {
+  return cat(back ? kBackTransferPrefix : kTransferPrefix, i < 10 ? "0" : "", i);
 }
 
 /// Reads and parses a .gltf or .glb file: the file itself, then every URI it holds through the

@@ -419,6 +419,7 @@ struct PrimitiveData {
   int material = -1;
   int transferBands = 0;
   std::vector<glm::vec3> transfer;
+  std::vector<glm::vec3> transferBack;  // _PRT_SH_BACK_ (double-sided primitives of a bake)
 };
 
 /// Faces whose unit normals have a dot product at least this share a vertex under flat
@@ -536,42 +537,51 @@ void splitForFlatNormals(PrimitiveData& p) {
     gather(p.texcoords, fileVertex);
     gather(p.colors, fileVertex);
     gather(p.transfer, fileVertex, size_t(p.transferBands) * size_t(p.transferBands));
+    gather(p.transferBack, fileVertex, size_t(p.transferBands) * size_t(p.transferBands));
     p.fileVertex = std::move(fileVertex);
   }
   p.normals = flatVertexNormals(p.positions, p.indices);
 }
 
-/// Reads _PRT_SH_00 .. _PRT_SH_{n²-1} into vertex-major transfer, if the primitive has any.
-void readTransfer(const Gltf& g, const tinygltf::Primitive& prim, PrimitiveData& p, const std::string& where) {
+/// Reads _PRT_SH_00 .. _PRT_SH_{n²-1} (or, `back`, _PRT_SH_BACK_00 ..) into vertex-major
+/// transfer, if the primitive has any. Back transfer needs front transfer of as many bands.
+void readTransfer(const Gltf& g, const tinygltf::Primitive& prim, PrimitiveData& p, const std::string& where,
+                  bool back) {
   std::map<int, int> coefficients;  // coefficient index -> accessor
-  const size_t prefix = std::strlen(kTransferPrefix);
+  const char* prefixName = back ? kBackTransferPrefix : kTransferPrefix;
+  const size_t prefix = std::strlen(prefixName);
   for (const auto& [name, accessor] : prim.attributes) {
-    if (name.compare(0, prefix, kTransferPrefix) != 0) continue;
+    if (name.compare(0, prefix, prefixName) != 0) continue;
+    if (!back && name.rfind(kBackTransferPrefix, 0) == 0) continue;
     std::string digits = name.substr(prefix);
     if (!allDigits(digits) || digits.size() > 4)
-      fail(g, cat(where, ": attribute ", name, " is not a transfer coefficient (expected ", kTransferPrefix, "NN)"));
+      fail(g, cat(where, ": attribute ", name, " is not a transfer coefficient (expected ", prefixName, "NN)"));
     coefficients[std::stoi(digits)] = accessor;
   }
   if (coefficients.empty()) return;
   int count = static_cast<int>(coefficients.size());
   int bands = static_cast<int>(std::lround(std::sqrt(double(count))));
   if (bands * bands != count || bands > sh::kMaxBands)
-    fail(g, cat(where, ": ", count, " transfer attributes, expected a square number (bands²) of at most ",
+    fail(g, cat(where, ": ", count, back ? " back-side" : "", " transfer attributes, expected a square number (bands²) of at most ",
                 sh::kMaxBands * sh::kMaxBands));
   for (int i = 0; i < count; ++i)
     if (!coefficients.count(i))
-      fail(g, cat(where, ": transfer attribute ", coefficientName(i), " is missing (", count, " found)"));
+      fail(g, cat(where, ": transfer attribute ", coefficientName(i, back), " is missing (", count, " found)"));
+  if (back && bands != p.transferBands)
+    fail(g, cat(where, ": ", count, " back-side transfer attributes (", kBackTransferPrefix, "NN), but ",
+                p.transferBands * p.transferBands, " front ones (", kTransferPrefix, "NN)"));
   size_t n = p.positions.size(), k = size_t(count);
+  std::vector<glm::vec3>& transfer = back ? p.transferBack : p.transfer;
   p.transferBands = bands;
-  p.transfer.assign(n * k, glm::vec3(0.0f));
+  transfer.assign(n * k, glm::vec3(0.0f));
   for (const auto& [i, accessor] : coefficients) {
-    std::string here = cat(where, " / ", coefficientName(i));
+    std::string here = cat(where, " / ", coefficientName(i, back));
     AccessorData d = openAccessor(g, accessor, here);
     requireType(g, d, here, {3});
     requireCount(g, d, here, n);
     for (size_t v = 0; v < n; ++v)
-      for (int c = 0; c < 3; ++c) p.transfer[v * k + size_t(i)][c] = static_cast<float>(d.get(v, c));
-    requireFinite(g, p.transfer, here, i, k);
+      for (int c = 0; c < 3; ++c) transfer[v * k + size_t(i)][c] = static_cast<float>(d.get(v, c));
+    requireFinite(g, transfer, here, i, k);
   }
 }
 
@@ -631,7 +641,8 @@ PrimitiveData readPrimitive(const Gltf& g, const std::vector<BaseColorSource>& m
   }
   p.indices = toTriangleList(g, prim.mode, readIndices(g, prim, where, n), cat(where, " / indices"));
   removeDegenerate(g, p, where, warnings);
-  readTransfer(g, prim, p, where);
+  readTransfer(g, prim, p, where, false);
+  readTransfer(g, prim, p, where, true);
   if (p.normals.empty()) splitForFlatNormals(p);
   return p;
 }
@@ -837,6 +848,7 @@ MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, 
   inst.colors = p.colors;
   inst.fileVertex = p.fileVertex;
   inst.transfer = p.transfer;
+  inst.transferBack = p.transferBack;
   return inst;
 }
 

@@ -258,6 +258,12 @@ void addTransferAttributes(tinygltf::Model& m, int& staging, const Scene& scene)
       for (size_t v = 0; v < column.size(); ++v) column[v] = inst.transfer[v * k + i];
       prim.attributes[coefficientName(int(i))] = addVec3Accessor(m, staging, column, coefficientName(int(i)));
     }
+    if (inst.transferBack.empty()) continue;  // one-sided: no back side
+    PRT_CHECK_EQ(inst.transferBack.size(), inst.vertexCount() * k);
+    for (size_t i = 0; i < k; ++i) {
+      for (size_t v = 0; v < column.size(); ++v) column[v] = inst.transferBack[v * k + i];
+      prim.attributes[coefficientName(int(i), true)] = addVec3Accessor(m, staging, column, coefficientName(int(i), true));
+    }
   }
 }
 
@@ -552,7 +558,8 @@ void writeBakedScene(const std::string& inputPath, const Scene& scene, const Bak
 }
 
 void writeLitScene(const std::string& inputPath, const Scene& scene,
-                   const std::vector<std::vector<glm::vec3>>& radiance, const std::string& outPath) {
+                   const std::vector<std::vector<glm::vec3>>& radiance, const std::string& outPath,
+                   const std::vector<std::vector<glm::vec3>>* backRadiance) {
   PRT_CHECK_EQ(radiance.size(), scene.meshes.size());
   int staging = -1;
   // reloadForWriting drops the _PRT_SH_* attributes: a lit file is for looking at, and the
@@ -564,6 +571,10 @@ void writeLitScene(const std::string& inputPath, const Scene& scene,
     PRT_CHECK_EQ(radiance[k].size(), scene.meshes[k].vertexCount());
     primitiveOf(g.model, scene.meshes[k]).attributes["COLOR_0"] =
         addVec3Accessor(g.model, staging, radiance[k], "radiance");
+    if (!backRadiance || (*backRadiance)[k].empty()) continue;
+    PRT_CHECK_EQ((*backRadiance)[k].size(), scene.meshes[k].vertexCount());
+    primitiveOf(g.model, scene.meshes[k]).attributes[kBackRadiance] =
+        addVec3Accessor(g.model, staging, (*backRadiance)[k], "back radiance");
   }
   removeUnlitInstances(g.model, scene, radiance);
   makeMaterialsUnlitWhite(g.model);

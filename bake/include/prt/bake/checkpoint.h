@@ -41,7 +41,8 @@ struct Fingerprint {
 /// Adds "scene geometry" and "scene materials": hashes of everything the bake reads from the
 /// loaded scene (instances, receivers, positions, normals, indices, texture coordinates,
 /// colours, materials, texels). A scene file, a buffer or a texture edited since the
-/// checkpoint, or other --receiver nodes, change them.
+/// checkpoint, or other --receiver nodes, change them. A scene with double-sided instances
+/// also adds "two-sided vertices" (the back sides the bake adds as vertices).
 void addSceneFingerprint(Fingerprint& fp, const Scene& scene);
 
 /// Thrown by Checkpoint when a checkpoint exists where a fresh bake would start one.

@@ -80,8 +80,10 @@ constexpr size_t kProbeChunk = 64;
 void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& settings);
 
 /// Bakes the probe grid. `lowerOrder[k]` is instance k's surface transfer summed over bounces
-/// 0..K−1 (SurfaceTransfer::perMeshLowerOrder; empty vectors when K = 0), so a receiver at a
-/// point is lit like a baked vertex there with K bounces. Deterministic for any thread count.
+/// 0..K−1 (SurfaceTransfer::perMeshLowerOrder; empty vectors when K = 0; both sides, front
+/// then back, for an instance whose back side is baked), so a receiver at a point is lit like
+/// a baked vertex there with K bounces. A ray hitting the back of a double-sided face gathers
+/// the back side's transfer. Deterministic for any thread count.
 /// With a checkpoint: restores the chunks it holds, saves finished ones (its interval, and on
 /// interrupt), and the result has the same bits as an uninterrupted bake. Throws
 /// prt::Interrupted within about a second of interruptRequested() (after saving, if any).

@@ -47,16 +47,24 @@ struct StageStats {
 
 struct BakeStats {
   uint64_t vertices = 0;
+  uint64_t backVertices = 0;  // back sides baked (vertices of double-sided instances)
   uint64_t rays = 0;        // cast by this run (a resumed bake casts only what was left)
   bool resumed = false;     // continued from a checkpoint
-  uint64_t hitRecords = 0;  // rays that hit a front face (kept for the bounces)
+  uint64_t hitRecords = 0;  // rays that hit a front face or a double-sided back (kept for the bounces)
   double seconds = 0.0;
   std::vector<StageStats> stages;
 };
 
+/// True when the instance's back side is baked too: a baked (non-receiver) instance of a
+/// double-sided material. Its transfer then has 2 × vertexCount entries per coefficient set.
+bool bakesBackSide(const Scene& scene, const MeshInstance& m);
+
 struct SurfaceTransfer {
   int bands = 0;
-  /// Per Scene::meshes entry: vertexCount × bands² RGB (empty for receiver-only instances).
+  /// Per Scene::meshes entry: vertexCount × bands² RGB (empty for receiver-only instances);
+  /// for an instance whose back side is baked (bakesBackSide), 2 × vertexCount × bands²: the
+  /// front side's vertices, then the back side's (vertex v's back is entry vertexCount + v),
+  /// what MeshInstance::transfer and transferBack hold split in two.
   std::vector<std::vector<glm::vec3>> perMesh;
   /// Same layout, summed over bounces 0 .. K−1 only (empty when K = 0): what a probe must see
   /// on the surfaces so that a receiver at a point is lit as a baked vertex there would be
@@ -64,6 +72,10 @@ struct SurfaceTransfer {
   std::vector<std::vector<glm::vec3>> perMeshLowerOrder;
   BakeStats stats;
 };
+
+/// Moves SurfaceTransfer::perMesh into the scene's instances: MeshInstance::transfer, and for
+/// an instance whose back side was baked, the second half into MeshInstance::transferBack.
+void storeTransfer(Scene& scene, std::vector<std::vector<glm::vec3>> perMesh);
 
 /// Checkpoint stage ids of the surface bake: direct pass 1, bounce k is 1 + k, and the finished
 /// surface stage (kept for a probe bake that follows) 2 + bounces. Below kProbeStageFirst.
@@ -75,7 +87,7 @@ struct BakeControl {
   /// still stops on interruptRequested(), throwing prt::Interrupted.
   Checkpoint* checkpoint = nullptr;
   /// Called once, before the direct pass, with an upper bound on the share of direct rays
-  /// that hit a front face (what the hit records will take; exact when the checkpoint already
+  /// kept as hit records, front faces and double-sided backs (what the hit records will take; exact when the checkpoint already
   /// holds the direct pass). May throw prt::Error to refuse the bake (memory guard).
   std::function<void(double frontHitShare)> checkMemory;
 };
@@ -87,7 +99,7 @@ struct BakeControl {
 SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, const BakeControl& control = {});
 
 /// The direct-pass rays of the given baked vertices (global order: instances in scene order,
-/// receivers skipped), exactly as bakeSurface casts them, `samples` per vertex in order. For
+/// receivers skipped, then the back sides of double-sided instances in scene order), exactly as bakeSurface casts them, `samples` per vertex in order. For
 /// benchmarks (the Embree ceiling on the same rays) and tests. `extent` is
 /// RayScene::sceneExtent() of the scene.
 std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& settings, float extent,

@@ -19,6 +19,10 @@ struct BakeRecord {
   static constexpr const char* kShConvention =
       "real orthonormal, no Condon-Shortley phase, index l(l+1)+m, glTF axes";
   static constexpr const char* kUnits = "E = transfer . light (irradiance); L_o = albedo / pi * E";
+  /// What the _PRT_SH_BACK_ attributes hold (written as "back_transfer"; a record without it
+  /// is from a bake before both sides were baked, which has no such attribute).
+  static constexpr const char* kBackTransfer =
+      "_PRT_SH_BACK_NN of double-sided primitives: transfer of the back side (normal -N)";
 
   std::string scene;       // file name of the scene baked (no folder)
   int bands = 0;           // 1 .. sh::kMaxBands

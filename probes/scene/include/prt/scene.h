@@ -99,12 +99,20 @@ struct MeshInstance {
   /// Per-vertex transfer when read from a baked file: vertexCount × bands² RGB, vertex-major,
   /// bands = Scene::transferBands. Empty: the instance is not baked.
   std::vector<glm::vec3> transfer;
+  /// The back side's transfer (normal −n, light arriving from behind the surface), same layout:
+  /// filled only for an instance of a double-sided material baked by a prt that bakes both
+  /// sides (_PRT_SH_BACK_ attributes, docs/formats.md). Empty: one-sided, or an older bake.
+  std::vector<glm::vec3> transferBack;
 
   size_t vertexCount() const { return positions.size(); }
   size_t triangleCount() const { return indices.size() / 3; }
   /// The bands² coefficients of `vertex`; `bands` is the scene's (Scene::transferBands).
   const glm::vec3* transferOf(size_t vertex, int bands) const {
     return transfer.data() + vertex * static_cast<size_t>(bands) * static_cast<size_t>(bands);
+  }
+  bool hasBackTransfer() const { return !transferBack.empty(); }
+  const glm::vec3* backTransferOf(size_t vertex, int bands) const {
+    return transferBack.data() + vertex * static_cast<size_t>(bands) * static_cast<size_t>(bands);
   }
 };
 
@@ -209,7 +217,7 @@ std::vector<char> passesLight(const Scene& scene);
 
 /// Writes `inputPath`'s scene as .glb with each baked instance's transfer (scene.meshes[k].
 /// transfer, scene.transferBands) as attributes _PRT_SH_00 .. (VEC3 float, RGB of coefficient
-/// i), meshes duplicated where one is used by several nodes, strips and fans rewritten as
+/// i), the back side's (MeshInstance::transferBack, where filled) as _PRT_SH_BACK_00 .., meshes duplicated where one is used by several nodes, strips and fans rewritten as
 /// triangle lists, primitives whose vertices were split for flat normals (MeshInstance::
 /// fileVertex) rewritten with the split vertices and their NORMAL, and `record` (if not null) stored in asset.extras.prt; its bands must be
 /// scene.transferBands when the scene holds transfer. Receivers named by
@@ -220,8 +228,12 @@ void writeBakedScene(const std::string& inputPath, const Scene& scene, const Bak
 
 /// Writes the scene as .glb with per-vertex linear radiance as COLOR_0 (float VEC3,
 /// unclamped), materials replaced by KHR_materials_unlit white so viewers show it as is.
-/// radiance[k] holds instance k's vertex values (empty: the instance is left out). Atomic.
+/// radiance[k] holds instance k's vertex values (empty: the instance is left out).
+/// backRadiance (if not null), per instance, the back side's values of a double-sided
+/// instance, written as _PRT_COLOR_BACK (VEC3 float; viewers ignore it and show COLOR_0 on
+/// both sides). Atomic.
 void writeLitScene(const std::string& inputPath, const Scene& scene,
-                   const std::vector<std::vector<glm::vec3>>& radiance, const std::string& outPath);
+                   const std::vector<std::vector<glm::vec3>>& radiance, const std::string& outPath,
+                   const std::vector<std::vector<glm::vec3>>* backRadiance = nullptr);
 
 }  // namespace prt
