@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "prt/bake/refine.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/scene.h"
 
@@ -22,6 +23,8 @@ struct BakeArgs {
   int probeSamples = 1024;
   bool probeHalf = false;
   bake::BakeSettings settings;
+  bake::RefineSettings refine;
+  bool noRefine = false;
   bool unshadowed = false;
   bool quiet = false;
   bool allowDegenerate = false;  // deprecated --allow-degenerate: dropping them is the default
