@@ -90,26 +90,132 @@ std::pair<double, double> irradianceError(const Baked& b, const Baked& fine) {
   return {worst, sum / n};
 }
 
+// A convex UV sphere of radius 1, smooth normals, `segments` × `rings`: nothing occludes it.
+MeshInstance coarseSphere(int segments, int rings) {
+  MeshInstance m;
+  for (int r = 0; r <= rings; ++r)
+    for (int s = 0; s < segments; ++s) {
+      const double theta = M_PI * r / rings, phi = 2 * M_PI * s / segments;
+      const glm::vec3 p(float(std::sin(theta) * std::cos(phi)), float(std::cos(theta)),
+                        float(std::sin(theta) * std::sin(phi)));
+      m.positions.push_back(p);
+      m.normals.push_back(p);
+    }
+  for (int r = 0; r < rings; ++r)
+    for (int s = 0; s < segments; ++s) {
+      const uint32_t a = uint32_t(r * segments + s), b = uint32_t(r * segments + (s + 1) % segments);
+      const uint32_t c = a + uint32_t(segments), d = b + uint32_t(segments);
+      const glm::vec3 out = m.positions[a] + m.positions[d];
+      if (r > 0) test::addTriangle(m, a, b, d, out);
+      if (r + 1 < rings) test::addTriangle(m, a, d, c, out);
+    }
+  return m;
+}
+
 bake::RefineSettings off() {
   bake::RefineSettings r;
   r.tolerance = 0.0;
   return r;
 }
 
+// The refined coarse quad against a 48 × 48 bake of the same floor. Bound: a score |e|/R ≤ τ
+// (R = |t_unoccluded|) bounds the DC error by τR, and a uniform sky of radiance 1 (l_0 = √4π)
+// turns it into |ΔE|/π ≤ τ R √(4π)/π = 1.62 τ (3 bands); on top, both bakes' noise at 1024
+// samples: a half-shadowed vertex has σ(E/π) ≈ 1.13 · 0.89 · 0.5/√1024 = 0.016, 2σ = 0.03
+// each. The unrefined quad misses the shadow (its worst error ~0.76): the test can fail.
 TEST(BakeRefine, CoarseQuadUnderAnOccluderMatchesAFineBake) {
   const test::TempDir dir("refine_quad");
   const Baked fine = bakeQuad(quadScene(dir, "fine", 48, true), off());
   const std::string coarse = quadScene(dir, "coarse", 1, true);
   const Baked raw = bakeQuad(coarse, off());
-  bake::RefineSettings r;  // the defaults
+  const bake::RefineSettings r;  // the defaults
   const Baked refined = bakeQuad(coarse, r);
   const auto [rawWorst, rawMean] = irradianceError(raw, fine);
   const auto [worst, mean] = irradianceError(refined, fine);
-  std::printf("vertices %zu -> %zu, residual %.3f; |dE|/pi unrefined max %.3f mean %.4f, refined max %.3f mean %.4f\n",
-              size_t(refined.refined.verticesBefore), size_t(refined.refined.verticesAfter), refined.refined.residual,
-              rawWorst, rawMean, worst, mean);
+  const double bound = 1.62 * r.tolerance + 2 * 0.03;
   EXPECT_GT(refined.refined.verticesAfter, refined.refined.verticesBefore);
   EXPECT_LE(refined.refined.residual, r.tolerance);
+  EXPECT_GT(rawWorst, bound);
+  EXPECT_LE(worst, bound) << "unrefined " << rawWorst << ", " << refined.refined.verticesAfter << " vertices";
+  EXPECT_LT(mean, rawMean / 5);
+  EXPECT_LE(refined.refined.verticesAfter, fine.refined.verticesAfter / 10);  // far fewer than the fine bake
+}
+
+// Nothing to gain, nothing added: a quad that sees the whole sky, a fine floor, and a curved
+// unoccluded surface (a coarse dome whose normals vary: the normals' own interpolation does not
+// count).
+TEST(BakeRefine, UnoccludedAndFineMeshesAreLeftAlone) {
+  const test::TempDir dir("refine_alone");
+  for (const std::string& path : {quadScene(dir, "open", 1, false), test::sourcePath("scenes/plane.gltf")}) {
+    SCOPED_TRACE(path);
+    const Baked b = bakeQuad(path, bake::RefineSettings{});
+    EXPECT_EQ(b.refined.verticesAfter, b.refined.verticesBefore);
+    EXPECT_TRUE(b.scene.meshes[0].fileBlend.empty());
+  }
+  GltfFile f;
+  MeshInstance dome = coarseSphere(6, 4);
+  f.node({{"name", "Dome"}, {"mesh", f.mesh(dome)}}, true);
+  const Baked b = bakeQuad(f.write("dome", dir.path()), bake::RefineSettings{});
+  EXPECT_EQ(b.refined.verticesAfter, b.refined.verticesBefore);
+}
+
+TEST(BakeRefine, BudgetIsRespected) {
+  const test::TempDir dir("refine_budget");
+  const std::string coarse = quadScene(dir, "coarse", 1, true);
+  bake::RefineSettings r;
+  r.budget = 5;
+  const Baked b = bakeQuad(coarse, r);
+  EXPECT_GT(b.refined.verticesAfter, b.refined.verticesBefore);
+  EXPECT_LE(b.refined.verticesAfter, b.refined.verticesBefore + 5);
+  EXPECT_TRUE(b.refined.budgetReached);
+  r.budget = 0;  // automatic: at least kMinAutoBudget
+  EXPECT_EQ(bake::refineBudget(r, b.scene), bake::kMinAutoBudget);
+}
+
+// Conforming: every edge of the refined floor is shared by two of its triangles or lies on the
+// quad's border, and each vertex interpolates the file's corners with weights that reproduce
+// its position.
+TEST(BakeRefine, RefinedMeshIsConformingAndItsBlendsReproducePositions) {
+  const test::TempDir dir("refine_mesh");
+  const Baked b = bakeQuad(quadScene(dir, "coarse", 1, true), bake::RefineSettings{});
+  const MeshInstance& m = b.scene.meshes[0];
+  ASSERT_GT(m.vertexCount(), 4u);
+  std::map<std::pair<uint32_t, uint32_t>, int> edges;
+  for (size_t t = 0; t < m.triangleCount(); ++t)
+    for (int j = 0; j < 3; ++j) {
+      uint32_t a = m.indices[3 * t + size_t(j)], c = m.indices[3 * t + size_t(j + 1) % 3];
+      edges[{std::min(a, c), std::max(a, c)}]++;
+    }
+  for (const auto& [e, count] : edges) {
+    const glm::vec3 p = m.positions[e.first], q = m.positions[e.second];
+    const bool border = (std::abs(p.x) == 1 && p.x == q.x) || (std::abs(p.z) == 1 && p.z == q.z);
+    EXPECT_EQ(count, border ? 1 : 2) << "edge " << e.first << "-" << e.second;
+  }
+  ASSERT_EQ(m.fileBlend.size(), m.vertexCount());
+  const MeshInstance original = loadScene(quadScene(dir, "coarse", 1, true)).meshes[0];
+  for (size_t v = 0; v < m.vertexCount(); ++v) {
+    glm::vec3 p(0.0f), n(0.0f);
+    float sum = 0.0f;
+    for (int j = 0; j < 3; ++j) {
+      p += m.fileBlend[v].weight[j] * original.positions[m.fileBlend[v].vertex[j]];
+      sum += m.fileBlend[v].weight[j];
+    }
+    EXPECT_NEAR(sum, 1.0f, 1e-6f);
+    EXPECT_NEAR(glm::length(p - m.positions[v]), 0.0f, 1e-6f) << "vertex " << v;
+    EXPECT_NEAR(glm::length(m.normals[v]), 1.0f, 1e-5f);
+  }
+}
+
+TEST(BakeRefine, SameMeshForAnyThreadCount) {
+  const test::TempDir dir("refine_threads");
+  const std::string coarse = quadScene(dir, "coarse", 1, true);
+  const Baked one = bakeQuad(coarse, bake::RefineSettings{}, 1);
+  const Baked two = bakeQuad(coarse, bake::RefineSettings{}, 2);
+  for (size_t k = 0; k < one.scene.meshes.size(); ++k) {
+    EXPECT_EQ(one.scene.meshes[k].positions, two.scene.meshes[k].positions);
+    EXPECT_EQ(one.scene.meshes[k].indices, two.scene.meshes[k].indices);
+  }
+  EXPECT_EQ(one.refined.residual, two.refined.residual);
 }
 
 }  // namespace
