@@ -13,7 +13,9 @@
 #include <thread>
 #include <vector>
 
+#include "gltf_file.h"
 #include "harness.h"
+#include "test_scenes.h"
 
 namespace prt {
 namespace {
@@ -101,8 +103,10 @@ TEST(CliResume, SignalThenKillNineThenResume) {
   const std::string scene = scenePath("cornell_open.gltf");
   const std::string ref = (dir / "ref.glb").string(), out = (dir / "out" / "b.glb").string();
   const std::string ckpt = out + ".prt-checkpoint";
+  // --no-refine: a resumed bake refines again before its first save (seconds on cornell_open at
+  // one thread), and this test times saves; refined resumes are CliResume.RefinedBakeResumes...
   std::vector<std::string> common = {"bake", scene, "-o", out, "--samples", "256", "--bands", "2", "--bounces", "1",
-                                     "-q", "--checkpoint-interval", "0.1"};
+                                     "-q", "--checkpoint-interval", "0.1", "--no-refine"};
   std::vector<std::string> refArgs = common;
   refArgs[3] = ref;
   ASSERT_EQ(prtBake(refArgs).status, 0);
@@ -136,6 +140,41 @@ TEST(CliResume, SignalThenKillNineThenResume) {
   ASSERT_EQ(done.status, 0) << done.err;
   EXPECT_TRUE(slurp(out) == refBytes) << "output after kill -9 and resume differs";
   EXPECT_FALSE(fs::exists(ckpt));
+}
+
+// Refinement is not a checkpointed stage: it is deterministic and runs again on resume, before
+// the restored stages, so a resumed refined bake has the refined mesh the restored chunks belong
+// to. A coarse floor under a lid (refined from 8 to some 50 vertices), interrupted after the
+// direct pass, resumed with another thread count: the same bytes.
+TEST(CliResume, RefinedBakeResumesByteIdentical) {
+  const test::TempDir tmp("cli_refine_resume");
+  test::GltfFile f;
+  f.node({{"name", "Floor"}, {"mesh", f.mesh(test::makePlane({0, 0, 0}, 2.0f, 1))}}, true);
+  MeshInstance lid = test::makePlane({0.25f, 0.3f, 0.0f}, 1.0f, 1);
+  for (size_t t = 0; t < lid.indices.size(); t += 3) std::swap(lid.indices[t + 1], lid.indices[t + 2]);
+  for (glm::vec3& n : lid.normals) n = {0, -1, 0};
+  f.node({{"name", "Lid"}, {"mesh", f.mesh(lid)}}, true);
+  const std::string scene = f.write("quad", tmp.path());
+  const std::string ref = (tmp.path() / "ref.glb").string(), out = (tmp.path() / "out.glb").string();
+  const std::vector<std::string> common = {"bake", scene, "--samples", "256", "-q"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = common;
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  ASSERT_EQ(prtBake(with({"-o", ref})).status, 0);
+  ASSERT_GT(loadScene(ref).meshes[0].vertexCount(), 4u) << "not refined: the test would prove nothing";
+  const RunResult r = prtBake(with({"-o", out}), interruptAfter(1));
+  ASSERT_EQ(r.status, 130) << r.err;
+  ASSERT_TRUE(fs::exists(out + ".prt-checkpoint"));
+  const RunResult done = prtBake(with({"-o", out, "--resume", "--threads", "1"}));
+  ASSERT_EQ(done.status, 0) << done.err;
+  EXPECT_EQ(slurp(out), slurp(ref));
+  // Other refinement settings are another bake: the checkpoint is refused, naming them.
+  ASSERT_EQ(prtBake(with({"-o", out}), interruptAfter(1)).status, 130);
+  const RunResult other = prtBake(with({"-o", out, "--resume", "--refine-tolerance", "0.1"}));
+  EXPECT_EQ(other.status, 1);
+  EXPECT_NE(other.err.find("refine tolerance"), std::string::npos) << other.err;
 }
 
 TEST(CliResume, MismatchingCheckpointIsRefused) {

@@ -70,10 +70,11 @@ private:
 // What must match for a checkpoint to be resumed: the scene's content and every setting that
 // changes the output bits (not --threads, not -q).
 bake::Fingerprint bakeFingerprint(const Scene& scene, const BakeArgs& a, const bake::BakeSettings& s,
-                                  const bake::ProbeSettings* ps) {
+                                  const bake::RefineSettings& r, const bake::ProbeSettings* ps) {
   bake::Fingerprint fp;
   fp.add("prt", kVersion);
   bake::addSceneFingerprint(fp, scene);
+  bake::addRefineFingerprint(fp, r, s);
   fp.add("bands", std::to_string(s.bands));
   fp.add("samples", std::to_string(s.samples));
   fp.add("bounces", std::to_string(s.bounces));
@@ -145,6 +146,31 @@ CLI::Option* addProbeOptions(CLI::App& bake, BakeArgs& a) {
   return probes;
 }
 
+// Refinement before the bake (prt/bake/refine.h): on by default; --no-refine or
+// --refine-tolerance 0 turn it off, and its options mean nothing without rays.
+void addRefineOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
+  CLI::Option* tolerance =
+      bake.add_option("--refine-tolerance", a.refine.tolerance,
+                      "Split mesh edges where shadowed transfer differs from its interpolation by more than this, "
+                      "relative to unoccluded transfer (0 = no refinement)")
+          ->check(finiteAtLeast(0.0))
+          ->capture_default_str();
+  CLI::Option* budget =
+      bake.add_option("--refine-budget", a.refine.budget,
+                      cat("Vertices refinement may add (0 = as many as the scene has, at least ", bake::kMinAutoBudget,
+                          ")"))
+          ->capture_default_str();
+  CLI::Option* samples = bake.add_option("--refine-samples", a.refine.samples,
+                                         "Directions per point when refinement estimates transfer (at most --samples)")
+                             ->check(CLI::Range(1, bake::kMaxSamples))
+                             ->capture_default_str();
+  CLI::Option* off = bake.add_flag("--no-refine", a.noRefine, "Bake the meshes as they are (no refinement)");
+  for (CLI::Option* o : {tolerance, budget, samples}) {
+    o->excludes(off);
+    o->excludes(unshadowed);
+  }
+}
+
 }  // namespace
 
 void addBake(CLI::App& bake, BakeArgs& a) {
@@ -172,6 +198,7 @@ void addBake(CLI::App& bake, BakeArgs& a) {
   bake.add_flag("--allow-external-uris", a.load.allowExternalUris,
                 "Read buffers and images outside the scene's folder (absolute paths, ..)");
   bake.add_flag("-q,--quiet", a.quiet, "No progress bar, no summary");
+  addRefineOptions(bake, a, unshadowed);
   // Probes are baked with the bounces, and a checkpoint holds rays: neither exists unshadowed.
   addProbeOptions(bake, a)->excludes(unshadowed);
   bake.add_flag("--resume", a.resume, "Continue an interrupted bake from its checkpoint (same scene and settings)")
@@ -234,9 +261,13 @@ int runBake(const BakeArgs& a) {
     std::fprintf(stderr, "prt: warning: --allow-degenerate is deprecated and does nothing: every command drops "
                          "zero-area triangles with a warning\n");
   printWarnings(scene, a.quiet);
+  bake::RefineSettings refine = a.refine;
+  if (a.noRefine || !s.shadowed) refine.tolerance = 0.0;
+  if (refine.tolerance > 0.0) s.refineVertices = bake::refineBudget(refine, scene);
 
-  // Memory guard: first without the hit records (before the BVH is built), then with the
-  // bound the bake measures on a pilot of its own rays (BakeControl::checkMemory).
+  // Memory guard: first without the hit records (before the BVH is built) and with the
+  // refinement's budget, then with the bound the bake measures on a pilot of its own rays on
+  // the refined scene (BakeControl::checkMemory).
   std::optional<bake::MemoryLimit> limit = bake::memoryLimit(a.maxMemory);
   bake::MemoryEstimate estimate = bake::estimateBakeMemory(scene, s, psp, 0.0);
   guardMemory(estimate, limit, scene, s, psp);
@@ -249,7 +280,7 @@ int runBake(const BakeArgs& a) {
     co.resume = a.resume;
     co.interruptAfterChunks = testInterruptAfter();
     try {
-      checkpoint.emplace(co, bakeFingerprint(scene, a, s, psp));
+      checkpoint.emplace(co, bakeFingerprint(scene, a, s, refine, psp));
     } catch (const bake::CheckpointExists&) {
       throw Error(cat(co.path, ": a checkpoint of an interrupted bake exists; add --resume to continue it, "
                                "or delete it to start over"));
@@ -271,6 +302,11 @@ int runBake(const BakeArgs& a) {
                             checkpoint->progressText(), "); rerun with --resume to continue"));
     }
   };
+  // Refinement is deterministic: a resumed bake refines again, to the same meshes, before it
+  // restores the stages that follow (the checkpoint's fingerprint holds its settings).
+  const bake::RefineStats refined =
+      runStage([&] { return bake::refineScene(scene, refine, s, checkpoint ? &*checkpoint : nullptr); });
+  s.refineVertices = 0;  // the scene holds them now
   bake::SurfaceTransfer result = runStage([&] { return bake::bakeSurface(scene, s, control); });
   std::string sceneName = std::filesystem::path(a.scene).filename().string();
   bake::ProbeStats probeStats;
@@ -287,7 +323,10 @@ int runBake(const BakeArgs& a) {
   bake::storeTransfer(scene, std::move(result.perMesh));
   scene.transferBands = s.bands;
   auto tWrite = std::chrono::steady_clock::now();
-  const BakeRecord record = bake::bakeRecord(s, sceneName, kVersion);
+  BakeRecord record = bake::bakeRecord(s, sceneName, kVersion);
+  if (refine.tolerance > 0.0)
+    record.refinement = {refine.tolerance, refined.budget,      std::min(refine.samples, s.samples),
+                         refined.verticesBefore, refined.verticesAfter, refined.residual};
   writeBakedScene(a.scene, scene, &record, a.output);
   double writeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tWrite).count();
   // The outputs are in place: the checkpoint has served.
@@ -298,6 +337,7 @@ int runBake(const BakeArgs& a) {
   size_t receivers = 0;
   for (const MeshInstance& m : scene.meshes) receivers += m.receiverOnly;
   std::ostringstream stages;
+  if (refined.seconds > 0) stages << "refine " << std::fixed << std::setprecision(2) << refined.seconds << " s, ";
   for (const bake::StageStats& stage : st.stages) stages << stage.name << " " << std::fixed
                                                          << std::setprecision(2) << stage.seconds << " s, ";
   double directSeconds = 0;
@@ -313,8 +353,18 @@ int runBake(const BakeArgs& a) {
                s.shadowed ? "" : " (unshadowed)", formatCount(double(st.rays)).c_str(),
                formatCount(directSeconds > 0 ? double(st.rays) / directSeconds : 0.0).c_str(),
                formatCount(double(st.hitRecords)).c_str(), st.resumed ? "; resumed from the checkpoint" : "",
-               stages.str().c_str(), writeSeconds, st.seconds + writeSeconds, formatBytes(estimate.total).c_str(),
+               stages.str().c_str(), writeSeconds, refined.seconds + st.seconds + writeSeconds, formatBytes(estimate.total).c_str(),
                formatBytes(peakMemoryBytes()).c_str(), estimate.phases().c_str());
+  if (refine.tolerance > 0.0)
+    std::fprintf(stderr,
+                 "  refinement: %s -> %s vertices, %s -> %s triangles in %d rounds (tolerance %g, budget %s%s), "
+                 "residual %.3f; %s points, %s rays in %.2f s\n",
+                 formatCount(double(refined.verticesBefore)).c_str(), formatCount(double(refined.verticesAfter)).c_str(),
+                 formatCount(double(refined.trianglesBefore)).c_str(),
+                 formatCount(double(refined.trianglesAfter)).c_str(), refined.rounds, refine.tolerance,
+                 formatCount(double(refined.budget)).c_str(), refined.budgetReached ? ", reached" : "",
+                 refined.residual, formatCount(double(refined.points)).c_str(),
+                 formatCount(double(refined.rays)).c_str(), refined.seconds);
   for (const std::string& line : describeReceivers(scene, "--receiver")) std::fprintf(stderr, "  receiver %s\n", line.c_str());
   if (a.probes.empty()) return 0;
   const std::string restored =

@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 
 #include "prt/bake/probe_bake.h"
+#include "prt/bake/refine.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/scene.h"
 
@@ -24,6 +25,8 @@ struct BakeArgs {
   bool probeHalf = false;
   bake::ProbeSettings::Region probeRegion = bake::ProbeSettings::Region::Auto;
   bake::BakeSettings settings;
+  bake::RefineSettings refine;
+  bool noRefine = false;
   bool unshadowed = false;
   bool quiet = false;
   bool allowDegenerate = false;  // deprecated --allow-degenerate: dropping them is the default

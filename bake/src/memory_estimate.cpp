@@ -76,6 +76,12 @@ constexpr uint64_t kVdbHashBuffer = uint64_t(1) << 20;
 constexpr uint64_t kCheckpointBuffers = uint64_t(5) << 20;
 // Writing the .vdb besides the trees: OpenVDB's registries, Blosc and stream buffers.
 constexpr uint64_t kVdbWriteBytes = uint64_t(8) << 20;
+// Refinement (refine.cpp): a refined vertex in the scene (position, normal, texture
+// coordinate, colour, two triangles' indices, its file blend: 12+12+8+16+24+24) and, while it
+// runs, per vertex of the refined mesh about 6 estimated points (the vertex, three edges' and
+// two triangles' midpoints or centroids: V + E + T ≈ 6V), each n2 floats and a variance, in
+// hash maps with the edges and triangles that own them (kRefinePointBytes, rounded up).
+constexpr uint64_t kRefinedVertexBytes = 96, kRefinePointsPerVertex = 6, kRefinePointBytes = 96;
 // On top of the sum: allocator rounding, vector growth of the hit records per thread.
 constexpr double kSlack = 1.10;
 
@@ -156,8 +162,11 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   // layout entries); the BVH holds each triangle once.
   vertices += backVertices;
   const uint64_t n2 = uint64_t(s.bands) * s.bands;
+  const uint64_t original = vertices;
+  vertices += s.refineVertices;
+  triangles += 2 * s.refineVertices;
   e.base = kBaseBytes;
-  e.scene = sceneBytes(scene);
+  e.scene = sceneBytes(scene) + s.refineVertices * kRefinedVertexBytes;
   e.transfer = vertices * n2 * 12;
   const bool shadowed = s.shadowed;
   const bool bounces = shadowed && s.bounces > 0;
@@ -175,7 +184,11 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   if (probes) e.probePeak = e.scene + 2 * e.transfer + probeStagePeak(scene, *probes, triangles, e.probes);
   e.writePeak = e.scene + e.transfer + lower + kWriteInputCopies * gltfInputBytes(scene) +
                 kWriteTransferCopies * e.transfer;
-  e.total = e.base + uint64_t(double(std::max({e.surfacePeak, e.probePeak, e.writePeak})) * kSlack);
+  if (s.refineVertices > 0 && shadowed)
+    e.refinePeak = e.scene + original * kLayoutPerVertex + (triangles - 2 * s.refineVertices) * kBvhBytesPerTriangle +
+                   vertices * kRefinePointsPerVertex * (n2 * 4 + kRefinePointBytes);
+  e.total = e.base +
+            uint64_t(double(std::max({e.surfacePeak, e.probePeak, e.writePeak, e.refinePeak})) * kSlack);
   return e;
 }
 
@@ -194,6 +207,7 @@ std::string MemoryEstimate::phases() const {
   auto bound = [&](uint64_t peak) { return mib(base + uint64_t(double(peak) * kSlack)); };
   std::ostringstream os;
   os << "surface " << bound(surfacePeak);
+  if (refinePeak) os << ", refine " << bound(refinePeak);
   if (probePeak) os << ", probes " << bound(probePeak);
   os << ", write " << bound(writePeak);
   return os.str();

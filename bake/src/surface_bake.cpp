@@ -36,6 +36,7 @@
 #include "prt/error.h"
 #include "prt/sh.h"
 #include "stage_runner.h"
+#include "vertex_rays.h"
 
 namespace prt::bake {
 
@@ -146,28 +147,16 @@ Layout makeLayout(const Scene& scene) {
   return lay;
 }
 
-// Where rays of each vertex start. A vertex lies on its own triangles and, at a corner of a
-// room, on the plane of the next wall too: a ray leaving exactly there can slip through that
-// wall and see the sky. The origin is therefore lifted along the normal *and* pulled towards
-// the centroids of the vertex's triangles, by a small fraction of the scene size. A virtual
-// vertex (a back side) is lifted along −n instead, with the same pull.
+// Where rays of each vertex start (vertex_rays.h: lifted along the normal, pulled towards
+// the centroids of the vertex's triangles). A virtual vertex (a back side) is lifted along −n
+// instead, with the same pull.
 std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float extent) {
   std::vector<glm::vec3> pull(lay.vertices, glm::vec3(0.0f));
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     const MeshInstance& m = scene.meshes[k];
     if (m.receiverOnly) continue;
-    size_t v0 = lay.vertexOffset[k];
-    for (size_t t = 0; t < m.triangleCount(); ++t) {
-      const uint32_t* ix = &m.indices[3 * t];
-      glm::vec3 c = (m.positions[ix[0]] + m.positions[ix[1]] + m.positions[ix[2]]) / 3.0f;
-      for (int j = 0; j < 3; ++j) {
-        glm::vec3 d = c - m.positions[ix[j]];
-        float len = glm::length(d);
-        if (len > 0.0f) pull[v0 + ix[j]] += d / len;
-      }
-    }
+    accumulatePull(m.positions, m.indices, &pull[lay.vertexOffset[k]]);
   }
-  const float eps = 1e-4f * extent;
   std::vector<glm::vec3> origins(lay.vertices);
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     const MeshInstance& m = scene.meshes[k];
@@ -175,11 +164,8 @@ std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float e
     size_t v0 = lay.vertexOffset[k];
     const size_t b0 = lay.backVertexOffset[k];
     for (size_t i = 0; i < m.vertexCount(); ++i) {
-      glm::vec3 p = pull[v0 + i];
-      float len = glm::length(p);
-      if (len > 0.0f) p /= len;
-      origins[v0 + i] = m.positions[i] + eps * (m.normals[i] + p);
-      if (b0 != SIZE_MAX) origins[b0 + i] = m.positions[i] + eps * (p - m.normals[i]);
+      origins[v0 + i] = liftedOrigin(m.positions[i], m.normals[i], pull[v0 + i], extent);
+      if (b0 != SIZE_MAX) origins[b0 + i] = liftedOrigin(m.positions[i], -m.normals[i], pull[v0 + i], extent);
     }
   }
   return origins;
@@ -218,27 +204,6 @@ std::vector<glm::vec3> unshadowedTransfer(const MeshInstance& m, int bands, bool
   return t;
 }
 
-// Ray j of vertex v, exactly as the bake casts it.
-struct VertexSampler {
-  glm::vec3 origin;
-  Frame frame;
-  uint32_t s0, s1;
-  float tnear;
-  VertexSampler(const glm::vec3& org, const glm::vec3& n, uint64_t seed, size_t v, float tn)
-      : origin(org), frame(Frame::fromNormal(n)), tnear(tn) {
-    const uint64_t h = splitMix64(seed ^ splitMix64(v));
-    s0 = uint32_t(h);
-    s1 = uint32_t(h >> 32);
-  }
-  void make(uint32_t j, Ray& ray) const {
-    ray = Ray{};
-    ray.org = origin;
-    ray.tnear = tnear;
-    ray.dir = frame.toWorld(sampleCosineHemisphere({sobol0(j, s0), sobol1(j, s1)}));
-    ray.tfar = std::numeric_limits<float>::infinity();
-  }
-};
-
 // The side's normal: a virtual vertex faces away from its vertex's normal.
 glm::vec3 normalOf(const Scene& scene, const Layout& lay, size_t v) {
   const glm::vec3& n = scene.meshes[lay.meshOfVertex[v]].normals[lay.localVertex(v)];
@@ -253,8 +218,6 @@ inline uint32_t recordedTriangle(const Layout& lay, const Ray& ray) {
   const uint32_t b = lay.backTriOffset[ray.mesh];
   return b == Layout::kNone ? Layout::kNone : b + ray.tri;
 }
-
-float tnearFor(float extent) { return 1e-6f * extent; }
 
 // An upper bound on the share of direct rays that are kept as hit records (a front face, or
 // the back of a double-sided face), from a pilot: the first

@@ -15,6 +15,10 @@ std::string describeBakeRecord(const BakeRecord& r) {
   std::string line = cat(r.bands, " bands, ", r.samples, " samples, ", r.bounces, " bounce", r.bounces == 1 ? "" : "s",
                          ", ", r.shadowed ? "shadowed" : "unshadowed", ", seed ", r.seed, ", from ", r.scene);
   if (!r.prtVersion.empty()) line += cat(", prt ", r.prtVersion);
+  const BakeRecord::Refinement& f = r.refinement;
+  if (f.tolerance > 0.0)
+    line += cat("; refined ", f.verticesBefore, " -> ", f.verticesAfter, " vertices (tolerance ", f.tolerance,
+                ", budget ", f.budget, ", ", f.samples, " samples, residual ", f.residual, ")");
   return line;
 }
 
@@ -25,6 +29,7 @@ namespace {
 // Keys, as files baked by every prt so far spell them.
 constexpr const char* kVersionKey = "version";
 constexpr const char* kPrtVersionKey = "prt_version";
+constexpr const char* kRefinementKey = "refinement";
 
 /// A value as the message quotes it: JSON text, cut short if long.
 std::string shown(const Json& v) {
@@ -76,6 +81,12 @@ public:
     if (!v.is_string()) fail(key, cat("expected a string, got ", shown(v)));
     return v.get<std::string>();
   }
+  /// A finite number (integer or not).
+  double number(const char* key) const {
+    const Json& v = get(key);
+    if (!v.is_number() || !std::isfinite(v.get<double>())) fail(key, cat("expected a number, got ", shown(v)));
+    return v.get<double>();
+  }
   bool has(const char* key) const { return j_.contains(key); }
 
 private:
@@ -99,6 +110,12 @@ Json bakeRecordToJson(const BakeRecord& r) {
   j["units"] = BakeRecord::kUnits;
   j["back_transfer"] = BakeRecord::kBackTransfer;
   if (!r.prtVersion.empty()) j[kPrtVersionKey] = r.prtVersion;
+  if (r.refinement.tolerance > 0.0) {
+    const BakeRecord::Refinement& f = r.refinement;
+    j[kRefinementKey] = {{"tolerance", f.tolerance},           {"budget", f.budget},
+                         {"samples", f.samples},               {"vertices_before", f.verticesBefore},
+                         {"vertices_after", f.verticesAfter},  {"residual", f.residual}};
+  }
   return j;
 }
 
@@ -127,6 +144,23 @@ BakeRecord bakeRecordFromJson(const Json& j, const std::string& where) {
   f.string("units");
   if (f.has("back_transfer")) f.string("back_transfer");
   if (f.has(kPrtVersionKey)) r.prtVersion = f.string(kPrtVersionKey);
+  if (f.has(kRefinementKey)) {
+    const Json& sub = f.get(kRefinementKey);
+    const std::string here = cat(where, ".", kRefinementKey);
+    if (!sub.is_object()) f.fail(kRefinementKey, cat("expected an object, got ", shown(sub)));
+    const Fields g(sub, here);
+    BakeRecord::Refinement& x = r.refinement;
+    x.tolerance = g.number("tolerance");
+    if (!(x.tolerance > 0.0)) g.fail("tolerance", cat("expected a number > 0, got ", shown(sub["tolerance"])));
+    x.budget = g.unsigned64("budget");
+    x.samples = g.integer("samples", 1, std::numeric_limits<int>::max(), ">= 1");
+    x.verticesBefore = g.unsigned64("vertices_before");
+    x.verticesAfter = g.unsigned64("vertices_after");
+    if (x.verticesAfter < x.verticesBefore)
+      g.fail("vertices_after", cat(x.verticesAfter, ": fewer than vertices_before (", x.verticesBefore, ")"));
+    x.residual = g.number("residual");
+    if (x.residual < 0.0) g.fail("residual", cat("expected a number >= 0, got ", shown(sub["residual"])));
+  }
   return r;
 }
 

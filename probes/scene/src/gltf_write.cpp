@@ -4,6 +4,8 @@
 #include "prt/scene.h"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -127,8 +129,13 @@ void checkMatchesScene(const Gltf& g, const Scene& scene) {
       auto pos = attrs.find("POSITION");
       ok = pos != attrs.end() && pos->second >= 0 && size_t(pos->second) < m.accessors.size();
       const size_t count = ok ? m.accessors[size_t(pos->second)].count : 0;
-      if (ok && inst.fileVertex.empty()) ok = count == inst.vertexCount();
-      if (ok && !inst.fileVertex.empty())
+      if (ok && !inst.fileBlend.empty())
+        ok = inst.fileBlend.size() == inst.vertexCount() &&
+             std::all_of(inst.fileBlend.begin(), inst.fileBlend.end(), [&](const MeshInstance::FileBlend& b) {
+               return b.vertex[0] < count && b.vertex[1] < count && b.vertex[2] < count;
+             });
+      else if (ok && inst.fileVertex.empty()) ok = count == inst.vertexCount();
+      else if (ok)
         ok = inst.fileVertex.size() == inst.vertexCount() &&
              std::all_of(inst.fileVertex.begin(), inst.fileVertex.end(), [&](uint32_t v) { return v < count; });
     }
@@ -237,6 +244,113 @@ void rewriteSplitPrimitives(Gltf& g, int& staging, const Scene& scene) {
     setTriangleList(m, staging, prim, indices);
     prim.extensions.erase("KHR_draco_mesh_compression");  // the new accessors are plain
     done.emplace(key, prim);
+  }
+}
+
+/// The file vertex of a blend with the largest weight (the first of equal ones).
+uint32_t dominantVertex(const MeshInstance::FileBlend& b) {
+  int best = 0;
+  for (int j = 1; j < 3; ++j)
+    if (b.weight[j] > b.weight[best]) best = j;
+  return b.vertex[best];
+}
+
+/// How a refined vertex gets an attribute: interpolated (float, normalised and float data),
+/// interpolated then renormalised (NORMAL; TANGENT's xyz, its handedness w from the dominant
+/// vertex), or copied from the dominant file vertex (integer data such as JOINTS_n, and
+/// WEIGHTS_n, which belong to those joints).
+enum class BlendKind { Linear, Unit, Tangent, Nearest };
+
+BlendKind blendKind(const std::string& name, const AccessorData& d) {
+  if (name.rfind("JOINTS_", 0) == 0 || name.rfind("WEIGHTS_", 0) == 0) return BlendKind::Nearest;
+  if (d.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !d.normalized) return BlendKind::Nearest;
+  if (name == "NORMAL" && d.components == 3) return BlendKind::Unit;
+  if (name == "TANGENT" && d.components == 4) return BlendKind::Tangent;
+  return BlendKind::Linear;
+}
+
+/// A new float accessor whose element i is blends[i] of accessor `index`'s elements. Each sum
+/// runs over its terms sorted by weight and value, so vertices made from equal values (the
+/// two sides of a UV seam) get equal bits and the refined surface stays closed. POSITION gets
+/// the min/max glTF requires.
+int blendedAccessor(Gltf& g, int& staging, int index, const std::string& name,
+                    const std::vector<MeshInstance::FileBlend>& blends, const std::string& where) {
+  const AccessorData d = openAccessor(g, index, where);
+  const BlendKind kind = blendKind(name, d);
+  if (kind == BlendKind::Nearest) {
+    std::vector<uint32_t> from(blends.size());
+    for (size_t i = 0; i < blends.size(); ++i) from[i] = dominantVertex(blends[i]);
+    return gatheredAccessor(g, staging, index, from, where);
+  }
+  const int n = d.components;
+  std::vector<float> out(blends.size() * size_t(n));
+  for (size_t i = 0; i < blends.size(); ++i) {
+    const MeshInstance::FileBlend& b = blends[i];
+    std::array<std::pair<double, std::array<double, 4>>, 3> terms{};
+    for (int j = 0; j < 3; ++j) {
+      terms[size_t(j)].first = b.weight[j];
+      for (int c = 0; c < n; ++c) terms[size_t(j)].second[size_t(c)] = b.weight[j] != 0.0f ? d.get(b.vertex[j], c) : 0.0;
+    }
+    std::sort(terms.begin(), terms.end());
+    std::array<double, 4> v{};
+    for (const auto& [w, value] : terms)
+      for (int c = 0; c < n; ++c) v[size_t(c)] += w * value[size_t(c)];
+    if (kind == BlendKind::Unit || kind == BlendKind::Tangent) {
+      const double len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+      if (len > 0.0)
+        for (int c = 0; c < 3; ++c) v[size_t(c)] /= len;
+      if (kind == BlendKind::Tangent) v[3] = d.get(dominantVertex(b), 3) < 0.0 ? -1.0 : 1.0;
+    }
+    for (int c = 0; c < n; ++c) out[i * size_t(n) + size_t(c)] = static_cast<float>(v[size_t(c)]);
+  }
+  tinygltf::Accessor a;
+  a.name = g.model.accessors[size_t(index)].name;
+  a.type = g.model.accessors[size_t(index)].type;
+  a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  a.count = blends.size();
+  a.bufferView = appendBufferView(g.model, stagingBuffer(g.model, staging), out.data(), out.size() * sizeof(float),
+                                  TINYGLTF_TARGET_ARRAY_BUFFER);
+  if (name == "POSITION" && n == 3 && !blends.empty()) {
+    a.minValues.assign(3, std::numeric_limits<double>::infinity());
+    a.maxValues.assign(3, -std::numeric_limits<double>::infinity());
+    for (size_t i = 0; i < blends.size(); ++i)
+      for (int c = 0; c < 3; ++c) {
+        a.minValues[size_t(c)] = std::min(a.minValues[size_t(c)], double(out[i * 3 + size_t(c)]));
+        a.maxValues[size_t(c)] = std::max(a.maxValues[size_t(c)], double(out[i * 3 + size_t(c)]));
+      }
+  }
+  g.model.accessors.push_back(a);
+  return static_cast<int>(g.model.accessors.size() - 1);
+}
+
+/// A primitive the bake refined (MeshInstance::fileBlend) is written with its refined
+/// vertices: every attribute and morph target interpolated (blendedAccessor), the refined
+/// triangles (in the file's winding), and, where the file has no NORMAL, the flat normals of
+/// the refined triangles, so that reading the baked file gives the vertices its transfer
+/// belongs to. Each instance has its own mesh by now (giveEachNodeItsOwnMesh).
+void rewriteRefinedPrimitives(Gltf& g, int& staging, const Scene& scene) {
+  tinygltf::Model& m = g.model;
+  for (const MeshInstance& inst : scene.meshes) {
+    if (inst.fileBlend.empty()) continue;
+    tinygltf::Primitive& prim = primitiveOf(m, inst);
+    const std::string where = primitiveWhere(inst.mesh, inst.primitive);
+    for (auto& [name, a] : prim.attributes)
+      a = blendedAccessor(g, staging, a, name, inst.fileBlend, cat(where, " / ", name));
+    for (size_t t = 0; t < prim.targets.size(); ++t)
+      for (auto& [name, a] : prim.targets[t])
+        a = blendedAccessor(g, staging, a, name, inst.fileBlend, cat(where, " / target ", t, " / ", name));
+    std::vector<uint32_t> indices = inst.indices;
+    if (glm::determinant(glm::dmat3(inst.world)) < 0.0)  // the reader swapped two corners
+      for (size_t t = 0; t + 2 < indices.size(); t += 3) std::swap(indices[t + 1], indices[t + 2]);
+    if (!prim.attributes.count("NORMAL")) {
+      const AccessorData pos = openAccessor(g, prim.attributes.at("POSITION"), cat(where, " / POSITION"));
+      std::vector<glm::vec3> positions(pos.count);
+      for (size_t v = 0; v < pos.count; ++v)
+        for (int c = 0; c < 3; ++c) positions[v][c] = static_cast<float>(pos.get(v, c));
+      prim.attributes["NORMAL"] = addVec3Accessor(m, staging, flatVertexNormals(positions, indices), "flat normals");
+    }
+    setTriangleList(m, staging, prim, indices);
+    prim.extensions.erase("KHR_draco_mesh_compression");  // the new accessors are plain
   }
 }
 
@@ -477,6 +591,7 @@ Gltf reloadForWriting(const std::string& inputPath, const Scene& scene, int& sta
   giveEachNodeItsOwnMesh(g.model, scene);
   dropTransferAttributes(g.model);
   rewriteSplitPrimitives(g, staging, scene);
+  rewriteRefinedPrimitives(g, staging, scene);
   return g;
 }
 

@@ -24,6 +24,7 @@ struct MemoryEstimate {
   double frontHitShare = 1.0;  // share of direct rays assumed to hit a front face
   // Peaks of the phases.
   uint64_t surfacePeak = 0, probePeak = 0, writePeak = 0;
+  uint64_t refinePeak = 0;  // refinement (BakeSettings::refineVertices > 0), before the bake
   uint64_t total = 0;      // max of the phase peaks
 
   /// "1.2 GiB (hit records 900 MiB, transfer 3 × 40 MiB, BVH 80 MiB, scene 30 MiB, ...)".

@@ -25,6 +25,9 @@ struct BakeSettings {
   int threads = 0;        // 0 = all cores
   bool progress = false;  // progress bar on stderr
   bool keepLowerOrder = false;  // also return the transfer summed to K−1 bounces (for probes)
+  /// Memory guard only (bakeSurface ignores it): vertices that refinement (refine.h) may still
+  /// add to the scene before the bake, each with two triangles.
+  uint64_t refineVertices = 0;
 };
 
 /// Throws prt::Error unless 1 <= bands <= sh::kMaxBands ("bands 9: must be between 1 and 8").

@@ -32,11 +32,25 @@ struct BakeRecord {
   uint64_t seed = 0;
   std::string prtVersion;  // the prt that baked it; empty for files baked before it was recorded
 
+  /// Adaptive refinement of the meshes before the bake (prt/bake/refine.h). tolerance 0: none
+  /// (turned off, unshadowed, or a file baked before prt refined meshes).
+  struct Refinement {
+    double tolerance = 0.0;       // relative to the unoccluded transfer's norm
+    uint64_t budget = 0;          // vertices it could add
+    int samples = 0;              // directions per estimated point
+    uint64_t verticesBefore = 0;  // baked vertices of the input
+    uint64_t verticesAfter = 0;   // baked vertices of the refined meshes (what the file holds)
+    double residual = 0.0;        // largest error left, in the tolerance's units
+    bool operator==(const Refinement&) const = default;
+  };
+  Refinement refinement;
+
   bool operator==(const BakeRecord&) const = default;
 };
 
 /// One line for people, e.g. "3 bands, 1024 samples, 2 bounces, shadowed, seed 1, from
-/// cornell_open.gltf, prt 0.1.0" (the prt part only when the record names it).
+/// cornell_open.gltf, prt 0.1.0" (the prt part only when the record names it), then the
+/// refinement if any: "; refined 8 -> 240 vertices (tolerance 0.05, budget 10000, residual 0.031)".
 std::string describeBakeRecord(const BakeRecord& record);
 
 }  // namespace prt

@@ -6,7 +6,9 @@
 // count), so vertex i of an instance is vertex i of the glTF primitive and per-vertex transfer
 // can be written back as attributes; the one exception is a primitive without NORMAL, whose
 // flat normals split the vertices shared by faces of different orientation
-// (MeshInstance::fileVertex), and whose split geometry the baked file then holds. Triangle
+// (MeshInstance::fileVertex), and whose split geometry the baked file then holds; the other is
+// a mesh refined by the bake (MeshInstance::fileBlend), whose refined geometry the baked file
+// holds. Triangle
 // strips and fans become triangle lists; zero-area triangles are dropped (one warning per
 // primitive, their vertices kept); points and lines are skipped with a warning.
 #pragma once
@@ -92,6 +94,16 @@ struct MeshInstance {
   /// only for a primitive without NORMAL whose flat normals split vertices: the first copy of
   /// a file vertex keeps its index, the extra copies follow the file's vertices.
   std::vector<uint32_t> fileVertex;
+  /// A vertex as a weighted sum of file vertices of one file triangle: Σ weight[j] · file
+  /// vertex vertex[j], unused slots of weight 0 (weights sum to 1).
+  struct FileBlend {
+    uint32_t vertex[3] = {0, 0, 0};
+    float weight[3] = {1.0f, 0.0f, 0.0f};
+  };
+  /// Which file vertices each vertex interpolates: empty unless the bake's adaptive refinement
+  /// (prt/bake/refine.h) added vertices, and then used instead of fileVertex. The baked file
+  /// holds the refined primitive: every attribute interpolated, the refined triangles.
+  std::vector<FileBlend> fileBlend;
   int material = -1;                 // index into Scene::materials, -1 = glTF default (white)
   bool receiverOnly = false;         // excluded from the bake (moving / unbaked object)
   ReceiverReason receiverReason = ReceiverReason::None;  // why, as the loader decided
@@ -219,7 +231,9 @@ std::vector<char> passesLight(const Scene& scene);
 /// transfer, scene.transferBands) as attributes _PRT_SH_00 .. (VEC3 float, RGB of coefficient
 /// i), the back side's (MeshInstance::transferBack, where filled) as _PRT_SH_BACK_00 .., meshes duplicated where one is used by several nodes, strips and fans rewritten as
 /// triangle lists, primitives whose vertices were split for flat normals (MeshInstance::
-/// fileVertex) rewritten with the split vertices and their NORMAL, and `record` (if not null) stored in asset.extras.prt; its bands must be
+/// fileVertex) rewritten with the split vertices and their NORMAL, primitives refined by the
+/// bake (MeshInstance::fileBlend) rewritten with every attribute interpolated and the refined
+/// triangles, and `record` (if not null) stored in asset.extras.prt; its bands must be
 /// scene.transferBands when the scene holds transfer. Receivers named by
 /// LoadOptions::receiverNodes get extras {"prt": {"receiver": true}}, so the file keeps them
 /// receivers. Atomic (temp + rename).
