@@ -780,6 +780,39 @@ TEST(RenderCamera, OrbitLooksAtTheTarget) {
   EXPECT_NEAR(glm::dvec3(v.cameraToWorld[0]).y, 0.0, 1e-12);  // horizon stays level
 }
 
+// The default orbit frames where the geometry is: 1000 vertices in a 1 m cube at (10, 0, 0)
+// standing on a 2 km ground of 4 vertices are framed by the cube's box (the 1st–99th
+// percentiles), not by the ground; without the ground the bounds are kept.
+TEST(RenderCamera, DefaultOrbitFramesWhereTheGeometryIs) {
+  Scene s;
+  MeshInstance cube, ground;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int i = 0; i < 1000; ++i) cube.positions.push_back(glm::vec3(10.0f + u(rng), u(rng), u(rng)));
+  for (float x : {-1000.0f, 1000.0f})
+    for (float z : {-1000.0f, 1000.0f}) ground.positions.push_back(glm::vec3(x, 0.0f, z));
+  s.meshes = {cube, ground};
+  s.boundsMin = glm::vec3(-1000.0f, 0.0f, -1000.0f);
+  s.boundsMax = glm::vec3(1000.0f, 1.0f, 1000.0f);
+  glm::dvec3 lo, hi;
+  orbitFraming(s, lo, hi);
+  EXPECT_GT(lo.x, 9.99);
+  EXPECT_LT(hi.x, 11.01);
+  EXPECT_GT(lo.z, -0.01);
+  EXPECT_LT(hi.z, 1.01);
+  const glm::dvec3 target = orbitTarget(s, OrbitCamera{});
+  EXPECT_NEAR(target.x, 10.5, 0.05);
+  const CameraView v = orbitView(s, OrbitCamera{}, 1.0);
+  EXPECT_LT(glm::length(glm::dvec3(v.cameraToWorld[3]) - target), 10.0);  // not kilometres away
+
+  s.meshes = {cube};
+  s.boundsMin = glm::vec3(10.0f, 0.0f, 0.0f);
+  s.boundsMax = glm::vec3(11.0f, 1.0f, 1.0f);
+  orbitFraming(s, lo, hi);
+  EXPECT_EQ(lo, glm::dvec3(s.boundsMin));
+  EXPECT_EQ(hi, glm::dvec3(s.boundsMax));
+}
+
 TEST(RenderCamera, OrbitFramesTheSceneAndMatchesOracle) {
   const Scene s = tiltedQuad(2);
   OrbitCamera o;

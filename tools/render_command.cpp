@@ -268,8 +268,7 @@ ChosenCamera chooseCamera(const RenderArgs& a, const render::OrbitCamera& orbit,
     return {render::cameraView(*cam), cat("glTF camera '", cam->name, "' (node ", cam->node, ", ", lens, ")")};
   }
   const render::CameraView view = render::orbitView(scene, orbit, aspect);
-  const glm::dvec3 target =
-      orbit.target ? glm::dvec3(*orbit.target) : 0.5 * (glm::dvec3(scene.boundsMin) + glm::dvec3(scene.boundsMax));
+  const glm::dvec3 target = render::orbitTarget(scene, orbit);
   const double distance = glm::length(glm::dvec3(view.cameraToWorld[3]) - target);
   return {view, cat("orbit (target ", target.x, ",", target.y, ",", target.z, ", distance ", distance, ", azimuth ",
                     orbit.azimuthDegrees, ", elevation ", orbit.elevationDegrees, ", vertical fov ",
@@ -321,7 +320,7 @@ void addRender(CLI::App& r, RenderArgs& a) {
           ->check(finiteIn(-89.0, 89.0))
           ->capture_default_str(),
       r.add_option("--orbit-distance", a.orbitDistance,
-                   "Orbit camera distance from the target (default: the scene's bounding sphere fills the view)")
+                   "Orbit camera distance from the target (default: the sphere around where the geometry is fills the view)")
           ->check(finitePositive()),
       r.add_option("--orbit-target", a.orbitTarget, "Point the orbit camera looks at X,Y,Z (default: bounds centre)")
           ->delimiter(',')

@@ -4,7 +4,10 @@
 // A ray that hits the back of a one-sided surface sends nothing, and counts towards the probe's
 // back-face share: a probe that sees mostly back faces is inside geometry. The back of a
 // double-sided surface is a lit surface like any front: it sends its back side's transfer
-// (the second half of lowerOrder[k], surface_bake.h) and is no sign of being inside. Per cube face the
+// (the second half of lowerOrder[k], surface_bake.h) and is a sign of being inside only where
+// back faces of any kind surround the probe (more than kSolidShare of its rays: solid mass
+// bounded by double-sided faces, as maps exported with every material double-sided have; a
+// probe under a double-sided roof sees them over half its sphere at most). Per cube face the
 // probe also keeps the mean and mean square of its hits' depth along the face's axis, for the
 // interpolation's visibility test.
 #include "prt/bake/probe_bake.h"
@@ -67,6 +70,7 @@ struct ProbeAccum {
   std::vector<double> direct;    // n2 × n2, colourless
   std::vector<glm::dvec3> indirect;  // n2 × n2 RGB
   uint32_t rays = 0, backfaces = 0, escaped = 0;
+  uint32_t backTwoSided = 0;  // hits on the back of double-sided faces
   float nearest = std::numeric_limits<float>::infinity();  // of the hits (any face)
   std::array<double, 6> sumD{}, sumD2{};
   std::array<uint32_t, 6> count{};
@@ -92,7 +96,7 @@ struct Tracer {
       acc.n2 = n2;
       acc.direct.assign(size_t(n2) * n2, 0.0);
       acc.indirect.assign(size_t(n2) * n2, glm::dvec3(0.0));
-      acc.rays = acc.backfaces = acc.escaped = 0;
+      acc.rays = acc.backfaces = acc.escaped = acc.backTwoSided = 0;
       acc.nearest = std::numeric_limits<float>::infinity();
       acc.sumD = {};
       acc.sumD2 = {};
@@ -114,6 +118,7 @@ struct Tracer {
         const bool backside = r.hit() && r.backface();
         const bool back = backside && !twoSided[r.mesh];
         acc.backfaces += back;
+        acc.backTwoSided += backside && !back;
         acc.escaped += !r.hit();
         if (r.hit()) acc.nearest = std::min(acc.nearest, r.tfar);
         if (!full) continue;
@@ -148,7 +153,16 @@ struct Tracer {
   }
 };
 
-double backShare(const ProbeAccum& a) { return a.rays ? double(a.backfaces) / a.rays : 0.0; }
+// Back faces of any kind, one-sided or double-sided, on more than this share of a probe's rays:
+// it is inside solid mass.
+constexpr double kSolidShare = 0.75;
+
+// Inside geometry: back faces of one-sided surfaces on more than `threshold` of the rays, or
+// back faces of any kind on more than kSolidShare.
+bool insideGeometry(const ProbeAccum& a, double threshold) {
+  if (!a.rays) return false;
+  return double(a.backfaces) > threshold * a.rays || double(a.backfaces + a.backTwoSided) > kSolidShare * a.rays;
+}
 
 // What the assembly needs of one lattice point besides its transfer; the checkpoint stores it
 // as is (no padding, so the record holds no undefined bytes).
@@ -227,7 +241,7 @@ struct ProbeBaker {
       if (!tracer.trace(glm::vec3(base + o), kProbeTestRays, 2 * idx, false, cand)) return false;
       slot.traced += cand.rays;
       // A moved probe must be clearly outside: half the threshold.
-      if (backShare(cand) <= 0.5 * settings.insideThreshold) {
+      if (!insideGeometry(cand, 0.5 * settings.insideThreshold)) {
         ok = true;
         offset = o;
         slot.moved = 1;
@@ -239,7 +253,7 @@ struct ProbeBaker {
       if (!tracer.trace(glm::vec3(base + offset), uint32_t(settings.samples), 2 * idx + 1, true, acc)) return false;
       slot.traced += acc.rays;
       // The full set of rays decides too: the quick test can miss a thin enclosure.
-      ok = backShare(acc) <= settings.insideThreshold;
+      ok = !insideGeometry(acc, settings.insideThreshold);
     }
     slot.valid = ok;
     slot.offset = glm::vec3(offset);
@@ -271,8 +285,7 @@ struct ProbeBaker {
 // Inside keeps only sealed space: two neighbouring free points are joined when the segment
 // between them hits nothing; free points on the lattice's boundary whose ray outwards along
 // that axis escapes touch the outside; what the flood from them does not reach is sealed in by
-// the scene's surfaces. A point in geometry is tried for relocation unless it borders only
-// free space that is not kept (and geometry).
+// the scene's surfaces.
 constexpr double kNearSpacings = 2.0;
 constexpr double kOpenAirShare = 0.2;
 
@@ -382,6 +395,7 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
   reg.skip.assign(total, 0);
   reg.rays = uint64_t(total) * kProbeTestRays;
   std::vector<uint8_t> wanted(total, 0);  // free, and near a surface or enclosed
+  std::vector<float> nearest(total, 0.0f);  // the quick test's nearest hit
   const float nearDistance = float(kNearSpacings * std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z}));
   std::atomic<bool> stopped{false};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, total, 256), [&](const tbb::blocked_range<size_t>& r) {
@@ -393,7 +407,8 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
         stopped = true;
         return;
       }
-      reg.free[idx] = backShare(test) <= settings.insideThreshold;
+      reg.free[idx] = !insideGeometry(test, settings.insideThreshold);
+      nearest[idx] = test.nearest;
       wanted[idx] = reg.free[idx] && (test.nearest <= nearDistance ||
                                       double(test.rays - test.escaped) > kOpenAirShare * double(test.rays));
     }
@@ -404,23 +419,30 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
   }
   for (uint8_t f : reg.free) reg.freeCount += f;
   const bool anyWanted = std::find(wanted.begin(), wanted.end(), uint8_t(1)) != wanted.end();
-  if (settings.region == Region::Everywhere || (settings.region == Region::Auto && !anyWanted)) return reg;
+  const bool everywhere = settings.region == Region::Everywhere || (settings.region == Region::Auto && !anyWanted);
   std::vector<uint8_t> keep(total, 0);
-  if (settings.region == Region::Auto) {
+  if (everywhere) {
+    keep = reg.free;
+  } else if (settings.region == Region::Auto) {
     for (size_t idx = 0; idx < total; ++idx)
       keep[idx] = reg.free[idx] && (wanted[idx] || forNeighbours(idx, [&](size_t j) { return wanted[j] != 0; }));
   } else {
     keep = sealedSpace(tracer, grid, reg);
     reg.insideOnly = true;
   }
+  // A point in geometry is tried for relocation unless it borders only free points left out
+  // (and geometry), or lies deep in solid: no free neighbour and no surface within a spacing,
+  // so that no candidate (all within 0.52 spacing of it) can leave the solid it is in.
+  const float solidDistance = float(std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z}));
   for (size_t idx = 0; idx < total; ++idx) {
     if (reg.free[idx]) {
       reg.skip[idx] = !keep[idx];
       reg.outside += !keep[idx];
-    } else {
-      reg.skip[idx] = !forNeighbours(idx, [&](size_t j) { return keep[j] != 0; }) &&
-                      forNeighbours(idx, [&](size_t j) { return reg.free[j] != 0; });
+      continue;
     }
+    const bool nearFree = forNeighbours(idx, [&](size_t j) { return reg.free[j] != 0; });
+    const bool nearKept = forNeighbours(idx, [&](size_t j) { return keep[j] != 0; });
+    reg.skip[idx] = nearFree ? !nearKept : nearest[idx] > solidDistance;
   }
   return reg;
 }

@@ -191,9 +191,46 @@ CameraView cameraView(const Camera& camera) {
   return v;
 }
 
+void orbitFraming(const Scene& scene, glm::dvec3& lo, glm::dvec3& hi) {
+  lo = glm::dvec3(scene.boundsMin);
+  hi = glm::dvec3(scene.boundsMax);
+  size_t n = 0;
+  for (const MeshInstance& m : scene.meshes) n += m.vertexCount();
+  if (n < 100) return;  // too few for percentiles to mean anything
+  // At most ~64k positions, taken evenly: percentiles need no more.
+  const size_t stride = std::max<size_t>(1, n / 65536);
+  std::array<std::vector<float>, 3> axis;
+  size_t i = 0;
+  for (const MeshInstance& m : scene.meshes)
+    for (const glm::vec3& p : m.positions)
+      if (i++ % stride == 0)
+        for (int a = 0; a < 3; ++a) axis[size_t(a)].push_back(p[a]);
+  glm::dvec3 tlo, thi;
+  for (int a = 0; a < 3; ++a) {
+    std::vector<float>& v = axis[size_t(a)];
+    const size_t k0 = v.size() / 100, k1 = v.size() - 1 - v.size() / 100;
+    std::nth_element(v.begin(), v.begin() + ptrdiff_t(k0), v.end());
+    tlo[a] = v[k0];
+    std::nth_element(v.begin(), v.begin() + ptrdiff_t(k1), v.end());
+    thi[a] = v[k1];
+  }
+  if (glm::length(thi - tlo) < 0.5 * glm::length(hi - lo)) {
+    lo = tlo;
+    hi = thi;
+  }
+}
+
+glm::dvec3 orbitTarget(const Scene& scene, const OrbitCamera& orbit) {
+  if (orbit.target) return glm::dvec3(*orbit.target);
+  glm::dvec3 lo, hi;
+  orbitFraming(scene, lo, hi);
+  return 0.5 * (lo + hi);
+}
+
 CameraView orbitView(const Scene& scene, const OrbitCamera& orbit, double aspect) {
-  const glm::dvec3 lo(scene.boundsMin), hi(scene.boundsMax);
-  const glm::dvec3 target = orbit.target ? glm::dvec3(*orbit.target) : 0.5 * (lo + hi);
+  glm::dvec3 lo, hi;
+  orbitFraming(scene, lo, hi);
+  const glm::dvec3 target = orbitTarget(scene, orbit);
   double radius = 0.5 * glm::length(hi - lo);
   if (!(radius > 0.0)) radius = 1.0;
   CameraView v;

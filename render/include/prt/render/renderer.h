@@ -41,14 +41,20 @@ CameraView cameraView(const Camera& camera);
 /// A camera circling the scene: it sits at target + distance·(cos el sin az, sin el, cos el cos az)
 /// and looks at the target with +Y up. Azimuth 0, elevation 0 looks down -Z (glTF's front view).
 struct OrbitCamera {
-  std::optional<glm::vec3> target;  // default: the centre of the scene bounds
-  double distance = 0.0;            // 0 = fit the bounding sphere into the field of view
+  std::optional<glm::vec3> target;  // default: the centre of the framing box (orbitFraming)
+  double distance = 0.0;            // 0 = fit the framing box's sphere into the field of view
   double azimuthDegrees = 0.0;      // about +Y, right-handed
   double elevationDegrees = 20.0;   // clamped to ±89
   double yfovDegrees = 45.0;
 };
 
-/// The view of an orbit camera around `scene`'s bounds for an image of aspect `aspect` = w / h.
+/// The box a default orbit camera frames: where the geometry is. The per-axis 1st to 99th
+/// percentiles of all vertex positions when that box's diagonal is under half the bounds' (a
+/// town on a 2 km ground plane, a level with a far skybox), else the scene's bounds.
+void orbitFraming(const Scene& scene, glm::dvec3& lo, glm::dvec3& hi);
+/// The orbit's target: orbit.target, else the centre of orbitFraming's box.
+glm::dvec3 orbitTarget(const Scene& scene, const OrbitCamera& orbit);
+/// The view of an orbit camera around `scene` for an image of aspect `aspect` = w / h.
 CameraView orbitView(const Scene& scene, const OrbitCamera& orbit, double aspect);
 
 /// What the last frame cost, in milliseconds of wall time (GL work is finished before timing).
