@@ -285,10 +285,14 @@ TEST(SceneTwoSided, BackTransferRoundTripsThroughTheBakedFile) {
   EXPECT_TRUE(sameBits(s.meshes[1].transfer, other));
   EXPECT_TRUE(s.meshes[1].transferBack.empty());
   s.transferBands = 2;
-  const BakeRecord record = bake::bakeRecord(bs, "two_sided.gltf", "test");
+  BakeRecord record = bake::bakeRecord(bs, "two_sided.gltf", "test");
   const std::string out = d.file("baked.glb");
+  EXPECT_THROW(writeBakedScene(in, s, &record, out), Error);  // the record must say so
+  record.backTransfer = true;
   writeBakedScene(in, s, &record, out);
   const Scene r = loadScene(out);
+  ASSERT_TRUE(r.bakeRecord);
+  EXPECT_TRUE(r.bakeRecord->backTransfer);
   ASSERT_EQ(r.meshes.size(), 2u);
   EXPECT_TRUE(sameBits(r.meshes[0].transfer, s.meshes[0].transfer));
   EXPECT_TRUE(sameBits(r.meshes[0].transferBack, s.meshes[0].transferBack));

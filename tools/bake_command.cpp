@@ -276,7 +276,9 @@ int runBake(const BakeArgs& a) {
   bake::storeTransfer(scene, std::move(result.perMesh));
   scene.transferBands = s.bands;
   auto tWrite = std::chrono::steady_clock::now();
-  const BakeRecord record = bake::bakeRecord(s, sceneName, kVersion);
+  BakeRecord record = bake::bakeRecord(s, sceneName, kVersion);
+  record.backTransfer = std::any_of(scene.meshes.begin(), scene.meshes.end(),
+                                    [](const MeshInstance& m) { return m.hasBackTransfer(); });
   writeBakedScene(a.scene, scene, &record, a.output);
   double writeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tWrite).count();
   // The outputs are in place: the checkpoint has served.

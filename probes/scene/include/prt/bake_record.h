@@ -19,8 +19,8 @@ struct BakeRecord {
   static constexpr const char* kShConvention =
       "real orthonormal, no Condon-Shortley phase, index l(l+1)+m, glTF axes";
   static constexpr const char* kUnits = "E = transfer . light (irradiance); L_o = albedo / pi * E";
-  /// What the _PRT_SH_BACK_ attributes hold (written as "back_transfer"; a record without it
-  /// is from a bake before both sides were baked, which has no such attribute).
+  /// What the _PRT_SH_BACK_ attributes hold, written as "back_transfer" when the file has them
+  /// (backTransfer); absent in a file without them, so one-sided bakes write what they did.
   static constexpr const char* kBackTransfer =
       "_PRT_SH_BACK_NN of double-sided primitives: transfer of the back side (normal -N)";
 
@@ -31,12 +31,14 @@ struct BakeRecord {
   bool shadowed = true;
   uint64_t seed = 0;
   std::string prtVersion;  // the prt that baked it; empty for files baked before it was recorded
+  bool backTransfer = false;  // double-sided primitives carry the back side's transfer (_PRT_SH_BACK_)
 
   bool operator==(const BakeRecord&) const = default;
 };
 
 /// One line for people, e.g. "3 bands, 1024 samples, 2 bounces, shadowed, seed 1, from
-/// cornell_open.gltf, prt 0.1.0" (the prt part only when the record names it).
+/// cornell_open.gltf, prt 0.1.0" (the prt part only when the record names it; ", both sides
+/// of double-sided surfaces" when it has backTransfer).
 std::string describeBakeRecord(const BakeRecord& record);
 
 }  // namespace prt
