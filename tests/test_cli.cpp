@@ -163,6 +163,7 @@ TEST(Cli, DoubleSidedPlaneIsBakedRelitAndDescribedOnBothSides) {
   RunResult info = runPrt({"info", baked});
   EXPECT_EQ(info.status, 0) << info.err;
   EXPECT_NE(info.out.find("two-sided   1 instances, 4 vertices with back-side transfer"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find(", both sides of double-sided surfaces"), std::string::npos) << info.out;
 }
 
 TEST(Cli, RelightRefusesBadMapAndLeavesNothing) {

@@ -15,6 +15,7 @@
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/probe_grid.h"
+#include "prt/relight.h"
 #include "prt/sh.h"
 #include "test_scenes.h"
 
@@ -285,16 +286,45 @@ TEST(SceneTwoSided, BackTransferRoundTripsThroughTheBakedFile) {
   EXPECT_TRUE(sameBits(s.meshes[1].transfer, other));
   EXPECT_TRUE(s.meshes[1].transferBack.empty());
   s.transferBands = 2;
-  const BakeRecord record = bake::bakeRecord(bs, "two_sided.gltf", "test");
+  BakeRecord record = bake::bakeRecord(bs, "two_sided.gltf", "test");
   const std::string out = d.file("baked.glb");
+  EXPECT_THROW(writeBakedScene(in, s, &record, out), Error);  // the record must say so
+  record.backTransfer = true;
   writeBakedScene(in, s, &record, out);
   const Scene r = loadScene(out);
+  ASSERT_TRUE(r.bakeRecord);
+  EXPECT_TRUE(r.bakeRecord->backTransfer);
   ASSERT_EQ(r.meshes.size(), 2u);
   EXPECT_TRUE(sameBits(r.meshes[0].transfer, s.meshes[0].transfer));
   EXPECT_TRUE(sameBits(r.meshes[0].transferBack, s.meshes[0].transferBack));
   EXPECT_TRUE(r.meshes[0].hasBackTransfer());
   EXPECT_FALSE(r.meshes[1].hasBackTransfer());
   EXPECT_TRUE(sameBits(r.meshes[1].transfer, s.meshes[1].transfer));
+
+  // The lit file: COLOR_0 the front's radiance, _PRT_COLOR_BACK the back's, on the
+  // double-sided primitive only.
+  const sh::ShRgb sky = stepSky(2, 1.0, 0.25);
+  const std::vector<std::vector<glm::vec3>> frontLit = relightVertices(r, sky), backLit = relightBackVertices(r, sky);
+  ASSERT_EQ(backLit[0].size(), V);
+  EXPECT_TRUE(backLit[1].empty());
+  // White: π·1 from above; π·0.25 from below, a little more where the lower plane (F ≈ 0.035,
+  // radiance ≈ 1) hides the sky.
+  EXPECT_NEAR(frontLit[0][0].g, 1.0, 0.02);
+  EXPECT_NEAR(backLit[0][0].g, 0.25, 0.05);
+  const std::string lit = d.file("lit.glb");
+  writeLitScene(out, r, frontLit, lit, &backLit);
+  const std::string bytes = test::fileBytes(lit);
+  uint32_t length = 0;
+  ASSERT_GT(bytes.size(), 20u);
+  std::memcpy(&length, bytes.data() + 12, 4);
+  const nlohmann::json j = nlohmann::json::parse(bytes.substr(20, length));
+  int withBack = 0;
+  for (const auto& node : j["nodes"])  // the meshes the scene uses (mesh 0 is GltfFile's spare)
+    for (const auto& prim : j["meshes"][node["mesh"].get<size_t>()]["primitives"]) {
+      EXPECT_TRUE(prim["attributes"].contains("COLOR_0"));
+      withBack += prim["attributes"].contains("_PRT_COLOR_BACK");
+    }
+  EXPECT_EQ(withBack, 1);
 }
 
 TEST(SceneTwoSided, BackTransferWithoutAMatchingFrontSetIsRefused) {

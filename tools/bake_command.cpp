@@ -327,6 +327,8 @@ int runBake(const BakeArgs& a) {
   if (refine.tolerance > 0.0)
     record.refinement = {refine.tolerance, refined.budget,      std::min(refine.samples, s.samples),
                          refined.verticesBefore, refined.verticesAfter, refined.residual};
+  record.backTransfer = std::any_of(scene.meshes.begin(), scene.meshes.end(),
+                                    [](const MeshInstance& m) { return m.hasBackTransfer(); });
   writeBakedScene(a.scene, scene, &record, a.output);
   double writeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tWrite).count();
   // The outputs are in place: the checkpoint has served.

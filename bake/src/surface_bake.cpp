@@ -151,7 +151,7 @@ Layout makeLayout(const Scene& scene) {
 // the centroids of the vertex's triangles). A virtual vertex (a back side) is lifted along −n
 // instead, with the same pull.
 std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float extent) {
-  std::vector<glm::vec3> pull(lay.vertices, glm::vec3(0.0f));
+  std::vector<glm::vec3> pull(lay.frontVertices, glm::vec3(0.0f));  // a back side shares its vertex's pull
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     const MeshInstance& m = scene.meshes[k];
     if (m.receiverOnly) continue;

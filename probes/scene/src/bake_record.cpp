@@ -15,6 +15,7 @@ std::string describeBakeRecord(const BakeRecord& r) {
   std::string line = cat(r.bands, " bands, ", r.samples, " samples, ", r.bounces, " bounce", r.bounces == 1 ? "" : "s",
                          ", ", r.shadowed ? "shadowed" : "unshadowed", ", seed ", r.seed, ", from ", r.scene);
   if (!r.prtVersion.empty()) line += cat(", prt ", r.prtVersion);
+  if (r.backTransfer) line += ", both sides of double-sided surfaces";
   const BakeRecord::Refinement& f = r.refinement;
   if (f.tolerance > 0.0)
     line += cat("; refined ", f.verticesBefore, " -> ", f.verticesAfter, " vertices (tolerance ", f.tolerance,
@@ -108,7 +109,7 @@ Json bakeRecordToJson(const BakeRecord& r) {
   j["transfer"] = BakeRecord::kTransfer;
   j["sh_convention"] = BakeRecord::kShConvention;
   j["units"] = BakeRecord::kUnits;
-  j["back_transfer"] = BakeRecord::kBackTransfer;
+  if (r.backTransfer) j["back_transfer"] = BakeRecord::kBackTransfer;
   if (!r.prtVersion.empty()) j[kPrtVersionKey] = r.prtVersion;
   if (r.refinement.tolerance > 0.0) {
     const BakeRecord::Refinement& f = r.refinement;
@@ -142,7 +143,10 @@ BakeRecord bakeRecordFromJson(const Json& j, const std::string& where) {
     f.fail("transfer", cat("expected \"", BakeRecord::kTransfer, "\", got ", shown(Json(t))));
   f.string("sh_convention");  // descriptions: any wording, but text
   f.string("units");
-  if (f.has("back_transfer")) f.string("back_transfer");
+  if (f.has("back_transfer")) {  // a description: any wording, but text
+    f.string("back_transfer");
+    r.backTransfer = true;
+  }
   if (f.has(kPrtVersionKey)) r.prtVersion = f.string(kPrtVersionKey);
   if (f.has(kRefinementKey)) {
     const Json& sub = f.get(kRefinementKey);

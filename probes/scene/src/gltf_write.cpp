@@ -408,6 +408,11 @@ void storeRecord(const Scene& scene, tinygltf::Model& m, const BakeRecord* recor
       std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& i) { return !i.transfer.empty(); });
   if (anyTransfer && record->bands != scene.transferBands)
     throw Error(cat(where, ".bands: ", record->bands, ", but the transfer holds ", scene.transferBands, " bands"));
+  const bool anyBack = std::any_of(scene.meshes.begin(), scene.meshes.end(),
+                                   [](const MeshInstance& i) { return i.hasBackTransfer(); });
+  if (anyBack != record->backTransfer)
+    throw Error(cat(where, ".back_transfer: the record ", record->backTransfer ? "says" : "does not say",
+                    " that double-sided primitives carry back-side transfer, but ", anyBack ? "some do" : "none does"));
   if (!m.asset.extras.IsObject()) m.asset.extras = tinygltf::Value(tinygltf::Value::Object{});
   m.asset.extras.Get<tinygltf::Value::Object>()["prt"] = toValue(json);
 }

@@ -19,8 +19,8 @@ struct BakeRecord {
   static constexpr const char* kShConvention =
       "real orthonormal, no Condon-Shortley phase, index l(l+1)+m, glTF axes";
   static constexpr const char* kUnits = "E = transfer . light (irradiance); L_o = albedo / pi * E";
-  /// What the _PRT_SH_BACK_ attributes hold (written as "back_transfer"; a record without it
-  /// is from a bake before both sides were baked, which has no such attribute).
+  /// What the _PRT_SH_BACK_ attributes hold, written as "back_transfer" when the file has them
+  /// (backTransfer); absent in a file without them, so one-sided bakes write what they did.
   static constexpr const char* kBackTransfer =
       "_PRT_SH_BACK_NN of double-sided primitives: transfer of the back side (normal -N)";
 
@@ -31,6 +31,7 @@ struct BakeRecord {
   bool shadowed = true;
   uint64_t seed = 0;
   std::string prtVersion;  // the prt that baked it; empty for files baked before it was recorded
+  bool backTransfer = false;  // double-sided primitives carry the back side's transfer (_PRT_SH_BACK_)
 
   /// Adaptive refinement of the meshes before the bake (prt/bake/refine.h). tolerance 0: none
   /// (turned off, unshadowed, or a file baked before prt refined meshes).
@@ -49,8 +50,9 @@ struct BakeRecord {
 };
 
 /// One line for people, e.g. "3 bands, 1024 samples, 2 bounces, shadowed, seed 1, from
-/// cornell_open.gltf, prt 0.1.0" (the prt part only when the record names it), then the
-/// refinement if any: "; refined 8 -> 240 vertices (tolerance 0.05, budget 10000, residual 0.031)".
+/// cornell_open.gltf, prt 0.1.0" (the prt part only when the record names it; ", both sides
+/// of double-sided surfaces" when it has backTransfer), then the refinement if any:
+/// "; refined 8 -> 240 vertices (tolerance 0.05, budget 10000, residual 0.031)".
 std::string describeBakeRecord(const BakeRecord& record);
 
 }  // namespace prt
