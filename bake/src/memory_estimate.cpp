@@ -206,9 +206,9 @@ std::string MemoryEstimate::phases() const {
   auto bound = [&](uint64_t peak) { return mib(base + uint64_t(double(peak) * kSlack)); };
   std::ostringstream os;
   os << "surface " << bound(surfacePeak);
-  if (refinePeak) os << ", refine " << bound(refinePeak);
   if (probePeak) os << ", probes " << bound(probePeak);
   os << ", write " << bound(writePeak);
+  if (refinePeak) os << ", refine " << bound(refinePeak);
   return os.str();
 }
 
