@@ -288,9 +288,13 @@ int runBake(const BakeArgs& a) {
   }
   bake::BakeControl control;
   control.checkpoint = checkpoint ? &*checkpoint : nullptr;
+  // The refinement phase is over when the bake checks again, but the estimate it reports
+  // still bounds the whole run's peak: it keeps that phase.
+  const uint64_t refinePeak = estimate.refinePeak;
   control.checkMemory = [&](double share) {
     estimate = bake::estimateBakeMemory(scene, s, psp, share);
     guardMemory(estimate, limit, scene, s, psp);
+    estimate.keepRefinePhase(refinePeak);
   };
   // Runs a stage; an interruption names the checkpoint and how far the bake got.
   auto runStage = [&](auto&& run) {

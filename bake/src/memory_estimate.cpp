@@ -78,10 +78,12 @@ constexpr uint64_t kCheckpointBuffers = uint64_t(5) << 20;
 constexpr uint64_t kVdbWriteBytes = uint64_t(8) << 20;
 // Refinement (refine.cpp): a refined vertex in the scene (position, normal, texture
 // coordinate, colour, two triangles' indices, its file blend: 12+12+8+16+24+24) and, while it
-// runs, per vertex of the refined mesh about 6 estimated points (the vertex, three edges' and
-// two triangles' midpoints or centroids: V + E + T ≈ 6V), each n2 floats and a variance, in
-// hash maps with the edges and triangles that own them (kRefinePointBytes, rounded up).
-constexpr uint64_t kRefinedVertexBytes = 96, kRefinePointsPerVertex = 6, kRefinePointBytes = 96;
+// runs, per vertex of the refined mesh: about 6 estimated points (the vertex, three edges'
+// midpoints, two centroids: V + E + T ≈ 6V), each a normal, a score and one bit per direction;
+// the edge and centroid maps, the per-round adjacency (two hash maps of small vectors per
+// position edge) and candidate lists: about 1.5 KiB per vertex, counted from the node and
+// vector sizes of libstdc++ and rounded up (zdm2, 116 k refined vertices: 243 MiB peak in all).
+constexpr uint64_t kRefinedVertexBytes = 96, kRefinePointsPerVertex = 6, kRefineBytesPerVertex = 1536;
 // On top of the sum: allocator rounding, vector growth of the hit records per thread.
 constexpr double kSlack = 1.10;
 
@@ -186,10 +188,15 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
                 kWriteTransferCopies * e.transfer;
   if (s.refineVertices > 0 && shadowed)
     e.refinePeak = e.scene + original * kLayoutPerVertex + (triangles - 2 * s.refineVertices) * kBvhBytesPerTriangle +
-                   vertices * kRefinePointsPerVertex * (n2 * 4 + kRefinePointBytes);
+                   vertices * (kRefineBytesPerVertex + kRefinePointsPerVertex * ((uint64_t(s.samples) + 63) / 64 * 8));
   e.total = e.base +
             uint64_t(double(std::max({e.surfacePeak, e.probePeak, e.writePeak, e.refinePeak})) * kSlack);
   return e;
+}
+
+void MemoryEstimate::keepRefinePhase(uint64_t peak) {
+  refinePeak = std::max(refinePeak, peak);
+  total = std::max(total, base + uint64_t(double(refinePeak) * kSlack));
 }
 
 std::string MemoryEstimate::describe() const {
@@ -207,9 +214,9 @@ std::string MemoryEstimate::phases() const {
   auto bound = [&](uint64_t peak) { return mib(base + uint64_t(double(peak) * kSlack)); };
   std::ostringstream os;
   os << "surface " << bound(surfacePeak);
-  if (refinePeak) os << ", refine " << bound(refinePeak);
   if (probePeak) os << ", probes " << bound(probePeak);
   os << ", write " << bound(writePeak);
+  if (refinePeak) os << ", refine " << bound(refinePeak);
   return os.str();
 }
 

@@ -27,6 +27,9 @@ struct MemoryEstimate {
   uint64_t refinePeak = 0;  // refinement (BakeSettings::refineVertices > 0), before the bake
   uint64_t total = 0;      // max of the phase peaks
 
+  /// Adds a refinement phase measured before (estimated with BakeSettings::refineVertices) to
+  /// an estimate of the refined scene, so that it bounds the whole run.
+  void keepRefinePhase(uint64_t peak);
   /// "1.2 GiB (hit records 900 MiB, transfer 3 × 40 MiB, BVH 80 MiB, scene 30 MiB, ...)".
   std::string describe() const;
   /// "surface 150 MiB, probes 180 MiB, write 120 MiB": each phase's peak with the base and
