@@ -704,6 +704,8 @@ elif mode == 'version_1':
     meta['prt_format_version'] = 1
 elif mode == 'version_3':
     meta['prt_format_version'] = 3
+elif mode == 'version_4':
+    meta['prt_format_version'] = 4
 elif mode == 'spacing':
     meta['spacing'] = (0.5, 0.5, 0.25)
 vdb.write(dst, grids=grids, metadata=meta)
@@ -716,7 +718,8 @@ vdb.write(dst, grids=grids, metadata=meta)
       {"fewer_bands", "needs 1 transfer grids, the file holds 16"},
       {"no_version", "'prt_format_version' missing"},
       {"version_1", "prt_format_version 1 is no longer read: its moment grids hold ray lengths"},
-      {"version_3", "prt_format_version 3 is not supported (this prt reads 2)"},
+      {"version_3", "grid 'direct_00_00' missing"},  // version 3 without its direct part
+      {"version_4", "prt_format_version 4 is not supported (this prt reads 2 and 3)"},
       {"spacing", "does not match metadata"},
   };
   for (const auto& [mode, what] : cases) {

@@ -79,6 +79,7 @@ bake::Fingerprint bakeFingerprint(const Scene& scene, const BakeArgs& a, const b
   fp.add("samples", std::to_string(s.samples));
   fp.add("bounces", std::to_string(s.bounces));
   fp.add("seed", std::to_string(s.seed));
+  fp.add("direct part", "kept apart");  // records of prts before the transfer split lack it
   fp.add("probes", ps ? "yes" : "no");
   if (ps) {
     bake::addProbeFingerprint(fp, *ps);
@@ -324,7 +325,7 @@ int runBake(const BakeArgs& a) {
     writeProbeGrid(grid, a.probes, a.probeHalf);
     probeBytes = std::filesystem::file_size(a.probes);
   }
-  bake::storeTransfer(scene, std::move(result.perMesh));
+  bake::storeTransfer(scene, std::move(result.perMesh), std::move(result.perMeshDirect));
   scene.transferBands = s.bands;
   auto tWrite = std::chrono::steady_clock::now();
   BakeRecord record = bake::bakeRecord(s, sceneName, kVersion);
@@ -333,6 +334,8 @@ int runBake(const BakeArgs& a) {
                          refined.verticesBefore, refined.verticesAfter, refined.residual};
   record.backTransfer = std::any_of(scene.meshes.begin(), scene.meshes.end(),
                                     [](const MeshInstance& m) { return m.hasBackTransfer(); });
+  record.directTransfer = std::any_of(scene.meshes.begin(), scene.meshes.end(),
+                                      [](const MeshInstance& m) { return m.hasDirectTransfer(); });
   writeBakedScene(a.scene, scene, &record, a.output);
   double writeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tWrite).count();
   // The outputs are in place: the checkpoint has served.

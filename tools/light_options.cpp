@@ -1,6 +1,8 @@
 #include "light_options.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 
 #include "cli_checks.h"
@@ -105,6 +107,10 @@ void addLightOptions(CLI::App& app, LightOptions& o, bool animated, bool envPosi
          "Windowing of the light against ringing (default none, or the rig's)")
       ->transform(choice<sh::Window>({{"none", sh::Window::None}, {"hann", sh::Window::Hann},
                                       {"lanczos", sh::Window::Lanczos}}));
+  app.add_flag("--no-direct-lights", o.noDirect,
+               cat("Light suns and disks of radius <= ", kMaxDirectRadiusDegrees,
+                   " degrees through the SH transfer like the rest, instead of exactly with their shadows "
+                   "(docs/lights.md, \"Direct lights\")"));
   for (CLI::Option* opt : envOptions) opt->needs(env);
   sunAzimuth->needs(sunElevation);
   sunDir->excludes(sunAzimuth)->excludes(sunElevation);
@@ -169,5 +175,28 @@ LightRig buildStillRig(const LightOptions& o) {
 }
 
 sh::ShRgb buildLight(const LightOptions& o, int bands) { return buildStillRig(o).evaluate(o.frame, bands); }
+
+RigLighting buildLighting(const LightOptions& o, int bands) {
+  const LightRig rig = buildStillRig(o);
+  if (!o.noDirect) return rig.evaluateLighting(o.frame, bands);
+  RigLighting l;
+  l.sh = rig.evaluate(o.frame, bands);
+  l.directSh = sh::ShRgb(bands);
+  return l;
+}
+
+std::vector<std::string> describeDirectLights(const std::vector<DirectLight>& lights) {
+  std::vector<std::string> out;
+  for (const DirectLight& l : lights) {
+    const double elevation = glm::degrees(std::asin(std::clamp(l.direction.y, -1.0, 1.0)));
+    double azimuth = glm::degrees(std::atan2(l.direction.x, l.direction.z));
+    if (azimuth < 0.0) azimuth += 360.0;
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "elevation %.1f°, azimuth %.1f°, radius %.3g°, irradiance (%.4g, %.4g, %.4g)",
+                  elevation, azimuth, glm::degrees(l.radius), l.irradiance.r, l.irradiance.g, l.irradiance.b);
+    out.push_back(buf);
+  }
+  return out;
+}
 
 }  // namespace prt::tools

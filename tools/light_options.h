@@ -32,6 +32,7 @@ struct LightOptions {
   std::optional<sh::Window> window;       // none: sh::Window::None, or the rig's
   bool animated = false;                  // START:END allowed (prt render)
   std::string sunOptionGiven;             // the first of --sun-irradiance, --sun-radius given, if any
+  bool noDirect = false;                  // --no-direct-lights: suns and small disks through SH only
 };
 
 /// Adds --rig, --env, --env-rotate, --env-axis, --env-intensity, --sun-dir, --sun-azimuth,
@@ -51,5 +52,13 @@ LightRig buildStillRig(const LightOptions& o);
 
 /// Stills: the rig's SH at o.frame on `bands` bands.
 sh::ShRgb buildLight(const LightOptions& o, int bands);
+
+/// Stills: the rig at o.frame with its direct lights apart (LightRig::evaluateLighting), or,
+/// with --no-direct-lights, everything in `sh` and no direct light.
+RigLighting buildLighting(const LightOptions& o, int bands);
+
+/// One line per direct light for a summary: "sun at elevation 35.2°, azimuth 120.0°, radius
+/// 0.27°, irradiance (3, 2.9, 2.7)".
+std::vector<std::string> describeDirectLights(const std::vector<DirectLight>& lights);
 
 }  // namespace prt::tools

@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "prt/atomic_file.h"
+#include "prt/bake/direct_light.h"
 #include "prt/error.h"
 #include "prt/relight.h"
 #include "prt/scene.h"
@@ -49,6 +50,13 @@ void addRelight(CLI::App& cmd, RelightArgs& a) {
   cmd.add_option("-o,--output", a.output, "Output lit scene (.glb, unlit vertex colours)")->required();
   cmd.add_option("--csv", a.csv, "Also write per-vertex radiance as CSV");
   addLightOptions(cmd, a.light);
+  cmd.add_option("--shadow-samples", a.shadowSamples,
+                 "Shadow rays per direct light (sun, small disk) and vertex, stratified over its disk")
+      ->check(CLI::Range(1, 65536))
+      ->capture_default_str();
+  cmd.add_option("--threads", a.threads, "Threads for the shadow rays (0 = all cores)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   cmd.add_flag("-q,--quiet", a.quiet, "No summary");
 }
 
@@ -60,9 +68,30 @@ int runRelight(const RelightArgs& a) {
   const bool anyTransfer =
       std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& m) { return !m.transfer.empty(); });
   if (!anyTransfer) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
-  sh::ShRgb light = buildLight(a.light, scene.transferBands);
-  std::vector<std::vector<glm::vec3>> radiance = relightVertices(scene, light);
-  std::vector<std::vector<glm::vec3>> back = relightBackVertices(scene, light);
+  RigLighting lighting = buildLighting(a.light, scene.transferBands);
+  std::vector<std::vector<glm::vec3>> radiance, back;
+  bake::DirectIrradiance direct;
+  if (!lighting.direct.empty() && !hasDirectTransfer(scene)) {
+    // A bake from before the split: the suns go through the whole transfer, as they did then.
+    if (!a.quiet)
+      std::fprintf(stderr, "prt relight: warning: %s has no direct part (baked by an older prt): its %zu direct "
+                           "light(s) are lit through SH, without exact shadows; bake again for them\n",
+                   a.baked.c_str(), lighting.direct.size());
+    lighting.sh += lighting.directSh;
+    lighting.directSh = sh::ShRgb(scene.transferBands);
+    lighting.direct.clear();
+  }
+  if (lighting.direct.empty()) {  // directSh is zero then: every light is in sh
+    radiance = relightVertices(scene, lighting.sh);
+    back = relightBackVertices(scene, lighting.sh);
+  } else {
+    bake::ShadowSettings shadows;
+    shadows.samples = a.shadowSamples;
+    shadows.threads = a.threads;
+    direct = bake::shadowedDirectIrradiance(scene, lighting.direct, shadows);
+    radiance = relightVerticesSplit(scene, lighting.sh, lighting.directSh, direct.front, false);
+    back = relightVerticesSplit(scene, lighting.sh, lighting.directSh, direct.back, true);
+  }
   if (!a.csv.empty()) AtomicFile csvProbe(a.csv);
   writeLitScene(a.baked, scene, radiance, a.output, &back);
   if (!a.csv.empty()) writeCsv(a.csv, scene, radiance, back);
@@ -77,11 +106,19 @@ int runRelight(const RelightArgs& a) {
     }
   for (const auto& r : back) backSides += r.size();
   glm::vec3 mean = vertices ? sum / float(vertices) : glm::vec3(0);
-  std::string lighting = a.light.rig.empty() ? std::string() : cat(", lit by ", a.light.rig, " at frame ", a.light.frame);
+  std::string rigText = a.light.rig.empty() ? std::string() : cat(", lit by ", a.light.rig, " at frame ", a.light.frame);
   const std::string sides = backSides ? cat(" (", backSides, " of them two-sided)") : std::string();
   std::fprintf(stderr, "prt relight: %s -> %s%s%s\n  %zu vertices%s, %d bands%s, mean exitant radiance (%.4g, %.4g, %.4g)\n",
                a.baked.c_str(), a.output.c_str(), a.csv.empty() ? "" : " + ", a.csv.c_str(), vertices, sides.c_str(),
-               scene.transferBands, lighting.c_str(), mean.r, mean.g, mean.b);
+               scene.transferBands, rigText.c_str(), mean.r, mean.g, mean.b);
+  if (!lighting.direct.empty()) {
+    std::fprintf(stderr, "  direct lights (exact, with shadows; their bounces through the transfer):\n");
+    for (const std::string& line : describeDirectLights(lighting.direct)) std::fprintf(stderr, "    %s\n", line.c_str());
+    std::fprintf(stderr, "  shadow rays   %llu (%d per light and vertex) in %.2f s\n", (unsigned long long)direct.rays,
+                 a.shadowSamples, direct.seconds);
+  } else if (a.light.noDirect) {
+    std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
+  }
   return 0;
 }
 

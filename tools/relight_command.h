@@ -12,6 +12,8 @@ namespace prt::tools {
 struct RelightArgs {
   std::string baked, output, csv;
   LightOptions light;
+  int shadowSamples = 64;  // shadow rays per direct light and vertex
+  int threads = 0;
   bool quiet = false;
 };
 

@@ -1,8 +1,8 @@
 // Peak memory of `prt bake`, phase by phase (sizes in bytes; V vertices, T triangles of the
 // baked instances, the back sides of double-sided ones counted as vertices too, n2 = bands²,
-// N samples, B = V·n2·12 one transfer buffer):
+// N samples, B = V·n2·12 one transfer buffer, D = B/3 its colourless direct part):
 //
-//   surface  scene + layout + BVH + hit records + 3B (t^{k-1}, t^k, running sum)
+//   surface  scene + layout + BVH + hit records + 3B (t^{k-1}, t^k, running sum) + D
 //            (+ B for the lower-order sum when probes follow)
 //   probes   scene + 2B (transfer and lower-order sum), then the largest of
 //              trace     BVH + per lattice point a slot and its n2²·3 floats + per thread the
@@ -130,7 +130,7 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   const glm::u64vec3 dims(grid.dims);
   const uint64_t points = dims.x * dims.y * dims.z;
   const uint64_t pn2 = uint64_t(p.bands) * p.bands;
-  const uint64_t matrix = pn2 * pn2 * 12;
+  const uint64_t matrix = pn2 * pn2 * 12 + pn2 * (pn2 + 1) / 2 * 4;  // M and M⁰'s triangle
   const uint64_t threads = std::max(1u, p.threads > 0 ? unsigned(p.threads) : std::thread::hardware_concurrency());
   const uint64_t accum = pn2 * pn2 * (8 + 24) + 2 * kAllocOverhead;
   lattice = points * (kProbeSlotBytes + matrix);
@@ -139,8 +139,8 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   // the attribute vectors grow by doubling.
   const uint64_t gridBytes = points * (matrix + kProbeAttributeBytes + kProbeIndexBytes);
   const uint64_t assemble = lattice + points * (matrix * 4 / 5 + 2 * kProbeAttributeBytes + kProbeIndexBytes);
-  const uint64_t trees =
-      (pn2 * pn2 + kVdbVec3Grids) * vdbTreeBytes(12, 16, dims) + kVdbFloatGrids * vdbTreeBytes(4, 8, dims);
+  const uint64_t trees = (pn2 * pn2 + kVdbVec3Grids) * vdbTreeBytes(12, 16, dims) +
+                         (kVdbFloatGrids + pn2 * (pn2 + 1) / 2) * vdbTreeBytes(4, 8, dims);
   const uint64_t write = gridBytes + trees + kVdbHashBuffer + kVdbWriteBytes;
   return std::max({trace, assemble, write});
 }
@@ -180,12 +180,14 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
                    : 0;
   const uint64_t layout = shadowed ? vertices * kLayoutPerVertex + (triangles + backTriangles) * kLayoutPerTriangle : 0;
   const uint64_t lower = probes ? e.transfer : 0;
+  const uint64_t direct = e.transfer / 3;  // the direct part, kept to the end of the bake
   // Surface stage: during the last bounce (or the direct pass and its copy without bounces),
   // then the per-instance copies of the sums.
-  e.surfacePeak = e.scene + std::max(layout + e.bvh + e.hits + 3 * e.transfer + lower, 2 * (e.transfer + lower));
-  if (probes) e.probePeak = e.scene + 2 * e.transfer + probeStagePeak(scene, *probes, triangles, e.probes);
-  e.writePeak = e.scene + e.transfer + lower + kWriteInputCopies * gltfInputBytes(scene) +
-                kWriteTransferCopies * e.transfer;
+  e.surfacePeak =
+      e.scene + std::max(layout + e.bvh + e.hits + 3 * e.transfer + direct + lower, 2 * (e.transfer + direct + lower));
+  if (probes) e.probePeak = e.scene + 2 * e.transfer + direct + probeStagePeak(scene, *probes, triangles, e.probes);
+  e.writePeak = e.scene + e.transfer + direct + lower + kWriteInputCopies * gltfInputBytes(scene) +
+                kWriteTransferCopies * (e.transfer + direct);
   if (s.refineVertices > 0 && shadowed)
     e.refinePeak = e.scene + original * kLayoutPerVertex + (triangles - 2 * s.refineVertices) * kBvhBytesPerTriangle +
                    vertices * (kRefineBytesPerVertex + kRefinePointsPerVertex * ((uint64_t(s.samples) + 63) / 64 * 8));

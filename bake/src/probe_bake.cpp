@@ -182,7 +182,9 @@ static_assert(sizeof(ProbeSlot) == 72 && std::is_trivially_copyable_v<ProbeSlot>
 // memory, whenever it happens.
 struct LatticeResults {
   std::vector<ProbeSlot> slots;
-  std::vector<float> transfer;  // stride floats per lattice point; zero for invalid points
+  // stride floats per lattice point, zero for invalid points: M (n2² RGB triples), then the
+  // upper triangle of its direct part M⁰ (n2(n2+1)/2 floats, ProbeGrid::direct's layout).
+  std::vector<float> transfer;
   size_t stride = 0;
 };
 
@@ -223,7 +225,7 @@ struct ProbeBaker {
       candidates.push_back(glm::dvec3(c & 1 ? 0.3 : -0.3, c & 2 ? 0.3 : -0.3, c & 4 ? 0.3 : -0.3));
   }
 
-  // Lattice point idx into slot and out (n2² RGB floats); quickFree: its quick inside test
+  // Lattice point idx into slot and out (n2² RGB floats, then M⁰'s upper triangle); quickFree: its quick inside test
   // (classifyLattice) passed. The double accumulators `acc` live only during this point's
   // trace: the matrix is converted to float at once, with the same per-probe arithmetic in a
   // fixed order, so the result does not depend on threads. False when interrupted first (slot
@@ -262,12 +264,16 @@ struct ProbeBaker {
       if (const uint32_t n = acc.count[f]) slot.moments[f] = glm::vec2(float(acc.sumD[f] / n), float(acc.sumD2[f] / n));
     slot.skyVisibility = acc.rays ? float(double(acc.escaped) / acc.rays) : 0.0f;
     const double w = 4.0 * M_PI / settings.samples;
-    for (size_t k = 0; k < size_t(acc.n2) * acc.n2; ++k) {
+    const size_t n2 = size_t(acc.n2);
+    for (size_t k = 0; k < n2 * n2; ++k) {
       const glm::dvec3 v = w * (glm::dvec3(acc.direct[k]) + acc.indirect[k]);
       out[3 * k] = float(v.r);
       out[3 * k + 1] = float(v.g);
       out[3 * k + 2] = float(v.b);
     }
+    float* direct = out + 3 * n2 * n2;  // M⁰ is symmetric: its upper triangle, row by row
+    for (size_t j = 0; j < n2; ++j)
+      for (size_t i = j; i < n2; ++i) *direct++ = float(w * acc.direct[j * n2 + i]);
     return true;
   }
 };
@@ -563,11 +569,15 @@ void assembleGrid(const std::vector<ProbeSlot>& slots, std::vector<float> transf
         stats.valid += slot.valid;
         stats.moved += slot.valid && slot.moved;
       }
-  transfer.resize(active * stride);
-  // Give back the tail when solid interiors left much of the lattice inactive (the copy this
-  // costs is at most the size of what remains).
-  if (transfer.capacity() > transfer.size() + transfer.size() / 4) transfer.shrink_to_fit();
-  grid.transfer = std::move(transfer);
+  // Each compacted record is M then M⁰'s triangle: split them into the grid's two arrays.
+  const size_t rgb = grid.transferStride(), tri = stride - rgb;
+  PRT_CHECK_EQ(tri, ProbeGrid::directStride(grid.bands));
+  grid.transfer.resize(active * rgb);
+  grid.direct.resize(active * tri);
+  for (size_t p = 0; p < active; ++p) {
+    std::copy_n(transfer.begin() + ptrdiff_t(p * stride), rgb, grid.transfer.begin() + ptrdiff_t(p * rgb));
+    std::copy_n(transfer.begin() + ptrdiff_t(p * stride + rgb), tri, grid.direct.begin() + ptrdiff_t(p * tri));
+  }
   grid.buildIndex();
 }
 
@@ -593,7 +603,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
 
   const size_t total = size_t(grid.dims.x) * grid.dims.y * grid.dims.z;
   const int n2 = settings.bands * settings.bands;
-  const size_t stride = size_t(n2) * n2 * 3;
+  const size_t stride = size_t(n2) * n2 * 3 + ProbeGrid::directStride(settings.bands);
   auto res = std::make_shared<LatticeResults>();
   res->slots.resize(total);
   res->transfer.assign(total * stride, 0.0f);  // lattice order; compacted below

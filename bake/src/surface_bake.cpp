@@ -264,11 +264,10 @@ struct SurfaceBake {
   int bounces;
   uint32_t stageDone;  // checkpoint stage id of the finished surface stage
   std::vector<ChunkHits> chunkHits;
-  std::vector<glm::vec3> direct, total, lowerOrder, prev, cur;
+  // t⁰, colourless: values floats (the direct part the files keep apart from the total).
+  std::vector<float> direct;
+  std::vector<glm::vec3> total, lowerOrder, prev, cur;
   uint64_t hitCount = 0;
-  // Direct chunk records carry their transfer while it exists: with hit records kept,
-  // checkpoints saved during the bounces still write the direct chunks, without it.
-  bool directAlive = true;
 
   SurfaceBake(const Scene& sc, const BakeSettings& s, const Layout& l)
       : scene(sc), settings(s), lay(l), n2(s.bands * s.bands), values(l.vertices * n2), N(uint32_t(s.samples)),
@@ -327,7 +326,7 @@ struct DirectPass {
         }
       }
       const double w = M_PI / N;
-      for (int i = 0; i < n2; ++i) b.direct[v * n2 + i] = glm::vec3(float(acc[i] * w));
+      for (int i = 0; i < n2; ++i) b.direct[v * n2 + i] = float(acc[i] * w);
       if (ch) ch->begin.push_back(uint32_t(ch->hits.size()));
     }
     if (ch) ch->hits.shrink_to_fit();
@@ -361,28 +360,23 @@ ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk
 }
 
 // ---- Checkpoint records of the surface stages (checkpoint.h).
-// Direct chunk: u8 has transfer, [its transfer, one float per coefficient: the pass is
-// colourless], [CSR offsets, hit records].
+// Direct chunk: u8 1, its transfer (one float per coefficient: the pass is colourless, and it
+// is kept to the end as the files' direct part), [CSR offsets, hit records]. The u8 is 0 in
+// checkpoints of prts that dropped the transfer during the bounces (refused by fingerprint).
 void writeDirectChunk(const SurfaceBake& b, const Chunk& c, ByteWriter& w) {
-  w.put<uint8_t>(b.directAlive);
-  if (b.directAlive) {
-    std::vector<float> v((c.end - c.begin) * b.n2);
-    for (size_t i = 0; i < v.size(); ++i) v[i] = b.direct[c.begin * b.n2 + i].r;
-    w.putArray(v.data(), v.size());
-  }
+  w.put<uint8_t>(1);
+  w.putArray(&b.direct[c.begin * b.n2], (c.end - c.begin) * b.n2);
   if (b.keepHits) {
     w.putArray(b.chunkHits[c.index].begin.data(), b.chunkHits[c.index].begin.size());
     w.putArray(b.chunkHits[c.index].hits.data(), b.chunkHits[c.index].hits.size());
   }
 }
 
-void readDirectChunk(SurfaceBake& b, const Chunk& c, bool wantValues, ByteReader& r) {
-  const bool hasValues = r.get<uint8_t>() != 0;
-  if (wantValues && !hasValues) r.fail("direct chunk without transfer");
-  std::vector<float> v = hasValues ? r.getVector<float>() : std::vector<float>();
-  if (hasValues && v.size() != (c.end - c.begin) * b.n2) r.fail("direct chunk size");
-  if (wantValues)
-    for (size_t i = 0; i < v.size(); ++i) b.direct[c.begin * b.n2 + i] = glm::vec3(v[i]);
+void readDirectChunk(SurfaceBake& b, const Chunk& c, ByteReader& r) {
+  if (r.get<uint8_t>() == 0) r.fail("direct chunk without transfer");
+  std::vector<float> v = r.getVector<float>();
+  if (v.size() != (c.end - c.begin) * b.n2) r.fail("direct chunk size");
+  std::copy(v.begin(), v.end(), b.direct.begin() + ptrdiff_t(c.begin * b.n2));
   if (b.keepHits) {
     ChunkHits& ch = b.chunkHits[c.index];
     ch.begin = r.getVector<uint32_t>();
@@ -394,15 +388,16 @@ void readDirectChunk(SurfaceBake& b, const Chunk& c, bool wantValues, ByteReader
   }
 }
 
-void readTransfer(const SurfaceBake& b, ByteReader& r, std::vector<glm::vec3>& v) {
-  v = r.getVector<glm::vec3>();
+template <typename T>
+void readTransfer(const SurfaceBake& b, ByteReader& r, std::vector<T>& v) {
+  v = r.getVector<T>();
   if (v.size() != b.values && !v.empty()) r.fail("transfer size");
 }
 
 // Where a checkpoint left off: 0 = in (or before) the direct pass, 1 + k = in bounce k,
 // stageDone = the whole surface stage. Restores what that point needs: the finished surface
-// stage's sums; or the direct chunks (their hit records, and their transfer while the direct
-// pass is unfinished) and the state the bounce starts from.
+// stage's sums; or the direct chunks (their transfer and hit records) and the state the bounce
+// starts from.
 uint32_t restoreSurface(SurfaceBake& b, Checkpoint* cp, ChunkedStage& direct) {
   if (!cp) return 0;
   const uint32_t resumeStage = std::min(cp->restoredStateStage(), b.stageDone);
@@ -411,13 +406,13 @@ uint32_t restoreSurface(SurfaceBake& b, Checkpoint* cp, ChunkedStage& direct) {
       b.hitCount = r.get<uint64_t>();
       readTransfer(b, r, b.total);
       readTransfer(b, r, b.lowerOrder);
-      if (b.total.size() != b.values) r.fail("transfer size");
+      readTransfer(b, r, b.direct);
+      if (b.total.size() != b.values || b.direct.size() != b.values) r.fail("transfer size");
     });
     return resumeStage;
   }
-  const bool wantValues = resumeStage == 0;
-  if (wantValues) b.direct.resize(b.values);
-  direct.restore([&](const Chunk& c, ByteReader& r) { readDirectChunk(b, c, wantValues, r); });
+  b.direct.resize(b.values);
+  direct.restore([&](const Chunk& c, ByteReader& r) { readDirectChunk(b, c, r); });
   if (resumeStage != 0) {
     if (direct.chunksLeft() != 0)
       throw Error(cat(cp->path(), ": corrupt checkpoint (hit records of the direct pass missing); delete it to "
@@ -433,7 +428,7 @@ uint32_t restoreSurface(SurfaceBake& b, Checkpoint* cp, ChunkedStage& direct) {
 }
 
 // The direct pass: visibility-weighted SH, and the hit records for the bounces. Hands the
-// bounces t⁰ as both the running sum and the previous order.
+// bounces t⁰ as both the running sum and the previous order, and keeps it.
 void runDirectPass(SurfaceBake& b, ChunkedStage& stage, const BakeControl& control, BakeStats& stats) {
   b.direct.resize(b.values);
   const size_t left = stage.chunksLeft();
@@ -461,9 +456,9 @@ void runDirectPass(SurfaceBake& b, ChunkedStage& stage, const BakeControl& contr
   stats.rays = run.rays;
   if (left > 0) stats.stages.push_back(run);
   b.countHits();
-  b.total = b.direct;
-  b.prev = std::move(b.direct);
-  b.directAlive = false;
+  b.total.resize(b.values);
+  for (size_t i = 0; i < b.values; ++i) b.total[i] = glm::vec3(b.direct[i]);
+  b.prev = b.total;
 }
 
 // The bounces from `resumeStage` on: t^k = W t^{k−1}, summed into the total.
@@ -500,6 +495,7 @@ void keepSurfaceStage(SurfaceBake& b, Checkpoint& cp) {
     w.put(b.hitCount);
     w.putArray(b.total.data(), b.total.size());
     w.putArray(b.lowerOrder.data(), b.lowerOrder.size());
+    w.putArray(b.direct.data(), b.direct.size());
   };
   cp.beginStage(b.stageDone, "surface stage", 0, 0, std::move(io));
   cp.save();
@@ -507,9 +503,9 @@ void keepSurfaceStage(SurfaceBake& b, Checkpoint& cp) {
 
 // Per Scene::meshes entry: its vertices' part of a buffer in layout order, followed by its
 // virtual vertices' part (the back side) when it is double-sided.
-std::vector<std::vector<glm::vec3>> perMesh(const Scene& scene, const Layout& lay, int n2,
-                                            const std::vector<glm::vec3>& all) {
-  std::vector<std::vector<glm::vec3>> out(scene.meshes.size());
+template <typename T>
+std::vector<std::vector<T>> perMesh(const Scene& scene, const Layout& lay, int n2, const std::vector<T>& all) {
+  std::vector<std::vector<T>> out(scene.meshes.size());
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     if (lay.vertexOffset[k] == SIZE_MAX) continue;
     const ptrdiff_t count = ptrdiff_t(scene.meshes[k].vertexCount() * n2);
@@ -554,9 +550,12 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
   out.stats.backVertices = lay.vertices - lay.frontVertices;
   if (!settings.shadowed) {
     auto t0 = Clock::now();
-    for (size_t k = 0; k < scene.meshes.size(); ++k)
-      if (!scene.meshes[k].receiverOnly)
-        out.perMesh[k] = unshadowedTransfer(scene.meshes[k], settings.bands, bakesBackSide(scene, scene.meshes[k]));
+    out.perMeshDirect.resize(scene.meshes.size());
+    for (size_t k = 0; k < scene.meshes.size(); ++k) {
+      if (scene.meshes[k].receiverOnly) continue;
+      out.perMesh[k] = unshadowedTransfer(scene.meshes[k], settings.bands, bakesBackSide(scene, scene.meshes[k]));
+      for (const glm::vec3& t : out.perMesh[k]) out.perMeshDirect[k].push_back(t.r);  // all of it is direct
+    }
     out.stats.stages.push_back({"unshadowed", secondsSince(t0), 0});
     out.stats.seconds = secondsSince(tStart);
     return out;
@@ -584,6 +583,7 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
   if (cp && settings.keepLowerOrder && !restoredDone) keepSurfaceStage(b, *cp);
 
   out.perMesh = perMesh(scene, lay, b.n2, b.total);
+  out.perMeshDirect = perMesh(scene, lay, b.n2, b.direct);
   if (!b.lowerOrder.empty()) out.perMeshLowerOrder = perMesh(scene, lay, b.n2, b.lowerOrder);
   out.stats.seconds = secondsSince(tStart);
   return out;
@@ -603,18 +603,30 @@ std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& setting
   return out;
 }
 
-void storeTransfer(Scene& scene, std::vector<std::vector<glm::vec3>> perMesh) {
+namespace {
+// Front vertices, then their back sides when the instance's back side is baked.
+template <typename T>
+void splitSides(const Scene& scene, const MeshInstance& m, std::vector<T>& t, std::vector<T>& front,
+                std::vector<T>& back) {
+  back.clear();
+  if (bakesBackSide(scene, m) && !t.empty()) {
+    const auto half = t.begin() + ptrdiff_t(t.size() / 2);
+    back.assign(half, t.end());
+    t.erase(half, t.end());
+  }
+  front = std::move(t);
+}
+}  // namespace
+
+void storeTransfer(Scene& scene, std::vector<std::vector<glm::vec3>> perMesh,
+                   std::vector<std::vector<float>> perMeshDirect) {
   PRT_CHECK_EQ(perMesh.size(), scene.meshes.size());
+  if (perMeshDirect.empty()) perMeshDirect.resize(scene.meshes.size());
+  PRT_CHECK_EQ(perMeshDirect.size(), scene.meshes.size());
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    std::vector<glm::vec3>& t = perMesh[k];
     MeshInstance& m = scene.meshes[k];
-    m.transferBack.clear();
-    if (bakesBackSide(scene, m) && !t.empty()) {  // front vertices, then their back sides
-      const auto half = t.begin() + ptrdiff_t(t.size() / 2);
-      m.transferBack.assign(half, t.end());
-      t.erase(half, t.end());
-    }
-    m.transfer = std::move(t);
+    splitSides(scene, m, perMesh[k], m.transfer, m.transferBack);
+    splitSides(scene, m, perMeshDirect[k], m.transferDirect, m.transferDirectBack);
   }
 }
 

@@ -76,11 +76,17 @@ int ProbeGrid::find(const glm::ivec3& c) const {
   return dense_[linearIndex(c, dims)];
 }
 
-std::vector<glm::vec3> relightProbes(const ProbeGrid& grid, const sh::ShRgb& light) {
+namespace {
+
+// c_p = M_p · l − M⁰_p · d for every probe (d = null: no direct part), each probe summed by one
+// thread in a fixed order, so the result does not depend on how TBB splits the range.
+std::vector<glm::vec3> relight(const ProbeGrid& grid, const sh::ShRgb& light, const sh::ShRgb* direct) {
   const int n2 = grid.coeffs();
-  const size_t stride = grid.transferStride();
+  const size_t stride = grid.transferStride(), dstride = grid.directStride();
   PRT_CHECK_EQ(grid.transfer.size(), grid.probeCount() * stride);
+  if (direct) PRT_CHECK_EQ(grid.direct.size(), grid.probeCount() * dstride);
   const sh::ShRgb l = sh::resize(light, grid.bands);
+  const sh::ShRgb d = direct ? sh::resize(*direct, grid.bands) : sh::ShRgb();
   std::vector<glm::vec3> out(grid.probeCount() * size_t(n2));
   auto relightOne = [&](size_t p) {
     const float* m = grid.transfer.data() + p * stride;
@@ -93,14 +99,33 @@ std::vector<glm::vec3> relightProbes(const ProbeGrid& grid, const sh::ShRgb& lig
       }
       c[j] = acc;
     }
+    if (!direct) return;
+    const float* m0 = grid.direct.data() + p * dstride;  // upper triangle, row by row
+    for (int j = 0; j < n2; ++j)
+      for (int i = j; i < n2; ++i) {
+        const float v = *m0++;
+        c[j] -= v * d.c[size_t(i)];
+        if (i != j) c[i] -= v * d.c[size_t(j)];
+      }
   };
-  // Each probe is summed by one thread in a fixed order, so the result does not depend on how
-  // TBB splits the range.
   tbb::parallel_for(tbb::blocked_range<size_t>(0, grid.probeCount(), 256),
                     [&](const tbb::blocked_range<size_t>& r) {
                       for (size_t p = r.begin(); p < r.end(); ++p) relightOne(p);
                     });
   return out;
+}
+
+}  // namespace
+
+std::vector<glm::vec3> relightProbes(const ProbeGrid& grid, const sh::ShRgb& light) {
+  return relight(grid, light, nullptr);
+}
+
+std::vector<glm::vec3> relightProbes(const ProbeGrid& grid, const sh::ShRgb& light, const sh::ShRgb& directLight) {
+  PRT_CHECK(grid.hasDirect());
+  sh::ShRgb all = sh::resize(light, grid.bands);
+  all += sh::resize(directLight, grid.bands);
+  return relight(grid, all, &directLight);
 }
 
 namespace {

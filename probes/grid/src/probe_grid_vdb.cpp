@@ -34,7 +34,8 @@ namespace vdb = openvdb;
 
 // 2: the moment grids hold depths along the face's axis. Version 1 held ray lengths, which the
 // interpolation of version 2 would misread (it would let light through walls), so 1 is refused.
-constexpr int kFormatVersion = 2;
+// 3: adds the direct part M⁰ (direct_JJ_II, j <= i). Version 2 files are read, without it.
+constexpr int kFormatVersion = 3;
 // OpenVDB's file magic: the first 8 bytes of every .vdb file (an int64, little endian).
 constexpr int64_t kVdbMagic = 0x56444220;
 
@@ -43,7 +44,8 @@ constexpr const char* kShConvention =
     "glTF frame (+Y up, right-handed), directions point towards the light";
 constexpr const char* kUnits = "incident radiance SH = transfer · light SH; radiance";
 constexpr const char* kLayout =
-    "transfer_JJ_II vec3s: RGB of M_ji (c_j = sum_i M_ji l_i); validity float (1 valid, 0 inside "
+    "transfer_JJ_II vec3s: RGB of M_ji (c_j = sum_i M_ji l_i); direct_JJ_II float, JJ <= II: M0_ji = M0_ij, "
+    "the direct (bounce 0, first-hit visibility) part of M, colourless and symmetric; validity float (1 valid, 0 inside "
     "geometry); offset vec3s: world offset of the probe from its lattice point; sky_visibility "
     "float; irradiance_preview vec3s: irradiance at a +Y normal under a uniform sky of radiance "
     "1; moments_mean_pos/neg vec3s: for the rays of the +X,+Y,+Z / -X,-Y,-Z cube faces, mean "
@@ -73,6 +75,12 @@ void initOpenVdb() {
 std::string transferName(int j, int i) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "transfer_%02d_%02d", j, i);
+  return buf;
+}
+
+std::string directName(int j, int i) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "direct_%02d_%02d", j, i);
   return buf;
 }
 
@@ -237,8 +245,8 @@ ProbeGrid toProbeGrid(const std::string& path, const LoadedFile& file) {
   if (version == 1)
     throw Error(cat(path, ": prt_format_version 1 is no longer read: its moment grids hold ray lengths, "
                     "version 2 holds depths along the face axis; bake the probes again"));
-  if (version != kFormatVersion)
-    throw Error(cat(path, ": prt_format_version ", version, " is not supported (this prt reads ",
+  if (version != kFormatVersion && version != 2)
+    throw Error(cat(path, ": prt_format_version ", version, " is not supported (this prt reads 2 and ",
                     kFormatVersion, ")"));
   ProbeGrid grid;
   const int64_t bands = meta.integer("bands");
@@ -283,6 +291,18 @@ ProbeGrid toProbeGrid(const std::string& path, const LoadedFile& file) {
   if (transferGrids != transfer.size())
     throw Error(cat(path, ": bands = ", bands, " needs ", transfer.size(), " transfer grids, the file holds ",
                     transferGrids));
+  // Version 3: the upper triangle of M⁰, in ProbeGrid::direct's order.
+  std::vector<vdb::FloatGrid::Ptr> direct;
+  if (version >= 3) {
+    for (int j = 0; j < n2; ++j)
+      for (int i = j; i < n2; ++i) direct.push_back(requireGrid<vdb::FloatGrid>(path, file, directName(j, i), "float"));
+    size_t directGrids = 0;
+    for (const auto& [name, g] : file.byName)
+      if (name.rfind("direct_", 0) == 0) ++directGrids;
+    if (directGrids != direct.size())
+      throw Error(cat(path, ": bands = ", bands, " needs ", direct.size(), " direct grids, the file holds ",
+                      directGrids));
+  }
 
   const vdb::FloatGrid::Ptr validity = requireGrid<vdb::FloatGrid>(path, file, "validity", "float");
   const vdb::math::Transform& xform = validity->transform();
@@ -346,6 +366,13 @@ ProbeGrid toProbeGrid(const std::string& path, const LoadedFile& file) {
         dst[2] = v[2];
       });
   });
+  for (const vdb::FloatGrid::Ptr& g : direct) checkLike(path, *g, *validity);
+  const size_t dstride = grid.directStride();
+  grid.direct.resize(direct.empty() ? 0 : count * dstride);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, direct.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t k = r.begin(); k < r.end(); ++k)
+      readProbes(path, *direct[k], grid.coord, [&](size_t p, float v) { grid.direct[p * dstride + k] = v; });
+  });
 
   grid.buildIndex();
   return grid;
@@ -402,6 +429,8 @@ void writeProbeGrid(const ProbeGrid& grid, const std::string& path, bool half) {
   PRT_CHECK(grid.dims.x >= 1 && grid.dims.y >= 1 && grid.dims.z >= 1);
   PRT_CHECK(grid.spacing.x > 0.0 && grid.spacing.y > 0.0 && grid.spacing.z > 0.0);
   PRT_CHECK_EQ(grid.transfer.size(), count * grid.transferStride());
+  // Without a direct part (a grid made by hand, or read from version 2) the file is version 2.
+  PRT_CHECK(grid.direct.empty() || grid.direct.size() == count * grid.directStride());
   PRT_CHECK_EQ(grid.validity.size(), count);
   PRT_CHECK_EQ(grid.offset.size(), count);
   PRT_CHECK_EQ(grid.skyVisibility.size(), count);
@@ -436,6 +465,22 @@ void writeProbeGrid(const ProbeGrid& grid, const std::string& path, bool half) {
           transfer[k] = g;
         }
       });
+  const size_t dstride = grid.directStride();
+  std::vector<vdb::FloatGrid::Ptr> direct(grid.hasDirect() ? dstride : 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, direct.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t k = r.begin(); k < r.end(); ++k) {
+      int j = 0, first = 0;  // k is (j, i) of the upper triangle, row by row
+      while (first + (n2 - j) <= int(k)) first += n2 - j++;
+      const int i = j + (int(k) - first);
+      auto g = makeGrid<vdb::FloatGrid>(
+          directName(j, i), xform,
+          cat("direct part M0_ji = M0_ij, j = ", j, ", i = ", i, ": bounce-0 transfer (first-hit visibility), colourless"),
+          half);
+      auto acc = g->getAccessor();
+      for (size_t p = 0; p < count; ++p) acc.setValue(at(p), grid.direct[p * dstride + k]);
+      direct[k] = g;
+    }
+  });
 
   auto validity = makeGrid<vdb::FloatGrid>("validity", xform,
                                            "1 = valid probe, 0 = inside geometry (never interpolated)", half);
@@ -499,6 +544,7 @@ void writeProbeGrid(const ProbeGrid& grid, const std::string& path, bool half) {
   PRT_CHECK_EQ(validity->activeVoxelCount(), vdb::Index64(count));  // no duplicate coordinates
 
   vdb::GridPtrVec grids(transfer.begin(), transfer.end());
+  grids.insert(grids.end(), direct.begin(), direct.end());
   grids.push_back(validity);
   grids.push_back(offset);
   grids.push_back(sky);
@@ -506,7 +552,7 @@ void writeProbeGrid(const ProbeGrid& grid, const std::string& path, bool half) {
   grids.insert(grids.end(), moments.begin(), moments.end());
 
   vdb::MetaMap meta;
-  meta.insertMeta("prt_format_version", vdb::Int32Metadata(kFormatVersion));
+  meta.insertMeta("prt_format_version", vdb::Int32Metadata(grid.hasDirect() ? kFormatVersion : 2));
   meta.insertMeta("bands", vdb::Int32Metadata(grid.bands));
   meta.insertMeta("sh_convention", vdb::StringMetadata(kShConvention));
   meta.insertMeta("units", vdb::StringMetadata(kUnits));
@@ -554,7 +600,7 @@ std::string describeProbeFile(const std::string& path) {
   bool half = false;
   std::vector<std::string> others;
   std::string firstTransfer, lastTransfer;
-  size_t transferGrids = 0;
+  size_t transferGrids = 0, directGrids = 0;
   for (const auto& [name, g] : file.byName) {  // std::map: sorted like VDB's own listing
     memory += g->memUsage();
     half |= g->saveFloatAsHalf();
@@ -562,6 +608,8 @@ std::string describeProbeFile(const std::string& path) {
       if (firstTransfer.empty()) firstTransfer = name;
       lastTransfer = name;
       ++transferGrids;
+    } else if (name.rfind("direct_", 0) == 0) {
+      ++directGrids;
     } else {
       others.push_back(cat(name, " (", g->valueType() == "vec3s" ? "Vec3f" : g->valueType(), ")"));
     }
@@ -569,7 +617,7 @@ std::string describeProbeFile(const std::string& path) {
 
   std::ostringstream os;
   os << path << "\n";
-  os << "  format        prt probe grid v" << kFormatVersion << " (OpenVDB, "
+  os << "  format        prt probe grid v" << (grid.hasDirect() ? kFormatVersion : 2) << " (OpenVDB, "
      << (half ? "16-bit transfer" : "32-bit floats") << ")\n";
   os << "  bands         " << grid.bands << " (" << grid.coeffs() << " SH coefficients, "
      << grid.coeffs() * grid.coeffs() << " RGB transfer entries per probe)\n";
@@ -587,11 +635,16 @@ std::string describeProbeFile(const std::string& path) {
   os << "  probes        " << grid.probeCount() << " active of " << lattice << ", " << valid << " valid\n";
   os << "  grids         " << file.byName.size() << ": " << firstTransfer << " .. " << lastTransfer << " ("
      << transferGrids << " Vec3f grids)";
+  if (directGrids)
+    os << ", direct_00_00 .. " << directName(grid.coeffs() - 1, grid.coeffs() - 1) << " (" << directGrids
+       << " float grids: the direct part)";
+  else
+    os << ", no direct part (baked before prt kept it apart: suns are lit through the whole transfer)";
   for (const std::string& o : others) os << ", " << o;
   os << "\n";
   // What prt holds once read: the parallel arrays plus the dense index of find().
   const uintmax_t arrays =
-      grid.probeCount() * (sizeof(glm::ivec3) + grid.transferStride() * sizeof(float) + sizeof(float) * 2 +
+      grid.probeCount() * (sizeof(glm::ivec3) + (grid.transferStride() + grid.direct.size() / std::max<size_t>(grid.probeCount(), 1)) * sizeof(float) + sizeof(float) * 2 +
                            sizeof(glm::vec3) + sizeof(grid.moments[0])) +
       uintmax_t(lattice) * sizeof(int32_t);
   os << "  file size     " << formatBytes(file.fileSize) << " on disk\n";

@@ -190,6 +190,37 @@ sh::ShRgb projectSun(int bands, const glm::dvec3& toLight, double radius,
   return zonal(bands, d, factor, irradiance);
 }
 
+glm::dvec3 DirectLight::radiance() const {
+  if (radius < kPointSunRadians) return glm::dvec3(0.0);
+  return irradiance / (kPi * std::sin(radius) * std::sin(radius));
+}
+
+sh::ShRgb DirectLight::project(int bands) const { return projectSun(bands, direction, radius, irradiance); }
+
+// Note 4: the irradiance of a cap clipped by a surface's horizon. A cap of angular radius r
+// around d, of radiance L, seen from a surface whose normal makes angle θ with d:
+//   fully above the horizon (θ ≤ π/2 − r): E = π L sin² r cos θ (Note 1 of projectSun);
+//   fully below (θ ≥ π/2 + r): 0;
+//   straddling it: E = L [ (cos θ acos y − x sin θ √(1 − y²)) sin² r + atan(sin θ √(1 − y²) / x) ],
+//   x = √(1/sin² r − 1) = cot r, y = −x cot θ,
+// the form factor of a sphere to a tilted differential area (Snyder, "Area light sources for
+// real-time graphics", 1996; the form Lagarde & de Rousiers use in "Moving Frostbite to PBR",
+// 2014). Divided by π sin² r it is the share of E(facing) that arrives. The test checks it
+// against quadrature over the cap.
+double directCosineFactor(const DirectLight& light, const glm::dvec3& n) {
+  const double cosTheta = std::clamp(glm::dot(n, light.direction), -1.0, 1.0);
+  const double r = light.radius;
+  if (r < kPointSunRadians) return std::max(cosTheta, 0.0);
+  const double sin2 = std::sin(r) * std::sin(r);
+  if (cosTheta * cosTheta > sin2) return std::max(cosTheta, 0.0);  // wholly above (or below) the horizon
+  const double sinTheta = std::sqrt(std::max(0.0, 1.0 - cosTheta * cosTheta));
+  const double x = std::sqrt(std::max(0.0, 1.0 / sin2 - 1.0));
+  const double y = std::clamp(-x * cosTheta / std::max(sinTheta, 1e-300), -1.0, 1.0);
+  const double sy = sinTheta * std::sqrt(std::max(0.0, 1.0 - y * y));
+  const double e = (cosTheta * std::acos(y) - x * sy) * sin2 + std::atan2(sy, x);
+  return std::clamp(e / (kPi * sin2), 0.0, 1.0);
+}
+
 sh::ShRgb projectUniform(int bands, const glm::dvec3& radiance) {
   checkBands(bands);
   // ∫ L y_0 dω = L · 4π · 1/(2√π) = 2√π L; every other y_i integrates to 0 over the sphere.

@@ -8,6 +8,7 @@
 #include <initializer_list>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <utility>
 
 #include <nlohmann/json.hpp>
@@ -314,6 +315,44 @@ void LightRig::prepare(int bands) const {
   std::lock_guard<std::mutex> lock(cache_->mutex);
   for (const RigLight& light : lights)
     if (light.type == RigLight::Type::Environment) projected(*cache_, light.file, bands);
+}
+
+namespace {
+
+// The sun or disk as a direct light at `frame`, if its radius is at most kMaxDirectRadiusDegrees.
+std::optional<DirectLight> directLightAt(const RigLight& light, double frame) {
+  if (light.type != RigLight::Type::Sun && light.type != RigLight::Type::Disk) return std::nullopt;
+  const double degrees = light.radius.scalarAt(frame);
+  if (degrees > kMaxDirectRadiusDegrees) return std::nullopt;
+  DirectLight d;
+  d.direction = light.directionAt(frame);
+  d.radius = glm::radians(degrees);
+  const glm::dvec3 c = light.color.at(frame);
+  const bool isIrradiance = light.type == RigLight::Type::Sun || light.colorIsIrradiance;
+  // A disk given by its radiance: E = π L sin² r on a surface facing it (r ≤ 20°, so r < π/2).
+  d.irradiance = isIrradiance ? c : c * (kPi * std::sin(d.radius) * std::sin(d.radius));
+  return d;
+}
+
+}  // namespace
+
+RigLighting LightRig::evaluateLighting(double frame, int bands) const {
+  RigLighting out;
+  LightRig rest;  // the lights that stay in SH, sharing this rig's map cache
+  rest.cache_ = cache_;
+  out.directSh = sh::ShRgb(bands);
+  for (const RigLight& light : lights) {
+    if (std::optional<DirectLight> d = directLightAt(light, frame)) {
+      out.directSh += d->project(bands);
+      out.direct.push_back(*d);
+    } else {
+      rest.lights.push_back(light);
+    }
+  }
+  out.sh = rest.lights.empty() ? sh::ShRgb(bands) : rest.evaluate(frame, bands);  // windowed below
+  sh::applyWindow(out.sh, window);
+  sh::applyWindow(out.directSh, window);
+  return out;
 }
 
 sh::ShRgb LightRig::evaluate(double frame, int bands) const {

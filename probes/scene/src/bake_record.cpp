@@ -110,6 +110,7 @@ Json bakeRecordToJson(const BakeRecord& r) {
   j["sh_convention"] = BakeRecord::kShConvention;
   j["units"] = BakeRecord::kUnits;
   if (r.backTransfer) j["back_transfer"] = BakeRecord::kBackTransfer;
+  if (r.directTransfer) j["direct_transfer"] = BakeRecord::kDirectTransfer;
   if (!r.prtVersion.empty()) j[kPrtVersionKey] = r.prtVersion;
   if (r.refinement.tolerance > 0.0) {
     const BakeRecord::Refinement& f = r.refinement;
@@ -146,6 +147,10 @@ BakeRecord bakeRecordFromJson(const Json& j, const std::string& where) {
   if (f.has("back_transfer")) {  // a description: any wording, but text
     f.string("back_transfer");
     r.backTransfer = true;
+  }
+  if (f.has("direct_transfer")) {  // a description too
+    f.string("direct_transfer");
+    r.directTransfer = true;
   }
   if (f.has(kPrtVersionKey)) r.prtVersion = f.string(kPrtVersionKey);
   if (f.has(kRefinementKey)) {

@@ -20,6 +20,9 @@ namespace prt::gltf {
 constexpr const char* kTransferPrefix = "_PRT_SH_";
 /// The back side's transfer of a double-sided primitive: _PRT_SH_BACK_00 .. (docs/formats.md).
 constexpr const char* kBackTransferPrefix = "_PRT_SH_BACK_";
+/// The direct part (bounce 0, colourless) of each set: _PRT_SH_DIRECT_00 .., _PRT_SH_BACK_DIRECT_00 ..
+constexpr const char* kDirectTransferPrefix = "_PRT_SH_DIRECT_";
+constexpr const char* kBackDirectTransferPrefix = "_PRT_SH_BACK_DIRECT_";
 /// The back side's radiance of a double-sided primitive in a lit scene (COLOR_0 is the front's).
 constexpr const char* kBackRadiance = "_PRT_COLOR_BACK";
 constexpr const char* kUnlit = "KHR_materials_unlit";
@@ -42,9 +45,13 @@ inline std::string primitiveWhere(int mesh, int primitive) {
   return cat("mesh ", mesh, " / primitive ", primitive);
 }
 
-/// The attribute name of transfer coefficient i: _PRT_SH_00, _PRT_SH_01, ...
-inline std::string coefficientName(int i, bool back = false) {
-  return cat(back ? kBackTransferPrefix : kTransferPrefix, i < 10 ? "0" : "", i);
+/// The attribute name of transfer coefficient i: _PRT_SH_00, _PRT_SH_01, ... (`back`:
+/// _PRT_SH_BACK_NN; `direct`: _PRT_SH_DIRECT_NN or _PRT_SH_BACK_DIRECT_NN).
+inline const char* transferPrefix(bool back, bool direct) {
+  return direct ? (back ? kBackDirectTransferPrefix : kDirectTransferPrefix) : (back ? kBackTransferPrefix : kTransferPrefix);
+}
+inline std::string coefficientName(int i, bool back = false, bool direct = false) {
+  return cat(transferPrefix(back, direct), i < 10 ? "0" : "", i);
 }
 
 /// Reads and parses a .gltf or .glb file: the file itself, then every URI it holds through the

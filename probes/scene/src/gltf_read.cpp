@@ -420,6 +420,7 @@ struct PrimitiveData {
   int transferBands = 0;
   std::vector<glm::vec3> transfer;
   std::vector<glm::vec3> transferBack;  // _PRT_SH_BACK_ (double-sided primitives of a bake)
+  std::vector<float> transferDirect, transferDirectBack;  // _PRT_SH_DIRECT_, _PRT_SH_BACK_DIRECT_
 };
 
 /// Faces whose unit normals have a dot product at least this share a vertex under flat
@@ -538,50 +539,71 @@ void splitForFlatNormals(PrimitiveData& p) {
     gather(p.colors, fileVertex);
     gather(p.transfer, fileVertex, size_t(p.transferBands) * size_t(p.transferBands));
     gather(p.transferBack, fileVertex, size_t(p.transferBands) * size_t(p.transferBands));
+    gather(p.transferDirect, fileVertex, size_t(p.transferBands) * size_t(p.transferBands));
+    gather(p.transferDirectBack, fileVertex, size_t(p.transferBands) * size_t(p.transferBands));
     p.fileVertex = std::move(fileVertex);
   }
   p.normals = flatVertexNormals(p.positions, p.indices);
 }
 
-/// Reads _PRT_SH_00 .. _PRT_SH_{n²-1} (or, `back`, _PRT_SH_BACK_00 ..) into vertex-major
-/// transfer, if the primitive has any. Back transfer needs front transfer of as many bands.
-void readTransfer(const Gltf& g, const tinygltf::Primitive& prim, PrimitiveData& p, const std::string& where,
-                  bool back) {
-  std::map<int, int> coefficients;  // coefficient index -> accessor
-  const char* prefixName = back ? kBackTransferPrefix : kTransferPrefix;
-  const size_t prefix = std::strlen(prefixName);
+/// Reads the transfer sets a primitive has (docs/formats.md): _PRT_SH_00 .. _PRT_SH_{n²-1} (RGB),
+/// _PRT_SH_BACK_NN (RGB, the back side), _PRT_SH_DIRECT_NN and _PRT_SH_BACK_DIRECT_NN (SCALAR,
+/// the colourless direct parts), into vertex-major arrays. Each set other than the front needs
+/// the front set's band count, and the back's direct part needs the back set.
+void readTransferSets(const Gltf& g, const tinygltf::Primitive& prim, PrimitiveData& p, const std::string& where) {
+  std::map<int, int> coefficients[4];  // per set (bit 0: back, bit 1: direct): index -> accessor
   for (const auto& [name, accessor] : prim.attributes) {
-    if (name.compare(0, prefix, prefixName) != 0) continue;
-    if (!back && name.rfind(kBackTransferPrefix, 0) == 0) continue;
-    std::string digits = name.substr(prefix);
+    if (name.rfind(kTransferPrefix, 0) != 0) continue;
+    int set = 0;  // the longest prefix that matches: BACK_DIRECT_ before DIRECT_ and BACK_
+    for (int s = 3; s > 0 && set == 0; --s)
+      if (name.rfind(transferPrefix(s & 1, s & 2), 0) == 0) set = s;
+    const char* prefixName = transferPrefix(set & 1, set & 2);
+    std::string digits = name.substr(std::strlen(prefixName));
     if (!allDigits(digits) || digits.size() > 4)
       fail(g, cat(where, ": attribute ", name, " is not a transfer coefficient (expected ", prefixName, "NN)"));
-    coefficients[std::stoi(digits)] = accessor;
+    coefficients[set][std::stoi(digits)] = accessor;
   }
-  if (coefficients.empty()) return;
-  int count = static_cast<int>(coefficients.size());
-  int bands = static_cast<int>(std::lround(std::sqrt(double(count))));
-  if (bands * bands != count || bands > sh::kMaxBands)
-    fail(g, cat(where, ": ", count, back ? " back-side" : "", " transfer attributes, expected a square number (bands²) of at most ",
-                sh::kMaxBands * sh::kMaxBands));
-  for (int i = 0; i < count; ++i)
-    if (!coefficients.count(i))
-      fail(g, cat(where, ": transfer attribute ", coefficientName(i, back), " is missing (", count, " found)"));
-  if (back && bands != p.transferBands)
-    fail(g, cat(where, ": ", count, " back-side transfer attributes (", kBackTransferPrefix, "NN), but ",
-                p.transferBands * p.transferBands, " front ones (", kTransferPrefix, "NN)"));
-  size_t n = p.positions.size(), k = size_t(count);
-  std::vector<glm::vec3>& transfer = back ? p.transferBack : p.transfer;
-  p.transferBands = bands;
-  transfer.assign(n * k, glm::vec3(0.0f));
-  for (const auto& [i, accessor] : coefficients) {
-    std::string here = cat(where, " / ", coefficientName(i, back));
-    AccessorData d = openAccessor(g, accessor, here);
-    requireType(g, d, here, {3});
-    requireCount(g, d, here, n);
-    for (size_t v = 0; v < n; ++v)
-      for (int c = 0; c < 3; ++c) transfer[v * k + size_t(i)][c] = static_cast<float>(d.get(v, c));
-    requireFinite(g, transfer, here, i, k);
+  for (int set = 0; set < 4; ++set) {
+    if (coefficients[set].empty()) continue;
+    const bool back = set & 1, direct = set & 2;
+    const char* prefixName = transferPrefix(back, direct);
+    int count = static_cast<int>(coefficients[set].size());
+    int bands = static_cast<int>(std::lround(std::sqrt(double(count))));
+    const char* what = direct ? (back ? " back-side direct" : " direct") : (back ? " back-side" : "");
+    if (bands * bands != count || bands > sh::kMaxBands)
+      fail(g, cat(where, ": ", count, what, " transfer attributes, expected a square number (bands²) of at most ",
+                  sh::kMaxBands * sh::kMaxBands));
+    for (int i = 0; i < count; ++i)
+      if (!coefficients[set].count(i))
+        fail(g, cat(where, ": transfer attribute ", coefficientName(i, back, direct), " is missing (", count, " found)"));
+    if (set != 0 && bands != p.transferBands)
+      fail(g, cat(where, ": ", count, what, " transfer attributes (", prefixName, "NN), but ",
+                  p.transferBands * p.transferBands, " front ones (", kTransferPrefix, "NN)"));
+    if (set == 3 && p.transferBack.empty())
+      fail(g, cat(where, ": back-side direct transfer attributes (", prefixName, "NN) without back-side ones (",
+                  kBackTransferPrefix, "NN)"));
+    size_t n = p.positions.size(), k = size_t(count);
+    p.transferBands = bands;
+    std::vector<glm::vec3>* rgb = direct ? nullptr : (back ? &p.transferBack : &p.transfer);
+    std::vector<float>* grey = direct ? (back ? &p.transferDirectBack : &p.transferDirect) : nullptr;
+    if (rgb) rgb->assign(n * k, glm::vec3(0.0f));
+    if (grey) grey->assign(n * k, 0.0f);
+    for (const auto& [i, accessor] : coefficients[set]) {
+      std::string here = cat(where, " / ", coefficientName(i, back, direct));
+      AccessorData d = openAccessor(g, accessor, here);
+      requireType(g, d, here, {direct ? 1 : 3});
+      requireCount(g, d, here, n);
+      for (size_t v = 0; v < n; ++v) {
+        if (grey) {
+          float x = static_cast<float>(d.get(v, 0));
+          if (!std::isfinite(x)) fail(g, cat(here, ": vertex ", v, " is not finite"));
+          (*grey)[v * k + size_t(i)] = x;
+        } else {
+          for (int c = 0; c < 3; ++c) (*rgb)[v * k + size_t(i)][c] = static_cast<float>(d.get(v, c));
+        }
+      }
+      if (rgb) requireFinite(g, *rgb, here, i, k);
+    }
   }
 }
 
@@ -641,8 +663,7 @@ PrimitiveData readPrimitive(const Gltf& g, const std::vector<BaseColorSource>& m
   }
   p.indices = toTriangleList(g, prim.mode, readIndices(g, prim, where, n), cat(where, " / indices"));
   removeDegenerate(g, p, where, warnings);
-  readTransfer(g, prim, p, where, false);
-  readTransfer(g, prim, p, where, true);
+  readTransferSets(g, prim, p, where);
   if (p.normals.empty()) splitForFlatNormals(p);
   return p;
 }
@@ -849,6 +870,8 @@ MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, 
   inst.fileVertex = p.fileVertex;
   inst.transfer = p.transfer;
   inst.transferBack = p.transferBack;
+  inst.transferDirect = p.transferDirect;
+  inst.transferDirectBack = p.transferDirectBack;
   return inst;
 }
 

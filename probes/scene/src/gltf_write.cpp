@@ -11,6 +11,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <type_traits>
 
 #include <nlohmann/json.hpp>
 
@@ -98,6 +99,18 @@ int addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec
                                   values.size() * sizeof(glm::vec3), TINYGLTF_TARGET_ARRAY_BUFFER);
   a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
   a.type = TINYGLTF_TYPE_VEC3;
+  a.count = values.size();
+  m.accessors.push_back(a);
+  return static_cast<int>(m.accessors.size() - 1);
+}
+
+int addScalarAccessor(tinygltf::Model& m, int& staging, const std::vector<float>& values, const std::string& name) {
+  tinygltf::Accessor a;
+  a.name = name;
+  a.bufferView = appendBufferView(m, stagingBuffer(m, staging), values.data(), values.size() * sizeof(float),
+                                  TINYGLTF_TARGET_ARRAY_BUFFER);
+  a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  a.type = TINYGLTF_TYPE_SCALAR;
   a.count = values.size();
   m.accessors.push_back(a);
   return static_cast<int>(m.accessors.size() - 1);
@@ -367,17 +380,25 @@ void addTransferAttributes(tinygltf::Model& m, int& staging, const Scene& scene)
     PRT_CHECK_GT(scene.transferBands, 0);
     PRT_CHECK_EQ(inst.transfer.size(), inst.vertexCount() * k);
     tinygltf::Primitive& prim = primitiveOf(m, inst);
-    std::vector<glm::vec3> column(inst.vertexCount());
-    for (size_t i = 0; i < k; ++i) {
-      for (size_t v = 0; v < column.size(); ++v) column[v] = inst.transfer[v * k + i];
-      prim.attributes[coefficientName(int(i))] = addVec3Accessor(m, staging, column, coefficientName(int(i)));
-    }
-    if (inst.transferBack.empty()) continue;  // one-sided: no back side
-    PRT_CHECK_EQ(inst.transferBack.size(), inst.vertexCount() * k);
-    for (size_t i = 0; i < k; ++i) {
-      for (size_t v = 0; v < column.size(); ++v) column[v] = inst.transferBack[v * k + i];
-      prim.attributes[coefficientName(int(i), true)] = addVec3Accessor(m, staging, column, coefficientName(int(i), true));
-    }
+    // One attribute per coefficient: RGB sets as VEC3, the colourless direct parts as SCALAR.
+    auto addSet = [&](const auto& values, bool back, bool direct) {
+      if (values.empty()) return;  // one-sided (no back side), or no direct part kept
+      PRT_CHECK_EQ(values.size(), inst.vertexCount() * k);
+      std::vector<std::decay_t<decltype(values[0])>> column(inst.vertexCount());
+      for (size_t i = 0; i < k; ++i) {
+        for (size_t v = 0; v < column.size(); ++v) column[v] = values[v * k + i];
+        const std::string name = coefficientName(int(i), back, direct);
+        if constexpr (std::is_same_v<decltype(column), std::vector<float>>)
+          prim.attributes[name] = addScalarAccessor(m, staging, column, name);
+        else
+          prim.attributes[name] = addVec3Accessor(m, staging, column, name);
+      }
+    };
+    PRT_CHECK(inst.transferDirectBack.empty() || !inst.transferBack.empty());
+    addSet(inst.transfer, false, false);
+    addSet(inst.transferBack, true, false);
+    addSet(inst.transferDirect, false, true);
+    addSet(inst.transferDirectBack, true, true);
   }
 }
 
@@ -413,6 +434,15 @@ void storeRecord(const Scene& scene, tinygltf::Model& m, const BakeRecord* recor
   if (anyBack != record->backTransfer)
     throw Error(cat(where, ".back_transfer: the record ", record->backTransfer ? "says" : "does not say",
                     " that double-sided primitives carry back-side transfer, but ", anyBack ? "some do" : "none does"));
+  const bool allDirect = anyTransfer && std::all_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& i) {
+    return i.transfer.empty() || (i.hasDirectTransfer() && i.hasBackTransfer() == !i.transferDirectBack.empty());
+  });
+  const bool anyDirect = std::any_of(scene.meshes.begin(), scene.meshes.end(),
+                                     [](const MeshInstance& i) { return i.hasDirectTransfer(); });
+  if (anyDirect != record->directTransfer || (anyDirect && !allDirect))
+    throw Error(cat(where, ".direct_transfer: the record ", record->directTransfer ? "says" : "does not say",
+                    " that every baked primitive carries its direct part, but ",
+                    anyDirect ? (allDirect ? "all do" : "only some do") : "none does"));
   if (!m.asset.extras.IsObject()) m.asset.extras = tinygltf::Value(tinygltf::Value::Object{});
   m.asset.extras.Get<tinygltf::Value::Object>()["prt"] = toValue(json);
 }

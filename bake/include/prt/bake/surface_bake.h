@@ -69,6 +69,9 @@ struct SurfaceTransfer {
   /// front side's vertices, then the back side's (vertex v's back is entry vertexCount + v),
   /// what MeshInstance::transfer and transferBack hold split in two.
   std::vector<std::vector<glm::vec3>> perMesh;
+  /// The direct part of perMesh (bounce 0, t⁰: first-hit visibility), colourless: the same
+  /// layout with one float per coefficient. For an unshadowed bake, all of the transfer.
+  std::vector<std::vector<float>> perMeshDirect;
   /// Same layout, summed over bounces 0 .. K−1 only (empty when K = 0): what a probe must see
   /// on the surfaces so that a receiver at a point is lit as a baked vertex there would be
   /// with K bounces (docs/probes.md). Filled when BakeSettings::keepLowerOrder is set.
@@ -77,8 +80,10 @@ struct SurfaceTransfer {
 };
 
 /// Moves SurfaceTransfer::perMesh into the scene's instances: MeshInstance::transfer, and for
-/// an instance whose back side was baked, the second half into MeshInstance::transferBack.
-void storeTransfer(Scene& scene, std::vector<std::vector<glm::vec3>> perMesh);
+/// an instance whose back side was baked, the second half into MeshInstance::transferBack;
+/// likewise perMeshDirect (if given) into transferDirect and transferDirectBack.
+void storeTransfer(Scene& scene, std::vector<std::vector<glm::vec3>> perMesh,
+                   std::vector<std::vector<float>> perMeshDirect = {});
 
 /// Checkpoint stage ids of the surface bake: direct pass 1, bounce k is 1 + k, and the finished
 /// surface stage (kept for a probe bake that follows) 2 + bounces. Below kProbeStageFirst.

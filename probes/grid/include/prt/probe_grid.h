@@ -44,6 +44,10 @@ struct ProbeGrid {
   // Active probes, in any order; arrays below are parallel to `coord`.
   std::vector<glm::ivec3> coord;
   std::vector<float> transfer;        // probe p: n⁴ RGB triples, [p][j][i] -> 3 floats (r, g, b)
+  /// The direct part M⁰_ji = ∫ V y_j y_i dω of each probe's M (first-hit visibility, no
+  /// bounce): colourless and symmetric, so its upper triangle j ≤ i, row by row (directStride()
+  /// floats per probe). Empty in files baked before prt kept it apart (prt_format_version 2).
+  std::vector<float> direct;
   std::vector<float> validity;        // 1 = valid, 0 = inside geometry (never interpolated)
   std::vector<glm::vec3> offset;      // world offset from the lattice position (0 if not moved)
   std::vector<float> skyVisibility;   // fraction of all directions that escape to the sky
@@ -55,6 +59,10 @@ struct ProbeGrid {
   int coeffs() const { return bands * bands; }
   /// Floats of transfer per probe: n⁴ · 3.
   size_t transferStride() const { return size_t(coeffs()) * coeffs() * 3; }
+  /// Floats of direct per probe: n²(n² + 1)/2.
+  static size_t directStride(int bands) { return size_t(bands) * bands * (size_t(bands) * bands + 1) / 2; }
+  size_t directStride() const { return directStride(bands); }
+  bool hasDirect() const { return !direct.empty(); }
   glm::dvec3 latticePosition(const glm::ivec3& c) const { return origin + spacing * glm::dvec3(c); }
   glm::dvec3 position(size_t p) const { return latticePosition(coord[p]) + glm::dvec3(offset[p]); }
 
@@ -71,6 +79,11 @@ private:
 /// grid's bands): c_p = M_p · l, per channel. Result: probeCount() × n² RGB, probe-major.
 /// This is the per-frame "light update".
 std::vector<glm::vec3> relightProbes(const ProbeGrid& grid, const sh::ShRgb& light);
+/// The same with direct lights split off (docs/lights.md, "Direct lights"): `light` through the
+/// whole of M, `directLight` (the direct lights' SH) through the bounced part M − M⁰ only:
+/// c_p = M_p · (light + directLight) − M⁰_p · directLight. The direct lights' unoccluded part is
+/// added per receiver, with its shadow. Precondition: grid.hasDirect().
+std::vector<glm::vec3> relightProbes(const ProbeGrid& grid, const sh::ShRgb& light, const sh::ShRgb& directLight);
 
 /// Where a query point lies relative to the grid (docs/probes.md, "Lattice and domain").
 enum class ProbeCover {

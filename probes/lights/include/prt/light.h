@@ -46,4 +46,26 @@ sh::ShRgb projectSun(int bands, const glm::dvec3& toLight, double radius,
 /// A uniform environment of the given radiance: only coefficient 0, = 2√π · radiance.
 sh::ShRgb projectUniform(int bands, const glm::dvec3& radiance);
 
+/// Suns and disks at most this angular radius (degrees) are direct lights (docs/lights.md,
+/// "Direct lights"): their unoccluded light is computed exactly, with its shadow, and only
+/// their bounced light goes through SH. Larger disks stay in the SH light.
+constexpr double kMaxDirectRadiusDegrees = 20.0;
+
+/// A small bright distant source lit exactly (docs/lights.md, "Direct lights"): a cap of
+/// uniform radiance around `direction`.
+struct DirectLight {
+  glm::dvec3 direction{0.0, 1.0, 0.0};  // unit, towards the light
+  double radius = 0.0;                  // angular radius (radians), below kPointSunRadians a delta
+  glm::dvec3 irradiance{0.0};           // RGB irradiance on a surface facing it, unoccluded
+  /// Radiance inside the cap, E / (π sin² r); 0 for a delta.
+  glm::dvec3 radiance() const;
+  /// Its SH on `bands` bands (projectSun).
+  sh::ShRgb project(int bands) const;
+};
+
+/// Share of a direct light's irradiance that a surface with unit normal n receives when
+/// nothing occludes it: ∫_cap max(n·ω, 0) dω / (π sin² r), exact (the cap clipped by the
+/// surface's horizon, Note 4 in light.cpp); max(n·d, 0) for a delta. In [0, 1].
+double directCosineFactor(const DirectLight& light, const glm::dvec3& n);
+
 }  // namespace prt

@@ -23,6 +23,7 @@
 #include <glm/glm.hpp>
 
 #include "prt/image.h"
+#include "prt/light.h"
 #include "prt/sh.h"
 
 namespace prt {
@@ -131,6 +132,18 @@ struct RigBackground {
   glm::dvec3 radiance(const glm::dvec3& d) const;
 };
 
+/// One frame of a rig with its direct lights kept apart (docs/lights.md, "Direct lights"):
+/// suns and disks of radius at most kMaxDirectRadiusDegrees. A baked surface then gets
+///   E = t · sh + (t − t⁰) · directSh + Σ_direct E_k · visibility-weighted cosine over its cap,
+/// t⁰ the direct part of its transfer: sh through the whole transfer, the direct lights' own
+/// SH only through the bounced part, their unoccluded light exactly with its shadow.
+/// sh + directSh is what evaluate() returns.
+struct RigLighting {
+  sh::ShRgb sh;        // maps, uniform lights, larger disks (windowed)
+  sh::ShRgb directSh;  // the SH of `direct` (windowed)
+  std::vector<DirectLight> direct;
+};
+
 /// A set of lights summed, windowed against ringing, with an optional frame rate.
 /// Copies share the cache of environment maps. evaluate() may be called from several threads.
 class LightRig {
@@ -160,6 +173,10 @@ public:
   /// The rig's SH radiance at `frame` on `bands` bands (sum of all lights, window last).
   /// Precondition: validate() succeeded. Projects each map once per band count (cached).
   sh::ShRgb evaluate(double frame, int bands) const;
+
+  /// The same lights at `frame` with the direct lights apart (RigLighting). The window applies
+  /// to both SH parts (it is linear, so their sum is evaluate()'s). Precondition: validate().
+  RigLighting evaluateLighting(double frame, int bands) const;
 
   /// What a camera sees of the lights at `frame` (RigBackground). Precondition: validate()
   /// succeeded. The maps are shared with the rig's cache, not copied.

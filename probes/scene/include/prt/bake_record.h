@@ -24,6 +24,11 @@ struct BakeRecord {
   static constexpr const char* kBackTransfer =
       "_PRT_SH_BACK_NN of double-sided primitives: transfer of the back side (normal -N)";
 
+  /// What the _PRT_SH_DIRECT_ attributes hold, written as "direct_transfer" when the file has
+  /// them (directTransfer).
+  static constexpr const char* kDirectTransfer =
+      "_PRT_SH_DIRECT_NN (_PRT_SH_BACK_DIRECT_NN): bounce-0 transfer, first-hit visibility, colourless";
+
   std::string scene;       // file name of the scene baked (no folder)
   int bands = 0;           // 1 .. sh::kMaxBands
   int samples = 0;         // rays per vertex, >= 1
@@ -32,6 +37,7 @@ struct BakeRecord {
   uint64_t seed = 0;
   std::string prtVersion;  // the prt that baked it; empty for files baked before it was recorded
   bool backTransfer = false;  // double-sided primitives carry the back side's transfer (_PRT_SH_BACK_)
+  bool directTransfer = false;  // every baked primitive carries its direct part (_PRT_SH_DIRECT_)
 
   /// Adaptive refinement of the meshes before the bake (prt/bake/refine.h). tolerance 0: none
   /// (turned off, unshadowed, or a file baked before prt refined meshes).

@@ -115,6 +115,13 @@ struct MeshInstance {
   /// filled only for an instance of a double-sided material baked by a prt that bakes both
   /// sides (_PRT_SH_BACK_ attributes, docs/formats.md). Empty: one-sided, or an older bake.
   std::vector<glm::vec3> transferBack;
+  /// The direct part of `transfer` (bounce 0: t⁰_i = ∫ V y_i max(n·ω, 0) dω, first-hit
+  /// visibility), colourless: vertexCount × bands² floats, vertex-major. What a direct light
+  /// (a sun) replaces by its exact shadowed irradiance, keeping transfer − direct for its
+  /// bounced light (docs/lights.md, "Direct lights"). Empty: baked before prt kept it apart.
+  std::vector<float> transferDirect;
+  /// The same for the back side (transferBack's direct part); empty when transferBack is.
+  std::vector<float> transferDirectBack;
 
   size_t vertexCount() const { return positions.size(); }
   size_t triangleCount() const { return indices.size() / 3; }
@@ -123,6 +130,11 @@ struct MeshInstance {
     return transfer.data() + vertex * static_cast<size_t>(bands) * static_cast<size_t>(bands);
   }
   bool hasBackTransfer() const { return !transferBack.empty(); }
+  bool hasDirectTransfer() const { return !transferDirect.empty(); }
+  const float* directTransferOf(size_t vertex, int bands, bool back = false) const {
+    return (back ? transferDirectBack : transferDirect).data() +
+           vertex * static_cast<size_t>(bands) * static_cast<size_t>(bands);
+  }
   const glm::vec3* backTransferOf(size_t vertex, int bands) const {
     return transferBack.data() + vertex * static_cast<size_t>(bands) * static_cast<size_t>(bands);
   }
@@ -229,7 +241,9 @@ std::vector<char> passesLight(const Scene& scene);
 
 /// Writes `inputPath`'s scene as .glb with each baked instance's transfer (scene.meshes[k].
 /// transfer, scene.transferBands) as attributes _PRT_SH_00 .. (VEC3 float, RGB of coefficient
-/// i), the back side's (MeshInstance::transferBack, where filled) as _PRT_SH_BACK_00 .., meshes duplicated where one is used by several nodes, strips and fans rewritten as
+/// i), the back side's (MeshInstance::transferBack, where filled) as _PRT_SH_BACK_00 .., the
+/// direct parts (transferDirect, transferDirectBack, where filled) as _PRT_SH_DIRECT_00 .. and
+/// _PRT_SH_BACK_DIRECT_00 .. (SCALAR float), meshes duplicated where one is used by several nodes, strips and fans rewritten as
 /// triangle lists, primitives whose vertices were split for flat normals (MeshInstance::
 /// fileVertex) rewritten with the split vertices and their NORMAL, primitives refined by the
 /// bake (MeshInstance::fileBlend) rewritten with every attribute interpolated and the refined
