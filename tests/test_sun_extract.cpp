@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <ostream>
 #include <utility>
 #include <string>
 #include <vector>
@@ -133,6 +134,12 @@ struct SunCase {
   double elevationDeg, azimuthDeg, radiusDeg;
 };
 
+// The test's name in ctest, instead of gtest's byte dump (which holds the name's address).
+void PrintTo(const SunCase& c, std::ostream* os) {
+  *os << c.width << "x" << c.width / 2 << ", elevation " << c.elevationDeg << ", azimuth "
+      << c.azimuthDeg << ", radius " << c.radiusDeg;
+}
+
 // Direction within 0.1°, irradiance within 1% (the requirements). The radius is the
 // cap's with the excess's power and vector irradiance (sun_extract.cpp, Note 4), r̂² ≈ 2⟨ρ²⟩
 // (ρ the angle to the axis): exact for a disk, but a disk box-filtered into pixels spreads the
@@ -218,7 +225,7 @@ INSTANTIATE_TEST_SUITE_P(
         SunCase{"Mid1024", 1024, 35.0, 70.0, 0.75}, SunCase{"Horizon1024", 1024, 0.5, -40.0, 0.75},
         SunCase{"Pole1024", 1024, 88.0, 150.0, 0.75}, SunCase{"OverPole1024", 1024, 89.6, 20.0, 0.75},
         SunCase{"Seam1024", 1024, 20.0, -90.05, 0.75}, SunCase{"Large1024", 1024, 50.0, 200.0, 8.0}),
-    [](const ::testing::TestParamInfo<SunCase>& info) { return std::string(info.param.name); });
+    [](const ::testing::TestParamInfo<SunCase>& sunCase) { return std::string(sunCase.param.name); });
 
 // The seam: azimuth −90° is −X, u = 0 (equirectUv), so the disks above straddle the wrap.
 TEST(LightSunExtractSetup, SeamCasesStraddleTheWrap) {
