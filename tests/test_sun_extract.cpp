@@ -14,6 +14,7 @@
 #include "prt/error.h"
 #include "prt/image.h"
 #include "prt/light.h"
+#include "prt/sh.h"
 #include "prt/sun_extract.h"
 #include "harness.h"
 #include "test_util.h"
@@ -348,6 +349,37 @@ TEST(LightSunExtract, RoyalEsplanade) {
   EXPECT_LT(angleDeg(second.sun->direction, fromElevationAzimuth(77.36, 18.29)), 2.8);
   EXPECT_GT(second.sun->powerShare, 0.2);
   expectConserved(second);
+}
+
+// What the lighting sees: the sun's SH (projectSun with the extracted cap) plus the residual's
+// (projectEnvironment) against the map's. Band 0 is the power, which the cap keeps exactly, so
+// it agrees to float storage (1e-6 of l₀). Band 1 is the vector irradiance: the cap has E·d,
+// the excess ∫ e ω dω per channel, equal in luminance by construction; projectEnvironment
+// takes each pixel at its centre direction rather than its exact moment (a difference of order
+// Δθ² cot θ / 12 in angle, 1.6e-3 rad for the lamp 7° from the pole of the 64-row map) and the
+// channels of a real lamp are not exactly concentric: 2e-3 of l₀ (measured 3e-5 for the disk,
+// 7.5e-4 for the lamp). Band 2 is what the cap's shape decides: a cap of radius r differs from
+// the excess by its spread, of order r²: 1e-2 of l₀ (measured 8e-5 and 1.6e-3).
+void expectShAdds(const ImageRgb& map, const prt::SunExtraction& r) {
+  ASSERT_TRUE(r.sun.has_value());
+  const int bands = 3;
+  const prt::sh::ShRgb whole = prt::projectEnvironment(map, bands);
+  prt::sh::ShRgb parts = prt::projectEnvironment(r.residual, bands);
+  parts += prt::projectSun(bands, r.sun->direction, r.sun->radius, r.sun->irradiance);
+  for (int c = 0; c < 3; ++c) {
+    const double l0 = whole.c[0][c];
+    EXPECT_NEAR(parts.c[0][c], l0, 1e-6 * l0) << "channel " << c;
+    for (int i = 1; i < 4; ++i) EXPECT_NEAR(parts.c[i][c], whole.c[i][c], 2e-3 * l0) << "band 1, " << i << ", channel " << c;
+    for (int i = 4; i < 9; ++i) EXPECT_NEAR(parts.c[i][c], whole.c[i][c], 1e-2 * l0) << "band 2, " << i << ", channel " << c;
+  }
+}
+
+TEST(LightSunExtract, ShOfSunPlusResidualIsTheMap) {
+  ImageRgb map = skyMap(256, 128, smoothSky);
+  addDisk(map, Disk{fromElevationAzimuth(30.0, 45.0), 3.0 * kDeg, {4.0, 3.6, 3.0}});
+  expectShAdds(map, prt::extractSun(map));
+  const ImageRgb esplanade = prt::loadHdrImage(prt::test::sourcePath("scenes/env/royal_esplanade_128.hdr"));
+  expectShAdds(esplanade, prt::extractSun(esplanade));
 }
 
 TEST(LightSunExtractErrors, BadInput) {
