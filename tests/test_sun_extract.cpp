@@ -382,6 +382,19 @@ TEST(LightSunExtract, ShOfSunPlusResidualIsTheMap) {
   expectShAdds(esplanade, prt::extractSun(esplanade));
 }
 
+// Maps too small to hold a region and a sky around it: no crash, an answer that conserves.
+TEST(LightSunExtract, TinyMaps) {
+  for (auto [w, h] : {std::pair{1, 1}, {2, 1}, {1, 2}, {3, 2}, {4, 2}, {5, 3}, {16, 8}}) {
+    ImageRgb map(w, h);
+    for (auto& p : map.pixels) p = glm::vec3(0.1f);
+    map.at(w / 2, h / 2) = glm::vec3(1000.0f);
+    const prt::SunExtraction r = prt::extractSun(map);
+    EXPECT_FALSE(r.reason.empty()) << w << "x" << h;
+    expectConserved(r);
+    for (const auto& p : r.residual.pixels) EXPECT_TRUE(std::isfinite(p.r) && std::isfinite(p.g) && std::isfinite(p.b));
+  }
+}
+
 TEST(LightSunExtractErrors, BadInput) {
   EXPECT_NE(errorOf([] { prt::extractSun(ImageRgb()); }).find("is empty"), std::string::npos);
   ImageRgb wrong(8, 4);

@@ -340,7 +340,7 @@ SunExtraction extractSun(const ImageRgb& equirect, const SunExtractOptions& opti
       boundary.push_back(n);
     });
   if (boundary.empty()) {
-    out.reason = "no sun: the bright region covers the whole map";
+    out.reason = "no sun: the region with its margin covers the whole map, nothing is left around it";
     return out;
   }
   std::vector<double> ringLuminance;
