@@ -118,6 +118,14 @@ glm::dvec3 sampleEquirect(const ImageRgb& equirect, const glm::dvec3& d) {
   return (1.0 - fy) * ((1.0 - fx) * at(xa, ya) + fx * at(xb, ya)) + fy * ((1.0 - fx) * at(xa, yb) + fx * at(xb, yb));
 }
 
+double equirectPixelSolidAngle(int row, int width, int height) {
+  PRT_CHECK(width > 0 && height > 0 && row >= 0 && row < height);
+  // (2π/W)(cos θ₀ - cos θ₁) written as (2π/W) · 2 sin θ_c sin(Δθ/2), θ_c = π(row + ½)/H, which
+  // does not cancel near the poles.
+  return (2.0 * kPi / width) * 2.0 * std::sin(kPi * ((row + 0.5) / height)) *
+         std::sin(kPi / (2.0 * height));
+}
+
 sh::ShRgb projectEnvironment(const ImageRgb& equirect, int bands) {
   checkBands(bands);
   const int w = equirect.width, h = equirect.height;
@@ -138,10 +146,7 @@ sh::ShRgb projectEnvironment(const ImageRgb& equirect, int bands) {
         const glm::dvec3 radiance(equirect.at(x, row));
         for (int i = 0; i < n; ++i) acc[i] += radiance * y[i];
       }
-      // Exact solid angle of a pixel of this row: (2π/W)(cos θ₀ - cos θ₁), θ₀,₁ = π·row/H and
-      // π·(row+1)/H, written as 2 sin θ_c sin(Δθ/2) to avoid cancellation near the poles.
-      const double dOmega =
-          (2.0 * kPi / w) * 2.0 * std::sin(kPi * v) * std::sin(kPi / (2.0 * h));
+      const double dOmega = equirectPixelSolidAngle(row, w, h);
       for (int i = 0; i < n; ++i) acc[i] *= dOmega;
     }
   });

@@ -25,8 +25,13 @@ glm::dvec2 equirectUv(const glm::dvec3& d);
 /// in v: what a GL_LINEAR texture with GL_REPEAT in s and GL_CLAMP_TO_EDGE in t returns.
 glm::dvec3 sampleEquirect(const ImageRgb& equirect, const glm::dvec3& d);
 
+/// Exact solid angle of a pixel in row `row` of a width × height equirectangular map:
+/// (2π/W)·(cos θ₀ - cos θ₁), θ₀ = π·row/H and θ₁ = π·(row+1)/H its row edges. The weights of
+/// all pixels sum to 4π.
+double equirectPixelSolidAngle(int row, int width, int height);
+
 /// Projects an equirectangular radiance map onto n bands, each pixel weighted by its exact
-/// solid angle (2π/W)·(cos θ₀ - cos θ₁) (θ₀, θ₁ the pixel's row edges).
+/// solid angle (equirectPixelSolidAngle).
 sh::ShRgb projectEnvironment(const ImageRgb& equirect, int bands);
 
 /// SH of a uniform disk (spherical cap) of angular radius `radius` (radians) around unit
