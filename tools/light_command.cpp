@@ -1,5 +1,9 @@
 #include "light_command.h"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
 #include <nlohmann/json.hpp>
 
 #include "cli_checks.h"
@@ -35,7 +39,32 @@ int runLight(const LightArgs& a) {
   nlohmann::json coeffs = nlohmann::json::array();
   for (const glm::vec3& c : light.c) coeffs.push_back({c.r, c.g, c.b});
   j["coefficients"] = coeffs;
+  // The same light with its direct lights apart (docs/lights.md, "Direct lights"): what
+  // relight, render and probe light exactly (direct) and through SH (sh, direct_sh).
+  const RigLighting split = lightingAt(rig, a.light, a.light.frame, a.bands);
+  auto shJson = [](const sh::ShRgb& l) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const glm::vec3& c : l.c) out.push_back({c.r, c.g, c.b});
+    return out;
+  };
+  nlohmann::json direct = nlohmann::json::array();
+  for (size_t k = 0; k < split.direct.size(); ++k) {
+    const DirectLight& d = split.direct[k];
+    const RigLight& source = rig.lights[split.source[k]];
+    const bool fromMap = source.type == RigLight::Type::Environment;
+    direct.push_back({{"direction", {d.direction.x, d.direction.y, d.direction.z}},
+                      {"elevation_deg", glm::degrees(std::asin(std::clamp(d.direction.y, -1.0, 1.0)))},
+                      {"azimuth_deg", glm::degrees(std::atan2(d.direction.x, d.direction.z))},
+                      {"radius_deg", glm::degrees(d.radius)},
+                      {"irradiance", {d.irradiance.r, d.irradiance.g, d.irradiance.b}},
+                      {"source", fromMap ? "map" : source.type == RigLight::Type::Sun ? "sun" : "disk"},
+                      {"map_power_share", fromMap ? split.mapShare[k] : 0.0}});
+  }
+  j["direct_lights"] = direct;
+  j["sh"] = shJson(split.sh);
+  j["direct_sh"] = shJson(split.directSh);
   writeFileAtomic(a.output, j.dump(2) + "\n");
+  for (const std::string& line : describeDirectLights(split, rig)) std::fprintf(stderr, "prt light: direct light: %s\n", line.c_str());
   return 0;
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 
 #include "cli_checks.h"
 #include "prt/error.h"
@@ -107,6 +108,9 @@ void addLightOptions(CLI::App& app, LightOptions& o, bool animated, bool envPosi
          "Windowing of the light against ringing (default none, or the rig's)")
       ->transform(choice<sh::Window>({{"none", sh::Window::None}, {"hann", sh::Window::Hann},
                                       {"lanczos", sh::Window::Lanczos}}));
+  app.add_flag("--no-extract-sun", o.noExtractSun,
+               "Leave the suns in environment maps: each map goes whole through the SH transfer instead of its "
+               "compact bright sources being lit exactly as direct lights (docs/lights.md)");
   app.add_flag("--no-direct-lights", o.noDirect,
                cat("Light suns and disks of radius <= ", kMaxDirectRadiusDegrees,
                    " degrees through the SH transfer like the rest, instead of exactly with their shadows "
@@ -164,6 +168,8 @@ LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame) {
     rig.validate();
   }
   if (o.window) rig.window = *o.window;
+  if (o.noExtractSun)
+    for (RigLight& l : rig.lights) l.extractSun = false;
   return rig;
 }
 
@@ -176,25 +182,32 @@ LightRig buildStillRig(const LightOptions& o) {
 
 sh::ShRgb buildLight(const LightOptions& o, int bands) { return buildStillRig(o).evaluate(o.frame, bands); }
 
-RigLighting buildLighting(const LightOptions& o, int bands) {
-  const LightRig rig = buildStillRig(o);
-  if (!o.noDirect) return rig.evaluateLighting(o.frame, bands);
+RigLighting lightingAt(const LightRig& rig, const LightOptions& o, double frame, int bands) {
+  if (!o.noDirect) return rig.evaluateLighting(frame, bands);
   RigLighting l;
-  l.sh = rig.evaluate(o.frame, bands);
+  l.sh = rig.evaluate(frame, bands);
   l.directSh = sh::ShRgb(bands);
   return l;
 }
 
-std::vector<std::string> describeDirectLights(const std::vector<DirectLight>& lights) {
+RigLighting buildLighting(const LightOptions& o, int bands) { return lightingAt(buildStillRig(o), o, o.frame, bands); }
+
+std::vector<std::string> describeDirectLights(const RigLighting& lighting, const LightRig& rig) {
   std::vector<std::string> out;
-  for (const DirectLight& l : lights) {
+  for (size_t k = 0; k < lighting.direct.size(); ++k) {
+    const DirectLight& l = lighting.direct[k];
     const double elevation = glm::degrees(std::asin(std::clamp(l.direction.y, -1.0, 1.0)));
     double azimuth = glm::degrees(std::atan2(l.direction.x, l.direction.z));
     if (azimuth < 0.0) azimuth += 360.0;
     char buf[200];
     std::snprintf(buf, sizeof buf, "elevation %.1f°, azimuth %.1f°, radius %.3g°, irradiance (%.4g, %.4g, %.4g)",
                   elevation, azimuth, glm::degrees(l.radius), l.irradiance.r, l.irradiance.g, l.irradiance.b);
-    out.push_back(buf);
+    std::string line = buf;
+    const RigLight* source = k < lighting.source.size() ? &rig.lights[lighting.source[k]] : nullptr;
+    if (source && source->type == RigLight::Type::Environment)
+      line += cat(", split off ", std::filesystem::path(source->file).filename().string(), ": ",
+                  std::round(1000.0 * lighting.mapShare[k]) / 10.0, "% of its power");
+    out.push_back(line);
   }
   return out;
 }

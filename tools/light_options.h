@@ -33,6 +33,7 @@ struct LightOptions {
   bool animated = false;                  // START:END allowed (prt render)
   std::string sunOptionGiven;             // the first of --sun-irradiance, --sun-radius given, if any
   bool noDirect = false;                  // --no-direct-lights: suns and small disks through SH only
+  bool noExtractSun = false;              // --no-extract-sun: environment maps whole through SH
 };
 
 /// Adds --rig, --env, --env-rotate, --env-axis, --env-intensity, --sun-dir, --sun-azimuth,
@@ -53,12 +54,15 @@ LightRig buildStillRig(const LightOptions& o);
 /// Stills: the rig's SH at o.frame on `bands` bands.
 sh::ShRgb buildLight(const LightOptions& o, int bands);
 
-/// Stills: the rig at o.frame with its direct lights apart (LightRig::evaluateLighting), or,
+/// The rig's lighting at `frame` with its direct lights apart (LightRig::evaluateLighting), or,
 /// with --no-direct-lights, everything in `sh` and no direct light.
+RigLighting lightingAt(const LightRig& rig, const LightOptions& o, double frame, int bands);
+/// Stills: lightingAt(buildStillRig(o), o, o.frame, bands).
 RigLighting buildLighting(const LightOptions& o, int bands);
 
-/// One line per direct light for a summary: "sun at elevation 35.2°, azimuth 120.0°, radius
-/// 0.27°, irradiance (3, 2.9, 2.7)".
-std::vector<std::string> describeDirectLights(const std::vector<DirectLight>& lights);
+/// One line per direct light for a summary: "elevation 35.2°, azimuth 120.0°, radius 0.27°,
+/// irradiance (3, 2.9, 2.7)", and for a sun split off a map ", split off sky.hdr: 30.2% of its
+/// power".
+std::vector<std::string> describeDirectLights(const RigLighting& lighting, const LightRig& rig);
 
 }  // namespace prt::tools

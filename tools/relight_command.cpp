@@ -68,7 +68,8 @@ int runRelight(const RelightArgs& a) {
   const bool anyTransfer =
       std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& m) { return !m.transfer.empty(); });
   if (!anyTransfer) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
-  RigLighting lighting = buildLighting(a.light, scene.transferBands);
+  const LightRig rig = buildStillRig(a.light);
+  RigLighting lighting = lightingAt(rig, a.light, a.light.frame, scene.transferBands);
   std::vector<std::vector<glm::vec3>> radiance, back;
   bake::DirectIrradiance direct;
   if (!lighting.direct.empty() && !hasDirectTransfer(scene)) {
@@ -113,7 +114,7 @@ int runRelight(const RelightArgs& a) {
                scene.transferBands, rigText.c_str(), mean.r, mean.g, mean.b);
   if (!lighting.direct.empty()) {
     std::fprintf(stderr, "  direct lights (exact, with shadows; their bounces through the transfer):\n");
-    for (const std::string& line : describeDirectLights(lighting.direct)) std::fprintf(stderr, "    %s\n", line.c_str());
+    for (const std::string& line : describeDirectLights(lighting, rig)) std::fprintf(stderr, "    %s\n", line.c_str());
     std::fprintf(stderr, "  shadow rays   %llu (%d per light and vertex) in %.2f s\n", (unsigned long long)direct.rays,
                  a.shadowSamples, direct.seconds);
   } else if (a.light.noDirect) {

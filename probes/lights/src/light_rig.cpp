@@ -212,6 +212,34 @@ struct LightRig::Cache {
   std::mutex mutex;
   std::map<std::string, Map> maps;                             // by file path
   std::map<std::pair<std::string, int>, sh::ShRgb> projected;  // by (file, bands)
+  // Suns split off each map (by file path) and the residual's projections by (file, bands).
+  struct Split {
+    MapSuns suns;
+    ImageRgb residual;
+  };
+  std::map<std::string, Split> splits;
+  std::map<std::pair<std::string, int>, sh::ShRgb> residualProjected;
+
+  // Precondition: the caller holds `mutex`.
+  const Split& split(const std::string& file) {
+    auto it = splits.find(file);
+    if (it != splits.end()) return it->second;
+    Split s;
+    s.residual = get(file).image;
+    auto luminance = [](const glm::dvec3& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; };
+    double mapLuminance = 0.0;  // of the whole map: what every sun's share is of
+    for (int k = 0; k < LightRig::kMaxSunsPerMap; ++k) {
+      SunExtraction e = extractSun(s.residual);
+      if (k == 0) mapLuminance = luminance(e.mapPower);
+      s.suns.reason = e.reason;
+      if (!e.sun) break;
+      ExtractedSun sun = *e.sun;
+      sun.powerShare = mapLuminance > 0.0 ? luminance(sun.power) / mapLuminance : 0.0;
+      s.suns.suns.push_back(sun);
+      s.residual = std::move(e.residual);
+    }
+    return splits.emplace(file, std::move(s)).first->second;
+  }
 
   static double brightestOf(const ImageRgb& image) {
     double brightest = 0.0;
@@ -336,20 +364,66 @@ std::optional<DirectLight> directLightAt(const RigLight& light, double frame) {
 
 }  // namespace
 
+MapSuns LightRig::extractedSuns(size_t index) const {
+  const RigLight& light = lights.at(index);
+  if (light.type != RigLight::Type::Environment || !light.extractSun) return {};
+  std::lock_guard<std::mutex> lock(cache_->mutex);
+  return cache_->split(light.file).suns;
+}
+
 RigLighting LightRig::evaluateLighting(double frame, int bands) const {
   RigLighting out;
   LightRig rest;  // the lights that stay in SH, sharing this rig's map cache
   rest.cache_ = cache_;
+  out.sh = sh::ShRgb(bands);
   out.directSh = sh::ShRgb(bands);
-  for (const RigLight& light : lights) {
+  auto addDirect = [&](const DirectLight& d, size_t source, double share) {
+    out.directSh += d.project(bands);
+    out.direct.push_back(d);
+    out.source.push_back(source);
+    out.mapShare.push_back(share);
+  };
+  for (size_t k = 0; k < lights.size(); ++k) {
+    const RigLight& light = lights[k];
     if (std::optional<DirectLight> d = directLightAt(light, frame)) {
-      out.directSh += d->project(bands);
-      out.direct.push_back(*d);
+      addDirect(*d, k, 0.0);
+    } else if (light.type == RigLight::Type::Environment && light.extractSun) {
+      // The residual through SH, turned and scaled as the map; each sun turned with the map
+      // (light from d in the map comes from R d in the world) and scaled by its intensity.
+      sh::ShRgb residual;
+      MapSuns suns;
+      {
+        std::lock_guard<std::mutex> lock(cache_->mutex);
+        const Cache::Split& split = cache_->split(light.file);
+        suns = split.suns;
+        auto key = std::make_pair(light.file, bands);
+        auto it = cache_->residualProjected.find(key);
+        if (it == cache_->residualProjected.end())
+          it = cache_->residualProjected.emplace(key, projectEnvironment(split.residual, bands)).first;
+        residual = it->second;
+      }
+      if (suns.suns.empty()) {
+        rest.lights.push_back(light);
+        continue;
+      }
+      const double angle = light.rotation.scalarAt(frame);
+      const glm::dmat3 rotation = angle == 0.0 ? glm::dmat3(1.0) : sh::rotationAxis(light.axis.at(frame), angle);
+      if (angle != 0.0) residual = sh::Rotation(bands, rotation).apply(residual);
+      const glm::dvec3 intensity = light.intensity.at(frame);
+      residual *= glm::vec3(intensity);
+      out.sh += residual;
+      for (const ExtractedSun& sun : suns.suns) {
+        DirectLight d;
+        d.direction = glm::normalize(rotation * sun.direction);
+        d.radius = sun.radius;
+        d.irradiance = sun.irradiance * intensity;
+        addDirect(d, k, sun.powerShare);
+      }
     } else {
       rest.lights.push_back(light);
     }
   }
-  out.sh = rest.lights.empty() ? sh::ShRgb(bands) : rest.evaluate(frame, bands);  // windowed below
+  if (!rest.lights.empty()) out.sh += rest.evaluate(frame, bands);  // windowed below
   sh::applyWindow(out.sh, window);
   sh::applyWindow(out.directSh, window);
   return out;
@@ -717,8 +791,12 @@ private:
     light.label = path;
     if (type == "environment") {
       light.type = RigLight::Type::Environment;
-      keys(j, path, {"type", "name", "file", "axis", "rotation", "intensity"});
+      keys(j, path, {"type", "name", "file", "axis", "rotation", "intensity", "extract_sun"});
       light.file = mapFile(rig, j.contains("file") ? j["file"] : Json(), path + ".file");
+      if (j.contains("extract_sun")) {
+        if (!j["extract_sun"].is_boolean()) fail(path + ".extract_sun", "expected true or false");
+        light.extractSun = j["extract_sun"].get<bool>();
+      }
       if (j.contains("axis")) light.axis = track(j["axis"], path + ".axis", Shape::Direction);
       if (j.contains("rotation")) light.rotation = track(j["rotation"], path + ".rotation", Shape::Scalar);
       if (j.contains("intensity")) light.intensity = track(j["intensity"], path + ".intensity", Shape::Color);

@@ -24,6 +24,7 @@
 
 #include "prt/image.h"
 #include "prt/light.h"
+#include "prt/sun_extract.h"
 #include "prt/sh.h"
 
 namespace prt {
@@ -88,6 +89,10 @@ struct RigLight {
   Track axis = Track::constant(glm::dvec3(0.0, 1.0, 0.0));  // direction track
   Track rotation = Track::constant(0.0);                     // degrees
   Track intensity = Track::constant(1.0);                    // RGB factor
+  /// Split the map's suns off as direct lights (extractSun; docs/lights.md, "Direct lights"):
+  /// evaluateLighting lights them exactly and the in-painted residual through SH. JSON
+  /// "extract_sun" (default true); evaluate() always projects the whole map.
+  bool extractSun = true;
 
   // Sun and disk: the direction towards the light, either a direction track or
   // azimuth/elevation tracks in degrees (used when `useAzimuthElevation`).
@@ -139,9 +144,19 @@ struct RigBackground {
 /// SH only through the bounced part, their unoccluded light exactly with its shadow.
 /// sh + directSh is what evaluate() returns.
 struct RigLighting {
-  sh::ShRgb sh;        // maps, uniform lights, larger disks (windowed)
+  sh::ShRgb sh;        // maps (their residual where suns were split off), uniform lights, larger disks (windowed)
   sh::ShRgb directSh;  // the SH of `direct` (windowed)
   std::vector<DirectLight> direct;
+  /// Per entry of `direct`: the index of the rig light it comes from, and for a sun split off
+  /// an environment map its share of that map's power (luminance), else 0.
+  std::vector<size_t> source;
+  std::vector<double> mapShare;
+};
+
+/// Suns split off one environment map (LightRig::extractedSuns), in the map's own frame.
+struct MapSuns {
+  std::vector<ExtractedSun> suns;  // in order of extraction (brightest first)
+  std::string reason;              // why extraction stopped
 };
 
 /// A set of lights summed, windowed against ringing, with an optional frame rate.
@@ -177,6 +192,12 @@ public:
   /// The same lights at `frame` with the direct lights apart (RigLighting). The window applies
   /// to both SH parts (it is linear, so their sum is evaluate()'s). Precondition: validate().
   RigLighting evaluateLighting(double frame, int bands) const;
+
+  /// The suns split off environment light `light` (an index into `lights`; extracted once per
+  /// map and cached): up to kMaxSunsPerMap, each taken from the residual of the previous one.
+  /// Empty for a light with extractSun off. Precondition: validate().
+  MapSuns extractedSuns(size_t light) const;
+  static constexpr int kMaxSunsPerMap = 4;
 
   /// What a camera sees of the lights at `frame` (RigBackground). Precondition: validate()
   /// succeeded. The maps are shared with the rig's cache, not copied.
