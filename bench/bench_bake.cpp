@@ -1,18 +1,26 @@
-// Surface-bake benchmark: the bake's rays/s next to the raw Embree ceiling for the same rays on
-// the same scene, measured in the same process, and the cost of every bounce.
+// Surface-bake benchmark: the bake's rays/s next to an independent Embree ceiling for the same
+// rays on the same scene, measured in the same process, for both kinds of ray the direct pass
+// casts (occlusion without bounces, closest hits with them), the share of the bake that is not
+// tracing, and the cost of every bounce.
 //
 //   prt_bench_bake [--scene scenes/cornell_open.gltf] [--min-vertices 100000] [--samples 256]
-//                  [--bounces 2] [--threads 0] [--ceiling-fraction 0.1] [--json out.json]
+//                  [--bounces 2] [--threads 0] [--ceiling-fraction 0.04] [--rounds 3]
+//                  [--json out.json]
 //
 // The scene is refined (each triangle split into 4, repeatedly) until it has at least
-// --min-vertices baked vertices. The ceiling traces exactly the rays the bake casts (same
-// origins, directions and streams of 256 per vertex, generated beforehand, outside the timer)
-// for a fraction of the vertices, with nothing done per ray: the rate the bake could reach if
-// SH evaluation, accumulation and hit bookkeeping cost nothing.
+// --min-vertices baked vertices (0: as it is). The ceiling (embree_ceiling.h: its own BVH,
+// every Embree 3 way of tracing, the fastest kept) traces exactly the rays the bake casts
+// (bake::surfaceBakeRays: same origins and directions), generated beforehand, outside the
+// timer, for a fraction of the vertices, with nothing done per ray. "prt tracing" traces the
+// same rays through prt's RayScene as the direct pass calls it, also with nothing done per ray:
+// the bake's time beyond rays / that rate is what is not tracing (ray generation, SH
+// evaluation, hit records). Every round measures the ceiling, prt's tracing, the bake without
+// bounces (occlusion rays) and the bake with --bounces (closest hits, then the bounces);
+// ratios are taken within a round, and reported as the best round's and the range.
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <map>
 #include <string>
@@ -23,6 +31,8 @@
 #include <tbb/parallel_for.h>
 
 #include "bench_cli.h"
+#include "cpu_clock.h"
+#include "embree_ceiling.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
@@ -32,7 +42,7 @@
 namespace {
 
 using namespace prt;
-using Clock = std::chrono::steady_clock;
+using bench::Clock;
 
 // Splits every triangle into 4 (midpoints shared through an edge map), interpolating normals,
 // texture coordinates and colours.
@@ -66,6 +76,22 @@ size_t bakedVertices(const Scene& s) {
   return n;
 }
 
+// Fastest and slowest of a series.
+nlohmann::json range(const std::vector<double>& v) {
+  const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+  return {*lo, *hi};
+}
+
+using bench::Timing;
+
+// One bake's figures per round, each timed by the wall clock and by the process's CPU time.
+struct BakeRounds {
+  std::vector<double> rate[2], direct[2], total[2], notTracing[2], bakeNotTracing[2], vsCeiling[2];
+  std::vector<std::vector<double>> bounce[2];  // per round, per bounce: seconds
+  uint64_t rays = 0, hitRecords = 0;
+  double bvh = 0.0;
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -74,89 +100,165 @@ int main(int argc, char** argv) {
   bake::BakeSettings settings;
   settings.samples = 256;
   settings.bounces = 2;
-  double ceilingFraction = 0.1;
-  CLI::App app{"Surface-bake benchmark: the bake's rays/s next to the Embree ceiling for the same rays",
+  double ceilingFraction = 0.04;
+  int rounds = 3;
+  CLI::App app{"Surface-bake benchmark: the bake's rays/s next to an independent Embree ceiling for the same rays",
                "prt_bench_bake"};
   app.add_option("--scene", scenePath, "Scene to bake (.gltf)")->capture_default_str();
-  app.add_option("--min-vertices", minVertices, "Refine the scene until it has at least this many baked vertices")
+  app.add_option("--min-vertices", minVertices,
+                 "Refine the scene until it has at least this many baked vertices (0: as it is)")
       ->capture_default_str();
   app.add_option("--samples", settings.samples, "Hemisphere directions per vertex")->capture_default_str();
-  app.add_option("--bounces", settings.bounces, "Interreflection bounces")->capture_default_str();
+  app.add_option("--bounces", settings.bounces, "Interreflection bounces of the closest-hit bake")
+      ->check(CLI::Range(1, bake::kMaxBounces))
+      ->capture_default_str();
   app.add_option("--threads", settings.threads, "Worker threads (0 = all cores)")->capture_default_str();
   app.add_option("--ceiling-fraction", ceilingFraction, "Share of the vertices the ceiling traces")
       ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
+  app.add_option("--rounds", rounds, "Rounds of ceiling, prt tracing and both bakes")
+      ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   app.add_option("--json", jsonPath, "Also write the results to this file");
   if (std::optional<int> status = bench::parseBenchOptions(app, "prt_bench_bake", argc, argv)) return *status;
   try {
     Scene scene = loadScene(scenePath);
-    while (bakedVertices(scene) < minVertices)
+    while (minVertices > 0 && bakedVertices(scene) < minVertices)
       for (MeshInstance& m : scene.meshes)
         if (!m.receiverOnly) refine(m);
     std::unique_ptr<tbb::global_control> limit;
     if (settings.threads > 0)
       limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, settings.threads);
 
-    // The ceiling: the same rays, pre-generated into one array, traced with nothing else to do.
-    // Vertices are taken in runs of 64 consecutive ones (the bake's unit of work, so the same
-    // BVH locality), every (1/fraction)-th run. Measured twice, before and after the bake, and
-    // the faster kept: the machine is shared, and noise must not flatter the bake.
-    bake::RayScene rays(scene);
+    // The rays: runs of 64 consecutive vertices (the bake's chunk, so the same BVH locality),
+    // every (1/fraction)-th run, generated by the bake's own generator.
+    const bench::EmbreeCeiling ceiling(scene);
     const size_t V = bakedVertices(scene);
     const size_t every = std::max<size_t>(1, size_t(std::lround(1.0 / ceilingFraction)));
     std::vector<size_t> picked;
     for (size_t run = 0; run * 64 < V; run += every)
       for (size_t v = run * 64; v < std::min(V, run * 64 + 64); ++v) picked.push_back(v);
-    std::vector<bake::Ray> ceilingRays = bake::surfaceBakeRays(scene, settings, rays.sceneExtent(), picked);
-    const std::vector<bake::Ray> pristine = ceilingRays;
+    const std::vector<bake::Ray> sample = bake::surfaceBakeRays(scene, settings, ceiling.sceneExtent(), picked);
     const size_t S = size_t(settings.samples);
-    auto traceAll = [&]() {
-      ceilingRays = pristine;
-      auto t0 = Clock::now();
+
+    // prt's tracing alone: the same rays through RayScene, called as the direct pass calls it
+    // (one vertex's rays in streams of 256), nothing done per ray. Rates by wall and CPU time.
+    const bake::RayScene prtRays(scene);
+    auto prtTrace = [&](bench::RayKind kind) {
+      std::vector<bake::Ray> batch = sample;
+      const double cpu0 = bench::processCpuSeconds();
+      const auto t0 = Clock::now();
       tbb::parallel_for(tbb::blocked_range<size_t>(0, picked.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i)
           for (size_t first = 0; first < S; first += 256) {
-            size_t n = std::min<size_t>(256, S - first);
-            if (settings.bounces > 0)
-              rays.intersect(ceilingRays.data() + i * S + first, n);
+            const size_t n = std::min<size_t>(256, S - first);
+            if (kind == bench::RayKind::ClosestHit)
+              prtRays.intersect(batch.data() + i * S + first, n);
             else
-              rays.occluded(ceilingRays.data() + i * S + first, n);
+              prtRays.occluded(batch.data() + i * S + first, n);
           }
       });
-      return double(picked.size() * S) / std::chrono::duration<double>(Clock::now() - t0).count();
+      const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
+      const double cpu = bench::processCpuSeconds() - cpu0;
+      return std::array<double, 2>{double(batch.size()) / wall, double(batch.size()) / cpu};
     };
-    const double ceilingBefore = traceAll();
 
-    // The bake, as `prt bake` runs it.
-    bake::SurfaceTransfer result = bake::bakeSurface(scene, settings);
-    std::map<std::string, double> stage;
-    for (const auto& s : result.stats.stages) stage[s.name] = s.seconds;
-    const double directSeconds = stage["direct"];
-    const double bakeRate = double(result.stats.rays) / directSeconds;
-    const double ceilingAfter = traceAll();
-    const double ceilingRate = std::max(ceilingBefore, ceilingAfter);
+    const bench::RayKind kinds[2] = {bench::RayKind::Occlusion, bench::RayKind::ClosestHit};
+    bench::Ceiling ceil[2];
+    std::vector<double> prtRate[2][2];  // [kind][timing]
+    BakeRounds bakes[2];
+    bake::BakeSettings occlusionSettings = settings;
+    occlusionSettings.bounces = 0;
+    std::vector<std::vector<glm::vec3>> first[2];
+    bench::CpuTimeline timeline;
+    for (int round = 0; round < rounds; ++round)
+      for (int k = 0; k < 2; ++k) {
+        bench::appendRounds(ceil[k], ceiling.measure(sample, S, 64, kinds[k], 1));
+        const std::array<double, 2> prt = prtTrace(kinds[k]);
+        // The bake, as `prt bake` runs it. Its stages run one after the other from its start,
+        // with gaps of milliseconds (layout, copies): their wall-clock intervals are placed so,
+        // and their CPU time read off the timeline.
+        const auto t0 = Clock::now();
+        bake::SurfaceTransfer result = bake::bakeSurface(scene, k == 0 ? occlusionSettings : settings);
+        const auto t1 = Clock::now();
+        if (round == 0)
+          first[k] = std::move(result.perMesh);
+        else if (result.perMesh != first[k])
+          throw Error("the bake gave different transfer in another round");
+        std::map<std::string, std::array<double, 2>> stage;
+        auto at = t0;
+        for (const auto& st : result.stats.stages) {
+          const auto end = at + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(st.seconds));
+          stage[st.name] = {st.seconds, timeline.cpuSeconds(at, end)};
+          at = end;
+        }
+        const std::array<double, 2> total{std::chrono::duration<double>(t1 - t0).count(), timeline.cpuSeconds(t0, t1)};
+        BakeRounds& b = bakes[k];
+        b.rays = result.stats.rays;
+        b.hitRecords = result.stats.hitRecords;
+        b.bvh = stage["bvh"][0];
+        for (int t = 0; t < 2; ++t) {
+          prtRate[k][t].push_back(prt[size_t(t)]);
+          const double traceSeconds = double(b.rays) / prt[size_t(t)];
+          const double direct = stage["direct"][size_t(t)];
+          b.direct[t].push_back(direct);
+          b.total[t].push_back(total[size_t(t)]);
+          b.rate[t].push_back(double(b.rays) / direct);
+          b.notTracing[t].push_back(1.0 - traceSeconds / direct);
+          b.bakeNotTracing[t].push_back(1.0 - traceSeconds / total[size_t(t)]);
+          b.vsCeiling[t].push_back(b.rate[t].back() / bench::roundRate(ceil[k], size_t(round), Timing(t)));
+          b.bounce[t].emplace_back();
+          for (int i = 1; i <= (k == 0 ? 0 : settings.bounces); ++i)
+            b.bounce[t].back().push_back(stage[cat("bounce ", i)][size_t(t)]);
+        }
+      }
 
     nlohmann::json j;
     j["scene"] = scenePath;
     j["vertices"] = V;
+    j["triangles"] = ceiling.triangles();
     j["samples"] = settings.samples;
-    j["bounces"] = settings.bounces;
     j["threads"] = settings.threads;
-    j["ray_kind"] = settings.bounces > 0 ? "closest-hit" : "occlusion";
-    j["bake_rays_per_s"] = bakeRate;
-    j["ceiling_rays_per_s"] = ceilingRate;
-    j["ceiling_rays_per_s_before_after"] = {ceilingBefore, ceilingAfter};
+    j["rounds"] = rounds;
     j["ceiling_vertices"] = picked.size();
-    j["bake_vs_ceiling"] = bakeRate / ceilingRate;
-    j["direct_seconds"] = directSeconds;
-    for (int k = 1; k <= settings.bounces; ++k) {
-      std::string name = cat("bounce ", k);
-      j["bounce_seconds"].push_back(stage[name]);
-      j["bounce_vs_bake_time"].push_back(stage[name] / result.stats.seconds);
+    j["ceiling_bvh_seconds"] = ceiling.buildSeconds();
+    for (int k = 0; k < 2; ++k) {
+      const BakeRounds& b = bakes[k];
+      nlohmann::json o;
+      o["bounces"] = k == 0 ? 0 : settings.bounces;
+      o["ceiling"] = bench::toJson(ceil[k]);
+      o["rays"] = b.rays;
+      o["bvh_seconds"] = b.bvh;
+      if (k == 1) o["hit_records"] = b.hitRecords;
+      for (int t = 0; t < 2; ++t) {
+        // The best round: the fastest direct pass (its ratios are of that round's own ceiling).
+        const size_t r = size_t(std::max_element(b.rate[t].begin(), b.rate[t].end()) - b.rate[t].begin());
+        nlohmann::json f;
+        f["ceiling_rays_per_s"] = ceil[k].rate(Timing(t));
+        f["ceiling_best_mode"] = ceil[k].bestMode(Timing(t)).mode;
+        f["prt_trace_rays_per_s"] = *std::max_element(prtRate[k][t].begin(), prtRate[k][t].end());
+        f["prt_trace_rays_per_s_range"] = range(prtRate[k][t]);
+        f["direct_rays_per_s"] = b.rate[t][r];
+        f["direct_rays_per_s_range"] = range(b.rate[t]);
+        f["direct_vs_ceiling"] = b.vsCeiling[t][r];
+        f["direct_vs_ceiling_range"] = range(b.vsCeiling[t]);
+        f["direct_seconds"] = b.direct[t][r];
+        f["direct_not_tracing_share"] = b.notTracing[t][r];
+        f["direct_not_tracing_share_range"] = range(b.notTracing[t]);
+        f["bake_seconds"] = b.total[t][r];
+        f["bake_not_tracing_share"] = b.bakeNotTracing[t][r];
+        f["bake_not_tracing_share_range"] = range(b.bakeNotTracing[t]);
+        for (size_t i = 0; i < b.bounce[t][r].size(); ++i) {
+          std::vector<double> share;
+          for (size_t q = 0; q < b.bounce[t].size(); ++q) share.push_back(b.bounce[t][q][i] / b.total[t][q]);
+          f["bounce_seconds"].push_back(b.bounce[t][r][i]);
+          f["bounce_share_of_bake"].push_back(b.bounce[t][r][i] / b.total[t][r]);
+          f["bounce_share_of_bake_range"].push_back(range(share));
+        }
+        o[t == 0 ? "wall" : "cpu"] = f;
+      }
+      j[k == 0 ? "occlusion" : "closest_hit"] = o;
     }
-    j["bake_seconds"] = result.stats.seconds;
-    j["bvh_seconds"] = stage["bvh"];
-    j["hit_records"] = result.stats.hitRecords;
     j["peak_memory_bytes"] = peakMemoryBytes();
     std::string text = j.dump(2);
     std::printf("%s\n", text.c_str());

@@ -1,19 +1,21 @@
-// Probe-bake benchmark: probes/s and rays/s of the probe bake next to the raw Embree ceiling for
-// the same rays on the same scene, measured in the same process; the share of time the indirect
-// light (hits on lit surfaces) costs; the bytes per probe on disk (32- and 16-bit files) and in
-// memory; peak memory.
+// Probe-bake benchmark: probes/s and rays/s of the probe bake next to an independent Embree
+// ceiling for the same rays on the same scene, measured in the same process; the share of the
+// bake that is not tracing; the share of time the indirect light (hits on lit surfaces) costs;
+// the bytes per probe on disk (32- and 16-bit files) and in memory; peak memory.
 //
 //   prt_bench_probes [--scene scenes/cornell_open.gltf] [--dims 32] [--samples 1024]
 //                    [--bounces 2] [--surface-samples 256] [--threads 0]
-//                    [--ceiling-fraction 0.1] [--repeat 2] [--json out.json]
+//                    [--ceiling-fraction 0.03] [--repeat 2] [--json out.json]
 //
 // --dims N gives an N³ lattice over the scene's bounds. The surface bake (bands 3, --bounces,
 // --surface-samples) supplies the transfer a probe ray sees where it hits a surface; it is timed
-// but is not part of the probe numbers. The ceiling traces exactly the rays the probe bake casts
-// (bake::probeBakeRays: the inside test's 64 rays and the full set per probe, same origins,
-// directions and streams of ≤ 256) for a fraction of the lattice, in runs of 16 consecutive
-// probes (the bake's unit of work), with nothing done per ray. Every timing is the fastest of
-// --repeat rounds (the machines this runs on are shared); memory is the first round's.
+// but is not part of the probe numbers. The ceiling (embree_ceiling.h: its own BVH, every
+// Embree 3 way of tracing closest hits, the fastest kept) traces exactly the rays the probe bake
+// casts (bake::probeBakeRays: the inside test's 64 rays and the full set per probe) for a
+// fraction of the lattice, in runs of 16 consecutive probes, with nothing done per ray; prt's
+// tracing alone traces them through RayScene as the bake calls it. Each round measures both
+// and bakes; ratios are taken within a round and reported as the fastest bake's round and the
+// range; memory is the first round's.
 #include <malloc.h>
 #include <unistd.h>
 
@@ -32,6 +34,8 @@
 #include <tbb/parallel_for.h>
 
 #include "bench_cli.h"
+#include "cpu_clock.h"
+#include "embree_ceiling.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
@@ -43,7 +47,7 @@
 namespace {
 
 using namespace prt;
-using Clock = std::chrono::steady_clock;
+using bench::Clock;
 namespace fs = std::filesystem;
 
 // A field of /proc/self/status in bytes ("VmHWM", "VmRSS"), or 0 where there is none.
@@ -83,7 +87,7 @@ int main(int argc, char** argv) {
   surface.keepLowerOrder = true;
   bake::ProbeSettings settings;
   settings.samples = 1024;
-  double ceilingFraction = 0.1;
+  double ceilingFraction = 0.03;
   int repeat = 2;
   CLI::App app{"Probe-bake benchmark: probes/s and rays/s next to the Embree ceiling, bytes per probe, peak memory",
                "prt_bench_probes"};
@@ -117,10 +121,12 @@ int main(int argc, char** argv) {
     std::vector<std::vector<glm::vec3>> lowerOrder = std::move(lit.perMeshLowerOrder);
     if (lowerOrder.empty()) lowerOrder.assign(scene.meshes.size(), {});
 
-    // The ceiling: the same rays, generated outside the timer, traced with nothing else to do.
-    // Measured before and after the bake and the faster kept (the machine is shared; noise must
-    // not flatter the bake). The ray arrays are freed before the bake so that they do not
-    // count in its memory.
+    // The rays: runs of 16 consecutive lattice points, every (1/fraction)-th run, as the probe
+    // bake casts them (bake::probeBakeRays: the inside test's 64 rays, then the full set),
+    // generated outside every timer. The ceiling (embree_ceiling.h: its own BVH, every Embree
+    // 3 way of tracing, the fastest kept) and prt's tracing alone (RayScene, called as the probe
+    // bake calls it: the test rays as one stream, then streams of 256) trace them with nothing
+    // done per ray. The arrays are freed before the bake so that they do not count in its memory.
     ProbeGrid layout;
     glm::dvec3 lo, hi;
     bake::probeBounds(settings, scene, lo, hi);  // the bake's bounds, flat axes padded
@@ -130,31 +136,39 @@ int main(int argc, char** argv) {
     std::vector<size_t> picked;
     for (size_t run = 0; run * 16 < total; run += every)
       for (size_t p = run * 16; p < std::min(total, run * 16 + 16); ++p) picked.push_back(p);
+    const bench::EmbreeCeiling embree(scene);
     const bake::RayScene rays(scene);
-    auto ceiling = [&]() {
+    const size_t per = 64 + size_t(settings.samples);  // rays per lattice point
+    bench::Ceiling ceiling;
+    std::vector<double> prtRates[2];  // [Timing]
+    auto measureTracing = [&]() {
       std::vector<bake::Ray> batch = bake::probeBakeRays(layout, settings, picked);
-      const size_t per = batch.size() / picked.size();
+      PRT_CHECK_EQ(batch.size(), picked.size() * per);
+      bench::appendRounds(ceiling, embree.measure(batch, per, 16, bench::RayKind::ClosestHit, 1));
+      const double cpu0 = bench::processCpuSeconds();
       const auto t0 = Clock::now();
       tbb::parallel_for(tbb::blocked_range<size_t>(0, picked.size(), 16), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
-          // As the bake: the 64 test rays as one stream, then the full set in streams of 256.
           rays.intersect(batch.data() + i * per, 64);
           for (size_t first = 64; first < per; first += 256)
             rays.intersect(batch.data() + i * per + first, std::min<size_t>(256, per - first));
         }
       });
-      return double(batch.size()) / std::chrono::duration<double>(Clock::now() - t0).count();
+      prtRates[0].push_back(double(batch.size()) / std::chrono::duration<double>(Clock::now() - t0).count());
+      prtRates[1].push_back(double(batch.size()) / (bench::processCpuSeconds() - cpu0));
     };
-    const double ceilingBefore = ceiling();
+    measureTracing();
 
     // The probe bake as `prt bake --probes` runs it; its own peak memory is measured from here.
-    // Freed heap (the ceiling's rays, the surface bake's scratch) goes back to the system first,
-    // so that the baseline is what is live and the bake's growth is all its own.
+    // Freed heap (the rays, the surface bake's scratch) goes back to the system first, so that
+    // the baseline is what is live and the bake's growth is all its own.
     malloc_trim(0);
     const uint64_t rssBefore = procStatusBytes("VmRSS");
     const bool peakReset = resetPeakRss();
     bake::ProbeStats stats;
+    double cpu0 = bench::processCpuSeconds();
     ProbeGrid grid = bake::bakeProbes(scene, lowerOrder, settings, &stats);
+    std::vector<double> bakeCpu{bench::processCpuSeconds() - cpu0};
     const uint64_t bakePeak = peakReset ? procStatusBytes("VmHWM") : 0;
     grid.info.scene = fs::path(scenePath).filename().string();
 
@@ -162,23 +176,39 @@ int main(int argc, char** argv) {
     bake::ProbeStats directStats;
     const std::vector<std::vector<glm::vec3>> none(scene.meshes.size());
     (void)bake::bakeProbes(scene, none, settings, &directStats);
-    const double ceilingAfter = ceiling();
-    double ceilingRate = std::max(ceilingBefore, ceilingAfter);
-    // Further rounds (--repeat): ceiling, bake, direct-only bake again, keeping the fastest of
-    // each, so that a burst of load from other processes on a shared machine does not decide
-    // the ratios. The result must be the same grid every time.
+    // Further rounds (--repeat): tracing, bake, direct-only bake again, so that a burst of load
+    // from other processes on a shared machine does not decide the ratios, which are taken
+    // within a round. The result must be the same grid every time.
     std::vector<double> bakeSeconds{stats.seconds}, directSeconds{directStats.seconds};
     for (int round = 1; round < repeat; ++round) {
+      measureTracing();
       bake::ProbeStats again, directAgain;
+      cpu0 = bench::processCpuSeconds();
       const ProbeGrid other = bake::bakeProbes(scene, lowerOrder, settings, &again);
+      bakeCpu.push_back(bench::processCpuSeconds() - cpu0);
       if (other.transfer != grid.transfer) throw Error("the probe bake gave a different grid on a second run");
       (void)bake::bakeProbes(scene, none, settings, &directAgain);
       bakeSeconds.push_back(again.seconds);
       directSeconds.push_back(directAgain.seconds);
-      ceilingRate = std::max(ceilingRate, ceiling());
     }
-    stats.seconds = *std::min_element(bakeSeconds.begin(), bakeSeconds.end());
+    // Per round and timing (wall clock, process CPU time: cpu_clock.h): the bake's rate
+    // against that round's ceiling, and the share of the bake that is not tracing (its rays
+    // at prt's tracing rate of that round, against its time).
+    std::vector<double> vsCeiling[2], notTracing[2];
+    for (int t = 0; t < 2; ++t)
+      for (int round = 0; round < repeat; ++round) {
+        const double seconds = (t == 0 ? bakeSeconds : bakeCpu)[size_t(round)];
+        const double rate = double(stats.rays) / seconds;
+        vsCeiling[t].push_back(rate / bench::roundRate(ceiling, size_t(round), bench::Timing(t)));
+        notTracing[t].push_back(1.0 - double(stats.rays) / prtRates[t][size_t(round)] / seconds);
+      }
+    const size_t bestRound = size_t(std::min_element(bakeSeconds.begin(), bakeSeconds.end()) - bakeSeconds.begin());
+    stats.seconds = bakeSeconds[bestRound];
     directStats.seconds = *std::min_element(directSeconds.begin(), directSeconds.end());
+    auto range = [](const std::vector<double>& v) {
+      const auto [a, b] = std::minmax_element(v.begin(), v.end());
+      return nlohmann::json{*a, *b};
+    };
 
     const fs::path dir = fs::temp_directory_path() / cat("prt_bench_probes_", getpid());
     fs::create_directories(dir);
@@ -219,13 +249,34 @@ int main(int argc, char** argv) {
     j["probes_per_s"] = double(stats.probes) / stats.seconds;
     j["rays"] = stats.rays;
     j["bake_rays_per_s"] = double(stats.rays) / stats.seconds;
-    j["ceiling_rays_per_s"] = ceilingRate;
-    j["ceiling_rays_per_s_before_after"] = {ceilingBefore, ceilingAfter};
+    j["ceiling"] = bench::toJson(ceiling);
+    j["ceiling_rays_per_s"] = ceiling.rate(bench::Timing::Wall);
+    j["ceiling_best_mode"] = ceiling.bestMode(bench::Timing::Wall).mode;
+    j["prt_trace_rays_per_s"] = *std::max_element(prtRates[0].begin(), prtRates[0].end());
+    j["prt_trace_rays_per_s_range"] = range(prtRates[0]);
     j["repeat"] = repeat;
     j["probe_bake_seconds_each"] = bakeSeconds;
     j["direct_only_bake_seconds_each"] = directSeconds;
     j["ceiling_probes"] = picked.size();
-    j["bake_vs_ceiling"] = double(stats.rays) / stats.seconds / ceilingRate;
+    j["bake_vs_ceiling"] = vsCeiling[0][bestRound];
+    j["bake_vs_ceiling_range"] = range(vsCeiling[0]);
+    j["not_tracing_share"] = notTracing[0][bestRound];
+    j["not_tracing_share_range"] = range(notTracing[0]);
+    {  // the same figures by CPU time, the fastest round by CPU time
+      const size_t r = size_t(std::min_element(bakeCpu.begin(), bakeCpu.end()) - bakeCpu.begin());
+      nlohmann::json c;
+      c["ceiling_rays_per_s"] = ceiling.rate(bench::Timing::Cpu);
+      c["ceiling_best_mode"] = ceiling.bestMode(bench::Timing::Cpu).mode;
+      c["prt_trace_rays_per_s"] = *std::max_element(prtRates[1].begin(), prtRates[1].end());
+      c["prt_trace_rays_per_s_range"] = range(prtRates[1]);
+      c["probe_bake_cpu_seconds"] = bakeCpu[r];
+      c["bake_rays_per_s"] = double(stats.rays) / bakeCpu[r];
+      c["bake_vs_ceiling"] = vsCeiling[1][r];
+      c["bake_vs_ceiling_range"] = range(vsCeiling[1]);
+      c["not_tracing_share"] = notTracing[1][r];
+      c["not_tracing_share_range"] = range(notTracing[1]);
+      j["cpu"] = c;
+    }
     j["direct_only_bake_seconds"] = directStats.seconds;
     j["indirect_time_share"] = 1.0 - directStats.seconds / stats.seconds;
     j["surface_bake_share_of_total"] = lit.stats.seconds / (lit.stats.seconds + stats.seconds);

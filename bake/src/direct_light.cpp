@@ -121,7 +121,7 @@ DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const std::vector<
                 ray.tfar = std::numeric_limits<float>::infinity();
                 weight[used++] = w;
               }
-              rays.occluded(batch, used);
+              rays.occluded(batch, used, /*coherent=*/true);  // one origin, one small cone
               count += used;
               for (uint32_t j = 0; j < used; ++j) {
                 total += weight[j];
