@@ -134,10 +134,13 @@ constexpr const char* kBlockerSampleGlsl = R"(  {
   }
 )";
 
-constexpr const char* kDirectMiddleGlsl = R"(  if (nb == 0.0) return 1.0;
-  float pen = clamp(tanR * (p.z - sumB / nb), texel, kMaxKernel * texel);
-  if (nb == float(kBlockerSamples) && pen <= search) return 0.0;
-  float lit = 0.0;
+constexpr const char* kDirectMiddleGlsl = R"(  float pen = clamp(tanR * (p.z - sumB / max(nb, 1.0)), texel, kMaxKernel * texel);
+  bool needFilter = nb > 0.0 && !(nb == float(kBlockerSamples) && pen <= search);
+  float share = nb == 0.0 ? 1.0 : 0.0;
+  // Skipped where no blocker or only blockers were found: on a GPU; llvmpipe (Mesa 22.3) runs
+  // both sides of a branch for every pixel (measured, docs/render.md).
+  if (needFilter) {
+    float lit = 0.0;
 )";
 
 constexpr const char* kFilterSampleGlsl = R"(  {
@@ -146,7 +149,9 @@ constexpr const char* kFilterSampleGlsl = R"(  {
   }
 )";
 
-constexpr const char* kDirectTailGlsl = R"(  return lit / float(kFilterSamples);
+constexpr const char* kDirectTailGlsl = R"(    share = lit / float(kFilterSamples);
+  }
+  return share;
 }
 
 // Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x).
@@ -155,7 +160,9 @@ vec3 directIrradiance(vec3 x, vec3 n) {
   for (int k = 0; k < kMaxDirect; ++k) {
     if (k >= uDirectCount) break;
     float f = directCosineFactor(n, uDirectDir[k], uDirectIrradiance[k].w);
-    if (f > 0.0) e += uDirectIrradiance[k].rgb * (f * (uShadowed != 0 ? visibleShare(k, x, n) : 1.0));
+    float v = 1.0;
+    if (f > 0.0 && uShadowed != 0) v = visibleShare(k, x, n);
+    e += uDirectIrradiance[k].rgb * (f * v);
   }
   return e;
 }
@@ -218,8 +225,11 @@ ShadowPlan planShadows(const std::vector<DirectLight>& lights, const CameraView&
     dNear = std::min(dNear, d);
     dFar = std::max(dFar, d);
   }
-  const double nearest = std::max(dNear, camera.znear);
-  const double farthest = std::max(dFar, nearest * 1.001 + 1e-9);
+  // The nearest depth that matters: the box's, but at least a quarter of the farthest (a camera
+  // inside the box would otherwise ask for texels as fine as its near plane; what lies closer
+  // than a quarter of the view's depth gets the first cascade's texels).
+  const double farthest = std::max(dFar, camera.znear * 1.001 + 1e-9);
+  const double nearest = std::clamp(std::max(dNear, 0.25 * farthest), camera.znear, farthest / 1.001);
   const double tanY = std::tan(0.5 * camera.yfov);
   std::vector<double> splits = {nearest, farthest};
   if (camera.perspective && maxCascades > 1) {
@@ -261,7 +271,8 @@ ShadowPlan planShadows(const std::vector<DirectLight>& lights, const CameraView&
       // The slice of the view between splits[c] and splits[c + 1], in light space.
       glm::dvec2 sLo(1e300), sHi(-1e300);
       for (int k = 0; k < 8; ++k) {
-        const double z = splits[size_t(c) + (k & 1)];
+        // The first slice starts at the near plane: what lies closer than `nearest` is in it too.
+        const double z = c == 0 && !(k & 1) ? std::min(camera.znear, splits[0]) : splits[size_t(c) + (k & 1)];
         const double hh = camera.perspective ? z * tanY : camera.ymag, hw = hh * aspect;
         const glm::dvec3 p = plan.viewOrigin + plan.viewForward * z + right * (k & 2 ? hw : -hw) + up * (k & 4 ? hh : -hh);
         const glm::dvec2 l(glm::dot(p, e1), glm::dot(p, e2));

@@ -18,7 +18,7 @@ namespace prt::render {
 /// Texture unit of the shadow maps (0: base colour, 1–3: probes, 4–11: background maps).
 constexpr int kShadowMapUnit = 12;
 /// Samples of the blocker search and of the filter (a Vogel spiral turned per pixel).
-constexpr int kBlockerSamples = 16, kFilterSamples = 32;
+constexpr int kBlockerSamples = 8, kFilterSamples = 16;
 /// Largest search/filter radius, in shadow-map texels: wider penumbrae are sampled this wide.
 constexpr int kMaxKernelTexels = 48;
 

@@ -85,7 +85,7 @@ inline constexpr int kMaxCascades = 4;
 /// How direct lights' shadows are made (docs/render.md).
 struct ShadowSettings {
   bool enabled = true;   // false: every visible share is 1 (no shadow maps drawn)
-  int mapSize = 2048;    // texels a side of each shadow map, 16..8192
+  int mapSize = 1024;    // texels a side of each shadow map, 16..8192
   int maxCascades = 4;   // 1..kMaxCascades; cascades are used only where one map is too coarse
 };
 
