@@ -5,7 +5,7 @@
 //
 //   prt_bench_render [--width 1920] [--height 1080] [--frames 12] [--gl osmesa|egl]
 //                    [--baked FILE.glb --probes FILE.vdb] [--samples 128] [--probe-dims 16]
-//                    [--frames-only 0|1] [--json out.json]
+//                    [--frames-only 0|1] [--sun-only 0|1] [--json out.json]
 //
 // Without --baked/--probes the bundled Cornell room (scenes/cornell_open.gltf) is baked in the
 // process (surface transfer with --samples directions and 1 bounce, a --probe-dims³ probe
@@ -16,6 +16,9 @@
 // compared frame by frame, wall and process CPU time
 // (CLOCK_PROCESS_CPUTIME_ID: llvmpipe's and TBB's threads included), so that the load of a
 // shared machine falls on all kinds alike. --frames-only 1 skips the light-update part.
+// The `sun` part (sunShadows) times the same frame with a sun lit per pixel with its shadow maps
+// against the frame with the sun through SH (docs/render.md, "Direct lights and their shadows");
+// --sun-only 1 stops after it.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
