@@ -5,7 +5,7 @@
 //
 //   prt_bench_render [--width 1920] [--height 1080] [--frames 12] [--gl osmesa|egl]
 //                    [--baked FILE.glb --probes FILE.vdb] [--samples 128] [--probe-dims 16]
-//                    [--frames-only 0|1] [--json out.json]
+//                    [--frames-only 0|1] [--sun-only 0|1] [--json out.json]
 //
 // Without --baked/--probes the bundled Cornell room (scenes/cornell_open.gltf) is baked in the
 // process (surface transfer with --samples directions and 1 bounce, a --probe-dims³ probe
@@ -16,6 +16,9 @@
 // compared frame by frame, wall and process CPU time
 // (CLOCK_PROCESS_CPUTIME_ID: llvmpipe's and TBB's threads included), so that the load of a
 // shared machine falls on all kinds alike. --frames-only 1 skips the light-update part.
+// The `sun` part (sunShadows) times the same frame with a sun lit per pixel with its shadow maps
+// against the frame with the sun through SH (docs/render.md, "Direct lights and their shadows");
+// --sun-only 1 stops after it.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -185,6 +188,70 @@ ProbeGrid randomGrid(int n, int bands) {
   return g;
 }
 
+// A frame with sun shadows against the same frame without them, interleaved, same run: the sky
+// and the receiver as in the main frames, plus a sun (0.265°, elevation 40°, its azimuth turning
+// 10° a frame so that every frame draws new shadow maps) lit as `prt render` lights it:
+// - sun_shadows: the sun per pixel with its PCSS-filtered shadow maps (Frame::direct);
+// - sun_unshadowed: per pixel, every visible share 1 (no shadow map drawn);
+// - sun_through_sh: --no-direct-lights, the sun's SH through the whole transfer, no direct
+//   term: the frame before direct lights existed, the one "without sun shadows";
+// - flat: the raster floor.
+nlohmann::json sunShadows(render::Renderer& renderer, const Scene& scene, const render::CameraView& view,
+                          int frames) {
+  const int bands = renderer.bands();
+  const double duration = animationDuration(scene);
+  Timing shadowed, unshadowed, throughSh, flat;
+  std::vector<double> shadowMs;
+  render::FrameStats last;
+  for (int i = -2; i < frames; ++i) {
+    DirectLight sun;
+    sun.direction = azimuthElevationDirection(30.0 + 10.0 * std::max(i, 0), 40.0);
+    sun.radius = glm::radians(0.265);
+    sun.irradiance = glm::dvec3(6.0, 5.6, 5.0);
+    render::Frame f;
+    f.camera = view;
+    f.time = i < 0 ? 0.0 : duration * i / frames;
+    f.light = sky(360.0 * std::max(i, 0) / frames);
+    f.directLight = sun.project(bands);
+    f.direct = {sun};
+    render::Frame noShadow = f, viaSh = f, flatFrame = f;
+    noShadow.shadows.enabled = false;
+    viaSh.light += viaSh.directLight;
+    viaSh.directLight = sh::ShRgb();
+    viaSh.direct.clear();
+    flatFrame.shading = render::Shading::Flat;
+    for (int k = 0; k < 4; ++k) {
+      switch ((k + std::max(i, 0)) % 4) {
+        case 0:
+          timedRender(renderer, f, i >= 0 ? &shadowed : nullptr);
+          if (i >= 0) shadowMs.push_back(renderer.lastFrame().shadowMs);
+          last = renderer.lastFrame();
+          break;
+        case 1: timedRender(renderer, noShadow, i >= 0 ? &unshadowed : nullptr); break;
+        case 2: timedRender(renderer, viaSh, i >= 0 ? &throughSh : nullptr); break;
+        default: timedRender(renderer, flatFrame, i >= 0 ? &flat : nullptr); break;
+      }
+    }
+  }
+  return {{"sun_radius_deg", 0.265},
+          {"shadow_map_size", last.shadowMapSize},
+          {"cascades", last.cascades},
+          {"direct_lights_baked", last.directBaked},
+          {"direct_lights_receivers", last.directReceivers},
+          {"shadow_pass_ms", median(shadowMs)},
+          {"sun_shadows", shadowed.json()},
+          {"sun_unshadowed", unshadowed.json()},
+          {"sun_through_sh", throughSh.json()},
+          {"flat", flat.json()},
+          {"ratio_shadows_to_without", medianRatio(shadowed.total, throughSh.total)},
+          {"cpu_ratio_shadows_to_without", medianRatio(shadowed.cpu, throughSh.cpu)},
+          {"ratio_shadows_to_unshadowed", medianRatio(shadowed.total, unshadowed.total)},
+          {"cpu_ratio_shadows_to_unshadowed", medianRatio(shadowed.cpu, unshadowed.cpu)},
+          {"ratio_shadows_to_flat", medianRatio(shadowed.total, flat.total)},
+          {"ratio_without_to_flat", medianRatio(throughSh.total, flat.total)},
+          {"target_ratio", 1.5}};
+}
+
 // The receivers' cost per pixel, apart from the frame: an orbit camera close to the receivers
 // (their bounds at rest) so that they fill much of the frame; CPU time of full frames with the
 // per-pixel and the per-vertex lookup, frames of the baked instances alone and flat frames, the
@@ -313,7 +380,7 @@ nlohmann::json lightUpdates(render::GlContext& context, const Scene& scene, cons
 int main(int argc, char** argv) {
   std::string bakedPath, probesPath, jsonPath, gl = "osmesa";
   int width = 1920, height = 1080, frames = 12, samples = 128, probeDims = 16;
-  int framesOnly = 0;
+  int framesOnly = 0, sunOnly = 0;
   CLI::App app{"Render benchmark: ms per frame of full relighting next to the flat raster floor, light-update costs",
                "prt_bench_render"};
   app.add_option("--width", width, "Frame width")->check(CLI::Range(1, 16384))->capture_default_str();
@@ -333,6 +400,9 @@ int main(int argc, char** argv) {
   app.add_option("--frames-only", framesOnly, "1: skip the light-update part")
       ->check(CLI::IsMember({0, 1}))
       ->capture_default_str();
+  app.add_option("--sun-only", sunOnly, "1: only the main frames and the sun-shadow frames")
+      ->check(CLI::IsMember({0, 1}))
+      ->capture_default_str();
   app.add_option("--json", jsonPath, "Also write the results to this file");
   if (std::optional<int> status = bench::parseBenchOptions(app, "prt_bench_render", argc, argv)) return *status;
   try {
@@ -345,12 +415,9 @@ int main(int argc, char** argv) {
       bs.samples = samples;
       bs.bounces = 1;
       bs.keepLowerOrder = true;
-      const bake::SurfaceTransfer t = bake::bakeSurface(scene, bs);
-      for (size_t k = 0; k < scene.meshes.size(); ++k) {
-        if (scene.meshes[k].receiverOnly) continue;
-        scene.meshes[k].transfer = t.perMesh[k];
-      }
+      bake::SurfaceTransfer t = bake::bakeSurface(scene, bs);
       scene.transferBands = t.bands;
+      bake::storeTransfer(scene, t.perMesh, t.perMeshDirect);  // with the direct part (sun frames)
       bake::ProbeSettings ps;
       ps.dims = glm::ivec3(probeDims);
       ps.samples = 256;
@@ -420,6 +487,13 @@ int main(int argc, char** argv) {
                   {"per_vertex_ratio", medianRatio(vertexTiming.total, flatTiming.total)},
                   {"per_vertex_cpu_ratio", medianRatio(vertexTiming.cpu, flatTiming.cpu)},
                   {"target_ratio", 1.5}};
+    j["sun"] = sunShadows(renderer, scene, view, frames);
+    if (sunOnly) {
+      const std::string text = j.dump(2);
+      std::printf("%s\n", text.c_str());
+      if (!jsonPath.empty()) std::ofstream(jsonPath) << text << "\n";
+      return 0;
+    }
     j["receiver_closeup"] = receiverCloseup(renderer, bakedOnly, scene, width, height, frames);
     if (!framesOnly) j.update(lightUpdates(context, scene, view));
     const std::string text = j.dump(2);

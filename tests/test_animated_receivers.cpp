@@ -314,11 +314,17 @@ TEST(RenderAnimatedReceivers, BakeAndRenderCommandsMoveTheCube) {
   for (int frame : {1, 2}) {
     SCOPED_TRACE(cat("frame ", frame));
     const double time = frame / 2.0;
-    const sh::ShRgb light = lights.evaluate(frame, grid.bands);
-    const std::vector<glm::vec3> relit = relightProbes(grid, light);
+    // The 3° sun is a direct light (docs/render.md, "Direct lights and their shadows"): its SH
+    // only through the probes' bounced part, its own light per pixel, unshadowed on the top face
+    // (nothing above it).
+    const RigLighting lighting = lights.evaluateLighting(frame, grid.bands);
+    ASSERT_EQ(lighting.direct.size(), 1u);
+    ASSERT_TRUE(grid.hasDirect());
+    const std::vector<glm::vec3> relit = relightProbes(grid, lighting.sh, lighting.directSh);
+    const glm::dvec3 direct = lighting.direct[0].irradiance * directCosineFactor(lighting.direct[0], glm::dvec3(0, 1, 0));
     frames.push_back(loadHdrImage((dir / cat("f_", frame, ".exr")).string()));
     const TopFace got = compareTopFace(frames.back(), cam, time, [&](const glm::vec3& x) {
-      return probeOracle(grid, relit, light, x, glm::vec3(0, 1, 0));
+      return probeOracle(grid, relit, lighting.sh, x, glm::vec3(0, 1, 0)) + glm::dvec3(kCubeAlbedo) * kInvPi * direct;
     });
     std::printf("  frame %d (t = %.1f s): %d top-face pixels, max error %.3g of the peak\n", frame, time, got.pixels,
                 got.maxError);

@@ -771,5 +771,37 @@ TEST(CliRealScene, DutchShipGoesThroughEveryCommand) {
   EXPECT_NE(r.out.find("region        near"), std::string::npos) << r.out;
 }
 
+// A sun is a direct light: prt render lights it per pixel with its shadow map and says so. On the
+// open plane baked without bounces (t = t⁰) every covered pixel is ρ/π · E · sin(elevation)
+// exactly (docs/render.md, "Direct lights and their shadows"); --no-direct-lights puts it back
+// into SH and says that instead.
+TEST(CliRender, SunIsLitPerPixelAndNamedInTheSummary) {
+  const TempDir tmp("sun");
+  const fs::path& d = tmp.path();
+  const std::string glb = bake(planeWithCamera(d), d, "plane_camera");
+  const fs::path out = d / "out";
+  const Args common = {"render", glb, "--sun-elevation", "40", "--sun-irradiance", "2", "--size", "64x48"};
+  const RunResult r = prt(plus(common, {"-o", (out / "sun.exr").string()}));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("direct lights (frame 0; per pixel, exactly, with PCSS shadow maps of 1024x1024"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("elevation 40.0°, azimuth 0.0°, radius 0.265°, irradiance (2, 2, 2)"), std::string::npos) << r.err;
+  const ImageRgb img = loadHdrImage((out / "sun.exr").string());
+  const double want = 0.8 / 3.14159265358979 * 2.0 * std::sin(40.0 * 3.14159265358979 / 180.0);
+  int covered = 0;
+  double worst = 0.0;
+  for (const glm::vec3& p : img.pixels)
+    if (p != glm::vec3(0.0f)) {
+      ++covered;
+      worst = std::max(worst, std::abs(double(p.g) - want) / want);
+    }
+  EXPECT_GT(covered, 300);
+  EXPECT_LT(worst, 1e-4);  // float shading of a closed form
+
+  const RunResult sh = prt(plus(common, {"--no-direct-lights", "-o", (out / "sh.exr").string()}));
+  ASSERT_EQ(sh.status, 0) << sh.err;
+  EXPECT_NE(sh.err.find("direct lights: none apart (--no-direct-lights"), std::string::npos) << sh.err;
+}
+
 }  // namespace
 }  // namespace prt

@@ -377,6 +377,11 @@ void addRender(CLI::App& r, RenderArgs& a) {
           },
           "power of two"))
       ->capture_default_str();
+  r.add_option("--shadow-map-size", a.shadowMapSize,
+               "Texels a side of each direct light's shadow map (per cascade); suns and disks up to 20 deg are lit "
+               "per pixel with PCSS-filtered shadow maps (docs/render.md)")
+      ->check(CLI::Range(16, 8192))
+      ->capture_default_str();
   r.add_option("--contact-sheet", a.contactSheet, "Also write a PNG grid of all frames, downscaled");
   r.add_option("--sheet-columns", a.sheetColumns, "Contact sheet columns (0 = about square)")
       ->check(CLI::Range(0, std::numeric_limits<int>::max()).description(">= 0"))
@@ -425,6 +430,16 @@ int runRender(const RenderArgs& a) {
     checkFolderFor(cat("--contact-sheet ", a.contactSheet), a.contactSheet);
   }
   const double fps = a.fps ? *a.fps : rig->fps.value_or(kDefaultFps);
+  // Direct lights (suns, small disks) are lit per pixel with shadow maps: at most
+  // kMaxDirectLights per frame. The set of lights is the same in every frame (their types and
+  // radii decide), so the first frame tells.
+  auto lightingAt = [&](double frame, int bands) {
+    if (!a.light.noDirect) return rig->evaluateLighting(frame, bands);
+    RigLighting l;
+    l.sh = rig->evaluate(frame, bands);
+    l.directSh = sh::ShRgb(bands);
+    return l;
+  };
 
   Scene scene = loadScene(a.baked);
   if (scene.transferBands == 0) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
@@ -443,8 +458,14 @@ int runRender(const RenderArgs& a) {
   render::Renderer renderer(context, scene);
   if (!a.probes.empty()) renderer.setProbes(probes);
   for (const std::string& w : renderer.warnings()) warnings.push_back(w);
+  const RigLighting firstLighting = lightingAt(double(frames.first), bands);
+  if (firstLighting.direct.size() > size_t(render::kMaxDirectLights))
+    throw Error(cat(a.light.rig.empty() ? std::string("the lights") : a.light.rig, ": ", firstLighting.direct.size(),
+                    " direct lights (suns and disks up to ", kMaxDirectRadiusDegrees, " deg), at most ",
+                    render::kMaxDirectLights, " are lit per pixel; use --no-direct-lights to light them through SH"));
   if (!a.quiet)
     for (const std::string& w : warnings) std::fprintf(stderr, "prt: warning: %s\n", w.c_str());
+  size_t warningsShown = renderer.warnings().size();
   const int64_t n = frames.count();
   // Every check that can be made before rendering has passed: the output folders are made now,
   // so that a run refused earlier leaves nothing behind.
@@ -464,11 +485,14 @@ int runRender(const RenderArgs& a) {
   FrameWriter writer(2);
   for (int64_t f = frames.first; f <= frames.last; ++f) {
     auto t0 = std::chrono::steady_clock::now();
-    sh::ShRgb light = rig->evaluate(double(f), bands);
+    RigLighting lighting = lightingAt(double(f), bands);
     const double rigMs = msSince(t0);
     render::Frame frame;
     frame.camera = camera.view;
-    frame.light = light;
+    frame.light = std::move(lighting.sh);
+    frame.directLight = std::move(lighting.directSh);
+    frame.direct = std::move(lighting.direct);
+    frame.shadows.mapSize = a.shadowMapSize;
     frame.time = double(f) / fps;
     frame.probeLookup = a.probeLookup;
     frame.samples = a.msaa;
@@ -480,6 +504,11 @@ int runRender(const RenderArgs& a) {
     frame.width = width;
     frame.height = height;
     auto image = std::make_shared<const ImageRgb>(renderer.render(frame));
+    // Warnings the renderer finds while rendering (direct lights an older bake cannot split),
+    // each printed once.
+    const std::vector<std::string> now = renderer.warnings();
+    for (; warningsShown < now.size(); ++warningsShown)
+      if (!a.quiet) std::fprintf(stderr, "prt: warning: %s\n", now[warningsShown].c_str());
     // The light update: the rig's SH plus, with probes, relighting and uploading the grid.
     const double frameLightMs = rigMs + renderer.lastFrame().lightMs;
     const render::FrameStats stats = renderer.lastFrame();
@@ -520,6 +549,21 @@ int runRender(const RenderArgs& a) {
                camera.description.c_str(), drawMs * perFrame, readbackMs * perFrame, lightMs * perFrame,
                rig->lights.size(), bands, sh::windowName(rig->window), prepareMs, writeMs * perFrame,
                skyBackground ? "sky" : "black", renderer.lastFrame().samples, renderer.lastFrame().samples == 1 ? "" : "s");
+  const render::FrameStats& last = renderer.lastFrame();
+  if (!firstLighting.direct.empty()) {
+    const std::string how =
+        last.directBaked || last.directReceivers
+            ? cat("per pixel, exactly, with PCSS shadow maps of ", last.shadowMapSize, "x", last.shadowMapSize, ", ",
+                  last.cascades, " cascade", last.cascades == 1 ? "" : "s", " per light, ",
+                  last.directBaked ? "on baked surfaces" : "", last.directBaked && last.directReceivers ? " and " : "",
+                  last.directReceivers ? "on receivers" : "", "; their bounces through the transfer")
+            : std::string("through SH (no direct part in the bake)");
+    std::fprintf(stderr, "  direct lights (frame %lld; %s):\n", static_cast<long long>(frames.first), how.c_str());
+    for (const std::string& line : describeDirectLights(firstLighting.direct))
+      std::fprintf(stderr, "    %s\n", line.c_str());
+  } else if (a.light.noDirect) {
+    std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
+  }
   if (video)
     std::fprintf(stderr, "  video %s: %lld frames at %g fps, %.2f ms/frame encoding (%s)\n", a.mp4.c_str(),
                  static_cast<long long>(n), fps, encodeMs * perFrame, video->ffmpeg().c_str());

@@ -38,6 +38,7 @@ struct RenderArgs {
   render::ProbeLookup probeLookup = render::ProbeLookup::PerPixel;  // where receivers interpolate the grid
   Background background = Background::Black;
   int msaa = 1;  // samples per pixel
+  int shadowMapSize = 1024;  // texels a side of each direct light's shadow map (and cascade)
   std::string mp4, contactSheet;
   int sheetColumns = 0, sheetTile = 192;
   double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitFov = 45.0, orbitDistance = 0.0;  // distance 0: fit

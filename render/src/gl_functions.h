@@ -51,6 +51,8 @@ namespace prt::render {
   X(PFNGLCREATETEXTURESPROC, CreateTextures)                                        \
   X(PFNGLDELETETEXTURESPROC, DeleteTextures)                                        \
   X(PFNGLTEXTURESTORAGE2DPROC, TextureStorage2D)                                    \
+  X(PFNGLTEXTURESTORAGE3DPROC, TextureStorage3D)                                    \
+  X(PFNGLNAMEDFRAMEBUFFERTEXTURELAYERPROC, NamedFramebufferTextureLayer)            \
   X(PFNGLTEXTURESUBIMAGE2DPROC, TextureSubImage2D)                                  \
   X(PFNGLTEXTUREPARAMETERIPROC, TextureParameteri)                                  \
   X(PFNGLTEXTUREBUFFERPROC, TextureBuffer)                                          \

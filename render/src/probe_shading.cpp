@@ -13,6 +13,8 @@
 #include "probe_shading.h"
 
 #include <algorithm>
+
+#include "direct_shading.h"
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -204,6 +206,7 @@ std::string withMaterialDefines(const std::string& source, int variant) {
   if (variant & kVariantMask) defines += "#define HAS_MASK 1\n";
   if (variant & kVariantBlend) defines += "#define HAS_BLEND 1\n";
   if (variant & kVariantTwoSided) defines += "#define TWO_SIDED 1\n";
+  if (variant & kVariantDirect) defines += "#define DIRECT 1\n";
   return source.substr(0, eol) + defines + source.substr(eol);
 }
 
@@ -301,11 +304,14 @@ std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
   else
     s += probeLookupGlsl(bands);
   s += irradianceGlsl(bands);
+  // DIRECT: the direct lights' own light per pixel, with their shadows (direct_shading.cpp).
+  s += "#ifdef DIRECT\n" + directLightingGlsl() + "#endif\n";
   s += "out vec4 fragColor;\nvoid main() {\n  float a = coverage();\n  vec3 n = normalize(vNormal);\n";
   if (perVertex)
     s += "  vec3 e = irradiance(vRadiance, n);\n";
   else
     s += "  vec4 T[kTexels];\n  incidentRadiance(vWorld, n, T);\n  vec3 e = irradiance(T, n);\n";
+  s += "#ifdef DIRECT\n  e += directIrradiance(vWorld, n);\n#endif\n";
   return s + "  fragColor = vec4(albedo() * e * 0.31830988618379067, a);\n}\n";
 }
 

@@ -90,11 +90,12 @@ inline constexpr const char* kAlbedoPassGlsl = R"(#ifdef HAS_TEXTURE
 /// kVariantColor (COLOR_0 present), bit kVariantMask (alphaMode MASK: cutouts discarded), bit
 /// kVariantBlend (alphaMode BLEND: the alpha is the fragment's opacity), bit kVariantTwoSided (a
 /// baked double-sided instance with back-side transfer: each fragment is shaded with the side
-/// it is seen from).
+/// it is seen from), bit kVariantDirect (direct lights lit per pixel with shadow maps:
+/// direct_shading.h).
 constexpr int kVariantTexture = 1, kVariantColor = 2, kVariantMask = 4, kVariantBlend = 8, kVariantTwoSided = 16,
-              kVariants = 32;
+              kVariantDirect = 32, kVariants = 64;
 /// `source` (starting with its #version line) with HAS_TEXTURE / HAS_COLOR / HAS_MASK /
-/// HAS_BLEND / TWO_SIDED defined after that line as `variant` says.
+/// HAS_BLEND / TWO_SIDED / DIRECT defined after that line as `variant` says.
 std::string withMaterialDefines(const std::string& source, int variant);
 
 /// Texels per probe in the static buffer (probeStaticTexels).

@@ -9,6 +9,7 @@
 #include <map>
 #include <string>
 
+#include "direct_shading.h"
 #include "gl_functions.h"
 #include "probe_shading.h"
 #include "prt/animation.h"
@@ -35,7 +36,12 @@ namespace {
 // back side's e from a second SSBO (binding 1, same layout, indexed by gl_VertexID) with the
 // same light, whatever the path of the front; the fragment shader picks the side it is seen
 // from by gl_FrontFacing (the loader winds every instance counter-clockwise in world space).
+// The DIRECT variant (direct lights apart, docs/render.md) subtracts t⁰ · directSh, t⁰ the
+// colourless direct part read from an SSBO (binding 2, back side binding 3; n² floats per vertex,
+// gl_VertexID), and passes the world position and normal (attribute 15) to the fragment shader,
+// which adds the direct lights per pixel.
 constexpr int kMaxAttributeBands = 4;
+constexpr GLuint kNormalAttribute = 15;
 constexpr GLuint kFirstTransferAttribute = 3;
 
 int attributeChunks(int bands) { return (3 * bands * bands + 3) / 4; }
@@ -54,6 +60,17 @@ layout(std430, binding = 1) readonly buffer TransferBack { float transferBack[];
 )";
   s += kAlbedoOutputsGlsl;
   s += cat("const int kCoeffsAll = ", bands * bands, ";\n");
+  s += cat(R"(#ifdef DIRECT
+layout(location = )", kNormalAttribute, R"() in vec3 aNormal;
+layout(std430, binding = 2) readonly buffer TransferDirect { float transferDirect[]; };
+#ifdef TWO_SIDED
+layout(std430, binding = 3) readonly buffer TransferDirectBack { float transferDirectBack[]; };
+#endif
+uniform vec3 uDirectSh[kCoeffsAll];  // the direct lights' SH, through the bounced part only
+out vec3 vWorld;
+out vec3 vNormal;
+#endif
+)");
   if (bands <= kMaxAttributeBands) {
     const int chunks = attributeChunks(bands);
     for (int k = 0; k < chunks; ++k)
@@ -94,6 +111,20 @@ void main() {
 #endif
 )";
   }
+  s += R"(#ifdef DIRECT
+  uint baseDirect = uint(gl_VertexID) * uint(kCoeffsAll);
+  vec3 d0 = vec3(0.0);
+  for (int i = 0; i < kCoeffsAll; ++i) d0 += transferDirect[baseDirect + uint(i)] * uDirectSh[i];
+  vTransferLight -= d0;
+#ifdef TWO_SIDED
+  vec3 d0b = vec3(0.0);
+  for (int i = 0; i < kCoeffsAll; ++i) d0b += transferDirectBack[baseDirect + uint(i)] * uDirectSh[i];
+  vTransferLightBack -= d0b;
+#endif
+  vWorld = aPosition;
+  vNormal = aNormal;
+#endif
+)";
   s += kAlbedoPassGlsl;
   s += R"(  gl_Position = uViewProj * vec4(aPosition, 1.0);
 }
@@ -110,6 +141,10 @@ centroid in vec3 vTransferLight;
 #ifdef TWO_SIDED
 centroid in vec3 vTransferLightBack;
 #endif
+#ifdef DIRECT
+centroid in vec3 vWorld;
+centroid in vec3 vNormal;
+)", directLightingGlsl(), R"(#endif
 )", kAlbedoInputsGlsl, R"(out vec4 fragColor;
 void main() {
   float a = coverage();
@@ -117,6 +152,13 @@ void main() {
   vec3 e = gl_FrontFacing ? vTransferLight : vTransferLightBack;
 #else
   vec3 e = vTransferLight;
+#endif
+#ifdef DIRECT
+  vec3 n = normalize(vNormal);
+#ifdef TWO_SIDED
+  n = gl_FrontFacing ? n : -n;
+#endif
+  e += directIrradiance(vWorld, n);
 #endif
   fragColor = vec4(albedo() * e * 0.31830988618379067, a);
 }
@@ -133,6 +175,10 @@ void main() { gl_Position = uViewProj * (uModel * vec4(aPosition, 1.0)); }
 constexpr const char* kFlatFragmentShader = R"(#version 450 core
 out vec4 fragColor;
 void main() { fragColor = vec4(0.5, 0.5, 0.5, 1.0); }
+)";
+// Shadow maps: depth only.
+constexpr const char* kDepthFragmentShader = R"(#version 450 core
+void main() {}
 )";
 
 double msSince(std::chrono::steady_clock::time_point t0) {
@@ -258,6 +304,8 @@ struct Renderer::Impl {
     GLuint vao = 0;
     GLuint buffers[6] = {};  // positions, texcoords, colours, indices, transfer, normals
     GLuint backTransfer = 0;  // MeshInstance::transferBack (kVariantTwoSided), 0 if none
+    GLuint directTransfer[2] = {};  // MeshInstance::transferDirect, transferDirectBack; 0 if none
+    glm::dvec3 restLo{0.0}, restHi{0.0};  // receivers: bounds of the rest-pose vertices
     GLsizei indexCount = 0;
     size_t triangles = 0;
     glm::vec4 baseColor{1.0f};
@@ -273,6 +321,10 @@ struct Renderer::Impl {
     GLuint id = 0;
     GLint viewProj = -1, model = -1, normalMatrix = -1, light = -1, baseColor = -1, origin = -1, spacing = -1,
           dims = -1, nearZero = -1, alphaCutoff = -1, opacity = -1;
+    // DIRECT variants (direct_shading.h)
+    GLint directSh = -1, directCount = -1, directDir = -1, directIrradiance = -1, shadowed = -1, cascades = -1,
+          cascadeFar = -1, viewOrigin = -1, viewForward = -1, shadowSize = -1, shadowMatrix = -1,
+          shadowParams = -1;
   };
 
   GlContext& context;
@@ -286,7 +338,12 @@ struct Renderer::Impl {
   // Per material variant (id 0: no instance needs it).
   std::array<Program, kVariants> programs;
   std::array<std::array<Program, kVariants>, 2> receiverPrograms;  // [ProbeLookup][variant]
-  Program flatProgram;
+  Program flatProgram, depthProgram;
+  bool bakedDirect = false;  // every baked instance holds the direct part of its transfer
+  // Shadow maps: a depth texture array (lights × cascades layers) and the framebuffer drawing it.
+  GLuint shadowTexture = 0, shadowFbo = 0;
+  int shadowSize = 0, shadowLayers = 0;
+  bool warnedBakedDirect = false, warnedProbeDirect = false;
   // Probe grid: lattice index, static per-probe data, per-frame radiance (buffer + texture each).
   const ProbeGrid* grid = nullptr;
   GLuint probeBuffers[3] = {}, probeTextures[3] = {};
@@ -319,6 +376,16 @@ struct Renderer::Impl {
   void setMaterial(const Scene& scene, const MeshInstance& m, Instance& in);
   void upload(const Scene& scene);
   void uploadProbes(const ProbeGrid& grid);
+  // The program of a material variant, linked on first use (DIRECT variants are only needed
+  // once a frame has direct lights).
+  const Program& bakedProgram(int variant);
+  const Program& receiverProgram(ProbeLookup lookup, int variant);
+  void ensureShadowMaps(int size, int layers);
+  // The shadow maps of the frame's direct lights (when Frame::shadows.enabled) and the direct
+  // uniforms of the DIRECT programs the frame uses.
+  void drawShadows(const Frame& frame, double aspect, int height, bool drawReceivers, int bakedExtra,
+                   int receiverExtra);
+  void releaseShadowMaps();
   void releaseProbes();
   void ensureFramebuffer(int width, int height, int samples);
   void releaseFramebuffer();
@@ -386,6 +453,18 @@ Renderer::Impl::Program Renderer::Impl::link(const std::string& vsSource, const 
   p.nearZero = loc("uNearZero");
   p.alphaCutoff = loc("uAlphaCutoff");
   p.opacity = loc("uOpacity");
+  p.directSh = loc("uDirectSh");
+  p.directCount = loc("uDirectCount");
+  p.directDir = loc("uDirectDir");
+  p.directIrradiance = loc("uDirectIrradiance");
+  p.shadowed = loc("uShadowed");
+  p.cascades = loc("uCascades");
+  p.cascadeFar = loc("uCascadeFar");
+  p.viewOrigin = loc("uViewOrigin");
+  p.viewForward = loc("uViewForward");
+  p.shadowSize = loc("uShadowSize");
+  p.shadowMatrix = loc("uShadowMatrix");
+  p.shadowParams = loc("uShadowParams");
   return p;
 }
 
@@ -466,6 +545,12 @@ void Renderer::Impl::upload(const Scene& scene) {
       in.placement.name = m.name;
       in.placement.node = m.node;
       in.placement.world = m.world;
+      in.restLo = glm::dvec3(1e300);
+      in.restHi = glm::dvec3(-1e300);
+      for (const glm::vec3& p : m.positions) {
+        in.restLo = glm::min(in.restLo, glm::dvec3(p));
+        in.restHi = glm::max(in.restHi, glm::dvec3(p));
+      }
       gl.CreateBuffers(6, in.buffers);
       store(in.buffers[0], m.positions);
       store(in.buffers[1], m.texcoords);
@@ -501,29 +586,41 @@ void Renderer::Impl::upload(const Scene& scene) {
       throw Error(cat(scene.path, ": instance '", m.name, "': transfer of ", transferBytes >> 20,
                       " MiB exceeds the GL's shader storage block limit of ", maxSsbo >> 20, " MiB"));
 
+    // The direct part (t⁰) on every side drawn, else the direct lights go through SH.
+    const bool direct = m.transferDirect.size() == m.vertexCount() * n2 &&
+                        (!twoSided || m.transferDirectBack.size() == m.vertexCount() * n2) &&
+                        m.normals.size() == m.vertexCount();
+    if (m.hasDirectTransfer() && !direct)
+      throw Error(cat(scene.path, ": instance '", m.name, "': direct transfer holds ", m.transferDirect.size(),
+                      " values (back ", m.transferDirectBack.size(), "), expected ", m.vertexCount() * n2));
+    bakedDirect = (instances.empty() || bakedDirect) && direct;
+
     Instance in;
     setMaterial(scene, m, in);
     if (twoSided) in.variant |= kVariantTwoSided;
-    Program& program = programs[size_t(in.variant)];
-    if (!program.id)
-      program = link(withMaterialDefines(vertexShader(bands), in.variant),
-                     withMaterialDefines(bakedFragmentShader(), in.variant), "baked");
+    bakedProgram(in.variant);
     gl.CreateBuffers(6, in.buffers);
     store(in.buffers[0], m.positions);
     store(in.buffers[1], m.texcoords);
     store(in.buffers[2], m.colors);
     store(in.buffers[3], m.indices);
     store(in.buffers[4], m.transfer);
-    store(in.buffers[5], std::vector<float>());
+    store(in.buffers[5], direct ? m.normals : std::vector<glm::vec3>());
     if (twoSided) {
       gl.CreateBuffers(1, &in.backTransfer);
       store(in.backTransfer, m.transferBack);
+    }
+    if (direct) {
+      gl.CreateBuffers(twoSided ? 2 : 1, in.directTransfer);
+      store(in.directTransfer[0], m.transferDirect);
+      if (twoSided) store(in.directTransfer[1], m.transferDirectBack);
     }
 
     gl.CreateVertexArrays(1, &in.vao);
     attribute(in.vao, 0, in.buffers[0], 3, true);
     attribute(in.vao, 1, in.buffers[1], 2, !m.texcoords.empty());
     attribute(in.vao, 2, in.buffers[2], 4, in.hasColor);
+    attribute(in.vao, kNormalAttribute, in.buffers[5], 3, direct);
     if (bands <= kMaxAttributeBands) {
       const GLsizei stride = GLsizei(n2 * sizeof(glm::vec3));
       gl.VertexArrayVertexBuffer(in.vao, kFirstTransferAttribute, in.buffers[4], 0, stride);
@@ -543,6 +640,61 @@ void Renderer::Impl::upload(const Scene& scene) {
   }
   if (instances.empty() && receivers.empty())
     throw Error(cat(scene.path, ": no baked instance or receiver to render"));
+}
+
+const Renderer::Impl::Program& Renderer::Impl::bakedProgram(int variant) {
+  Program& p = programs[size_t(variant)];
+  if (!p.id)
+    p = link(withMaterialDefines(vertexShader(bands), variant), withMaterialDefines(bakedFragmentShader(), variant),
+             "baked");
+  return p;
+}
+
+const Renderer::Impl::Program& Renderer::Impl::receiverProgram(ProbeLookup lookup, int variant) {
+  Program& p = receiverPrograms[size_t(lookup)][size_t(variant)];
+  if (!p.id) {
+    p = link(withMaterialDefines(receiverVertexShader(grid->bands, lookup), variant),
+             withMaterialDefines(receiverFragmentShader(grid->bands, lookup), variant), "receiver");
+    const glm::vec3 origin(grid->origin), spacing(grid->spacing);
+    gl.ProgramUniform3fv(p.id, p.origin, 1, &origin.x);
+    gl.ProgramUniform3fv(p.id, p.spacing, 1, &spacing.x);
+    gl.ProgramUniform3iv(p.id, p.dims, 1, &grid->dims.x);
+    gl.ProgramUniform1f(p.id, p.nearZero, float(nearZero(*grid)));
+  }
+  return p;
+}
+
+void Renderer::Impl::releaseShadowMaps() {
+  if (shadowTexture) gl.DeleteTextures(1, &shadowTexture);
+  if (shadowFbo) gl.DeleteFramebuffers(1, &shadowFbo);
+  shadowTexture = shadowFbo = 0;
+  shadowSize = shadowLayers = 0;
+}
+
+void Renderer::Impl::ensureShadowMaps(int size, int layers) {
+  if (shadowTexture && size == shadowSize && layers <= shadowLayers) return;
+  GLint maxSize = 0, maxLayers = 0;
+  gl.GetIntegerv(GL_MAX_TEXTURE_SIZE, &maxSize);
+  gl.GetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &maxLayers);
+  if (size > maxSize || layers > maxLayers)
+    throw Error(cat("render: ", layers, " shadow maps of ", size, "x", size, " exceed the GL's limits (", maxSize,
+                    " texels a side, ", maxLayers, " layers)"));
+  releaseShadowMaps();
+  gl.CreateTextures(GL_TEXTURE_2D_ARRAY, 1, &shadowTexture);
+  gl.TextureStorage3D(shadowTexture, 1, GL_DEPTH_COMPONENT32F, size, size, layers);
+  gl.TextureParameteri(shadowTexture, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  gl.TextureParameteri(shadowTexture, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  gl.TextureParameteri(shadowTexture, GL_TEXTURE_COMPARE_MODE, GL_NONE);
+  gl.CreateFramebuffers(1, &shadowFbo);
+  gl.NamedFramebufferTextureLayer(shadowFbo, GL_DEPTH_ATTACHMENT, shadowTexture, 0, 0);
+  gl.NamedFramebufferDrawBuffer(shadowFbo, GL_NONE);
+  gl.NamedFramebufferReadBuffer(shadowFbo, GL_NONE);
+  const GLenum status = gl.CheckNamedFramebufferStatus(shadowFbo, GL_FRAMEBUFFER);
+  if (status != GL_FRAMEBUFFER_COMPLETE)
+    throw Error(cat("GL: shadow-map framebuffer incomplete (", glErrorName(status), ")"));
+  checkError("creating the shadow maps");
+  shadowSize = size;
+  shadowLayers = layers;
 }
 
 void Renderer::Impl::releaseProbes() {
@@ -577,13 +729,9 @@ void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
   for (size_t texels : {lattice.size(), statics.size(), radianceCount})
     if (texels > size_t(maxTexels))
       throw Error(cat("probe grid: ", texels, " texels exceed the GL's texture buffer limit of ", maxTexels));
-  for (ProbeLookup lookup : {ProbeLookup::PerPixel, ProbeLookup::PerVertex}) {
-    const std::string vs = receiverVertexShader(g.bands, lookup), fs = receiverFragmentShader(g.bands, lookup);
-    for (const Instance& in : receivers) {
-      Program& p = receiverPrograms[size_t(lookup)][size_t(in.variant)];
-      if (!p.id) p = link(withMaterialDefines(vs, in.variant), withMaterialDefines(fs, in.variant), "receiver");
-    }
-  }
+  grid = &g;
+  for (ProbeLookup lookup : {ProbeLookup::PerPixel, ProbeLookup::PerVertex})
+    for (const Instance& in : receivers) receiverProgram(lookup, in.variant);
   gl.CreateBuffers(3, probeBuffers);
   gl.NamedBufferStorage(probeBuffers[0], GLsizeiptr(lattice.size() * sizeof(int32_t)), lattice.data(), 0);
   gl.NamedBufferStorage(probeBuffers[1], GLsizeiptr(statics.size() * sizeof(glm::vec4)), statics.data(), 0);
@@ -593,17 +741,7 @@ void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
   gl.TextureBuffer(probeTextures[0], GL_R32I, probeBuffers[0]);
   gl.TextureBuffer(probeTextures[1], GL_RGBA32F, probeBuffers[1]);
   gl.TextureBuffer(probeTextures[2], GL_RGBA32F, probeBuffers[2]);
-  const glm::vec3 origin(g.origin), spacing(g.spacing);
-  for (const auto& lookup : receiverPrograms)
-    for (const Program& p : lookup) {
-      if (!p.id) continue;
-      gl.ProgramUniform3fv(p.id, p.origin, 1, &origin.x);
-      gl.ProgramUniform3fv(p.id, p.spacing, 1, &spacing.x);
-      gl.ProgramUniform3iv(p.id, p.dims, 1, &g.dims.x);
-      gl.ProgramUniform1f(p.id, p.nearZero, float(nearZero(g)));
-    }
   checkError("uploading the probe grid");
-  grid = &g;
 }
 
 void Renderer::Impl::releaseFramebuffer() {
@@ -805,12 +943,115 @@ void Renderer::Impl::drawBackground(const RigBackground& b, const CameraView& ca
   checkError("drawing the background");
 }
 
+// The shadow-map pass (docs/render.md, "Direct lights and their shadows"): every opaque baked
+// instance and every drawn receiver (at the frame's time) into one depth layer per light and
+// cascade, both faces (culling off: a double-sided sheet casts from either side), then the
+// direct uniforms of the DIRECT programs. BLEND and transmissive instances cast no shadow here.
+void Renderer::Impl::drawShadows(const Frame& frame, double aspect, int height, bool drawReceivers, int bakedExtra,
+                                 int receiverExtra) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const ShadowSettings& settings = frame.shadows;
+  ShadowPlan plan;
+  if (settings.enabled) {
+    // The casters: the scene's bounds and, where they moved, the receivers'.
+    glm::dvec3 lo(boundsMin), hi(boundsMax);
+    std::vector<glm::dmat4> motions;
+    for (const Instance& in : receivers) {
+      motions.push_back(instanceMotion(animation, in.placement, frame.time));
+      if (!drawReceivers || in.restLo.x > in.restHi.x) continue;
+      for (int i = 0; i < 8; ++i) {
+        const glm::dvec3 c(i & 1 ? in.restHi.x : in.restLo.x, i & 2 ? in.restHi.y : in.restLo.y,
+                           i & 4 ? in.restHi.z : in.restLo.z);
+        const glm::dvec3 w(motions.back() * glm::dvec4(c, 1.0));
+        lo = glm::min(lo, w);
+        hi = glm::max(hi, w);
+      }
+    }
+    plan = planShadows(frame.direct, frame.camera, aspect, height, lo, hi, settings.mapSize, settings.maxCascades);
+    const int layers = int(plan.layers.size());
+    ensureShadowMaps(settings.mapSize, layers);
+    gl.BindFramebuffer(GL_FRAMEBUFFER, shadowFbo);
+    gl.Viewport(0, 0, settings.mapSize, settings.mapSize);
+    gl.ClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
+    gl.Enable(GL_DEPTH_TEST);
+    gl.DepthFunc(GL_LESS);
+    gl.Disable(GL_CULL_FACE);
+    gl.UseProgram(depthProgram.id);
+    const float one = 1.0f;
+    for (int layer = 0; layer < layers; ++layer) {
+      gl.NamedFramebufferTextureLayer(shadowFbo, GL_DEPTH_ATTACHMENT, shadowTexture, 0, layer);
+      gl.ClearNamedFramebufferfv(shadowFbo, GL_DEPTH, 0, &one);
+      const glm::dmat4 viewProj = plan.layers[size_t(layer)].viewProj();
+      const glm::mat4 vp(viewProj), identity(1.0f);
+      gl.ProgramUniformMatrix4fv(depthProgram.id, depthProgram.viewProj, 1, GL_FALSE, &vp[0][0]);
+      gl.ProgramUniformMatrix4fv(depthProgram.id, depthProgram.model, 1, GL_FALSE, &identity[0][0]);
+      for (const Instance& in : instances) {
+        if (in.blend) continue;
+        gl.BindVertexArray(in.vao);
+        gl.DrawElements(GL_TRIANGLES, in.indexCount, GL_UNSIGNED_INT, nullptr);
+      }
+      if (drawReceivers)
+        for (size_t k = 0; k < receivers.size(); ++k) {
+          if (receivers[k].blend) continue;
+          const glm::mat4 model(motions[k]);
+          gl.ProgramUniformMatrix4fv(depthProgram.id, depthProgram.model, 1, GL_FALSE, &model[0][0]);
+          gl.BindVertexArray(receivers[k].vao);
+          gl.DrawElements(GL_TRIANGLES, receivers[k].indexCount, GL_UNSIGNED_INT, nullptr);
+        }
+    }
+    gl.BindVertexArray(0);
+    gl.Finish();
+    checkError("drawing the shadow maps");
+    stats.shadowMaps = layers;
+    stats.cascades = plan.cascades;
+    stats.shadowMapSize = settings.mapSize;
+  }
+
+  // The direct uniforms, per DIRECT program in use.
+  std::vector<glm::vec4> dirs, irradiance, params;
+  std::vector<glm::mat4> matrices;
+  for (const DirectLight& l : frame.direct) {
+    const double radius = l.radius < kPointSunRadians ? 0.0 : l.radius;
+    const double sin2 = std::sin(radius) * std::sin(radius);
+    dirs.emplace_back(glm::vec3(glm::normalize(l.direction)), float(sin2));
+    irradiance.emplace_back(glm::vec3(l.irradiance), radius > 0.0 ? float(1.0 / std::tan(radius)) : 0.0f);
+  }
+  for (const ShadowLayer& layer : plan.layers) {
+    matrices.emplace_back(layer.worldToMap);
+    params.emplace_back(float(layer.texel), float(layer.range), float(layer.tanRadius), 0.0f);
+  }
+  const glm::vec4 cascadeFar(plan.cascadeFar);
+  const glm::vec3 origin(plan.viewOrigin), forward(plan.viewForward);
+  auto set = [&](const Program& p) {
+    gl.ProgramUniform1i(p.id, p.directCount, GLint(dirs.size()));
+    gl.ProgramUniform4fv(p.id, p.directDir, GLsizei(dirs.size()), &dirs[0].x);
+    gl.ProgramUniform4fv(p.id, p.directIrradiance, GLsizei(irradiance.size()), &irradiance[0].x);
+    gl.ProgramUniform1i(p.id, p.shadowed, settings.enabled ? 1 : 0);
+    if (!settings.enabled) return;
+    gl.ProgramUniform1i(p.id, p.cascades, plan.cascades);
+    gl.ProgramUniform4fv(p.id, p.cascadeFar, 1, &cascadeFar.x);
+    gl.ProgramUniform3fv(p.id, p.viewOrigin, 1, &origin.x);
+    gl.ProgramUniform3fv(p.id, p.viewForward, 1, &forward.x);
+    gl.ProgramUniform1i(p.id, p.shadowSize, settings.mapSize);
+    gl.ProgramUniformMatrix4fv(p.id, p.shadowMatrix, GLsizei(matrices.size()), GL_FALSE, &matrices[0][0][0]);
+    gl.ProgramUniform4fv(p.id, p.shadowParams, GLsizei(params.size()), &params[0].x);
+  };
+  if (bakedExtra)
+    for (const Instance& in : instances) set(bakedProgram(in.variant | bakedExtra));
+  if (receiverExtra)
+    for (const Instance& in : receivers) set(receiverProgram(frame.probeLookup, in.variant | receiverExtra));
+  checkError("setting the direct lights");
+  stats.shadowMs = msSince(t0);
+}
+
 void Renderer::Impl::release() {
   for (std::vector<Instance>* list : {&instances, &receivers})
     for (Instance& in : *list) {
       gl.DeleteVertexArrays(1, &in.vao);
       gl.DeleteBuffers(6, in.buffers);
       if (in.backTransfer) gl.DeleteBuffers(1, &in.backTransfer);
+      for (GLuint b : in.directTransfer)
+        if (b) gl.DeleteBuffers(1, &b);
     }
   for (GLuint t : textures)
     if (t) gl.DeleteTextures(1, &t);
@@ -818,6 +1059,8 @@ void Renderer::Impl::release() {
   for (const Program& p : programs)
     if (p.id) gl.DeleteProgram(p.id);
   if (flatProgram.id) gl.DeleteProgram(flatProgram.id);
+  if (depthProgram.id) gl.DeleteProgram(depthProgram.id);
+  releaseShadowMaps();
   if (background.id) gl.DeleteProgram(background.id);
   if (emptyVao) gl.DeleteVertexArrays(1, &emptyVao);
   for (auto& [image, entry] : envTextures) gl.DeleteTextures(1, &entry.second);
@@ -834,6 +1077,7 @@ Renderer::Renderer(GlContext& context, const Scene& scene) : impl_(std::make_uni
   context.makeCurrent();
   try {
     impl_->flatProgram = impl_->link(kFlatVertexShader, kFlatFragmentShader, "flat");
+    impl_->depthProgram = impl_->link(kFlatVertexShader, kDepthFragmentShader, "shadow map");
     impl_->upload(scene);
   } catch (...) {
     impl_->release();
@@ -877,13 +1121,52 @@ ImageRgb Renderer::render(const Frame& frame) {
   const int height = frame.height > 0 ? frame.height : r.context.height();
   const bool flat = frame.shading == Shading::Flat;
   const bool drawReceivers = r.grid != nullptr && !r.receivers.empty();
+  if (frame.direct.size() > size_t(kMaxDirectLights))
+    throw Error(cat("render: ", frame.direct.size(), " direct lights, at most ", kMaxDirectLights, " per frame"));
+  const ShadowSettings& shadowSettings = frame.shadows;
+  if (shadowSettings.mapSize < 16 || shadowSettings.mapSize > 8192 || shadowSettings.maxCascades < 1 ||
+      shadowSettings.maxCascades > kMaxCascades)
+    throw Error(cat("render: shadow maps of ", shadowSettings.mapSize, " texels and ", shadowSettings.maxCascades,
+                    " cascades; expected 16..8192 and 1..", kMaxCascades));
   r.context.makeCurrent();
+
+  // Direct lights: lit per pixel where the transfer holds its direct part (bakedSplit,
+  // receiverSplit), else through SH with the rest of the light (warned once).
+  const bool anyDirect = !flat && !frame.direct.empty();
+  const bool bakedSplit = anyDirect && r.bakedDirect && !r.instances.empty();
+  const bool receiverSplit = anyDirect && drawReceivers && r.grid->hasDirect();
+  if (anyDirect && !r.instances.empty() && !r.bakedDirect && !r.warnedBakedDirect) {
+    r.warnedBakedDirect = true;
+    r.warnings.push_back(cat("the baked scene has no direct part of its transfer (baked by an older prt): its ",
+                             frame.direct.size(), " direct light(s) are lit through SH, without exact shadows; bake "
+                             "again for them"));
+  }
+  if (anyDirect && drawReceivers && !r.grid->hasDirect() && !r.warnedProbeDirect) {
+    r.warnedProbeDirect = true;
+    r.warnings.push_back(cat("the probe grid has no direct part (baked by an older prt): receivers get the ",
+                             frame.direct.size(), " direct light(s) through SH, without exact shadows; bake the "
+                             "probes again for them"));
+  }
+  r.stats.directBaked = bakedSplit ? frame.direct.size() : 0;
+  r.stats.directReceivers = receiverSplit ? frame.direct.size() : 0;
+  const int bakedExtra = bakedSplit ? kVariantDirect : 0, receiverExtra = receiverSplit ? kVariantDirect : 0;
+  auto directSh = [&](int bands) {
+    return frame.directLight.size() > 0 ? sh::resize(frame.directLight, bands) : sh::ShRgb(bands);
+  };
 
   // Light update: the baked instances' light uniform, and the probes' incident radiance
   // c_p = M_p · l (CPU, TBB over probes) copied into the buffer the receivers read.
   const auto t0 = std::chrono::steady_clock::now();
   if (!flat && r.bands > 0) {
-    const sh::ShRgb l = sh::resize(frame.light, r.bands);
+    // The whole light through t; with the split, t⁰ · directSh is taken off in the shader.
+    sh::ShRgb l = sh::resize(frame.light, r.bands);
+    const sh::ShRgb dl = directSh(r.bands);
+    l += dl;
+    if (bakedSplit)
+      for (const Impl::Instance& in : r.instances) {
+        const Impl::Program& p = r.bakedProgram(in.variant | kVariantDirect);
+        gl.ProgramUniform3fv(p.id, p.directSh, dl.size(), &dl.c[0].x);
+      }
     std::vector<glm::vec4> packed(size_t(attributeChunks(r.bands)), glm::vec4(0.0f));
     for (int i = 0; i < l.size(); ++i)
       for (int c = 0; c < 3; ++c) packed[size_t(3 * i + c) / 4][(3 * i + c) % 4] = l.c[size_t(i)][c];
@@ -897,12 +1180,17 @@ ImageRgb Renderer::render(const Frame& frame) {
   }
   if (!flat && drawReceivers) {
     const ProbeGrid& g = *r.grid;
-    const sh::ShRgb l = sh::resize(frame.light, g.bands);
+    sh::ShRgb l = sh::resize(frame.light, g.bands);
+    const sh::ShRgb dl = directSh(g.bands);
+    // Outside the grid (M = I, M⁰ = I) the split leaves the light without the direct lights' SH.
+    if (!receiverSplit) l += dl;
     const std::vector<glm::vec4> packedLight = packLight(g.bands, l);
-    for (const Impl::Program& p : r.receiverPrograms[size_t(frame.probeLookup)])
-      if (p.id) gl.ProgramUniform4fv(p.id, p.light, GLsizei(packedLight.size()), &packedLight[0].x);
+    for (const Impl::Instance& in : r.receivers) {
+      const Impl::Program& p = r.receiverProgram(frame.probeLookup, in.variant | receiverExtra);
+      gl.ProgramUniform4fv(p.id, p.light, GLsizei(packedLight.size()), &packedLight[0].x);
+    }
     if (g.probeCount() > 0) {
-      const std::vector<glm::vec3> relit = relightProbes(g, l);
+      const std::vector<glm::vec3> relit = receiverSplit ? relightProbes(g, l, dl) : relightProbes(g, l);
       packRadiance(g.bands, relit, r.radiance);
       gl.NamedBufferSubData(r.probeBuffers[2], 0, GLsizeiptr(r.radiance.size() * sizeof(glm::vec4)), r.radiance.data());
     }
@@ -914,6 +1202,9 @@ ImageRgb Renderer::render(const Frame& frame) {
   r.ensureFramebuffer(width, height, frame.samples);
   r.stats.samples = r.fboActualSamples;
   const double aspect = double(width) / height;
+  r.stats.shadowMs = 0.0;
+  r.stats.shadowMaps = r.stats.cascades = r.stats.shadowMapSize = 0;
+  if (bakedSplit || receiverSplit) r.drawShadows(frame, aspect, height, drawReceivers, bakedExtra, receiverExtra);
   const glm::dmat4 view = glm::inverse(camera.cameraToWorld);
   double orthoFar = 1.0;
   for (int i = 0; i < 8; ++i) {
@@ -960,12 +1251,12 @@ ImageRgb Renderer::render(const Frame& frame) {
   // mirrors it. `blended`: the instances drawn blended (Instance::blend), else the others; flat
   // shading draws every instance opaque.
   auto drawAll = [&](const std::vector<Impl::Instance>& list, const std::array<Impl::Program, kVariants>& programs,
-                     auto&& place, bool blended = false) {
+                     auto&& place, int extra, bool blended = false) {
     for (int variant = 0; variant < (flat ? 1 : kVariants); ++variant) {
       const Impl::Program& p = flat ? r.flatProgram : programs[size_t(variant)];
       bool used = false;
       for (const Impl::Instance& in : list) {
-        if (!flat && in.variant != variant) continue;
+        if (!flat && (in.variant | extra) != variant) continue;
         if (flat ? blended : in.blend != blended) continue;
         if (!used) {
           gl.UseProgram(p.id);
@@ -983,9 +1274,14 @@ ImageRgb Renderer::render(const Frame& frame) {
   auto placeBaked = [&](const Impl::Program&, const Impl::Instance& in) {
     if (!flat && r.bands > kMaxAttributeBands) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.buffers[4]);
     if (!flat && in.backTransfer) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, in.backTransfer);
+    if (!flat && bakedSplit) {
+      gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, in.directTransfer[0]);
+      if (in.directTransfer[1]) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, in.directTransfer[1]);
+    }
     return false;
   };
-  drawAll(r.instances, r.programs, placeBaked);
+  if (!flat && (bakedSplit || receiverSplit) && r.shadowTexture) gl.BindTextureUnit(kShadowMapUnit, r.shadowTexture);
+  drawAll(r.instances, r.programs, placeBaked, bakedExtra);
   auto placeReceiver = [&](const Impl::Program& p, const Impl::Instance& in) {
     const glm::dmat4 motion = instanceMotion(r.animation, in.placement, frame.time);
     const glm::dmat3 linear(motion);
@@ -1007,7 +1303,7 @@ ImageRgb Renderer::render(const Frame& frame) {
     // before their (costly) probe lookup runs.
     if (!flat)
       for (GLuint unit = 1; unit <= 3; ++unit) gl.BindTextureUnit(unit, r.probeTextures[unit - 1]);
-    drawAll(r.receivers, r.receiverPrograms[size_t(frame.probeLookup)], placeReceiver);
+    drawAll(r.receivers, r.receiverPrograms[size_t(frame.probeLookup)], placeReceiver, receiverExtra);
   }
   if (!flat && frame.background) r.drawBackground(*frame.background, camera, width, height);
   if (!flat) {
@@ -1017,10 +1313,10 @@ ImageRgb Renderer::render(const Frame& frame) {
     gl.Enable(GL_BLEND);
     gl.BlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
     gl.DepthMask(GL_FALSE);
-    drawAll(r.instances, r.programs, placeBaked, true);
+    drawAll(r.instances, r.programs, placeBaked, bakedExtra, true);
     if (drawReceivers) {
       for (GLuint unit = 1; unit <= 3; ++unit) gl.BindTextureUnit(unit, r.probeTextures[unit - 1]);
-      drawAll(r.receivers, r.receiverPrograms[size_t(frame.probeLookup)], placeReceiver, true);
+      drawAll(r.receivers, r.receiverPrograms[size_t(frame.probeLookup)], placeReceiver, receiverExtra, true);
     }
     gl.DepthMask(GL_TRUE);
     gl.Disable(GL_BLEND);
@@ -1052,6 +1348,7 @@ ImageRgb Renderer::render(const Frame& frame) {
 }
 
 int Renderer::bands() const { return impl_->bands; }
+bool Renderer::bakedDirectPart() const { return impl_->bakedDirect; }
 size_t Renderer::receiverCount() const { return impl_->receivers.size(); }
 const FrameStats& Renderer::lastFrame() const { return impl_->stats; }
 

@@ -14,6 +14,7 @@
 #include <glm/glm.hpp>
 
 #include "prt/image.h"
+#include "prt/light.h"
 #include "prt/light_rig.h"
 #include "prt/probe_grid.h"
 #include "prt/render/gl_context.h"
@@ -62,9 +63,30 @@ struct FrameStats {
   double lightMs = 0.0;     // light update: light uniforms, relightProbes and the probe upload
   double drawMs = 0.0;      // clear, draw, glFinish
   double readbackMs = 0.0;  // glReadPixels and the row flip
+  double shadowMs = 0.0;    // the shadow-map pass (part of drawMs)
   size_t triangles = 0;     // drawn in the last frame (baked and receivers)
   size_t receiverTriangles = 0;
   int samples = 1;          // samples per pixel the GL gave (>= Frame::samples; llvmpipe: 4 for 2)
+  /// Direct lights of the frame lit per pixel (exactly, with shadow maps), on baked instances
+  /// and on receivers; those not lit so went through the SH light (an older bake, a grid
+  /// without its direct part).
+  size_t directBaked = 0, directReceivers = 0;
+  int shadowMaps = 0;       // shadow-map layers drawn (lights × cascades)
+  int cascades = 0;         // per light
+  int shadowMapSize = 0;    // texels a side
+};
+
+/// At most this many direct lights per frame (Frame::direct): each costs a shadow map per
+/// cascade and a blocker search per pixel (docs/render.md, "Direct lights and their shadows").
+inline constexpr int kMaxDirectLights = 8;
+/// At most this many shadow-map cascades per direct light.
+inline constexpr int kMaxCascades = 4;
+
+/// How direct lights' shadows are made (docs/render.md).
+struct ShadowSettings {
+  bool enabled = true;   // false: every visible share is 1 (no shadow maps drawn)
+  int mapSize = 1024;    // texels a side of each shadow map, 16..8192
+  int maxCascades = 4;   // 1..kMaxCascades; cascades are used only where one map is too coarse
 };
 
 /// How a frame is shaded. Flat draws the same instances with the same vertex buffers, depth
@@ -83,6 +105,15 @@ enum class ProbeLookup { PerPixel, PerVertex };
 struct Frame {
   CameraView camera;
   sh::ShRgb light;          // distant light; truncated or zero-padded to the bands in use
+  /// Direct lights (docs/render.md, "Direct lights and their shadows"; RigLighting): `light`
+  /// is then RigLighting::sh, `directLight` their SH (RigLighting::directSh), which goes only
+  /// through the bounced part of the transfer, and `direct` the lights themselves, lit per pixel
+  /// with their shadows: E = t·light + (t − t⁰)·directLight + Σ_k E_k c_k(n) s_k(x). Where the
+  /// transfer has no direct part (an older bake; a probe grid without one) the direct lights go
+  /// through SH instead (light + directLight) and warnings() says so. At most kMaxDirectLights.
+  sh::ShRgb directLight;
+  std::vector<DirectLight> direct;
+  ShadowSettings shadows;
   double time = 0.0;        // seconds: receivers are placed by the scene's animations at time
   int width = 0;            // 0: the context's size
   int height = 0;
@@ -139,8 +170,12 @@ public:
   /// Number of receiver instances (drawn once setProbes was called).
   size_t receiverCount() const;
   const FrameStats& lastFrame() const;
-  /// One line per skipped instance ("skipping unbaked instance 'x': ..."), and one line naming
-  /// the receivers while no probe grid is set (they are not drawn then).
+  /// Whether the baked instances hold the transfer's direct part (direct lights lit exactly).
+  bool bakedDirectPart() const;
+  /// One line per skipped instance ("skipping unbaked instance 'x': ..."), one line naming
+  /// the receivers while no probe grid is set (they are not drawn then), and, once a frame
+  /// had direct lights, one line for each part that lit them through SH instead (an older
+  /// bake, a probe grid without its direct part).
   std::vector<std::string> warnings() const;
 
 private:

@@ -1,0 +1,307 @@
+// Direct lights per pixel with PCSS-filtered shadow maps (docs/render.md, "Direct lights and
+// their shadows").
+//
+// For a direct light k (a cap of angular radius r around d, irradiance E_k on a surface facing
+// it) a pixel at x with unit normal n receives
+//   E_k · directCosineFactor_k(n) · visibleShare_k(x)
+// directCosineFactor is light.cpp's closed form (Note 4 there) in float; visibleShare is read
+// from an orthographic shadow map along d:
+// 1. The map stores, per texel, the depth (metres along −d from the map's near plane) of the
+//    nearest caster. A receiver at map position p (metres) and depth z is occluded along the
+//    light's centre direction where the stored depth is smaller.
+// 2. Blocker search (PCSS, Fernando 2005): any occluder of the cap lies between the near plane
+//    and x, so within a disk of radius tan r · z around p. kBlockerSamples points of a Vogel
+//    spiral over that disk find the blockers and their mean depth z_b. None: fully lit (1).
+// 3. Filter: a ray from x towards d + δ (|δ| ≤ tan r, the cap seen in the tangent plane) meets
+//    the blocker plane at lateral offset (z − z_b) δ, so the share of the cap that arrives is the
+//    share of the disk of radius tan r · (z − z_b) whose map depth lies beyond the receiver:
+//    kFilterSamples spiral points, each compared. Exact for a planar occluder parallel to the
+//    map (the cap taken uniform over the disk, ignoring the cosine's variation across a cap of
+//    at most 20°), the usual PCSS approximation otherwise. Every blocker-search sample blocked
+//    (and the filter disk inside the searched one): fully shadowed (0).
+// Comparisons are against the receiver's tangent plane, not its centre depth ("receiver plane
+// depth bias", Isidoro 2006): at offset o the receiver lies at z + grad · o, grad = n_xy / |n_z|
+// in light space (|n_z| floored at 0.02, 88.9°), less a bias of (1 + |grad|) texels for the nearest-texel
+// quantisation. The spiral is turned per pixel by interleaved gradient noise (Jimenez 2014) of
+// the pixel position: deterministic, and it turns the banding of a few samples into noise.
+#include "direct_shading.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+
+#include "prt/error.h"
+#include "prt/math.h"
+
+namespace prt::render {
+
+namespace {
+
+std::string glslFloat(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.9e", v);
+  return buf;
+}
+
+// Vogel spiral: point i of n at radius √((i + ½)/n), angle i · golden angle: even density over
+// the unit disk for any n.
+std::string spiralGlsl(const char* name, int n) {
+  std::string s = cat("const vec2 ", name, "[", n, "] = vec2[", n, "](");
+  for (int i = 0; i < n; ++i) {
+    const double r = std::sqrt((i + 0.5) / n), a = i * 2.399963229728653;
+    s += cat(i ? ", " : "", "vec2(", glslFloat(r * std::cos(a)), ", ", glslFloat(r * std::sin(a)), ")");
+  }
+  return s + ");\n";
+}
+
+constexpr const char* kDirectHeadGlsl = R"(
+uniform int uDirectCount;
+uniform vec4 uDirectDir[kMaxDirect];         // unit direction towards the light, sin² r (0: a delta)
+uniform vec4 uDirectIrradiance[kMaxDirect];  // RGB irradiance on a surface facing it, cot r
+uniform int uShadowed;                       // 0: every visible share is 1
+uniform int uCascades;
+uniform vec4 uCascadeFar;                    // view depth where cascade c ends
+uniform vec3 uViewOrigin;
+uniform vec3 uViewForward;
+uniform int uShadowSize;                     // texels a side
+uniform mat4 uShadowMatrix[kMaxShadowLayers];  // world -> map metres (x, y) and depth (z)
+uniform vec4 uShadowParams[kMaxShadowLayers];  // texel (m), depth range (m), tan r, 0
+layout(binding = kShadowUnit) uniform sampler2DArray uShadowMap;
+
+// atan(y, x) to float precision (Cephes' atanf, as the background shader's atan2Accurate):
+// GLSL's atan and acos are polynomial approximations, off by ~1e-4 rad on Mesa.
+float atan2Direct(float y, float x) {
+  float ax = abs(x), ay = abs(y);
+  float t = min(ax, ay) / max(max(ax, ay), 1e-30);
+  bool reduce = t > 0.41421356;
+  float r = reduce ? (t - 1.0) / (t + 1.0) : t;
+  float z = r * r;
+  float a = (((8.05374449538e-2 * z - 1.38776856032e-1) * z + 1.99777106478e-1) * z - 3.33329491539e-1) * z * r + r;
+  a += reduce ? 0.78539816339 : 0.0;
+  a = ay > ax ? 1.57079632679 - a : a;
+  a = x < 0.0 ? 3.14159265358979 - a : a;
+  return y < 0.0 ? -a : a;
+}
+
+// BEGIN directCosineFactor port (probes/lights/src/light.cpp, Note 4), step for step.
+float directCosineFactor(vec3 n, vec4 dirSin2, float cotR) {
+  float c = clamp(dot(n, dirSin2.xyz), -1.0, 1.0);
+  float sin2 = dirSin2.w;
+  if (sin2 <= 0.0 || c * c > sin2) return max(c, 0.0);  // a delta, or wholly above (below) the horizon
+  float s = sqrt(max(0.0, 1.0 - c * c));
+  float x = cotR;
+  float y = clamp(-x * c / max(s, 1e-30), -1.0, 1.0);
+  float sq = sqrt(max(0.0, 1.0 - y * y));
+  float sy = s * sq;
+  float e = (c * atan2Direct(sq, y) - x * sy) * sin2 + atan2Direct(sy, x);  // acos y = atan2(√(1 − y²), y)
+  return clamp(e / (3.14159265358979 * sin2), 0.0, 1.0);
+}
+// END directCosineFactor port.
+
+// Caster depth (metres) at map position m (metres), nearest texel; beyond the map: none.
+float mapDepth(int layer, vec2 m, float texel, float range) {
+  ivec2 t = ivec2(floor(m / texel));
+  bool inside = all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, ivec2(uShadowSize)));
+  float d = texelFetch(uShadowMap, ivec3(clamp(t, ivec2(0), ivec2(uShadowSize - 1)), layer), 0).r;
+  return inside ? d * range : 1e30;
+}
+
+float visibleShare(int k, vec3 x, vec3 n) {
+  float depth = dot(x - uViewOrigin, uViewForward);
+  int c = min(int(depth > uCascadeFar.x) + int(depth > uCascadeFar.y) + int(depth > uCascadeFar.z), uCascades - 1);
+  int layer = k * uCascades + c;
+  vec4 P = uShadowParams[layer];
+  float texel = P.x, range = P.y, tanR = P.z;
+  vec3 p = (uShadowMatrix[layer] * vec4(x, 1.0)).xyz;
+  vec3 nl = mat3(uShadowMatrix[layer]) * n;
+  float nz = nl.z < 0.0 ? min(nl.z, -0.02) : max(nl.z, 0.02);
+  vec2 grad = -nl.xy / nz;  // the tangent plane's depth slope (|n_z| floored: 88.9°)
+  float slope = length(grad);
+  float zr = p.z - texel * (1.0 + slope);
+  float search = clamp(tanR * p.z, 1.5 * texel, kMaxKernel * texel);
+  float ang = 6.28318530718 * fract(52.9829189 * fract(dot(gl_FragCoord.xy, vec2(0.06711056, 0.00583715))));
+  mat2 rot = mat2(cos(ang), sin(ang), -sin(ang), cos(ang));
+  float nb = 0.0, sumB = 0.0;
+)";
+
+constexpr const char* kBlockerSampleGlsl = R"(  {
+    vec2 o = rot * (kBlockerSpiral[I] * search);
+    float zb = mapDepth(layer, p.xy + o, texel, range);
+    bool b = zb < zr + dot(grad, o);
+    nb += b ? 1.0 : 0.0;
+    sumB += b ? zb : 0.0;
+  }
+)";
+
+constexpr const char* kDirectMiddleGlsl = R"(  float pen = clamp(tanR * (p.z - sumB / max(nb, 1.0)), texel, kMaxKernel * texel);
+  bool needFilter = nb > 0.0 && !(nb == float(kBlockerSamples) && pen <= search);
+  float share = nb == 0.0 ? 1.0 : 0.0;
+  // Skipped where no blocker or only blockers were found: on a GPU; llvmpipe (Mesa 22.3) runs
+  // both sides of a branch for every pixel (measured, docs/render.md).
+  if (needFilter) {
+    float lit = 0.0;
+)";
+
+constexpr const char* kFilterSampleGlsl = R"(  {
+    vec2 o = rot * (kFilterSpiral[I] * pen);
+    lit += mapDepth(layer, p.xy + o, texel, range) >= zr + dot(grad, o) ? 1.0 : 0.0;
+  }
+)";
+
+constexpr const char* kDirectTailGlsl = R"(    share = lit / float(kFilterSamples);
+  }
+  return share;
+}
+
+// Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x).
+vec3 directIrradiance(vec3 x, vec3 n) {
+  vec3 e = vec3(0.0);
+  for (int k = 0; k < kMaxDirect; ++k) {
+    if (k >= uDirectCount) break;
+    float f = directCosineFactor(n, uDirectDir[k], uDirectIrradiance[k].w);
+    float v = 1.0;
+    if (f > 0.0 && uShadowed != 0) v = visibleShare(k, x, n);
+    e += uDirectIrradiance[k].rgb * (f * v);
+  }
+  return e;
+}
+)";
+
+std::string perSample(const char* body, int n) {
+  std::string out;
+  for (int i = 0; i < n; ++i) {
+    std::string b = body;
+    const size_t at = b.find("[I]");
+    b.replace(at, 3, cat("[", i, "]"));
+    out += b;
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string directLightingGlsl() {
+  std::string s = cat("const int kMaxDirect = ", kMaxDirectLights, ";\nconst int kMaxShadowLayers = ",
+                      kMaxDirectLights * kMaxCascades, ";\n#define kShadowUnit ", kShadowMapUnit,
+                      "\nconst int kBlockerSamples = ", kBlockerSamples, ";\nconst int kFilterSamples = ",
+                      kFilterSamples, ";\nconst float kMaxKernel = ", kMaxKernelTexels, ".0;\n");
+  s += spiralGlsl("kBlockerSpiral", kBlockerSamples);
+  s += spiralGlsl("kFilterSpiral", kFilterSamples);
+  s += kDirectHeadGlsl;
+  s += perSample(kBlockerSampleGlsl, kBlockerSamples);
+  s += kDirectMiddleGlsl;
+  s += perSample(kFilterSampleGlsl, kFilterSamples);
+  s += kDirectTailGlsl;
+  return s;
+}
+
+glm::dmat4 ShadowLayer::viewProj() const {
+  glm::dmat4 s(1.0);
+  s[0][0] = 2.0 / side;
+  s[1][1] = 2.0 / side;
+  s[3][0] = -1.0;
+  s[3][1] = -1.0;
+  s[2][2] = 1.0 / range;
+  return s * worldToMap;
+}
+
+ShadowPlan planShadows(const std::vector<DirectLight>& lights, const CameraView& camera, double aspect,
+                       int heightPixels, const glm::dvec3& lo, const glm::dvec3& hi, int mapSize, int maxCascades) {
+  PRT_CHECK(mapSize >= 1);
+  ShadowPlan plan;
+  plan.viewOrigin = glm::dvec3(camera.cameraToWorld[3]);
+  plan.viewForward = -glm::normalize(glm::dvec3(camera.cameraToWorld[2]));
+  const glm::dvec3 right = glm::normalize(glm::dvec3(camera.cameraToWorld[0]));
+  const glm::dvec3 up = glm::normalize(glm::dvec3(camera.cameraToWorld[1]));
+  std::array<glm::dvec3, 8> box;
+  for (int i = 0; i < 8; ++i) box[size_t(i)] = glm::dvec3(i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z);
+  const double diag = std::max(glm::length(hi - lo), 1e-6);
+
+  // View depths the casters' box spans, and the cascades.
+  double dNear = 1e300, dFar = -1e300;
+  for (const glm::dvec3& c : box) {
+    const double d = glm::dot(c - plan.viewOrigin, plan.viewForward);
+    dNear = std::min(dNear, d);
+    dFar = std::max(dFar, d);
+  }
+  // The nearest depth that matters: the box's, but at least a quarter of the farthest (a camera
+  // inside the box would otherwise ask for texels as fine as its near plane; what lies closer
+  // than a quarter of the view's depth gets the first cascade's texels).
+  const double farthest = std::max(dFar, camera.znear * 1.001 + 1e-9);
+  const double nearest = std::clamp(std::max(dNear, 0.25 * farthest), camera.znear, farthest / 1.001);
+  const double tanY = std::tan(0.5 * camera.yfov);
+  std::vector<double> splits = {nearest, farthest};
+  if (camera.perspective && maxCascades > 1) {
+    // One map over the whole box has texels of at most diag / mapSize; a pixel at depth z covers
+    // z · 2 tan(fov/2) / height. Cascades only where that texel exceeds two pixels at the
+    // nearest visible depth; each then covers a depth ratio of about 3 (practical split scheme,
+    // Zhang et al. 2006: λ = 0.75 of logarithmic, the rest uniform).
+    const double pixel = nearest * 2.0 * tanY / std::max(heightPixels, 1);
+    if (diag / mapSize > 2.0 * pixel) {
+      const int n = std::clamp(int(std::ceil(std::log(farthest / nearest) / std::log(3.0))), 1, maxCascades);
+      splits.assign(size_t(n) + 1, 0.0);
+      for (int i = 0; i <= n; ++i) {
+        const double f = double(i) / n;
+        splits[size_t(i)] = 0.75 * nearest * std::pow(farthest / nearest, f) + 0.25 * (nearest + (farthest - nearest) * f);
+      }
+    }
+  }
+  plan.cascades = int(splits.size()) - 1;
+  plan.cascadeFar = glm::dvec4(1e30);
+  for (int c = 0; c + 1 < plan.cascades && c < 4; ++c) plan.cascadeFar[c] = splits[size_t(c) + 1];
+
+  for (const DirectLight& light : lights) {
+    // Light space: e3 = −d (depth grows away from the light), e1, e2 across.
+    const glm::dvec3 e3 = -glm::normalize(light.direction);
+    const glm::dvec3 helper = std::abs(e3.y) < 0.9 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
+    const glm::dvec3 e1 = glm::normalize(glm::cross(helper, e3)), e2 = glm::cross(e3, e1);
+    glm::dvec3 bLo(1e300), bHi(-1e300);
+    for (const glm::dvec3& c : box) {
+      const glm::dvec3 l(glm::dot(c, e1), glm::dot(c, e2), glm::dot(c, e3));
+      bLo = glm::min(bLo, l);
+      bHi = glm::max(bHi, l);
+    }
+    const double eps = 1e-3 * diag;
+    bLo.z -= eps;
+    bHi.z += eps;
+    const double range = bHi.z - bLo.z;
+    const double tanR = light.radius < kPointSunRadians ? 0.0 : std::tan(light.radius);
+    for (int c = 0; c < plan.cascades; ++c) {
+      // The slice of the view between splits[c] and splits[c + 1], in light space.
+      glm::dvec2 sLo(1e300), sHi(-1e300);
+      for (int k = 0; k < 8; ++k) {
+        // The first slice starts at the near plane: what lies closer than `nearest` is in it too.
+        const double z = c == 0 && !(k & 1) ? std::min(camera.znear, splits[0]) : splits[size_t(c) + (k & 1)];
+        const double hh = camera.perspective ? z * tanY : camera.ymag, hw = hh * aspect;
+        const glm::dvec3 p = plan.viewOrigin + plan.viewForward * z + right * (k & 2 ? hw : -hw) + up * (k & 4 ? hh : -hh);
+        const glm::dvec2 l(glm::dot(p, e1), glm::dot(p, e2));
+        sLo = glm::min(sLo, l);
+        sHi = glm::max(sHi, l);
+      }
+      glm::dvec2 xLo = glm::max(sLo, glm::dvec2(bLo)), xHi = glm::min(sHi, glm::dvec2(bHi));
+      xHi = glm::max(xHi, xLo + 1e-6 * diag);
+      double side = std::max(xHi.x - xLo.x, xHi.y - xLo.y);
+      // A margin for the search and filter disks of receivers at the edge of the slice.
+      const double grow = std::min(tanR * range, 0.25 * side) + 4.0 * side / mapSize;
+      side += 2.0 * grow;
+      const glm::dvec2 centre = 0.5 * (xLo + xHi), corner = centre - 0.5 * side;
+      ShadowLayer layer;
+      layer.side = side;
+      layer.range = range;
+      layer.texel = side / mapSize;
+      layer.tanRadius = tanR;
+      const glm::dvec3 axes[3] = {e1, e2, e3};
+      const double offset[3] = {corner.x, corner.y, bLo.z};
+      layer.worldToMap = glm::dmat4(1.0);
+      for (int r = 0; r < 3; ++r) {
+        for (int col = 0; col < 3; ++col) layer.worldToMap[col][r] = axes[r][col];
+        layer.worldToMap[3][r] = -offset[r];
+      }
+      plan.layers.push_back(layer);
+    }
+  }
+  return plan;
+}
+
+}  // namespace prt::render

@@ -1,0 +1,609 @@
+// Direct lights in the renderer (docs/render.md, "Direct lights and their shadows"): frames
+// checked at pixel centres against a CPU ray tracer of the same formula,
+//   L_o = ρ/π · (t·sh + (t − t⁰)·directSh + Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x)),
+// whose visible share is traced with Embree shadow rays stratified over each light's cap; the
+// plane under a sun in closed form; receivers casting on and shadowed by the baked scene.
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <gtest/gtest.h>
+
+#include "prt/bake/probe_bake.h"
+#include "prt/bake/ray_scene.h"
+#include "prt/error.h"
+#include "prt/light.h"
+#include "prt/probe_grid.h"
+#include "prt/render/gl_context.h"
+#include "prt/render/renderer.h"
+#include "prt/scene.h"
+
+namespace prt::render {
+namespace {
+
+constexpr double kInvPi = 0.31830988618379067;
+constexpr int kW = 96, kH = 72;
+
+CameraView lookAt(const glm::dvec3& eye, const glm::dvec3& target, double yfovDegrees) {
+  CameraView c;
+  c.cameraToWorld = glm::inverse(glm::lookAt(eye, target, glm::dvec3(0, 1, 0)));
+  c.yfov = glm::radians(yfovDegrees);
+  c.znear = 0.05;
+  return c;
+}
+
+// A rectangle p0 + s·du + t·dv (s, t in [0, 1]) in nu × nv quads, normal du × dv (counter-clockwise
+// seen from the normal's side).
+MeshInstance quad(const std::string& name, glm::vec3 p0, glm::vec3 du, glm::vec3 dv, int nu, int nv) {
+  MeshInstance m;
+  m.name = name;
+  const glm::vec3 n = glm::normalize(glm::cross(du, dv));
+  for (int j = 0; j <= nv; ++j)
+    for (int i = 0; i <= nu; ++i) {
+      m.positions.push_back(p0 + du * (float(i) / nu) + dv * (float(j) / nv));
+      m.normals.push_back(n);
+    }
+  for (int j = 0; j < nv; ++j)
+    for (int i = 0; i < nu; ++i) {
+      const uint32_t a = uint32_t(j * (nu + 1) + i), b = a + 1, c = a + uint32_t(nu) + 2, d = a + uint32_t(nu) + 1;
+      m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
+    }
+  return m;
+}
+
+// An axis-aligned box as one instance of 6 faces (flat normals, outward).
+MeshInstance box(const std::string& name, glm::vec3 lo, glm::vec3 hi) {
+  MeshInstance m;
+  m.name = name;
+  const glm::vec3 s = hi - lo;
+  auto add = [&](glm::vec3 p0, glm::vec3 du, glm::vec3 dv) {
+    const MeshInstance f = quad(name, p0, du, dv, 1, 1);
+    const uint32_t base = uint32_t(m.positions.size());
+    m.positions.insert(m.positions.end(), f.positions.begin(), f.positions.end());
+    m.normals.insert(m.normals.end(), f.normals.begin(), f.normals.end());
+    for (uint32_t i : f.indices) m.indices.push_back(base + i);
+  };
+  add(lo, {0, 0, s.z}, {0, s.y, 0});                    // -X
+  add({hi.x, lo.y, lo.z}, {0, s.y, 0}, {0, 0, s.z});    // +X
+  add(lo, {s.x, 0, 0}, {0, 0, s.z});                    // -Y
+  add({lo.x, hi.y, lo.z}, {0, 0, s.z}, {s.x, 0, 0});    // +Y
+  add(lo, {0, s.y, 0}, {s.x, 0, 0});                    // -Z
+  add({lo.x, lo.y, hi.z}, {s.x, 0, 0}, {0, s.y, 0});    // +Z
+  return m;
+}
+
+void updateBounds(Scene& s) {
+  s.boundsMin = glm::vec3(1e30f);
+  s.boundsMax = glm::vec3(-1e30f);
+  for (const MeshInstance& m : s.meshes)
+    for (const glm::vec3& p : m.positions) {
+      s.boundsMin = glm::min(s.boundsMin, p);
+      s.boundsMax = glm::max(s.boundsMax, p);
+    }
+}
+
+// Random transfer t (RGB, some negative) and direct part t⁰ (colourless), fixed seed: the SH
+// part of the formula is checked for any values, not only physical ones.
+void fillTransfer(MeshInstance& m, int bands, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-0.2f, 1.0f), d(0.0f, 0.6f);
+  const size_t n = m.vertexCount() * size_t(bands) * bands;
+  m.transfer.resize(n);
+  for (glm::vec3& t : m.transfer) t = glm::vec3(u(rng), u(rng), u(rng));
+  m.transferDirect.resize(n);
+  for (float& t : m.transferDirect) t = d(rng);
+}
+
+sh::ShRgb randomLight(int bands, uint32_t seed, float ambient) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 0.3f);
+  sh::ShRgb l(bands);
+  for (glm::vec3& c : l.c) c = glm::vec3(u(rng), u(rng), u(rng));
+  l.c[0] += glm::vec3(ambient);
+  return l;
+}
+
+DirectLight sun(double elevationDegrees, double azimuthDegrees, double radiusDegrees, glm::dvec3 irradiance) {
+  DirectLight l;
+  l.direction = azimuthElevationDirection(azimuthDegrees, elevationDegrees);
+  l.radius = glm::radians(radiusDegrees);
+  l.irradiance = irradiance;
+  return l;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The oracle: the pixel centre's ray (as in test_render.cpp) traced with Embree; the hit's
+// barycentrics interpolate t, t⁰ and the normal; the visible share of each light is the
+// cosine-weighted mean visibility of 16 × 16 directions stratified over its cap (uniform in
+// solid angle), traced from the hit lifted 1e-4 along the normal.
+
+struct PixelRay {
+  glm::dvec3 origin, dir;
+};
+
+PixelRay pixelRay(const CameraView& c, int w, int h, int px, int py) {
+  const double aspect = double(w) / h;
+  const double sx = 2.0 * (px + 0.5) / w - 1.0, sy = 1.0 - 2.0 * (py + 0.5) / h;
+  const double t = std::tan(0.5 * c.yfov);
+  return {glm::dvec3(c.cameraToWorld[3]), glm::normalize(glm::dvec3(c.cameraToWorld * glm::dvec4(sx * t * aspect, sy * t, -1.0, 0.0)))};
+}
+
+struct Surface {
+  bool hit = false;
+  uint32_t mesh = 0;
+  glm::dvec3 x{0.0}, n{0.0};
+  uint32_t v[3] = {0, 0, 0};
+  double b[3] = {0, 0, 0};
+  bool back = false;
+};
+
+Surface primary(const bake::RayScene& rays, const Scene& s, const PixelRay& pr) {
+  bake::Ray r;
+  r.org = glm::vec3(pr.origin);
+  r.dir = glm::vec3(pr.dir);
+  r.tnear = 0.0f;
+  r.tfar = 1e30f;
+  rays.intersect(&r, 1, false);
+  Surface out;
+  if (!r.hit()) return out;
+  const MeshInstance& m = s.meshes[r.mesh];
+  out.hit = true;
+  out.mesh = r.mesh;
+  out.back = r.backface();
+  out.b[0] = 1.0 - r.u - r.v;
+  out.b[1] = r.u;
+  out.b[2] = r.v;
+  glm::dvec3 n(0.0);
+  for (int k = 0; k < 3; ++k) {
+    out.v[k] = m.indices[3 * size_t(r.tri) + size_t(k)];
+    out.x += out.b[k] * glm::dvec3(m.positions[out.v[k]]);
+    n += out.b[k] * glm::dvec3(m.normals[out.v[k]]);
+  }
+  out.n = glm::normalize(n);
+  if (out.back) out.n = -out.n;
+  return out;
+}
+
+double visibleShare(const bake::RayScene& rays, const glm::dvec3& x, const glm::dvec3& n, const DirectLight& l) {
+  const glm::dvec3 d = glm::normalize(l.direction);
+  const glm::dvec3 helper = std::abs(d.y) < 0.9 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
+  const glm::dvec3 t1 = glm::normalize(glm::cross(helper, d)), t2 = glm::cross(d, t1);
+  constexpr int k = 16;
+  std::vector<bake::Ray> batch;
+  std::vector<double> weight;
+  const bool delta = l.radius < kPointSunRadians;
+  const double oneMinusCos = 1.0 - std::cos(l.radius);
+  for (int i = 0; i < (delta ? 1 : k); ++i)
+    for (int j = 0; j < (delta ? 1 : k); ++j) {
+      const double cosT = 1.0 - (i + 0.5) / k * oneMinusCos, sinT = std::sqrt(std::max(0.0, 1.0 - cosT * cosT));
+      const double phi = 2.0 * 3.14159265358979 * (j + 0.5) / k;
+      const glm::dvec3 w = delta ? d : glm::normalize(cosT * d + sinT * (std::cos(phi) * t1 + std::sin(phi) * t2));
+      const double c = glm::dot(n, w);
+      if (c <= 0.0) continue;
+      bake::Ray r;
+      r.org = glm::vec3(x + 1e-4 * n);
+      r.dir = glm::vec3(w);
+      r.tnear = 0.0f;
+      r.tfar = 1e30f;
+      batch.push_back(r);
+      weight.push_back(c);
+    }
+  if (batch.empty()) return 1.0;
+  rays.occluded(batch.data(), batch.size(), false);
+  double seen = 0.0, total = 0.0;
+  for (size_t i = 0; i < batch.size(); ++i) {
+    total += weight[i];
+    if (!batch[i].occludedHit()) seen += weight[i];
+  }
+  return seen / total;
+}
+
+// Per pixel: the oracle's radiance split into its SH part and each light's direct part, and
+// each light's visible share (-1 where no surface).
+struct OraclePixel {
+  Surface s;
+  glm::dvec3 shPart{0.0};
+  std::vector<glm::dvec3> direct;  // ρ/π E_k c_k(n) s_k(x)
+  std::vector<double> share;
+  bool terminator = false;  // some light's cap straddles the surface's horizon
+};
+
+std::vector<OraclePixel> oracleFrame(const Scene& scene, const bake::RayScene& rays, const CameraView& cam, int w, int h,
+                                     const sh::ShRgb& light, const sh::ShRgb& directSh,
+                                     const std::vector<DirectLight>& lights) {
+  std::vector<OraclePixel> out(size_t(w) * h);
+  const int bands = scene.transferBands, n2 = bands * bands;
+  for (int py = 0; py < h; ++py)
+    for (int px = 0; px < w; ++px) {
+      OraclePixel& o = out[size_t(py) * w + px];
+      o.s = primary(rays, scene, pixelRay(cam, w, h, px, py));
+      if (!o.s.hit) continue;
+      const MeshInstance& m = scene.meshes[o.s.mesh];
+      const Material mat = m.material >= 0 ? scene.materials[size_t(m.material)] : Material{};
+      const glm::dvec3 albedo(mat.baseColorFactor);
+      if (!m.transfer.empty()) {
+        glm::dvec3 e(0.0);
+        for (int k = 0; k < 3; ++k) {
+          const bool back = o.s.back && m.hasBackTransfer();
+          const glm::vec3* t = back ? m.backTransferOf(o.s.v[k], bands) : m.transferOf(o.s.v[k], bands);
+          const float* t0 = m.directTransferOf(o.s.v[k], bands, back);
+          for (int i = 0; i < n2; ++i)
+            e += o.s.b[k] * (glm::dvec3(t[i]) * glm::dvec3(light.c[size_t(i)] + directSh.c[size_t(i)]) -
+                             double(t0[i]) * glm::dvec3(directSh.c[size_t(i)]));
+        }
+        o.shPart = albedo * kInvPi * e;
+      }
+      for (const DirectLight& l : lights) {
+        const double c = directCosineFactor(l, o.s.n);
+        o.terminator = o.terminator || std::abs(glm::dot(o.s.n, glm::normalize(l.direction))) < std::sin(l.radius) + 1e-3;
+        const double share = c > 0.0 ? visibleShare(rays, o.s.x, o.s.n, l) : 1.0;
+        o.share.push_back(share);
+        o.direct.push_back(albedo * kInvPi * l.irradiance * (c * share));
+      }
+    }
+  return out;
+}
+
+// A pixel is away from shadow edges when every light's share is 0 or 1 at its centre and at the
+// centres of its 8 neighbours, all on one instance (no silhouette either), and no light's cap
+// straddles its horizon (the terminator: the surface lies edge-on in the shadow map there, and
+// its own depth decides a share of the light that is at most sin r + 10⁻³ of E; measured on the
+// cube of ReceiverCastsAndReceivesSunShadows: 6·10⁻⁴ of the peak).
+bool awayFromEdges(const std::vector<OraclePixel>& o, int w, int h, int px, int py) {
+  if (px < 1 || py < 1 || px + 1 >= w || py + 1 >= h) return false;
+  const OraclePixel& c = o[size_t(py) * w + px];
+  if (!c.s.hit || c.terminator) return false;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const OraclePixel& q = o[size_t(py + dy) * w + px + dx];
+      if (!q.s.hit || q.s.mesh != c.s.mesh || q.s.back != c.s.back) return false;
+      for (size_t k = 0; k < c.share.size(); ++k)
+        if ((q.share[k] != 0.0 && q.share[k] != 1.0) || q.share[k] != c.share[k]) return false;
+    }
+  return true;
+}
+
+double peak(const std::vector<OraclePixel>& o) {
+  double p = 0.0;
+  for (const OraclePixel& q : o) {
+    glm::dvec3 sum = q.shPart;
+    for (const glm::dvec3& d : q.direct) sum += d;
+    p = std::max({p, sum.x, sum.y, sum.z});
+  }
+  return p;
+}
+
+// The test scene: a 3 m floor in 6 × 6 quads, a floating slab and a wall behind it, all baked
+// (random transfer), grey materials of different albedo.
+Scene slabScene(int bands) {
+  Scene s;
+  s.path = "slab";
+  Material grey, warm;
+  grey.baseColorFactor = glm::vec4(0.8f, 0.8f, 0.8f, 1.0f);
+  warm.baseColorFactor = glm::vec4(0.9f, 0.6f, 0.4f, 1.0f);
+  s.materials = {grey, warm};
+  MeshInstance floor = quad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -3.0f}, 6, 6);
+  floor.material = 0;
+  MeshInstance slab = box("slab", {-0.4f, 0.7f, -0.3f}, {0.4f, 0.8f, 0.4f});
+  slab.material = 1;
+  MeshInstance wall = quad("wall", {-1.5f, 0.0f, -1.2f}, {3.0f, 0.0f, 0.0f}, {0.0f, 1.4f, 0.0f}, 3, 2);
+  wall.material = 0;
+  s.meshes = {floor, slab, wall};
+  for (size_t k = 0; k < s.meshes.size(); ++k) fillTransfer(s.meshes[k], bands, uint32_t(11 + k));
+  s.transferBands = bands;
+  updateBounds(s);
+  return s;
+}
+
+struct Check {
+  int compared = 0, covered = 0, edge = 0;
+  double maxError = 0.0;  // relative to the oracle's peak
+};
+
+Check compareAwayFromEdges(const ImageRgb& img, const std::vector<OraclePixel>& o, int w, int h) {
+  const double p = peak(o);
+  Check c;
+  for (int py = 0; py < h; ++py)
+    for (int px = 0; px < w; ++px) {
+      const OraclePixel& q = o[size_t(py) * w + px];
+      if (!q.s.hit) continue;
+      ++c.covered;
+      if (!awayFromEdges(o, w, h, px, py)) {
+        ++c.edge;
+        continue;
+      }
+      glm::dvec3 want = q.shPart;
+      for (const glm::dvec3& d : q.direct) want += d;
+      const glm::dvec3 e = glm::abs(glm::dvec3(img.at(px, py)) - want) / p;
+      c.maxError = std::max({c.maxError, e.x, e.y, e.z});
+      ++c.compared;
+    }
+  return c;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+// An open plane under a sun: every pixel is ρ/π · E · directCosineFactor(n) (E cos θ above the
+// horizon, the clipped cap across it, 0 below), with the SH light zero and t = t⁰ — the shadow
+// map must not shadow the plane itself at any elevation (acne). Both sides of a double-sided
+// plane: the back (seen from below) is lit by a sun below the plane.
+TEST(RenderDirect, PlaneUnderSunIsRhoOverPiECosTheta) {
+  Scene s;
+  s.path = "plane";
+  Material m;
+  m.baseColorFactor = glm::vec4(0.7f, 0.5f, 0.3f, 1.0f);
+  m.doubleSided = true;
+  s.materials.push_back(m);
+  MeshInstance plane = quad("plane", {-2.0f, 0.0f, 2.0f}, {4.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -4.0f}, 4, 4);
+  plane.material = 0;
+  fillTransfer(plane, 3, 5);
+  plane.transferBack = plane.transfer;
+  plane.transferDirectBack = plane.transferDirect;
+  s.meshes.push_back(plane);
+  s.transferBands = 3;
+  updateBounds(s);
+  GlContext ctx(GlBackend::OSMesa, kW, kH);
+  Renderer r(ctx, s);
+  ASSERT_TRUE(r.bakedDirectPart());
+  const glm::dvec3 rho(0.7, 0.5, 0.3);
+  struct Case {
+    double elevation, radius;
+    bool fromBelow;
+  };
+  // Elevations across the horizon for a 5° disk (−6 is wholly below, ±2 straddles), the sun
+  // at 90° … 3°, and seen from below with the sun below the plane.
+  const Case cases[] = {{90, 0.265, false}, {60, 0.265, false}, {30, 0.265, false}, {3, 0.265, false},
+                        {-5, 0.265, false}, {2, 5.0, false},    {-2, 5.0, false},   {-6, 5.0, false},
+                        {-40, 0.265, true}, {0, 0.0, false}};
+  for (const Case& c : cases) {
+    const DirectLight l = sun(c.elevation, 20.0, c.radius, {3.0, 2.0, 1.0});
+    Frame f;
+    f.camera = c.fromBelow ? lookAt({0.3, -2.0, 1.5}, {0.0, 0.0, 0.0}, 50.0) : lookAt({0.3, 2.0, 1.5}, {0.0, 0.0, 0.0}, 50.0);
+    f.light = sh::ShRgb(3);
+    f.directLight = sh::ShRgb(3);
+    f.direct = {l};
+    f.shadows.mapSize = 512;
+    const ImageRgb img = r.render(f);
+    const glm::dvec3 n(0.0, c.fromBelow ? -1.0 : 1.0, 0.0);
+    const glm::dvec3 want = rho * kInvPi * l.irradiance * directCosineFactor(l, n);
+    double worst = 0.0;
+    int covered = 0;
+    for (int y = 0; y < kH; ++y)
+      for (int x = 0; x < kW; ++x) {
+        const glm::dvec3 got(img.at(x, y));
+        if (got == glm::dvec3(0.0) && want != glm::dvec3(0.0)) continue;  // background (the plane's edge is in view)
+        ++covered;
+        worst = std::max(worst, glm::length(got - want));
+      }
+    SCOPED_TRACE(testing::Message() << "elevation " << c.elevation << ", radius " << c.radius);
+    EXPECT_GT(covered, kW * kH / 3);
+    EXPECT_EQ(r.lastFrame().directBaked, 1u);
+    // Float shading of a closed form: 2e-5 of the facing value ρ/π E (measured below).
+    EXPECT_LE(worst, 2e-5 * glm::length(rho * kInvPi * l.irradiance)) << "want " << want.x << " " << want.y << " " << want.z;
+    if (c.elevation <= -c.radius - 1e-9 && !c.fromBelow) {
+      EXPECT_EQ(want, glm::dvec3(0.0));
+      EXPECT_EQ(worst, 0.0);  // below the horizon: exactly 0
+    }
+  }
+}
+
+// The slab scene under two direct lights (a sun and a 3° disk) and an SH light: every pixel away
+// from shadow edges agrees with the ray-traced oracle; the pixels left out (penumbra band and
+// silhouettes) are a bounded share.
+TEST(RenderDirect, MatchesRayTracedOracleAwayFromShadowEdges) {
+  const Scene s = slabScene(3);
+  const bake::RayScene rays(s);
+  const CameraView cam = lookAt({0.6, 3.2, 3.0}, {0.0, 0.3, 0.0}, 50.0);
+  const sh::ShRgb light = randomLight(3, 3, 1.0f), directSh = randomLight(3, 4, 0.5f);
+  // The sun's shadow falls towards −X and the camera, the disk's towards +X.
+  const std::vector<DirectLight> lights = {sun(35.0, 120.0, 0.265, {4.0, 3.5, 3.0}), sun(35.0, 250.0, 3.0, {1.0, 1.5, 2.0})};
+  const std::vector<OraclePixel> o = oracleFrame(s, rays, cam, kW, kH, light, directSh, lights);
+  GlContext ctx(GlBackend::OSMesa, kW, kH);
+  Renderer r(ctx, s);
+  Frame f;
+  f.camera = cam;
+  f.light = light;
+  f.directLight = directSh;
+  f.direct = lights;
+  f.shadows.mapSize = 1024;
+  const ImageRgb img = r.render(f);
+  const Check c = compareAwayFromEdges(img, o, kW, kH);
+  int shadowed = 0;
+  for (int py = 0; py < kH; ++py)
+    for (int px = 0; px < kW; ++px)
+      if (awayFromEdges(o, kW, kH, px, py) && o[size_t(py) * kW + px].share[0] == 0.0) ++shadowed;
+  std::printf("[ measured ] %d of %d covered pixels compared (%d in the penumbra band or at silhouettes, %d in the "
+              "sun's umbra), worst %.3g of the peak\n",
+              c.compared, c.covered, c.edge, shadowed, c.maxError);
+  EXPECT_GT(shadowed, 100);  // the slab's shadow is in view and checked
+  // Away from edges the shadow map's answer is exactly 0 or 1 and the rest is float shading of
+  // the same interpolation (test_render.cpp measures 7e-7 for the SH part): 1e-4 of the peak.
+  EXPECT_LE(c.maxError, 1e-4);
+  // The penumbra band of a 3° disk is wide: the band, the terminators and the silhouettes together
+  // are 33% of the covered pixels at this size (measured); 40% bounds it.
+  EXPECT_LT(c.edge, c.covered * 2 / 5);
+}
+
+// Inside the penumbra the filtered share follows the disk's: mean |rendered − traced| share over
+// the band pixels (the direct term divided by its unshadowed value).
+TEST(RenderDirect, PenumbraFollowsTheDisk) {
+  const Scene s = slabScene(3);
+  const bake::RayScene rays(s);
+  const CameraView cam = lookAt({0.0, 2.6, 1.6}, {0.0, 0.0, 0.0}, 45.0);
+  const sh::ShRgb zero(3);
+  const std::vector<DirectLight> lights = {sun(60.0, 200.0, 4.0, {2.0, 2.0, 2.0})};
+  const std::vector<OraclePixel> o = oracleFrame(s, rays, cam, kW, kH, zero, zero, lights);
+  GlContext ctx(GlBackend::OSMesa, kW, kH);
+  Renderer r(ctx, s);
+  Frame f;
+  f.camera = cam;
+  f.light = zero;
+  f.directLight = zero;
+  f.direct = lights;
+  f.shadows.mapSize = 1024;
+  const ImageRgb img = r.render(f);
+  double sum = 0.0, worst = 0.0;
+  int n = 0;
+  for (int py = 1; py + 1 < kH; ++py)
+    for (int px = 1; px + 1 < kW; ++px) {
+      const OraclePixel& q = o[size_t(py) * kW + px];
+      if (!q.s.hit || q.s.mesh != 0 || q.share[0] <= 0.0 || q.share[0] >= 1.0) continue;
+      const double unshadowed = q.direct[0].x / q.share[0];
+      const double got = double(img.at(px, py).x) / unshadowed;
+      sum += std::abs(got - q.share[0]);
+      worst = std::max(worst, std::abs(got - q.share[0]));
+      ++n;
+    }
+  std::printf("[ measured ] %d floor pixels in the penumbra: mean share error %.3f, worst %.3f\n", n, sum / n, worst);
+  ASSERT_GT(n, 50);
+  // PCSS takes the occluder as one plane at the blockers' mean depth and filters 16 samples
+  // turned per pixel (binomial noise ≤ 0.125 per pixel): measured mean 0.034, worst 0.12.
+  EXPECT_LT(sum / n, 0.05);
+}
+
+// A receiver (left out of the bake, lit from probes) casts its sun shadow on the baked floor and
+// is shadowed by a baked wall: floor pixels agree with the oracle traced with the receiver in
+// place; the receiver's direct term (its frame minus the frame without the direct light, the SH
+// part being equal) agrees with the oracle's on the receiver, 0 in the wall's shadow.
+TEST(RenderDirect, ReceiverCastsAndReceivesSunShadows) {
+  Scene s;
+  s.path = "receiver";
+  Material grey;
+  grey.baseColorFactor = glm::vec4(0.8f, 0.8f, 0.8f, 1.0f);
+  s.materials = {grey};
+  MeshInstance floor = quad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -3.0f}, 6, 6);
+  MeshInstance wall = box("wall", {0.4f, 0.0f, -1.5f}, {0.5f, 1.5f, 0.0f});
+  MeshInstance cube = box("cube", {-0.55f, 0.3f, -0.25f}, {-0.05f, 0.8f, 0.25f});
+  floor.material = wall.material = cube.material = 0;
+  fillTransfer(floor, 3, 1);
+  fillTransfer(wall, 3, 2);
+  cube.receiverOnly = true;
+  s.meshes = {floor, wall, cube};
+  s.transferBands = 3;
+  updateBounds(s);
+  bake::ProbeSettings ps;
+  ps.dims = glm::ivec3(4);
+  ps.samples = 256;
+  ps.bounces = 0;
+  const ProbeGrid grid = bake::bakeProbes(s, {}, ps);
+  ASSERT_TRUE(grid.hasDirect());
+
+  // The oracle's scene: the cube in place as an occluder (it does not move here).
+  Scene traced = s;
+  traced.meshes[2].receiverOnly = false;
+  const bake::RayScene rays(traced);
+  const CameraView cam = lookAt({1.6, 2.0, 2.4}, {-0.3, 0.3, -0.1}, 50.0);
+  const sh::ShRgb light = randomLight(3, 8, 1.0f), zero(3);
+  // Sun from +X, 50° up: the wall (x = 0.4..0.5, z < 0, 1.5 m high) shadows the half z < 0 of
+  // the cube's top and +X face; the cube's shadow falls on the floor between x ≈ −1.2 and −0.3,
+  // its half z > 0 beside the wall's shadow.
+  const std::vector<DirectLight> lights = {sun(50.0, 90.0, 0.265, {5.0, 5.0, 5.0})};
+  const std::vector<OraclePixel> o = oracleFrame(traced, rays, cam, kW, kH, light, zero, lights);
+
+  GlContext ctx(GlBackend::OSMesa, kW, kH);
+  Renderer r(ctx, s);
+  r.setProbes(grid);
+  Frame f;
+  f.camera = cam;
+  f.light = light;
+  f.directLight = zero;
+  f.direct = lights;
+  f.shadows.mapSize = 1024;
+  const ImageRgb lit = r.render(f);
+  EXPECT_EQ(r.lastFrame().directReceivers, 1u);
+  Frame without = f;
+  without.direct.clear();
+  const ImageRgb sky = r.render(without);
+
+  int floorCompared = 0, floorShadowedByCube = 0, cubeCompared = 0, cubeInShadow = 0;
+  double floorWorst = 0.0, cubeWorst = 0.0;
+  const double p = peak(o);
+  const bake::RayScene withoutCube(s);  // the cube is a receiver there: not traced
+  for (int py = 0; py < kH; ++py)
+    for (int px = 0; px < kW; ++px) {
+      if (!awayFromEdges(o, kW, kH, px, py)) continue;
+      const OraclePixel& q = o[size_t(py) * kW + px];
+      if (q.s.mesh == 0) {
+        const glm::dvec3 want = q.shPart + q.direct[0];
+        floorWorst = std::max(floorWorst, glm::length(glm::dvec3(lit.at(px, py)) - want) / p);
+        ++floorCompared;
+        // Shadowed by the cube: lit again when the cube is taken out of the traced scene.
+        if (q.share[0] == 0.0 && visibleShare(withoutCube, q.s.x, q.s.n, lights[0]) == 1.0) ++floorShadowedByCube;
+      } else if (q.s.mesh == 2) {
+        const glm::dvec3 got = glm::dvec3(lit.at(px, py)) - glm::dvec3(sky.at(px, py));
+        cubeWorst = std::max(cubeWorst, glm::length(got - q.direct[0]) / p);
+        ++cubeCompared;
+        if (q.share[0] == 0.0 && directCosineFactor(lights[0], q.s.n) > 0.0) ++cubeInShadow;
+      }
+    }
+  std::printf("[ measured ] floor: %d pixels, %d in the cube's shadow, worst %.3g; cube: %d pixels, %d in the "
+              "wall's shadow, worst %.3g (of the peak)\n",
+              floorCompared, floorShadowedByCube, floorWorst, cubeCompared, cubeInShadow, cubeWorst);
+  EXPECT_GT(floorShadowedByCube, 20);
+  EXPECT_GT(cubeInShadow, 5);
+  EXPECT_GT(cubeCompared, 40);
+  EXPECT_LE(floorWorst, 1e-4);  // as in MatchesRayTracedOracleAwayFromShadowEdges
+  EXPECT_LE(cubeWorst, 1e-4);
+}
+
+// The same frame twice, and on a second renderer: bit-identical (the filter's rotation is a
+// function of the pixel, not of time or threads).
+TEST(RenderDirect, FramesAreDeterministic) {
+  const Scene s = slabScene(3);
+  const CameraView cam = lookAt({0.0, 2.6, 1.6}, {0.0, 0.0, 0.0}, 45.0);
+  Frame f;
+  f.camera = cam;
+  f.light = randomLight(3, 1, 1.0f);
+  f.directLight = randomLight(3, 2, 0.2f);
+  f.direct = {sun(60.0, 200.0, 4.0, {2.0, 2.0, 2.0}), sun(40.0, 20.0, 0.265, {1.0, 1.0, 1.0})};
+  f.shadows.mapSize = 512;
+  GlContext ctx(GlBackend::OSMesa, kW, kH);
+  Renderer a(ctx, s), b(ctx, s);
+  const ImageRgb first = a.render(f), second = a.render(f), other = b.render(f);
+  EXPECT_EQ(first.pixels, second.pixels);
+  EXPECT_EQ(first.pixels, other.pixels);
+}
+
+// A bake without the direct part (an older prt): the direct lights go through SH (the frame
+// equals the one with light + directSh and no direct light) and one warning says so, once.
+TEST(RenderDirect, OlderBakeLightsDirectLightsThroughSh) {
+  Scene s = slabScene(3);
+  for (MeshInstance& m : s.meshes) m.transferDirect.clear();
+  GlContext ctx(GlBackend::OSMesa, kW, kH);
+  Renderer r(ctx, s);
+  EXPECT_FALSE(r.bakedDirectPart());
+  Frame f;
+  f.camera = lookAt({0.0, 2.6, 1.6}, {0.0, 0.0, 0.0}, 45.0);
+  f.light = randomLight(3, 1, 1.0f);
+  f.directLight = randomLight(3, 2, 0.2f);
+  f.direct = {sun(60.0, 200.0, 4.0, {2.0, 2.0, 2.0})};
+  const size_t before = r.warnings().size();
+  const ImageRgb split = r.render(f);
+  r.render(f);
+  EXPECT_EQ(r.warnings().size(), before + 1);
+  EXPECT_NE(r.warnings().back().find("no direct part"), std::string::npos) << r.warnings().back();
+  EXPECT_EQ(r.lastFrame().directBaked, 0u);
+  Frame folded = f;
+  folded.light += f.directLight;
+  folded.directLight = sh::ShRgb();
+  folded.direct.clear();
+  EXPECT_EQ(split.pixels, r.render(folded).pixels);
+}
+
+TEST(RenderDirect, TooManyDirectLightsIsAnError) {
+  const Scene s = slabScene(2);
+  GlContext ctx(GlBackend::OSMesa, 16, 16);
+  Renderer r(ctx, s);
+  Frame f;
+  f.camera = lookAt({0.0, 2.6, 1.6}, {0.0, 0.0, 0.0}, 45.0);
+  f.light = sh::ShRgb(2);
+  f.direct.assign(size_t(kMaxDirectLights) + 1, sun(60.0, 0.0, 0.265, {1.0, 1.0, 1.0}));
+  EXPECT_THROW(r.render(f), Error);
+  f.direct.resize(size_t(kMaxDirectLights));
+  EXPECT_NO_THROW(r.render(f));
+}
+
+}  // namespace
+}  // namespace prt::render
