@@ -144,6 +144,11 @@ def compare(args):
         if rel:
             print(f"   RMS over {kind}: {100 * math.sqrt(sum(r * r for r in rel) / len(rel)):.1f}% ({len(rel)} regions, "
                   f"relative difference of the luminance of each region's mean; largest {100 * max(map(abs, rel)):.1f}%)")
+    yc = [lum([c[k][y][x] for k in range(3)]) for y, x in every]
+    yp = [lum([p[k][y][x] for k in range(3)]) for y, x in every]
+    mean_c = sum(yc) / len(yc)
+    print(f"   pixel relative RMS: {100 * math.sqrt(sum((a - b) ** 2 for a, b in zip(yp, yc)) / len(yc)) / mean_c:.1f}% "
+          f"(luminance, {len(yc)} pixels away from edges, over the mean; holds Cycles' per-pixel noise too)")
     verdict = "FAIL" if failed else "PASS"
     print(f"   {verdict}: largest regional difference {100 * worst:.1f}% (a region fails beyond {100 * tol:.1f}% "
           f"+ 2 noise; regions of >= {min_px} pixels; noise = standard error of the region's mean difference)")

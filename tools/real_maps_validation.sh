@@ -10,19 +10,22 @@
 # The scene is the Cornell-style room of tools/validation_room.py (2 x 2 x 2 m, a 0.8 m skylight,
 # the front side open, vertices 0.1 m apart), written into OUTDIR. For every map:
 #   Cycles (Blender 3.4): tools/cycles_vertex_reference.py bakes the exitant radiance at every
-#     vertex (8 diffuse bounces, VSAMPLES samples for each of 2 seeds), and
+#     vertex (8 diffuse bounces, VSAMPLES samples for each of 2 seeds; CSAMPLES for the
+#     controls), and
 #     tools/cycles_reference.py renders the camera outside the open side (8 bounces, FSAMPLES, SIZE);
 #   prt: `prt bake --bounces 8` at 3 bands, `prt relight --csv` and `prt render`, "before"
 #     (--no-direct-lights, and with the map's sun extraction off where prt has that option) and
 #     "after" (default options);
 #   tools/vertex_compare.py (per vertex: median, p95 of the relative error, Cycles' noise) and
 #     tools/cycles_compare.py (per face and tile, eroded away from edges; RMS over regions).
-# Controls: the uniform white sky (band 0: prt exact; checks units rho E / pi and the bounce
-# count) at 3 bands, and the lobes sky (bands 0-4) at 6 bands.
+# Controls: the uniform white sky (band 0: prt exact; checks units rho E / pi) at 8 and at 0
+# bounces (the bounce count), and the lobes sky (bands 0-4) at 6 bands (orientation; exact) and
+# at 3 bands.
 # Only reports: no exit status depends on the numbers. Cycles results in OUTDIR are reused when
 # their .json matches (delete them to redo).
 #
-# Environment: VSAMPLES (per seed, default 128), FSAMPLES (default 64), SIZE (default 96x54),
+# Environment: VSAMPLES (per seed, default 1024), CSAMPLES (per seed, controls, default 128),
+# FSAMPLES (default 1024), SIZE (default 160x90),
 # BAKE_SAMPLES (default 4096), BLENDER, PRT, THREADS, NO_SUN_OPTION (the prt option that turns
 # the map's sun extraction off; default: found in `prt relight --help`, else none).
 set -euo pipefail
@@ -32,9 +35,10 @@ OUT=${1:-build/real_validation}
 shift || true
 MAPS=("$@")
 [ ${#MAPS[@]} -gt 0 ] || MAPS=(../shared/hdri/royal_esplanade_1k.hdr ../shared/hdri/venice_sunset_1k.hdr)
-VSAMPLES=${VSAMPLES:-128}
-FSAMPLES=${FSAMPLES:-64}
-SIZE=${SIZE:-96x54}
+VSAMPLES=${VSAMPLES:-1024}
+CSAMPLES=${CSAMPLES:-128}
+FSAMPLES=${FSAMPLES:-1024}
+SIZE=${SIZE:-160x90}
 BAKE_SAMPLES=${BAKE_SAMPLES:-4096}
 BLENDER=${BLENDER:-blender}
 PRT=${PRT:-build/tools/prt}
@@ -65,13 +69,13 @@ for kv in sys.argv[2:]:
 PY
 }
 
-# cycles_vertex NAME MAP: Cycles' per-vertex reference.
+# cycles_vertex NAME MAP SAMPLES [BOUNCES]: Cycles' per-vertex reference.
 cycles_vertex() {
-  local csv="$OUT/cyc_v_$1.csv"
-  if matches "$csv" env="$2" samples="$VSAMPLES" bounces="$BOUNCES"; then echo "reusing $csv"; return; fi
+  local csv="$OUT/cyc_v_$1.csv" k=${4:-$BOUNCES}
+  if matches "$csv" env="$2" samples="$3" bounces="$k"; then echo "reusing $csv"; return; fi
   rm -f "$csv" "$csv.json"
   "$BLENDER" -b --factory-startup --python tools/cycles_vertex_reference.py -- --scene "$SCENE" --env "$2" \
-    --bounces "$BOUNCES" --samples "$VSAMPLES" --seeds 1,2 --threads "$THREADS" -o "$csv" | grep -E '^(cycles_|Error)' || true
+    --bounces "$k" --samples "$3" --seeds 1,2 --threads "$THREADS" -o "$csv" | grep -E '^(cycles_|Error)' || true
   [ -f "$csv" ] || { echo "real_maps_validation.sh: Cycles bake $csv failed" >&2; exit 1; }
 }
 
@@ -86,17 +90,20 @@ cycles_frame() {
   [ -f "$exr" ] || { echo "real_maps_validation.sh: Cycles render $exr failed" >&2; exit 1; }
 }
 
-# bake BANDS: prt's bake of the room (default options otherwise).
+# bake BANDS [BOUNCES]: prt's bake of the room (default options otherwise).
 bake() {
-  local glb="$OUT/prt_b$1_k${BOUNCES}_s$BAKE_SAMPLES.glb"
-  [ -f "$glb" ] || "$PRT" bake "$SCENE" -o "$glb" --bands "$1" --bounces "$BOUNCES" --samples "$BAKE_SAMPLES" -q
+  local k=${2:-$BOUNCES}
+  local glb="$OUT/prt_b$1_k${k}_s$BAKE_SAMPLES.glb"
+  [ -f "$glb" ] || "$PRT" bake "$SCENE" -o "$glb" --bands "$1" --bounces "$k" --samples "$BAKE_SAMPLES" -q
   echo "$glb"
 }
 
-# case NAME BANDS MAP [prt lighting options]: relight CSV, frame, and both comparisons.
+# case_ NAME BANDS MAP REF [prt lighting options]: relight CSV, frame (when Cycles has one for
+# REF), and both comparisons. BANDS may be B:K for K bounces.
 case_() {
-  local name=$1 bands=$2 map=$3 ref=$4; shift 4
-  local glb; glb=$(bake "$bands")
+  local name=$1 bands=${2%%:*} k=${2#*:} map=$3 ref=$4; shift 4
+  [ "$k" != "$2" ] || k=$BOUNCES
+  local glb; glb=$(bake "$bands" "$k")
   "$PRT" relight "$glb" --env "$map" "$@" -o "$OUT/prt_$name.glb" --csv "$OUT/prt_$name.csv" -q
   "$PY" tools/vertex_compare.py "$OUT/cyc_v_$ref.csv" "$OUT/prt_$name.csv" --name "$name: Cycles $ref vs prt $bands bands $*" \
     --json "$OUT/vertex_$name.json"
@@ -108,18 +115,21 @@ case_() {
   echo
 }
 
-cycles_vertex white "$WHITE"
-cycles_vertex lobes "$OUT/lobes_256.exr"
+cycles_vertex white "$WHITE" "$CSAMPLES"
+cycles_vertex white_k0 "$WHITE" "$CSAMPLES" 0
+cycles_vertex lobes "$OUT/lobes_256.exr" "$CSAMPLES"
 names=()
 for m in "${MAPS[@]}"; do
   n=$(basename "$m"); n=${n%%_*}; names+=("$n")
-  cycles_vertex "$n" "$m"
+  cycles_vertex "$n" "$m" "$VSAMPLES"
   cycles_frame "$n" "$m"
 done
 
 echo "Controls (prt exact up to its bake noise): units, bounces, orientation."
 case_ white_b3 3 "$WHITE" white
+case_ white_b3_k0 3:0 "$WHITE" white_k0
 case_ lobes_b6 6 "$OUT/lobes_256.exr" lobes
+case_ lobes_b3 3 "$OUT/lobes_256.exr" lobes
 i=0
 for m in "${MAPS[@]}"; do
   n=${names[$i]}; i=$((i + 1))
