@@ -101,8 +101,8 @@ bake() {
 # case_ NAME BANDS MAP REF [prt lighting options]: relight CSV, frame (when Cycles has one for
 # REF), and both comparisons. BANDS may be B:K for K bounces.
 case_() {
-  local name=$1 bands=${2%%:*} k=${2#*:} map=$3 ref=$4; shift 4
-  [ "$k" != "$2" ] || k=$BOUNCES
+  local name=$1 spec=$2 bands=${2%%:*} k=${2#*:} map=$3 ref=$4; shift 4
+  [ "$k" != "$spec" ] || k=$BOUNCES
   local glb; glb=$(bake "$bands" "$k")
   "$PRT" relight "$glb" --env "$map" "$@" -o "$OUT/prt_$name.glb" --csv "$OUT/prt_$name.csv" -q
   "$PY" tools/vertex_compare.py "$OUT/cyc_v_$ref.csv" "$OUT/prt_$name.csv" --name "$name: Cycles $ref vs prt $bands bands $*" \
