@@ -50,7 +50,7 @@ BOUNCES=8
 command -v "$BLENDER" >/dev/null || { echo "real_maps_validation.sh: $BLENDER not found" >&2; exit 1; }
 [ -x "$PRT" ] || { echo "real_maps_validation.sh: $PRT not found (build prt first)" >&2; exit 1; }
 for m in "${MAPS[@]}"; do [ -f "$m" ] || { echo "real_maps_validation.sh: $m: no such map" >&2; exit 1; }; done
-NO_SUN_OPTION=${NO_SUN_OPTION-$("$PRT" relight --help | grep -oE -- '--no-(env-)?sun[a-z-]*' | head -1 || true)}
+NO_SUN_OPTION=${NO_SUN_OPTION-$("$PRT" relight --help | grep -oE -- '--no-[a-z-]*(sun|extract)[a-z-]*' | head -1 || true)}
 mkdir -p "$OUT"
 SCENE="$OUT/room.gltf"
 "$PY" tools/validation_room.py "$OUT" >/dev/null
