@@ -280,4 +280,5 @@ def main():
     render(parse_args())
 
 
-main()
+if __name__ == "__main__":  # Blender runs --python scripts as __main__; importing only defines
+    main()

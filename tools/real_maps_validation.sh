@@ -1,0 +1,147 @@
+#!/usr/bin/env bash
+# prt against Blender Cycles under real HDR maps, per vertex and per frame (docs/validation.md,
+# "Real maps, per vertex and per frame"; issue 12).
+#
+#   tools/real_maps_validation.sh [OUTDIR] [MAP...]
+#       OUTDIR default build/real_validation; MAPs default ../shared/hdri/royal_esplanade_1k.hdr
+#       and ../shared/hdri/venice_sunset_1k.hdr (any equirectangular .hdr/.exr path; nothing is
+#       copied into the repository)
+#
+# The scene is the Cornell-style room of tools/validation_room.py (2 x 2 x 2 m, a 0.8 m skylight,
+# the front side open, vertices 0.1 m apart), written into OUTDIR. For every map:
+#   Cycles (Blender 3.4): tools/cycles_vertex_reference.py bakes the exitant radiance at every
+#     vertex (8 diffuse bounces, VSAMPLES samples for each of 2 seeds; CSAMPLES for the
+#     controls), and
+#     tools/cycles_reference.py renders the camera outside the open side (8 bounces, FSAMPLES, SIZE);
+#   prt: `prt bake --bounces 8` at 3 bands, `prt relight --csv` and `prt render`, "before"
+#     (--no-direct-lights, and with the map's sun extraction off where prt has that option) and
+#     "after" (default options);
+#   tools/vertex_compare.py (per vertex: median, p95 of the relative error, Cycles' noise) and
+#     tools/cycles_compare.py (per face and tile, eroded away from edges; RMS over regions).
+# Controls: the uniform white sky (band 0: prt exact; checks units rho E / pi) at 8 and at 0
+# bounces (the bounce count), and the lobes sky (bands 0-4) at 6 bands (orientation; exact) and
+# at 3 bands.
+# Only reports: no exit status depends on the numbers. Cycles results in OUTDIR are reused when
+# their .json matches (delete them to redo).
+#
+# Environment: VSAMPLES (per seed, default 1024), CSAMPLES (per seed, controls, default 128),
+# FSAMPLES (default 1024), SIZE (default 160x90),
+# BAKE_SAMPLES (default 4096), BLENDER, PRT, THREADS, NO_SUN_OPTION (the prt option that turns
+# the map's sun extraction off; default: found in `prt relight --help`, else none).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+OUT=${1:-build/real_validation}
+shift || true
+MAPS=("$@")
+[ ${#MAPS[@]} -gt 0 ] || MAPS=(../shared/hdri/royal_esplanade_1k.hdr ../shared/hdri/venice_sunset_1k.hdr)
+VSAMPLES=${VSAMPLES:-1024}
+CSAMPLES=${CSAMPLES:-128}
+FSAMPLES=${FSAMPLES:-1024}
+SIZE=${SIZE:-160x90}
+BAKE_SAMPLES=${BAKE_SAMPLES:-4096}
+BLENDER=${BLENDER:-blender}
+PRT=${PRT:-build/tools/prt}
+THREADS=${THREADS:-0}
+PY=/usr/bin/python3
+WHITE=scenes/env/white_sky_64.hdr
+BOUNCES=8
+
+command -v "$BLENDER" >/dev/null || { echo "real_maps_validation.sh: $BLENDER not found" >&2; exit 1; }
+[ -x "$PRT" ] || { echo "real_maps_validation.sh: $PRT not found (build prt first)" >&2; exit 1; }
+for m in "${MAPS[@]}"; do [ -f "$m" ] || { echo "real_maps_validation.sh: $m: no such map" >&2; exit 1; }; done
+NO_SUN_OPTION=${NO_SUN_OPTION-$("$PRT" relight --help | grep -oE -- '--no-[a-z-]*(sun|extract)[a-z-]*' | head -1 || true)}
+mkdir -p "$OUT"
+SCENE="$OUT/room.gltf"
+"$PY" tools/validation_room.py "$OUT" >/dev/null
+"$PY" tools/cycles_compare.py lobes "$OUT/lobes_256.exr"
+
+# matches FILE.json KEY=VALUE...: the Cycles result's settings are these.
+matches() {
+  local f=$1; shift
+  [ -f "$f" ] && [ -f "$f.json" ] && "$PY" - "$f.json" "$@" <<'PY'
+import json, sys
+m = json.load(open(sys.argv[1]))
+for kv in sys.argv[2:]:
+    k, v = kv.split("=", 1)
+    if str(m.get(k)) != v:
+        sys.exit(1)
+PY
+}
+
+# cycles_vertex NAME MAP SAMPLES [BOUNCES]: Cycles' per-vertex reference.
+cycles_vertex() {
+  local csv="$OUT/cyc_v_$1.csv" k=${4:-$BOUNCES}
+  if matches "$csv" env="$2" samples="$3" bounces="$k"; then echo "reusing $csv"; return; fi
+  rm -f "$csv" "$csv.json"
+  "$BLENDER" -b --factory-startup --python tools/cycles_vertex_reference.py -- --scene "$SCENE" --env "$2" \
+    --bounces "$k" --samples "$3" --seeds 1,2 --threads "$THREADS" -o "$csv" | grep -E '^(cycles_|Error)' || true
+  [ -f "$csv" ] || { echo "real_maps_validation.sh: Cycles bake $csv failed" >&2; exit 1; }
+}
+
+# cycles_frame NAME MAP: Cycles' frame of the room's camera.
+cycles_frame() {
+  local exr="$OUT/cycles_$1.exr"
+  if matches "$exr" env="$2" samples="$FSAMPLES" bounces="$BOUNCES" size="[${SIZE/x/, }]"; then echo "reusing $exr"; return; fi
+  rm -f "$exr" "$exr.json"
+  "$BLENDER" -b --factory-startup --python tools/cycles_reference.py -- --scene "$SCENE" --env "$2" \
+    --bounces "$BOUNCES" --samples "$FSAMPLES" --size "$SIZE" --camera Camera --threads "$THREADS" -o "$exr" \
+    | grep -E '^(cycles_|Error)' || true
+  [ -f "$exr" ] || { echo "real_maps_validation.sh: Cycles render $exr failed" >&2; exit 1; }
+}
+
+# bake BANDS [BOUNCES]: prt's bake of the room (default options otherwise).
+bake() {
+  local k=${2:-$BOUNCES}
+  local glb="$OUT/prt_b$1_k${k}_s$BAKE_SAMPLES.glb"
+  [ -f "$glb" ] || "$PRT" bake "$SCENE" -o "$glb" --bands "$1" --bounces "$k" --samples "$BAKE_SAMPLES" -q
+  echo "$glb"
+}
+
+# case_ NAME BANDS MAP REF [prt lighting options]: relight CSV, frame (when Cycles has one for
+# REF), and both comparisons. BANDS may be B:K for K bounces.
+case_() {
+  local name=$1 spec=$2 bands=${2%%:*} k=${2#*:} map=$3 ref=$4; shift 4
+  [ "$k" != "$spec" ] || k=$BOUNCES
+  local glb; glb=$(bake "$bands" "$k")
+  "$PRT" relight "$glb" --env "$map" "$@" -o "$OUT/prt_$name.glb" --csv "$OUT/prt_$name.csv" -q
+  "$PY" tools/vertex_compare.py "$OUT/cyc_v_$ref.csv" "$OUT/prt_$name.csv" --name "$name: Cycles $ref vs prt $bands bands $*" \
+    --json "$OUT/vertex_$name.json"
+  if [ -f "$OUT/cycles_$ref.exr" ]; then
+    "$PRT" render "$glb" --env "$map" "$@" --size "$SIZE" --camera Camera --exr-compression none -q -o "$OUT/prt_$name.exr"
+    "$PY" tools/cycles_compare.py compare "$OUT/cycles_$ref.exr" "$OUT/prt_$name.exr" --min-pixels 30 \
+      --name "frame $name: Cycles $ref vs prt $bands bands $*" || true
+  fi
+  echo
+}
+
+cycles_vertex white "$WHITE" "$CSAMPLES"
+cycles_vertex white_k0 "$WHITE" "$CSAMPLES" 0
+cycles_vertex lobes "$OUT/lobes_256.exr" "$CSAMPLES"
+names=()
+for m in "${MAPS[@]}"; do
+  n=$(basename "$m"); n=${n%%_*}; names+=("$n")
+  cycles_vertex "$n" "$m" "$VSAMPLES"
+  cycles_frame "$n" "$m"
+done
+
+echo "Controls (prt exact up to its bake noise): units, bounces, orientation."
+case_ white_b3 3 "$WHITE" white
+case_ white_b3_k0 3:0 "$WHITE" white_k0
+case_ lobes_b6 6 "$OUT/lobes_256.exr" lobes
+case_ lobes_b3 3 "$OUT/lobes_256.exr" lobes
+i=0
+for m in "${MAPS[@]}"; do
+  n=${names[$i]}; i=$((i + 1))
+  echo "Map $m, 3 bands, $BOUNCES bounces."
+  case_ "${n}_before" 3 "$m" "$n" --no-direct-lights
+  [ -z "$NO_SUN_OPTION" ] || case_ "${n}_nosun" 3 "$m" "$n" "$NO_SUN_OPTION"
+  case_ "${n}_after" 3 "$m" "$n"
+done
+
+rows=()
+for n in "${names[@]}"; do
+  [ -f "$OUT/prt_${n}_after.exr" ] && rows+=("$OUT/cycles_$n.exr,$OUT/prt_${n}_before.exr,$OUT/prt_${n}_after.exr")
+done
+[ ${#rows[@]} -eq 0 ] || "$PY" tools/cycles_compare.py sheet "$OUT/validation_real_maps.png" --exposure 1.0 "${rows[@]}"
+echo "real_maps_validation.sh: done (reports only)"
