@@ -47,25 +47,29 @@ void onSignal(int sig) {
 }
 
 // Installs the handlers for the lifetime of a bake and restores the previous ones after.
+// An MPI rank (docs/scale.md) stops and saves on SIGUSR1, which mpirun forwards to every rank:
+// mpirun turns Ctrl-C into SIGTERM for all ranks, and also sends SIGTERM when a rank aborts
+// the job on an error, so SIGTERM ends a rank at once (its checkpoint keeps the last
+// periodic save) and the error stays the job's one line.
 class SignalScope {
 public:
-  SignalScope() {
+  explicit SignalScope(bool mpiRank) : signals_(mpiRank ? std::vector<int>{SIGUSR1} : std::vector<int>{SIGINT, SIGTERM}) {
     struct sigaction sa{};
     sa.sa_handler = onSignal;
     sigemptyset(&sa.sa_mask);
     sa.sa_flags = SA_RESTART;
-    sigaction(SIGINT, &sa, &oldInt_);
-    sigaction(SIGTERM, &sa, &oldTerm_);
+    old_.resize(signals_.size());
+    for (size_t i = 0; i < signals_.size(); ++i) sigaction(signals_[i], &sa, &old_[i]);
   }
   ~SignalScope() {
-    sigaction(SIGINT, &oldInt_, nullptr);
-    sigaction(SIGTERM, &oldTerm_, nullptr);
+    for (size_t i = 0; i < signals_.size(); ++i) sigaction(signals_[i], &old_[i], nullptr);
   }
   SignalScope(const SignalScope&) = delete;
   SignalScope& operator=(const SignalScope&) = delete;
 
 private:
-  struct sigaction oldInt_{}, oldTerm_{};
+  std::vector<int> signals_;
+  std::vector<struct sigaction> old_;
 };
 
 // What must match for a checkpoint to be resumed: the scene's content and every setting that
@@ -284,7 +288,7 @@ int runBake(const BakeArgs& a) {
 
   const bake::ProbeSettings* psp = a.probes.empty() ? nullptr : &ps;
 
-  SignalScope signals;
+  SignalScope signals(mpi != nullptr);
   Scene scene;
   try {
     scene = loadScene(a.scene, a.load);
@@ -361,6 +365,10 @@ int runBake(const BakeArgs& a) {
       return run();
     } catch (const Interrupted&) {
       if (!checkpoint) throw;
+      if (mpi)  // one line for all ranks (main prints rank 0's when every rank stops)
+        throw Interrupted(cat("interrupted: checkpoints saved to ", checkpointPath, ".rank-*-of-", ranks.size(),
+                              " (rank ", ranks.rank(), ": ", checkpoint->progressText(),
+                              "); rerun with --resume to continue"));
       throw Interrupted(cat("interrupted: checkpoint saved to ", checkpoint->path(), " (",
                             checkpoint->progressText(), "); rerun with --resume to continue"));
     }

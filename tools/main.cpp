@@ -41,8 +41,8 @@ std::string usageLine(const std::string& what) { return cat("prt: ", what, " (se
 // prints at once and stops every rank; another rank first leaves rank 0 a moment, so that an
 // error every rank meets (a missing scene) is printed by rank 0 alone and one a rank meets on
 // its own still is. One process: prints. Returns `code`.
-int report(const std::string& line, int code) {
-  if (bake::launcherRank() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(500));
+int report(const std::string& line, int code, int waitMs = 2000) {
+  if (bake::launcherRank() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(waitMs));
   std::fprintf(stderr, "%s", line.c_str());
   std::fflush(stderr);
   bake::stopAllRanks(code);
@@ -99,7 +99,7 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() != 0 && bake::launcherRank() > 0) {  // every rank has the same arguments
-      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+      std::this_thread::sleep_for(std::chrono::milliseconds(2000));
       return kUsageExit;
     }
     return app.exit(e) == 0 ? 0 : kUsageExit;
@@ -110,7 +110,8 @@ int main(int argc, char** argv) {
   } catch (const UsageError& e) {
     return report(usageLine(e.what()), kUsageExit);
   } catch (const Interrupted& e) {
-    return report(cat("prt: ", e.what(), "\n"), 128 + (bake::interruptSignal() ? bake::interruptSignal() : SIGINT));
+    // Every rank saves before it stops: rank 0's may take a while.
+    return report(cat("prt: ", e.what(), "\n"), 128 + (bake::interruptSignal() ? bake::interruptSignal() : SIGINT), 3000);
   } catch (const Error& e) {
     return report(cat("prt: ", e.what(), "\n"), 1);
   } catch (const std::bad_alloc&) {
