@@ -19,7 +19,7 @@ using test::RunResult;
 
 // A small bake with every stage: the direct pass, two bounces (cornell_open: 12.5 k vertices,
 // 196 chunks per pass) and probes (4×4×4, one chunk of 64 points). Refinement stays on (its
-// default), so each rank refines the scene on its own and the ranks must still agree.
+// default): MPI ranks share its points, shards each refine the whole scene, and all must agree.
 Args bakeArgs(const fs::path& dir, const std::string& name) {
   return {"bake",       test::sourcePath("scenes/cornell_open.gltf"),
           "-o",         (dir / (name + ".glb")).string(),
@@ -75,14 +75,16 @@ protected:
 TEST_F(CliMpi, RanksWriteTheBytesOfOneProcess) {
   const test::TempDir tmp;
   const fs::path dir = tmp.path();
-  RunResult ref = test::runPrt(test::plus(bakeArgs(dir, "ref"), {"--threads", "1"}));
+  // Refinement that splits edges (one round on cornell_open): the ranks share its points.
+  const Args refine = {"--refine-samples", "64", "--refine-tolerance", "0.005", "--threads", "1"};
+  RunResult ref = test::runPrt(test::plus(bakeArgs(dir, "ref"), refine));
   ASSERT_EQ(ref.status, 0) << ref.err;
   const std::string glb = test::fileBytes(dir / "ref.glb"), vdb = test::fileBytes(dir / "ref.vdb");
   for (int n : {1, 2, 3}) {
     SCOPED_TRACE(n);
     const fs::path out = dir / ("n" + std::to_string(n));
     fs::create_directories(out);
-    RunResult r = mpirun(n, test::plus(bakeArgs(out, "b"), {"--threads", "1"}));
+    RunResult r = mpirun(n, test::plus(bakeArgs(out, "b"), refine));
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(test::fileBytes(out / "b.glb") == glb) << "the .glb of " << n << " ranks differs from one process";
     EXPECT_TRUE(test::fileBytes(out / "b.vdb") == vdb) << "the .vdb of " << n << " ranks differs from one process";

@@ -480,11 +480,33 @@ RefineStats refineScene(Scene& scene, const RefineSettings& refine, const BakeSe
     works.push_back(std::move(w));
   }
 
+  // MPI ranks (ranks.h) trace every rank's share of the points, point i on rank i mod N,
+  // and trade the blocked bits; shards, which run apart, each refine the whole scene.
+  Ranks& spread = ranks();
+  const bool shared = spread.exchanges();
   auto evaluate = [&]() {
     tbb::parallel_for(size_t(0), todo.size(), [&](size_t i) {
       if (interruptRequested()) return;
+      if (shared && !spread.owns(i)) return;
       estimator.trace(todo[i], est, todoSlot[i]);
     });
+    if (shared) {
+      stopIfInterrupted(checkpoint);
+      const size_t bytes = est.words * sizeof(uint64_t);
+      std::string mine;
+      for (size_t i = 0; i < todo.size(); ++i)
+        if (spread.owns(i)) mine.append(reinterpret_cast<const char*>(&est.blocked[todoSlot[i] * est.words]), bytes);
+      const std::vector<std::string> all = spread.gather(std::move(mine), true);
+      std::vector<size_t> at(all.size(), 0);
+      for (size_t i = 0; i < todo.size(); ++i) {
+        const size_t from = i % all.size();
+        if (int(from) == spread.rank()) continue;
+        PRT_CHECK_LE(at[from] + bytes, all[from].size());
+        std::memcpy(&est.blocked[todoSlot[i] * est.words], all[from].data() + at[from], bytes);
+        est.normal[todoSlot[i]] = todo[i].normal;
+        at[from] += bytes;
+      }
+    }
     stats.points += todo.size();
     stats.rays += uint64_t(todo.size()) * estimator.samples;
     todo.clear();
