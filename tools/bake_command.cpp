@@ -465,6 +465,9 @@ int runBake(const BakeArgs& a) {
                  refined.residual, formatCount(double(refined.points)).c_str(),
                  formatCount(double(refined.rays)).c_str(), refined.seconds);
   for (const std::string& line : describeReceivers(scene, "--receiver")) std::fprintf(stderr, "  receiver %s\n", line.c_str());
+  if (mpi)
+    std::fprintf(stderr, "  ranks: %d (MPI); rank 0 received %s from the others in %llu exchanges\n", ranks.size(),
+                 formatBytes(ranks.bytesReceived()).c_str(), static_cast<unsigned long long>(ranks.gathers()));
   if (a.probes.empty()) return 0;
   const std::string restored =
       probeStats.restored ? cat("; ", formatCount(double(probeStats.restored)), " restored from the checkpoint") : "";

@@ -48,6 +48,12 @@ public:
   virtual void barrier() {}
   /// Does this rank compute chunk `c` of a stage? c mod size() == rank().
   bool owns(uint64_t c) const { return int(c % uint64_t(size())) == rank(); }
+  /// Bytes this rank received from other ranks in gather() so far, and the gathers.
+  uint64_t bytesReceived() const { return received_; }
+  uint64_t gathers() const { return gathers_; }
+
+protected:
+  uint64_t received_ = 0, gathers_ = 0;
 };
 
 /// The ranks of this process (one process unless a RanksScope says otherwise).
