@@ -20,16 +20,17 @@ using test::RunResult;
 // A small bake with every stage: the direct pass, two bounces (cornell_open: 12.5 k vertices,
 // 196 chunks per pass) and probes (4×4×4, one chunk of 64 points). Refinement stays on (its
 // default): MPI ranks share its points, shards each refine the whole scene, and all must agree.
-Args bakeArgs(const fs::path& dir, const std::string& name) {
+// `samples`: the bake's and refinement's directions (refinement's are at most the bake's).
+Args bakeArgs(const fs::path& dir, const std::string& name, const std::string& samples = "") {
   return {"bake",       test::sourcePath("scenes/cornell_open.gltf"),
           "-o",         (dir / (name + ".glb")).string(),
           "--probes",   (dir / (name + ".vdb")).string(),
-          "--samples",  "32",
+          "--samples",  samples.empty() ? "32" : samples,
           "--bands",    "2",
           "--bounces",  "2",
           "--probe-dims", "4,4,4",
           "--probe-samples", "64",
-          "--refine-samples", "16",
+          "--refine-samples", samples.empty() ? "16" : samples,
           "-q"};
 }
 
@@ -75,16 +76,17 @@ protected:
 TEST_F(CliMpi, RanksWriteTheBytesOfOneProcess) {
   const test::TempDir tmp;
   const fs::path dir = tmp.path();
-  // Refinement that splits edges (one round on cornell_open): the ranks share its points.
-  const Args refine = {"--refine-samples", "64", "--refine-tolerance", "0.005", "--threads", "1"};
-  RunResult ref = test::runPrt(test::plus(bakeArgs(dir, "ref"), refine));
+  // Refinement that splits edges (one round on cornell_open, 12 510 -> 12 520 vertices): the
+  // ranks share its points and scores.
+  const Args refine = {"--refine-tolerance", "0.002", "--threads", "1"};
+  RunResult ref = test::runPrt(test::plus(bakeArgs(dir, "ref", "64"), refine));
   ASSERT_EQ(ref.status, 0) << ref.err;
   const std::string glb = test::fileBytes(dir / "ref.glb"), vdb = test::fileBytes(dir / "ref.vdb");
   for (int n : {1, 2, 3}) {
     SCOPED_TRACE(n);
     const fs::path out = dir / ("n" + std::to_string(n));
     fs::create_directories(out);
-    RunResult r = mpirun(n, test::plus(bakeArgs(out, "b"), refine));
+    RunResult r = mpirun(n, test::plus(bakeArgs(out, "b", "64"), refine));
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(test::fileBytes(out / "b.glb") == glb) << "the .glb of " << n << " ranks differs from one process";
     EXPECT_TRUE(test::fileBytes(out / "b.vdb") == vdb) << "the .vdb of " << n << " ranks differs from one process";
@@ -123,6 +125,18 @@ TEST_F(CliMpi, RankStoppedMidBakeResumesWithTheOthers) {
   EXPECT_TRUE(test::fileBytes(out / "b.glb") == test::fileBytes(dir / "ref.glb"));
   EXPECT_TRUE(test::fileBytes(out / "b.vdb") == test::fileBytes(dir / "ref.vdb"));
   EXPECT_EQ(names(out), (std::vector<std::string>{"b.glb", "b.vdb"}));
+  // Both ranks stopped in bounce 1: they resume there, and first trade the direct pass's
+  // chunks (each rank's file holds its own, and every rank keeps the whole direct part).
+  fs::remove(out / "b.glb");
+  fs::remove(out / "b.vdb");
+  RunResult both = mpirun(2, common, {.env = {{"PRT_TEST_INTERRUPT_AFTER", "150"}}});
+  EXPECT_NE(both.status, 0);
+  EXPECT_EQ(prtLines(both.err), 1) << both.err;
+  EXPECT_NE(both.err.find(": bounce 1 "), std::string::npos) << both.err;
+  RunResult again = mpirun(2, test::plus(common, {"--resume"}));
+  ASSERT_EQ(again.status, 0) << again.err;
+  EXPECT_TRUE(test::fileBytes(out / "b.glb") == test::fileBytes(dir / "ref.glb"));
+  EXPECT_TRUE(test::fileBytes(out / "b.vdb") == test::fileBytes(dir / "ref.vdb"));
 }
 
 TEST_F(CliMpi, AFailingRankStopsEveryRankWithOneLine) {
