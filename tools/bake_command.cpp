@@ -20,6 +20,7 @@
 #include "prt/bake/checkpoint.h"
 #include "prt/bake/memory_estimate.h"
 #include "prt/bake/probe_bake.h"
+#include "prt/bake/ranks.h"
 #include "prt/error.h"
 #include "prt/probe_grid.h"
 #include "prt/progress.h"
@@ -46,25 +47,29 @@ void onSignal(int sig) {
 }
 
 // Installs the handlers for the lifetime of a bake and restores the previous ones after.
+// An MPI rank (docs/scale.md) stops and saves on SIGUSR1, which mpirun forwards to every rank:
+// mpirun turns Ctrl-C into SIGTERM for all ranks, and also sends SIGTERM when a rank aborts
+// the job on an error, so SIGTERM ends a rank at once (its checkpoint keeps the last
+// periodic save) and the error stays the job's one line.
 class SignalScope {
 public:
-  SignalScope() {
+  explicit SignalScope(bool mpiRank) : signals_(mpiRank ? std::vector<int>{SIGUSR1} : std::vector<int>{SIGINT, SIGTERM}) {
     struct sigaction sa{};
     sa.sa_handler = onSignal;
     sigemptyset(&sa.sa_mask);
     sa.sa_flags = SA_RESTART;
-    sigaction(SIGINT, &sa, &oldInt_);
-    sigaction(SIGTERM, &sa, &oldTerm_);
+    old_.resize(signals_.size());
+    for (size_t i = 0; i < signals_.size(); ++i) sigaction(signals_[i], &sa, &old_[i]);
   }
   ~SignalScope() {
-    sigaction(SIGINT, &oldInt_, nullptr);
-    sigaction(SIGTERM, &oldTerm_, nullptr);
+    for (size_t i = 0; i < signals_.size(); ++i) sigaction(signals_[i], &old_[i], nullptr);
   }
   SignalScope(const SignalScope&) = delete;
   SignalScope& operator=(const SignalScope&) = delete;
 
 private:
-  struct sigaction oldInt_{}, oldTerm_{};
+  std::vector<int> signals_;
+  std::vector<struct sigaction> old_;
 };
 
 // What must match for a checkpoint to be resumed: the scene's content and every setting that
@@ -219,18 +224,50 @@ void addBake(CLI::App& bake, BakeArgs& a) {
         }
       },
       "Refuse bakes estimated above this (e.g. 8G, 500M; default: available memory)");
+  bake.add_option_function<std::string>(
+          "--shard",
+          [&a](const std::string& v) {
+            const size_t slash = v.find('/');
+            std::vector<double> n;
+            if (slash != std::string::npos)
+              n = {std::strtod(v.substr(0, slash).c_str(), nullptr), std::strtod(v.substr(slash + 1).c_str(), nullptr)};
+            const bool ok = slash != std::string::npos && v.find_first_not_of("0123456789/") == std::string::npos &&
+                            slash > 0 && slash + 1 < v.size() && n[1] >= 1 && n[1] <= 1e6 && n[0] < n[1];
+            if (!ok) throw CLI::ValidationError("--shard", cat("'", v, "': give I/N with 0 <= I < N (e.g. 0/4)"));
+            a.shardIndex = int(n[0]);
+            a.shardCount = int(n[1]);
+          },
+          "Bake shard I of N of the next unfinished stage into CHECKPOINT.shard-I-of-N, for farms "
+          "without MPI; join with prt merge (docs/scale.md)")
+      ->excludes("--resume")
+      ->excludes(unshadowed);
 }
 
 int runBake(const BakeArgs& a) {
+  // The ranks of this bake (docs/scale.md): MPI's under mpirun, a shard's, or one process.
+  std::unique_ptr<bake::Ranks> mpi;
+  if (bake::launcherRank() >= 0) {
+    if (!bake::mpiBuilt())
+      throw Error("started as one of several MPI ranks, but this prt was built without MPI (install libopenmpi-dev "
+                  "and build again, or use --shard)");
+    if (a.shardCount > 0) throw UsageError("--shard: not under mpirun (MPI ranks share every stage themselves)");
+    mpi = bake::startMpi();
+  }
+  std::unique_ptr<bake::Ranks> shard = a.shardCount > 0 ? bake::shardRanks(a.shardIndex, a.shardCount) : nullptr;
+  const bake::RanksScope ranksScope(mpi ? mpi.get() : shard.get());
+  bake::Ranks& ranks = bake::ranks();
+  const bool writer = ranks.rank() == 0 && !shard;  // the one process that writes the outputs
+
   bake::BakeSettings s = a.settings;
   s.shadowed = !a.unshadowed;
-  s.progress = !a.quiet && Progress::terminalDefault();
+  s.progress = !a.quiet && Progress::terminalDefault() && ranks.rank() == 0;
   bake::validate(s);
-  AtomicFile probe(a.output);  // fail on an unwritable output before hours of work
+  std::optional<AtomicFile> probe;
+  if (writer) probe.emplace(a.output);  // fail on an unwritable output before hours of work
   std::optional<AtomicFile> probeFile;
   bake::ProbeSettings ps;
   if (!a.probes.empty()) {
-    probeFile.emplace(a.probes);
+    if (writer) probeFile.emplace(a.probes);
     ps.bands = s.bands;
     ps.samples = a.probeSamples;
     ps.bounces = s.shadowed ? s.bounces : 0;
@@ -251,7 +288,7 @@ int runBake(const BakeArgs& a) {
 
   const bake::ProbeSettings* psp = a.probes.empty() ? nullptr : &ps;
 
-  SignalScope signals;
+  SignalScope signals(mpi != nullptr);
   Scene scene;
   try {
     scene = loadScene(a.scene, a.load);
@@ -274,18 +311,43 @@ int runBake(const BakeArgs& a) {
   guardMemory(estimate, limit, scene, s, psp);
 
   std::optional<bake::Checkpoint> checkpoint;
+  const std::string checkpointPath = a.checkpoint.empty() ? a.output + ".prt-checkpoint" : a.checkpoint;
+  std::error_code ec;
   if (s.shadowed) {
     bake::CheckpointOptions co;
-    co.path = a.checkpoint.empty() ? a.output + ".prt-checkpoint" : a.checkpoint;
+    co.path = checkpointPath;
     co.intervalSeconds = a.checkpointInterval;
     co.resume = a.resume;
     co.interruptAfterChunks = testInterruptAfter();
+    bake::Fingerprint fp = bakeFingerprint(scene, a, s, refine, psp);
+    if (mpi) {
+      // One file per rank, each holding the chunks its rank computed; they resume together.
+      co.path = cat(checkpointPath, ".rank-", ranks.rank(), "-of-", ranks.size());
+      co.missingIsFresh = true;  // a rank that never saved
+      fp.add("ranks", std::to_string(ranks.size()));
+    }
+    if (shard) {
+      // A shard reads the merged stages at the checkpoint's path and saves its share apart;
+      // run again (preempted, or as a retry) it goes on from its own file.
+      co.path = bake::shardCheckpointPath(checkpointPath, a.shardIndex, a.shardCount);
+      if (std::filesystem::exists(co.path + ".done", ec)) {
+        if (!a.quiet)
+          std::fprintf(stderr, "prt bake: shard %d/%d: its share is done already (%s.done); run prt merge %s --shards %d\n",
+                       a.shardIndex, a.shardCount, co.path.c_str(), checkpointPath.c_str(), a.shardCount);
+        return 0;
+      }
+      co.resume = std::filesystem::exists(co.path, ec);
+      if (std::filesystem::exists(checkpointPath, ec)) co.basePath = checkpointPath;
+    }
     try {
-      checkpoint.emplace(co, bakeFingerprint(scene, a, s, refine, psp));
+      checkpoint.emplace(co, fp);
     } catch (const bake::CheckpointExists&) {
       throw Error(cat(co.path, ": a checkpoint of an interrupted bake exists; add --resume to continue it, "
                                "or delete it to start over"));
     }
+    if (mpi && a.resume && ranks.sum(checkpoint->exists() ? 1 : 0) == 0)
+      throw Error(cat(checkpointPath, ".rank-*-of-", ranks.size(), ": no checkpoint to resume (a bake writes one per "
+                                      "rank when interrupted, or every checkpoint interval); start the bake afresh"));
   }
   bake::BakeControl control;
   control.checkpoint = checkpoint ? &*checkpoint : nullptr;
@@ -303,27 +365,54 @@ int runBake(const BakeArgs& a) {
       return run();
     } catch (const Interrupted&) {
       if (!checkpoint) throw;
+      if (mpi)  // one line for all ranks (main prints rank 0's when every rank stops)
+        throw Interrupted(cat("interrupted: checkpoints saved to ", checkpointPath, ".rank-*-of-", ranks.size(),
+                              " (rank ", ranks.rank(), ": ", checkpoint->progressText(),
+                              "); rerun with --resume to continue"));
       throw Interrupted(cat("interrupted: checkpoint saved to ", checkpoint->path(), " (",
                             checkpoint->progressText(), "); rerun with --resume to continue"));
     }
   };
   // Refinement is deterministic: a resumed bake refines again, to the same meshes, before it
   // restores the stages that follow (the checkpoint's fingerprint holds its settings).
-  const bake::RefineStats refined =
-      runStage([&] { return bake::refineScene(scene, refine, s, checkpoint ? &*checkpoint : nullptr); });
-  s.refineVertices = 0;  // the scene holds them now
-  bake::SurfaceTransfer result = runStage([&] { return bake::bakeSurface(scene, s, control); });
+  bake::RefineStats refined;
+  bake::SurfaceTransfer result;
   std::string sceneName = std::filesystem::path(a.scene).filename().string();
   bake::ProbeStats probeStats;
   uintmax_t probeBytes = 0;
-  if (!a.probes.empty()) {
-    if (result.perMeshLowerOrder.empty()) result.perMeshLowerOrder.assign(scene.meshes.size(), {});
-    ProbeGrid grid = runStage([&] {
-      return bake::bakeProbes(scene, result.perMeshLowerOrder, ps, &probeStats, checkpoint ? &*checkpoint : nullptr);
-    });
-    grid.info.scene = sceneName;
-    writeProbeGrid(grid, a.probes, a.probeHalf);
-    probeBytes = std::filesystem::file_size(a.probes);
+  try {
+    refined = runStage([&] { return bake::refineScene(scene, refine, s, checkpoint ? &*checkpoint : nullptr); });
+    s.refineVertices = 0;  // the scene holds them now
+    result = runStage([&] { return bake::bakeSurface(scene, s, control); });
+    if (!a.probes.empty()) {
+      if (result.perMeshLowerOrder.empty()) result.perMeshLowerOrder.assign(scene.meshes.size(), {});
+      ProbeGrid grid = runStage([&] {
+        return bake::bakeProbes(scene, result.perMeshLowerOrder, ps, &probeStats, checkpoint ? &*checkpoint : nullptr);
+      });
+      grid.info.scene = sceneName;
+      if (writer) {
+        writeProbeGrid(grid, a.probes, a.probeHalf);
+        probeBytes = std::filesystem::file_size(a.probes);
+      }
+    }
+  } catch (const bake::ShardDone& done) {
+    // This shard's share of a stage is saved: mark its file finished for prt merge.
+    const std::string file = checkpoint->path();
+    std::filesystem::rename(file, file + ".done");
+    if (!a.quiet)
+      std::fprintf(stderr, "prt bake: %s -> %s.done; once all %d shards are done: prt merge %s --shards %d, then run "
+                           "the shards again (or, after the last stage, prt bake --resume without --shard)\n",
+                   done.what(), file.c_str(), a.shardCount, checkpointPath.c_str(), a.shardCount);
+    return 0;
+  }
+  if (shard)
+    throw Error(cat(checkpointPath, ": every stage is merged; write the outputs with the same prt bake command and "
+                                    "--resume instead of --shard"));
+  if (!writer) {
+    // Rank 0 writes; the checkpoints go once the outputs are in place.
+    ranks.barrier();
+    if (checkpoint) checkpoint->remove();
+    return 0;
   }
   bake::storeTransfer(scene, std::move(result.perMesh), std::move(result.perMeshDirect));
   scene.transferBands = s.bands;
@@ -338,7 +427,8 @@ int runBake(const BakeArgs& a) {
                                       [](const MeshInstance& m) { return m.hasDirectTransfer(); });
   writeBakedScene(a.scene, scene, &record, a.output);
   double writeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tWrite).count();
-  // The outputs are in place: the checkpoint has served.
+  // The outputs are in place: the checkpoint has served (every rank's, after the barrier).
+  ranks.barrier();
   if (checkpoint) checkpoint->remove();
 
   if (a.quiet) return 0;
@@ -375,6 +465,9 @@ int runBake(const BakeArgs& a) {
                  refined.residual, formatCount(double(refined.points)).c_str(),
                  formatCount(double(refined.rays)).c_str(), refined.seconds);
   for (const std::string& line : describeReceivers(scene, "--receiver")) std::fprintf(stderr, "  receiver %s\n", line.c_str());
+  if (mpi)
+    std::fprintf(stderr, "  ranks: %d (MPI); rank 0 received %s from the others in %llu exchanges\n", ranks.size(),
+                 formatBytes(ranks.bytesReceived()).c_str(), static_cast<unsigned long long>(ranks.gathers()));
   if (a.probes.empty()) return 0;
   const std::string restored =
       probeStats.restored ? cat("; ", formatCount(double(probeStats.restored)), " restored from the checkpoint") : "";

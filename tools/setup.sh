@@ -23,6 +23,7 @@ PACKAGES=(
   libembree-dev libglm-dev libopenexr-dev libtinygltf-dev nlohmann-json3-dev libstb-dev
   libtbb-dev libcli11-dev libosmesa6-dev libegl-dev libegl1-mesa-dev libgl1-mesa-dri
   libgtest-dev libdraco-dev libmeshoptimizer-dev libwebp-dev gltfpack
+  libopenmpi-dev openmpi-bin
   clang-14 libclang-rt-14-dev llvm-14
 )
 

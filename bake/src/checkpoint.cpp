@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <mutex>
 
 #include "checkpoint_log.h"
@@ -88,6 +89,7 @@ struct Checkpoint::Impl {
   CheckpointOptions opt;
   Fingerprint fp;
   int fd = -1;
+  int baseFd = -1;   // CheckpointOptions::basePath, read only
   uint64_t end = 0;  // where the next record goes
   uint64_t commits = 0;
   std::vector<RecordInfo> restored;  // committed records found on resume
@@ -109,11 +111,47 @@ struct Checkpoint::Impl {
   std::chrono::steady_clock::time_point lastSave = std::chrono::steady_clock::now();
 
   std::string where() const { return opt.path; }
+  std::string payload(const RecordInfo& r) const {
+    return r.source == 1 ? readPayload(baseFd, r, opt.basePath) : readPayload(fd, r, opt.path);
+  }
 
   void openExisting();
+  void openBase();
   void create();
   void saveLocked();
 };
+
+namespace {
+
+// The fingerprint, entry by entry, so the message names what differs.
+void checkFingerprint(const Fingerprint& now, const Fingerprint& old, const std::string& path) {
+  const std::vector<std::string> diffs = fingerprintDiffs(now, old);
+  if (diffs.empty()) return;
+  std::string list;
+  for (const std::string& d : diffs) list += (list.empty() ? "" : "; ") + d;
+  throw Error(cat(path, ": checkpoint is from another bake: ", list,
+                  ". Resume with the same scene and settings, or delete it to start over"));
+}
+
+uint64_t fileSizeOf(int fd, const std::string& path) {
+  struct stat st{};
+  if (::fstat(fd, &st) != 0) throw Error(cat(path, ": cannot read checkpoint: ", sysError()));
+  return uint64_t(st.st_size);
+}
+
+}  // namespace
+
+// The base's committed records come first; its torn tail, if any, is left as it is.
+void Checkpoint::Impl::openBase() {
+  const std::string& path = opt.basePath;
+  baseFd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (baseFd < 0) throw Error(cat(path, ": cannot open checkpoint: ", sysError()));
+  uint64_t firstRecord = 0;
+  checkFingerprint(fp, readHeader(baseFd, path, firstRecord), path);
+  Scan scan = scanRecords(baseFd, firstRecord, fileSizeOf(baseFd, path));
+  for (RecordInfo& r : scan.committed) r.source = 1;
+  restored.insert(restored.begin(), scan.committed.begin(), scan.committed.end());
+}
 
 void Checkpoint::Impl::openExisting() {
   const std::string& path = opt.path;
@@ -124,22 +162,12 @@ void Checkpoint::Impl::openExisting() {
                             "checkpoint interval); start the bake afresh instead of resuming"));
     throw Error(cat(path, ": cannot open checkpoint: ", sysError()));
   }
-  struct stat st{};
-  if (::fstat(fd, &st) != 0) throw Error(cat(path, ": cannot read checkpoint: ", sysError()));
-  const uint64_t fileSize = uint64_t(st.st_size);
+  const uint64_t fileSize = fileSizeOf(fd, path);
   uint64_t firstRecord = 0;
-  const Fingerprint old = readHeader(fd, path, firstRecord);
-  // The fingerprint, entry by entry, so the message names what differs.
-  const std::vector<std::string> diffs = fingerprintDiffs(fp, old);
-  if (!diffs.empty()) {
-    std::string list;
-    for (const std::string& d : diffs) list += (list.empty() ? "" : "; ") + d;
-    throw Error(cat(path, ": checkpoint is from another bake: ", list,
-                    ". Resume with the same scene and settings, or delete it to start over"));
-  }
+  checkFingerprint(fp, readHeader(fd, path, firstRecord), path);
   // Records, up to the last commit whose records all check out.
   Scan scan = scanRecords(fd, firstRecord, fileSize);
-  restored = std::move(scan.committed);
+  restored.insert(restored.end(), scan.committed.begin(), scan.committed.end());
   commits = scan.commits;
   // Cut a torn or uncommitted tail, so new records follow committed ones.
   if (scan.end < fileSize && ::ftruncate(fd, off_t(scan.end)) != 0)
@@ -160,10 +188,13 @@ Checkpoint::Checkpoint(CheckpointOptions options, Fingerprint fingerprint) : imp
   impl_->fp = std::move(fingerprint);
   if (impl_->opt.path.empty()) throw Error("checkpoint path: empty");
   if (!(impl_->opt.intervalSeconds >= 0.0)) throw Error("checkpoint interval: must be 0 or more seconds");
-  if (impl_->opt.resume) {
+  std::error_code ec;
+  if (!impl_->opt.basePath.empty()) impl_->openBase();
+  if (impl_->opt.resume && impl_->opt.missingIsFresh && !std::filesystem::exists(impl_->opt.path, ec)) {
+    AtomicFile probe(impl_->opt.path);  // fail now on an unwritable directory
+  } else if (impl_->opt.resume) {
     impl_->openExisting();
   } else {
-    std::error_code ec;
     if (std::filesystem::exists(impl_->opt.path, ec))
       throw CheckpointExists(cat(impl_->opt.path, ": a checkpoint of an interrupted bake exists; resume it to continue, "
                                                   "or delete it to start over"));
@@ -173,10 +204,11 @@ Checkpoint::Checkpoint(CheckpointOptions options, Fingerprint fingerprint) : imp
 
 Checkpoint::~Checkpoint() {
   if (impl_->fd >= 0) ::close(impl_->fd);
+  if (impl_->baseFd >= 0) ::close(impl_->baseFd);
 }
 
 const std::string& Checkpoint::path() const { return impl_->opt.path; }
-bool Checkpoint::exists() const { return impl_->fd >= 0; }
+bool Checkpoint::exists() const { return impl_->fd >= 0 || impl_->baseFd >= 0; }
 
 uint32_t Checkpoint::restoredStateStage() const {
   uint32_t s = 0;
@@ -188,7 +220,7 @@ uint32_t Checkpoint::restoredStateStage() const {
 bool Checkpoint::restoreState(uint32_t stage, const std::function<void(ByteReader&)>& fn) const {
   for (auto it = impl_->restored.rbegin(); it != impl_->restored.rend(); ++it) {
     if (it->type != kState || it->stage != stage) continue;
-    std::string data = readPayload(impl_->fd, *it, impl_->opt.path);
+    std::string data = impl_->payload(*it);
     ByteReader r(data, impl_->opt.path);
     fn(r);
     if (!r.atEnd()) r.fail("state record longer than its contents");
@@ -201,13 +233,18 @@ uint64_t Checkpoint::restoreChunks(uint32_t stage, const std::function<void(uint
   uint64_t n = 0;
   for (const RecordInfo& rec : impl_->restored) {
     if (rec.type != kChunk || rec.stage != stage) continue;
-    std::string data = readPayload(impl_->fd, rec, impl_->opt.path);
+    std::string data = impl_->payload(rec);
     ByteReader r(data, impl_->opt.path);
     fn(rec.chunk, r);
     if (!r.atEnd()) r.fail("chunk record longer than its contents");
     ++n;
   }
   return n;
+}
+
+bool Checkpoint::ownChunks(uint32_t stage) const {
+  return std::any_of(impl_->restored.begin(), impl_->restored.end(),
+                     [&](const RecordInfo& r) { return r.type == kChunk && r.stage == stage && r.source == 0; });
 }
 
 void Checkpoint::beginStage(uint32_t id, const std::string& label, uint64_t chunks, uint64_t restored, StageIo io) {
@@ -315,6 +352,105 @@ void Checkpoint::remove() {
   impl_->fd = -1;
   std::error_code ec;
   std::filesystem::remove(impl_->opt.path, ec);
+}
+
+std::string shardCheckpointPath(const std::string& path, int index, int count) {
+  return cat(path, ".shard-", index, "-of-", count);
+}
+
+MergeStats mergeShards(const std::string& path, int count) {
+  if (count < 1) throw Error(cat("shards ", count, ": must be 1 or more"));
+  struct Shard {
+    std::string path;
+    int fd = -1;
+    std::vector<RecordInfo> records;
+  };
+  std::vector<Shard> shards(static_cast<size_t>(count));
+  struct Closer {
+    std::vector<Shard>& s;
+    int* merged;
+    ~Closer() {
+      for (Shard& x : s)
+        if (x.fd >= 0) ::close(x.fd);
+      if (*merged >= 0) ::close(*merged);
+    }
+  };
+  int fd = -1;
+  const Closer closer{shards, &fd};
+  Fingerprint fp;
+  std::string fpFrom;
+  for (int i = 0; i < count; ++i) {
+    Shard& sh = shards[size_t(i)];
+    sh.path = shardCheckpointPath(path, i, count) + ".done";
+    sh.fd = ::open(sh.path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (sh.fd < 0) {
+      const int err = errno;
+      std::error_code ec;
+      if (err != ENOENT) throw Error(cat(sh.path, ": ", std::strerror(err)));
+      if (std::filesystem::exists(shardCheckpointPath(path, i, count), ec))
+        throw Error(cat(sh.path, ": shard not finished (its checkpoint is there: run it again to finish its share)"));
+      throw Error(cat(sh.path, ": no such shard (run prt bake --shard ", i, "/", count, " first)"));
+    }
+    uint64_t first = 0;
+    const Fingerprint f = readHeader(sh.fd, sh.path, first);
+    if (i == 0) {
+      fp = f;
+      fpFrom = sh.path;
+    } else {
+      checkFingerprint(fp, f, sh.path);
+    }
+    sh.records = scanRecords(sh.fd, first, fileSizeOf(sh.fd, sh.path)).committed;
+  }
+  // The merged checkpoint: opened (and checked) or created with the shards' fingerprint.
+  std::vector<RecordInfo> have;
+  uint64_t end = 0, commits = 0;
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec)) {
+    fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
+    if (fd < 0) throw Error(cat(path, ": cannot open checkpoint: ", sysError()));
+    uint64_t first = 0;
+    checkFingerprint(fp, readHeader(fd, path, first), path);
+    Scan scan = scanRecords(fd, first, fileSizeOf(fd, path));
+    if (scan.end < fileSizeOf(fd, path) && ::ftruncate(fd, off_t(scan.end)) != 0)
+      throw Error(cat(path, ": cannot truncate checkpoint: ", sysError()));
+    have = std::move(scan.committed);
+    end = scan.end;
+    commits = scan.commits;
+  } else {
+    writeFileAtomic(path, headerBytes(fp));
+    fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
+    if (fd < 0) throw Error(cat(path, ": cannot open checkpoint: ", sysError()));
+    end = uint64_t(::lseek(fd, 0, SEEK_END));
+  }
+  std::set<std::pair<uint32_t, uint64_t>> chunks;  // (stage, chunk) present
+  std::set<uint32_t> states;
+  for (const RecordInfo& r : have) {
+    if (r.type == kChunk) chunks.insert({r.stage, r.chunk});
+    if (r.type == kState) states.insert(r.stage);
+  }
+  MergeStats stats;
+  std::set<uint32_t> merged;
+  FdWriter w(fd, end, path);
+  for (const Shard& sh : shards)
+    for (const RecordInfo& r : sh.records) {
+      const bool fresh = r.type == kChunk ? chunks.insert({r.stage, r.chunk}).second
+                                          : r.type == kState && states.insert(r.stage).second;
+      if (!fresh) continue;
+      const std::string data = readPayload(sh.fd, r, sh.path);
+      appendRecord(w, r.type, r.stage, r.chunk, [&](ByteWriter& out) { out.write(data.data(), data.size()); });
+      if (r.type == kChunk) {
+        ++stats.chunkRecords;
+        merged.insert(r.stage);
+      } else {
+        ++stats.stateRecords;
+      }
+    }
+  appendRecord(w, kCommit, 0, commits, nullptr);
+  w.flush();
+  if (::fsync(fd) != 0) throw Error(cat(path, ": cannot sync checkpoint: ", sysError()));
+  stats.stages.assign(merged.begin(), merged.end());
+  for (const Shard& sh : shards) std::filesystem::remove(sh.path, ec);
+  return stats;
 }
 
 }  // namespace prt::bake

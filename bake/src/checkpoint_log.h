@@ -29,6 +29,7 @@ enum RecordType : uint32_t { kChunk = 1, kState = 2, kCommit = 3 };
 struct RecordInfo {
   uint32_t type, stage;
   uint64_t chunk, offset, size;  // offset of the payload
+  uint32_t source = 0;           // which file (Checkpoint: 0 its own, 1 its base)
 };
 
 inline std::string sysError() { return std::strerror(errno); }

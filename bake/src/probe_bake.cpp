@@ -612,7 +612,8 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   // The stage's writer holds `res`; forget it however this function ends, so that the
   // checkpoint does not keep the lattice alive (or save chunks of it) after the stage.
   const StageRelease release(cp);
-  ChunkedStage stage({kProbeStage, "probe stage", "probes", "probes", total, kProbeChunk, settings.progress}, cp);
+  // Only rank 0 assembles and writes the grid: the other ranks send it their chunks.
+  ChunkedStage stage({kProbeStage, "probe stage", "probes", "probes", total, kProbeChunk, settings.progress, false}, cp);
   stage.restore([&](const Chunk& c, ByteReader& r) { readProbeChunk(*res, c.begin, c.end, r); }, "probe chunk index");
   Checkpoint::StageIo io;
   io.chunksOutliveStage = true;
@@ -671,6 +672,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   }
   if (cp) cp->releaseStages();
   stats.restored = stage.restoredItems();
+  if (ranks().rank() != 0) return grid;  // the lattice holds this rank's chunks only
   assembleGrid(res->slots, std::move(res->transfer), stride, grid, stats);
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (statsOut) *statsOut = stats;

@@ -480,11 +480,33 @@ RefineStats refineScene(Scene& scene, const RefineSettings& refine, const BakeSe
     works.push_back(std::move(w));
   }
 
+  // MPI ranks (ranks.h) trace every rank's share of the points, point i on rank i mod N,
+  // and trade the blocked bits; shards, which run apart, each refine the whole scene.
+  Ranks& spread = ranks();
+  const bool shared = spread.exchanges();
   auto evaluate = [&]() {
     tbb::parallel_for(size_t(0), todo.size(), [&](size_t i) {
       if (interruptRequested()) return;
+      if (shared && !spread.owns(i)) return;
       estimator.trace(todo[i], est, todoSlot[i]);
     });
+    if (shared) {
+      stopIfInterrupted(checkpoint);
+      const size_t bytes = est.words * sizeof(uint64_t);
+      std::string mine;
+      for (size_t i = 0; i < todo.size(); ++i)
+        if (spread.owns(i)) mine.append(reinterpret_cast<const char*>(&est.blocked[todoSlot[i] * est.words]), bytes);
+      const std::vector<std::string> all = spread.gather(std::move(mine), true);
+      std::vector<size_t> at(all.size(), 0);
+      for (size_t i = 0; i < todo.size(); ++i) {
+        const size_t from = i % all.size();
+        if (int(from) == spread.rank()) continue;
+        PRT_CHECK_LE(at[from] + bytes, all[from].size());
+        std::memcpy(&est.blocked[todoSlot[i] * est.words], all[from].data() + at[from], bytes);
+        est.normal[todoSlot[i]] = todo[i].normal;
+        at[from] += bytes;
+      }
+    }
     stats.points += todo.size();
     stats.rays += uint64_t(todo.size()) * estimator.samples;
     todo.clear();
@@ -560,15 +582,33 @@ RefineStats refineScene(Scene& scene, const RefineSettings& refine, const BakeSe
     evaluate();
     // Scores of the new candidates (a candidate keeps its points, so its score, while it lasts).
     scoreOf.resize(est.normal.size(), std::nan(""));
+    std::vector<uint8_t> scoredHere(shared ? pending.size() : 0, 0);
     tbb::parallel_for(size_t(0), pending.size(), [&](size_t i) {
       const Pending& p = pending[i];
-      if (!std::isnan(scoreOf[p.slot])) return;
+      if (!std::isnan(scoreOf[p.slot]) || (shared && !spread.owns(i))) return;
       const Work& w = works[p.work];
       uint32_t pts[4] = {p.slot, 0, 0, 0};
       const int corners = p.edge ? 2 : 3;
       for (int c = 0; c < corners; ++c) pts[c + 1] = w.vertexEstimate[p.v[size_t(c)]];
       scoreOf[p.slot] = estimator.score(est, pts, corners + 1);
+      if (shared) scoredHere[i] = 1;
     });
+    if (shared) {  // MPI ranks score their share too (pending i on rank i mod N) and trade scores
+      std::string mine;
+      for (size_t i = 0; i < pending.size(); ++i) {
+        if (!scoredHere[i]) continue;
+        const uint32_t slot = pending[i].slot;
+        mine.append(reinterpret_cast<const char*>(&slot), sizeof slot);
+        mine.append(reinterpret_cast<const char*>(&scoreOf[slot]), sizeof(double));
+      }
+      for (const std::string& from : spread.gather(std::move(mine), true))
+        for (size_t at = 0; at + 12 <= from.size(); at += 12) {
+          uint32_t slot = 0;
+          std::memcpy(&slot, from.data() + at, 4);
+          PRT_CHECK_LT(slot, scoreOf.size());
+          std::memcpy(&scoreOf[slot], from.data() + at + 4, 8);
+        }
+    }
     double residual = 0.0;
     for (size_t i = 0; i < pending.size(); ++i) {
       const double score = scoreOf[pending[i].slot];

@@ -35,6 +35,7 @@ ChunkedStage::ChunkedStage(StageSpec spec, Checkpoint* cp) : spec_(std::move(spe
 }
 
 void ChunkedStage::restore(const RestoreFn& fn, const std::string& what) {
+  if (!exchangeSet_) read_ = fn;
   if (!cp_) return;
   restoredChunks_ = cp_->restoreChunks(spec_.id, [&](uint64_t c, ByteReader& r) {
     if (c >= chunks()) r.fail(what);
@@ -45,22 +46,90 @@ void ChunkedStage::restore(const RestoreFn& fn, const std::string& what) {
   });
 }
 
-size_t ChunkedStage::chunksLeft() const { return size_t(std::count(done_.begin(), done_.end(), 0)); }
+size_t ChunkedStage::chunksLeft() const { return assignedChunks().size(); }
 
 std::vector<uint64_t> ChunkedStage::assignedChunks() const {
+  const Ranks& r = ranks();
   std::vector<uint64_t> mine;
   for (uint64_t c = 0; c < done_.size(); ++c)
-    if (!done_[c]) mine.push_back(c);
+    if (!done_[c] && r.owns(c)) mine.push_back(c);
   return mine;
 }
 
+void ChunkedStage::exchangeWith(WriteFn write, RestoreFn read) {
+  write_ = std::move(write);
+  read_ = std::move(read);
+  exchangeSet_ = true;
+}
+
+void ChunkedStage::share() {
+  if (ranks().exchanges()) exchange();
+}
+
 void ChunkedStage::begin(Checkpoint::StageIo io) {
-  if (cp_) cp_->beginStage(spec_.id, spec_.label, chunks(), chunks() - chunksLeft(), std::move(io));
+  if (!exchangeSet_) write_ = io.writeChunk;
+  const uint64_t done = uint64_t(std::count(done_.begin(), done_.end(), 1));
+  if (cp_) cp_->beginStage(spec_.id, spec_.label, chunks(), done, std::move(io));
+}
+
+namespace {
+
+// Appends to a string: what a rank sends.
+class StringWriter final : public ByteWriter {
+public:
+  explicit StringWriter(std::string& out) : out_(out) {}
+  void write(const void* data, size_t bytes) override { out_.append(static_cast<const char*>(data), bytes); }
+
+private:
+  std::string& out_;
+};
+
+}  // namespace
+
+// Every rank sends its chunks that are done (computed now or restored from its checkpoint),
+// each as u64 chunk, u64 size, the record; and applies every other rank's with read_, as a
+// resume applies restored records. A rank never sends a chunk it does not own, so no chunk
+// arrives twice.
+void ChunkedStage::exchange() {
+  PRT_CHECK(write_ && read_);
+  Ranks& r = ranks();
+  std::string mine;
+  StringWriter out(mine);
+  std::string record;
+  StringWriter rec(record);
+  for (uint64_t c = 0; c < done_.size(); ++c) {
+    if (!done_[c] || !r.owns(c)) continue;
+    record.clear();
+    write_(c, rec);
+    out.put(c);
+    out.put(uint64_t(record.size()));
+    out.write(record.data(), record.size());
+  }
+  const std::vector<std::string> all = r.gather(std::move(mine), spec_.everyRankNeedsChunks);
+  const std::string where = cat("rank exchange of the ", spec_.label);
+  for (size_t from = 0; from < all.size(); ++from) {
+    if (int(from) == r.rank()) continue;
+    ByteReader in(all[from], where);
+    while (!in.atEnd()) {
+      const uint64_t c = in.get<uint64_t>();
+      const uint64_t size = in.get<uint64_t>();
+      if (c >= chunks() || size > all[from].size()) in.fail("chunk index");
+      record.resize(size_t(size));
+      in.read(record.data(), record.size());
+      ByteReader one(record, where);
+      read_(chunk(c), one);
+      if (!one.atEnd()) one.fail("chunk record longer than its contents");
+      done_[c] = 1;
+    }
+  }
 }
 
 StageStats ChunkedStage::run(const ChunkFn& fn) {
   const auto t0 = Clock::now();
   const std::vector<uint64_t> mine = assignedChunks();
+  // A shard goes past a stage only when the merged shards hold all of it; a stage it works on
+  // (or worked on, before it was stopped) ends its run.
+  const bool merged = std::find(done_.begin(), done_.end(), 0) == done_.end() && !(cp_ && cp_->ownChunks(spec_.id));
   std::atomic<uint64_t> rays{0};
   if (!mine.empty()) {
     Progress progress(spec_.name, spec_.items, spec_.unit, spec_.progress);
@@ -82,8 +151,19 @@ StageStats ChunkedStage::run(const ChunkFn& fn) {
     progress.finish();
   }
   stopIfInterrupted(cp_);
+  Ranks& r = ranks();
+  if (r.size() > 1) {
+    // Every rank's file holds all its chunks of this stage before any rank goes on, so the
+    // ranks' checkpoints can always resume together from the earliest of them.
+    if (cp_ && (r.exchanges() || !merged)) cp_->save();
+    if (r.exchanges()) {
+      exchange();
+    } else if (!merged) {
+      throw ShardDone(cat("shard ", r.rank(), "/", r.size(), " of the ", spec_.label, " done"));
+    }
+  }
   if (cp_) cp_->endStage();
-  return StageStats{spec_.name, secondsSince(t0), rays.load()};
+  return StageStats{spec_.name, secondsSince(t0), r.sum(rays.load())};
 }
 
 StageStats runChunkedStage(StageSpec spec, Checkpoint* cp, const ChunkedStage::RestoreFn& restore,

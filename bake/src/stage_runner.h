@@ -6,8 +6,10 @@
 //
 // Determinism: a chunk's result must depend on the chunk alone (its items, the settings and
 // the seed), never on the thread that computes it or on the other chunks. The runner may then
-// run chunks in any order, restore some from a checkpoint, and (one day) take them from other
-// processes, and the stage's buffers end up with the same bits.
+// run chunks in any order, restore some from a checkpoint, and take them from other processes
+// (ranks.h: chunk c is computed by rank c mod N, and at the end of the stage the ranks trade
+// chunk records and apply them as a restore does), and the stage's buffers end up with the
+// same bits.
 #pragma once
 
 #include <algorithm>
@@ -21,6 +23,7 @@
 #include <tbb/global_control.h>
 
 #include "prt/bake/checkpoint.h"
+#include "prt/bake/ranks.h"
 #include "prt/bake/surface_bake.h"
 
 namespace prt::bake {
@@ -80,6 +83,8 @@ struct StageSpec {
   size_t items = 0;
   size_t chunkSize = 0;   // items per chunk; the last chunk may hold fewer
   bool progress = false;  // progress bar on stderr
+  /// Other ranks' chunks: every rank needs them (false: only rank 0, which writes the outputs).
+  bool everyRankNeedsChunks = true;
 };
 
 /// One stage's chunks: which are done, and running the rest.
@@ -87,6 +92,8 @@ class ChunkedStage {
 public:
   /// Reads one restored chunk record into the stage's buffers.
   using RestoreFn = std::function<void(const Chunk&, ByteReader&)>;
+  /// Writes what other ranks need of a finished chunk.
+  using WriteFn = std::function<void(uint64_t chunk, ByteWriter&)>;
   /// Computes one chunk (called from TBB worker threads, each chunk once).
   using ChunkFn = std::function<ChunkOutcome(const Chunk&)>;
 
@@ -96,30 +103,47 @@ public:
   size_t chunks() const { return done_.size(); }
   Chunk chunk(uint64_t index) const { return chunkOf(spec_.items, spec_.chunkSize, index); }
   /// Reads the checkpoint's chunk records of this stage with `fn` (a record whose index is out
-  /// of range is a corrupt checkpoint, reported as `what`) and marks them done.
+  /// of range is a corrupt checkpoint, reported as `what`) and marks them done. `fn` also
+  /// reads the records other ranks send (unless exchangeWith() says otherwise).
   void restore(const RestoreFn& fn, const std::string& what = "chunk index");
   uint64_t restoredChunks() const { return restoredChunks_; }
   /// Items of the restored chunks.
   size_t restoredItems() const { return restoredItems_; }
-  /// Chunks not done yet.
+  /// Chunks of this rank not done yet.
   size_t chunksLeft() const;
-  /// The chunks this process computes, in increasing order: today every chunk not done. This
-  /// is where chunks would be handed to other processes: a distributed bake would give each
-  /// rank its share here and gather the others' chunk records before the next stage.
+  /// The chunks this process computes, in increasing order: the chunks of its rank
+  /// (Ranks::owns, every chunk for one process) not done yet. The one place where chunks are
+  /// handed to ranks.
   std::vector<uint64_t> assignedChunks() const;
+  /// What ranks trade at the end of the stage, when it is not the checkpoint's chunk record
+  /// (StageIo::writeChunk) read back by the restore function: the direct pass sends its
+  /// transfer without the hit records, which only the chunk's own rank gathers.
+  void exchangeWith(WriteFn write, RestoreFn read);
+  /// MPI ranks (collective): trades the chunks done so far, as run() does at its end, for a
+  /// stage restored but not run (the direct pass of a bake resumed in a bounce, whose transfer
+  /// every rank needs). Nothing for one process or shards.
+  void share();
 
   /// Registers the stage with the checkpoint (Checkpoint::beginStage); `io` writes its state
   /// and finished chunks. Call after restore(), before run().
   void begin(Checkpoint::StageIo io);
   /// Runs `fn` on every assigned chunk on TBB threads, skipping all once an interrupt is
   /// requested; reports each finished chunk to the checkpoint and the progress bar. Then stops
-  /// if interrupted (saving) and ends the stage. The seconds and rays of this run.
+  /// if interrupted (saving). With several ranks it then saves the checkpoint (so that every
+  /// rank's file holds all its chunks of a stage before any rank goes on) and trades chunk
+  /// records with the other ranks, or, a shard, stops with ShardDone while other shards' chunks
+  /// are missing. Ends the stage. The seconds and rays (of all ranks) of this run.
   StageStats run(const ChunkFn& fn);
 
 private:
+  void exchange();
+
   StageSpec spec_;
   Checkpoint* cp_;
   std::vector<uint8_t> done_;
+  WriteFn write_;
+  RestoreFn read_;
+  bool exchangeSet_ = false;
   uint64_t restoredChunks_ = 0;
   size_t restoredItems_ = 0;
 };

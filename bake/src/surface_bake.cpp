@@ -360,24 +360,30 @@ ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk
 }
 
 // ---- Checkpoint records of the surface stages (checkpoint.h).
-// Direct chunk: u8 1, its transfer (one float per coefficient: the pass is colourless, and it
-// is kept to the end as the files' direct part), [CSR offsets, hit records]. The u8 is 0 in
-// checkpoints of prts that dropped the transfer during the bounces (refused by fingerprint).
-void writeDirectChunk(const SurfaceBake& b, const Chunk& c, ByteWriter& w) {
-  w.put<uint8_t>(1);
+// Direct chunk: u8 flags (1: its transfer follows, always with this prt; 2: the hit records
+// do not), its transfer (one float per coefficient: the pass is colourless, and it is kept to
+// the end as the files' direct part), [CSR offsets, hit records: when bounces follow, unless
+// flag 2]. The u8 is 0 in checkpoints of prts that dropped the transfer during the bounces
+// (refused by fingerprint). Ranks trade the records without hit records (ranks.h): only the
+// chunk's own rank gathers over them.
+void writeDirectChunk(const SurfaceBake& b, const Chunk& c, ByteWriter& w, bool withHits = true) {
+  w.put<uint8_t>(withHits ? 1 : 3);
   w.putArray(&b.direct[c.begin * b.n2], (c.end - c.begin) * b.n2);
-  if (b.keepHits) {
+  if (b.keepHits && withHits) {
     w.putArray(b.chunkHits[c.index].begin.data(), b.chunkHits[c.index].begin.size());
     w.putArray(b.chunkHits[c.index].hits.data(), b.chunkHits[c.index].hits.size());
   }
 }
 
 void readDirectChunk(SurfaceBake& b, const Chunk& c, ByteReader& r) {
-  if (r.get<uint8_t>() == 0) r.fail("direct chunk without transfer");
+  const uint8_t flags = r.get<uint8_t>();
+  if ((flags & 1) == 0) r.fail("direct chunk without transfer");
   std::vector<float> v = r.getVector<float>();
   if (v.size() != (c.end - c.begin) * b.n2) r.fail("direct chunk size");
   std::copy(v.begin(), v.end(), b.direct.begin() + ptrdiff_t(c.begin * b.n2));
-  if (b.keepHits) {
+  // Another rank's chunk (a merged shard's, or a trade): its hits stay with its own rank.
+  const bool keep = ranks().owns(c.index);
+  if (b.keepHits && !(flags & 2)) {
     ChunkHits& ch = b.chunkHits[c.index];
     ch.begin = r.getVector<uint32_t>();
     ch.hits = r.getVector<HitRecord>();
@@ -385,6 +391,7 @@ void readDirectChunk(SurfaceBake& b, const Chunk& c, ByteReader& r) {
       r.fail("hit records");
     for (const HitRecord& h : ch.hits)
       if (h.tri >= b.lay.triangles) r.fail("hit records");
+    if (!keep) ch = ChunkHits{};
   }
 }
 
@@ -400,7 +407,9 @@ void readTransfer(const SurfaceBake& b, ByteReader& r, std::vector<T>& v) {
 // starts from.
 uint32_t restoreSurface(SurfaceBake& b, Checkpoint* cp, ChunkedStage& direct) {
   if (!cp) return 0;
-  const uint32_t resumeStage = std::min(cp->restoredStateStage(), b.stageDone);
+  // Ranks resume together from the earliest point any of them reached: each rank saved all
+  // its chunks of a stage before any went on (ChunkedStage::run), so each can restore it.
+  const uint32_t resumeStage = uint32_t(ranks().minimum(std::min(cp->restoredStateStage(), b.stageDone)));
   if (resumeStage == b.stageDone) {
     cp->restoreState(b.stageDone, [&](ByteReader& r) {
       b.hitCount = r.get<uint64_t>();
@@ -417,6 +426,10 @@ uint32_t restoreSurface(SurfaceBake& b, Checkpoint* cp, ChunkedStage& direct) {
     if (direct.chunksLeft() != 0)
       throw Error(cat(cp->path(), ": corrupt checkpoint (hit records of the direct pass missing); delete it to "
                                   "start over"));
+    // Each MPI rank's checkpoint holds its own chunks: the others' transfer comes from them.
+    direct.exchangeWith([&b](uint64_t c, ByteWriter& w) { writeDirectChunk(b, b.chunk(c), w, false); },
+                        [&b](const Chunk& c, ByteReader& r) { readDirectChunk(b, c, r); });
+    direct.share();
     cp->restoreState(resumeStage, [&](ByteReader& r) {
       readTransfer(b, r, b.prev);
       readTransfer(b, r, b.total);
@@ -451,6 +464,8 @@ void runDirectPass(SurfaceBake& b, ChunkedStage& stage, const BakeControl& contr
   Checkpoint::StageIo io;
   io.chunksOutliveStage = b.keepHits;
   io.writeChunk = [&b](uint64_t c, ByteWriter& w) { writeDirectChunk(b, b.chunk(c), w); };
+  stage.exchangeWith([&b](uint64_t c, ByteWriter& w) { writeDirectChunk(b, b.chunk(c), w, false); },
+                     [&b](const Chunk& c, ByteReader& r) { readDirectChunk(b, c, r); });
   stage.begin(std::move(io));
   const StageStats run = left > 0 ? stage.run(DirectPass{b, *rays, origins, tnear}) : stage.run({});
   stats.rays = run.rays;
@@ -574,7 +589,7 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
   } else if (control.checkMemory) {
     control.checkMemory(b.keepHits ? double(b.hitCount) / (double(lay.vertices) * b.N) : 0.0);
   }
-  out.stats.hitRecords = b.hitCount;
+  out.stats.hitRecords = ranks().sum(b.hitCount);  // each rank holds its own chunks' records
   if (resumeStage < b.stageDone) runBounces(b, resumeStage, cp, out.stats);
   // Free what the bounces needed before the per-instance copies below.
   std::vector<glm::vec3>().swap(b.prev);

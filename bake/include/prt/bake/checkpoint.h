@@ -60,6 +60,12 @@ struct CheckpointOptions {
   bool resume = false;
   /// Tests: request an interrupt (SIGINT) once this many chunks have finished in this run.
   uint64_t interruptAfterChunks = 0;
+  /// With resume: a missing file is a fresh checkpoint (a rank that never saved, ranks.h).
+  bool missingIsFresh = false;
+  /// A checkpoint read before this one's own records and never written (shards read the
+  /// merged stages there, and save their own share at `path`); empty: none. Its fingerprint
+  /// must match.
+  std::string basePath;
 };
 
 /// One bake's checkpoint. Created before the bake; the file appears at the first save.
@@ -85,6 +91,8 @@ public:
   /// Calls fn(chunk, reader) for every restored chunk record of `stage`, in file order.
   /// Returns how many there were.
   uint64_t restoreChunks(uint32_t stage, const std::function<void(uint64_t, ByteReader&)>& fn) const;
+  /// Whether this checkpoint's own file (not its base) holds chunk records of `stage`.
+  bool ownChunks(uint32_t stage) const;
 
   // ---- Used by a running stage.
   struct StageIo {
@@ -120,5 +128,20 @@ private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// The file shard `index` of `count` saves its share of a stage into: "PATH.shard-I-of-N";
+/// once its share is done it is renamed to that name + ".done".
+std::string shardCheckpointPath(const std::string& path, int index, int count);
+
+struct MergeStats {
+  std::vector<uint32_t> stages;  // stage ids whose chunk records were merged
+  uint64_t chunkRecords = 0, stateRecords = 0;
+};
+
+/// Joins the finished shards of a stage (every "PATH.shard-I-of-N.done", I < count) into the
+/// checkpoint at `path` (created when missing): appends their state records of stages it has
+/// none of and their chunk records it lacks, commits, syncs, then deletes the shard files. All
+/// fingerprints must match. Throws prt::Error naming a missing or mismatched shard file.
+MergeStats mergeShards(const std::string& path, int count);
 
 }  // namespace prt::bake
