@@ -433,13 +433,7 @@ int runRender(const RenderArgs& a) {
   // Direct lights (suns, small disks) are lit per pixel with shadow maps: at most
   // kMaxDirectLights per frame. The set of lights is the same in every frame (their types and
   // radii decide), so the first frame tells.
-  auto lightingAt = [&](double frame, int bands) {
-    if (!a.light.noDirect) return rig->evaluateLighting(frame, bands);
-    RigLighting l;
-    l.sh = rig->evaluate(frame, bands);
-    l.directSh = sh::ShRgb(bands);
-    return l;
-  };
+  auto lightingAtFrame = [&](double frame, int bands) { return lightingAt(*rig, a.light, frame, bands); };
 
   Scene scene = loadScene(a.baked);
   if (scene.transferBands == 0) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
@@ -458,7 +452,7 @@ int runRender(const RenderArgs& a) {
   render::Renderer renderer(context, scene);
   if (!a.probes.empty()) renderer.setProbes(probes);
   for (const std::string& w : renderer.warnings()) warnings.push_back(w);
-  const RigLighting firstLighting = lightingAt(double(frames.first), bands);
+  const RigLighting firstLighting = lightingAtFrame(double(frames.first), bands);
   if (firstLighting.direct.size() > size_t(render::kMaxDirectLights))
     throw Error(cat(a.light.rig.empty() ? std::string("the lights") : a.light.rig, ": ", firstLighting.direct.size(),
                     " direct lights (suns and disks up to ", kMaxDirectRadiusDegrees, " deg), at most ",
@@ -485,7 +479,7 @@ int runRender(const RenderArgs& a) {
   FrameWriter writer(2);
   for (int64_t f = frames.first; f <= frames.last; ++f) {
     auto t0 = std::chrono::steady_clock::now();
-    RigLighting lighting = lightingAt(double(f), bands);
+    RigLighting lighting = lightingAtFrame(double(f), bands);
     const double rigMs = msSince(t0);
     render::Frame frame;
     frame.camera = camera.view;
@@ -559,7 +553,7 @@ int runRender(const RenderArgs& a) {
                   last.directReceivers ? "on receivers" : "", "; their bounces through the transfer")
             : std::string("through SH (no direct part in the bake)");
     std::fprintf(stderr, "  direct lights (frame %lld; %s):\n", static_cast<long long>(frames.first), how.c_str());
-    for (const std::string& line : describeDirectLights(firstLighting.direct))
+    for (const std::string& line : describeDirectLights(firstLighting, *rig))
       std::fprintf(stderr, "    %s\n", line.c_str());
   } else if (a.light.noDirect) {
     std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
