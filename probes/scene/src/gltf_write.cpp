@@ -91,29 +91,28 @@ int stagingBuffer(tinygltf::Model& m, int& staging) {
   return staging;
 }
 
-int addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec3>& values,
-                    const std::string& name) {
+/// A float accessor of `count` elements of `type` (TINYGLTF_TYPE_VEC3, _SCALAR) over `bytes`.
+int addFloatAccessor(tinygltf::Model& m, int& staging, const void* bytes, size_t size, size_t count, int type,
+                     const std::string& name) {
   tinygltf::Accessor a;
   a.name = name;
-  a.bufferView = appendBufferView(m, stagingBuffer(m, staging), values.data(),
-                                  values.size() * sizeof(glm::vec3), TINYGLTF_TARGET_ARRAY_BUFFER);
+  a.bufferView = appendBufferView(m, stagingBuffer(m, staging), bytes, size, TINYGLTF_TARGET_ARRAY_BUFFER);
   a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
-  a.type = TINYGLTF_TYPE_VEC3;
-  a.count = values.size();
+  a.type = type;
+  a.count = count;
   m.accessors.push_back(a);
   return static_cast<int>(m.accessors.size() - 1);
 }
 
+int addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec3>& values,
+                    const std::string& name) {
+  return addFloatAccessor(m, staging, values.data(), values.size() * sizeof(glm::vec3), values.size(),
+                          TINYGLTF_TYPE_VEC3, name);
+}
+
 int addScalarAccessor(tinygltf::Model& m, int& staging, const std::vector<float>& values, const std::string& name) {
-  tinygltf::Accessor a;
-  a.name = name;
-  a.bufferView = appendBufferView(m, stagingBuffer(m, staging), values.data(), values.size() * sizeof(float),
-                                  TINYGLTF_TARGET_ARRAY_BUFFER);
-  a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
-  a.type = TINYGLTF_TYPE_SCALAR;
-  a.count = values.size();
-  m.accessors.push_back(a);
-  return static_cast<int>(m.accessors.size() - 1);
+  return addFloatAccessor(m, staging, values.data(), values.size() * sizeof(float), values.size(), TINYGLTF_TYPE_SCALAR,
+                          name);
 }
 
 /// Makes `prim` a triangle list with `indices` (UNSIGNED_INT, in the staging buffer).
