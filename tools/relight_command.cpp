@@ -54,7 +54,12 @@ void addRelight(CLI::App& cmd, RelightArgs& a) {
                  "Shadow rays per direct light (sun, small disk) and vertex, stratified over its disk")
       ->check(CLI::Range(1, 65536))
       ->capture_default_str();
-  cmd.add_option("--threads", a.threads, "Threads for the shadow rays (0 = all cores)")
+  cmd.add_option("--bounce-samples", a.bounceSamples,
+                 "Rays per vertex that gather the direct lights' bounced light (the bake's own first rays); 0: "
+                 "their bounces through the SH transfer instead")
+      ->check(CLI::Range(0, 16777216))
+      ->capture_default_str();
+  cmd.add_option("--threads", a.threads, "Threads for the shadow and bounce rays (0 = all cores)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd.add_flag("-q,--quiet", a.quiet, "No summary");
@@ -72,6 +77,7 @@ int runRelight(const RelightArgs& a) {
   RigLighting lighting = lightingAt(rig, a.light, a.light.frame, scene.transferBands);
   std::vector<std::vector<glm::vec3>> radiance, back;
   bake::DirectIrradiance direct;
+  std::string bounceLine;
   if (!lighting.direct.empty() && !hasDirectTransfer(scene)) {
     // A bake from before the split: the suns go through the whole transfer, as they did then.
     if (!a.quiet)
@@ -90,8 +96,32 @@ int runRelight(const RelightArgs& a) {
     shadows.samples = a.shadowSamples;
     shadows.threads = a.threads;
     direct = bake::shadowedDirectIrradiance(scene, lighting.direct, shadows);
-    radiance = relightVerticesSplit(scene, lighting.sh, lighting.directSh, direct.front, false);
-    back = relightVerticesSplit(scene, lighting.sh, lighting.directSh, direct.back, true);
+    const BakeRecord record = scene.bakeRecord.value_or(BakeRecord{});
+    sh::ShRgb directSh = lighting.directSh;
+    if (a.bounceSamples > 0 && record.bounces > 0) {
+      // Their bounces gathered over the bake's rays instead of through (t − t⁰) · directSh.
+      bake::BounceSettings bs;
+      bs.samples = a.bounceSamples;
+      bs.bounces = record.bounces;
+      bs.seed = record.seed;
+      bs.threads = a.threads;
+      const bake::DirectBounce gather(scene, bs);
+      const bake::DirectIrradiance bounced = gather.bounce(direct);
+      for (size_t k = 0; k < scene.meshes.size(); ++k) {
+        for (size_t v = 0; v < bounced.front[k].size(); ++v) direct.front[k][v] += bounced.front[k][v];
+        for (size_t v = 0; v < bounced.back[k].size(); ++v) direct.back[k][v] += bounced.back[k][v];
+      }
+      char seconds[32];
+      std::snprintf(seconds, sizeof seconds, "%.2f", gather.traceSeconds() + bounced.seconds);
+      bounceLine = cat("bounce rays   ", gather.rays(), " (", a.bounceSamples, " per vertex, ", record.bounces,
+                       " bounces as baked) in ", seconds, " s");
+      directSh = sh::ShRgb(scene.transferBands);
+    } else {
+      bounceLine = record.bounces > 0 ? "bounces       through the SH transfer (--bounce-samples 0)"
+                                      : "bounces       none (baked without bounces)";
+    }
+    radiance = relightVerticesSplit(scene, lighting.sh, directSh, direct.front, false);
+    back = relightVerticesSplit(scene, lighting.sh, directSh, direct.back, true);
   }
   if (!a.csv.empty()) AtomicFile csvProbe(a.csv);
   writeLitScene(a.baked, scene, radiance, a.output, &back);
@@ -113,10 +143,11 @@ int runRelight(const RelightArgs& a) {
                a.baked.c_str(), a.output.c_str(), a.csv.empty() ? "" : " + ", a.csv.c_str(), vertices, sides.c_str(),
                scene.transferBands, rigText.c_str(), mean.r, mean.g, mean.b);
   if (!lighting.direct.empty()) {
-    std::fprintf(stderr, "  direct lights (exact, with shadows; their bounces through the transfer):\n");
+    std::fprintf(stderr, "  direct lights (exact, with shadows and their bounces):\n");
     for (const std::string& line : describeDirectLights(lighting, rig)) std::fprintf(stderr, "    %s\n", line.c_str());
     std::fprintf(stderr, "  shadow rays   %llu (%d per light and vertex) in %.2f s\n", (unsigned long long)direct.rays,
                  a.shadowSamples, direct.seconds);
+    std::fprintf(stderr, "  %s\n", bounceLine.c_str());
   } else if (a.light.noDirect) {
     std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
   }

@@ -10,7 +10,7 @@
 #    into out/;
 #    test: runs ctest in build/; then builds the suite with AddressSanitizer +
 #    UndefinedBehaviorSanitizer (clang) in build-asan/ and runs ctest there; then builds the
-#    libFuzzer targets in build-fuzz/ and runs each for PRT_FUZZ_SECONDS (default 60) on a
+#    libFuzzer targets in the same build-asan/ and runs each for PRT_FUZZ_SECONDS (default 40) on a
 #    temporary copy of its seed corpus. Exits non-zero if any phase fails.
 #    PRT_TEST_PHASES (default "release asan fuzz") picks phases.
 # Run as root, or as a user with sudo (used for apt-get only). Under sudo, the build and the
@@ -34,7 +34,7 @@ usage: bash tools/setup.sh demo|test
   demo   install dependencies, build, then bake scenes/cornell_open.gltf and relight it
          with scenes/env/royal_esplanade_128.hdr into out/
   test   install dependencies, build, run the test suite (ctest); then the same suite
-         built with ASan + UBSan (build-asan/), then each fuzz target for 60 s (build-fuzz/);
+         built with ASan + UBSan (build-asan/), then each fuzz target for 40 s (also in build-asan/);
          exit non-zero if any phase fails
 
 Installs Debian 12 packages with apt-get (as root, or through sudo) and builds Release
@@ -131,7 +131,7 @@ case "$mode" in
     ;;
   test)
     phases=${PRT_TEST_PHASES:-release asan fuzz}
-    fuzz_seconds=${PRT_FUZZ_SECONDS:-60}
+    fuzz_seconds=${PRT_FUZZ_SECONDS:-40}
     status=0
     phase_times=()
     timed() {  # timed NAME COMMAND...: runs, records the seconds, keeps the first failure
@@ -145,20 +145,18 @@ case "$mode" in
     # Sanitizers: clang, every target instrumented; options in tests/CMakeLists.txt.
     # Built without MPI (the MPI tests skip there): Open MPI under ASan is untested, and the
     # release phase runs the MPI tests.
-    asan_build() {
+    # One sanitizer build serves both phases: the tests and the fuzz targets, every object
+    # with ASan + UBSan and the fuzzer's coverage (which the tests do not notice), so CI
+    # compiles the library once with clang instead of twice.
+    asan_configure() {
       run cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
         -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
-        -DPRT_SANITIZE=address,undefined -DPRT_BUILD_BENCH=OFF -DPRT_MPI=OFF &&
-        run cmake --build build-asan
+        -DPRT_SANITIZE=address,undefined -DPRT_FUZZ=ON -DPRT_BUILD_BENCH=OFF -DPRT_MPI=OFF
     }
+    asan_build() { asan_configure && run cmake --build build-asan; }
     asan_tests() { (cd build-asan && run ctest --output-on-failure -j2); }
-    fuzz_build() {
-      run cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-        -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
-        -DPRT_FUZZ=ON -DPRT_SANITIZE=address,undefined -DPRT_BUILD_TESTS=OFF -DPRT_BUILD_BENCH=OFF -DPRT_MPI=OFF &&
-        run cmake --build build-fuzz --target fuzz_gltf fuzz_image fuzz_vdb fuzz_rig
-    }
-    fuzz_runs() { run bash tests/fuzz/run.sh build-fuzz "$fuzz_seconds"; }
+    fuzz_build() { asan_configure && run cmake --build build-asan --target fuzz_gltf fuzz_image fuzz_vdb fuzz_rig; }
+    fuzz_runs() { run bash tests/fuzz/run.sh build-asan "$fuzz_seconds"; }
 
     phase_times+=("release build $build_seconds s")
     for phase in $phases; do
@@ -170,7 +168,7 @@ case "$mode" in
           say "running the tests under ASan + UBSan"
           timed "asan tests" asan_tests ;;
         fuzz)
-          say "building the fuzz targets in build-fuzz/"
+          say "building the fuzz targets in build-asan/"
           timed "fuzz build" fuzz_build
           say "fuzzing each loader for $fuzz_seconds s"
           timed "fuzz runs" fuzz_runs ;;

@@ -36,6 +36,7 @@
 #include "prt/error.h"
 #include "prt/sh.h"
 #include "stage_runner.h"
+#include "surface_layout.h"
 #include "vertex_rays.h"
 
 namespace prt::bake {
@@ -53,36 +54,6 @@ constexpr int kStream = 256;
 // Vertices per task: the unit of parallel work and of hit-record storage.
 constexpr size_t kChunk = 64;
 
-// Global numbering of the baked (non-receiver) instances' vertices and triangles: first every
-// instance's real vertices (front sides) and triangles, in scene order, then the virtual
-// vertices and triangles (back sides) of the double-sided ones, in scene order.
-struct Layout {
-  static constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
-  std::vector<size_t> vertexOffset;      // per Scene::meshes entry (SIZE_MAX for receivers)
-  std::vector<size_t> backVertexOffset;  // per mesh, its first virtual vertex (SIZE_MAX: one-sided)
-  std::vector<uint32_t> triOffset;       // per mesh, global index of its first triangle
-  std::vector<uint32_t> backTriOffset;   // per mesh, its first virtual triangle (kNone: one-sided)
-  std::vector<uint32_t> meshOfVertex;
-  std::vector<uint32_t> triVerts;    // global triangle -> 3 global vertex indices
-  std::vector<uint32_t> meshOfTri;
-  size_t frontVertices = 0;   // real vertices; virtual ones are [frontVertices, vertices)
-  size_t frontTriangles = 0;  // real triangles; virtual ones are [frontTriangles, triangles)
-  size_t vertices = 0;
-  size_t triangles = 0;
-
-  bool isBack(size_t v) const { return v >= frontVertices; }
-  /// The instance's own index of global vertex v (a virtual vertex: the vertex it is the back of).
-  size_t localVertex(size_t v) const {
-    const uint32_t k = meshOfVertex[v];
-    return v - (isBack(v) ? backVertexOffset[k] : vertexOffset[k]);
-  }
-  /// The instance's own index of global triangle g.
-  uint32_t localTriangle(uint32_t g) const {
-    const uint32_t k = meshOfTri[g];
-    return g - (g >= frontTriangles ? backTriOffset[k] : triOffset[k]);
-  }
-};
-
 }  // namespace
 
 bool bakesBackSide(const Scene& scene, const MeshInstance& m) {
@@ -91,101 +62,6 @@ bool bakesBackSide(const Scene& scene, const MeshInstance& m) {
 }
 
 namespace {
-
-Layout makeLayout(const Scene& scene) {
-  Layout lay;
-  lay.vertexOffset.assign(scene.meshes.size(), SIZE_MAX);
-  lay.backVertexOffset.assign(scene.meshes.size(), SIZE_MAX);
-  lay.triOffset.assign(scene.meshes.size(), 0);
-  lay.backTriOffset.assign(scene.meshes.size(), Layout::kNone);
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    const MeshInstance& m = scene.meshes[k];
-    lay.triOffset[k] = static_cast<uint32_t>(lay.triangles);
-    if (m.receiverOnly) continue;
-    lay.vertexOffset[k] = lay.vertices;
-    lay.vertices += m.vertexCount();
-    lay.triangles += m.triangleCount();
-  }
-  lay.frontVertices = lay.vertices;
-  lay.frontTriangles = lay.triangles;
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    const MeshInstance& m = scene.meshes[k];
-    if (!bakesBackSide(scene, m)) continue;
-    lay.backVertexOffset[k] = lay.vertices;
-    lay.backTriOffset[k] = static_cast<uint32_t>(lay.triangles);  // overflow refused below
-    lay.vertices += m.vertexCount();
-    lay.triangles += m.triangleCount();
-  }
-  if (lay.triangles >= std::numeric_limits<uint32_t>::max() ||
-      lay.vertices >= std::numeric_limits<uint32_t>::max())
-    throw Error(cat("scene too large: ", lay.triangles, " triangles, ", lay.vertices,
-                    " vertices (at most 2^32 - 1 each)"));
-  lay.meshOfVertex.resize(lay.vertices);
-  lay.triVerts.resize(lay.triangles * 3);
-  lay.meshOfTri.resize(lay.triangles);
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    const MeshInstance& m = scene.meshes[k];
-    if (m.receiverOnly) continue;
-    size_t v0 = lay.vertexOffset[k];
-    std::fill_n(lay.meshOfVertex.begin() + v0, m.vertexCount(), uint32_t(k));
-    for (size_t t = 0; t < m.triangleCount(); ++t) {
-      size_t g = lay.triOffset[k] + t;
-      lay.meshOfTri[g] = uint32_t(k);
-      for (int c = 0; c < 3; ++c) lay.triVerts[3 * g + c] = uint32_t(v0 + m.indices[3 * t + c]);
-    }
-    if (lay.backVertexOffset[k] == SIZE_MAX) continue;
-    // The back side: the same corners, in the same order (so a hit's barycentrics are the
-    // same), numbered as virtual vertices.
-    const size_t b0 = lay.backVertexOffset[k];
-    std::fill_n(lay.meshOfVertex.begin() + b0, m.vertexCount(), uint32_t(k));
-    for (size_t t = 0; t < m.triangleCount(); ++t) {
-      size_t g = lay.backTriOffset[k] + t;
-      lay.meshOfTri[g] = uint32_t(k);
-      for (int c = 0; c < 3; ++c) lay.triVerts[3 * g + c] = uint32_t(b0 + m.indices[3 * t + c]);
-    }
-  }
-  return lay;
-}
-
-// Where rays of each vertex start (vertex_rays.h: lifted along the normal, pulled towards
-// the centroids of the vertex's triangles). A virtual vertex (a back side) is lifted along −n
-// instead, with the same pull.
-std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float extent) {
-  std::vector<glm::vec3> pull(lay.frontVertices, glm::vec3(0.0f));  // a back side shares its vertex's pull
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    const MeshInstance& m = scene.meshes[k];
-    if (m.receiverOnly) continue;
-    accumulatePull(m.positions, m.indices, &pull[lay.vertexOffset[k]]);
-  }
-  std::vector<glm::vec3> origins(lay.vertices);
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    const MeshInstance& m = scene.meshes[k];
-    if (m.receiverOnly) continue;
-    size_t v0 = lay.vertexOffset[k];
-    const size_t b0 = lay.backVertexOffset[k];
-    for (size_t i = 0; i < m.vertexCount(); ++i) {
-      origins[v0 + i] = liftedOrigin(m.positions[i], m.normals[i], pull[v0 + i], extent);
-      if (b0 != SIZE_MAX) origins[b0 + i] = liftedOrigin(m.positions[i], -m.normals[i], pull[v0 + i], extent);
-    }
-  }
-  return origins;
-}
-
-// A front-face hit kept for the bounces: 8 bytes.
-struct HitRecord {
-  uint32_t tri;     // global triangle
-  uint16_t b1, b2;  // barycentrics of its 2nd and 3rd vertex, 16-bit fixed point
-};
-
-inline uint16_t quantise(float b) {
-  return static_cast<uint16_t>(std::lround(std::clamp(b, 0.0f, 1.0f) * 65535.0f));
-}
-
-// Hit records of one chunk of vertices, CSR: hits of vertex v are [begin[v], begin[v+1]).
-struct ChunkHits {
-  std::vector<HitRecord> hits;
-  std::vector<uint32_t> begin;
-};
 
 // The closed form, for the front side and (`bothSides`) then the back side (normal −n).
 std::vector<glm::vec3> unshadowedTransfer(const MeshInstance& m, int bands, bool bothSides) {
@@ -202,21 +78,6 @@ std::vector<glm::vec3> unshadowedTransfer(const MeshInstance& m, int bands, bool
     }
   }
   return t;
-}
-
-// The side's normal: a virtual vertex faces away from its vertex's normal.
-glm::vec3 normalOf(const Scene& scene, const Layout& lay, size_t v) {
-  const glm::vec3& n = scene.meshes[lay.meshOfVertex[v]].normals[lay.localVertex(v)];
-  return lay.isBack(v) ? -n : n;
-}
-
-// The triangle a hit records, or kNone when the hit sends nothing: a front face is the real
-// triangle, the back of a double-sided face its virtual triangle, the back of a one-sided face
-// nothing.
-inline uint32_t recordedTriangle(const Layout& lay, const Ray& ray) {
-  if (!ray.backface()) return lay.triOffset[ray.mesh] + ray.tri;
-  const uint32_t b = lay.backTriOffset[ray.mesh];
-  return b == Layout::kNone ? Layout::kNone : b + ray.tri;
 }
 
 // An upper bound on the share of direct rays that are kept as hit records (a front face, or

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -40,5 +41,49 @@ struct DirectIrradiance {
 /// Deterministic for any thread count.
 DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const std::vector<DirectLight>& lights,
                                           const ShadowSettings& settings = {});
+
+struct BounceSettings {
+  int samples = 256;  // gather rays per vertex and side: the first of the bake's own rays
+  int bounces = 2;    // the bake's count (its record), so direct lights bounce as often as the sky
+  uint64_t seed = 1;  // the bake's seed (its record): the bake's ray streams
+  int threads = 0;    // 0 = all cores
+};
+
+/// Throws prt::Error unless 1 <= samples <= 16777216 and 0 <= bounces <= 64.
+void validate(const BounceSettings& s);
+
+/// The light direct lights send on by interreflection, gathered with rays at relight time
+/// instead of through the SH transfer (which would carry a sun's sharp first bounce, the patch
+/// it lights through a window, at 3 bands: docs/lights.md, "Their bounces"):
+///   E_b = Σ_{k=1}^{B} G^k E⁰,   (G E)(v) = (1/K) Σ_{hits h of v's K rays} ρ(h) E(h),
+/// E⁰ the shadowed direct irradiance at every baked vertex (shadowedDirectIrradiance), E(h) its
+/// barycentric interpolation at the hit. G is the surface bake's own bounce operator
+/// (surface_bake.cpp): the same K cosine-weighted rays per vertex as the bake's first K, the
+/// same hit records (front faces, and the back faces of double-sided ones as their back side),
+/// the same albedo at the hit. With K the bake's sample count and E⁰ = t⁰ · l for an SH light l,
+/// E_b is the bake's (t − t⁰) · l. The rays are traced once, here; bounce() is a gather over the
+/// kept hits (8 bytes each), so one DirectBounce relights any number of frames.
+class DirectBounce {
+public:
+  /// Traces K rays from every baked vertex (both sides of double-sided instances) of `scene`,
+  /// which must outlive this object.
+  DirectBounce(const Scene& scene, const BounceSettings& settings);
+  ~DirectBounce();
+  DirectBounce(const DirectBounce&) = delete;
+  DirectBounce& operator=(const DirectBounce&) = delete;
+
+  /// E_b for direct irradiance `e0` (per instance and side, shadowedDirectIrradiance's layout;
+  /// an empty vector counts as zero): the bounced part only, E⁰ not included. Deterministic for
+  /// any thread count; `seconds` is the gather's time, `rays` 0.
+  DirectIrradiance bounce(const DirectIrradiance& e0) const;
+
+  uint64_t rays() const;         // traced by the constructor
+  uint64_t hitRecords() const;   // kept
+  double traceSeconds() const;   // the constructor's time
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace prt::bake

@@ -1,0 +1,149 @@
+// Direct lights' interreflected light, gathered over the bake's own rays (prt/bake/direct_light.h).
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+
+#include <tbb/parallel_for.h>
+
+#include "albedo_lookup.h"
+#include "prt/bake/direct_light.h"
+#include "prt/bake/ray_scene.h"
+#include "prt/error.h"
+#include "stage_runner.h"
+#include "surface_layout.h"
+#include "vertex_rays.h"
+
+namespace prt::bake {
+
+void validate(const BounceSettings& s) {
+  if (s.samples < 1 || s.samples > 16777216)
+    throw Error(cat("bounce samples ", s.samples, ": must be between 1 and 16777216"));
+  if (s.bounces < 0 || s.bounces > 64) throw Error(cat("bounces ", s.bounces, ": must be between 0 and 64"));
+  if (s.threads < 0) throw Error(cat("threads ", s.threads, ": must be 0 (all cores) or more"));
+}
+
+namespace {
+
+constexpr uint32_t kStream = 256;
+constexpr size_t kChunk = 64;  // vertices per task and per block of hit records
+
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+struct DirectBounce::Impl {
+  const Scene& scene;
+  BounceSettings settings;
+  Layout lay;
+  AlbedoLookup albedo;
+  std::vector<ChunkHits> chunks;  // chunk c: vertices [c·kChunk, (c+1)·kChunk)
+  uint64_t rays = 0, hits = 0;
+  double seconds = 0.0;
+
+  Impl(const Scene& s, const BounceSettings& b) : scene(s), settings(b), lay(makeLayout(s)), albedo(s) {}
+};
+
+DirectBounce::DirectBounce(const Scene& scene, const BounceSettings& settings)
+    : impl_(std::make_unique<Impl>(scene, settings)) {
+  validate(settings);
+  const auto t0 = std::chrono::steady_clock::now();
+  const ThreadLimit threadLimit(settings.threads);
+  Impl& b = *impl_;
+  const Layout& lay = b.lay;
+  b.chunks.resize((lay.vertices + kChunk - 1) / kChunk);
+  if (settings.bounces == 0 || lay.vertices == 0) return;
+  const RayScene rays(scene);
+  const float extent = rays.sceneExtent(), tnear = tnearFor(extent);
+  const std::vector<glm::vec3> origins = rayOrigins(scene, lay, extent);
+  const uint32_t K = uint32_t(settings.samples);
+  tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {
+    alignas(64) Ray batch[kStream];
+    ChunkHits& ch = b.chunks[c];
+    ch.begin.assign(1, 0);
+    const size_t end = std::min(lay.vertices, (c + 1) * kChunk);
+    for (size_t v = c * kChunk; v < end; ++v) {
+      const VertexSampler sampler(origins[v], normalOf(scene, lay, v), settings.seed, v, tnear);
+      for (uint32_t first = 0; first < K; first += kStream) {
+        const uint32_t count = std::min(kStream, K - first);
+        for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
+        rays.intersect(batch, count);
+        for (uint32_t j = 0; j < count; ++j) {
+          if (!batch[j].hit()) continue;
+          const uint32_t tri = recordedTriangle(lay, batch[j]);
+          if (tri != Layout::kNone) ch.hits.push_back({tri, quantise(batch[j].u), quantise(batch[j].v)});
+        }
+      }
+      ch.begin.push_back(uint32_t(ch.hits.size()));
+    }
+    ch.hits.shrink_to_fit();
+  });
+  b.rays = uint64_t(lay.vertices) * K;
+  for (const ChunkHits& ch : b.chunks) b.hits += ch.hits.size();
+  b.seconds = secondsSince(t0);
+}
+
+DirectBounce::~DirectBounce() = default;
+
+uint64_t DirectBounce::rays() const { return impl_->rays; }
+uint64_t DirectBounce::hitRecords() const { return impl_->hits; }
+double DirectBounce::traceSeconds() const { return impl_->seconds; }
+
+DirectIrradiance DirectBounce::bounce(const DirectIrradiance& e0) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  const ThreadLimit threadLimit(impl_->settings.threads);
+  const Impl& b = *impl_;
+  const Layout& lay = b.lay;
+  const Scene& scene = b.scene;
+  PRT_CHECK_EQ(e0.front.size(), scene.meshes.size());
+  PRT_CHECK_EQ(e0.back.size(), scene.meshes.size());
+  // E⁰ in the layout's numbering; a side without values is dark.
+  std::vector<glm::vec3> prev(lay.vertices, glm::vec3(0.0f)), cur(lay.vertices), sum(lay.vertices, glm::vec3(0.0f));
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    if (lay.vertexOffset[k] == SIZE_MAX) continue;
+    const size_t n = scene.meshes[k].vertexCount();
+    if (e0.front[k].size() == n) std::copy(e0.front[k].begin(), e0.front[k].end(), prev.begin() + ptrdiff_t(lay.vertexOffset[k]));
+    if (lay.backVertexOffset[k] != SIZE_MAX && e0.back[k].size() == n)
+      std::copy(e0.back[k].begin(), e0.back[k].end(), prev.begin() + ptrdiff_t(lay.backVertexOffset[k]));
+  }
+  const float w = 1.0f / float(b.settings.samples);
+  for (int bounce = 0; bounce < b.settings.bounces; ++bounce) {
+    tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {
+      const ChunkHits& ch = b.chunks[c];
+      const size_t first = c * kChunk;
+      for (size_t v = first; v + 1 - first < ch.begin.size(); ++v) {
+        glm::vec3 acc(0.0f);
+        for (uint32_t h = ch.begin[v - first]; h < ch.begin[v - first + 1]; ++h) {
+          const HitRecord& rec = ch.hits[h];
+          const float b1 = rec.b1 * (1.0f / 65535.0f), b2 = rec.b2 * (1.0f / 65535.0f), b0 = 1.0f - b1 - b2;
+          const uint32_t* tv = &lay.triVerts[3 * size_t(rec.tri)];
+          const glm::vec3 rho = b.albedo.at(lay.meshOfTri[rec.tri], lay.localTriangle(rec.tri), b1, b2);
+          acc += rho * (b0 * prev[tv[0]] + b1 * prev[tv[1]] + b2 * prev[tv[2]]);
+        }
+        cur[v] = acc * w;
+        sum[v] += cur[v];
+      }
+    });
+    std::swap(prev, cur);
+  }
+  DirectIrradiance out;
+  out.front.resize(scene.meshes.size());
+  out.back.resize(scene.meshes.size());
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    if (lay.vertexOffset[k] == SIZE_MAX) continue;
+    const size_t n = scene.meshes[k].vertexCount();
+    if (e0.front[k].size() == n) {
+      const auto at = sum.begin() + ptrdiff_t(lay.vertexOffset[k]);
+      out.front[k].assign(at, at + ptrdiff_t(n));
+    }
+    if (lay.backVertexOffset[k] != SIZE_MAX && e0.back[k].size() == n) {
+      const auto at = sum.begin() + ptrdiff_t(lay.backVertexOffset[k]);
+      out.back[k].assign(at, at + ptrdiff_t(n));
+    }
+  }
+  out.seconds = secondsSince(t0);
+  return out;
+}
+
+}  // namespace prt::bake

@@ -1,0 +1,90 @@
+#include "surface_layout.h"
+
+#include "prt/bake/surface_bake.h"
+#include "prt/error.h"
+#include "vertex_rays.h"
+
+namespace prt::bake {
+
+Layout makeLayout(const Scene& scene) {
+  Layout lay;
+  lay.vertexOffset.assign(scene.meshes.size(), SIZE_MAX);
+  lay.backVertexOffset.assign(scene.meshes.size(), SIZE_MAX);
+  lay.triOffset.assign(scene.meshes.size(), 0);
+  lay.backTriOffset.assign(scene.meshes.size(), Layout::kNone);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    lay.triOffset[k] = static_cast<uint32_t>(lay.triangles);
+    if (m.receiverOnly) continue;
+    lay.vertexOffset[k] = lay.vertices;
+    lay.vertices += m.vertexCount();
+    lay.triangles += m.triangleCount();
+  }
+  lay.frontVertices = lay.vertices;
+  lay.frontTriangles = lay.triangles;
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (!bakesBackSide(scene, m)) continue;
+    lay.backVertexOffset[k] = lay.vertices;
+    lay.backTriOffset[k] = static_cast<uint32_t>(lay.triangles);  // overflow refused below
+    lay.vertices += m.vertexCount();
+    lay.triangles += m.triangleCount();
+  }
+  if (lay.triangles >= std::numeric_limits<uint32_t>::max() ||
+      lay.vertices >= std::numeric_limits<uint32_t>::max())
+    throw Error(cat("scene too large: ", lay.triangles, " triangles, ", lay.vertices,
+                    " vertices (at most 2^32 - 1 each)"));
+  lay.meshOfVertex.resize(lay.vertices);
+  lay.triVerts.resize(lay.triangles * 3);
+  lay.meshOfTri.resize(lay.triangles);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (m.receiverOnly) continue;
+    size_t v0 = lay.vertexOffset[k];
+    std::fill_n(lay.meshOfVertex.begin() + v0, m.vertexCount(), uint32_t(k));
+    for (size_t t = 0; t < m.triangleCount(); ++t) {
+      size_t g = lay.triOffset[k] + t;
+      lay.meshOfTri[g] = uint32_t(k);
+      for (int c = 0; c < 3; ++c) lay.triVerts[3 * g + c] = uint32_t(v0 + m.indices[3 * t + c]);
+    }
+    if (lay.backVertexOffset[k] == SIZE_MAX) continue;
+    // The back side: the same corners, in the same order (so a hit's barycentrics are the
+    // same), numbered as virtual vertices.
+    const size_t b0 = lay.backVertexOffset[k];
+    std::fill_n(lay.meshOfVertex.begin() + b0, m.vertexCount(), uint32_t(k));
+    for (size_t t = 0; t < m.triangleCount(); ++t) {
+      size_t g = lay.backTriOffset[k] + t;
+      lay.meshOfTri[g] = uint32_t(k);
+      for (int c = 0; c < 3; ++c) lay.triVerts[3 * g + c] = uint32_t(b0 + m.indices[3 * t + c]);
+    }
+  }
+  return lay;
+}
+
+std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float extent) {
+  std::vector<glm::vec3> pull(lay.frontVertices, glm::vec3(0.0f));  // a back side shares its vertex's pull
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (m.receiverOnly) continue;
+    accumulatePull(m.positions, m.indices, &pull[lay.vertexOffset[k]]);
+  }
+  std::vector<glm::vec3> origins(lay.vertices);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (m.receiverOnly) continue;
+    size_t v0 = lay.vertexOffset[k];
+    const size_t b0 = lay.backVertexOffset[k];
+    for (size_t i = 0; i < m.vertexCount(); ++i) {
+      origins[v0 + i] = liftedOrigin(m.positions[i], m.normals[i], pull[v0 + i], extent);
+      if (b0 != SIZE_MAX) origins[b0 + i] = liftedOrigin(m.positions[i], -m.normals[i], pull[v0 + i], extent);
+    }
+  }
+  return origins;
+}
+
+glm::vec3 normalOf(const Scene& scene, const Layout& lay, size_t v) {
+  const glm::vec3& n = scene.meshes[lay.meshOfVertex[v]].normals[lay.localVertex(v)];
+  return lay.isBack(v) ? -n : n;
+}
+
+}  // namespace prt::bake
