@@ -592,6 +592,61 @@ TEST(RenderDirect, OlderBakeLightsDirectLightsThroughSh) {
   EXPECT_EQ(split.pixels, r.render(folded).pixels);
 }
 
+// A gathered bounce (Frame::directBounce, prt::bake::DirectBounce) replaces the direct lights'
+// bounce through SH: with it given, directLight no longer reaches the baked surfaces (a zero
+// bounce gives the frame of a zero directLight, bit for bit), and a bounce of X at every vertex
+// adds ρ/π · X to every pixel of the baked surfaces, whatever its material (0.8 grey or the
+// warm slab); a bounce of the wrong size is an error naming the instance.
+TEST(RenderDirect, GatheredBounceReplacesTheBounceThroughSh) {
+  const Scene s = slabScene(3);
+  GlContext ctx(GlBackend::OSMesa, kW, kH);
+  Renderer r(ctx, s);
+  Frame f;
+  f.camera = lookAt({0.0, 2.6, 1.6}, {0.0, 0.0, 0.0}, 45.0);
+  f.light = randomLight(3, 1, 1.0f);
+  f.direct = {sun(60.0, 200.0, 4.0, {2.0, 2.0, 2.0})};
+  f.shadows.mapSize = 512;
+  f.directLight = sh::ShRgb(3);
+  const ImageRgb plain = r.render(f);
+  std::vector<std::vector<glm::vec3>> zeros, lifted, back(s.meshes.size());
+  const glm::vec3 x(0.3f, 0.2f, 0.1f);
+  for (const MeshInstance& m : s.meshes) {
+    zeros.emplace_back(m.vertexCount(), glm::vec3(0.0f));
+    lifted.emplace_back(m.vertexCount(), x);
+  }
+  f.directLight = randomLight(3, 2, 0.5f);
+  const ImageRgb withSh = r.render(f);
+  EXPECT_NE(withSh.pixels, plain.pixels);  // the bounce through SH shows
+  f.directBounce = &zeros;
+  f.directBounceBack = &back;
+  EXPECT_EQ(r.render(f).pixels, plain.pixels);
+  f.directBounce = &lifted;
+  const ImageRgb up = r.render(f);
+  int lit = 0;
+  for (int py = 0; py < kH; ++py)
+    for (int px = 0; px < kW; ++px) {
+      const glm::vec3 d = up.at(px, py) - plain.at(px, py);
+      if (d == glm::vec3(0.0f)) continue;  // background
+      const glm::vec3 grey = glm::vec3(0.8f) * x * float(kInvPi), warm = glm::vec3(0.9f, 0.6f, 0.4f) * x * float(kInvPi);
+      const float eg = glm::length(d - grey), ew = glm::length(d - warm);
+      ASSERT_LT(std::min(eg, ew), 2e-5f) << "pixel " << px << "," << py << ": " << d.x << " " << d.y << " " << d.z;
+      ++lit;
+    }
+  EXPECT_GT(lit, kW * kH / 2);
+  f.directBounce = nullptr;  // no bounce given again: the buffers are zero, the plain frame
+  f.directLight = sh::ShRgb(3);
+  EXPECT_EQ(r.render(f).pixels, plain.pixels);
+  std::vector<std::vector<glm::vec3>> shortOne = zeros;
+  shortOne[1].pop_back();
+  f.directBounce = &shortOne;
+  try {
+    r.render(f);
+    FAIL() << "a bounce of the wrong size was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("instance 1"), std::string::npos) << e.what();
+  }
+}
+
 TEST(RenderDirect, TooManyDirectLightsIsAnError) {
   const Scene s = slabScene(2);
   GlContext ctx(GlBackend::OSMesa, 16, 16);

@@ -30,10 +30,12 @@
 #include "frame_outputs.h"
 #include "light_options.h"
 #include "prt/atomic_file.h"
+#include "prt/bake/direct_light.h"
 #include "prt/error.h"
 #include "prt/image.h"
 #include "prt/light_rig.h"
 #include "prt/probe_grid.h"
+#include "prt/relight.h"
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
 #include "prt/scene.h"
@@ -41,6 +43,10 @@
 namespace prt::tools {
 
 namespace {
+
+// Shadow rays per direct light and vertex for the light their gathered bounce starts from: the
+// bounce averages it over hundreds of hits, so its noise does not show (docs/render.md).
+constexpr int kBounceShadowSamples = 16;
 
 constexpr double kDefaultFps = 24.0;
 // Frame numbers stay below INT_MAX so that f + 1, the rig's frames and %d never overflow.
@@ -382,6 +388,11 @@ void addRender(CLI::App& r, RenderArgs& a) {
                "per pixel with PCSS-filtered shadow maps (docs/render.md)")
       ->check(CLI::Range(16, 8192))
       ->capture_default_str();
+  r.add_option("--bounce-samples", a.bounceSamples,
+               "Rays per baked vertex that gather the direct lights' bounced light (the bake's own first rays), "
+               "traced once; 0: their bounces through the SH transfer instead")
+      ->check(CLI::Range(0, 16777216))
+      ->capture_default_str();
   r.add_option("--contact-sheet", a.contactSheet, "Also write a PNG grid of all frames, downscaled");
   r.add_option("--sheet-columns", a.sheetColumns, "Contact sheet columns (0 = about square)")
       ->check(CLI::Range(0, std::numeric_limits<int>::max()).description(">= 0"))
@@ -475,6 +486,26 @@ int runRender(const RenderArgs& a) {
   rig->prepare(bands);
   const double prepareMs = msSince(tPrepare);
   double lightMs = 0.0, drawMs = 0.0, readbackMs = 0.0, writeMs = 0.0, encodeMs = 0.0;
+  // The direct lights' bounces on baked surfaces, gathered over the bake's own rays (traced
+  // once, here) from their shadowed light at the vertices, redone only when they change.
+  const BakeRecord record = scene.bakeRecord.value_or(BakeRecord{});
+  std::unique_ptr<bake::DirectBounce> gather;
+  if (!firstLighting.direct.empty() && a.bounceSamples > 0 && record.bounces > 0 && hasDirectTransfer(scene)) {
+    bake::BounceSettings bs;
+    bs.samples = a.bounceSamples;
+    bs.bounces = record.bounces;
+    bs.seed = record.seed;
+    gather = std::make_unique<bake::DirectBounce>(scene, bs);
+  }
+  bake::DirectIrradiance bounced;
+  std::vector<DirectLight> bouncedFor;
+  double bounceMs = 0.0;
+  int bounceUpdates = 0;
+  auto sameLights = [](const std::vector<DirectLight>& x, const std::vector<DirectLight>& y) {
+    return x.size() == y.size() && std::equal(x.begin(), x.end(), y.begin(), [](const DirectLight& p, const DirectLight& q) {
+             return p.direction == q.direction && p.radius == q.radius && p.irradiance == q.irradiance;
+           });
+  };
   // Frame f is written while frame f + 1 renders (two frames queued at most).
   FrameWriter writer(2);
   for (int64_t f = frames.first; f <= frames.last; ++f) {
@@ -486,6 +517,19 @@ int runRender(const RenderArgs& a) {
     frame.light = std::move(lighting.sh);
     frame.directLight = std::move(lighting.directSh);
     frame.direct = std::move(lighting.direct);
+    if (gather && !frame.direct.empty()) {
+      if (bounceUpdates == 0 || !sameLights(frame.direct, bouncedFor)) {
+        const auto tb = std::chrono::steady_clock::now();
+        bake::ShadowSettings ss;
+        ss.samples = kBounceShadowSamples;
+        bounced = gather->bounce(bake::shadowedDirectIrradiance(scene, frame.direct, ss));
+        bouncedFor = frame.direct;
+        bounceMs += msSince(tb);
+        ++bounceUpdates;
+      }
+      frame.directBounce = &bounced.front;
+      frame.directBounceBack = &bounced.back;
+    }
     frame.shadows.mapSize = a.shadowMapSize;
     frame.time = double(f) / fps;
     frame.probeLookup = a.probeLookup;
@@ -545,12 +589,22 @@ int runRender(const RenderArgs& a) {
                skyBackground ? "sky" : "black", renderer.lastFrame().samples, renderer.lastFrame().samples == 1 ? "" : "s");
   const render::FrameStats& last = renderer.lastFrame();
   if (!firstLighting.direct.empty()) {
+    std::string bounceText = "through the transfer";
+    if (gather) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "on baked surfaces gathered with %d rays per vertex (traced once in %.2f s), redone for %d of the "
+                    "frames (%.1f ms each)%s",
+                    a.bounceSamples, gather->traceSeconds(), bounceUpdates, bounceUpdates ? bounceMs / bounceUpdates : 0.0,
+                    last.directReceivers ? ", on receivers through the probes" : "");
+      bounceText = text;
+    }
     const std::string how =
         last.directBaked || last.directReceivers
             ? cat("per pixel, exactly, with PCSS shadow maps of ", last.shadowMapSize, "x", last.shadowMapSize, ", ",
                   last.cascades, " cascade", last.cascades == 1 ? "" : "s", " per light, ",
                   last.directBaked ? "on baked surfaces" : "", last.directBaked && last.directReceivers ? " and " : "",
-                  last.directReceivers ? "on receivers" : "", "; their bounces through the transfer")
+                  last.directReceivers ? "on receivers" : "", "; their bounces ", bounceText)
             : std::string("through SH (no direct part in the bake)");
     std::fprintf(stderr, "  direct lights (frame %lld; %s):\n", static_cast<long long>(frames.first), how.c_str());
     for (const std::string& line : describeDirectLights(firstLighting, *rig))

@@ -39,6 +39,7 @@ struct RenderArgs {
   Background background = Background::Black;
   int msaa = 1;  // samples per pixel
   int shadowMapSize = 1024;  // texels a side of each direct light's shadow map (and cascade)
+  int bounceSamples = 256;   // gather rays per vertex for the direct lights' bounces; 0: through SH
   std::string mp4, contactSheet;
   int sheetColumns = 0, sheetTile = 192;
   double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitFov = 45.0, orbitDistance = 0.0;  // distance 0: fit

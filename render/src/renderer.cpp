@@ -38,7 +38,8 @@ namespace {
 // from by gl_FrontFacing (the loader winds every instance counter-clockwise in world space).
 // The DIRECT variant (direct lights apart, docs/render.md) subtracts t⁰ · directSh, t⁰ the
 // colourless direct part read from an SSBO (binding 2, back side binding 3; n² floats per vertex,
-// gl_VertexID), and passes the world position and normal (attribute 15) to the fragment shader,
+// gl_VertexID), adds the direct lights' gathered bounce (Frame::directBounce; binding 4, back
+// side binding 5, RGB per vertex, zero when the bounce goes through directSh), and passes the world position and normal (attribute 15) to the fragment shader,
 // which adds the direct lights per pixel.
 constexpr int kMaxAttributeBands = 4;
 constexpr GLuint kNormalAttribute = 15;
@@ -63,8 +64,10 @@ layout(std430, binding = 1) readonly buffer TransferBack { float transferBack[];
   s += cat(R"(#ifdef DIRECT
 layout(location = )", kNormalAttribute, R"() in vec3 aNormal;
 layout(std430, binding = 2) readonly buffer TransferDirect { float transferDirect[]; };
+layout(std430, binding = 4) readonly buffer DirectBounce { float directBounce[]; };  // RGB per vertex
 #ifdef TWO_SIDED
 layout(std430, binding = 3) readonly buffer TransferDirectBack { float transferDirectBack[]; };
+layout(std430, binding = 5) readonly buffer DirectBounceBack { float directBounceBack[]; };
 #endif
 uniform vec3 uDirectSh[kCoeffsAll];  // the direct lights' SH, through the bounced part only
 out vec3 vWorld;
@@ -115,11 +118,13 @@ void main() {
   uint baseDirect = uint(gl_VertexID) * uint(kCoeffsAll);
   vec3 d0 = vec3(0.0);
   for (int i = 0; i < kCoeffsAll; ++i) d0 += transferDirect[baseDirect + uint(i)] * uDirectSh[i];
-  vTransferLight -= d0;
+  uint baseBounce = uint(gl_VertexID) * 3u;
+  vTransferLight += vec3(directBounce[baseBounce], directBounce[baseBounce + 1u], directBounce[baseBounce + 2u]) - d0;
 #ifdef TWO_SIDED
   vec3 d0b = vec3(0.0);
   for (int i = 0; i < kCoeffsAll; ++i) d0b += transferDirectBack[baseDirect + uint(i)] * uDirectSh[i];
-  vTransferLightBack -= d0b;
+  vTransferLightBack += vec3(directBounceBack[baseBounce], directBounceBack[baseBounce + 1u],
+                             directBounceBack[baseBounce + 2u]) - d0b;
 #endif
   vWorld = aPosition;
   vNormal = aNormal;
@@ -305,6 +310,10 @@ struct Renderer::Impl {
     GLuint buffers[6] = {};  // positions, texcoords, colours, indices, transfer, normals
     GLuint backTransfer = 0;  // MeshInstance::transferBack (kVariantTwoSided), 0 if none
     GLuint directTransfer[2] = {};  // MeshInstance::transferDirect, transferDirectBack; 0 if none
+    GLuint directBounce[2] = {};    // Frame::directBounce of this instance (front, back); with directTransfer
+    size_t mesh = 0;                // its Scene::meshes entry
+    size_t vertices = 0;
+    bool bounceZero = true;         // directBounce holds zeros
     glm::dvec3 restLo{0.0}, restHi{0.0};  // receivers: bounds of the rest-pose vertices
     GLsizei indexCount = 0;
     size_t triangles = 0;
@@ -392,6 +401,7 @@ struct Renderer::Impl {
   GLuint environmentTexture(const std::shared_ptr<const ImageRgb>& image);
   void drawBackground(const RigBackground& b, const CameraView& camera, int width, int height);
   void release();
+  void uploadBounce(const std::vector<std::vector<glm::vec3>>* front, const std::vector<std::vector<glm::vec3>>* back);
 };
 
 void Renderer::Impl::checkError(const char* where) const {
@@ -610,10 +620,17 @@ void Renderer::Impl::upload(const Scene& scene) {
       gl.CreateBuffers(1, &in.backTransfer);
       store(in.backTransfer, m.transferBack);
     }
+    in.mesh = size_t(&m - scene.meshes.data());
+    in.vertices = m.vertexCount();
     if (direct) {
       gl.CreateBuffers(twoSided ? 2 : 1, in.directTransfer);
       store(in.directTransfer[0], m.transferDirect);
       if (twoSided) store(in.directTransfer[1], m.transferDirectBack);
+      gl.CreateBuffers(twoSided ? 2 : 1, in.directBounce);
+      const std::vector<glm::vec3> zeros(m.vertexCount(), glm::vec3(0.0f));
+      for (int side = 0; side < (twoSided ? 2 : 1); ++side)
+        gl.NamedBufferStorage(in.directBounce[side], GLsizeiptr(std::max<size_t>(zeros.size() * sizeof(glm::vec3), 1)),
+                              zeros.empty() ? nullptr : zeros.data(), GL_DYNAMIC_STORAGE_BIT);
     }
 
     gl.CreateVertexArrays(1, &in.vao);
@@ -1052,6 +1069,8 @@ void Renderer::Impl::release() {
       if (in.backTransfer) gl.DeleteBuffers(1, &in.backTransfer);
       for (GLuint b : in.directTransfer)
         if (b) gl.DeleteBuffers(1, &b);
+      for (GLuint b : in.directBounce)
+        if (b) gl.DeleteBuffers(1, &b);
     }
   for (GLuint t : textures)
     if (t) gl.DeleteTextures(1, &t);
@@ -1113,6 +1132,31 @@ ImageRgb Renderer::render(const CameraView& camera, const sh::ShRgb& light, int 
   return render(f);
 }
 
+// The direct lights' gathered bounce into each baked instance's bounce buffers (zeros where the
+// frame gives none, written once until a bounce comes again).
+void Renderer::Impl::uploadBounce(const std::vector<std::vector<glm::vec3>>* front,
+                                  const std::vector<std::vector<glm::vec3>>* back) {
+  for (Instance& in : instances) {
+    if (!in.directBounce[0]) continue;
+    if (!front && in.bounceZero) continue;
+    const std::vector<glm::vec3> zeros(front ? 0 : in.vertices, glm::vec3(0.0f));
+    for (int side = 0; side < 2; ++side) {
+      if (!in.directBounce[side]) continue;
+      const std::vector<std::vector<glm::vec3>>* given = side ? back : front;
+      const std::vector<glm::vec3>* v = &zeros;
+      if (given) {
+        if (given->size() <= in.mesh || (*given)[in.mesh].size() != in.vertices)
+          throw Error(cat("render: the direct lights' bounce holds ", given->size() > in.mesh ? (*given)[in.mesh].size() : 0,
+                          " values for instance ", in.mesh, (side ? " (back side)" : ""), ", expected ", in.vertices));
+        v = &(*given)[in.mesh];
+      }
+      if (!v->empty())
+        gl.NamedBufferSubData(in.directBounce[side], 0, GLsizeiptr(v->size() * sizeof(glm::vec3)), v->data());
+    }
+    in.bounceZero = front == nullptr;
+  }
+}
+
 ImageRgb Renderer::render(const Frame& frame) {
   Impl& r = *impl_;
   const GlFunctions& gl = r.gl;
@@ -1158,10 +1202,13 @@ ImageRgb Renderer::render(const Frame& frame) {
   // c_p = M_p · l (CPU, TBB over probes) copied into the buffer the receivers read.
   const auto t0 = std::chrono::steady_clock::now();
   if (!flat && r.bands > 0) {
-    // The whole light through t; with the split, t⁰ · directSh is taken off in the shader.
+    // The whole light through t; with the split, t⁰ · directSh is taken off in the shader, or,
+    // with a gathered bounce (Frame::directBounce), directSh stays out and the bounce is added.
     sh::ShRgb l = sh::resize(frame.light, r.bands);
-    const sh::ShRgb dl = directSh(r.bands);
+    const bool gathered = bakedSplit && frame.directBounce != nullptr;
+    const sh::ShRgb dl = gathered ? sh::ShRgb(r.bands) : directSh(r.bands);
     l += dl;
+    if (bakedSplit) r.uploadBounce(gathered ? frame.directBounce : nullptr, gathered ? frame.directBounceBack : nullptr);
     if (bakedSplit)
       for (const Impl::Instance& in : r.instances) {
         const Impl::Program& p = r.bakedProgram(in.variant | kVariantDirect);
@@ -1277,6 +1324,8 @@ ImageRgb Renderer::render(const Frame& frame) {
     if (!flat && bakedSplit) {
       gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, in.directTransfer[0]);
       if (in.directTransfer[1]) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, in.directTransfer[1]);
+      gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, in.directBounce[0]);
+      if (in.directBounce[1]) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, in.directBounce[1]);
     }
     return false;
   };

@@ -113,6 +113,13 @@ struct Frame {
   /// through SH instead (light + directLight) and warnings() says so. At most kMaxDirectLights.
   sh::ShRgb directLight;
   std::vector<DirectLight> direct;
+  /// The direct lights' bounced irradiance, gathered with rays (prt::bake::DirectBounce), per
+  /// Scene::meshes entry and vertex, and for the back sides of two-sided instances: when not
+  /// null, baked instances are lit E = t·light + directBounce + Σ_k E_k c_k(n) s_k(x), and
+  /// directLight goes only to the receivers. Null: the bounce through (t − t⁰)·directLight.
+  /// Must stay alive during render().
+  const std::vector<std::vector<glm::vec3>>* directBounce = nullptr;
+  const std::vector<std::vector<glm::vec3>>* directBounceBack = nullptr;
   ShadowSettings shadows;
   double time = 0.0;        // seconds: receivers are placed by the scene's animations at time
   int width = 0;            // 0: the context's size
