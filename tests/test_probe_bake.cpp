@@ -512,5 +512,56 @@ TEST(ProbeBakeRegion, InsideKeepsOnlySealedSpace) {
   EXPECT_EQ(autoStats.valid, uint64_t(8 * 8 * 8));  // every point is within 2 m of a wall
 }
 
+// A roofless court: a 12 m × 12 m floor and four 10 m walls, open to the sky, in a lattice of
+// 1 m spacing (lattice points at whole metres, y = 1 .. 9). Auto keeps what lies within 2 spacings of a surface, and the surrounded points
+// under open sky up to maxHeight (4 m) above the floor; the points of the court's middle higher
+// than that (and farther than 2 spacings and a neighbour from everything) are the void over the
+// level, left out. With a roof on the court, or maxHeight 0, they are all kept.
+TEST(ProbeBakeRegion, AutoLeavesOutTheVoidOverARooflessLevel) {
+  auto court = [](bool roof) {
+    std::vector<MeshInstance> parts = {test::makeSlab({-6.2f, -0.2f, -6.2f}, {6.2f, 0.0f, 6.2f})};
+    parts.push_back(test::makeSlab({-6.2f, 0.0f, -6.2f}, {-6.0f, 10.0f, 6.2f}));
+    parts.push_back(test::makeSlab({6.0f, 0.0f, -6.2f}, {6.2f, 10.0f, 6.2f}));
+    parts.push_back(test::makeSlab({-6.0f, 0.0f, -6.2f}, {6.0f, 10.0f, -6.0f}));
+    parts.push_back(test::makeSlab({-6.0f, 0.0f, 6.0f}, {6.0f, 10.0f, 6.2f}));
+    if (roof) parts.push_back(test::makeSlab({-6.2f, 10.0f, -6.2f}, {6.2f, 10.2f, 6.2f}));
+    return test::makeScene(parts, 0.5f);
+  };
+  bake::ProbeSettings ps;
+  ps.spacing = 1.0;
+  ps.boundsMin = glm::dvec3(-5.5, 0.5, -5.5);
+  ps.boundsMax = glm::dvec3(5.5, 9.5, 5.5);
+  ps.samples = 16;
+  auto validAt = [](const ProbeGrid& g, const glm::dvec3& at) {  // the lattice point at `at`
+    const glm::dvec3 c = (at - g.latticePosition(glm::ivec3(0))) / g.spacing;
+    EXPECT_LT(glm::length(c - glm::round(c)), 1e-6) << "not a lattice point";
+    const int k = g.find(glm::ivec3(glm::round(c)));
+    return k >= 0 && g.validity[size_t(k)] != 0.0f;
+  };
+  bake::ProbeStats open;
+  const ProbeGrid g = bake::bakeProbes(court(false), {}, ps, &open);
+  // Low points everywhere, and every point near the walls, are kept; the middle high up is not.
+  EXPECT_TRUE(validAt(g, {0.0, 1.0, 0.0}));
+  EXPECT_TRUE(validAt(g, {0.0, 4.0, 0.0}));
+  EXPECT_TRUE(validAt(g, {-4.0, 8.0, 0.0}));  // within 2 spacings of a wall
+  EXPECT_FALSE(validAt(g, {0.0, 7.0, 0.0}));
+  EXPECT_FALSE(validAt(g, {1.0, 9.0, -1.0}));
+  EXPECT_GT(open.aboveLevel, 20u);
+  EXPECT_EQ(open.aboveLevel, open.outside);
+  for (size_t p = 0; p < g.probeCount(); ++p)  // nothing below 4 m + one neighbour is left out
+    if (g.latticePosition(g.coord[p]).y < 5.5) EXPECT_NE(g.validity[p], 0.0f);
+
+  bake::ProbeStats roofed;
+  const ProbeGrid r = bake::bakeProbes(court(true), {}, ps, &roofed);
+  EXPECT_EQ(roofed.aboveLevel, 0u);
+  EXPECT_TRUE(validAt(r, {0.0, 7.0, 0.0}));
+  ps.maxHeight = 0.0;
+  bake::ProbeStats unlimited;
+  const ProbeGrid u = bake::bakeProbes(court(false), {}, ps, &unlimited);
+  EXPECT_EQ(unlimited.aboveLevel, 0u);
+  EXPECT_EQ(unlimited.valid, open.valid + open.aboveLevel);
+  EXPECT_TRUE(validAt(u, {0.0, 7.0, 0.0}));
+}
+
 }  // namespace
 }  // namespace prt

@@ -147,8 +147,14 @@ CLI::Option* addProbeOptions(CLI::App& bake, BakeArgs& a) {
                       "surfaces or surrounded by them)")
           ->transform(choice<Region>({{"auto", Region::Auto}, {"everywhere", Region::Everywhere}, {"inside", Region::Inside}}))
           ->default_str("auto");
+  CLI::Option* height =
+      bake.add_option("--probe-height", a.probeHeight,
+                      "auto: under open sky, keep probes at most this high above the surface below them (world "
+                      "units; 0 = no limit): the void over a roofless level is left out")
+          ->check(CLI::NonNegativeNumber)
+          ->capture_default_str();
   dims->excludes(spacing);
-  for (CLI::Option* o : {spacing, dims, bounds, samples, half, region}) o->needs(probes);
+  for (CLI::Option* o : {spacing, dims, bounds, samples, half, region, height}) o->needs(probes);
   return probes;
 }
 
@@ -276,6 +282,7 @@ int runBake(const BakeArgs& a) {
     ps.threads = s.threads;
     ps.spacing = a.probeSpacing;
     ps.region = a.probeRegion;
+    ps.maxHeight = a.probeHeight;
     if (!a.probeDims.empty()) ps.dims = glm::ivec3(a.probeDims[0], a.probeDims[1], a.probeDims[2]);
     if (a.probeSpacing == 0.0 && a.probeDims.empty()) ps.dims = glm::ivec3(16);
     if (!a.probeBounds.empty()) {
@@ -475,6 +482,9 @@ int runBake(const BakeArgs& a) {
       probeStats.outside
           ? cat(", ", formatCount(double(probeStats.outside)),
                 probeStats.insideOnly ? " outside the closed level" : " in open air far from surfaces",
+                probeStats.aboveLevel ? cat(" or over the level (", formatCount(double(probeStats.aboveLevel)),
+                                            " more than ", a.probeHeight, " above the ground under open sky)")
+                                      : std::string(),
                 " (not baked; --probe-region everywhere bakes them)")
           : "";
   std::fprintf(stderr,

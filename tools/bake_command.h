@@ -24,6 +24,7 @@ struct BakeArgs {
   int probeSamples = 1024;
   bool probeHalf = false;
   bake::ProbeSettings::Region probeRegion = bake::ProbeSettings::Region::Auto;
+  double probeHeight = 4.0;  // auto: kept at most this high above the ground under open sky
   bake::BakeSettings settings;
   bake::RefineSettings refine;
   bool noRefine = false;

@@ -298,7 +298,7 @@ constexpr double kOpenAirShare = 0.2;
 struct LatticeRegion {
   std::vector<uint8_t> free;  // per lattice point: the quick test passed
   std::vector<uint8_t> skip;  // per lattice point: not baked
-  uint64_t freeCount = 0, sealed = 0, outside = 0;
+  uint64_t freeCount = 0, sealed = 0, outside = 0, aboveLevel = 0;
   bool insideOnly = false;   // only sealed space is kept
   uint64_t rays = 0;
   bool interrupted = false;  // an interrupt was requested before the quick tests finished
@@ -379,6 +379,21 @@ std::vector<uint8_t> sealedSpace(const Tracer& tracer, const ProbeGrid& grid, La
   return sealed;
 }
 
+// Above the level: open sky straight up (+Y, glTF's up) and nothing within `height` straight
+// down. Where a roofless level's walls surround a point, a receiver still stands on something:
+// what lies higher above the ground than any receiver reaches is the void over the level.
+bool aboveTheLevel(const RayScene& rays, const glm::vec3& x, float height) {
+  alignas(64) Ray batch[2];
+  for (int k = 0; k < 2; ++k) {
+    batch[k] = Ray{};
+    batch[k].org = x;
+    batch[k].dir = glm::vec3(0.0f, k == 0 ? 1.0f : -1.0f, 0.0f);
+    batch[k].tfar = k == 0 ? std::numeric_limits<float>::infinity() : height;
+  }
+  rays.occluded(batch, 2, false);
+  return !batch[0].occludedHit() && !batch[1].occludedHit();
+}
+
 LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const ProbeSettings& settings) {
   using Region = ProbeSettings::Region;
   const glm::ivec3 dims = grid.dims;
@@ -402,6 +417,7 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
   reg.rays = uint64_t(total) * kProbeTestRays;
   std::vector<uint8_t> wanted(total, 0);  // free, and near a surface or enclosed
   std::vector<float> nearest(total, 0.0f);  // the quick test's nearest hit
+  std::vector<uint8_t> high(total, 0);      // surrounded, but above the level (aboveTheLevel)
   const float nearDistance = float(kNearSpacings * std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z}));
   std::atomic<bool> stopped{false};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, total, 256), [&](const tbb::blocked_range<size_t>& r) {
@@ -415,8 +431,14 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
       }
       reg.free[idx] = !insideGeometry(test, settings.insideThreshold);
       nearest[idx] = test.nearest;
-      wanted[idx] = reg.free[idx] && (test.nearest <= nearDistance ||
-                                      double(test.rays - test.escaped) > kOpenAirShare * double(test.rays));
+      const bool nearSurface = test.nearest <= nearDistance;
+      bool surrounded = double(test.rays - test.escaped) > kOpenAirShare * double(test.rays);
+      if (reg.free[idx] && !nearSurface && surrounded && settings.maxHeight > 0.0 && settings.region == Region::Auto &&
+          aboveTheLevel(tracer.rays, x, float(settings.maxHeight))) {
+        surrounded = false;
+        high[idx] = 1;
+      }
+      wanted[idx] = reg.free[idx] && (nearSurface || surrounded);
     }
   });
   if (stopped) {
@@ -444,6 +466,7 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
     if (reg.free[idx]) {
       reg.skip[idx] = !keep[idx];
       reg.outside += !keep[idx];
+      reg.aboveLevel += !keep[idx] && high[idx];
       continue;
     }
     const bool nearFree = forNeighbours(idx, [&](size_t j) { return reg.free[j] != 0; });
@@ -466,6 +489,8 @@ void validate(const ProbeSettings& s) {
   if (s.spacing == 0.0 && double(s.dims.x) * s.dims.y * s.dims.z > 512.0 * 512 * 512)
     throw Error("probe dims: more than 512³ probes");
   if (s.threads < 0) throw Error(cat("threads ", s.threads, ": must be 0 (all cores) or more"));
+  if (!(s.maxHeight >= 0.0) || !std::isfinite(s.maxHeight))
+    throw Error(cat("probe height ", s.maxHeight, ": must be 0 (no limit) or a positive number"));
   if (s.boundsMin && s.boundsMax) {
     glm::dvec3 lo = *s.boundsMin, hi = *s.boundsMax;
     if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z) || !std::isfinite(lo.x + lo.y + lo.z + hi.x + hi.y + hi.z))
@@ -529,6 +554,7 @@ void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& s) {
   fp.add("probe region", s.region == ProbeSettings::Region::Auto         ? "auto"
                          : s.region == ProbeSettings::Region::Everywhere ? "everywhere"
                                                                          : "inside");
+  fp.add("probe max height", num(s.maxHeight));
 }
 
 namespace {
@@ -644,6 +670,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       throw Interrupted("interrupted (probe placement)");
     }
     stats.outside = region.outside;
+    stats.aboveLevel = region.aboveLevel;
     stats.sealed = region.sealed;
     stats.insideOnly = region.insideOnly;
     grid.info.region = region.insideOnly                                 ? "inside"

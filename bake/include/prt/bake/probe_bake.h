@@ -36,9 +36,14 @@ struct ProbeSettings {
   /// - Auto: the free points near a surface (a hit within 2 spacings) or surrounded (surfaces
   ///   fill more than 20% of the sphere around them), and their neighbours: open air far from
   ///   everything is left out (the void around a floating level, the sky high above a town);
-  ///   a scene with no surface near the lattice keeps every point.
+  ///   a scene with no surface near the lattice keeps every point. A surrounded point under
+  ///   open sky (its ray straight up, +Y, escapes) is kept only within `maxHeight` of the
+  ///   surface below it: the void above a roofless level, where no receiver goes.
   enum class Region { Auto, Everywhere, Inside };
   Region region = Region::Auto;
+  /// Auto: how high above the surface below it a surrounded point under open sky is kept, in
+  /// world units (glTF: metres); 0 = no limit.
+  double maxHeight = 4.0;
 };
 
 
@@ -60,6 +65,7 @@ struct ProbeStats {
   uint64_t invalid = 0;      // inside geometry, not moved out
   uint64_t moved = 0;        // moved out of geometry within their cell
   uint64_t outside = 0;      // free lattice points not baked (open air, or outside a closed level)
+  uint64_t aboveLevel = 0;   // of them: surrounded, but under open sky above maxHeight (Auto)
   uint64_t sealed = 0;       // free lattice points sealed inside the scene's surfaces
   bool insideOnly = false;   // only sealed space was baked (a closed level)
   uint64_t valid = 0;        // stored with transfer
