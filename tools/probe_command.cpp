@@ -14,9 +14,11 @@
 #include "cli_checks.h"
 #include "csv_fields.h"
 #include "prt/atomic_file.h"
+#include "prt/bake/direct_light.h"
 #include "prt/error.h"
 #include "prt/probe_grid.h"
 #include "prt/relight.h"
+#include "prt/scene.h"
 #include "prt/sh.h"
 
 namespace prt::tools {
@@ -26,12 +28,23 @@ namespace {
 // What prt probe reports at one point: the incident radiance SH as the renderer lights a
 // receiver there (receiverRadiance: the probes, or the unoccluded light where none applies),
 // and where the point lies.
+// With the baked scene (`scene`), the direct lights are apart: `relit` and `light` hold the sky
+// and their bounced light (relightProbes' split) and `direct` is traced at each point.
 struct ProbeQuery {
   const ProbeGrid& grid;
   const std::vector<glm::vec3>& relit;
   const sh::ShRgb& light;
+  const Scene* scene = nullptr;
+  const std::vector<DirectLight>* direct = nullptr;
+  bake::ShadowSettings shadows;
   sh::ShRgb radiance(const glm::vec3& x, const glm::vec3* n, ProbeCover& cover) const {
     return receiverRadiance(grid, relit, light, x, n, &cover);
+  }
+  bool traced() const { return scene && direct && !direct->empty(); }
+  /// Σ_k E_k c_k(n) s_k(x) at each point (zero without traced direct lights).
+  std::vector<glm::vec3> directIrradiance(const std::vector<glm::vec3>& x, const std::vector<glm::vec3>& n) const {
+    if (!traced()) return std::vector<glm::vec3>(x.size(), glm::vec3(0.0f));
+    return bake::shadowedDirectIrradianceAt(*scene, x, n, *direct, shadows);
   }
 };
 
@@ -66,10 +79,27 @@ void probeAt(const ProbeArgs& a, const ProbeQuery& q) {
   j["probes"] = probes;
   // The unoccluded light's share of radiance_sh: 1 outside, 0 within the domain (docs/probes.md).
   j["light_share"] = w.count == 0 ? 1.0f : w.fade;
+  if (q.traced()) {  // each direct light's visible share for a surface facing it
+    nlohmann::json lights = nlohmann::json::array();
+    for (const DirectLight& l : *q.direct) {
+      const glm::vec3 d(l.direction);
+      bake::ShadowSettings facing = q.shadows;
+      const glm::vec3 e = bake::shadowedDirectIrradianceAt(*q.scene, {x}, {d}, {l}, facing)[0];
+      const double full = std::max({l.irradiance.r, l.irradiance.g, l.irradiance.b});
+      const double share = full > 0.0 ? std::max({double(e.r), double(e.g), double(e.b)}) / full : 0.0;
+      lights.push_back({{"direction", {d.x, d.y, d.z}},
+                        {"radius_deg", glm::degrees(l.radius)},
+                        {"irradiance", {l.irradiance.r, l.irradiance.g, l.irradiance.b}},
+                        {"visible_share", share}});
+    }
+    j["direct_lights"] = lights;
+  }
   if (np) {
-    glm::vec3 e = sh::irradiance(c, n);
+    const glm::vec3 direct = q.directIrradiance({x}, {n})[0];
+    glm::vec3 e = sh::irradiance(c, n) + direct;
     j["normal"] = {n.x, n.y, n.z};
     j["irradiance"] = {e.r, e.g, e.b};
+    if (q.traced()) j["direct_irradiance"] = {direct.r, direct.g, direct.b};
   }
   if (w.count == 0)
     std::fprintf(stderr, "prt: warning: (%g, %g, %g) is %s: reporting the unoccluded light, as the renderer does\n",
@@ -105,6 +135,8 @@ std::string probePointsCsv(const std::string& path, const ProbeQuery& q) {
     throw Error(cat(path, ":1: header is '", line, "', expected it to start with x,y,z,nx,ny,nz"));
   std::string out = line + ",E_r,E_g,E_b,status\n";
   int outside = 0;
+  std::vector<std::string> rows;
+  std::vector<glm::vec3> xs, ns;
   for (int row = 2; std::getline(in, line); ++row) {
     chomp();
     if (line.empty()) continue;
@@ -125,11 +157,16 @@ std::string probePointsCsv(const std::string& path, const ProbeQuery& q) {
     const glm::vec3 x(v[0], v[1], v[2]);
     glm::vec3 n(v[3], v[4], v[5]);
     if (glm::length(n) == 0.0f) throw Error(cat(path, ":", row, ": the normal is zero"));
-    n = glm::normalize(n);
+    rows.push_back(line);
+    xs.push_back(x);
+    ns.push_back(glm::normalize(n));
+  }
+  const std::vector<glm::vec3> direct = q.directIrradiance(xs, ns);
+  for (size_t i = 0; i < rows.size(); ++i) {
     ProbeCover cover;
-    const glm::vec3 e = sh::irradiance(q.radiance(x, &n, cover), n);
+    const glm::vec3 e = sh::irradiance(q.radiance(xs[i], &ns[i], cover), ns[i]) + direct[i];
     outside += cover == ProbeCover::Outside || cover == ProbeCover::NoValidProbe || cover == ProbeCover::Fade;
-    out += cat(line, ",", std::setprecision(9), e.r, ",", e.g, ",", e.b, ",", probeCoverName(cover), "\n");
+    out += cat(rows[i], ",", std::setprecision(9), e.r, ",", e.g, ",", e.b, ",", probeCoverName(cover), "\n");
   }
   if (outside)
     std::fprintf(stderr, "prt: warning: %s: %d points beyond the probe grid's domain or without a valid probe got "
@@ -152,6 +189,16 @@ void addProbe(CLI::App& cmd, ProbeArgs& a) {
   CLI::Option* points = cmd.add_option("--points", a.points, "CSV of points with header x,y,z,nx,ny,nz");
   CLI::Option* output = cmd.add_option("-o,--output", a.output, "Output CSV for --points (adds E_r,E_g,E_b)");
   addLightOptions(cmd, a.light);
+  cmd.add_option("--scene", a.scene,
+                 "The baked scene (.glb) of the grid: direct lights (suns, small disks) are then traced at each "
+                 "point with their shadows and added to the irradiance, the probes giving the sky and bounced light; "
+                 "without it they go through the probes' SH, band-limited");
+  cmd.add_option("--shadow-samples", a.shadowSamples, "With --scene: shadow rays per direct light and point")
+      ->check(CLI::Range(1, 65536))
+      ->capture_default_str();
+  cmd.add_option("--threads", a.threads, "With --scene: threads for the shadow rays (0 = all cores)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   // --at prints JSON; --points has its own normals and writes a CSV.
   at->excludes(points);
   normal->needs(at);
@@ -165,14 +212,35 @@ int runProbe(const ProbeArgs& a) {
   std::optional<AtomicFile> outFile;
   if (!a.output.empty()) outFile.emplace(a.output);
   const ProbeGrid grid = readProbeGrid(a.file);
-  const sh::ShRgb light = sh::resize(buildLight(a.light, grid.bands), grid.bands);
-  const std::vector<glm::vec3> relit = relightProbes(grid, light);
-  const ProbeQuery q{grid, relit, light};
-  if (!a.at.empty()) {
+  const LightRig rig = buildStillRig(a.light);
+  RigLighting lighting = lightingAt(rig, a.light, a.light.frame, grid.bands);
+  std::optional<Scene> scene;
+  if (!a.scene.empty()) scene = loadScene(a.scene);
+  // The split (docs/lights.md, "Probes"): the probes' M·(sh + directSh) − M⁰·directSh, and the
+  // direct lights traced at the point. Without the scene, or a grid without M⁰, the direct
+  // lights go through the probes' SH with the rest.
+  const bool split = scene && !lighting.direct.empty() && grid.hasDirect();
+  // Said once the answer is out (an error stays the only line).
+  const std::string note =
+      !lighting.direct.empty() && !split
+          ? cat("prt probe: note: ", lighting.direct.size(), " direct light(s) (suns, disks up to ",
+                kMaxDirectRadiusDegrees, " deg) lit through the probes' SH, band-limited and without their own shadow: ",
+                !scene ? "give --scene BAKED.glb to trace them at each point"
+                       : "the grid has no direct part (baked by an older prt); bake the probes again")
+          : std::string();
+  if (!split) lighting.direct.clear();
+  // Not split: the rig's whole light (LightRig::evaluate), as before the split existed.
+  const sh::ShRgb light = sh::resize(split ? lighting.sh : rig.evaluate(a.light.frame, grid.bands), grid.bands);
+  const std::vector<glm::vec3> relit =
+      split ? relightProbes(grid, light, sh::resize(lighting.directSh, grid.bands)) : relightProbes(grid, light);
+  ProbeQuery q{grid, relit, light, split ? &*scene : nullptr, split ? &lighting.direct : nullptr, {}};
+  q.shadows.samples = a.shadowSamples;
+  q.shadows.threads = a.threads;
+  if (!a.at.empty())
     probeAt(a, q);
-    return 0;
-  }
-  writeFileAtomic(a.output, probePointsCsv(a.points, q));
+  else
+    writeFileAtomic(a.output, probePointsCsv(a.points, q));
+  if (!note.empty()) std::fprintf(stderr, "%s\n", note.c_str());
   return 0;
 }
 

@@ -55,6 +55,49 @@ struct CapSampler {
   }
 };
 
+// Σ_k E_k · c_k(n) · visible share at one point (ray origin `origin`, unit normal n); `index`
+// scrambles the strata (a vertex's global number, a query point's).
+glm::dvec3 irradianceAt(const RayScene& rays, const std::vector<CapSampler>& caps, const std::vector<DirectLight>& lights,
+                        const glm::vec3& origin, const glm::vec3& n, size_t index, const ShadowSettings& settings,
+                        float tnear, uint64_t& count) {
+  alignas(64) Ray batch[kStream];
+  float weight[kStream];
+  glm::dvec3 e(0.0);
+  for (size_t li = 0; li < lights.size(); ++li) {
+    const DirectLight& light = lights[li];
+    const double cosFactor = directCosineFactor(light, glm::dvec3(n));
+    if (cosFactor <= 0.0) continue;  // the whole cap is below the horizon
+    const uint64_t h = splitMix64(settings.seed ^ splitMix64(index * lights.size() + li));
+    const uint32_t s0 = uint32_t(h), s1 = uint32_t(h >> 32);
+    const uint32_t N = caps[li].delta ? 1u : uint32_t(settings.samples);
+    double seen = 0.0, total = 0.0;
+    for (uint32_t first = 0; first < N; first += kStream) {
+      const uint32_t c = std::min(kStream, N - first);
+      uint32_t used = 0;
+      for (uint32_t j = 0; j < c; ++j) {
+        const glm::vec3 dir = caps[li].direction(first + j, s0, s1);
+        const float w = caps[li].delta ? 1.0f : glm::dot(n, dir);
+        if (w <= 0.0f) continue;  // this part of the cap is below the horizon
+        Ray& ray = batch[used];
+        ray = Ray{};
+        ray.org = origin;
+        ray.tnear = tnear;
+        ray.dir = dir;
+        ray.tfar = std::numeric_limits<float>::infinity();
+        weight[used++] = w;
+      }
+      rays.occluded(batch, used, /*coherent=*/true);  // one origin, one small cone
+      count += used;
+      for (uint32_t j = 0; j < used; ++j) {
+        total += weight[j];
+        if (!batch[j].occludedHit()) seen += weight[j];
+      }
+    }
+    if (total > 0.0) e += light.irradiance * (cosFactor * seen / total);
+  }
+  return e;
+}
+
 }  // namespace
 
 DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const std::vector<DirectLight>& lights,
@@ -91,46 +134,11 @@ DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const std::vector<
       result.assign(m.vertexCount(), glm::vec3(0.0f));
       const size_t base = firstVertex;
       tbb::parallel_for(tbb::blocked_range<size_t>(0, m.vertexCount(), 64), [&](const tbb::blocked_range<size_t>& r) {
-        alignas(64) Ray batch[kStream];
-        float weight[kStream];
         uint64_t count = 0;
         for (size_t v = r.begin(); v < r.end(); ++v) {
           const glm::vec3 n = side == 0 ? m.normals[v] : -m.normals[v];
           const glm::vec3 origin = liftedOrigin(m.positions[v], n, pull[v], extent);
-          glm::dvec3 e(0.0);
-          for (size_t li = 0; li < lights.size(); ++li) {
-            const DirectLight& light = lights[li];
-            const double cosFactor = directCosineFactor(light, glm::dvec3(n));
-            if (cosFactor <= 0.0) continue;  // the whole cap is below the horizon
-            const uint64_t h = splitMix64(settings.seed ^ splitMix64((base + v) * lights.size() + li));
-            const uint32_t s0 = uint32_t(h), s1 = uint32_t(h >> 32);
-            const uint32_t N = caps[li].delta ? 1u : uint32_t(settings.samples);
-            double seen = 0.0, total = 0.0;
-            for (uint32_t first = 0; first < N; first += kStream) {
-              const uint32_t c = std::min(kStream, N - first);
-              uint32_t used = 0;
-              for (uint32_t j = 0; j < c; ++j) {
-                const glm::vec3 dir = caps[li].direction(first + j, s0, s1);
-                const float w = caps[li].delta ? 1.0f : glm::dot(n, dir);
-                if (w <= 0.0f) continue;  // this part of the cap is below the horizon
-                Ray& ray = batch[used];
-                ray = Ray{};
-                ray.org = origin;
-                ray.tnear = tnear;
-                ray.dir = dir;
-                ray.tfar = std::numeric_limits<float>::infinity();
-                weight[used++] = w;
-              }
-              rays.occluded(batch, used, /*coherent=*/true);  // one origin, one small cone
-              count += used;
-              for (uint32_t j = 0; j < used; ++j) {
-                total += weight[j];
-                if (!batch[j].occludedHit()) seen += weight[j];
-              }
-            }
-            if (total > 0.0) e += light.irradiance * (cosFactor * seen / total);
-          }
-          result[v] = glm::vec3(e);
+          result[v] = glm::vec3(irradianceAt(rays, caps, lights, origin, n, base + v, settings, tnear, count));
         }
         traced += count;
       });
@@ -138,6 +146,28 @@ DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const std::vector<
     }
   out.rays = traced;
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+std::vector<glm::vec3> shadowedDirectIrradianceAt(const Scene& scene, const std::vector<glm::vec3>& points,
+                                                  const std::vector<glm::vec3>& normals,
+                                                  const std::vector<DirectLight>& lights, const ShadowSettings& settings) {
+  validate(settings);
+  PRT_CHECK_EQ(points.size(), normals.size());
+  const ThreadLimit threadLimit(settings.threads);
+  std::vector<glm::vec3> out(points.size(), glm::vec3(0.0f));
+  if (lights.empty() || points.empty()) return out;
+  const RayScene rays(scene);
+  const float extent = rays.sceneExtent(), tnear = tnearFor(extent);
+  std::vector<CapSampler> caps;
+  for (const DirectLight& l : lights) caps.emplace_back(l);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size(), 16), [&](const tbb::blocked_range<size_t>& r) {
+    uint64_t count = 0;
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      const glm::vec3 origin = points[i] + 1e-4f * extent * normals[i];
+      out[i] = glm::vec3(irradianceAt(rays, caps, lights, origin, normals[i], i, settings, tnear, count));
+    }
+  });
   return out;
 }
 

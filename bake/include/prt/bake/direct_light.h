@@ -42,6 +42,14 @@ struct DirectIrradiance {
 DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const std::vector<DirectLight>& lights,
                                           const ShadowSettings& settings = {});
 
+/// The same at arbitrary points `points` with unit normals `normals` (a probe query, `prt
+/// probe --scene`): rays leave each point lifted by 10⁻⁴ of the scene's extent along its
+/// normal; point i's strata are scrambled by i. Deterministic for any thread count.
+std::vector<glm::vec3> shadowedDirectIrradianceAt(const Scene& scene, const std::vector<glm::vec3>& points,
+                                                  const std::vector<glm::vec3>& normals,
+                                                  const std::vector<DirectLight>& lights,
+                                                  const ShadowSettings& settings = {});
+
 struct BounceSettings {
   int samples = 256;  // gather rays per vertex and side: the first of the bake's own rays
   int bounces = 2;    // the bake's count (its record), so direct lights bounce as often as the sky
