@@ -315,7 +315,19 @@ TEST(SceneMeshopt, FallbackBufferWithoutCompressionIsOneError) {
 
 /// A 2×2 WebP (lossless, so the texels are exact) as a base colour texture required through
 /// EXT_texture_webp, with no PNG fallback.
-std::string webpFile(const std::vector<unsigned char>& rgba, bool corrupt = false) {
+std::string base64Of(const std::string& bytes) {
+  static const char* digits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (size_t i = 0; i < bytes.size(); i += 3) {
+    const size_t n = std::min<size_t>(3, bytes.size() - i);  // n bytes: n + 1 digits, then '='
+    uint32_t v = 0;
+    for (size_t k = 0; k < 3; ++k) v = (v << 8) | (k < n ? uint8_t(bytes[i + k]) : 0u);
+    for (size_t k = 0; k < 4; ++k) out += k <= n ? digits[(v >> (18 - 6 * k)) & 63] : '=';
+  }
+  return out;
+}
+
+std::string webpFile(const std::vector<unsigned char>& rgba, bool corrupt = false, bool dataUri = false) {
   uint8_t* encoded = nullptr;
   const size_t size = WebPEncodeLosslessRGBA(rgba.data(), 2, 2, 8, &encoded);
   EXPECT_GT(size, 0u);
@@ -323,9 +335,12 @@ std::string webpFile(const std::vector<unsigned char>& rgba, bool corrupt = fals
   WebPFree(encoded);
   if (corrupt)
     for (size_t i = 20; i < bytes.size(); ++i) bytes[i] = char(0x5A ^ i);
-  // In a buffer view: tinygltf 2.7 reads no data:image/webp URI.
+  // In a buffer view, or as a data: URI (which tinygltf 2.7 refuses: prt moves it into a view).
   Doc d = plainDoc(testMesh());
-  d.j["images"] = Json::array({{{"bufferView", d.view(bytes.data(), bytes.size())}, {"mimeType", "image/webp"}}});
+  if (dataUri)
+    d.j["images"] = Json::array({{{"uri", "data:image/webp;base64," + base64Of(bytes)}}});
+  else
+    d.j["images"] = Json::array({{{"bufferView", d.view(bytes.data(), bytes.size())}, {"mimeType", "image/webp"}}});
   Json j = Json::parse(d.text());
   j["textures"] = Json::array({{{"extensions", {{"EXT_texture_webp", {{"source", 0}}}}}}});
   j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
@@ -349,6 +364,19 @@ TEST(SceneWebp, BaseColorTextureReadsAsLinearTexels) {
       const double x = rgba[4 * i + size_t(c)] / 255.0;
       EXPECT_NEAR(t.texels[i][c], c < 3 ? srgbToLinear(x) : x, 1e-6) << "texel " << i << " channel " << c;
     }
+}
+
+TEST(SceneWebp, DataUriReadsTheSameTexels) {
+  const std::vector<unsigned char> rgba = {255, 0, 0, 255, 0, 128, 0, 255, 0, 0, 64, 128, 200, 100, 50, 1};
+  const Scene inView = loadSceneFromMemory("webp.gltf", webpFile(rgba));
+  const Scene inUri = loadSceneFromMemory("webp.gltf", webpFile(rgba, false, true));
+  ASSERT_EQ(inUri.textures.size(), 1u);
+  EXPECT_EQ(inUri.textures[0].width, 2);
+  EXPECT_EQ(inUri.textures[0].texels, inView.textures[0].texels);
+  expectOneLineError("webp.gltf", webpFile(std::vector<unsigned char>(16, 200), true, true), {"image 0", "WebP"});
+  Json bad = Json::parse(webpFile(rgba, false, true));
+  bad["images"][0]["uri"] = "data:image/webp;base64,@@@@";
+  expectOneLineError("webp.gltf", bad.dump(), {"image 0", "not base64"});
 }
 
 TEST(SceneWebp, CorruptImageIsOneErrorNamingTheTexture) {

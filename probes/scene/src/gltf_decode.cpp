@@ -474,21 +474,46 @@ std::string jsonChunk(const std::string& bytes, bool binary) {
 
 }  // namespace
 
+// WebP images given as data: URIs, which tinygltf 2.7 refuses ("unknown image type"), become
+// buffer views of the output buffer holding their bytes, as a .glb would hold them.
+constexpr const char* kWebpDataUri = "data:image/webp;base64,";
+
+void embedWebpDataImages(Document& d) {
+  Json* images = member(d.json, "images");
+  if (!images || !images->is_array()) return;
+  for (size_t i = 0; i < images->size(); ++i) {
+    Json& image = (*images)[i];
+    Json* uri = member(image, "uri");
+    if (!uri || !uri->is_string()) continue;
+    const std::string& text = uri->get_ref<const std::string&>();
+    if (text.rfind(kWebpDataUri, 0) != 0) continue;
+    const std::optional<Bytes> bytes = base64(text.substr(std::strlen(kWebpDataUri)));
+    if (!bytes) fail(d, cat("image ", i, ": the data: URI is not base64"));
+    const int view = appendView(d, bytes->data(), bytes->size());
+    image.erase("uri");
+    image["bufferView"] = view;
+    image["mimeType"] = "image/webp";
+  }
+}
+
 std::optional<std::string> decodeCompressed(const std::string& path, const std::string& bytes, bool binary,
                                             UriGuard& guard) {
   std::string text = jsonChunk(bytes, binary);
-  if (text.find(kDraco) == std::string::npos && text.find(kMeshopt) == std::string::npos) return std::nullopt;
+  if (text.find(kDraco) == std::string::npos && text.find(kMeshopt) == std::string::npos &&
+      text.find(kWebpDataUri) == std::string::npos)
+    return std::nullopt;
   Document d{path, Json::parse(text, nullptr, false), {}, {}};
   if (d.json.is_discarded() || !d.json.is_object()) return std::nullopt;  // tinygltf reports the syntax
   try {
     readBuffers(d, bytes, binary, guard);
     rebaseViews(d);
     decodeDraco(d);
+    embedWebpDataImages(d);
     dropExtensionNames(d);
     return toGlb(d);
   } catch (const Json::exception& e) {
     // A member of an unexpected JSON type (a string where a number belongs, say).
-    fail(d, cat("malformed ", kDraco, " or ", kMeshopt, " data (", e.what(), ")"));
+    fail(d, cat("malformed ", kDraco, ", ", kMeshopt, " or WebP data: image (", e.what(), ")"));
   }
 }
 
