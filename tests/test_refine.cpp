@@ -141,6 +141,46 @@ TEST(BakeRefine, CoarseQuadUnderAnOccluderMatchesAFineBake) {
   EXPECT_LE(refined.refined.verticesAfter, fine.refined.verticesAfter / 10);  // far fewer than the fine bake
 }
 
+// Both sides of a double-sided floor are refined: the lid is *under* the floor, so only the
+// floor's back side (normal −Y, its own rays) has a shadow edge, and the front sees the whole
+// sky. The refined coarse floor's back side matches a 48 × 48 bake within the bound above;
+// measured on the front side only (as refinement did before), nothing would be added.
+TEST(BakeRefine, DoubleSidedFloorIsRefinedForItsBackSide) {
+  const test::TempDir dir("refine_back");
+  auto scene = [&](const std::string& name, int n) {
+    GltfFile f;
+    f.j["materials"] = {{{"doubleSided", true}, {"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 1.0}}}}}};
+    MeshInstance floor = test::makePlane({0, 0, 0}, 2.0f, n);
+    f.node({{"name", "Floor"}, {"mesh", f.mesh(floor, 0)}}, true);
+    MeshInstance lid = test::makePlane({0.25f, -0.3f, 0.0f}, 1.0f, 1);  // facing up, at the floor's back
+    f.node({{"name", "Lid"}, {"mesh", f.mesh(lid)}}, true);
+    return f.write(name, dir.path());
+  };
+  auto backOf = [](const Baked& b) {  // the floor's back-side transfer: the second half
+    const std::vector<glm::vec3>& t = b.transfer.perMesh[0];
+    return std::vector<glm::vec3>(t.begin() + ptrdiff_t(t.size() / 2), t.end());
+  };
+  const Baked fine = bakeQuad(scene("fine", 48), off());
+  const std::string coarse = scene("coarse", 1);
+  const Baked raw = bakeQuad(coarse, off());
+  const bake::RefineSettings r;
+  const Baked refined = bakeQuad(coarse, r);
+  ASSERT_EQ(fine.transfer.perMesh[0].size(), 2 * fine.scene.meshes[0].vertexCount() * 9);
+  EXPECT_GT(refined.refined.verticesAfter, refined.refined.verticesBefore);
+  double rawWorst = 0.0, worst = 0.0;
+  const std::vector<glm::vec3> fb = backOf(fine), rb = backOf(raw), cb = backOf(refined);
+  for (int i = 0; i <= 40; ++i)
+    for (int j = 0; j <= 40; ++j) {
+      const double x = -0.98 + 1.96 * i / 40.0, z = -0.98 + 1.96 * j / 40.0;
+      const double ef = skyIrradianceAt(fine.scene.meshes[0], fb, 3, x, z);
+      rawWorst = std::max(rawWorst, std::abs(skyIrradianceAt(raw.scene.meshes[0], rb, 3, x, z) - ef) / M_PI);
+      worst = std::max(worst, std::abs(skyIrradianceAt(refined.scene.meshes[0], cb, 3, x, z) - ef) / M_PI);
+    }
+  const double bound = 1.62 * r.tolerance + 2 * 0.03;
+  EXPECT_GT(rawWorst, bound);
+  EXPECT_LE(worst, bound) << "unrefined " << rawWorst << ", " << refined.refined.verticesAfter << " vertices";
+}
+
 // Nothing to gain, nothing added: a quad that sees the whole sky, a fine floor, and a curved
 // unoccluded surface (a coarse dome whose normals vary: the normals' own interpolation does not
 // count).

@@ -99,12 +99,15 @@ struct Point {
 
 // What the rays of each point found: its normal and, per direction, whether it was blocked.
 struct Estimates {
+  static constexpr uint32_t kNone = ~uint32_t(0);
   size_t words = 0;  // 64-bit words of blocked bits per point
   std::vector<glm::vec3> normal;
   std::vector<uint64_t> blocked;
+  std::vector<uint32_t> back;  // per point: the slot of its back side (double-sided instances), or kNone
   uint32_t add() {
     normal.emplace_back(0.0f);
     blocked.resize(blocked.size() + words, 0);
+    back.push_back(kNone);
     return uint32_t(normal.size() - 1);
   }
   bool bit(uint32_t point, uint32_t s) const { return (blocked[point * words + s / 64] >> (s % 64)) & 1u; }
@@ -252,6 +255,7 @@ struct Estimator {
 struct Work {
   size_t instance = 0;
   MeshInstance* m = nullptr;
+  bool twoSided = false;  // both sides are baked (bakesBackSide): both are estimated and scored
   size_t originalVertices = 0;
   std::vector<glm::vec3> sourceNormals;  // the instance's normals before refinement
   std::vector<Blend> source;             // per vertex: the original vertices it interpolates
@@ -459,12 +463,27 @@ RefineStats refineScene(Scene& scene, const RefineSettings& refine, const BakeSe
   // The vertices, with their bake ray origins (vertex_rays.h).
   std::vector<Point> todo;
   std::vector<uint32_t> todoSlot;
+  // A new point to estimate, on both sides for a double-sided instance (the back: normal −n,
+  // lifted along −n, as the bake's virtual vertices are); returns its front slot.
+  auto addPoint = [&](bool twoSided, const Point& p) {
+    const uint32_t slot = est.add();
+    todo.push_back(p);
+    todoSlot.push_back(slot);
+    if (twoSided) {
+      const uint32_t b = est.add();
+      est.back[slot] = b;
+      todo.push_back({p.position, -p.normal, p.pull});
+      todoSlot.push_back(b);
+    }
+    return slot;
+  };
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     MeshInstance& m = scene.meshes[k];
     if (m.receiverOnly) continue;
     Work w;
     w.instance = k;
     w.m = &m;
+    w.twoSided = bakesBackSide(scene, m);
     w.originalVertices = m.vertexCount();
     w.sourceNormals = m.normals;
     w.source.resize(m.vertexCount());
@@ -473,9 +492,7 @@ RefineStats refineScene(Scene& scene, const RefineSettings& refine, const BakeSe
     for (uint32_t v = 0; v < m.vertexCount(); ++v) {
       w.source[v].vertex[0] = v;
       w.posId.push_back(ids.of(m.positions[v]));
-      w.vertexEstimate.push_back(est.add());
-      todo.push_back({m.positions[v], m.normals[v], pull[v]});
-      todoSlot.push_back(w.vertexEstimate.back());
+      w.vertexEstimate.push_back(addPoint(w.twoSided, {m.positions[v], m.normals[v], pull[v]}));
     }
     works.push_back(std::move(w));
   }
@@ -541,7 +558,6 @@ RefineStats refineScene(Scene& scene, const RefineSettings& refine, const BakeSe
           if (length2(m, a, b) < minEdge2 || !seen.insert(ie).second) continue;
           auto [it, fresh] = w.edgeEstimate.emplace(ie, 0);
           if (fresh) {
-            it->second = est.add();
             // Pulled towards the vertices opposite the edge, as a vertex there would be.
             glm::vec3 mid = (m.positions[a] + m.positions[b]) * 0.5f, pull(0.0f);
             for (uint32_t u : w.posEdgeTriangles.at(posEdgeOf(w, a, b))) {
@@ -553,8 +569,7 @@ RefineStats refineScene(Scene& scene, const RefineSettings& refine, const BakeSe
               }
             }
             const Blend s = mergeBlends({{&w.source[a], 0.5f}, {&w.source[b], 0.5f}});
-            todo.push_back({mid, blendNormal(w, s, m.normals[a]), pull});
-            todoSlot.push_back(it->second);
+            it->second = addPoint(w.twoSided, {mid, blendNormal(w, s, m.normals[a]), pull});
           }
           pending.push_back({wi, true, posEdgeOf(w, a, b), {a, b, 0}, it->second});
         }
@@ -569,12 +584,10 @@ RefineStats refineScene(Scene& scene, const RefineSettings& refine, const BakeSe
         if (!seenTriangles.insert(sorted).second) continue;  // a repeated triangle
         auto [it, fresh] = w.centroidEstimate.emplace(sorted, 0);
         if (fresh) {
-          it->second = est.add();
           const float third = 1.0f / 3.0f;
           const Blend s = mergeBlends({{&w.source[ix[0]], third}, {&w.source[ix[1]], third}, {&w.source[ix[2]], third}});
           const glm::vec3 c = (m.positions[ix[0]] + m.positions[ix[1]] + m.positions[ix[2]]) / 3.0f;
-          todo.push_back({c, blendNormal(w, s, m.normals[ix[0]]), glm::vec3(0.0f)});
-          todoSlot.push_back(it->second);
+          it->second = addPoint(w.twoSided, {c, blendNormal(w, s, m.normals[ix[0]]), glm::vec3(0.0f)});
         }
         pending.push_back({wi, false, le, corners, it->second});
       }
@@ -590,7 +603,13 @@ RefineStats refineScene(Scene& scene, const RefineSettings& refine, const BakeSe
       uint32_t pts[4] = {p.slot, 0, 0, 0};
       const int corners = p.edge ? 2 : 3;
       for (int c = 0; c < corners; ++c) pts[c + 1] = w.vertexEstimate[p.v[size_t(c)]];
-      scoreOf[p.slot] = estimator.score(est, pts, corners + 1);
+      double score = estimator.score(est, pts, corners + 1);
+      if (est.back[p.slot] != Estimates::kNone) {  // a double-sided instance: the worse side counts
+        uint32_t back[4];
+        for (int c = 0; c <= corners; ++c) back[c] = est.back[pts[c]];
+        score = std::max(score, estimator.score(est, back, corners + 1));
+      }
+      scoreOf[p.slot] = score;
       if (shared) scoredHere[i] = 1;
     });
     if (shared) {  // MPI ranks score their share too (pending i on rank i mod N) and trade scores
