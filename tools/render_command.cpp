@@ -517,6 +517,7 @@ int runRender(const RenderArgs& a) {
     frame.light = std::move(lighting.sh);
     frame.directLight = std::move(lighting.directSh);
     frame.direct = std::move(lighting.direct);
+    double frameBounceMs = 0.0;
     if (gather && !frame.direct.empty()) {
       if (bounceUpdates == 0 || !sameLights(frame.direct, bouncedFor)) {
         const auto tb = std::chrono::steady_clock::now();
@@ -524,7 +525,8 @@ int runRender(const RenderArgs& a) {
         ss.samples = kBounceShadowSamples;
         bounced = gather->bounce(bake::shadowedDirectIrradiance(scene, frame.direct, ss));
         bouncedFor = frame.direct;
-        bounceMs += msSince(tb);
+        frameBounceMs = msSince(tb);
+        bounceMs += frameBounceMs;
         ++bounceUpdates;
       }
       frame.directBounce = &bounced.front;
@@ -547,8 +549,9 @@ int runRender(const RenderArgs& a) {
     const std::vector<std::string> now = renderer.warnings();
     for (; warningsShown < now.size(); ++warningsShown)
       if (!a.quiet) std::fprintf(stderr, "prt: warning: %s\n", now[warningsShown].c_str());
-    // The light update: the rig's SH plus, with probes, relighting and uploading the grid.
-    const double frameLightMs = rigMs + renderer.lastFrame().lightMs;
+    // The light update: the rig's SH, the direct lights' gathered bounce when they changed, and,
+    // with probes, relighting and uploading the grid.
+    const double frameLightMs = rigMs + frameBounceMs + renderer.lastFrame().lightMs;
     const render::FrameStats stats = renderer.lastFrame();
     lightMs += frameLightMs;
     drawMs += stats.drawMs;
