@@ -46,7 +46,7 @@ namespace {
 
 // Shadow rays per direct light and vertex for the light their gathered bounce starts from: the
 // bounce averages it over hundreds of hits, so its noise does not show (docs/render.md).
-constexpr int kBounceShadowSamples = 16;
+constexpr int kBounceShadowSamples = 4;
 
 constexpr double kDefaultFps = 24.0;
 // Frame numbers stay below INT_MAX so that f + 1, the rig's frames and %d never overflow.
@@ -490,16 +490,18 @@ int runRender(const RenderArgs& a) {
   // once, here) from their shadowed light at the vertices, redone only when they change.
   const BakeRecord record = scene.bakeRecord.value_or(BakeRecord{});
   std::unique_ptr<bake::DirectBounce> gather;
+  std::unique_ptr<bake::RayScene> shadowRays;  // the static scene, for the bounce's shadow rays
   if (!firstLighting.direct.empty() && a.bounceSamples > 0 && record.bounces > 0 && hasDirectTransfer(scene)) {
     bake::BounceSettings bs;
     bs.samples = a.bounceSamples;
     bs.bounces = record.bounces;
     bs.seed = record.seed;
     gather = std::make_unique<bake::DirectBounce>(scene, bs);
+    shadowRays = std::make_unique<bake::RayScene>(scene);
   }
   bake::DirectIrradiance bounced;
   std::vector<DirectLight> bouncedFor;
-  double bounceMs = 0.0;
+  double bounceMs = 0.0, bounceShadowMs = 0.0, bounceGatherMs = 0.0;
   int bounceUpdates = 0;
   auto sameLights = [](const std::vector<DirectLight>& x, const std::vector<DirectLight>& y) {
     return x.size() == y.size() && std::equal(x.begin(), x.end(), y.begin(), [](const DirectLight& p, const DirectLight& q) {
@@ -523,7 +525,10 @@ int runRender(const RenderArgs& a) {
         const auto tb = std::chrono::steady_clock::now();
         bake::ShadowSettings ss;
         ss.samples = kBounceShadowSamples;
-        bounced = gather->bounce(bake::shadowedDirectIrradiance(scene, frame.direct, ss));
+        const bake::DirectIrradiance lit = bake::shadowedDirectIrradiance(scene, *shadowRays, frame.direct, ss);
+        bounced = gather->bounce(lit);
+        bounceShadowMs += lit.seconds * 1e3;
+        bounceGatherMs += bounced.seconds * 1e3;
         bouncedFor = frame.direct;
         frameBounceMs = msSince(tb);
         bounceMs += frameBounceMs;
@@ -594,11 +599,12 @@ int runRender(const RenderArgs& a) {
   if (!firstLighting.direct.empty()) {
     std::string bounceText = "through the transfer";
     if (gather) {
-      char text[200];
+      char text[256];
       std::snprintf(text, sizeof text,
                     "on baked surfaces gathered with %d rays per vertex (traced once in %.2f s), redone for %d of the "
-                    "frames (%.1f ms each)%s",
+                    "frames (%.1f ms each: shadow rays %.1f, gather %.1f)%s",
                     a.bounceSamples, gather->traceSeconds(), bounceUpdates, bounceUpdates ? bounceMs / bounceUpdates : 0.0,
+                    bounceUpdates ? bounceShadowMs / bounceUpdates : 0.0, bounceUpdates ? bounceGatherMs / bounceUpdates : 0.0,
                     last.directReceivers ? ", on receivers through the probes" : "");
       bounceText = text;
     }

@@ -100,25 +100,45 @@ glm::dvec3 irradianceAt(const RayScene& rays, const std::vector<CapSampler>& cap
 
 }  // namespace
 
-DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const std::vector<DirectLight>& lights,
-                                          const ShadowSettings& settings) {
-  validate(settings);
-  const auto t0 = std::chrono::steady_clock::now();
-  const ThreadLimit threadLimit(settings.threads);
+namespace {
+
+// Nothing to trace (no light, or no instance with transfer): zero at every baked vertex.
+bool nothingToTrace(const Scene& scene, const std::vector<DirectLight>& lights) {
+  bool any = false;
+  for (const MeshInstance& m : scene.meshes) any |= !m.transfer.empty();
+  return !any || lights.empty();
+}
+
+DirectIrradiance dark(const Scene& scene) {
   DirectIrradiance out;
   out.front.resize(scene.meshes.size());
   out.back.resize(scene.meshes.size());
-  bool any = false;
-  for (const MeshInstance& m : scene.meshes) any |= !m.transfer.empty();
-  if (!any || lights.empty()) {
-    for (size_t k = 0; k < scene.meshes.size(); ++k) {
-      const MeshInstance& m = scene.meshes[k];
-      if (!m.transfer.empty()) out.front[k].assign(m.vertexCount(), glm::vec3(0.0f));
-      if (m.hasBackTransfer()) out.back[k].assign(m.vertexCount(), glm::vec3(0.0f));
-    }
-    return out;
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (!m.transfer.empty()) out.front[k].assign(m.vertexCount(), glm::vec3(0.0f));
+    if (m.hasBackTransfer()) out.back[k].assign(m.vertexCount(), glm::vec3(0.0f));
   }
-  const RayScene rays(scene);
+  return out;
+}
+
+}  // namespace
+
+DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const std::vector<DirectLight>& lights,
+                                          const ShadowSettings& settings) {
+  validate(settings);
+  if (nothingToTrace(scene, lights)) return dark(scene);
+  return shadowedDirectIrradiance(scene, RayScene(scene), lights, settings);
+}
+
+DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const RayScene& rays,
+                                          const std::vector<DirectLight>& lights, const ShadowSettings& settings) {
+  validate(settings);
+  const auto t0 = std::chrono::steady_clock::now();
+  const ThreadLimit threadLimit(settings.threads);
+  if (nothingToTrace(scene, lights)) return dark(scene);
+  DirectIrradiance out;
+  out.front.resize(scene.meshes.size());
+  out.back.resize(scene.meshes.size());
   const float extent = rays.sceneExtent(), tnear = tnearFor(extent);
   std::vector<CapSampler> caps;
   for (const DirectLight& l : lights) caps.emplace_back(l);

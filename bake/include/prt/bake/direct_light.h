@@ -10,6 +10,7 @@
 
 #include <glm/glm.hpp>
 
+#include "prt/bake/ray_scene.h"
 #include "prt/light.h"
 #include "prt/scene.h"
 
@@ -41,6 +42,9 @@ struct DirectIrradiance {
 /// Deterministic for any thread count.
 DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const std::vector<DirectLight>& lights,
                                           const ShadowSettings& settings = {});
+/// The same traced against `rays` (built from `scene`), for callers that light many frames.
+DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const RayScene& rays,
+                                          const std::vector<DirectLight>& lights, const ShadowSettings& settings = {});
 
 /// The same at arbitrary points `points` with unit normals `normals` (a probe query, `prt
 /// probe --scene`): rays leave each point lifted by 10⁻⁴ of the scene's extent along its
