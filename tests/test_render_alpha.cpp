@@ -161,5 +161,25 @@ INSTANTIATE_TEST_SUITE_P(Materials, RenderAlphaBlend,
                                            BlendCase{"blend_transmission", Material::AlphaMode::Blend, 0.5f, 0.5f, 0.25f}),
                          [](const ::testing::TestParamInfo<BlendCase>& c) { return std::string(c.param.name); });
 
+// Two blended layers drawn back to front whatever their order in the scene: the near quad
+// (opacity 0.4, first in the scene) and a far one (opacity 0.6) over the right half, over the
+// background: α_n c_n + (1 − α_n)(α_f c_f + (1 − α_f) bg) where they overlap. Drawn in scene
+// order instead, the far layer would cover the near one: off by tens of percent.
+TEST(RenderAlpha, BlendedLayersAreDrawnBackToFront) {
+  Material nearM, farM;
+  nearM.baseColorFactor = glm::vec4(0.9f, 0.6f, 0.1f, 0.4f);
+  nearM.alphaMode = Material::AlphaMode::Blend;
+  farM.baseColorFactor = glm::vec4(0.1f, 0.3f, 0.8f, 0.6f);
+  farM.alphaMode = Material::AlphaMode::Blend;
+  const Scene s = sceneOf({quad(-kHalf, kHalf, -3.0f, 0), quad(0.0f, 0.9375f, -3.5f, 1)}, {nearM, farM});
+  const RigBackground bg = uniformBackground();
+  expectPixels(s, bg, [&](double x, double y) {
+    glm::vec3 c(bg.uniform);
+    if (insideQuad(x, y, 0.0, 0.9375)) c = 0.6f * glm::vec3(farM.baseColorFactor) + 0.4f * c;
+    if (insideQuad(x, y, -kHalf, kHalf)) c = 0.4f * glm::vec3(nearM.baseColorFactor) + 0.6f * c;
+    return c;
+  }, "two layers");
+}
+
 }  // namespace
 }  // namespace prt::render

@@ -314,7 +314,7 @@ struct Renderer::Impl {
     size_t mesh = 0;                // its Scene::meshes entry
     size_t vertices = 0;
     bool bounceZero = true;         // directBounce holds zeros
-    glm::dvec3 restLo{0.0}, restHi{0.0};  // receivers: bounds of the rest-pose vertices
+    glm::dvec3 restLo{0.0}, restHi{0.0};  // bounds of the (rest-pose, for receivers) vertices
     GLsizei indexCount = 0;
     size_t triangles = 0;
     glm::vec4 baseColor{1.0f};
@@ -622,6 +622,12 @@ void Renderer::Impl::upload(const Scene& scene) {
     }
     in.mesh = size_t(&m - scene.meshes.data());
     in.vertices = m.vertexCount();
+    in.restLo = glm::dvec3(1e300);
+    in.restHi = glm::dvec3(-1e300);
+    for (const glm::vec3& q : m.positions) {
+      in.restLo = glm::min(in.restLo, glm::dvec3(q));
+      in.restHi = glm::max(in.restHi, glm::dvec3(q));
+    }
     if (direct) {
       gl.CreateBuffers(twoSided ? 2 : 1, in.directTransfer);
       store(in.directTransfer[0], m.transferDirect);
@@ -1358,14 +1364,39 @@ ImageRgb Renderer::render(const Frame& frame) {
   if (!flat) {
     // BLEND and transmissive instances last, over the opaque ones and the background: "over"
     // blending (src·α + dst·(1 − α)), depth tested against the opaque depth but not written,
-    // in the order of the scene, unsorted (exact for one layer, approximate where two overlap).
+    // back to front by the view depth of each instance's bounding-box centre (a receiver's as
+    // it moves): exact for layers that do not interleave, approximate where two overlap in
+    // depth (no per-triangle sort).
+    struct Layer {
+      const Impl::Instance* in;
+      bool receiver;
+      double depth;
+    };
+    std::vector<Layer> layers;
+    const glm::dvec3 eye(camera.cameraToWorld[3]), forward(-glm::dvec3(camera.cameraToWorld[2]));
+    for (const Impl::Instance& in : r.instances)
+      if (in.blend) layers.push_back({&in, false, glm::dot(0.5 * (in.restLo + in.restHi) - eye, forward)});
+    if (drawReceivers)
+      for (const Impl::Instance& in : r.receivers) {
+        if (!in.blend) continue;
+        const glm::dvec3 c = glm::dvec3(instanceMotion(r.animation, in.placement, frame.time) *
+                                        glm::dvec4(0.5 * (in.restLo + in.restHi), 1.0));
+        layers.push_back({&in, true, glm::dot(c - eye, forward)});
+      }
+    std::stable_sort(layers.begin(), layers.end(), [](const Layer& a, const Layer& b) { return a.depth > b.depth; });
     gl.Enable(GL_BLEND);
     gl.BlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
     gl.DepthMask(GL_FALSE);
-    drawAll(r.instances, r.programs, placeBaked, bakedExtra, true);
-    if (drawReceivers) {
+    if (drawReceivers)
       for (GLuint unit = 1; unit <= 3; ++unit) gl.BindTextureUnit(unit, r.probeTextures[unit - 1]);
-      drawAll(r.receivers, r.receiverPrograms[size_t(frame.probeLookup)], placeReceiver, receiverExtra, true);
+    for (const Layer& layer : layers) {
+      const Impl::Instance& in = *layer.in;
+      const Impl::Program& p = layer.receiver ? r.receiverProgram(frame.probeLookup, in.variant | receiverExtra)
+                                              : r.bakedProgram(in.variant | bakedExtra);
+      gl.UseProgram(p.id);
+      gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &viewProj[0][0]);
+      draw(p, in, layer.receiver ? placeReceiver(p, in) : placeBaked(p, in));
+      r.stats.triangles += in.triangles;
     }
     gl.DepthMask(GL_TRUE);
     gl.Disable(GL_BLEND);
