@@ -17,6 +17,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <iomanip>
 #include <limits>
 #include <memory>
@@ -132,6 +133,14 @@ struct StreamRows {
   }
 };
 
+// Storage for a stream of rays, left uninitialised (Ray is an implicit-lifetime aggregate, and
+// SphereSet::set writes every field before Embree reads it): constructing 2 × 256 Rays per
+// trace would write more than the rays themselves for the inside test's 64.
+struct RayBuffer {
+  alignas(64) std::byte bytes[sizeof(Ray) * kStream];
+  Ray* rays() { return reinterpret_cast<Ray*>(bytes); }
+};
+
 struct ProbeAccum {
   int n2 = 0;
   std::vector<double> direct;    // n2 × n2, colourless
@@ -171,18 +180,58 @@ struct Tracer {
       acc.count = {};
     }
     const SphereSet set(seed, stream);
-    alignas(64) Ray batch[kStream];
     const bool haveTransfer = !lowerOrder.empty();
     StreamRows& rows = acc.stream;
+    if (full) rows.reset(bands);
     const int ldy = padded(n2), ldg = padded(3 * n2);
-    for (uint32_t first = 0; first < n; first += kStream) {
+    // The lit hits read their triangle's corners and the corners' transfer: random reads from
+    // arrays larger than the caches. They are started (prefetched) as soon as a stream is
+    // traced and used one stream later, once the next stream's trace has given them time to
+    // arrive: the stream being traced and the one whose hits wait, two buffers of rays.
+    RayBuffer batches[2];
+    uint16_t lit[2][kStream];  // per buffer: its rays that hit a lit surface
+    uint32_t litCount[2] = {0, 0};
+    const auto corners = [&](const Ray& r) { return &scene.meshes[r.mesh].indices[3 * size_t(r.tri)]; };
+    const auto transfer = [&](const Ray& r) {
+      const MeshInstance& m = scene.meshes[r.mesh];
+      return lowerOrder[r.mesh].data() + (r.backface() ? m.vertexCount() * n2 : 0);
+    };
+    // The indirect part of the buffer's lit hits: M += Σ y gᵀ, g = ρ/π · t(h).
+    const auto sumLit = [&](int buf) {
+      rows.hits = 0;
+      for (uint32_t h = 0; h < litCount[buf]; ++h) {
+        const Ray& r = batches[buf].rays()[lit[buf][h]];
+        const uint32_t* ix = corners(r);
+        const glm::vec3* t = transfer(r);
+        const glm::vec3* t0 = t + size_t(ix[0]) * n2;
+        const glm::vec3* t1 = t + size_t(ix[1]) * n2;
+        const glm::vec3* t2 = t + size_t(ix[2]) * n2;
+        const float b0 = 1.0f - r.u - r.v;
+        const glm::vec3 rho = albedo.at(r.mesh, r.tri, r.u, r.v) * float(1.0 / M_PI);
+        // g = ρ/π · (b0 t0 + u t1 + v t2), per RGB component, as n2 triples: over the 3·n2
+        // floats in runs of 12 (four triples, a whole number of 4-float vectors).
+        float* g = &rows.gHit[size_t(rows.hits) * ldg];
+        const float *f0 = &t0->x, *f1 = &t1->x, *f2 = &t2->x;
+        float rp[12];
+        for (int e = 0; e < 12; ++e) rp[e] = rho[e % 3];
+        const int len = 3 * n2;
+        int c = 0;
+        for (; c + 12 <= len; c += 12)
+          for (int e = 0; e < 12; ++e) g[c + e] = rp[e] * (b0 * f0[c + e] + r.u * f1[c + e] + r.v * f2[c + e]);
+        for (; c < len; ++c) g[c] = rp[c % 3] * (b0 * f0[c] + r.u * f1[c] + r.v * f2[c]);
+        sh::evaluate(bands, r.dir, &rows.yHit[size_t(rows.hits++) * ldy]);
+      }
+      addProducts(rows.yHit.data(), ldy, rows.gHit.data(), ldg, rows.hits, n2, 3 * n2, acc.indirect.data(), 3 * n2);
+      litCount[buf] = 0;
+    };
+    int cur = 0;
+    for (uint32_t first = 0; first < n; first += kStream, cur ^= 1) {
       if (interruptRequested()) return false;
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
+      Ray* batch = batches[cur].rays();
       for (uint32_t j = 0; j < count; ++j) set.set(batch[j], x, first + j);
       rays.intersect(batch, count);
-      if (full) rows.reset(bands);
-      uint16_t lit[kStream];  // the stream's rays that hit a lit surface, in ray order
-      uint32_t litCount = 0;
+      rows.escaped = 0;
       for (uint32_t j = 0; j < count; ++j) {
         const Ray& r = batch[j];
         ++acc.rays;
@@ -204,54 +253,25 @@ struct Tracer {
         if (!r.hit())
           sh::evaluate(bands, r.dir, &rows.yEscaped[size_t(rows.escaped++) * ldy]);
         else if (!back && haveTransfer && !lowerOrder[r.mesh].empty())
-          lit[litCount++] = uint16_t(j);
+          lit[cur][litCount[cur]++] = uint16_t(j);
       }
       if (!full) continue;
-      // The lit hits read their triangle's corners and the corners' transfer, random reads
-      // from arrays larger than the caches: all the stream's reads are started (prefetched)
-      // before the first is needed, the corners once the triangles' indices have arrived.
-      const auto corners = [&](const Ray& r) { return &scene.meshes[r.mesh].indices[3 * size_t(r.tri)]; };
-      const auto transfer = [&](const Ray& r) {
-        const MeshInstance& m = scene.meshes[r.mesh];
-        return lowerOrder[r.mesh].data() + (r.backface() ? m.vertexCount() * n2 : 0);
-      };
-      for (uint32_t h = 0; h < litCount; ++h) __builtin_prefetch(corners(batch[lit[h]]));
-      for (uint32_t h = 0; h < litCount; ++h) {
-        const Ray& r = batch[lit[h]];
+      // The direct part of the stream's escaped rays: M⁰ += Σ y yᵀ.
+      addProducts(rows.yEscaped.data(), ldy, rows.yEscaped.data(), ldy, rows.escaped, n2, n2, acc.direct.data(), n2);
+      for (uint32_t h = 0; h < litCount[cur]; ++h) __builtin_prefetch(corners(batch[lit[cur][h]]));
+      for (uint32_t h = 0; h < litCount[cur]; ++h) {
+        const Ray& r = batch[lit[cur][h]];
         const uint32_t* ix = corners(r);
         const glm::vec3* t = transfer(r);
         for (int c = 0; c < 3; ++c) {
           const char* p = reinterpret_cast<const char*>(t + size_t(ix[c]) * n2);
-          for (size_t b = 0; b < sizeof(glm::vec3) * size_t(n2); b += 64) __builtin_prefetch(p + b);
+          for (size_t o = 0; o < sizeof(glm::vec3) * size_t(n2); o += 64) __builtin_prefetch(p + o);
           __builtin_prefetch(p + sizeof(glm::vec3) * size_t(n2) - 1);
         }
       }
-      for (uint32_t h = 0; h < litCount; ++h) {
-        const Ray& r = batch[lit[h]];
-        const uint32_t* ix = corners(r);
-        const glm::vec3* t = transfer(r);
-        const glm::vec3* t0 = t + size_t(ix[0]) * n2;
-        const glm::vec3* t1 = t + size_t(ix[1]) * n2;
-        const glm::vec3* t2 = t + size_t(ix[2]) * n2;
-        const float b0 = 1.0f - r.u - r.v;
-        const glm::vec3 rho = albedo.at(r.mesh, r.tri, r.u, r.v) * float(1.0 / M_PI);
-        // g = ρ/π · (b0 t0 + u t1 + v t2), per RGB component, as n2 triples: over the 3·n2
-        // floats in runs of 12 (four triples, a whole number of 4-float vectors).
-        float* g = &rows.gHit[size_t(rows.hits) * ldg];
-        const float *f0 = &t0->x, *f1 = &t1->x, *f2 = &t2->x;
-        float rp[12];
-        for (int e = 0; e < 12; ++e) rp[e] = rho[e % 3];
-        const int len = 3 * n2;
-        int c = 0;
-        for (; c + 12 <= len; c += 12)
-          for (int e = 0; e < 12; ++e) g[c + e] = rp[e] * (b0 * f0[c + e] + r.u * f1[c + e] + r.v * f2[c + e]);
-        for (; c < len; ++c) g[c] = rp[c % 3] * (b0 * f0[c] + r.u * f1[c] + r.v * f2[c]);
-        sh::evaluate(bands, r.dir, &rows.yHit[size_t(rows.hits++) * ldy]);
-      }
-      // The stream's sums: M⁰ += Σ y yᵀ over escaped rays, the rest += Σ y gᵀ over lit hits.
-      addProducts(rows.yEscaped.data(), ldy, rows.yEscaped.data(), ldy, rows.escaped, n2, n2, acc.direct.data(), n2);
-      addProducts(rows.yHit.data(), ldy, rows.gHit.data(), ldg, rows.hits, n2, 3 * n2, acc.indirect.data(), 3 * n2);
+      sumLit(cur ^ 1);  // the previous stream's
     }
+    if (full) sumLit(cur ^ 1);
     return true;
   }
 };
