@@ -72,6 +72,21 @@ TEST(BakeSampling, SobolPrefixesAreStratified) {
   }
 }
 
+TEST(BakeSampling, Sobol1TableMatchesItsDefinition) {
+  // sobol1 applies the generator matrix a byte at a time from a table; the definition XORs the
+  // direction numbers v_0 = 2³¹, v_k = v_{k−1} ^ (v_{k−1} >> 1) of the index's set bits, one by
+  // one. Every index below 2¹⁶ and spread indices up to 2³² − 1, with varied scrambles.
+  auto definition = [](uint32_t i, uint32_t scramble) {
+    uint32_t r = 0;
+    for (uint32_t v = 1u << 31; i; i >>= 1, v ^= v >> 1)
+      if (i & 1u) r ^= v;
+    return float((r ^ scramble) >> 8) * 0x1p-24f;
+  };
+  for (uint32_t i = 0; i < (1u << 16); ++i) ASSERT_EQ(bake::sobol1(i, i * 2654435761u), definition(i, i * 2654435761u)) << i;
+  for (uint64_t i = 0; i < (1ull << 32); i += 65521) ASSERT_EQ(bake::sobol1(uint32_t(i), 7u), definition(uint32_t(i), 7u)) << i;
+  EXPECT_EQ(bake::sobol1(0xffffffffu, 0u), definition(0xffffffffu, 0u));
+}
+
 TEST(BakeSampling, FrameIsOrthonormal) {
   for (glm::vec3 n : {glm::vec3(0, 0, 1), glm::vec3(0, 0, -1), glm::normalize(glm::vec3(1, 2, -3))}) {
     bake::Frame f = bake::Frame::fromNormal(n);

@@ -17,6 +17,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <iomanip>
 #include <limits>
 #include <memory>
@@ -57,18 +58,94 @@ struct SphereSet {
   }
   Ray ray(const glm::vec3& x, uint32_t k) const {
     Ray r;
-    r.org = x;
-    r.tnear = 0.0f;
-    r.dir = sampleUniformSphere({sobol0(k, s0), sobol1(k, s1)});
-    r.tfar = std::numeric_limits<float>::infinity();
+    set(r, x, k);
     return r;
   }
+  // Makes r that ray (the same as r = ray(x, k)) field by field: a Ray built aside and copied
+  // whole is written in 4-byte parts and read back in 16-byte ones, a store-forwarding stall
+  // that cost more than the direction itself.
+  void set(Ray& r, const glm::vec3& x, uint32_t k) const {
+    const glm::vec3 d = sampleUniformSphere({sobol0(k, s0), sobol1(k, s1)});
+    r.org.x = x.x, r.org.y = x.y, r.org.z = x.z;
+    r.tnear = 0.0f;
+    r.dir.x = d.x, r.dir.y = d.y, r.dir.z = d.z;
+    r.time = 0.0f;
+    r.tfar = std::numeric_limits<float>::infinity();
+    r.mask = 0xffffffffu;
+    r.id = r.flags = 0;
+    r.ng.x = r.ng.y = r.ng.z = 0.0f;
+    r.u = r.v = 0.0f;
+    r.tri = r.mesh = r.inst = Ray::kInvalid;
+  }
+};
+
+// Columns of one stream's rows (StreamRows) are padded with zeros to a multiple of kBlock floats.
+constexpr int kBlock = 8;
+constexpr int padded(int n) { return (n + kBlock - 1) / kBlock * kBlock; }
+
+// c[a·ldc + j] += Σ_k y[k·ldy + a] · v[k·ldv + j] for a < rows, j < cols, k < n: one stream's
+// rays summed in float, then added to the double matrix c. Each row's columns go in blocks of
+// up to 32 floats whose sums stay in registers over the k loop (independent sums, so the loop
+// vectorises without reordering any sum: every element adds its rays in ray order); ldv is a
+// multiple of kBlock and v's padding columns are zero.
+template <int B>  // B·kBlock columns from j0
+inline __attribute__((always_inline)) void addBlock(const float* y, int ldy, const float* v, int ldv, int n, int a, int j0, int cols, double* crow) {
+  float s[B * kBlock] = {};
+  for (int k = 0; k < n; ++k) {
+    const float ya = y[size_t(k) * ldy + a];
+    const float* vk = v + size_t(k) * ldv + j0;
+    for (int j = 0; j < B * kBlock; ++j) s[j] += ya * vk[j];
+  }
+  for (int j = 0; j < B * kBlock && j0 + j < cols; ++j) crow[j0 + j] += double(s[j]);
+}
+
+// Built for AVX2 too where the CPU has it (no FMA: the same operations, so the same bits).
+__attribute__((target_clones("avx2", "default"))) void addProducts(const float* y, int ldy, const float* v, int ldv, int n, int rows, int cols, double* c, int ldc) {
+  if (n == 0) return;
+  for (int a = 0; a < rows; ++a) {
+    double* crow = c + size_t(a) * ldc;
+    int j0 = 0;
+    for (; j0 + 4 * kBlock <= ldv; j0 += 4 * kBlock) addBlock<4>(y, ldy, v, ldv, n, a, j0, cols, crow);
+    switch ((ldv - j0) / kBlock) {
+      case 3: addBlock<3>(y, ldy, v, ldv, n, a, j0, cols, crow); break;
+      case 2: addBlock<2>(y, ldy, v, ldv, n, a, j0, cols, crow); break;
+      case 1: addBlock<1>(y, ldy, v, ldv, n, a, j0, cols, crow); break;
+      default: break;
+    }
+  }
+}
+
+// One stream's rays that add to the transfer, one row each: the SH basis of the escaped rays
+// (padded(n2) floats a row), the basis of the rays that hit a lit surface (the same) and the
+// light those hits send (ρ/π · t(h), padded(3·n2) floats: n2 RGB triples).
+struct StreamRows {
+  int n2 = 0;
+  std::vector<float> yEscaped, yHit, gHit;
+  int escaped = 0, hits = 0;
+  void reset(int bands) {
+    if (n2 != bands * bands) {  // the padding columns are zero and never written
+      n2 = bands * bands;
+      yEscaped.assign(size_t(kStream) * padded(n2), 0.0f);
+      yHit.assign(size_t(kStream) * padded(n2), 0.0f);
+      gHit.assign(size_t(kStream) * padded(3 * n2), 0.0f);
+    }
+    escaped = hits = 0;
+  }
+};
+
+// Storage for a stream of rays, left uninitialised (Ray is an implicit-lifetime aggregate, and
+// SphereSet::set writes every field before Embree reads it): constructing 2 × 256 Rays per
+// trace would write more than the rays themselves for the inside test's 64.
+struct RayBuffer {
+  alignas(64) std::byte bytes[sizeof(Ray) * kStream];
+  Ray* rays() { return reinterpret_cast<Ray*>(bytes); }
 };
 
 struct ProbeAccum {
   int n2 = 0;
   std::vector<double> direct;    // n2 × n2, colourless
-  std::vector<glm::dvec3> indirect;  // n2 × n2 RGB
+  std::vector<double> indirect;  // n2 × n2 RGB: row a holds n2 triples
+  StreamRows stream;             // scratch of the stream being summed
   uint32_t rays = 0, backfaces = 0, escaped = 0;
   uint32_t backTwoSided = 0;  // hits on the back of double-sided faces
   float nearest = std::numeric_limits<float>::infinity();  // of the hits (any face)
@@ -95,7 +172,7 @@ struct Tracer {
     if (full) {  // start afresh, keeping the matrices' storage
       acc.n2 = n2;
       acc.direct.assign(size_t(n2) * n2, 0.0);
-      acc.indirect.assign(size_t(n2) * n2, glm::dvec3(0.0));
+      acc.indirect.assign(size_t(n2) * n2 * 3, 0.0);
       acc.rays = acc.backfaces = acc.escaped = acc.backTwoSided = 0;
       acc.nearest = std::numeric_limits<float>::infinity();
       acc.sumD = {};
@@ -103,15 +180,58 @@ struct Tracer {
       acc.count = {};
     }
     const SphereSet set(seed, stream);
-    alignas(64) Ray batch[kStream];
-    float y[sh::kMaxBands * sh::kMaxBands];
-    glm::vec3 g[sh::kMaxBands * sh::kMaxBands];
     const bool haveTransfer = !lowerOrder.empty();
-    for (uint32_t first = 0; first < n; first += kStream) {
+    StreamRows& rows = acc.stream;
+    if (full) rows.reset(bands);
+    const int ldy = padded(n2), ldg = padded(3 * n2);
+    // The lit hits read their triangle's corners and the corners' transfer: random reads from
+    // arrays larger than the caches. They are started (prefetched) as soon as a stream is
+    // traced and used one stream later, once the next stream's trace has given them time to
+    // arrive: the stream being traced and the one whose hits wait, two buffers of rays.
+    RayBuffer batches[2];
+    uint16_t lit[2][kStream];  // per buffer: its rays that hit a lit surface
+    uint32_t litCount[2] = {0, 0};
+    const auto corners = [&](const Ray& r) { return &scene.meshes[r.mesh].indices[3 * size_t(r.tri)]; };
+    const auto transfer = [&](const Ray& r) {
+      const MeshInstance& m = scene.meshes[r.mesh];
+      return lowerOrder[r.mesh].data() + (r.backface() ? m.vertexCount() * n2 : 0);
+    };
+    // The indirect part of the buffer's lit hits: M += Σ y gᵀ, g = ρ/π · t(h).
+    const auto sumLit = [&](int buf) {
+      rows.hits = 0;
+      for (uint32_t h = 0; h < litCount[buf]; ++h) {
+        const Ray& r = batches[buf].rays()[lit[buf][h]];
+        const uint32_t* ix = corners(r);
+        const glm::vec3* t = transfer(r);
+        const glm::vec3* t0 = t + size_t(ix[0]) * n2;
+        const glm::vec3* t1 = t + size_t(ix[1]) * n2;
+        const glm::vec3* t2 = t + size_t(ix[2]) * n2;
+        const float b0 = 1.0f - r.u - r.v;
+        const glm::vec3 rho = albedo.at(r.mesh, r.tri, r.u, r.v) * float(1.0 / M_PI);
+        // g = ρ/π · (b0 t0 + u t1 + v t2), per RGB component, as n2 triples: over the 3·n2
+        // floats in runs of 12 (four triples, a whole number of 4-float vectors).
+        float* g = &rows.gHit[size_t(rows.hits) * ldg];
+        const float *f0 = &t0->x, *f1 = &t1->x, *f2 = &t2->x;
+        float rp[12];
+        for (int e = 0; e < 12; ++e) rp[e] = rho[e % 3];
+        const int len = 3 * n2;
+        int c = 0;
+        for (; c + 12 <= len; c += 12)
+          for (int e = 0; e < 12; ++e) g[c + e] = rp[e] * (b0 * f0[c + e] + r.u * f1[c + e] + r.v * f2[c + e]);
+        for (; c < len; ++c) g[c] = rp[c % 3] * (b0 * f0[c] + r.u * f1[c] + r.v * f2[c]);
+        sh::evaluate(bands, r.dir, &rows.yHit[size_t(rows.hits++) * ldy]);
+      }
+      addProducts(rows.yHit.data(), ldy, rows.gHit.data(), ldg, rows.hits, n2, 3 * n2, acc.indirect.data(), 3 * n2);
+      litCount[buf] = 0;
+    };
+    int cur = 0;
+    for (uint32_t first = 0; first < n; first += kStream, cur ^= 1) {
       if (interruptRequested()) return false;
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
-      for (uint32_t j = 0; j < count; ++j) batch[j] = set.ray(x, first + j);
+      Ray* batch = batches[cur].rays();
+      for (uint32_t j = 0; j < count; ++j) set.set(batch[j], x, first + j);
       rays.intersect(batch, count);
+      rows.escaped = 0;
       for (uint32_t j = 0; j < count; ++j) {
         const Ray& r = batch[j];
         ++acc.rays;
@@ -130,25 +250,28 @@ struct Tracer {
         acc.sumD[face] += d;
         acc.sumD2[face] += d * d;
         ++acc.count[face];
-        sh::evaluate(bands, r.dir, y);
-        if (!r.hit()) {
-          for (int a = 0; a < n2; ++a)
-            for (int b = 0; b < n2; ++b) acc.direct[size_t(a) * n2 + b] += double(y[a]) * y[b];
-        } else if (!back && haveTransfer && !lowerOrder[r.mesh].empty()) {
-          const MeshInstance& m = scene.meshes[r.mesh];
-          const uint32_t* ix = &m.indices[3 * size_t(r.tri)];
-          const glm::vec3* t = lowerOrder[r.mesh].data() + (backside ? m.vertexCount() * n2 : 0);
-          const glm::vec3* t0 = t + size_t(ix[0]) * n2;
-          const glm::vec3* t1 = t + size_t(ix[1]) * n2;
-          const glm::vec3* t2 = t + size_t(ix[2]) * n2;
-          const float b0 = 1.0f - r.u - r.v;
-          const glm::vec3 rho = albedo.at(r.mesh, r.tri, r.u, r.v) * float(1.0 / M_PI);
-          for (int i = 0; i < n2; ++i) g[i] = rho * (b0 * t0[i] + r.u * t1[i] + r.v * t2[i]);
-          for (int a = 0; a < n2; ++a)
-            for (int b = 0; b < n2; ++b) acc.indirect[size_t(a) * n2 + b] += glm::dvec3(y[a] * g[b]);
+        if (!r.hit())
+          sh::evaluate(bands, r.dir, &rows.yEscaped[size_t(rows.escaped++) * ldy]);
+        else if (!back && haveTransfer && !lowerOrder[r.mesh].empty())
+          lit[cur][litCount[cur]++] = uint16_t(j);
+      }
+      if (!full) continue;
+      // The direct part of the stream's escaped rays: M⁰ += Σ y yᵀ.
+      addProducts(rows.yEscaped.data(), ldy, rows.yEscaped.data(), ldy, rows.escaped, n2, n2, acc.direct.data(), n2);
+      for (uint32_t h = 0; h < litCount[cur]; ++h) __builtin_prefetch(corners(batch[lit[cur][h]]));
+      for (uint32_t h = 0; h < litCount[cur]; ++h) {
+        const Ray& r = batch[lit[cur][h]];
+        const uint32_t* ix = corners(r);
+        const glm::vec3* t = transfer(r);
+        for (int c = 0; c < 3; ++c) {
+          const char* p = reinterpret_cast<const char*>(t + size_t(ix[c]) * n2);
+          for (size_t o = 0; o < sizeof(glm::vec3) * size_t(n2); o += 64) __builtin_prefetch(p + o);
+          __builtin_prefetch(p + sizeof(glm::vec3) * size_t(n2) - 1);
         }
       }
+      sumLit(cur ^ 1);  // the previous stream's
     }
+    if (full) sumLit(cur ^ 1);
     return true;
   }
 };
@@ -266,7 +389,8 @@ struct ProbeBaker {
     const double w = 4.0 * M_PI / settings.samples;
     const size_t n2 = size_t(acc.n2);
     for (size_t k = 0; k < n2 * n2; ++k) {
-      const glm::dvec3 v = w * (glm::dvec3(acc.direct[k]) + acc.indirect[k]);
+      const glm::dvec3 v = w * (glm::dvec3(acc.direct[k]) + glm::dvec3(acc.indirect[3 * k], acc.indirect[3 * k + 1],
+                                                                        acc.indirect[3 * k + 2]));
       out[3 * k] = float(v.r);
       out[3 * k + 1] = float(v.g);
       out[3 * k + 2] = float(v.b);

@@ -50,14 +50,6 @@ bool insideDims(const glm::ivec3& c, const glm::ivec3& dims) {
 
 }  // namespace
 
-int faceOf(const glm::vec3& d) {
-  const glm::vec3 a = glm::abs(d);
-  // Ties go to the earlier axis (x, then y), so every direction has exactly one face.
-  if (a.x >= a.y && a.x >= a.z) return d.x >= 0.0f ? int(Face::PosX) : int(Face::NegX);
-  if (a.y >= a.z) return d.y >= 0.0f ? int(Face::PosY) : int(Face::NegY);
-  return d.z >= 0.0f ? int(Face::PosZ) : int(Face::NegZ);
-}
-
 void ProbeGrid::buildIndex() {
   PRT_CHECK(dims.x >= 0 && dims.y >= 0 && dims.z >= 0);
   dense_.assign(size_t(dims.x) * size_t(dims.y) * size_t(dims.z), -1);

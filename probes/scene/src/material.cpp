@@ -24,6 +24,11 @@ glm::vec4 Texture::sample(const glm::vec2& uv) const {
     double x = std::isfinite(t) ? std::clamp(double(t), -1e6, 1e6) * n - 0.5 : 0.0;
     double x0 = std::floor(x);
     f = x - x0;
+    if (x0 >= 0.0 && x0 + 1.0 <= double(n - 1)) {  // both texels inside: every mode keeps them as they are
+      i0 = int(x0);
+      i1 = i0 + 1;
+      return;
+    }
     i0 = std::clamp(wrap(x0, n, mode), 0, n - 1);
     i1 = std::clamp(wrap(x0 + 1.0, n, mode), 0, n - 1);
   };

@@ -21,8 +21,15 @@ namespace prt {
 
 /// Cube faces of a probe's distance moments, in this order.
 enum class Face { PosX, NegX, PosY, NegY, PosZ, NegZ };
-/// The face a direction belongs to (its dominant axis and sign).
-int faceOf(const glm::vec3& d);
+/// The face a direction belongs to (its dominant axis and sign). Inline: the probe bake asks it
+/// for every ray.
+inline int faceOf(const glm::vec3& d) {
+  const glm::vec3 a = glm::abs(d);
+  // Ties go to the earlier axis (x, then y), so every direction has exactly one face.
+  if (a.x >= a.y && a.x >= a.z) return d.x >= 0.0f ? int(Face::PosX) : int(Face::NegX);
+  if (a.y >= a.z) return d.y >= 0.0f ? int(Face::PosY) : int(Face::NegY);
+  return d.z >= 0.0f ? int(Face::PosZ) : int(Face::NegZ);
+}
 
 struct ProbeGridInfo {
   int bounces = 0;
