@@ -24,6 +24,14 @@
 // in light space (|n_z| floored at 0.02, 88.9°), less a bias of (1 + |grad|) texels for the nearest-texel
 // quantisation. The spiral is turned per pixel by interleaved gradient noise (Jimenez 2014) of
 // the pixel position: deterministic, and it turns the banding of a few samples into noise.
+//
+// Loops. llvmpipe (Mesa 22.3) runs a fragment shader on vectors of pixels and executes both sides
+// of every branch for all of them (masked), but it leaves a loop once no pixel of the vector
+// needs another pass (the test is at the loop's end: the body always runs once). So work that
+// most pixels skip goes into a loop, not an if: the filter (most pixels need none) and the lights
+// (one light costs one pass, not two). The loops step by the uniform uLoopStep (1): with a
+// constant step Mesa's NIR can bound the trip count and unroll the loop into straight code,
+// which llvmpipe then runs whole for every pixel (measured, docs/render.md "Cost").
 #include "direct_shading.h"
 
 #include <algorithm>
@@ -55,11 +63,22 @@ std::string spiralGlsl(const char* name, int n) {
   return s + ");\n";
 }
 
+// The filter's spiral, walked in its loop: point i at radius kFilterRadius[i] (of the unit disk),
+// turned by the golden angle from the one before.
+std::string filterSpiralGlsl(int n) {
+  std::string s = cat("const float kFilterRadius[", n, "] = float[", n, "](");
+  for (int i = 0; i < n; ++i) s += cat(i ? ", " : "", glslFloat(std::sqrt((i + 0.5) / n)));
+  const double a = 2.399963229728653;
+  return s + cat(");\nconst mat2 kGolden = mat2(", glslFloat(std::cos(a)), ", ", glslFloat(std::sin(a)), ", ",
+                 glslFloat(-std::sin(a)), ", ", glslFloat(std::cos(a)), ");\n");
+}
+
 constexpr const char* kDirectHeadGlsl = R"(
 uniform int uDirectCount;
 uniform vec4 uDirectDir[kMaxDirect];         // unit direction towards the light, sin² r (0: a delta)
 uniform vec4 uDirectIrradiance[kMaxDirect];  // RGB irradiance on a surface facing it, cot r
 uniform int uShadowed;                       // 0: every visible share is 1
+uniform int uLoopStep;                       // 1; see "Loops" below
 uniform int uCascades;
 uniform vec4 uCascadeFar;                    // view depth where cascade c ends
 uniform vec3 uViewOrigin;
@@ -136,34 +155,31 @@ constexpr const char* kBlockerSampleGlsl = R"(  {
 
 constexpr const char* kDirectMiddleGlsl = R"(  float pen = clamp(tanR * (p.z - sumB / max(nb, 1.0)), texel, kMaxKernel * texel);
   bool needFilter = nb > 0.0 && !(nb == float(kBlockerSamples) && pen <= search);
-  float share = nb == 0.0 ? 1.0 : 0.0;
-  // Skipped where no blocker or only blockers were found: on a GPU; llvmpipe (Mesa 22.3) runs
-  // both sides of a branch for every pixel (measured, docs/render.md).
-  if (needFilter) {
-    float lit = 0.0;
-)";
-
-constexpr const char* kFilterSampleGlsl = R"(  {
-    vec2 o = rot * (kFilterSpiral[I] * pen);
+  // The filter, a loop (see "Loops" above): pixels that need none pay one pass of it.
+  float lit = 0.0;
+  int i = 0;
+  vec2 dir = rot * vec2(pen, 0.0);
+  do {
+    vec2 o = dir * kFilterRadius[i];
     lit += mapDepth(layer, p.xy + o, texel, range) >= zr + dot(grad, o) ? 1.0 : 0.0;
-  }
-)";
-
-constexpr const char* kDirectTailGlsl = R"(    share = lit / float(kFilterSamples);
-  }
-  return share;
+    dir = kGolden * dir;
+    i += uLoopStep;
+  } while (needFilter && i < kFilterSamples);
+  return needFilter ? lit / float(kFilterSamples) : nb == 0.0 ? 1.0 : 0.0;
 }
 
-// Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x).
+// Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x), a loop over the lights that tests at
+// its end, so that one light costs one pass.
 vec3 directIrradiance(vec3 x, vec3 n) {
   vec3 e = vec3(0.0);
-  for (int k = 0; k < kMaxDirect; ++k) {
-    if (k >= uDirectCount) break;
+  int k = 0;
+  do {
     float f = directCosineFactor(n, uDirectDir[k], uDirectIrradiance[k].w);
     float v = 1.0;
     if (f > 0.0 && uShadowed != 0) v = visibleShare(k, x, n);
-    e += uDirectIrradiance[k].rgb * (f * v);
-  }
+    e += k < uDirectCount ? uDirectIrradiance[k].rgb * (f * v) : vec3(0.0);
+    k += uLoopStep;
+  } while (k < uDirectCount);
   return e;
 }
 )";
@@ -187,12 +203,10 @@ std::string directLightingGlsl() {
                       "\nconst int kBlockerSamples = ", kBlockerSamples, ";\nconst int kFilterSamples = ",
                       kFilterSamples, ";\nconst float kMaxKernel = ", kMaxKernelTexels, ".0;\n");
   s += spiralGlsl("kBlockerSpiral", kBlockerSamples);
-  s += spiralGlsl("kFilterSpiral", kFilterSamples);
+  s += filterSpiralGlsl(kFilterSamples);
   s += kDirectHeadGlsl;
   s += perSample(kBlockerSampleGlsl, kBlockerSamples);
   s += kDirectMiddleGlsl;
-  s += perSample(kFilterSampleGlsl, kFilterSamples);
-  s += kDirectTailGlsl;
   return s;
 }
 
