@@ -709,6 +709,8 @@ void Renderer::Impl::ensureShadowMaps(int size, int layers) {
   gl.TextureParameteri(shadowTexture, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   gl.TextureParameteri(shadowTexture, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   gl.TextureParameteri(shadowTexture, GL_TEXTURE_COMPARE_MODE, GL_NONE);
+  gl.TextureParameteri(shadowTexture, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  gl.TextureParameteri(shadowTexture, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   gl.CreateFramebuffers(1, &shadowFbo);
   gl.NamedFramebufferTextureLayer(shadowFbo, GL_DEPTH_ATTACHMENT, shadowTexture, 0, 0);
   gl.NamedFramebufferDrawBuffer(shadowFbo, GL_NONE);
