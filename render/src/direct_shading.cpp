@@ -24,6 +24,15 @@
 // in light space (|n_z| floored at 0.02, 88.9°), less a bias of (1 + |grad|) texels for the nearest-texel
 // quantisation. The spiral is turned per pixel by interleaved gradient noise (Jimenez 2014) of
 // the pixel position: deterministic, and it turns the banding of a few samples into noise.
+//
+// Loops. llvmpipe (Mesa 22.3) runs a fragment shader on vectors of pixels and executes both sides
+// of every branch for all of them (masked), but it leaves a loop once no pixel of the vector
+// needs another pass (the test is at the loop's end: the body always runs once). So work that
+// most pixels skip goes into a loop, not an if: the blocker search (skipped where the cap is
+// below the horizon), the filter (most pixels need none) and the lights (one light costs one
+// pass, not two). The loops step by the uniform uLoopStep (1): with a
+// constant step Mesa's NIR can bound the trip count and unroll the loop into straight code,
+// which llvmpipe then runs whole for every pixel (measured, docs/render.md "Cost").
 #include "direct_shading.h"
 
 #include <algorithm>
@@ -45,14 +54,11 @@ std::string glslFloat(double v) {
 }
 
 // Vogel spiral: point i of n at radius √((i + ½)/n), angle i · golden angle: even density over
-// the unit disk for any n.
-std::string spiralGlsl(const char* name, int n) {
-  std::string s = cat("const vec2 ", name, "[", n, "] = vec2[", n, "](");
-  for (int i = 0; i < n; ++i) {
-    const double r = std::sqrt((i + 0.5) / n), a = i * 2.399963229728653;
-    s += cat(i ? ", " : "", "vec2(", glslFloat(r * std::cos(a)), ", ", glslFloat(r * std::sin(a)), ")");
-  }
-  return s + ");\n";
+// the unit disk for any n. The loops below walk it, turning by kGolden from one point to the next.
+std::string goldenGlsl() {
+  const double a = 2.399963229728653;
+  return cat("const mat2 kGolden = mat2(", glslFloat(std::cos(a)), ", ", glslFloat(std::sin(a)), ", ",
+             glslFloat(-std::sin(a)), ", ", glslFloat(std::cos(a)), ");\n");
 }
 
 constexpr const char* kDirectHeadGlsl = R"(
@@ -60,6 +66,7 @@ uniform int uDirectCount;
 uniform vec4 uDirectDir[kMaxDirect];         // unit direction towards the light, sin² r (0: a delta)
 uniform vec4 uDirectIrradiance[kMaxDirect];  // RGB irradiance on a surface facing it, cot r
 uniform int uShadowed;                       // 0: every visible share is 1
+uniform int uLoopStep;                       // 1; see "Loops" below
 uniform int uCascades;
 uniform vec4 uCascadeFar;                    // view depth where cascade c ends
 uniform vec3 uViewOrigin;
@@ -99,15 +106,20 @@ float directCosineFactor(vec3 n, vec4 dirSin2, float cotR) {
 }
 // END directCosineFactor port.
 
-// Caster depth (metres) at map position m (metres), nearest texel; beyond the map: none.
-float mapDepth(int layer, vec2 m, float texel, float range) {
-  ivec2 t = ivec2(floor(m / texel));
-  bool inside = all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, ivec2(uShadowSize)));
-  float d = texelFetch(uShadowMap, ivec3(clamp(t, ivec2(0), ivec2(uShadowSize - 1)), layer), 0).r;
-  return inside ? d * range : 1e30;
+// Caster depth (in units of the map's depth range) at map position t (texels), nearest texel;
+// beyond the map: none. Through textureLod with nearest filtering at the texel's centre, not
+// texelFetch: the same texel, and 15% fewer instructions a frame on llvmpipe (Mesa 22.3; measured,
+// docs/render.md "Cost"). inv: 1 / uShadowSize.
+float mapDepth(int layer, vec2 t, float inv) {
+  vec2 i = floor(t);
+  bool inside = all(greaterThanEqual(i, vec2(0.0))) && all(lessThan(i, vec2(float(uShadowSize))));
+  float d = textureLod(uShadowMap, vec3((i + 0.5) * inv, float(layer)), 0.0).r;
+  return inside ? d : 1e30;
 }
 
-float visibleShare(int k, vec3 x, vec3 n) {
+// The share of light k's cap seen from x (normal n). `facing`: the cap is above the horizon;
+// where it is not the result is unused, and the loops stop after one pass.
+float visibleShare(int k, vec3 x, vec3 n, bool facing) {
   float depth = dot(x - uViewOrigin, uViewForward);
   int c = min(int(depth > uCascadeFar.x) + int(depth > uCascadeFar.y) + int(depth > uCascadeFar.z), uCascades - 1);
   int layer = k * uCascades + c;
@@ -118,66 +130,58 @@ float visibleShare(int k, vec3 x, vec3 n) {
   float nz = nl.z < 0.0 ? min(nl.z, -0.02) : max(nl.z, 0.02);
   vec2 grad = -nl.xy / nz;  // the tangent plane's depth slope (|n_z| floored: 88.9°)
   float slope = length(grad);
-  float zr = p.z - texel * (1.0 + slope);
-  float search = clamp(tanR * p.z, 1.5 * texel, kMaxKernel * texel);
+  // Across in texels, along in units of the depth range: no division per sample.
+  vec2 pt = p.xy / texel;
+  float inv = 1.0 / float(uShadowSize);
+  vec2 gradT = grad * (texel / range);
+  float zr = (p.z - texel * (1.0 + slope)) / range;
+  float search = clamp(tanR * p.z / texel, 1.5, kMaxKernel);
   float ang = 6.28318530718 * fract(52.9829189 * fract(dot(gl_FragCoord.xy, vec2(0.06711056, 0.00583715))));
-  mat2 rot = mat2(cos(ang), sin(ang), -sin(ang), cos(ang));
+  vec2 turn = vec2(cos(ang), sin(ang));
+  // 1. Blocker search.
   float nb = 0.0, sumB = 0.0;
-)";
-
-constexpr const char* kBlockerSampleGlsl = R"(  {
-    vec2 o = rot * (kBlockerSpiral[I] * search);
-    float zb = mapDepth(layer, p.xy + o, texel, range);
-    bool b = zb < zr + dot(grad, o);
+  int i = 0;
+  vec2 dir = turn * search;
+  do {
+    vec2 o = dir * sqrt((float(i) + 0.5) / float(kBlockerSamples));
+    float zb = mapDepth(layer, pt + o, inv);
+    bool b = zb < zr + dot(gradT, o);
     nb += b ? 1.0 : 0.0;
     sumB += b ? zb : 0.0;
-  }
-)";
-
-constexpr const char* kDirectMiddleGlsl = R"(  float pen = clamp(tanR * (p.z - sumB / max(nb, 1.0)), texel, kMaxKernel * texel);
+    dir = kGolden * dir;
+    i += uLoopStep;
+  } while (facing && i < kBlockerSamples);
+  // 2. The penumbra's radius (texels).
+  float pen = clamp(tanR * (p.z - range * sumB / max(nb, 1.0)) / texel, 1.0, kMaxKernel);
   bool needFilter = nb > 0.0 && !(nb == float(kBlockerSamples) && pen <= search);
-  float share = nb == 0.0 ? 1.0 : 0.0;
-  // Skipped where no blocker or only blockers were found: on a GPU; llvmpipe (Mesa 22.3) runs
-  // both sides of a branch for every pixel (measured, docs/render.md).
-  if (needFilter) {
-    float lit = 0.0;
-)";
-
-constexpr const char* kFilterSampleGlsl = R"(  {
-    vec2 o = rot * (kFilterSpiral[I] * pen);
-    lit += mapDepth(layer, p.xy + o, texel, range) >= zr + dot(grad, o) ? 1.0 : 0.0;
-  }
-)";
-
-constexpr const char* kDirectTailGlsl = R"(    share = lit / float(kFilterSamples);
-  }
-  return share;
+  // 3. The filter: pixels that need none pay one pass of it.
+  float lit = 0.0;
+  i = 0;
+  dir = turn * pen;
+  do {
+    vec2 o = dir * sqrt((float(i) + 0.5) / float(kFilterSamples));
+    lit += mapDepth(layer, pt + o, inv) >= zr + dot(gradT, o) ? 1.0 : 0.0;
+    dir = kGolden * dir;
+    i += uLoopStep;
+  } while (facing && needFilter && i < kFilterSamples);
+  return needFilter ? lit / float(kFilterSamples) : nb == 0.0 ? 1.0 : 0.0;
 }
 
-// Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x).
+// Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x), a loop over the lights that tests at
+// its end, so that one light costs one pass.
 vec3 directIrradiance(vec3 x, vec3 n) {
   vec3 e = vec3(0.0);
-  for (int k = 0; k < kMaxDirect; ++k) {
-    if (k >= uDirectCount) break;
+  int k = 0;
+  do {
     float f = directCosineFactor(n, uDirectDir[k], uDirectIrradiance[k].w);
     float v = 1.0;
-    if (f > 0.0 && uShadowed != 0) v = visibleShare(k, x, n);
-    e += uDirectIrradiance[k].rgb * (f * v);
-  }
+    if (uShadowed != 0) v = visibleShare(k, x, n, f > 0.0);
+    e += k < uDirectCount ? uDirectIrradiance[k].rgb * (f * v) : vec3(0.0);
+    k += uLoopStep;
+  } while (k < uDirectCount);
   return e;
 }
 )";
-
-std::string perSample(const char* body, int n) {
-  std::string out;
-  for (int i = 0; i < n; ++i) {
-    std::string b = body;
-    const size_t at = b.find("[I]");
-    b.replace(at, 3, cat("[", i, "]"));
-    out += b;
-  }
-  return out;
-}
 
 }  // namespace
 
@@ -186,13 +190,8 @@ std::string directLightingGlsl() {
                       kMaxDirectLights * kMaxCascades, ";\n#define kShadowUnit ", kShadowMapUnit,
                       "\nconst int kBlockerSamples = ", kBlockerSamples, ";\nconst int kFilterSamples = ",
                       kFilterSamples, ";\nconst float kMaxKernel = ", kMaxKernelTexels, ".0;\n");
-  s += spiralGlsl("kBlockerSpiral", kBlockerSamples);
-  s += spiralGlsl("kFilterSpiral", kFilterSamples);
+  s += goldenGlsl();
   s += kDirectHeadGlsl;
-  s += perSample(kBlockerSampleGlsl, kBlockerSamples);
-  s += kDirectMiddleGlsl;
-  s += perSample(kFilterSampleGlsl, kFilterSamples);
-  s += kDirectTailGlsl;
   return s;
 }
 

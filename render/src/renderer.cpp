@@ -333,7 +333,7 @@ struct Renderer::Impl {
     // DIRECT variants (direct_shading.h)
     GLint directSh = -1, directCount = -1, directDir = -1, directIrradiance = -1, shadowed = -1, cascades = -1,
           cascadeFar = -1, viewOrigin = -1, viewForward = -1, shadowSize = -1, shadowMatrix = -1,
-          shadowParams = -1;
+          shadowParams = -1, loopStep = -1;
   };
 
   GlContext& context;
@@ -475,6 +475,7 @@ Renderer::Impl::Program Renderer::Impl::link(const std::string& vsSource, const 
   p.shadowSize = loc("uShadowSize");
   p.shadowMatrix = loc("uShadowMatrix");
   p.shadowParams = loc("uShadowParams");
+  p.loopStep = loc("uLoopStep");
   return p;
 }
 
@@ -708,6 +709,8 @@ void Renderer::Impl::ensureShadowMaps(int size, int layers) {
   gl.TextureParameteri(shadowTexture, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   gl.TextureParameteri(shadowTexture, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   gl.TextureParameteri(shadowTexture, GL_TEXTURE_COMPARE_MODE, GL_NONE);
+  gl.TextureParameteri(shadowTexture, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  gl.TextureParameteri(shadowTexture, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   gl.CreateFramebuffers(1, &shadowFbo);
   gl.NamedFramebufferTextureLayer(shadowFbo, GL_DEPTH_ATTACHMENT, shadowTexture, 0, 0);
   gl.NamedFramebufferDrawBuffer(shadowFbo, GL_NONE);
@@ -1050,6 +1053,7 @@ void Renderer::Impl::drawShadows(const Frame& frame, double aspect, int height, 
     gl.ProgramUniform4fv(p.id, p.directDir, GLsizei(dirs.size()), &dirs[0].x);
     gl.ProgramUniform4fv(p.id, p.directIrradiance, GLsizei(irradiance.size()), &irradiance[0].x);
     gl.ProgramUniform1i(p.id, p.shadowed, settings.enabled ? 1 : 0);
+    gl.ProgramUniform1i(p.id, p.loopStep, 1);
     if (!settings.enabled) return;
     gl.ProgramUniform1i(p.id, p.cascades, plan.cascades);
     gl.ProgramUniform4fv(p.id, p.cascadeFar, 1, &cascadeFar.x);
