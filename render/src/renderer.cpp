@@ -186,6 +186,35 @@ constexpr const char* kDepthFragmentShader = R"(#version 450 core
 void main() {}
 )";
 
+// Shadow maps of instances that let light through (MASK, BLEND, transmission): a MASK cutout is
+// discarded (coverage()), and a fragment of opacity a < 1 blocks with probability a, a hash of
+// its position in the map against a (the bake's model: a ray stops with probability equal to
+// the opacity, ray_scene.cpp), which the filter turns into a partial shadow.
+std::string cutoutDepthVertexShader() {
+  return cat(R"(#version 450 core
+layout(location = 0) in vec3 aPosition;
+layout(location = 1) in vec2 aTexcoord;
+layout(location = 2) in vec4 aColor;
+uniform mat4 uViewProj;
+uniform mat4 uModel;
+)", kAlbedoOutputsGlsl, R"(void main() {
+)", kAlbedoPassGlsl, R"(  gl_Position = uViewProj * (uModel * vec4(aPosition, 1.0));
+}
+)");
+}
+std::string cutoutDepthFragmentShader() {
+  return cat("#version 450 core\n", kAlbedoInputsGlsl, R"(float hash(vec2 p) {  // in [0, 1), per texel
+  p = fract(p * vec2(0.1031, 0.1030));
+  p += dot(p, p.yx + 33.33);
+  return fract((p.x + p.y) * p.x);
+}
+void main() {
+  float a = coverage();
+  if (a < 1.0 && a <= hash(gl_FragCoord.xy)) discard;
+}
+)");
+}
+
 double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -348,6 +377,8 @@ struct Renderer::Impl {
   std::array<Program, kVariants> programs;
   std::array<std::array<Program, kVariants>, 2> receiverPrograms;  // [ProbeLookup][variant]
   Program flatProgram, depthProgram;
+  std::array<Program, kVariants> cutoutDepthPrograms{};  // by material variant, linked on first use
+  const Program& cutoutDepthProgram(int variant);
   bool bakedDirect = false;  // every baked instance holds the direct part of its transfer
   // Shadow maps: a depth texture array (lights × cascades layers) and the framebuffer drawing it.
   GLuint shadowTexture = 0, shadowFbo = 0;
@@ -664,6 +695,15 @@ void Renderer::Impl::upload(const Scene& scene) {
   }
   if (instances.empty() && receivers.empty())
     throw Error(cat(scene.path, ": no baked instance or receiver to render"));
+}
+
+const Renderer::Impl::Program& Renderer::Impl::cutoutDepthProgram(int variant) {
+  variant &= kVariantTexture | kVariantColor | kVariantMask | kVariantBlend;
+  Program& p = cutoutDepthPrograms[size_t(variant)];
+  if (!p.id)
+    p = link(withMaterialDefines(cutoutDepthVertexShader(), variant),
+             withMaterialDefines(cutoutDepthFragmentShader(), variant), "shadow map (cutouts)");
+  return p;
 }
 
 const Renderer::Impl::Program& Renderer::Impl::bakedProgram(int variant) {
@@ -1009,21 +1049,26 @@ void Renderer::Impl::drawShadows(const Frame& frame, double aspect, int height, 
       gl.ClearNamedFramebufferfv(shadowFbo, GL_DEPTH, 0, &one);
       const glm::dmat4 viewProj = plan.layers[size_t(layer)].viewProj();
       const glm::mat4 vp(viewProj), identity(1.0f);
-      gl.ProgramUniformMatrix4fv(depthProgram.id, depthProgram.viewProj, 1, GL_FALSE, &vp[0][0]);
-      gl.ProgramUniformMatrix4fv(depthProgram.id, depthProgram.model, 1, GL_FALSE, &identity[0][0]);
-      for (const Instance& in : instances) {
-        if (in.blend) continue;
+      // Opaque casters with the plain depth program; those that let light through with their
+      // material's (cutoutDepthProgram).
+      auto cast = [&](const Instance& in, const glm::mat4& model) {
+        const bool cutout = in.blend || (in.variant & kVariantMask);
+        const Program& p = cutout ? cutoutDepthProgram(in.variant) : depthProgram;
+        gl.UseProgram(p.id);
+        gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &vp[0][0]);
+        gl.ProgramUniformMatrix4fv(p.id, p.model, 1, GL_FALSE, &model[0][0]);
+        if (cutout) {
+          gl.ProgramUniform4fv(p.id, p.baseColor, 1, &in.baseColor.x);
+          gl.ProgramUniform1f(p.id, p.opacity, in.opacity);
+          if (p.alphaCutoff >= 0) gl.ProgramUniform1f(p.id, p.alphaCutoff, in.alphaCutoff);
+          if (in.texture) gl.BindTextureUnit(0, in.texture);
+        }
         gl.BindVertexArray(in.vao);
         gl.DrawElements(GL_TRIANGLES, in.indexCount, GL_UNSIGNED_INT, nullptr);
-      }
+      };
+      for (const Instance& in : instances) cast(in, identity);
       if (drawReceivers)
-        for (size_t k = 0; k < receivers.size(); ++k) {
-          if (receivers[k].blend) continue;
-          const glm::mat4 model(motions[k]);
-          gl.ProgramUniformMatrix4fv(depthProgram.id, depthProgram.model, 1, GL_FALSE, &model[0][0]);
-          gl.BindVertexArray(receivers[k].vao);
-          gl.DrawElements(GL_TRIANGLES, receivers[k].indexCount, GL_UNSIGNED_INT, nullptr);
-        }
+        for (size_t k = 0; k < receivers.size(); ++k) cast(receivers[k], glm::mat4(motions[k]));
     }
     gl.BindVertexArray(0);
     gl.Finish();
@@ -1089,6 +1134,8 @@ void Renderer::Impl::release() {
     if (p.id) gl.DeleteProgram(p.id);
   if (flatProgram.id) gl.DeleteProgram(flatProgram.id);
   if (depthProgram.id) gl.DeleteProgram(depthProgram.id);
+  for (const Program& p : cutoutDepthPrograms)
+    if (p.id) gl.DeleteProgram(p.id);
   releaseShadowMaps();
   if (background.id) gl.DeleteProgram(background.id);
   if (emptyVao) gl.DeleteVertexArrays(1, &emptyVao);
