@@ -161,6 +161,28 @@ INSTANTIATE_TEST_SUITE_P(Materials, RenderAlphaBlend,
                                            BlendCase{"blend_transmission", Material::AlphaMode::Blend, 0.5f, 0.5f, 0.25f}),
                          [](const ::testing::TestParamInfo<BlendCase>& c) { return std::string(c.param.name); });
 
+// KHR_materials_transmission with a texture: the transmission is factor × the texture's R
+// (not G or B), so factor 0.8 and a texture of R = 0.25 (G = B = 1) let 20% of the background
+// through: opacity 0.8, where the factor alone would give 0.2. (One texel: the bilinear
+// filter's 8-bit weights would blur a checker's cells beyond the 1e-5 compared here.)
+TEST(RenderAlpha, TransmissionTextureScalesTheTransmission) {
+  Material glass;
+  glass.baseColorFactor = glm::vec4(0.5f, 0.7f, 0.9f, 1.0f);
+  glass.transmissionFactor = 0.8f;
+  glass.transmissionTexture = 1;
+  Scene s = sceneOf({quad(-kHalf, kHalf, -3.0f, 0)}, {glass});
+  Texture r;
+  r.name = "transmission";
+  r.width = r.height = 1;
+  r.texels = {glm::vec4(0.25f, 1.0f, 1.0f, 1.0f)};
+  s.textures.push_back(r);
+  const RigBackground bg = uniformBackground();
+  expectPixels(s, bg, [&](double x, double y) {
+    if (!insideQuad(x, y, -kHalf, kHalf)) return glm::vec3(bg.uniform);
+    return 0.8f * glm::vec3(glass.baseColorFactor) + 0.2f * glm::vec3(bg.uniform);
+  }, "transmission texture");
+}
+
 // Two blended layers drawn back to front whatever their order in the scene: the near quad
 // (opacity 0.4, first in the scene) and a far one (opacity 0.6) over the right half, over the
 // background: α_n c_n + (1 − α_n)(α_f c_f + (1 − α_f) bg) where they overlap. Drawn in scene

@@ -207,6 +207,8 @@ std::string withMaterialDefines(const std::string& source, int variant) {
   if (variant & kVariantBlend) defines += "#define HAS_BLEND 1\n";
   if (variant & kVariantTwoSided) defines += "#define TWO_SIDED 1\n";
   if (variant & kVariantDirect) defines += "#define DIRECT 1\n";
+  if (variant & kVariantTransmission) defines += "#define HAS_TRANSMISSION_TEXTURE 1\n";
+  if (variant & (kVariantTexture | kVariantTransmission)) defines += "#define HAS_TEXCOORD 1\n";
   return source.substr(0, eol) + defines + source.substr(eol);
 }
 

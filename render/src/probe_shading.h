@@ -23,9 +23,14 @@ namespace prt::render {
 /// are `centroid` everywhere: with multisampling, a pixel on an edge is shaded at its covered
 /// samples' centroid instead of its centre, which may lie outside the triangle (extrapolated
 /// attributes); without it, or in a covered pixel, the centroid is the centre.
-inline constexpr const char* kAlbedoInputsGlsl = R"(#ifdef HAS_TEXTURE
+inline constexpr const char* kAlbedoInputsGlsl = R"(#ifdef HAS_TEXCOORD
 centroid in vec2 vTexcoord;
+#endif
+#ifdef HAS_TEXTURE
 layout(binding = 0) uniform sampler2D uBaseColorTexture;
+#endif
+#ifdef HAS_TRANSMISSION_TEXTURE
+layout(binding = 6) uniform sampler2D uTransmissionTexture;  // KHR_materials_transmission, R
 #endif
 #ifdef HAS_COLOR
 centroid in vec4 vColor;
@@ -57,28 +62,36 @@ float baseAlpha() {
 uniform float uAlphaCutoff;
 #endif
 uniform float uOpacity;  // 1 − transmissionFactor
+// 1 − transmission: transmissionFactor × the transmission texture's R where it has one.
+float opacity() {
+#ifdef HAS_TRANSMISSION_TEXTURE
+  return 1.0 - (1.0 - uOpacity) * clamp(texture(uTransmissionTexture, vTexcoord).r, 0.0, 1.0);
+#else
+  return uOpacity;
+#endif
+}
 // The fragment's opacity, the alpha it is blended with; a MASK cutout is discarded here.
 float coverage() {
 #ifdef HAS_MASK
   if (baseAlpha() < uAlphaCutoff) discard;
 #endif
 #ifdef HAS_BLEND
-  return clamp(baseAlpha(), 0.0, 1.0) * uOpacity;
+  return clamp(baseAlpha(), 0.0, 1.0) * opacity();
 #else
-  return uOpacity;
+  return opacity();
 #endif
 }
 )";
 
 // The vertex shaders' side of kAlbedoInputsGlsl: declarations, and the copies in main().
-inline constexpr const char* kAlbedoOutputsGlsl = R"(#ifdef HAS_TEXTURE
+inline constexpr const char* kAlbedoOutputsGlsl = R"(#ifdef HAS_TEXCOORD
 out vec2 vTexcoord;
 #endif
 #ifdef HAS_COLOR
 out vec4 vColor;
 #endif
 )";
-inline constexpr const char* kAlbedoPassGlsl = R"(#ifdef HAS_TEXTURE
+inline constexpr const char* kAlbedoPassGlsl = R"(#ifdef HAS_TEXCOORD
   vTexcoord = aTexcoord;
 #endif
 #ifdef HAS_COLOR
@@ -91,9 +104,10 @@ inline constexpr const char* kAlbedoPassGlsl = R"(#ifdef HAS_TEXTURE
 /// kVariantBlend (alphaMode BLEND: the alpha is the fragment's opacity), bit kVariantTwoSided (a
 /// baked double-sided instance with back-side transfer: each fragment is shaded with the side
 /// it is seen from), bit kVariantDirect (direct lights lit per pixel with shadow maps:
-/// direct_shading.h).
+/// direct_shading.h), bit kVariantTransmission (KHR_materials_transmission's texture sampled:
+/// the opacity is 1 − factor × its R).
 constexpr int kVariantTexture = 1, kVariantColor = 2, kVariantMask = 4, kVariantBlend = 8, kVariantTwoSided = 16,
-              kVariantDirect = 32, kVariants = 64;
+              kVariantDirect = 32, kVariantTransmission = 64, kVariants = 128;
 /// `source` (starting with its #version line) with HAS_TEXTURE / HAS_COLOR / HAS_MASK /
 /// HAS_BLEND / TWO_SIDED / DIRECT defined after that line as `variant` says.
 std::string withMaterialDefines(const std::string& source, int variant);

@@ -42,6 +42,7 @@ namespace {
 // side binding 5, RGB per vertex, zero when the bounce goes through directSh), and passes the world position and normal (attribute 15) to the fragment shader,
 // which adds the direct lights per pixel.
 constexpr int kMaxAttributeBands = 4;
+constexpr GLuint kTransmissionUnit = 6;  // uTransmissionTexture (probe_shading.h)
 constexpr GLuint kNormalAttribute = 15;
 constexpr GLuint kFirstTransferAttribute = 3;
 
@@ -348,6 +349,7 @@ struct Renderer::Impl {
     size_t triangles = 0;
     glm::vec4 baseColor{1.0f};
     GLuint texture = 0;
+    GLuint transmissionTexture = 0;  // kVariantTransmission: bound to unit 6
     bool hasColor = false;
     bool doubleSided = false;
     float alphaCutoff = 0.5f, opacity = 1.0f;  // MASK's cutoff; 1 − transmissionFactor
@@ -542,8 +544,8 @@ void Renderer::Impl::setMaterial(const Scene& scene, const MeshInstance& m, Inst
   const Material& mat = scene.materials.at(size_t(m.material));
   in.baseColor = mat.baseColorFactor;
   in.doubleSided = mat.doubleSided;
-  // Transmission: thin and untinted, as in the bake, and read from its factor only (the
-  // transmission texture is not sampled here): the background shows through 1 − opacity.
+  // Transmission: thin and untinted, as in the bake: the background shows through 1 − opacity,
+  // opacity = 1 − factor × the transmission texture's R (sampled in the shader).
   in.opacity = 1.0f - std::clamp(mat.transmissionFactor, 0.0f, 1.0f);
   in.alphaCutoff = mat.alphaCutoff;
   if (mat.alphaMode == Material::AlphaMode::Mask) in.variant |= kVariantMask;
@@ -554,6 +556,12 @@ void Renderer::Impl::setMaterial(const Scene& scene, const MeshInstance& m, Inst
     if (!tex) tex = uploadTexture(scene.textures[size_t(mat.baseColorTexture)]);
     in.texture = tex;
     in.variant |= kVariantTexture;
+  }
+  if (mat.transmissionFactor > 0.0f && mat.transmissionTexture >= 0 && !m.texcoords.empty()) {
+    GLuint& tex = textures.at(size_t(mat.transmissionTexture));
+    if (!tex) tex = uploadTexture(scene.textures[size_t(mat.transmissionTexture)]);
+    in.transmissionTexture = tex;
+    in.variant |= kVariantTransmission;
   }
 }
 
@@ -698,7 +706,7 @@ void Renderer::Impl::upload(const Scene& scene) {
 }
 
 const Renderer::Impl::Program& Renderer::Impl::cutoutDepthProgram(int variant) {
-  variant &= kVariantTexture | kVariantColor | kVariantMask | kVariantBlend;
+  variant &= kVariantTexture | kVariantColor | kVariantMask | kVariantBlend | kVariantTransmission;
   Program& p = cutoutDepthPrograms[size_t(variant)];
   if (!p.id)
     p = link(withMaterialDefines(cutoutDepthVertexShader(), variant),
@@ -1062,6 +1070,7 @@ void Renderer::Impl::drawShadows(const Frame& frame, double aspect, int height, 
           gl.ProgramUniform1f(p.id, p.opacity, in.opacity);
           if (p.alphaCutoff >= 0) gl.ProgramUniform1f(p.id, p.alphaCutoff, in.alphaCutoff);
           if (in.texture) gl.BindTextureUnit(0, in.texture);
+          if (in.transmissionTexture) gl.BindTextureUnit(kTransmissionUnit, in.transmissionTexture);
         }
         gl.BindVertexArray(in.vao);
         gl.DrawElements(GL_TRIANGLES, in.indexCount, GL_UNSIGNED_INT, nullptr);
@@ -1346,6 +1355,7 @@ ImageRgb Renderer::render(const Frame& frame) {
       gl.ProgramUniform1f(p.id, p.opacity, in.opacity);
       if (p.alphaCutoff >= 0) gl.ProgramUniform1f(p.id, p.alphaCutoff, in.alphaCutoff);
       if (in.texture) gl.BindTextureUnit(0, in.texture);
+      if (in.transmissionTexture) gl.BindTextureUnit(kTransmissionUnit, in.transmissionTexture);
     }
     gl.BindVertexArray(in.vao);
     gl.DrawElements(GL_TRIANGLES, in.indexCount, GL_UNSIGNED_INT, nullptr);
