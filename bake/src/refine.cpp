@@ -264,8 +264,21 @@ struct Work {
   std::unordered_map<uint64_t, uint32_t> edgeEstimate;  // index edge -> slot of its midpoint
   std::map<std::array<uint32_t, 3>, uint32_t> centroidEstimate;  // sorted corners -> slot
   // Rebuilt every round:
-  std::unordered_map<uint64_t, std::vector<uint32_t>> posEdgeTriangles;  // position edge -> triangles
-  std::unordered_map<uint64_t, std::vector<uint64_t>> posEdgeIndexEdges;  // position edge -> index edges
+  // Position edge -> its triangles (in triangle order) and the number of distinct index edges on
+  // it, as flat arrays sorted by edge (a hash map of vectors cost most of refinement in malloc).
+  std::vector<uint64_t> edgeKeys;         // sorted, unique
+  std::vector<uint32_t> edgeBegin;        // edgeKeys.size() + 1 offsets into edgeTriangles
+  std::vector<uint32_t> edgeTriangles;
+  std::vector<uint32_t> edgeIndexEdges;   // per edge: distinct index edges
+  size_t edgeSlot(uint64_t pe) const {
+    const auto it = std::lower_bound(edgeKeys.begin(), edgeKeys.end(), pe);
+    PRT_CHECK(it != edgeKeys.end() && *it == pe);
+    return size_t(it - edgeKeys.begin());
+  }
+  std::pair<const uint32_t*, const uint32_t*> trianglesOf(uint64_t pe) const {
+    const size_t k = edgeSlot(pe);
+    return {edgeTriangles.data() + edgeBegin[k], edgeTriangles.data() + edgeBegin[k + 1]};
+  }
   std::vector<uint64_t> longest;  // per triangle: its longest position edge
   uint64_t added = 0;
 };
@@ -300,8 +313,12 @@ uint64_t posEdgeOf(const Work& w, uint32_t a, uint32_t b) { return edgeKey(w.pos
 
 void buildAdjacency(Work& w) {
   const MeshInstance& m = *w.m;
-  w.posEdgeTriangles.clear();
-  w.posEdgeIndexEdges.clear();
+  struct Corner {
+    uint64_t pe, ie;
+    uint32_t t;
+  };
+  std::vector<Corner> corners;
+  corners.reserve(m.indices.size());
   w.longest.assign(m.triangleCount(), 0);
   for (uint32_t t = 0; t < m.triangleCount(); ++t) {
     const uint32_t* ix = &m.indices[3 * size_t(t)];
@@ -309,10 +326,7 @@ void buildAdjacency(Work& w) {
     for (int j = 0; j < 3; ++j) {
       const uint32_t a = ix[j], b = ix[(j + 1) % 3];
       const uint64_t pe = posEdgeOf(w, a, b);
-      w.posEdgeTriangles[pe].push_back(t);
-      auto& list = w.posEdgeIndexEdges[pe];
-      const uint64_t ie = edgeKey(a, b);
-      if (std::find(list.begin(), list.end(), ie) == list.end()) list.push_back(ie);
+      corners.push_back({pe, edgeKey(a, b), t});
       const double l = length2(m, a, b);
       if (best < 0.0 || longer(l, pe, best, w.longest[t])) {
         best = l;
@@ -320,6 +334,27 @@ void buildAdjacency(Work& w) {
       }
     }
   }
+  // Stable: a position edge's triangles stay in triangle order, as they were found.
+  std::stable_sort(corners.begin(), corners.end(), [](const Corner& x, const Corner& y) { return x.pe < y.pe; });
+  w.edgeKeys.clear();
+  w.edgeBegin.clear();
+  w.edgeTriangles.clear();
+  w.edgeIndexEdges.clear();
+  w.edgeTriangles.reserve(corners.size());
+  std::vector<uint64_t> seen;
+  for (size_t i = 0; i < corners.size();) {
+    size_t j = i;
+    seen.clear();
+    w.edgeKeys.push_back(corners[i].pe);
+    w.edgeBegin.push_back(uint32_t(w.edgeTriangles.size()));
+    for (; j < corners.size() && corners[j].pe == corners[i].pe; ++j) {
+      w.edgeTriangles.push_back(corners[j].t);
+      if (std::find(seen.begin(), seen.end(), corners[j].ie) == seen.end()) seen.push_back(corners[j].ie);
+    }
+    w.edgeIndexEdges.push_back(uint32_t(seen.size()));
+    i = j;
+  }
+  w.edgeBegin.push_back(uint32_t(w.edgeTriangles.size()));
 }
 
 glm::vec3 blendNormal(const Work& w, const Blend& b, const glm::vec3& fallback) {
@@ -348,9 +383,10 @@ uint64_t markWithClosure(const Work& w, uint64_t pe, std::unordered_set<uint64_t
     stack.pop_back();
     if (!marked.insert(e).second) continue;
     undo.push_back(e);
-    cost += w.posEdgeIndexEdges.at(e).size();
-    for (uint32_t t : w.posEdgeTriangles.at(e))
-      if (!marked.count(w.longest[t])) stack.push_back(w.longest[t]);
+    cost += w.edgeIndexEdges[w.edgeSlot(e)];
+    const auto [first, last] = w.trianglesOf(e);
+    for (const uint32_t* t = first; t != last; ++t)
+      if (!marked.count(w.longest[*t])) stack.push_back(w.longest[*t]);
   }
   return cost;
 }
@@ -560,8 +596,9 @@ RefineStats refineScene(Scene& scene, const RefineSettings& refine, const BakeSe
           if (fresh) {
             // Pulled towards the vertices opposite the edge, as a vertex there would be.
             glm::vec3 mid = (m.positions[a] + m.positions[b]) * 0.5f, pull(0.0f);
-            for (uint32_t u : w.posEdgeTriangles.at(posEdgeOf(w, a, b))) {
-              const uint32_t* jx = &m.indices[3 * size_t(u)];
+            const auto [first, last] = w.trianglesOf(posEdgeOf(w, a, b));
+            for (const uint32_t* u = first; u != last; ++u) {
+              const uint32_t* jx = &m.indices[3 * size_t(*u)];
               for (int c = 0; c < 3; ++c) {
                 if (w.posId[jx[c]] == w.posId[a] || w.posId[jx[c]] == w.posId[b]) continue;
                 const glm::vec3 d = m.positions[jx[c]] - mid;
