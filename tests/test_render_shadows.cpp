@@ -323,6 +323,29 @@ Check compareAwayFromEdges(const ImageRgb& img, const std::vector<OraclePixel>& 
   return c;
 }
 
+// The frame the renderer draws of `s` (1024² shadow maps) and the oracle's, under one lighting.
+struct Rendered {
+  std::vector<OraclePixel> oracle;
+  ImageRgb image;
+};
+
+Rendered renderWithOracle(const Scene& s, const CameraView& cam, const sh::ShRgb& light, const sh::ShRgb& directSh,
+                          const std::vector<DirectLight>& lights) {
+  const bake::RayScene rays(s);
+  Rendered out;
+  out.oracle = oracleFrame(s, rays, cam, kW, kH, light, directSh, lights);
+  GlContext ctx(GlBackend::OSMesa, kW, kH);
+  Renderer r(ctx, s);
+  Frame f;
+  f.camera = cam;
+  f.light = light;
+  f.directLight = directSh;
+  f.direct = lights;
+  f.shadows.mapSize = 1024;
+  out.image = r.render(f);
+  return out;
+}
+
 // ---------------------------------------------------------------------------------------------
 
 // An open plane under a sun: every pixel is ρ/π · E · directCosineFactor(n) (E cos θ above the
@@ -394,22 +417,12 @@ TEST(RenderDirect, PlaneUnderSunIsRhoOverPiECosTheta) {
 // silhouettes) are a bounded share.
 TEST(RenderDirect, MatchesRayTracedOracleAwayFromShadowEdges) {
   const Scene s = slabScene(3);
-  const bake::RayScene rays(s);
   const CameraView cam = lookAt({0.6, 3.2, 3.0}, {0.0, 0.3, 0.0}, 50.0);
-  const sh::ShRgb light = randomLight(3, 3, 1.0f), directSh = randomLight(3, 4, 0.5f);
   // The sun's shadow falls towards −X and the camera, the disk's towards +X.
   const std::vector<DirectLight> lights = {sun(35.0, 120.0, 0.265, {4.0, 3.5, 3.0}), sun(35.0, 250.0, 3.0, {1.0, 1.5, 2.0})};
-  const std::vector<OraclePixel> o = oracleFrame(s, rays, cam, kW, kH, light, directSh, lights);
-  GlContext ctx(GlBackend::OSMesa, kW, kH);
-  Renderer r(ctx, s);
-  Frame f;
-  f.camera = cam;
-  f.light = light;
-  f.directLight = directSh;
-  f.direct = lights;
-  f.shadows.mapSize = 1024;
-  const ImageRgb img = r.render(f);
-  const Check c = compareAwayFromEdges(img, o, kW, kH);
+  const Rendered rendered = renderWithOracle(s, cam, randomLight(3, 3, 1.0f), randomLight(3, 4, 0.5f), lights);
+  const std::vector<OraclePixel>& o = rendered.oracle;
+  const Check c = compareAwayFromEdges(rendered.image, o, kW, kH);
   int shadowed = 0;
   for (int py = 0; py < kH; ++py)
     for (int px = 0; px < kW; ++px)
@@ -676,21 +689,11 @@ TEST(RenderDirect, MaskCutoutsCastTheShadowOfTheirSolidPart) {
   for (size_t k = 0; k < s.meshes.size(); ++k) fillTransfer(s.meshes[k], 3, uint32_t(31 + k));
   s.transferBands = 3;
   updateBounds(s);
-  const bake::RayScene rays(s);
   const CameraView cam = lookAt({0.0, 2.4, 2.2}, {0.0, 0.0, 0.0}, 50.0);
-  const sh::ShRgb light = randomLight(3, 5, 1.0f), directSh = randomLight(3, 6, 0.3f);
   const std::vector<DirectLight> lights = {sun(80.0, 30.0, 0.265, {4.0, 3.5, 3.0})};
-  const std::vector<OraclePixel> o = oracleFrame(s, rays, cam, kW, kH, light, directSh, lights);
-  GlContext ctx(GlBackend::OSMesa, kW, kH);
-  Renderer r(ctx, s);
-  Frame f;
-  f.camera = cam;
-  f.light = light;
-  f.directLight = directSh;
-  f.direct = lights;
-  f.shadows.mapSize = 1024;
-  const ImageRgb img = r.render(f);
-  const Check c = compareAwayFromEdges(img, o, kW, kH);
+  const Rendered rendered = renderWithOracle(s, cam, randomLight(3, 5, 1.0f), randomLight(3, 6, 0.3f), lights);
+  const std::vector<OraclePixel>& o = rendered.oracle;
+  const Check c = compareAwayFromEdges(rendered.image, o, kW, kH);
   int throughHoles = 0, underSolid = 0;
   const glm::dvec3 d = glm::normalize(lights[0].direction);
   for (int py = 0; py < kH; ++py)
