@@ -443,20 +443,11 @@ TEST(RenderDirect, MatchesRayTracedOracleAwayFromShadowEdges) {
 // the band pixels (the direct term divided by its unshadowed value).
 TEST(RenderDirect, PenumbraFollowsTheDisk) {
   const Scene s = slabScene(3);
-  const bake::RayScene rays(s);
   const CameraView cam = lookAt({0.0, 2.6, 1.6}, {0.0, 0.0, 0.0}, 45.0);
-  const sh::ShRgb zero(3);
   const std::vector<DirectLight> lights = {sun(60.0, 200.0, 4.0, {2.0, 2.0, 2.0})};
-  const std::vector<OraclePixel> o = oracleFrame(s, rays, cam, kW, kH, zero, zero, lights);
-  GlContext ctx(GlBackend::OSMesa, kW, kH);
-  Renderer r(ctx, s);
-  Frame f;
-  f.camera = cam;
-  f.light = zero;
-  f.directLight = zero;
-  f.direct = lights;
-  f.shadows.mapSize = 1024;
-  const ImageRgb img = r.render(f);
+  const Rendered rendered = renderWithOracle(s, cam, sh::ShRgb(3), sh::ShRgb(3), lights);
+  const std::vector<OraclePixel>& o = rendered.oracle;
+  const ImageRgb& img = rendered.image;
   double sum = 0.0, worst = 0.0;
   int n = 0;
   for (int py = 1; py + 1 < kH; ++py)
