@@ -247,6 +247,14 @@ def parse_size(text):
     return w, h
 
 
+def write_sidecar(out, meta):
+    """OUT.json: the settings a result was made with (the validation scripts reuse it when they match)."""
+    meta = dict(meta, blender=bpy.app.version_string)
+    with open(out + ".json.tmp", "w") as f:
+        json.dump(meta, f, indent=1)
+    os.replace(out + ".json.tmp", out + ".json")
+
+
 def render(a):
     width, height = parse_size(a.size)
     clear_scene()
@@ -267,11 +275,8 @@ def render(a):
     os.replace(tmp, out)
     meta = {"scene": a.scene, "env": a.env, "env_rotate_deg": a.env_rotate, "bounces": a.bounces,
             "samples": a.samples, "seed": a.seed, "size": [width, height], "camera": cam.name,
-            "yfov": yfov, "removed": a.remove, "object_index": indices, "albedo": colours,
-            "blender": bpy.app.version_string}
-    with open(out + ".json.tmp", "w") as f:
-        json.dump(meta, f, indent=1)
-    os.replace(out + ".json.tmp", out + ".json")
+            "yfov": yfov, "removed": a.remove, "object_index": indices, "albedo": colours}
+    write_sidecar(out, meta)
     print(f"cycles_reference.py: wrote {a.output} ({width}x{height}, {a.samples} samples, "
           f"{a.bounces} diffuse bounces, objects {indices})")
 

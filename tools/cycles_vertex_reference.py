@@ -28,7 +28,6 @@ normals in glTF axes (Blender (x, y, z) -> glTF (x, z, -y)), and OUT.csv.json wi
 """
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -106,11 +105,8 @@ def main():
                 rows += 1
     os.replace(out + ".tmp", out)
     meta = {"scene": a.scene, "env": a.env, "env_rotate_deg": a.env_rotate, "bounces": a.bounces,
-            "samples": a.samples, "seeds": seeds, "albedo": colours, "vertices": rows,
-            "blender": bpy.app.version_string}
-    with open(out + ".json.tmp", "w") as f:
-        json.dump(meta, f, indent=1)
-    os.replace(out + ".json.tmp", out + ".json")
+            "samples": a.samples, "seeds": seeds, "albedo": colours, "vertices": rows}
+    cr.write_sidecar(out, meta)
     print(f"cycles_vertex_reference.py: wrote {a.output} ({rows} vertices, {a.samples} samples x {len(seeds)} seeds, "
           f"{a.bounces} diffuse bounces)")
 

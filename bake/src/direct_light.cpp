@@ -173,11 +173,18 @@ std::vector<glm::vec3> shadowedDirectIrradianceAt(const Scene& scene, const std:
                                                   const std::vector<glm::vec3>& normals,
                                                   const std::vector<DirectLight>& lights, const ShadowSettings& settings) {
   validate(settings);
+  if (lights.empty() || points.empty()) return std::vector<glm::vec3>(points.size(), glm::vec3(0.0f));
+  return shadowedDirectIrradianceAt(RayScene(scene), points, normals, lights, settings);
+}
+
+std::vector<glm::vec3> shadowedDirectIrradianceAt(const RayScene& rays, const std::vector<glm::vec3>& points,
+                                                  const std::vector<glm::vec3>& normals,
+                                                  const std::vector<DirectLight>& lights, const ShadowSettings& settings) {
+  validate(settings);
   PRT_CHECK_EQ(points.size(), normals.size());
   const ThreadLimit threadLimit(settings.threads);
   std::vector<glm::vec3> out(points.size(), glm::vec3(0.0f));
   if (lights.empty() || points.empty()) return out;
-  const RayScene rays(scene);
   const float extent = rays.sceneExtent(), tnear = tnearFor(extent);
   std::vector<CapSampler> caps;
   for (const DirectLight& l : lights) caps.emplace_back(l);

@@ -155,17 +155,12 @@ public:
     return receive ? all : std::vector<std::string>{};
   }
 
-  uint64_t minimum(uint64_t v) override {
+  uint64_t minimum(uint64_t v) override { return allReduce(v, MPI_MIN); }
+  uint64_t sum(uint64_t v) override { return allReduce(v, MPI_SUM); }
+  uint64_t allReduce(uint64_t v, MPI_Op op) {
     uint64_t out = v;
     MPI_Request req;
-    check(MPI_Iallreduce(&v, &out, 1, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD, &req), "MPI_Iallreduce");
-    await(req, "MPI_Iallreduce");
-    return out;
-  }
-  uint64_t sum(uint64_t v) override {
-    uint64_t out = v;
-    MPI_Request req;
-    check(MPI_Iallreduce(&v, &out, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD, &req), "MPI_Iallreduce");
+    check(MPI_Iallreduce(&v, &out, 1, MPI_UINT64_T, op, MPI_COMM_WORLD, &req), "MPI_Iallreduce");
     await(req, "MPI_Iallreduce");
     return out;
   }

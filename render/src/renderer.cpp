@@ -1050,7 +1050,6 @@ void Renderer::Impl::drawShadows(const Frame& frame, double aspect, int height, 
     gl.Enable(GL_DEPTH_TEST);
     gl.DepthFunc(GL_LESS);
     gl.Disable(GL_CULL_FACE);
-    gl.UseProgram(depthProgram.id);
     const float one = 1.0f;
     for (int layer = 0; layer < layers; ++layer) {
       gl.NamedFramebufferTextureLayer(shadowFbo, GL_DEPTH_ATTACHMENT, shadowTexture, 0, layer);
@@ -1059,11 +1058,15 @@ void Renderer::Impl::drawShadows(const Frame& frame, double aspect, int height, 
       const glm::mat4 vp(viewProj), identity(1.0f);
       // Opaque casters with the plain depth program; those that let light through with their
       // material's (cutoutDepthProgram).
+      GLuint current = 0;  // the program in use: switched only between opaque and cutout casters
       auto cast = [&](const Instance& in, const glm::mat4& model) {
         const bool cutout = in.blend || (in.variant & kVariantMask);
         const Program& p = cutout ? cutoutDepthProgram(in.variant) : depthProgram;
-        gl.UseProgram(p.id);
-        gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &vp[0][0]);
+        if (p.id != current) {
+          gl.UseProgram(p.id);
+          gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &vp[0][0]);
+          current = p.id;
+        }
         gl.ProgramUniformMatrix4fv(p.id, p.model, 1, GL_FALSE, &model[0][0]);
         if (cutout) {
           gl.ProgramUniform4fv(p.id, p.baseColor, 1, &in.baseColor.x);

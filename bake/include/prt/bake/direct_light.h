@@ -53,6 +53,11 @@ std::vector<glm::vec3> shadowedDirectIrradianceAt(const Scene& scene, const std:
                                                   const std::vector<glm::vec3>& normals,
                                                   const std::vector<DirectLight>& lights,
                                                   const ShadowSettings& settings = {});
+/// The same traced against `rays` (built from the scene), for callers that query many times.
+std::vector<glm::vec3> shadowedDirectIrradianceAt(const RayScene& rays, const std::vector<glm::vec3>& points,
+                                                  const std::vector<glm::vec3>& normals,
+                                                  const std::vector<DirectLight>& lights,
+                                                  const ShadowSettings& settings = {});
 
 struct BounceSettings {
   int samples = 256;  // gather rays per vertex and side: the first of the bake's own rays
