@@ -20,6 +20,8 @@
 #include "prt/render/renderer.h"
 #include "prt/scene.h"
 
+#include "direct_shading.h"  // render/src: planShadows
+
 namespace prt::render {
 namespace {
 
@@ -701,6 +703,134 @@ TEST(RenderDirect, MaskCutoutsCastTheShadowOfTheirSolidPart) {
   EXPECT_GT(throughHoles, 30);
   EXPECT_GT(underSolid, 30);
   EXPECT_LE(c.maxError, 1e-4);
+}
+
+// A BLEND layer of opacity a casts a partial shadow of 1 − a of the light on average, as the
+// bake's rays and the oracle's (a coin per ray) do: a 1.2 m lid of alpha 0.5 at 0.8 m over a
+// floor, a disk light of 3° at 60°, the SH light zero, the camera below the lid (so no pixel is
+// seen through it). The shadow map's per-texel coin (the depth pass's hash) and the PCSS filter
+// (16 samples over a penumbra disk of about 4 cm, some 15 texels wide) give each pixel a noisy
+// share; over the pixels whose shadow ray meets the lid at least 0.1 m from its edge (> 300),
+// the mean share must be 0.5 within 0.03. Were each pixel a single coin, the mean's noise
+// would be 0.5/√300 = 0.029; with 16 samples of distinct texels it is 0.007: 0.03 is 4σ of
+// that, and allows for the hash's own bias. A BLEND caster that casts nothing (the maps before
+// cutouts) gives 1, a solid one 0.
+TEST(RenderDirect, BlendedLayerCastsThePartialShadowOfItsOpacity) {
+  Scene s;
+  s.path = "blend";
+  Material grey, glass;
+  grey.baseColorFactor = glm::vec4(0.8f, 0.8f, 0.8f, 1.0f);
+  glass.baseColorFactor = glm::vec4(0.9f, 0.6f, 0.4f, 0.5f);
+  glass.alphaMode = Material::AlphaMode::Blend;
+  s.materials = {grey, glass};
+  MeshInstance floor = quad("floor", {-2.0f, 0.0f, 2.0f}, {4.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -4.0f}, 8, 8);
+  floor.material = 0;
+  MeshInstance lid = quad("lid", {-0.6f, 0.8f, 0.6f}, {1.2f, 0.0f, 0.0f}, {0.0f, 0.0f, -1.2f}, 1, 1);
+  lid.material = 1;
+  s.meshes = {floor, lid};
+  for (size_t k = 0; k < s.meshes.size(); ++k) fillTransfer(s.meshes[k], 3, uint32_t(41 + k));
+  s.transferBands = 3;
+  updateBounds(s);
+  const std::vector<DirectLight> lights = {sun(60.0, 30.0, 3.0, {4.0, 3.5, 3.0})};
+  const glm::dvec3 d = glm::normalize(lights[0].direction);
+  // The lid's shadow on the floor is centred at −d_xz · 0.8 / d_y; the camera looks at it from
+  // 0.45 m high, on the side away from the sun.
+  const glm::dvec3 away = glm::normalize(glm::dvec3(-d.x, 0.0, -d.z));
+  const glm::dvec3 centre = away * (0.8 * glm::length(glm::dvec2(d.x, d.z)) / d.y);
+  const CameraView cam = lookAt(centre + away * 1.8 + glm::dvec3(0.0, 0.45, 0.0), centre, 40.0);
+  const Rendered rendered = renderWithOracle(s, cam, sh::ShRgb(3), sh::ShRgb(3), lights);
+  const double unshadowed = 0.8 * kInvPi * 3.5 * directCosineFactor(lights[0], glm::dvec3(0.0, 1.0, 0.0));
+  double sumRender = 0.0, sumOracle = 0.0, lo = 1e30, hi = -1e30;
+  int n = 0;
+  for (int py = 0; py < kH; ++py)
+    for (int px = 0; px < kW; ++px) {
+      const OraclePixel& q = rendered.oracle[size_t(py) * kW + px];
+      if (!q.s.hit || q.s.mesh != 0) continue;
+      const glm::dvec3 atLid = q.s.x + d * ((0.8 - q.s.x.y) / d.y);
+      if (std::abs(atLid.x) > 0.5 || std::abs(atLid.z) > 0.5) continue;
+      const double share = double(rendered.image.at(px, py).g) / unshadowed;
+      sumRender += share;
+      sumOracle += q.share[0];
+      lo = std::min(lo, share);
+      hi = std::max(hi, share);
+      ++n;
+    }
+  ASSERT_GT(n, 0);
+  std::printf("[ measured ] %d floor pixels in the lid's shadow: mean share %.4f (oracle %.4f), per pixel %.3f .. %.3f\n",
+              n, sumRender / n, sumOracle / n, lo, hi);
+  EXPECT_GT(n, 300);
+  EXPECT_NEAR(sumOracle / n, 0.5, 0.01);  // the oracle's coin: 256 rays a pixel
+  EXPECT_NEAR(sumRender / n, 0.5, 0.03);
+  EXPECT_GE(lo, -1e-4);
+  EXPECT_LE(hi, 1.0 + 1e-4);
+}
+
+// Texel snapping (docs/render.md, "Shadow maps"): while the camera moves, each map's texel grid
+// stays where it is in the world, so shadow edges do not crawl. A camera walking 12 steps of
+// 1.3 cm and 0.4° through the slab scene, two suns: between consecutive frames a layer keeps
+// its texel size except where its side crosses a step of the ladder (rare: at most 3 of the
+// 11 × layers pairs), and where it keeps it, every world point lies a whole number of texels
+// apart in the two maps (without snapping, a fraction: the camera's offset). And the maps still
+// cover what they must: points of the casters' box that the view sees land in their cascade's
+// map at least 4 texels inside its border.
+TEST(RenderDirect, ShadowMapTexelsStayPutWhileTheCameraMoves) {
+  const std::vector<DirectLight> lights = {sun(50.0, 30.0, 0.265, {1.0, 1.0, 1.0}), sun(70.0, 200.0, 2.0, {1.0, 1.0, 1.0})};
+  const glm::dvec3 lo(-1.5, 0.0, -1.5), hi(1.5, 1.4, 1.5);
+  const double aspect = 4.0 / 3.0;
+  const int height = 720, mapSize = 1024;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  ShadowPlan prev;
+  int pairs = 0, kept = 0, covered = 0;
+  double worstFraction = 0.0, worstInset = 1e30;
+  for (int step = 0; step < 12; ++step) {
+    // Inside the box, looking across it: two cascades.
+    const double a = glm::radians(0.4 * step);
+    const glm::dvec3 eye(0.2 + 0.013 * step, 0.6, 1.3);
+    const CameraView cam = lookAt(eye, eye + glm::dvec3(std::sin(a) - 0.1, -0.25, -std::cos(a)), 60.0);
+    const ShadowPlan plan = planShadows(lights, cam, aspect, height, lo, hi, mapSize, 4);
+    ASSERT_EQ(plan.layers.size(), lights.size() * size_t(plan.cascades));
+    EXPECT_GE(plan.cascades, 2);
+    if (step > 0 && prev.cascades == plan.cascades)
+      for (size_t l = 0; l < plan.layers.size(); ++l) {
+        const ShadowLayer &p = prev.layers[l], &q = plan.layers[l];
+        ++pairs;
+        if (p.texel != q.texel) continue;
+        ++kept;
+        for (int k = 0; k < 16; ++k) {
+          const glm::dvec4 x(lo + (hi - lo) * glm::dvec3(u(rng), u(rng), u(rng)), 1.0);
+          const glm::dvec2 d = (glm::dvec2(p.worldToMap * x) - glm::dvec2(q.worldToMap * x)) / q.texel;
+          worstFraction = std::max({worstFraction, std::abs(d.x - std::round(d.x)), std::abs(d.y - std::round(d.y))});
+        }
+      }
+    // Coverage: box points in the view, in the map of their cascade.
+    const glm::dmat4 toCamera = glm::inverse(cam.cameraToWorld);
+    const double tanY = std::tan(0.5 * cam.yfov);
+    for (int k = 0; k < 400; ++k) {
+      const glm::dvec3 x = lo + (hi - lo) * glm::dvec3(u(rng), u(rng), u(rng));
+      const glm::dvec3 c(toCamera * glm::dvec4(x, 1.0));
+      const double depth = -c.z;
+      if (depth <= cam.znear || std::abs(c.y) > depth * tanY || std::abs(c.x) > depth * tanY * aspect) continue;
+      int cascade = 0;
+      while (cascade + 1 < plan.cascades && depth >= plan.cascadeFar[cascade]) ++cascade;
+      for (size_t l = 0; l < lights.size(); ++l) {
+        const ShadowLayer& layer = plan.layers[l * size_t(plan.cascades) + size_t(cascade)];
+        const glm::dvec3 m(layer.worldToMap * glm::dvec4(x, 1.0));
+        worstInset = std::min({worstInset, m.x / layer.texel, m.y / layer.texel, (layer.side - m.x) / layer.texel,
+                               (layer.side - m.y) / layer.texel});
+        ++covered;
+      }
+    }
+    prev = plan;
+  }
+  std::printf("[ measured ] %d of %d consecutive layer pairs kept their texel; worst offset %.3g of a texel from a "
+              "whole number; %d covered points, nearest %.1f texels from a map's border\n",
+              kept, pairs, worstFraction, covered, worstInset);
+  ASSERT_GT(pairs, 0);
+  EXPECT_GE(kept, pairs - 3);
+  EXPECT_LE(worstFraction, 1e-6);
+  EXPECT_GT(covered, 200);
+  EXPECT_GE(worstInset, 4.0);
 }
 
 TEST(RenderDirect, TooManyDirectLightsIsAnError) {

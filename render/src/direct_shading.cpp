@@ -281,14 +281,23 @@ ShadowPlan planShadows(const std::vector<DirectLight>& lights, const CameraView&
       glm::dvec2 xLo = glm::max(sLo, glm::dvec2(bLo)), xHi = glm::min(sHi, glm::dvec2(bHi));
       xHi = glm::max(xHi, xLo + 1e-6 * diag);
       double side = std::max(xHi.x - xLo.x, xHi.y - xLo.y);
-      // A margin for the search and filter disks of receivers at the edge of the slice.
+      // A margin for the search and filter disks of receivers at the edge of the slice, and two
+      // texels for the snapping below.
       const double grow = std::min(tanR * range, 0.25 * side) + 4.0 * side / mapSize;
-      side += 2.0 * grow;
-      const glm::dvec2 centre = 0.5 * (xLo + xHi), corner = centre - 0.5 * side;
+      side += 2.0 * grow + 2.0 * side / mapSize;
+      // Texel snapping (stable cascades, Valient 2008): the side is rounded up to a step of a
+      // ladder fixed by the casters' box (diag · 2^(k/8)) and the map's corner down to a whole
+      // texel of light space, so the texel grid stays put in the world while the camera moves
+      // and jumps only when the side crosses a step (texels at most 9% coarser): shadow edges
+      // do not crawl from frame to frame. The corner moves by less than a texel, which the
+      // texels added above cover.
+      side = diag * std::exp2(std::ceil(8.0 * std::log2(side / diag) - 1e-9) / 8.0);
+      const double texel = side / mapSize;
+      const glm::dvec2 centre = 0.5 * (xLo + xHi), corner = glm::floor((centre - 0.5 * side) / texel) * texel;
       ShadowLayer layer;
       layer.side = side;
       layer.range = range;
-      layer.texel = side / mapSize;
+      layer.texel = texel;
       layer.tanRadius = tanR;
       const glm::dvec3 axes[3] = {e1, e2, e3};
       const double offset[3] = {corner.x, corner.y, bLo.z};
