@@ -639,6 +639,29 @@ TEST(RenderDirect, GatheredBounceReplacesTheBounceThroughSh) {
       ++lit;
     }
   EXPECT_GT(lit, kW * kH / 2);
+  // Without direct lights (a sky whose detail is gathered: docs/lights.md, "Sky detail") the
+  // gathered irradiance is added just the same: X more than the frame of the SH light alone.
+  {
+    Frame g = f;
+    g.direct.clear();
+    g.directLight = sh::ShRgb(3);
+    g.directBounce = nullptr;
+    const ImageRgb skyOnly = r.render(g);
+    g.directBounce = &lifted;
+    const ImageRgb skyUp = r.render(g);
+    int added = 0;
+    for (int py = 0; py < kH; ++py)
+      for (int px = 0; px < kW; ++px) {
+        const glm::vec3 d = skyUp.at(px, py) - skyOnly.at(px, py);
+        if (d == glm::vec3(0.0f)) continue;  // background
+        const glm::vec3 grey = glm::vec3(0.8f) * x * float(kInvPi), warm = glm::vec3(0.9f, 0.6f, 0.4f) * x * float(kInvPi);
+        ASSERT_LT(std::min(glm::length(d - grey), glm::length(d - warm)), 2e-5f) << "pixel " << px << "," << py;
+        ++added;
+      }
+    EXPECT_GT(added, kW * kH / 2);
+    g.directBounce = &zeros;
+    EXPECT_EQ(r.render(g).pixels, skyOnly.pixels);
+  }
   f.directBounce = nullptr;  // no bounce given again: the buffers are zero, the plain frame
   f.directLight = sh::ShRgb(3);
   EXPECT_EQ(r.render(f).pixels, plain.pixels);

@@ -55,10 +55,13 @@ void addRelight(CLI::App& cmd, RelightArgs& a) {
       ->check(CLI::Range(1, 65536))
       ->capture_default_str();
   cmd.add_option("--bounce-samples", a.bounceSamples,
-                 "Rays per vertex that gather the direct lights' bounced light (the bake's own first rays); 0: "
-                 "their bounces through the SH transfer instead")
+                 "Rays per vertex (the bake's own first rays) that gather the direct lights' bounced light and "
+                 "the sky's light beyond the SH band limit; 0: both through the SH transfer instead")
       ->check(CLI::Range(0, 16777216))
       ->capture_default_str();
+  cmd.add_flag("--no-sky-detail", a.noSkyDetail,
+               "Light the sky (maps, residuals, uniform skies) through the SH transfer alone, without its light "
+               "beyond the band limit gathered over those rays");
   cmd.add_option("--threads", a.threads, "Threads for the shadow and bounce rays (0 = all cores)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
@@ -77,7 +80,7 @@ int runRelight(const RelightArgs& a) {
   RigLighting lighting = lightingAt(rig, a.light, a.light.frame, scene.transferBands);
   std::vector<std::vector<glm::vec3>> radiance, back;
   bake::DirectIrradiance direct;
-  std::string bounceLine;
+  std::string bounceLine, skyLine;
   if (!lighting.direct.empty() && !hasDirectTransfer(scene)) {
     // A bake from before the split: the suns go through the whole transfer, as they did then.
     if (!a.quiet)
@@ -88,7 +91,14 @@ int runRelight(const RelightArgs& a) {
     lighting.directSh = sh::ShRgb(scene.transferBands);
     lighting.direct.clear();
   }
-  if (lighting.direct.empty()) {  // directSh is zero then: every light is in sh
+  const BakeRecord record = scene.bakeRecord.value_or(BakeRecord{});
+  // The bake's own rays, traced again: they gather the direct lights' bounces and the sky's
+  // detail beyond the band limit (docs/lights.md, "Sky detail"). Not with --no-direct-lights
+  // (every light through SH, the behaviour before the split) nor for bakes without the direct
+  // part (relightVerticesSplit needs it).
+  const bool gather = a.bounceSamples > 0 && !a.light.noDirect && hasDirectTransfer(scene);
+  const bool skyDetail = gather && !a.noSkyDetail;
+  if (lighting.direct.empty() && !skyDetail) {  // directSh is zero then: every light is in sh
     radiance = relightVertices(scene, lighting.sh);
     back = relightBackVertices(scene, lighting.sh);
   } else {
@@ -96,25 +106,32 @@ int runRelight(const RelightArgs& a) {
     shadows.samples = a.shadowSamples;
     shadows.threads = a.threads;
     direct = bake::shadowedDirectIrradiance(scene, lighting.direct, shadows);
-    const BakeRecord record = scene.bakeRecord.value_or(BakeRecord{});
     sh::ShRgb directSh = lighting.directSh;
-    if (a.bounceSamples > 0 && record.bounces > 0) {
-      // Their bounces gathered over the bake's rays instead of through (t − t⁰) · directSh.
+    if (gather) {
+      // Their bounces gathered over the bake's rays instead of through (t − t⁰) · directSh,
+      // and the sky's detail Δ added to the direct light (it bounces with it).
       bake::BounceSettings bs;
       bs.samples = a.bounceSamples;
       bs.bounces = record.bounces;
       bs.seed = record.seed;
       bs.threads = a.threads;
-      const bake::DirectBounce gather(scene, bs);
-      const bake::DirectIrradiance bounced = gather.bounce(direct);
-      for (size_t k = 0; k < scene.meshes.size(); ++k) {
-        for (size_t v = 0; v < bounced.front[k].size(); ++v) direct.front[k][v] += bounced.front[k][v];
-        for (size_t v = 0; v < bounced.back[k].size(); ++v) direct.back[k][v] += bounced.back[k][v];
+      const bake::DirectBounce rays(scene, bs);
+      double seconds = rays.traceSeconds();
+      if (skyDetail) {
+        const bake::DirectIrradiance delta = rays.skyDetail(rig.shRadiance(a.light.frame), lighting.sh);
+        bake::addIrradiance(direct, delta);
+        seconds += delta.seconds;
+        skyLine = cat("sky detail    the light beyond ", scene.transferBands, " bands over the same rays");
       }
-      char seconds[32];
-      std::snprintf(seconds, sizeof seconds, "%.2f", gather.traceSeconds() + bounced.seconds);
-      bounceLine = cat("bounce rays   ", gather.rays(), " (", a.bounceSamples, " per vertex, ", record.bounces,
-                       " bounces as baked) in ", seconds, " s");
+      if (record.bounces > 0) {
+        const bake::DirectIrradiance bounced = rays.bounce(direct);
+        bake::addIrradiance(direct, bounced);
+        seconds += bounced.seconds;
+      }
+      char text[32];
+      std::snprintf(text, sizeof text, "%.2f", seconds);
+      bounceLine = cat("gather rays   ", rays.rays(), " (", a.bounceSamples, " per vertex, ", record.bounces,
+                       " bounces as baked) in ", text, " s");
       directSh = sh::ShRgb(scene.transferBands);
     } else {
       bounceLine = record.bounces > 0 ? "bounces       through the SH transfer (--bounce-samples 0)"
@@ -147,8 +164,10 @@ int runRelight(const RelightArgs& a) {
     for (const std::string& line : describeDirectLights(lighting, rig)) std::fprintf(stderr, "    %s\n", line.c_str());
     std::fprintf(stderr, "  shadow rays   %llu (%d per light and vertex) in %.2f s\n", (unsigned long long)direct.rays,
                  a.shadowSamples, direct.seconds);
-    std::fprintf(stderr, "  %s\n", bounceLine.c_str());
-  } else if (a.light.noDirect) {
+  }
+  if (!skyLine.empty()) std::fprintf(stderr, "  %s\n", skyLine.c_str());
+  if (!bounceLine.empty() && (!lighting.direct.empty() || !skyLine.empty())) std::fprintf(stderr, "  %s\n", bounceLine.c_str());
+  if (lighting.direct.empty() && a.light.noDirect) {
     std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
   }
   return 0;

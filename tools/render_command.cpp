@@ -389,10 +389,13 @@ void addRender(CLI::App& r, RenderArgs& a) {
       ->check(CLI::Range(16, 8192))
       ->capture_default_str();
   r.add_option("--bounce-samples", a.bounceSamples,
-               "Rays per baked vertex that gather the direct lights' bounced light (the bake's own first rays), "
-               "traced once; 0: their bounces through the SH transfer instead")
+               "Rays per baked vertex (the bake's own first rays, traced once) that gather the direct lights' bounced "
+               "light and the sky's light beyond the SH band limit; 0: both through the SH transfer instead")
       ->check(CLI::Range(0, 16777216))
       ->capture_default_str();
+  r.add_flag("--no-sky-detail", a.noSkyDetail,
+             "Light the sky (maps, residuals, uniform skies) through the SH transfer alone, without its light beyond "
+             "the band limit gathered over those rays");
   r.add_option("--contact-sheet", a.contactSheet, "Also write a PNG grid of all frames, downscaled");
   r.add_option("--sheet-columns", a.sheetColumns, "Contact sheet columns (0 = about square)")
       ->check(CLI::Range(0, std::numeric_limits<int>::max()).description(">= 0"))
@@ -486,21 +489,27 @@ int runRender(const RenderArgs& a) {
   rig->prepare(bands);
   const double prepareMs = msSince(tPrepare);
   double lightMs = 0.0, drawMs = 0.0, readbackMs = 0.0, writeMs = 0.0, encodeMs = 0.0;
-  // The direct lights' bounces on baked surfaces, gathered over the bake's own rays (traced
-  // once, here) from their shadowed light at the vertices, redone only when they change.
+  // Gathered over the bake's own rays (traced once, here; docs/render.md, "Gathered light"):
+  // the direct lights' bounces on baked surfaces, from their shadowed light at the vertices, and
+  // the sky's detail beyond the band limit (it bounces with them); redone only when the direct
+  // lights or the sky change.
   const BakeRecord record = scene.bakeRecord.value_or(BakeRecord{});
+  const bool gatherable = a.bounceSamples > 0 && !a.light.noDirect && hasDirectTransfer(scene);
+  const bool skyDetail = gatherable && !a.noSkyDetail;
+  const bool directBounces = gatherable && !firstLighting.direct.empty() && record.bounces > 0;
   std::unique_ptr<bake::DirectBounce> gather;
   std::unique_ptr<bake::RayScene> shadowRays;  // the static scene, for the bounce's shadow rays
-  if (!firstLighting.direct.empty() && a.bounceSamples > 0 && record.bounces > 0 && hasDirectTransfer(scene)) {
+  if (skyDetail || directBounces) {
     bake::BounceSettings bs;
     bs.samples = a.bounceSamples;
     bs.bounces = record.bounces;
     bs.seed = record.seed;
     gather = std::make_unique<bake::DirectBounce>(scene, bs);
-    shadowRays = std::make_unique<bake::RayScene>(scene);
+    if (directBounces) shadowRays = std::make_unique<bake::RayScene>(scene);
   }
   bake::DirectIrradiance bounced;
   std::vector<DirectLight> bouncedFor;
+  sh::ShRgb skyFor;
   double bounceMs = 0.0, bounceShadowMs = 0.0, bounceGatherMs = 0.0;
   int bounceUpdates = 0;
   auto sameLights = [](const std::vector<DirectLight>& x, const std::vector<DirectLight>& y) {
@@ -520,16 +529,28 @@ int runRender(const RenderArgs& a) {
     frame.directLight = std::move(lighting.directSh);
     frame.direct = std::move(lighting.direct);
     double frameBounceMs = 0.0;
-    if (gather && !frame.direct.empty()) {
-      if (bounceUpdates == 0 || !sameLights(frame.direct, bouncedFor)) {
+    if (gather) {
+      const bool skyChanged = skyDetail && (bounceUpdates == 0 || frame.light.c != skyFor.c);
+      if (bounceUpdates == 0 || skyChanged || !sameLights(frame.direct, bouncedFor)) {
         const auto tb = std::chrono::steady_clock::now();
         bake::ShadowSettings ss;
         ss.samples = kBounceShadowSamples;
-        const bake::DirectIrradiance lit = bake::shadowedDirectIrradiance(scene, *shadowRays, frame.direct, ss);
-        bounced = gather->bounce(lit);
+        // E⁰: the direct lights' shadowed light (lit per pixel; here only what they bounce) and
+        // the sky's detail Δ (added per vertex, and bounced).
+        bake::DirectIrradiance lit = directBounces ? bake::shadowedDirectIrradiance(scene, *shadowRays, frame.direct, ss)
+                                                   : bake::shadowedDirectIrradiance(scene, {}, ss);  // dark
         bounceShadowMs += lit.seconds * 1e3;
+        bake::DirectIrradiance delta;
+        if (skyDetail) {
+          delta = gather->skyDetail(rig->shRadiance(double(f)), frame.light);
+          bake::addIrradiance(lit, delta);
+          bounceGatherMs += delta.seconds * 1e3;
+        }
+        bounced = gather->bounce(lit);
         bounceGatherMs += bounced.seconds * 1e3;
+        if (skyDetail) bake::addIrradiance(bounced, delta);
         bouncedFor = frame.direct;
+        skyFor = frame.light;
         frameBounceMs = msSince(tb);
         bounceMs += frameBounceMs;
         ++bounceUpdates;

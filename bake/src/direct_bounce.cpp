@@ -9,6 +9,8 @@
 #include "prt/bake/direct_light.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/error.h"
+#include "prt/math.h"
+#include "prt/sh.h"
 #include "stage_runner.h"
 #include "surface_layout.h"
 #include "vertex_rays.h"
@@ -39,6 +41,11 @@ struct DirectBounce::Impl {
   Layout lay;
   AlbedoLookup albedo;
   std::vector<ChunkHits> chunks;  // chunk c: vertices [c·kChunk, (c+1)·kChunk)
+  // Per chunk, per vertex, which of its K rays escaped: ceil(K / 64) words a vertex, bit j of
+  // word j / 64 for ray j.
+  std::vector<std::vector<uint64_t>> escaped;
+  std::vector<glm::vec3> origins;
+  float tnear = 0.0f;
   uint64_t rays = 0, hits = 0;
   double seconds = 0.0;
 
@@ -53,24 +60,34 @@ DirectBounce::DirectBounce(const Scene& scene, const BounceSettings& settings)
   Impl& b = *impl_;
   const Layout& lay = b.lay;
   b.chunks.resize((lay.vertices + kChunk - 1) / kChunk);
-  if (settings.bounces == 0 || lay.vertices == 0) return;
+  b.escaped.resize(b.chunks.size());
+  if (lay.vertices == 0) return;
   const RayScene rays(scene);
-  const float extent = rays.sceneExtent(), tnear = tnearFor(extent);
-  const std::vector<glm::vec3> origins = rayOrigins(scene, lay, extent);
+  const float extent = rays.sceneExtent();
+  b.tnear = tnearFor(extent);
+  b.origins = rayOrigins(scene, lay, extent);
   const uint32_t K = uint32_t(settings.samples);
+  const size_t words = (K + 63) / 64;
   tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {
     alignas(64) Ray batch[kStream];
     ChunkHits& ch = b.chunks[c];
     ch.begin.assign(1, 0);
     const size_t end = std::min(lay.vertices, (c + 1) * kChunk);
+    std::vector<uint64_t>& esc = b.escaped[c];
+    esc.assign((end - c * kChunk) * words, 0);
     for (size_t v = c * kChunk; v < end; ++v) {
-      const VertexSampler sampler(origins[v], normalOf(scene, lay, v), settings.seed, v, tnear);
+      const VertexSampler sampler(b.origins[v], normalOf(scene, lay, v), settings.seed, v, b.tnear);
+      uint64_t* mask = &esc[(v - c * kChunk) * words];
       for (uint32_t first = 0; first < K; first += kStream) {
         const uint32_t count = std::min(kStream, K - first);
         for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
         rays.intersect(batch, count);
         for (uint32_t j = 0; j < count; ++j) {
-          if (!batch[j].hit()) continue;
+          if (!batch[j].hit()) {
+            mask[(first + j) / 64] |= uint64_t(1) << ((first + j) % 64);
+            continue;
+          }
+          if (settings.bounces == 0) continue;
           const uint32_t tri = recordedTriangle(lay, batch[j]);
           if (tri != Layout::kNone) ch.hits.push_back({tri, quantise(batch[j].u), quantise(batch[j].v)});
         }
@@ -89,6 +106,62 @@ DirectBounce::~DirectBounce() = default;
 uint64_t DirectBounce::rays() const { return impl_->rays; }
 uint64_t DirectBounce::hitRecords() const { return impl_->hits; }
 double DirectBounce::traceSeconds() const { return impl_->seconds; }
+
+void addIrradiance(DirectIrradiance& a, const DirectIrradiance& b) {
+  for (size_t k = 0; k < b.front.size() && k < a.front.size(); ++k) {
+    for (size_t v = 0; v < b.front[k].size() && v < a.front[k].size(); ++v) a.front[k][v] += b.front[k][v];
+    for (size_t v = 0; v < b.back[k].size() && v < a.back[k].size(); ++v) a.back[k][v] += b.back[k][v];
+  }
+}
+
+DirectIrradiance DirectBounce::skyDetail(const RigBackground& sky, const sh::ShRgb& sh) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  const ThreadLimit threadLimit(impl_->settings.threads);
+  const Impl& b = *impl_;
+  const Layout& lay = b.lay;
+  const Scene& scene = b.scene;
+  const int bands = scene.transferBands > 0 ? scene.transferBands : sh.bands;
+  const int n2 = bands * bands;
+  const uint32_t K = uint32_t(b.settings.samples);
+  const size_t words = (K + 63) / 64;
+  std::vector<glm::vec3> delta(lay.vertices, glm::vec3(0.0f));
+  tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {
+    const size_t first = c * kChunk, end = std::min(lay.vertices, first + kChunk);
+    double y[sh::kMaxBands * sh::kMaxBands];
+    Ray ray;
+    for (size_t v = first; v < end; ++v) {
+      const VertexSampler sampler(b.origins[v], normalOf(scene, lay, v), b.settings.seed, v, b.tnear);
+      const uint64_t* mask = &b.escaped[c][(v - first) * words];
+      glm::dvec3 sum(0.0);
+      for (uint32_t j = 0; j < K; ++j) {
+        if (!(mask[j / 64] >> (j % 64) & 1)) continue;
+        sampler.make(j, ray);
+        const glm::dvec3 d(ray.dir);
+        sh::evaluate(bands, d, y);
+        glm::dvec3 band(0.0);
+        for (int i = 0; i < n2 && i < int(sh.c.size()); ++i) band += y[i] * glm::dvec3(sh.c[size_t(i)]);
+        sum += sky.radiance(d) - band;
+      }
+      delta[v] = glm::vec3(sum * (kPi / double(K)));
+    }
+  });
+  DirectIrradiance out;
+  out.front.resize(scene.meshes.size());
+  out.back.resize(scene.meshes.size());
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    if (lay.vertexOffset[k] == SIZE_MAX || scene.meshes[k].transfer.empty()) continue;
+    const size_t n = scene.meshes[k].vertexCount();
+    const auto at = delta.begin() + ptrdiff_t(lay.vertexOffset[k]);
+    out.front[k].assign(at, at + ptrdiff_t(n));
+    if (lay.backVertexOffset[k] != SIZE_MAX && scene.meshes[k].hasBackTransfer()) {
+      const auto back = delta.begin() + ptrdiff_t(lay.backVertexOffset[k]);
+      out.back[k].assign(back, back + ptrdiff_t(n));
+    }
+  }
+  out.rays = 0;
+  out.seconds = secondsSince(t0);
+  return out;
+}
 
 DirectIrradiance DirectBounce::bounce(const DirectIrradiance& e0) const {
   const auto t0 = std::chrono::steady_clock::now();

@@ -1026,7 +1026,9 @@ void Renderer::Impl::drawShadows(const Frame& frame, double aspect, int height, 
   const auto t0 = std::chrono::steady_clock::now();
   const ShadowSettings& settings = frame.shadows;
   ShadowPlan plan;
-  if (settings.enabled) {
+  // No direct light (a frame lit only by a gathered sky detail): no maps, a light count of 0.
+  const bool maps = settings.enabled && !frame.direct.empty();
+  if (maps) {
     // The casters: the scene's bounds and, where they moved, the receivers'.
     glm::dvec3 lo(boundsMin), hi(boundsMax);
     std::vector<glm::dmat4> motions;
@@ -1107,11 +1109,12 @@ void Renderer::Impl::drawShadows(const Frame& frame, double aspect, int height, 
   const glm::vec3 origin(plan.viewOrigin), forward(plan.viewForward);
   auto set = [&](const Program& p) {
     gl.ProgramUniform1i(p.id, p.directCount, GLint(dirs.size()));
+    gl.ProgramUniform1i(p.id, p.shadowed, maps ? 1 : 0);
+    gl.ProgramUniform1i(p.id, p.loopStep, 1);
+    if (dirs.empty()) return;
     gl.ProgramUniform4fv(p.id, p.directDir, GLsizei(dirs.size()), &dirs[0].x);
     gl.ProgramUniform4fv(p.id, p.directIrradiance, GLsizei(irradiance.size()), &irradiance[0].x);
-    gl.ProgramUniform1i(p.id, p.shadowed, settings.enabled ? 1 : 0);
-    gl.ProgramUniform1i(p.id, p.loopStep, 1);
-    if (!settings.enabled) return;
+    if (!maps) return;
     gl.ProgramUniform1i(p.id, p.cascades, plan.cascades);
     gl.ProgramUniform4fv(p.id, p.cascadeFar, 1, &cascadeFar.x);
     gl.ProgramUniform3fv(p.id, p.viewOrigin, 1, &origin.x);
@@ -1246,7 +1249,9 @@ ImageRgb Renderer::render(const Frame& frame) {
   // Direct lights: lit per pixel where the transfer holds its direct part (bakedSplit,
   // receiverSplit), else through SH with the rest of the light (warned once).
   const bool anyDirect = !flat && !frame.direct.empty();
-  const bool bakedSplit = anyDirect && r.bakedDirect && !r.instances.empty();
+  // A gathered irradiance (Frame::directBounce: the sky's detail) needs the split shader even
+  // without direct lights.
+  const bool bakedSplit = (anyDirect || (!flat && frame.directBounce)) && r.bakedDirect && !r.instances.empty();
   const bool receiverSplit = anyDirect && drawReceivers && r.grid->hasDirect();
   if (anyDirect && !r.instances.empty() && !r.bakedDirect && !r.warnedBakedDirect) {
     r.warnedBakedDirect = true;

@@ -466,7 +466,11 @@ sh::ShRgb LightRig::evaluate(double frame, int bands) const {
   return sum;
 }
 
-RigBackground LightRig::background(double frame) const {
+RigBackground LightRig::background(double frame) const { return radianceAt(frame, false); }
+
+RigBackground LightRig::shRadiance(double frame) const { return radianceAt(frame, true); }
+
+RigBackground LightRig::radianceAt(double frame, bool shPart) const {
   RigBackground b;
   for (const RigLight& light : lights) {
     switch (light.type) {
@@ -474,7 +478,10 @@ RigBackground LightRig::background(double frame) const {
         const ImageRgb* image = nullptr;
         {
           std::lock_guard<std::mutex> lock(cache_->mutex);
-          image = &cache_->get(light.file).image;  // std::map nodes do not move
+          // std::map nodes do not move. The SH part of a map whose suns were split off is its
+          // in-painted residual (evaluateLighting's).
+          const bool residual = shPart && light.extractSun && !cache_->split(light.file).suns.suns.empty();
+          image = residual ? &cache_->split(light.file).residual : &cache_->get(light.file).image;
         }
         const double angle = light.rotation.scalarAt(frame);
         const glm::dmat3 rotation = angle == 0.0 ? glm::dmat3(1.0) : sh::rotationAxis(light.axis.at(frame), angle);
@@ -485,6 +492,7 @@ RigBackground LightRig::background(double frame) const {
       }
       case RigLight::Type::Sun:
       case RigLight::Type::Disk: {
+        if (shPart && directLightAt(light, frame)) break;  // lit exactly, not through SH
         const double r = glm::radians(light.radius.scalarAt(frame));
         const bool irradiance = light.type == RigLight::Type::Sun || light.colorIsIrradiance;
         if (irradiance && r < kPointSunRadians) break;  // a delta: projectSun's point-sun limit

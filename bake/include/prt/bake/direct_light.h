@@ -12,7 +12,9 @@
 
 #include "prt/bake/ray_scene.h"
 #include "prt/light.h"
+#include "prt/light_rig.h"
 #include "prt/scene.h"
+#include "prt/sh.h"
 
 namespace prt::bake {
 
@@ -33,6 +35,9 @@ struct DirectIrradiance {
   uint64_t rays = 0;
   double seconds = 0.0;
 };
+
+/// a += b, instance by instance and side by side; b's empty vectors add nothing.
+void addIrradiance(DirectIrradiance& a, const DirectIrradiance& b);
 
 /// Shadowed irradiance of `lights` at every vertex of every instance that holds transfer (the
 /// baked ones), traced against the scene's non-receiver instances from the origins the bake's
@@ -79,7 +84,8 @@ void validate(const BounceSettings& s);
 /// same hit records (front faces, and the back faces of double-sided ones as their back side),
 /// the same albedo at the hit. With K the bake's sample count and E⁰ = t⁰ · l for an SH light l,
 /// E_b is the bake's (t − t⁰) · l. The rays are traced once, here; bounce() is a gather over the
-/// kept hits (8 bytes each), so one DirectBounce relights any number of frames.
+/// kept hits (8 bytes each), so one DirectBounce relights any number of frames. Which rays
+/// escape is kept too (a bit each), for skyDetail().
 class DirectBounce {
 public:
   /// Traces K rays from every baked vertex (both sides of double-sided instances) of `scene`,
@@ -93,6 +99,17 @@ public:
   /// an empty vector counts as zero): the bounced part only, E⁰ not included. Deterministic for
   /// any thread count; `seconds` is the gather's time, `rays` 0.
   DirectIrradiance bounce(const DirectIrradiance& e0) const;
+
+  /// The sky's light beyond the SH band limit at every baked vertex and side ("sky detail",
+  /// docs/lights.md):
+  ///   Δ(v) = (π/K) Σ_{rays s of v's K that escape} (L(ω_s) − L̃(ω_s)),
+  /// L the radiance `sky` (LightRig::shRadiance: what `sh` stands for), L̃ the radiance `sh`
+  /// itself (its band-limited reconstruction, window included). t⁰ · sh is ∫ V cos L̃ (the
+  /// projections are orthogonal), so t⁰ · sh + Δ estimates the direct sky ∫ V cos L without the
+  /// band limit; only the detail L − L̃ is sampled (a control variate), so where it is small the
+  /// estimate is as quiet as the SH. The same rays as bounce()'s, in shadowedDirectIrradiance's
+  /// layout (empty for instances without transfer). Deterministic for any thread count.
+  DirectIrradiance skyDetail(const RigBackground& sky, const sh::ShRgb& sh) const;
 
   uint64_t rays() const;         // traced by the constructor
   uint64_t hitRecords() const;   // kept

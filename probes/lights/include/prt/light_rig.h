@@ -203,12 +203,19 @@ public:
   /// succeeded. The maps are shared with the rig's cache, not copied.
   RigBackground background(double frame) const;
 
+  /// The radiance of the lights that evaluateLighting() puts into its `sh` at `frame`, before the
+  /// window: every map (the in-painted residual of one whose suns were split off), the uniform
+  /// lights, and the suns and disks too large to be direct lights; the direct lights left out.
+  /// What the SH stands for, for estimating what its band limit loses (bake::SkyDetail).
+  RigBackground shRadiance(double frame) const;
+
   /// Whether any parameter changes over frames.
   bool animated() const;
   /// The first and last keyframe over all tracks (0, 0 for a rig without keyframes).
   std::pair<double, double> keyRange() const;
 
 private:
+  RigBackground radianceAt(double frame, bool shPart) const;
   struct Cache;
   std::shared_ptr<Cache> cache_;
 };
