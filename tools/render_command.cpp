@@ -642,6 +642,12 @@ int runRender(const RenderArgs& a) {
   } else if (a.light.noDirect) {
     std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
   }
+  if (skyDetail)
+    std::fprintf(stderr,
+                 "  sky detail: the sky's light beyond %d bands on baked surfaces, gathered over the same %d rays per "
+                 "vertex%s (docs/lights.md, \"Sky detail\"), redone for %d of the frames (%.1f ms each)\n",
+                 bands, a.bounceSamples, firstLighting.direct.empty() ? "" : " as the bounces", bounceUpdates,
+                 bounceUpdates ? bounceMs / bounceUpdates : 0.0);
   if (video)
     std::fprintf(stderr, "  video %s: %lld frames at %g fps, %.2f ms/frame encoding (%s)\n", a.mp4.c_str(),
                  static_cast<long long>(n), fps, encodeMs * perFrame, video->ffmpeg().c_str());
