@@ -107,7 +107,7 @@ int runRelight(const RelightArgs& a) {
     shadows.threads = a.threads;
     direct = bake::shadowedDirectIrradiance(scene, lighting.direct, shadows);
     sh::ShRgb directSh = lighting.directSh;
-    if (gather) {
+    if (gather && (skyDetail || record.bounces > 0)) {
       // Their bounces gathered over the bake's rays instead of through (t − t⁰) · directSh,
       // and the sky's detail Δ added to the direct light (it bounces with it).
       bake::BounceSettings bs;

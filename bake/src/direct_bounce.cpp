@@ -1,5 +1,7 @@
 // Direct lights' interreflected light, gathered over the bake's own rays (prt/bake/direct_light.h).
 #include <algorithm>
+#include <cmath>
+#include <memory>
 #include <atomic>
 #include <chrono>
 
@@ -9,6 +11,7 @@
 #include "prt/bake/direct_light.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/error.h"
+#include "prt/light.h"
 #include "prt/math.h"
 #include "prt/sh.h"
 #include "stage_runner.h"
@@ -28,6 +31,35 @@ namespace {
 
 constexpr uint32_t kStream = 256;
 constexpr size_t kChunk = 64;  // vertices per task and per block of hit records
+
+// The map averaged down to pixels of about the solid angle one of K cosine-weighted rays stands
+// for (2π/K over the hemisphere: an equirectangular width of √(2πK), 40 pixels at K = 256), by
+// a whole factor that divides both sides, each output pixel the solid-angle weighted mean of its
+// block: the power is kept, and a bright feature smaller than a ray's share (a lamp the sources
+// split off left behind, a sun's glow) is spread over that share instead of being hit by one ray
+// in a hundred vertices (the detail's noise). The bilinear reading then filters over about two
+// such pixels. Diffuse light integrates over the hemisphere: what the blur moves is within a
+// ray's share, the estimator's own resolution.
+std::shared_ptr<const ImageRgb> prefiltered(const std::shared_ptr<const ImageRgb>& map, uint32_t K) {
+  const int w = map->width, h = map->height;
+  const double target = std::sqrt(2.0 * kPi * double(K));
+  int f = std::max(1, int(std::floor(double(w) / target)));
+  while (f > 1 && (w % f != 0 || h % f != 0)) --f;
+  if (f == 1) return map;
+  auto out = std::make_shared<ImageRgb>(w / f, h / f);
+  for (int Y = 0; Y < out->height; ++Y)
+    for (int X = 0; X < out->width; ++X) {
+      glm::dvec3 sum(0.0);
+      double weight = 0.0;
+      for (int y = Y * f; y < (Y + 1) * f; ++y) {
+        const double omega = equirectPixelSolidAngle(y, w, h);
+        for (int x = X * f; x < (X + 1) * f; ++x) sum += omega * glm::dvec3(map->at(x, y));
+        weight += omega * f;
+      }
+      out->at(X, Y) = glm::vec3(sum / weight);
+    }
+  return out;
+}
 
 double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -114,7 +146,7 @@ void addIrradiance(DirectIrradiance& a, const DirectIrradiance& b) {
   }
 }
 
-DirectIrradiance DirectBounce::skyDetail(const RigBackground& sky, const sh::ShRgb& sh) const {
+DirectIrradiance DirectBounce::skyDetail(const RigBackground& skyIn, const sh::ShRgb& sh) const {
   const auto t0 = std::chrono::steady_clock::now();
   const ThreadLimit threadLimit(impl_->settings.threads);
   const Impl& b = *impl_;
@@ -125,6 +157,9 @@ DirectIrradiance DirectBounce::skyDetail(const RigBackground& sky, const sh::ShR
   const uint32_t K = uint32_t(b.settings.samples);
   const size_t words = (K + 63) / 64;
   std::vector<glm::vec3> delta(lay.vertices, glm::vec3(0.0f));
+  RigBackground filtered = skyIn;
+  for (RigBackground::Map& m : filtered.maps) m.image = prefiltered(m.image, K);
+  const RigBackground& sky = filtered;
   tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {
     const size_t first = c * kChunk, end = std::min(lay.vertices, first + kChunk);
     double y[sh::kMaxBands * sh::kMaxBands];
