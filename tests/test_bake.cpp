@@ -1,5 +1,6 @@
 // Surface bake against closed forms: the unoccluded plane, the open spherical cavity (every
 // bounce count, grey and coloured), determinism across thread counts, sampling triplets.
+#include <bit>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -276,3 +277,35 @@ TEST(BakeSurface, RejectsBadSettings) {
 
 }  // namespace
 }  // namespace prt
+
+// The bounces' halves (bake/src/half.h) must round as F16C does, on every CPU: every half
+// converts back exactly, and floats of every binade (normal, subnormal, overflow, ties) round
+// to the same half as vcvtps2ph with round-to-nearest-even.
+#include <immintrin.h>
+
+#include "../bake/src/half.h"
+
+namespace {
+__attribute__((target("f16c"))) uint16_t f16cFromFloat(float f) {
+  return uint16_t(_mm_extract_epi16(_mm_cvtps_ph(_mm_set1_ps(f), 0), 0));
+}
+__attribute__((target("f16c"))) float f16cToFloat(uint16_t h) { return _mm_cvtss_f32(_mm_cvtph_ps(_mm_set1_epi16(short(h)))); }
+}  // namespace
+
+TEST(BakeHalf, PortableConversionsMatchF16c) {
+  if (!__builtin_cpu_supports("f16c")) GTEST_SKIP() << "no F16C on this CPU";
+  for (uint32_t h = 0; h < 0x10000u; ++h) {
+    if ((h & 0x7c00u) == 0x7c00u && (h & 0x3ffu)) continue;  // NaNs: payloads may differ
+    ASSERT_EQ(std::bit_cast<uint32_t>(prt::bake::floatFromHalf(uint16_t(h))),
+              std::bit_cast<uint32_t>(f16cToFloat(uint16_t(h))))
+        << h;
+  }
+  uint64_t s = 1;
+  for (int i = 0; i < 2000000; ++i) {
+    s = prt::bake::splitMix64(s);
+    // Exponents around the half's range (2^-30 … 2^17), low mantissa bits random: ties included.
+    const uint32_t x = uint32_t(s & 0x807fffffu) | ((97u + uint32_t(s >> 40) % 48u) << 23);
+    const float f = std::bit_cast<float>(i % 4 == 0 ? (x & ~0x0fffu) | 0x1000u : x);
+    ASSERT_EQ(prt::bake::halfFromFloat(f), f16cFromFloat(f)) << std::hexfloat << f;
+  }
+}

@@ -28,9 +28,12 @@
 #include <limits>
 #include <optional>
 
+#include <immintrin.h>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "albedo_lookup.h"
+#include "half.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
@@ -112,6 +115,21 @@ double pilotFrontHitShare(const Scene& scene, const Layout& lay, const RayScene&
   return std::min(1.0, mean + 3.0 * std::sqrt(var / double(m)) + 0.02);
 }
 
+// The previous order's transfer as halves, for the bounces' gather (gatherChunk).
+struct HalfRows {
+  size_t stride = 0;  // halves per row: 3·n2, padded to a multiple of 32 (a 64-byte line)
+  std::vector<uint16_t> storage;
+  uint16_t* rows = nullptr;  // 64-byte aligned, inside storage
+  void assign(const std::vector<glm::vec3>& t, size_t vertices, int n2);
+  const uint16_t* row(size_t v) const { return rows + v * stride; }
+};
+
+// A triangle's corners (global vertices) and instance, read together by the gather.
+struct TriCorners {
+  uint32_t v[3];
+  uint32_t mesh;
+};
+
 // What the stages of one surface bake share: the layout, the settings, and the buffers each
 // stage hands to the next (values = vertices × n2 RGB, in the layout's vertex order).
 struct SurfaceBake {
@@ -128,6 +146,8 @@ struct SurfaceBake {
   // t⁰, colourless: values floats (the direct part the files keep apart from the total).
   std::vector<float> direct;
   std::vector<glm::vec3> total, lowerOrder, prev, cur;
+  HalfRows half;                   // prev as halves, during a bounce
+  std::vector<TriCorners> corners;  // per triangle, during the bounces
   uint64_t hitCount = 0;
 
   SurfaceBake(const Scene& sc, const BakeSettings& s, const Layout& l)
@@ -196,26 +216,148 @@ struct DirectPass {
 };
 
 // ---- One bounce of one chunk: t^k ≈ (1/N) Σ_{s hits} ρ(h_s) t^{k−1}(h_s), over the hit records.
-ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk& c) {
-  const Layout& lay = b.lay;
-  const int n2 = b.n2;
-  const ChunkHits& ch = b.chunkHits[c.index];
-  glm::vec3 acc[sh::kMaxBands * sh::kMaxBands];
-  for (size_t v = c.begin; v < c.end; ++v) {
-    std::fill_n(acc, n2, glm::vec3(0.0f));
-    for (uint32_t h = ch.begin[v - c.begin]; h < ch.begin[v - c.begin + 1]; ++h) {
-      const HitRecord& rec = ch.hits[h];
-      const float b1 = rec.b1 * (1.0f / 65535.0f), b2 = rec.b2 * (1.0f / 65535.0f);
-      const float b0 = 1.0f - b1 - b2;
-      const uint32_t mesh = lay.meshOfTri[rec.tri];
-      const glm::vec3 rho = albedo.at(mesh, lay.localTriangle(rec.tri), b1, b2);
-      const glm::vec3* t0 = &b.prev[size_t(lay.triVerts[3 * rec.tri + 0]) * n2];
-      const glm::vec3* t1 = &b.prev[size_t(lay.triVerts[3 * rec.tri + 1]) * n2];
-      const glm::vec3* t2 = &b.prev[size_t(lay.triVerts[3 * rec.tri + 2]) * n2];
-      for (int i = 0; i < n2; ++i) acc[i] += rho * (b0 * t0[i] + b1 * t1[i] + b2 * t2[i]);
+//
+// A bounce is memory-bound: each record reads its triangle's corners and their three rows of
+// t^{k−1} (3·n2 floats each), rows that lie anywhere in an array far larger than the caches.
+// So the gather reads t^{k−1} as halves (HalfRows: 3·n2 halves a row, padded to whole cache
+// lines, one line at 3 bands instead of two or three), a triangle's corners and instance
+// from one 16-byte entry (TriCorners), and prefetches both some records ahead. A half carries
+// a relative rounding error of at most 2⁻¹¹ ≈ 4.9e-4 (docs/bake.md, "Speed": what it changes).
+constexpr uint32_t kAheadCorners = 16, kAheadRows = 8;  // records ahead, measured on the room
+
+uint16_t* alignTo64(uint16_t* p) {
+  return reinterpret_cast<uint16_t*>((reinterpret_cast<uintptr_t>(p) + 63) & ~uintptr_t(63));
+}
+
+void HalfRows::assign(const std::vector<glm::vec3>& t, size_t vertices, int n2) {
+  stride = (size_t(3 * n2) + 31) / 32 * 32;
+  if (storage.size() != vertices * stride + 32) storage.assign(vertices * stride + 32, 0);  // padding stays 0
+  rows = alignTo64(storage.data());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, vertices, 1024), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v) {
+      const float* src = &t[v * size_t(n2)].x;
+      uint16_t* dst = rows + v * stride;
+      for (int i = 0; i < 3 * n2; ++i) dst[i] = halfFromFloat(src[i]);
     }
-    const float w = 1.0f / float(b.N);
-    for (int i = 0; i < n2; ++i) b.cur[v * n2 + i] = acc[i] * w;
+  });
+}
+
+std::vector<TriCorners> triCorners(const Layout& lay) {
+  std::vector<TriCorners> c(lay.triangles);
+  for (size_t t = 0; t < lay.triangles; ++t)
+    c[t] = {{lay.triVerts[3 * t], lay.triVerts[3 * t + 1], lay.triVerts[3 * t + 2]}, lay.meshOfTri[t]};
+  return c;
+}
+
+// One record's weights: barycentrics and base colour.
+struct RecordWeights {
+  float b0, b1, b2;
+  glm::vec3 rho;
+  const TriCorners* corners;
+};
+
+inline RecordWeights weightsOf(const SurfaceBake& b, const AlbedoLookup& albedo, const HitRecord& rec) {
+  RecordWeights w;
+  w.b1 = rec.b1 * (1.0f / 65535.0f);
+  w.b2 = rec.b2 * (1.0f / 65535.0f);
+  w.b0 = 1.0f - w.b1 - w.b2;
+  w.corners = &b.corners[rec.tri];
+  const uint32_t mesh = w.corners->mesh;
+  w.rho = albedo.uniform[mesh] ? albedo.constant[mesh] : albedo.at(mesh, b.lay.localTriangle(rec.tri), w.b1, w.b2);
+  return w;
+}
+
+inline void prefetchAhead(const SurfaceBake& b, const HitRecord* hits, uint32_t h, uint32_t end) {
+  if (h + kAheadCorners < end) __builtin_prefetch(&b.corners[hits[h + kAheadCorners].tri]);
+  if (h + kAheadRows < end) {
+    const TriCorners& c = b.corners[hits[h + kAheadRows].tri];
+    for (uint32_t k = 0; k < 3; ++k) {
+      const char* p = reinterpret_cast<const char*>(b.half.row(c.v[k]));
+      for (size_t o = 0; o < b.half.stride * sizeof(uint16_t); o += 64) __builtin_prefetch(p + o);
+    }
+  }
+}
+
+// Without F16C: the same operations lane by lane (lane i of a row is RGB channel i % 3 of
+// coefficient i / 3), so both paths give the same bits.
+void gatherChunkPortable(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk& c) {
+  const int lanes = 3 * b.n2;
+  const ChunkHits& ch = b.chunkHits[c.index];
+  const HitRecord* hits = ch.hits.data();
+  const uint32_t end = uint32_t(ch.hits.size());
+  float acc[3 * sh::kMaxBands * sh::kMaxBands];
+  const float w = 1.0f / float(b.N);
+  for (size_t v = c.begin; v < c.end; ++v) {
+    std::fill_n(acc, lanes, 0.0f);
+    for (uint32_t h = ch.begin[v - c.begin]; h < ch.begin[v - c.begin + 1]; ++h) {
+      prefetchAhead(b, hits, h, end);
+      const RecordWeights r = weightsOf(b, albedo, hits[h]);
+      const uint16_t* t0 = b.half.row(r.corners->v[0]);
+      const uint16_t* t1 = b.half.row(r.corners->v[1]);
+      const uint16_t* t2 = b.half.row(r.corners->v[2]);
+      for (int i = 0; i < lanes; ++i) {
+        float s = floatFromHalf(t0[i]) * r.b0;
+        s = s + floatFromHalf(t1[i]) * r.b1;
+        s = s + floatFromHalf(t2[i]) * r.b2;
+        acc[i] += s * r.rho[i % 3];
+      }
+    }
+    float* out = &b.cur[v * size_t(b.n2)].x;
+    for (int i = 0; i < lanes; ++i) out[i] = acc[i] * w;
+  }
+}
+
+// With F16C: 8 lanes at a time, K vectors a row; ρ's channels repeat every 3 vectors.
+template <int K>
+__attribute__((target("avx2,f16c"))) void gatherChunkF16c(SurfaceBake& b, const AlbedoLookup& albedo,
+                                                         const Chunk& c) {
+  const int lanes = 3 * b.n2;
+  const ChunkHits& ch = b.chunkHits[c.index];
+  const HitRecord* hits = ch.hits.data();
+  const uint32_t end = uint32_t(ch.hits.size());
+  alignas(32) float sum[8 * K];
+  const float w = 1.0f / float(b.N);
+  for (size_t v = c.begin; v < c.end; ++v) {
+    __m256 acc[K];
+    for (int k = 0; k < K; ++k) acc[k] = _mm256_setzero_ps();
+    for (uint32_t h = ch.begin[v - c.begin]; h < ch.begin[v - c.begin + 1]; ++h) {
+      prefetchAhead(b, hits, h, end);
+      const RecordWeights r = weightsOf(b, albedo, hits[h]);
+      const float cr = r.rho.r, cg = r.rho.g, cb = r.rho.b;
+      const __m256 rho[3] = {_mm256_setr_ps(cr, cg, cb, cr, cg, cb, cr, cg),
+                             _mm256_setr_ps(cb, cr, cg, cb, cr, cg, cb, cr),
+                             _mm256_setr_ps(cg, cb, cr, cg, cb, cr, cg, cb)};
+      const __m256 w0 = _mm256_set1_ps(r.b0), w1 = _mm256_set1_ps(r.b1), w2 = _mm256_set1_ps(r.b2);
+      const auto* t0 = reinterpret_cast<const __m128i*>(b.half.row(r.corners->v[0]));
+      const auto* t1 = reinterpret_cast<const __m128i*>(b.half.row(r.corners->v[1]));
+      const auto* t2 = reinterpret_cast<const __m128i*>(b.half.row(r.corners->v[2]));
+      for (int k = 0; k < K; ++k) {
+        __m256 s = _mm256_mul_ps(_mm256_cvtph_ps(_mm_load_si128(t0 + k)), w0);
+        s = _mm256_add_ps(s, _mm256_mul_ps(_mm256_cvtph_ps(_mm_load_si128(t1 + k)), w1));
+        s = _mm256_add_ps(s, _mm256_mul_ps(_mm256_cvtph_ps(_mm_load_si128(t2 + k)), w2));
+        acc[k] = _mm256_add_ps(acc[k], _mm256_mul_ps(s, rho[k % 3]));
+      }
+    }
+    for (int k = 0; k < K; ++k) _mm256_store_ps(sum + 8 * k, acc[k]);
+    float* out = &b.cur[v * size_t(b.n2)].x;
+    for (int i = 0; i < lanes; ++i) out[i] = sum[i] * w;
+  }
+}
+
+ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk& c) {
+  static const bool f16c = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("f16c");
+  if (!f16c) {
+    gatherChunkPortable(b, albedo, c);
+    return {true, 0};
+  }
+  switch (b.half.stride / 8) {  // 3·n2 lanes padded to whole cache lines: 4 vectors a line
+    case 4: gatherChunkF16c<4>(b, albedo, c); break;
+    case 8: gatherChunkF16c<8>(b, albedo, c); break;
+    case 12: gatherChunkF16c<12>(b, albedo, c); break;
+    case 16: gatherChunkF16c<16>(b, albedo, c); break;
+    case 20: gatherChunkF16c<20>(b, albedo, c); break;
+    case 24: gatherChunkF16c<24>(b, albedo, c); break;
+    default: PRT_CHECK(false);
   }
   return {true, 0};
 }
@@ -341,8 +483,10 @@ void runDirectPass(SurfaceBake& b, ChunkedStage& stage, const BakeControl& contr
 void runBounces(SurfaceBake& b, uint32_t resumeStage, Checkpoint* cp, BakeStats& stats) {
   AlbedoLookup albedo(b.scene);
   b.cur.resize(b.values);
+  b.corners = triCorners(b.lay);
   const int n2 = b.n2;
   for (int k = int(resumeStage) - 1; k <= b.bounces; ++k) {
+    b.half.assign(b.prev, b.lay.vertices, n2);
     const StageSpec spec = b.spec(uint32_t(1 + k), cat("bounce ", k), cat("bounce ", k));
     Checkpoint::StageIo io;
     io.writeState = [&b](ByteWriter& w) {
@@ -456,6 +600,8 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
   std::vector<glm::vec3>().swap(b.prev);
   std::vector<glm::vec3>().swap(b.cur);
   std::vector<ChunkHits>().swap(b.chunkHits);
+  b.half = HalfRows{};
+  std::vector<TriCorners>().swap(b.corners);
   if (cp && settings.keepLowerOrder && !restoredDone) keepSurfaceStage(b, *cp);
 
   out.perMesh = perMesh(scene, lay, b.n2, b.total);
