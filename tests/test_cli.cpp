@@ -243,12 +243,12 @@ TEST(Cli, RelightRefusesBadMapAndLeavesNothing) {
 // plane (albedo 0.8) under a map of radiance 1 with a ring of 30 between 5.6° and 14.1° above the
 // horizon (rows 54-59 of 128), which 3 bands see through the clamped cosine's lobe, too bright
 // that low (measured 7.9%). Exact: E = Σ over the pixels above the horizon of L cos θ Ω (the
-// map's own pixels). With 4096 rays a vertex (the map read at full resolution: a ray's share of
-// the hemisphere is smaller than its pixels) the mean over the 1089 vertices must be within 1.5%
-// of it: each vertex sees the ring with about 200 rays (sin²14.1° − sin²5.6° of them), the
-// mean's noise is far below that. At the default 256 rays the map is read averaged down to 64 ×
-// 32 pixels of 5.6° (DirectBounce::skyDetail), which spreads the ring over the rows next to it:
-// measured 2.5% too bright, within 4% here, and still half the band limit's error. With
+// map's own pixels). With 4096 rays a vertex (the map read averaged down to 128 × 64, pixels
+// finer than the ring) the mean over the 1089 vertices must be within 1.5% of it: each vertex
+// sees the ring with about 200 rays (sin²14.1° − sin²5.6° of them), the mean's noise is far
+// below that. At the default 256 rays the map is read at 32 × 16 pixels of 11° (DirectBounce::
+// skyDetail), which spreads the ring over the rows next to it, some below the horizon: measured
+// 2.8% too dark, within 4% here, and still a third of the band limit's error. With
 // --no-sky-detail it is more than 5% too bright.
 TEST(Cli, SkyDetailLightsALowBrightRingExactlyOnAverage) {
   TempDir d;
