@@ -293,7 +293,7 @@ __attribute__((target("f16c"))) float f16cToFloat(uint16_t h) { return _mm_cvtss
 }  // namespace
 
 TEST(BakeHalf, PortableConversionsMatchF16c) {
-  if (!__builtin_cpu_supports("f16c")) GTEST_SKIP() << "no F16C on this CPU";
+  if (!prt::bake::cpuHasF16c()) GTEST_SKIP() << "no F16C on this CPU";
   for (uint32_t h = 0; h < 0x10000u; ++h) {
     if ((h & 0x7c00u) == 0x7c00u && (h & 0x3ffu)) continue;  // NaNs: payloads may differ
     ASSERT_EQ(std::bit_cast<uint32_t>(prt::bake::floatFromHalf(uint16_t(h))),

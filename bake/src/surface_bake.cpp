@@ -345,7 +345,7 @@ __attribute__((target("avx2,f16c"))) void gatherChunkF16c(SurfaceBake& b, const 
 }
 
 ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk& c) {
-  static const bool f16c = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("f16c");
+  static const bool f16c = __builtin_cpu_supports("avx2") && cpuHasF16c();
   if (!f16c) {
     gatherChunkPortable(b, albedo, c);
     return {true, 0};
