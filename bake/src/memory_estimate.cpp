@@ -3,6 +3,8 @@
 // N samples, B = V·n2·12 one transfer buffer, D = B/3 its colourless direct part):
 //
 //   surface  scene + layout + BVH + hit records + 3B (t^{k-1}, t^k, running sum) + D
+//            + the bounces' gather tables (t^{k-1} as halves, 3·n2 padded to 64-byte lines
+//            a vertex, and 16 bytes of corners per triangle)
 //            (+ B for the lower-order sum when probes follow)
 //   probes   scene + 2B (transfer and lower-order sum), then the largest of
 //              trace     BVH + per lattice point a slot and its n2²·3 floats + per thread the
@@ -175,8 +177,11 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   // A share that is not a number (no vertices to measure it on) counts as the worst case.
   e.frontHitShare = !bounces ? 0.0 : std::isfinite(frontHitShare) ? std::clamp(frontHitShare, 0.0, 1.0) : 1.0;
   e.bvh = shadowed ? triangles * kBvhBytesPerTriangle : 0;
+  // With the bounces' gather tables too: the previous bounce as halves, 3·n2 padded to whole
+  // 64-byte lines a vertex, and one 16-byte corner entry per triangle (surface_bake.cpp).
+  const uint64_t gatherTables = vertices * ((3 * n2 + 31) / 32 * 64) + (triangles + backTriangles) * 16;
   e.hits = bounces ? uint64_t(std::ceil(e.frontHitShare * double(vertices) * s.samples)) * kHitBytes +
-                         vertices * kHitOffsetBytes
+                         vertices * kHitOffsetBytes + gatherTables
                    : 0;
   const uint64_t layout = shadowed ? vertices * kLayoutPerVertex + (triangles + backTriangles) * kLayoutPerTriangle : 0;
   const uint64_t lower = probes ? e.transfer : 0;
