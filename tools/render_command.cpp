@@ -489,7 +489,7 @@ int runRender(const RenderArgs& a) {
   rig->prepare(bands);
   const double prepareMs = msSince(tPrepare);
   double lightMs = 0.0, drawMs = 0.0, readbackMs = 0.0, writeMs = 0.0, encodeMs = 0.0;
-  // Gathered over the bake's own rays (traced once, here; docs/render.md, "Gathered light"):
+  // Gathered over the bake's own rays (traced once, here; docs/lights.md, "Sky detail"):
   // the direct lights' bounces on baked surfaces, from their shadowed light at the vertices, and
   // the sky's detail beyond the band limit (it bounces with them); redone only when the direct
   // lights or the sky change.

@@ -1,7 +1,9 @@
 // Direct lights' interreflected light, gathered over the bake's own rays (prt/bake/direct_light.h).
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <atomic>
 #include <chrono>
 
@@ -80,6 +82,11 @@ struct DirectBounce::Impl {
   std::vector<std::vector<uint64_t>> escaped;
   std::vector<glm::vec3> origins;
   float tnear = 0.0f;
+  // The maps skyDetail reads, averaged down (prefiltered), by the image they come from (kept
+  // alive with its entry, so its address is not reused): a rig's maps are the same images
+  // every frame, only turned.
+  mutable std::mutex filteredMutex;
+  mutable std::map<const ImageRgb*, std::pair<std::shared_ptr<const ImageRgb>, std::shared_ptr<const ImageRgb>>> filtered;
   uint64_t rays = 0, hits = 0;
   double seconds = 0.0;
 
@@ -159,9 +166,15 @@ DirectIrradiance DirectBounce::skyDetail(const RigBackground& skyIn, const sh::S
   const uint32_t K = uint32_t(b.settings.samples);
   const size_t words = (K + 63) / 64;
   std::vector<glm::vec3> delta(lay.vertices, glm::vec3(0.0f));
-  RigBackground filtered = skyIn;
-  for (RigBackground::Map& m : filtered.maps) m.image = prefiltered(m.image, K);
-  const RigBackground& sky = filtered;
+  RigBackground sky = skyIn;
+  {
+    std::lock_guard<std::mutex> lock(b.filteredMutex);
+    for (RigBackground::Map& m : sky.maps) {
+      auto& [source, f] = b.filtered[m.image.get()];
+      if (!f) source = m.image, f = prefiltered(m.image, K);
+      m.image = f;
+    }
+  }
   tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {
     const size_t first = c * kChunk, end = std::min(lay.vertices, first + kChunk);
     double y[sh::kMaxBands * sh::kMaxBands];
@@ -195,7 +208,6 @@ DirectIrradiance DirectBounce::skyDetail(const RigBackground& skyIn, const sh::S
       out.back[k].assign(back, back + ptrdiff_t(n));
     }
   }
-  out.rays = 0;
   out.seconds = secondsSince(t0);
   return out;
 }

@@ -480,8 +480,8 @@ RigBackground LightRig::radianceAt(double frame, bool shPart) const {
           std::lock_guard<std::mutex> lock(cache_->mutex);
           // std::map nodes do not move. The SH part of a map whose suns were split off is its
           // in-painted residual (evaluateLighting's).
-          const bool residual = shPart && light.extractSun && !cache_->split(light.file).suns.suns.empty();
-          image = residual ? &cache_->split(light.file).residual : &cache_->get(light.file).image;
+          const Cache::Split* split = shPart && light.extractSun ? &cache_->split(light.file) : nullptr;
+          image = split && !split->suns.suns.empty() ? &split->residual : &cache_->get(light.file).image;
         }
         const double angle = light.rotation.scalarAt(frame);
         const glm::dmat3 rotation = angle == 0.0 ? glm::dmat3(1.0) : sh::rotationAxis(light.axis.at(frame), angle);

@@ -109,9 +109,9 @@ public:
   /// band limit; only the detail L − L̃ is sampled (a control variate), so where it is small the
   /// estimate is as quiet as the SH. The same rays as bounce()'s, in shadowedDirectIrradiance's
   /// layout (empty for instances without transfer). Deterministic for any thread count.
-  /// The maps are read averaged down to pixels of about one ray's share of the hemisphere
-  /// (2π/K): a bright feature smaller than that is spread over it, not caught by one ray in a
-  /// hundred vertices.
+  /// The maps are read averaged down to pixels of about four rays' share of the hemisphere
+  /// (2π/K each; two rays across), once per map image and kept for later calls: a bright
+  /// feature smaller than that is spread over it, not caught by one ray in a hundred vertices.
   DirectIrradiance skyDetail(const RigBackground& sky, const sh::ShRgb& sh) const;
 
   uint64_t rays() const;         // traced by the constructor
