@@ -4,6 +4,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <tuple>
 #include <atomic>
 #include <chrono>
 
@@ -84,7 +85,7 @@ struct DirectBounce::Impl {
   float tnear = 0.0f;
   // The maps skyDetail reads, averaged down (prefiltered), by the image they come from (kept
   // alive with its entry, so its address is not reused): a rig's maps are the same images
-  // every frame, only turned.
+  // every frame, only turned. Holds the last call's images only.
   mutable std::mutex filteredMutex;
   mutable std::map<const ImageRgb*, std::pair<std::shared_ptr<const ImageRgb>, std::shared_ptr<const ImageRgb>>> filtered;
   uint64_t rays = 0, hits = 0;
@@ -168,12 +169,19 @@ DirectIrradiance DirectBounce::skyDetail(const RigBackground& skyIn, const sh::S
   std::vector<glm::vec3> delta(lay.vertices, glm::vec3(0.0f));
   RigBackground sky = skyIn;
   {
+    // Only this call's images are kept, so a rig whose maps change every frame does not
+    // accumulate them.
     std::lock_guard<std::mutex> lock(b.filteredMutex);
+    decltype(b.filtered) kept;
     for (RigBackground::Map& m : sky.maps) {
-      auto& [source, f] = b.filtered[m.image.get()];
-      if (!f) source = m.image, f = prefiltered(m.image, K);
+      auto& [source, f] = kept[m.image.get()];
+      if (!f) {
+        if (auto it = b.filtered.find(m.image.get()); it != b.filtered.end()) std::tie(source, f) = it->second;
+        else source = m.image, f = prefiltered(m.image, K);
+      }
       m.image = f;
     }
+    b.filtered = std::move(kept);
   }
   tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {
     const size_t first = c * kChunk, end = std::min(lay.vertices, first + kChunk);
