@@ -200,6 +200,51 @@ TEST(CliRender, BackgroundSkyShowsTheMapAlongEachRay) {
   EXPECT_LT(worst, 2e-5);  // float rays and texture coordinates (measured 4e-6)
 }
 
+// --supersample N renders N x N pixels per output pixel and writes their box mean: the frame is
+// downsampleBox of the same view rendered N times larger (bit for bit), a sun's shadow edge
+// becomes partial pixels, and a size beyond the limits is refused before any GL work.
+TEST(CliRender, SupersampleWritesTheMeanOfTheLargerFrame) {
+  const TempDir tmp("supersample");
+  const fs::path& d = tmp.path();
+  const std::string glb = bake(planeWithCamera(d), d, "plane");
+  const fs::path out = d / "out";
+  const Args common = {"render", glb, "--env", whiteSky(), "--sun-elevation", "30", "--sun-azimuth", "10",
+                      "--orbit-azimuth", "20", "--orbit-elevation", "35", "--orbit-distance", "3", "-q", "-o"};
+  const RunResult big = prt(plus(common, {(out / "big.exr").string(), "--size", "96x64"}));
+  const RunResult ss = prt(plus(common, {(out / "ss.exr").string(), "--size", "24x16", "--supersample", "4"}));
+  ASSERT_EQ(big.status, 0) << big.err;
+  ASSERT_EQ(ss.status, 0) << ss.err;
+  const ImageRgb large = loadHdrImage((out / "big.exr").string()), img = loadHdrImage((out / "ss.exr").string());
+  ASSERT_EQ(img.width, 24);
+  ASSERT_EQ(img.height, 16);
+  const ImageRgb want = downsampleBox(large, 4);
+  int mixed = 0;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      EXPECT_EQ(img.at(x, y), want.at(x, y)) << x << "," << y;
+      // A pixel the plane's edge crosses is a mean of plane and black background.
+      const glm::vec3 p = img.at(x, y);
+      float lo = 1e30f, hi = 0.0f;
+      for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) {
+          const float v = large.at(4 * x + i, 4 * y + j).g;
+          lo = std::min(lo, v), hi = std::max(hi, v);
+        }
+      if (hi > 0.0f && lo == 0.0f && p.g > 0.0f && p.g < hi) ++mixed;
+    }
+  EXPECT_GT(mixed, 8);
+  EXPECT_THROW(downsampleBox(large, 5), Error);
+  const RunResult tooBig = prt(plus(common, {(out / "x.exr").string(), "--size", "4096x4096", "--supersample", "4"}));
+  EXPECT_EQ(tooBig.status, 2) << tooBig.err;
+  EXPECT_EQ(lines(tooBig.err), 1) << tooBig.err;
+  EXPECT_NE(tooBig.err.find("--supersample 4 with --size 4096x4096: renders 16384x16384"), std::string::npos)
+      << tooBig.err;
+  const RunResult zero = prt(plus(common, {(out / "x.exr").string(), "--supersample", "0"}));
+  EXPECT_EQ(zero.status, 2) << zero.err;
+  EXPECT_NE(zero.err.find("--supersample"), std::string::npos) << zero.err;
+  EXPECT_FALSE(fs::exists(out / "x.exr"));
+}
+
 // Frames are written on a thread of their own while the next one renders: a write that fails
 // (frame 2's name is taken by a folder) stops the run with that one error, exit 1; the frames
 // before it are whole, none after it is written, and no temporary file is left.

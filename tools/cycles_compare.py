@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""compare CYCLES.exr PRT.exr [--tol T] [--min-pixels N] [--name S] | sheet OUT.png ROW... (ROW = a.exr,b.exr,...) | lobes OUT.exr"""
+"""compare CYCLES.exr PRT.exr (PRT.exr the same size or a whole multiple: averaged down) [--tol T] [--min-pixels N] [--name S] | sheet OUT.png ROW... (ROW = a.exr,b.exr,...) | lobes OUT.exr"""
 import json, math, struct, sys, zlib
 
 def read_exr(path):
@@ -104,7 +104,14 @@ def compare(args):
     c = [channel(chans, "Combined." + k, cyc_path) for k in "RGB"]
     p, pw, ph = rgb(prt_path)
     if (pw, ph) != (w, h):
-        sys.exit(f"{prt_path}: {pw}x{ph}, but {cyc_path} is {w}x{h}")
+        # A supersampled prt frame (an integer multiple of Cycles' size) is averaged down, N x N
+        # pixels into one: the mean radiance over each pixel's square, as Cycles' box filter.
+        n = pw // w
+        if n < 2 or (pw, ph) != (n * w, n * h):
+            sys.exit(f"{prt_path}: {pw}x{ph}, but {cyc_path} is {w}x{h} (nor a whole multiple of it)")
+        p = [[[sum(ch[n * y + j][n * x + i] for j in range(n) for i in range(n)) / (n * n) for x in range(w)]
+              for y in range(h)] for ch in p]
+        print(f"   (prt's {pw}x{ph} frame averaged down {n}x{n} to {w}x{h})")
     index_names = {v: k for k, v in meta["object_index"].items()}
     labels = erode(face_labels(chans, w, h, index_names, cyc_path), w, h, 2)
     regions = {}
@@ -173,6 +180,13 @@ def sheet(args):
         for path in row.split(","):
             chans, w, h = read_exr(path)
             imgs.append(([channel(chans, k if k in chans else "Combined." + k, path) for k in "RGB"], w, h))
+        # Images a whole multiple of the row's smallest (supersampled prt frames) are averaged down to it.
+        hmin = min(ih for _, _, ih in imgs)
+        for n, (img, w, ih) in enumerate(imgs):
+            f = ih // hmin
+            if f > 1 and ih == f * hmin and w % f == 0:
+                imgs[n] = ([[[sum(ch[f * y + j][f * x + i] for j in range(f) for i in range(f)) / (f * f)
+                              for x in range(w // f)] for y in range(hmin)] for ch in img], w // f, hmin)
         rows.append(imgs)
     width = max(sum(scale * w + gap for _, w, _ in r) - gap for r in rows)
     lines = []

@@ -53,6 +53,10 @@ def parse_args():
     p.add_argument("--remove", action="append", default=[],
                    help="node name to delete after import (receivers: prt draws none without probes)")
     p.add_argument("--threads", type=int, default=0, help="render threads (0: all)")
+    p.add_argument("--pixel-filter", choices=["blackman-harris", "box"], default="blackman-harris",
+                   help="Cycles' pixel filter: its default (Blackman-Harris, 1.5 pixels wide) or a box one "
+                        "pixel wide (each pixel the mean radiance over its square, as a supersampled "
+                        "prt frame averaged down)")
     p.add_argument("-o", "--output", help="output multilayer EXR")
     a = p.parse_args(argv)
     if not (a.scene and a.env and a.output):
@@ -203,6 +207,9 @@ def setup_cycles(scene, a, width, height):
     c.blur_glossy = 0.0
     c.light_sampling_threshold = 0.0
     c.use_fast_gi = False
+    if a.pixel_filter == "box":
+        c.pixel_filter_type = "BOX"
+        c.filter_width = 1.0
     c.film_exposure = 1.0
     scene.render.film_transparent = False
     scene.render.use_compositing = False  # no glare or any other compositor node
@@ -275,7 +282,7 @@ def render(a):
     os.replace(tmp, out)
     meta = {"scene": a.scene, "env": a.env, "env_rotate_deg": a.env_rotate, "bounces": a.bounces,
             "samples": a.samples, "seed": a.seed, "size": [width, height], "camera": cam.name,
-            "yfov": yfov, "removed": a.remove, "object_index": indices, "albedo": colours}
+            "yfov": yfov, "removed": a.remove, "pixel_filter": a.pixel_filter, "object_index": indices, "albedo": colours}
     write_sidecar(out, meta)
     print(f"cycles_reference.py: wrote {a.output} ({width}x{height}, {a.samples} samples, "
           f"{a.bounces} diffuse bounces, objects {indices})")

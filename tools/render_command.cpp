@@ -383,6 +383,11 @@ void addRender(CLI::App& r, RenderArgs& a) {
           },
           "power of two"))
       ->capture_default_str();
+  r.add_option("--supersample", a.supersample,
+               "Renders N x N pixels for each output pixel and writes their mean (a box filter): anti-aliases "
+               "shading too (shadow edges, the sun's patches), which --msaa does not; costs about N^2")
+      ->check(CLI::Range(1, 8))
+      ->capture_default_str();
   r.add_option("--shadow-map-size", a.shadowMapSize,
                "Texels a side of each direct light's shadow map (per cascade); suns and disks up to 20 deg are lit "
                "per pixel with PCSS-filtered shadow maps (docs/render.md)")
@@ -409,6 +414,11 @@ void addRender(CLI::App& r, RenderArgs& a) {
 int runRender(const RenderArgs& a) {
   const auto tStart = std::chrono::steady_clock::now();
   const int width = a.width, height = a.height;
+  // The frame as rendered: supersampled frames are averaged down before they are written.
+  const int64_t renderWidth = int64_t(width) * a.supersample, renderHeight = int64_t(height) * a.supersample;
+  if (renderWidth > kMaxSide || renderHeight > kMaxSide || renderWidth * renderHeight > kMaxPixels)
+    throw UsageError(cat("--supersample ", a.supersample, " with --size ", width, "x", height, ": renders ", renderWidth,
+                         "x", renderHeight, ", more than the ", kMaxSide, " a side and 8192x8192 pixels allowed"));
   const render::OrbitCamera orbit = orbitCamera(a);
   const bool skyBackground = a.background == Background::Sky;
 
@@ -460,7 +470,7 @@ int runRender(const RenderArgs& a) {
     probes = readProbeGrid(a.probes);
     for (const std::string& w : checkProbesMatch(probes, scene, a)) warnings.push_back(w);
   }
-  render::GlContext context(a.gl, width, height);
+  render::GlContext context(a.gl, int(renderWidth), int(renderHeight));
   if (a.msaa > context.maxSamples())
     throw Error(cat("--msaa ", a.msaa, ": ", context.renderer(), " allows at most ", context.maxSamples(), " samples"));
   render::Renderer renderer(context, scene);
@@ -567,9 +577,10 @@ int runRender(const RenderArgs& a) {
       background = rig->background(double(f));
       frame.background = &background;
     }
-    frame.width = width;
-    frame.height = height;
-    auto image = std::make_shared<const ImageRgb>(renderer.render(frame));
+    frame.width = int(renderWidth);
+    frame.height = int(renderHeight);
+    auto image = std::make_shared<const ImageRgb>(a.supersample > 1 ? downsampleBox(renderer.render(frame), a.supersample)
+                                                                     : renderer.render(frame));
     // Warnings the renderer finds while rendering (direct lights an older bake cannot split),
     // each printed once.
     const std::vector<std::string> now = renderer.warnings();

@@ -38,6 +38,7 @@ struct RenderArgs {
   render::ProbeLookup probeLookup = render::ProbeLookup::PerPixel;  // where receivers interpolate the grid
   Background background = Background::Black;
   int msaa = 1;  // samples per pixel
+  int supersample = 1;  // rendered supersample x supersample pixels per output pixel, averaged down
   int shadowMapSize = 1024;  // texels a side of each direct light's shadow map (and cascade)
   int bounceSamples = 256;   // gather rays per vertex for the direct lights' bounces; 0: through SH
   bool noSkyDetail = false;  // the sky's light beyond the SH band limit left out (the transfer alone)

@@ -237,6 +237,21 @@ void checkWritable(const std::string& path, const ImageRgb& image) {
 
 }  // namespace
 
+ImageRgb downsampleBox(const ImageRgb& image, int factor) {
+  if (factor < 1 || image.width % factor != 0 || image.height % factor != 0)
+    throw Error(cat("downsampleBox: a ", image.width, "x", image.height, " image cannot be averaged down by ", factor));
+  ImageRgb out(image.width / factor, image.height / factor);
+  const float weight = 1.0f / float(factor * factor);
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x) {
+      glm::vec3 sum(0.0f);
+      for (int j = 0; j < factor; ++j)
+        for (int i = 0; i < factor; ++i) sum += image.at(factor * x + i, factor * y + j);
+      out.at(x, y) = sum * weight;
+    }
+  return out;
+}
+
 ImageRgb loadHdrImage(const std::string& path) {
   const std::string data = readFile(path);
   ImageRgb image;

@@ -20,6 +20,11 @@ struct ImageRgb {
   const glm::vec3& at(int x, int y) const { return pixels[static_cast<size_t>(y) * width + x]; }
 };
 
+/// The image averaged down by a whole factor: each factor × factor block of pixels becomes its
+/// mean (a box filter, the same sums in the same order every time). The sides must be multiples
+/// of factor (prt::Error otherwise); factor 1 returns a copy.
+ImageRgb downsampleBox(const ImageRgb& image, int factor);
+
 /// Reads a linear HDR image: OpenEXR (.exr, R/G/B channels or Y) or Radiance (.hdr), chosen by
 /// the file's magic bytes. Throws prt::Error naming the file on a missing, unreadable or
 /// malformed file, absurd dimensions (> 32768 a side) or non-finite pixels.
