@@ -12,8 +12,10 @@
 #   Cycles (Blender 3.4): tools/cycles_vertex_reference.py bakes the exitant radiance at every
 #     vertex (8 diffuse bounces, VSAMPLES samples for each of 2 seeds; CSAMPLES for the
 #     controls), and
-#     tools/cycles_reference.py renders the camera outside the open side (8 bounces, FSAMPLES, SIZE);
-#   prt: `prt bake --bounces 8` at 3 bands, `prt relight --csv` and `prt render`, "before"
+#     tools/cycles_reference.py renders the camera outside the open side (8 bounces, FSAMPLES, SIZE,
+#     a box pixel filter one pixel wide: each pixel the mean over its square);
+#   prt: `prt bake --bounces 8` at 3 bands, `prt relight --csv` and `prt render` (at SUPERSAMPLE
+#     times SIZE, averaged down by the comparison: the same mean over each pixel's square), "before"
 #     (--no-direct-lights, and with the map's sun extraction off where prt has that option) and
 #     "after" (default options);
 #   tools/vertex_compare.py (per vertex: median, p95 of the relative error, Cycles' noise) and
@@ -25,7 +27,7 @@
 # their .json matches (delete them to redo).
 #
 # Environment: VSAMPLES (per seed, default 1024), CSAMPLES (per seed, controls, default 128),
-# FSAMPLES (default 1024), SIZE (default 160x90),
+# FSAMPLES (default 1024), SIZE (default 160x90), SUPERSAMPLE (default 4),
 # BAKE_SAMPLES (default 4096), BLENDER, PRT, THREADS, NO_SUN_OPTION (the prt option that turns
 # the map's sun extraction off; default: found in `prt relight --help`, else none).
 set -euo pipefail
@@ -39,6 +41,8 @@ VSAMPLES=${VSAMPLES:-1024}
 CSAMPLES=${CSAMPLES:-128}
 FSAMPLES=${FSAMPLES:-1024}
 SIZE=${SIZE:-160x90}
+SUPERSAMPLE=${SUPERSAMPLE:-4}
+PRT_SIZE="$((${SIZE%x*} * SUPERSAMPLE))x$((${SIZE#*x} * SUPERSAMPLE))"
 BAKE_SAMPLES=${BAKE_SAMPLES:-4096}
 BLENDER=${BLENDER:-blender}
 PRT=${PRT:-build/tools/prt}
@@ -82,10 +86,10 @@ cycles_vertex() {
 # cycles_frame NAME MAP: Cycles' frame of the room's camera.
 cycles_frame() {
   local exr="$OUT/cycles_$1.exr"
-  if matches "$exr" env="$2" samples="$FSAMPLES" bounces="$BOUNCES" size="[${SIZE/x/, }]"; then echo "reusing $exr"; return; fi
+  if matches "$exr" env="$2" samples="$FSAMPLES" bounces="$BOUNCES" size="[${SIZE/x/, }]" pixel_filter=box; then echo "reusing $exr"; return; fi
   rm -f "$exr" "$exr.json"
   "$BLENDER" -b --factory-startup --python tools/cycles_reference.py -- --scene "$SCENE" --env "$2" \
-    --bounces "$BOUNCES" --samples "$FSAMPLES" --size "$SIZE" --camera Camera --threads "$THREADS" -o "$exr" \
+    --bounces "$BOUNCES" --samples "$FSAMPLES" --size "$SIZE" --camera Camera --pixel-filter box --threads "$THREADS" -o "$exr" \
     | grep -E '^(cycles_|Error)' || true
   [ -f "$exr" ] || { echo "real_maps_validation.sh: Cycles render $exr failed" >&2; exit 1; }
 }
@@ -108,7 +112,7 @@ case_() {
   "$PY" tools/vertex_compare.py "$OUT/cyc_v_$ref.csv" "$OUT/prt_$name.csv" --name "$name: Cycles $ref vs prt $bands bands $*" \
     --json "$OUT/vertex_$name.json"
   if [ -f "$OUT/cycles_$ref.exr" ]; then
-    "$PRT" render "$glb" --env "$map" "$@" --size "$SIZE" --camera Camera --exr-compression none -q -o "$OUT/prt_$name.exr"
+    "$PRT" render "$glb" --env "$map" "$@" --size "$PRT_SIZE" --camera Camera --exr-compression none -q -o "$OUT/prt_$name.exr"
     "$PY" tools/cycles_compare.py compare "$OUT/cycles_$ref.exr" "$OUT/prt_$name.exr" --min-pixels 30 \
       --name "frame $name: Cycles $ref vs prt $bands bands $*" || true
   fi
