@@ -214,6 +214,13 @@ TEST(CliRender, SupersampleWritesTheMeanOfTheLargerFrame) {
   const RunResult ss = prt(plus(common, {(out / "ss.exr").string(), "--size", "24x16", "--supersample", "4"}));
   ASSERT_EQ(big.status, 0) << big.err;
   ASSERT_EQ(ss.status, 0) << ss.err;
+  Args loud = common;
+  loud.erase(std::find(loud.begin(), loud.end(), "-q"));
+  const RunResult said = prt(plus(loud, {(out / "said.exr").string(), "--size", "24x16", "--supersample", "4"}));
+  ASSERT_EQ(said.status, 0) << said.err;
+  EXPECT_NE(said.err.find("1 sample per pixel, supersampled 4x4 (rendered 96x64, averaged down)"), std::string::npos)
+      << said.err;
+  EXPECT_NE(said.err.find("1 frame 24x16 written"), std::string::npos) << said.err;
   const ImageRgb large = loadHdrImage((out / "big.exr").string()), img = loadHdrImage((out / "ss.exr").string());
   ASSERT_EQ(img.width, 24);
   ASSERT_EQ(img.height, 16);

@@ -621,12 +621,15 @@ int runRender(const RenderArgs& a) {
                "prt render: %lld frame%s %dx%d written (%s .. %s)%s on %s\n"
                "  camera: %s\n"
                "  %.2f ms/frame draw + %.2f ms/frame readback, %.3f ms per light update (%zu lights, %d bands, "
-               "window %s; maps projected once in %.1f ms), %.2f ms/frame writing; background %s, %d sample%s per pixel\n",
+               "window %s; maps projected once in %.1f ms), %.2f ms/frame writing; background %s, %d sample%s per pixel%s\n",
                static_cast<long long>(n), n == 1 ? "" : "s", width, height, output.path(frames.first).c_str(),
                output.path(frames.last).c_str(), a.png ? " + PNG" : "", context.description().c_str(),
                camera.description.c_str(), drawMs * perFrame, readbackMs * perFrame, lightMs * perFrame,
                rig->lights.size(), bands, sh::windowName(rig->window), prepareMs, writeMs * perFrame,
-               skyBackground ? "sky" : "black", renderer.lastFrame().samples, renderer.lastFrame().samples == 1 ? "" : "s");
+               skyBackground ? "sky" : "black", renderer.lastFrame().samples, renderer.lastFrame().samples == 1 ? "" : "s",
+               a.supersample > 1 ? cat(", supersampled ", a.supersample, "x", a.supersample, " (rendered ", renderWidth, "x",
+                                       renderHeight, ", averaged down)").c_str()
+                                 : "");
   const render::FrameStats& last = renderer.lastFrame();
   if (!firstLighting.direct.empty()) {
     std::string bounceText = "through the transfer";
