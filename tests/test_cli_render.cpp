@@ -201,8 +201,9 @@ TEST(CliRender, BackgroundSkyShowsTheMapAlongEachRay) {
 }
 
 // --supersample N renders N x N pixels per output pixel and writes their box mean: the frame is
-// downsampleBox of the same view rendered N times larger (bit for bit), a sun's shadow edge
-// becomes partial pixels, and a size beyond the limits is refused before any GL work.
+// downsampleBox of the same view rendered N times larger (bit for bit), the plane's edge against
+// the black background becomes partial pixels (so the comparison is not of flat images), the
+// summary says so, and a size beyond the limits or N = 0 is refused, writing nothing.
 TEST(CliRender, SupersampleWritesTheMeanOfTheLargerFrame) {
   const TempDir tmp("supersample");
   const fs::path& d = tmp.path();

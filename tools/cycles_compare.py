@@ -44,6 +44,11 @@ def channel(chans, suffix, path):
         sys.exit(f"{path}: no channel {suffix} (has {', '.join(sorted(chans))})")
     return chans[names[0]]
 
+def average_down(channels, w, h, n):
+    """Channels of a (n w) x (n h) image averaged down n x n pixels into one (a box filter)."""
+    return [[[sum(ch[n * y + j][n * x + i] for j in range(n) for i in range(n)) / (n * n) for x in range(w)]
+             for y in range(h)] for ch in channels]
+
 def rgb(path):
     chans, w, h = read_exr(path)
     return [channel(chans, c, path) for c in "RGB"], w, h
@@ -109,8 +114,7 @@ def compare(args):
         n = pw // w
         if n < 2 or (pw, ph) != (n * w, n * h):
             sys.exit(f"{prt_path}: {pw}x{ph}, but {cyc_path} is {w}x{h} (nor a whole multiple of it)")
-        p = [[[sum(ch[n * y + j][n * x + i] for j in range(n) for i in range(n)) / (n * n) for x in range(w)]
-              for y in range(h)] for ch in p]
+        p = average_down(p, w, h, n)
         print(f"   (prt's {pw}x{ph} frame averaged down {n}x{n} to {w}x{h})")
     index_names = {v: k for k, v in meta["object_index"].items()}
     labels = erode(face_labels(chans, w, h, index_names, cyc_path), w, h, 2)
@@ -185,8 +189,7 @@ def sheet(args):
         for n, (img, w, ih) in enumerate(imgs):
             f = ih // hmin
             if f > 1 and ih == f * hmin and w % f == 0:
-                imgs[n] = ([[[sum(ch[f * y + j][f * x + i] for j in range(f) for i in range(f)) / (f * f)
-                              for x in range(w // f)] for y in range(hmin)] for ch in img], w // f, hmin)
+                imgs[n] = (average_down(img, w // f, hmin, f), w // f, hmin)
         rows.append(imgs)
     width = max(sum(scale * w + gap for _, w, _ in r) - gap for r in rows)
     lines = []
