@@ -57,7 +57,10 @@ std::string glslFloat(double v) {
 // the unit disk for any n. The loops below walk it, turning by kGolden from one point to the next.
 std::string goldenGlsl() {
   const double a = 2.399963229728653;
-  return cat("const mat2 kGolden = mat2(", glslFloat(std::cos(a)), ", ", glslFloat(std::sin(a)), ", ",
+  // R2 (Roberts 2018): the additive recurrence of the plastic number, even in the unit square.
+  const double g = 1.32471795724474602596;
+  return cat("const vec2 kR2 = vec2(", glslFloat(1.0 / g), ", ", glslFloat(1.0 / (g * g)), ");\n",
+             "const mat2 kGolden = mat2(", glslFloat(std::cos(a)), ", ", glslFloat(std::sin(a)), ", ",
              glslFloat(-std::sin(a)), ", ", glslFloat(std::cos(a)), ");\n");
 }
 
@@ -117,16 +120,19 @@ float mapDepth(int layer, vec2 t, float inv) {
   return inside ? d : 1e30;
 }
 
-// The share of light k's cap seen from x (normal n). `facing`: the cap is above the horizon;
-// where it is not the result is unused, and the loops stop after one pass.
-float visibleShare(int k, vec3 x, vec3 n, bool facing) {
+// The share of light k's cap seen from x (normal n) over the pixel's footprint. `facing`: the cap
+// is above the horizon; where it is not the result is unused, and the loops stop after one pass.
+// dxW, dyW: the world position's change across one pixel (main's dFdx, dFdy of vWorld: one
+// triangle's plane).
+float visibleShare(int k, vec3 x, vec3 n, bool facing, vec3 dxW, vec3 dyW) {
   float depth = dot(x - uViewOrigin, uViewForward);
   int c = min(int(depth > uCascadeFar.x) + int(depth > uCascadeFar.y) + int(depth > uCascadeFar.z), uCascades - 1);
   int layer = k * uCascades + c;
   vec4 P = uShadowParams[layer];
   float texel = P.x, range = P.y, tanR = P.z;
   vec3 p = (uShadowMatrix[layer] * vec4(x, 1.0)).xyz;
-  vec3 nl = mat3(uShadowMatrix[layer]) * n;
+  mat3 m3 = mat3(uShadowMatrix[layer]);
+  vec3 nl = m3 * n;
   float nz = nl.z < 0.0 ? min(nl.z, -0.02) : max(nl.z, 0.02);
   vec2 grad = -nl.xy / nz;  // the tangent plane's depth slope (|n_z| floored: 88.9°)
   float slope = length(grad);
@@ -135,33 +141,47 @@ float visibleShare(int k, vec3 x, vec3 n, bool facing) {
   float inv = 1.0 / float(uShadowSize);
   vec2 gradT = grad * (texel / range);
   float zr = (p.z - texel * (1.0 + slope)) / range;
-  float search = clamp(tanR * p.z / texel, 1.5, kMaxKernel);
-  float ang = 6.28318530718 * fract(52.9829189 * fract(dot(gl_FragCoord.xy, vec2(0.06711056, 0.00583715))));
+  // The footprint: the pixel's square [-1/2, 1/2]^2 mapped into the map (J, texels) and the
+  // depth along it (Jz, exact on the triangle's plane), at most kMaxKernel texels across.
+  vec3 fx = m3 * dxW, fy = m3 * dyW;
+  mat2 J = mat2(fx.xy, fy.xy) / texel;
+  vec2 Jz = vec2(fx.z, fy.z) / range;
+  float fs = min(1.0, kMaxKernel / max(max(length(J[0]), length(J[1])), 1e-30));
+  J *= fs;
+  Jz *= fs;
+  float noise = fract(52.9829189 * fract(dot(gl_FragCoord.xy, vec2(0.06711056, 0.00583715))));
+  float ang = 6.28318530718 * noise;
   vec2 turn = vec2(cos(ang), sin(ang));
-  // 1. Blocker search.
+  vec2 u0 = vec2(noise, fract(noise + 0.5));  // the footprint's points: R2 from u0, less 1/2
+  float search = clamp(tanR * p.z / texel, 1.5, kMaxKernel);
+  // 1. Blocker search over the search disk convolved with the footprint.
   float nb = 0.0, sumB = 0.0;
   int i = 0;
-  vec2 dir = turn * search;
+  vec2 dir = turn * search, u = u0;
   do {
-    vec2 o = dir * sqrt((float(i) + 0.5) / float(kBlockerSamples));
-    float zb = mapDepth(layer, pt + o, inv);
-    bool b = zb < zr + dot(gradT, o);
+    vec2 o = dir * sqrt((float(i) + 0.5) / float(kBlockerSamples)), box = u - 0.5;
+    float zb = mapDepth(layer, pt + o + J * box, inv);
+    bool b = zb < zr + dot(gradT, o) + dot(Jz, box);
     nb += b ? 1.0 : 0.0;
     sumB += b ? zb : 0.0;
     dir = kGolden * dir;
+    u = fract(u + kR2);
     i += uLoopStep;
   } while (facing && i < kBlockerSamples);
   // 2. The penumbra's radius (texels).
   float pen = clamp(tanR * (p.z - range * sumB / max(nb, 1.0)) / texel, 1.0, kMaxKernel);
   bool needFilter = nb > 0.0 && !(nb == float(kBlockerSamples) && pen <= search);
-  // 3. The filter: pixels that need none pay one pass of it.
+  // 3. The filter over the penumbra's disk convolved with the footprint: pixels that need none
+  //    pay one pass of it.
   float lit = 0.0;
   i = 0;
   dir = turn * pen;
+  u = u0;
   do {
-    vec2 o = dir * sqrt((float(i) + 0.5) / float(kFilterSamples));
-    lit += mapDepth(layer, pt + o, inv) >= zr + dot(gradT, o) ? 1.0 : 0.0;
+    vec2 o = dir * sqrt((float(i) + 0.5) / float(kFilterSamples)), box = u - 0.5;
+    lit += mapDepth(layer, pt + o + J * box, inv) >= zr + dot(gradT, o) + dot(Jz, box) ? 1.0 : 0.0;
     dir = kGolden * dir;
+    u = fract(u + kR2);
     i += uLoopStep;
   } while (facing && needFilter && i < kFilterSamples);
   return needFilter ? lit / float(kFilterSamples) : nb == 0.0 ? 1.0 : 0.0;
@@ -169,13 +189,13 @@ float visibleShare(int k, vec3 x, vec3 n, bool facing) {
 
 // Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x), a loop over the lights that tests at
 // its end, so that one light costs one pass.
-vec3 directIrradiance(vec3 x, vec3 n) {
+vec3 directIrradiance(vec3 x, vec3 n, vec3 dxW, vec3 dyW) {
   vec3 e = vec3(0.0);
   int k = 0;
   do {
     float f = directCosineFactor(n, uDirectDir[k], uDirectIrradiance[k].w);
     float v = 1.0;
-    if (uShadowed != 0) v = visibleShare(k, x, n, f > 0.0);
+    if (uShadowed != 0) v = visibleShare(k, x, n, f > 0.0, dxW, dyW);
     e += k < uDirectCount ? uDirectIrradiance[k].rgb * (f * v) : vec3(0.0);
     k += uLoopStep;
   } while (k < uDirectCount);

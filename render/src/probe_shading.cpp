@@ -308,12 +308,14 @@ std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
   s += irradianceGlsl(bands);
   // DIRECT: the direct lights' own light per pixel, with their shadows (direct_shading.cpp).
   s += "#ifdef DIRECT\n" + directLightingGlsl() + "#endif\n";
-  s += "out vec4 fragColor;\nvoid main() {\n  float a = coverage();\n  vec3 n = normalize(vNormal);\n";
+  s += "out vec4 fragColor;\nvoid main() {\n";
+  s += "#ifdef DIRECT\n  vec3 dxW = dFdx(vWorld), dyW = dFdy(vWorld);  // the pixel's footprint\n#endif\n";
+  s += "  float a = coverage();\n  vec3 n = normalize(vNormal);\n";
   if (perVertex)
     s += "  vec3 e = irradiance(vRadiance, n);\n";
   else
     s += "  vec4 T[kTexels];\n  incidentRadiance(vWorld, n, T);\n  vec3 e = irradiance(T, n);\n";
-  s += "#ifdef DIRECT\n  e += directIrradiance(vWorld, n);\n#endif\n";
+  s += "#ifdef DIRECT\n  e += directIrradiance(vWorld, n, dxW, dyW);\n#endif\n";
   return s + "  fragColor = vec4(albedo() * e * 0.31830988618379067, a);\n}\n";
 }
 

@@ -153,6 +153,9 @@ centroid in vec3 vNormal;
 )", directLightingGlsl(), R"(#endif
 )", kAlbedoInputsGlsl, R"(out vec4 fragColor;
 void main() {
+#ifdef DIRECT
+  vec3 dxW = dFdx(vWorld), dyW = dFdy(vWorld);  // the pixel's footprint, in uniform control flow
+#endif
   float a = coverage();
 #ifdef TWO_SIDED
   vec3 e = gl_FrontFacing ? vTransferLight : vTransferLightBack;
@@ -164,7 +167,7 @@ void main() {
 #ifdef TWO_SIDED
   n = gl_FrontFacing ? n : -n;
 #endif
-  e += directIrradiance(vWorld, n);
+  e += directIrradiance(vWorld, n, dxW, dyW);
 #endif
   fragColor = vec4(albedo() * e * 0.31830988618379067, a);
 }
