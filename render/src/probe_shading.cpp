@@ -286,12 +286,14 @@ uniform mat4 uViewProj;
 uniform mat4 uModel;
 uniform mat3 uNormalMatrix;
 out vec3 vWorld;
+out vec3 vWorldPixel;  // vWorld for the footprint's derivatives (direct_shading.cpp); unread without direct lights
 out vec3 vNormal;
 )", kAlbedoOutputsGlsl);
   if (perVertex) s += probeLookupGlsl(bands) + "out vec4 vRadiance[kTexels];\n";
   s += cat(R"(void main() {
   vec4 world = uModel * vec4(aPosition, 1.0);
   vWorld = world.xyz;
+  vWorldPixel = world.xyz;
   vNormal = normalize(uNormalMatrix * aNormal);  // unit world normals per vertex, interpolated
 )", kAlbedoPassGlsl);
   if (perVertex) s += "  vec4 T[kTexels];\n  incidentRadiance(vWorld, vNormal, T);\n  vRadiance = T;\n";
@@ -309,7 +311,7 @@ std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
   // DIRECT: the direct lights' own light per pixel, with their shadows (direct_shading.cpp).
   s += "#ifdef DIRECT\n" + directLightingGlsl() + "#endif\n";
   s += "out vec4 fragColor;\nvoid main() {\n";
-  s += "#ifdef DIRECT\n  vec3 dxW = dFdx(vWorld), dyW = dFdy(vWorld);  // the pixel's footprint\n#endif\n";
+  s += "#ifdef DIRECT\n  vec3 dxW, dyW;\n  pixelFootprint(dxW, dyW);\n#endif\n";
   s += "  float a = coverage();\n  vec3 n = normalize(vNormal);\n";
   if (perVertex)
     s += "  vec3 e = irradiance(vRadiance, n);\n";

@@ -72,6 +72,7 @@ layout(std430, binding = 5) readonly buffer DirectBounceBack { float directBounc
 #endif
 uniform vec3 uDirectSh[kCoeffsAll];  // the direct lights' SH, through the bounced part only
 out vec3 vWorld;
+out vec3 vWorldPixel;
 out vec3 vNormal;
 #endif
 )");
@@ -128,6 +129,7 @@ void main() {
                              directBounceBack[baseBounce + 2u]) - d0b;
 #endif
   vWorld = aPosition;
+  vWorldPixel = aPosition;
   vNormal = aNormal;
 #endif
 )";
@@ -154,7 +156,8 @@ centroid in vec3 vNormal;
 )", kAlbedoInputsGlsl, R"(out vec4 fragColor;
 void main() {
 #ifdef DIRECT
-  vec3 dxW = dFdx(vWorld), dyW = dFdy(vWorld);  // the pixel's footprint, in uniform control flow
+  vec3 dxW, dyW;
+  pixelFootprint(dxW, dyW);
 #endif
   float a = coverage();
 #ifdef TWO_SIDED
