@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""compare CYCLES.exr PRT.exr (PRT.exr the same size or a whole multiple: averaged down) [--tol T] [--min-pixels N] [--name S] | sheet OUT.png ROW... (ROW = a.exr,b.exr,...) | lobes OUT.exr"""
+"""compare CYCLES.exr PRT.exr (PRT.exr the same size or a whole multiple: averaged down) [--tol T] [--min-pixels N] [--name S] | sheet OUT.png [--exposure STOPS] [--scale N] [--crop X0,Y0,X1,Y1] ROW... (ROW = a.exr,b.exr,...) | lobes OUT.exr"""
 import json, math, struct, sys, zlib
 
 def read_exr(path):
@@ -173,10 +173,11 @@ def srgb8(v):
 def sheet(args):
     """Rows of images side by side, 2x nearest upscaling, exposure, clamp + sRGB (Blender's
     Standard view transform)."""
-    out, rows, scale, gap, gain = args[0], [], 2, 4, 1.0
+    out, rows, scale, gap, gain, crop = args[0], [], 2, 4, 1.0, None
     while args[1].startswith("--"):
         if args[1] == "--exposure": gain = 2.0 ** float(args[2])
         elif args[1] == "--scale": scale = int(args[2])
+        elif args[1] == "--crop": crop = [int(v) for v in args[2].split(",")]  # X0,Y0,X1,Y1 (pixels, end excluded)
         else: sys.exit(f"sheet: unknown option {args[1]}")
         args = args[:1] + args[3:]
     for row in args[1:]:
@@ -190,6 +191,9 @@ def sheet(args):
             f = ih // hmin
             if f > 1 and ih == f * hmin and w % f == 0:
                 imgs[n] = (average_down(img, w // f, hmin, f), w // f, hmin)
+        if crop:
+            x0, y0, x1, y1 = crop
+            imgs = [([[r[x0:x1] for r in c[y0:y1]] for c in img], x1 - x0, y1 - y0) for img, _, _ in imgs]
         rows.append(imgs)
     width = max(sum(scale * w + gap for _, w, _ in r) - gap for r in rows)
     lines = []

@@ -170,8 +170,11 @@ float visibleShare(int k, vec3 x, vec3 n, bool facing, vec3 dxW, vec3 dyW) {
   vec2 turn = vec2(cos(ang), sin(ang));
   vec2 u0 = vec2(noise, fract(noise + 0.5));  // the footprint's points: R2 from u0, less 1/2
   float search = clamp(tanR * p.z / texel, 1.5, kMaxKernel);
-  // 1. Blocker search over the search disk convolved with the footprint.
-  float nb = 0.0, sumB = 0.0;
+  // 1. Blocker search over the search disk convolved with the footprint. A sample on an empty
+  //    texel (nothing drawn: depth 1, or beyond the map) lies on no surface, so it does not
+  //    vote: there the receiver's tangent plane runs on past the receiver's end (under the wall
+  //    a floor meets), and counting it lit would leak light along every contact line.
+  float nb = 0.0, ns = 0.0, sumB = 0.0;
   int i = 0;
   vec2 dir = turn * search, u = u0;
   do {
@@ -179,6 +182,7 @@ float visibleShare(int k, vec3 x, vec3 n, bool facing, vec3 dxW, vec3 dyW) {
     float zb = mapDepth(layer, pt + o + J * box, inv);
     bool b = zb < zr + dot(gradT, o) + dot(Jz, box);
     nb += b ? 1.0 : 0.0;
+    ns += zb < 1.0 ? 1.0 : 0.0;
     sumB += b ? zb : 0.0;
     dir = kGolden * dir;
     u = fract(u + kR2);
@@ -186,21 +190,24 @@ float visibleShare(int k, vec3 x, vec3 n, bool facing, vec3 dxW, vec3 dyW) {
   } while (facing && i < kBlockerSamples);
   // 2. The penumbra's radius (texels).
   float pen = clamp(tanR * (p.z - range * sumB / max(nb, 1.0)) / texel, 1.0, kMaxKernel);
-  bool needFilter = nb > 0.0 && !(nb == float(kBlockerSamples) && pen <= search);
-  // 3. The filter over the penumbra's disk convolved with the footprint: pixels that need none
-  //    pay one pass of it.
-  float lit = 0.0;
+  bool needFilter = nb > 0.0 && !(nb == ns && pen <= search);
+  // 3. The filter over the penumbra's disk convolved with the footprint, over the samples on a
+  //    surface: pixels that need none pay one pass of it.
+  float lit = 0.0, nf = 0.0;
   i = 0;
   dir = turn * pen;
   u = u0;
   do {
     vec2 o = dir * sqrt((float(i) + 0.5) / float(kFilterSamples)), box = u - 0.5;
-    lit += mapDepth(layer, pt + o + J * box, inv) >= zr + dot(gradT, o) + dot(Jz, box) ? 1.0 : 0.0;
+    float zf = mapDepth(layer, pt + o + J * box, inv);
+    bool surface = zf < 1.0;
+    lit += surface && zf >= zr + dot(gradT, o) + dot(Jz, box) ? 1.0 : 0.0;
+    nf += surface ? 1.0 : 0.0;
     dir = kGolden * dir;
     u = fract(u + kR2);
     i += uLoopStep;
   } while (facing && needFilter && i < kFilterSamples);
-  return needFilter ? lit / float(kFilterSamples) : nb == 0.0 ? 1.0 : 0.0;
+  return needFilter ? (nf > 0.0 ? lit / nf : 1.0) : nb == 0.0 ? 1.0 : 0.0;
 }
 
 // Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x), a loop over the lights that tests at
