@@ -14,8 +14,9 @@
 #     controls), and
 #     tools/cycles_reference.py renders the camera outside the open side (8 bounces, FSAMPLES, SIZE,
 #     a box pixel filter one pixel wide: each pixel the mean over its square);
-#   prt: `prt bake --bounces 8` at 3 bands, `prt relight --csv` and `prt render` (at SUPERSAMPLE
-#     times SIZE, averaged down by the comparison: the same mean over each pixel's square), "before"
+#   prt: `prt bake --bounces 8` at 3 bands, `prt relight --csv` and `prt render` (at SIZE, whose
+#     shadows are filtered over each pixel's square; at SUPERSAMPLE > 1 rendered that many times
+#     larger and averaged down by the comparison: the same mean over each pixel's square), "before"
 #     (--no-direct-lights, and with the map's sun extraction off where prt has that option) and
 #     "after" (default options);
 #   tools/vertex_compare.py (per vertex: median, p95 of the relative error, Cycles' noise) and
@@ -27,7 +28,7 @@
 # their .json matches (delete them to redo).
 #
 # Environment: VSAMPLES (per seed, default 1024), CSAMPLES (per seed, controls, default 128),
-# FSAMPLES (default 1024), SIZE (default 160x90), SUPERSAMPLE (default 4),
+# FSAMPLES (default 1024), SIZE (default 160x90), SUPERSAMPLE (default 1: prt's defaults),
 # BAKE_SAMPLES (default 4096), BLENDER, PRT, THREADS, NO_SUN_OPTION (the prt option that turns
 # the map's sun extraction off; default: found in `prt relight --help`, else none).
 set -euo pipefail
@@ -41,7 +42,7 @@ VSAMPLES=${VSAMPLES:-1024}
 CSAMPLES=${CSAMPLES:-128}
 FSAMPLES=${FSAMPLES:-1024}
 SIZE=${SIZE:-160x90}
-SUPERSAMPLE=${SUPERSAMPLE:-4}
+SUPERSAMPLE=${SUPERSAMPLE:-1}
 PRT_SIZE="$((${SIZE%x*} * SUPERSAMPLE))x$((${SIZE#*x} * SUPERSAMPLE))"
 BAKE_SAMPLES=${BAKE_SAMPLES:-4096}
 BLENDER=${BLENDER:-blender}
