@@ -164,6 +164,22 @@ TEST_F(CliMpi, AFailingRankStopsEveryRankWithOneLine) {
   EXPECT_NE(usage.status, 0);
 }
 
+// Every rank on this one host and no layer chosen: prt asks Open MPI for ob1 over shared
+// memory (its default would try the fabric layers first, about 0.2 s of MPI_Init per rank) and
+// says so; a layer the user chose (OMPI_MCA_pml, which mpirun --mca pml sets) is left alone.
+TEST_F(CliMpi, OneHostGetsSharedMemoryUnlessALayerWasChosen) {
+  const test::TempDir tmp;
+  Args quiet = {"bake", test::sourcePath("scenes/plane.gltf"), "-o", (tmp.path() / "p.glb").string(), "--samples", "16"};
+  const std::string said = "(MPI: Open MPI's ob1 over shared memory, chosen for one host)";
+  RunResult chosen = mpirun(2, quiet, {.env = {{"OMPI_MCA_pml", std::nullopt}}});
+  ASSERT_EQ(chosen.status, 0) << chosen.err;
+  EXPECT_NE(chosen.err.find(said), std::string::npos) << chosen.err;
+  RunResult left = mpirun(2, quiet, {.env = {{"OMPI_MCA_pml", "ob1"}}});
+  ASSERT_EQ(left.status, 0) << left.err;
+  EXPECT_EQ(left.err.find(said), std::string::npos) << left.err;
+  EXPECT_NE(left.err.find("ranks: 2 (MPI);"), std::string::npos) << left.err;
+}
+
 TEST(CliShards, ShardsAndMergeWriteTheBytesOfOneProcess) {
   const test::TempDir tmp;
   const fs::path dir = tmp.path();

@@ -473,7 +473,8 @@ int runBake(const BakeArgs& a) {
                  formatCount(double(refined.rays)).c_str(), refined.seconds);
   for (const std::string& line : describeReceivers(scene, "--receiver")) std::fprintf(stderr, "  receiver %s\n", line.c_str());
   if (mpi)
-    std::fprintf(stderr, "  ranks: %d (MPI); rank 0 received %s from the others in %llu exchanges\n", ranks.size(),
+    std::fprintf(stderr, "  ranks: %d (MPI%s); rank 0 received %s from the others in %llu exchanges\n", ranks.size(),
+                 ranks.transportChoice().empty() ? "" : cat(": ", ranks.transportChoice()).c_str(),
                  formatBytes(ranks.bytesReceived()).c_str(), static_cast<unsigned long long>(ranks.gathers()));
   if (a.probes.empty()) return 0;
   const std::string restored =

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <climits>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <thread>
 
@@ -74,24 +75,43 @@ void check(int rc, const char* what) {
   if (rc != MPI_SUCCESS) throw Error(cat("MPI: ", what, " failed (error ", rc, ")"));
 }
 
-// Waits for a nonblocking collective by polling with short sleeps: a rank that finished its
-// share first leaves the core to the ranks still computing (Open MPI's blocking collectives
-// spin), which matters where ranks share cores. Sleeps grow from 50 µs to 2 ms, so a wait
-// costs at most about 2 ms more than spinning.
-void await(MPI_Request& request, const char* what) {
+// Waits for a nonblocking collective. Arrival: polling with short sleeps, so that a rank that
+// finished its share first leaves the core to the ranks still computing (Open MPI's blocking
+// collectives spin), which matters where ranks share cores; sleeps grow from 50 µs to 2 ms.
+// Transfer (every rank is known to be in the exchange already): polling without sleeping, as a
+// nonblocking collective moves on only inside MPI calls: a large message goes in fragments,
+// each a few calls, and 2 ms naps between them made the direct pass's 1 MB exchange on one
+// machine take 90 ms instead of about 2.
+enum class Wait { Arrival, Transfer };
+
+void await(MPI_Request& request, const char* what, Wait wait = Wait::Arrival) {
   int done = 0;
   auto nap = std::chrono::microseconds(50);
   for (;;) {
     check(MPI_Test(&request, &done, MPI_STATUS_IGNORE), what);
     if (done) return;
+    if (wait == Wait::Transfer) continue;
     std::this_thread::sleep_for(nap);
     nap = std::min(nap * 2, std::chrono::microseconds(2000));
   }
 }
 
+// Open MPI's default point-to-point layer tries the fabric ones first (UCX, libfabric): about
+// 0.2 s of MPI_Init per rank on a machine without such a fabric (docs/scale.md). When every rank
+// runs on this one host (mpirun's OMPI_COMM_WORLD_LOCAL_SIZE equals OMPI_COMM_WORLD_SIZE) and
+// nobody chose a layer (no OMPI_MCA_pml: mpirun --mca pml X sets it), ob1 over shared memory is
+// what a fabric would not beat here, so prt asks for it before MPI_Init reads the environment.
+// True when it chose.
+bool preferSharedMemoryOnOneHost() {
+  const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE");
+  const char* world = std::getenv("OMPI_COMM_WORLD_SIZE");
+  if (std::getenv("OMPI_MCA_pml") || !local || !world || std::strcmp(local, world) != 0) return false;
+  return ::setenv("OMPI_MCA_pml", "ob1", 0) == 0;
+}
+
 class MpiRanks final : public Ranks {
 public:
-  MpiRanks() {
+  MpiRanks() : sharedMemory_(preferSharedMemoryOnOneHost()) {
     int provided = 0;
     // Only the thread that runs the stages calls MPI, between stages.
     check(MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided), "MPI_Init_thread");
@@ -114,7 +134,7 @@ public:
     const uint64_t n = mine.size();
     MPI_Request req;
     check(MPI_Iallgather(&n, 1, MPI_UINT64_T, sizes.data(), 1, MPI_UINT64_T, MPI_COMM_WORLD, &req), "MPI_Iallgather");
-    await(req, "MPI_Iallgather");
+    await(req, "MPI_Iallgather");  // once it is done, every rank has come to the exchange
     const bool receive = toAll || rank_ == 0;
     std::vector<std::string> all(static_cast<size_t>(size_));
     if (receive)
@@ -142,7 +162,7 @@ public:
         check(MPI_Igatherv(send, count, MPI_BYTE, buf.data(), counts.data(), displs.data(), MPI_BYTE, 0, MPI_COMM_WORLD,
                            &req),
               "MPI_Igatherv");
-      await(req, "MPI_Igatherv");
+      await(req, "MPI_Igatherv", Wait::Transfer);
       if (!receive) continue;
       for (int r = 0; r < size_; ++r)
         if (r != rank_ && counts[size_t(r)] > 0)
@@ -170,7 +190,12 @@ public:
     await(req, "MPI_Ibarrier");
   }
 
+  std::string transportChoice() const override {
+    return sharedMemory_ ? "Open MPI's ob1 over shared memory, chosen for one host" : "";
+  }
+
 private:
+  bool sharedMemory_ = false;
   int rank_ = 0, size_ = 1;
 };
 

@@ -46,6 +46,9 @@ public:
   virtual uint64_t sum(uint64_t v) { return v; }
   /// Waits for every rank. Collective.
   virtual void barrier() {}
+  /// What prt chose of the ranks' transport itself, for the summary; empty when it chose
+  /// nothing (one process, shards, or the launcher's or the user's choice).
+  virtual std::string transportChoice() const { return {}; }
   /// Does this rank compute chunk `c` of a stage? c mod size() == rank().
   bool owns(uint64_t c) const { return int(c % uint64_t(size())) == rank(); }
   /// Bytes this rank received from other ranks in gather() so far, and the gathers.
