@@ -24,6 +24,7 @@
 #include "prt/sh.h"
 #include "probe_brute_force.h"
 #include "test_scenes.h"
+#include "../bake/src/half.h"  // forcePortableHalves
 
 namespace prt {
 namespace {
@@ -233,6 +234,38 @@ TEST(ProbeBake, SameSeedSameGridAnyThreadCountWithLitSurfaces) {
     ASSERT_EQ(first.direct.size(), g.direct.size());
     EXPECT_EQ(0, std::memcmp(first.direct.data(), g.direct.data(), first.direct.size() * sizeof(float)));
   }
+}
+
+// The halves' two paths (F16C where the CPU has it, the portable one lane by lane) give the same
+// bits: the bounces' gather of the previous order and the probes' lit hits (half.h).
+TEST(ProbeBake, HalfPathsGiveTheSameBits) {
+  if (!bake::useF16c()) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
+  Scene s = test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f);
+  bake::BakeSettings bs;
+  bs.samples = 64;
+  bs.bounces = 2;
+  bs.keepLowerOrder = true;
+  bake::ProbeSettings ps;
+  ps.dims = glm::ivec3(3);
+  ps.samples = 300;
+  ps.bounces = 2;
+  std::vector<bake::SurfaceTransfer> surfaces;
+  std::vector<ProbeGrid> grids;
+  for (bool portable : {false, true}) {
+    bake::forcePortableHalves() = portable;
+    surfaces.push_back(bake::bakeSurface(s, bs));
+    grids.push_back(bake::bakeProbes(s, surfaces.back().perMeshLowerOrder, ps));
+  }
+  bake::forcePortableHalves() = false;
+  ASSERT_EQ(surfaces[0].perMesh.size(), surfaces[1].perMesh.size());
+  for (size_t k = 0; k < surfaces[0].perMesh.size(); ++k) {
+    ASSERT_EQ(surfaces[0].perMesh[k].size(), surfaces[1].perMesh[k].size());
+    EXPECT_EQ(0, std::memcmp(surfaces[0].perMesh[k].data(), surfaces[1].perMesh[k].data(),
+                             surfaces[0].perMesh[k].size() * sizeof(glm::vec3)));
+  }
+  ASSERT_GT(grids[0].transfer.size(), 0u);
+  ASSERT_EQ(grids[0].transfer.size(), grids[1].transfer.size());
+  EXPECT_EQ(0, std::memcmp(grids[0].transfer.data(), grids[1].transfer.data(), grids[0].transfer.size() * sizeof(float)));
 }
 
 // Interpolated probe irradiance against an independent brute-force estimate: at random points

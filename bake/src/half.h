@@ -1,14 +1,20 @@
 // IEEE 754 binary16 ("half") conversions, exact and portable: the bounces read the previous
-// order's transfer as halves (surface_bake.cpp), and every build and CPU must round the same
-// way. halfFromFloat rounds to nearest, ties to even, as F16C's vcvtps2ph with imm 0;
+// order's transfer as halves (surface_bake.cpp), the probes their lit hits' transfer
+// (probe_bake.cpp), and every build and CPU must round the same way. halfFromFloat rounds to nearest, ties to even, as F16C's vcvtps2ph with imm 0;
 // floatFromHalf is exact, as vcvtph2ps (both checked against F16C in tests/test_bake.cpp
 // where the CPU has it).
 #pragma once
 
 #include <cpuid.h>
 
+#include <atomic>
 #include <cstdint>
 #include <cstring>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace prt::bake {
 
@@ -57,5 +63,39 @@ inline bool cpuHasF16c() {
   unsigned a = 0, b = 0, c = 0, d = 0;
   return __get_cpuid(1, &a, &b, &c, &d) && (c & bit_F16C) != 0;
 }
+
+/// Whether the gathers over halves take their F16C path: AVX2 and F16C on this CPU, unless
+/// forcePortableHalves() is set (tests compare the two paths, which must give the same bits).
+inline std::atomic<bool>& forcePortableHalves() {
+  static std::atomic<bool> force{false};
+  return force;
+}
+inline bool useF16c() {
+  static const bool hardware = __builtin_cpu_supports("avx2") && cpuHasF16c();
+  return hardware && !forcePortableHalves().load(std::memory_order_relaxed);
+}
+
+/// RGB SH transfer rows (3·n2 floats each) as halves, each row padded with zeros to whole 64-byte
+/// lines (one line at 3 bands instead of two): for gathers that read rows at random, where the
+/// lines read are the cost.
+struct HalfRows {
+  size_t stride = 0;  // halves per row: 3·n2, padded to a multiple of 32 (a 64-byte line)
+  std::vector<uint16_t> storage;
+  uint16_t* rows = nullptr;  // 64-byte aligned, inside storage
+  /// Rows 0 .. count−1 of t (count · n2 RGB triples), rounded to nearest even.
+  void assign(const std::vector<glm::vec3>& t, size_t count, int n2) {
+    stride = (size_t(3 * n2) + 31) / 32 * 32;
+    if (storage.size() != count * stride + 32) storage.assign(count * stride + 32, 0);  // padding stays 0
+    rows = reinterpret_cast<uint16_t*>((reinterpret_cast<uintptr_t>(storage.data()) + 63) & ~uintptr_t(63));
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 1024), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t v = r.begin(); v != r.end(); ++v) {
+        const float* src = &t[v * size_t(n2)].x;
+        uint16_t* dst = rows + v * stride;
+        for (int i = 0; i < 3 * n2; ++i) dst[i] = halfFromFloat(src[i]);
+      }
+    });
+  }
+  const uint16_t* row(size_t v) const { return rows + v * stride; }
+};
 
 }  // namespace prt::bake

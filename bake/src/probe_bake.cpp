@@ -28,7 +28,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <immintrin.h>
+
 #include "albedo_lookup.h"
+#include "half.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
@@ -164,10 +167,42 @@ struct ProbeAccum {
   std::array<uint32_t, 6> count{};
 };
 
+// The light a lit hit sends, g = ρ/π · (b0 t0 + b1 t1 + b2 t2), from its corners' transfer rows
+// as halves (HalfRows: one 64-byte line a corner at 3 bands, where the floats took two: the
+// reads of the rows are most of what a lit hit costs). g's `lanes` floats (3·n2 padded to
+// whole 8-float vectors; the rows' padding is zero, so g's is too). Without F16C the same
+// operations lane by lane (lane i is RGB channel i % 3), so both give the same bits.
+void litLightPortable(const uint16_t* t0, const uint16_t* t1, const uint16_t* t2, float b0, float b1, float b2,
+                      const glm::vec3& rho, int lanes, float* g) {
+  for (int i = 0; i < lanes; ++i) {
+    float s = b0 * floatFromHalf(t0[i]) + b1 * floatFromHalf(t1[i]);
+    s = s + b2 * floatFromHalf(t2[i]);
+    g[i] = rho[i % 3] * s;
+  }
+}
+
+__attribute__((target("avx2,f16c"))) void litLightF16c(const uint16_t* t0, const uint16_t* t1, const uint16_t* t2,
+                                                        float b0, float b1, float b2, const glm::vec3& rho, int lanes,
+                                                        float* g) {
+  const float cr = rho.r, cg = rho.g, cb = rho.b;
+  const __m256 rp[3] = {_mm256_setr_ps(cr, cg, cb, cr, cg, cb, cr, cg), _mm256_setr_ps(cb, cr, cg, cb, cr, cg, cb, cr),
+                        _mm256_setr_ps(cg, cb, cr, cg, cb, cr, cg, cb)};
+  const __m256 w0 = _mm256_set1_ps(b0), w1 = _mm256_set1_ps(b1), w2 = _mm256_set1_ps(b2);
+  for (int k = 0; k < lanes / 8; ++k) {
+    const __m256 f0 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t0) + k));
+    const __m256 f1 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t1) + k));
+    const __m256 f2 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t2) + k));
+    __m256 sum = _mm256_add_ps(_mm256_mul_ps(w0, f0), _mm256_mul_ps(w1, f1));
+    sum = _mm256_add_ps(sum, _mm256_mul_ps(w2, f2));
+    _mm256_storeu_ps(g + 8 * k, _mm256_mul_ps(rp[k % 3], sum));
+  }
+}
+
 struct Tracer {
   const Scene& scene;
   const RayScene& rays;
   const std::vector<std::vector<glm::vec3>>& lowerOrder;
+  const std::vector<HalfRows>& lowerHalf;  // lowerOrder as halves, per instance (its rows: vertex × side)
   const AlbedoLookup& albedo;
   int bands;
   uint64_t seed;
@@ -203,37 +238,24 @@ struct Tracer {
     uint16_t lit[2][kStream];  // per buffer: its rays that hit a lit surface
     uint32_t litCount[2] = {0, 0};
     const auto corners = [&](const Ray& r) { return &scene.meshes[r.mesh].indices[3 * size_t(r.tri)]; };
-    const auto transfer = [&](const Ray& r) {
-      const MeshInstance& m = scene.meshes[r.mesh];
-      return lowerOrder[r.mesh].data() + (r.backface() ? m.vertexCount() * n2 : 0);
-    };
+    // The first row of the hit side's transfer (rows: front sides, then back sides).
+    const auto firstRow = [&](const Ray& r) { return r.backface() ? scene.meshes[r.mesh].vertexCount() : size_t(0); };
+    const bool f16c = useF16c();
     // The indirect part of the buffer's lit hits: M += Σ y gᵀ, g = ρ/π · t(h).
     const auto sumLit = [&](int buf) {
       rows.hits = 0;
       for (uint32_t h = 0; h < litCount[buf]; ++h) {
         const Ray& r = batches[buf].rays()[lit[buf][h]];
         const uint32_t* ix = corners(r);
-        const glm::vec3* t = transfer(r);
-        const glm::vec3* t0 = t + size_t(ix[0]) * n2;
-        const glm::vec3* t1 = t + size_t(ix[1]) * n2;
-        const glm::vec3* t2 = t + size_t(ix[2]) * n2;
-        const float b0 = 1.0f - r.u - r.v;
+        const HalfRows& t = lowerHalf[r.mesh];
+        const size_t base = firstRow(r);
         const glm::vec3 rho = albedo.at(r.mesh, r.tri, r.u, r.v) * float(1.0 / M_PI);
-        // g = ρ/π · (b0 t0 + u t1 + v t2), per RGB component, as n2 triples: over the 3·n2
-        // floats in runs of 12 (four triples, a whole number of 4-float vectors).
         float* g = &rows.gHit[size_t(rows.hits) * ldg];
-        const float *f0 = &t0->x, *f1 = &t1->x, *f2 = &t2->x;
-        // In 4-float vectors (the compiler left the scalar loop scalar: g might alias the
-        // transfer): the same operations per element, so the same bits.
-        alignas(16) float rp[12];
-        for (int e = 0; e < 12; ++e) rp[e] = rho[e % 3];
-        const V4 vb0 = splat(b0), vu = splat(r.u), vv = splat(r.v);
-        const int len = 3 * n2;
-        int c = 0;
-        for (; c + 12 <= len; c += 12)
-          for (int e = 0; e < 12; e += 4)
-            store4(g + c + e, load4(rp + e) * (vb0 * load4(f0 + c + e) + vu * load4(f1 + c + e) + vv * load4(f2 + c + e)));
-        for (; c < len; ++c) g[c] = rp[c % 3] * (b0 * f0[c] + r.u * f1[c] + r.v * f2[c]);
+        const float b0 = 1.0f - r.u - r.v;
+        if (f16c)
+          litLightF16c(t.row(base + ix[0]), t.row(base + ix[1]), t.row(base + ix[2]), b0, r.u, r.v, rho, ldg, g);
+        else
+          litLightPortable(t.row(base + ix[0]), t.row(base + ix[1]), t.row(base + ix[2]), b0, r.u, r.v, rho, ldg, g);
         sh::evaluate(bands, r.dir, &rows.yHit[size_t(rows.hits++) * ldy]);
       }
       addProducts(rows.yHit.data(), ldy, rows.gHit.data(), ldg, rows.hits, n2, 3 * n2, acc.indirect.data(), 3 * n2);
@@ -277,11 +299,11 @@ struct Tracer {
       for (uint32_t h = 0; h < litCount[cur]; ++h) {
         const Ray& r = batch[lit[cur][h]];
         const uint32_t* ix = corners(r);
-        const glm::vec3* t = transfer(r);
+        const HalfRows& t = lowerHalf[r.mesh];
+        const size_t base = firstRow(r);
         for (int c = 0; c < 3; ++c) {
-          const char* p = reinterpret_cast<const char*>(t + size_t(ix[c]) * n2);
-          for (size_t o = 0; o < sizeof(glm::vec3) * size_t(n2); o += 64) __builtin_prefetch(p + o);
-          __builtin_prefetch(p + sizeof(glm::vec3) * size_t(n2) - 1);
+          const char* p = reinterpret_cast<const char*>(t.row(base + ix[c]));
+          for (size_t o = 0; o < t.stride * sizeof(uint16_t); o += 64) __builtin_prefetch(p + o);
         }
       }
       sumLit(cur ^ 1);  // the previous stream's
@@ -794,7 +816,10 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
     RayScene rays(scene);
     AlbedoLookup albedo(scene);
     const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
-    Tracer tracer{scene, rays, lowerOrder, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing), {}};
+    std::vector<HalfRows> lowerHalf(lowerOrder.size());
+    for (size_t k = 0; k < lowerOrder.size(); ++k)
+      if (!lowerOrder[k].empty()) lowerHalf[k].assign(lowerOrder[k], lowerOrder[k].size() / size_t(n2), n2);
+    Tracer tracer{scene, rays, lowerOrder, lowerHalf, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing), {}};
     for (const MeshInstance& m : scene.meshes) tracer.twoSided.push_back(bakesBackSide(scene, m));
     for (size_t k = 0; k < lowerOrder.size(); ++k)  // both sides' transfer where both are baked
       if (!lowerOrder[k].empty())

@@ -115,15 +115,6 @@ double pilotFrontHitShare(const Scene& scene, const Layout& lay, const RayScene&
   return std::min(1.0, mean + 3.0 * std::sqrt(var / double(m)) + 0.02);
 }
 
-// The previous order's transfer as halves, for the bounces' gather (gatherChunk).
-struct HalfRows {
-  size_t stride = 0;  // halves per row: 3·n2, padded to a multiple of 32 (a 64-byte line)
-  std::vector<uint16_t> storage;
-  uint16_t* rows = nullptr;  // 64-byte aligned, inside storage
-  void assign(const std::vector<glm::vec3>& t, size_t vertices, int n2);
-  const uint16_t* row(size_t v) const { return rows + v * stride; }
-};
-
 // A triangle's corners (global vertices) and instance, read together by the gather.
 struct TriCorners {
   uint32_t v[3];
@@ -146,7 +137,7 @@ struct SurfaceBake {
   // t⁰, colourless: values floats (the direct part the files keep apart from the total).
   std::vector<float> direct;
   std::vector<glm::vec3> total, lowerOrder, prev, cur;
-  HalfRows half;                   // prev as halves, during a bounce
+  HalfRows half;                   // prev as halves, during a bounce (half.h)
   std::vector<TriCorners> corners;  // per triangle, during the bounces
   uint64_t hitCount = 0;
 
@@ -224,23 +215,6 @@ struct DirectPass {
 // from one 16-byte entry (TriCorners), and prefetches both some records ahead. A half carries
 // a relative rounding error of at most 2⁻¹¹ ≈ 4.9e-4 (docs/bake.md, "Speed": what it changes).
 constexpr uint32_t kAheadCorners = 16, kAheadRows = 8;  // records ahead, measured on the room
-
-uint16_t* alignTo64(uint16_t* p) {
-  return reinterpret_cast<uint16_t*>((reinterpret_cast<uintptr_t>(p) + 63) & ~uintptr_t(63));
-}
-
-void HalfRows::assign(const std::vector<glm::vec3>& t, size_t vertices, int n2) {
-  stride = (size_t(3 * n2) + 31) / 32 * 32;
-  if (storage.size() != vertices * stride + 32) storage.assign(vertices * stride + 32, 0);  // padding stays 0
-  rows = alignTo64(storage.data());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, vertices, 1024), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t v = r.begin(); v != r.end(); ++v) {
-      const float* src = &t[v * size_t(n2)].x;
-      uint16_t* dst = rows + v * stride;
-      for (int i = 0; i < 3 * n2; ++i) dst[i] = halfFromFloat(src[i]);
-    }
-  });
-}
 
 std::vector<TriCorners> triCorners(const Layout& lay) {
   std::vector<TriCorners> c(lay.triangles);
@@ -345,8 +319,7 @@ __attribute__((target("avx2,f16c"))) void gatherChunkF16c(SurfaceBake& b, const 
 }
 
 ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk& c) {
-  static const bool f16c = __builtin_cpu_supports("avx2") && cpuHasF16c();
-  if (!f16c) {
+  if (!useF16c()) {
     gatherChunkPortable(b, albedo, c);
     return {true, 0};
   }
