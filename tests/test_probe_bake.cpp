@@ -609,8 +609,11 @@ TEST(ProbeBakeRegion, AutoLeavesOutTheVoidOverARooflessLevel) {
   EXPECT_FALSE(validAt(g, {1.0, 9.0, -1.0}));
   EXPECT_GT(open.aboveLevel, 20u);
   EXPECT_EQ(open.aboveLevel, open.outside);
-  for (size_t p = 0; p < g.probeCount(); ++p)  // nothing below 4 m + one neighbour is left out
-    if (g.latticePosition(g.coord[p]).y < 5.5) EXPECT_NE(g.validity[p], 0.0f);
+  for (size_t p = 0; p < g.probeCount(); ++p) {  // nothing below 4 m + one neighbour is left out
+    if (g.latticePosition(g.coord[p]).y < 5.5) {
+      EXPECT_NE(g.validity[p], 0.0f);
+    }
+  }
 
   bake::ProbeStats roofed;
   const ProbeGrid r = bake::bakeProbes(court(true), {}, ps, &roofed);

@@ -1,8 +1,8 @@
 // IEEE 754 binary16 ("half") conversions, exact and portable: the bounces read the previous
 // order's transfer as halves (surface_bake.cpp), the probes their lit hits' transfer
-// (probe_bake.cpp), and every build and CPU must round the same way. halfFromFloat rounds to nearest, ties to even, as F16C's vcvtps2ph with imm 0;
-// floatFromHalf is exact, as vcvtph2ps (both checked against F16C in tests/test_bake.cpp
-// where the CPU has it).
+// (probe_bake.cpp), and every build and CPU must round the same way. halfFromFloat rounds to
+// nearest, ties to even, as F16C's vcvtps2ph with imm 0; floatFromHalf is exact, as vcvtph2ps
+// (both checked against F16C in tests/test_bake.cpp where the CPU has it).
 #pragma once
 
 #include <cpuid.h>

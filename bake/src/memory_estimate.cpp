@@ -6,7 +6,8 @@
 //            + the bounces' gather tables (t^{k-1} as halves, 3·n2 padded to 64-byte lines
 //            a vertex, and 16 bytes of corners per triangle)
 //            (+ B for the lower-order sum when probes follow)
-//   probes   scene + 2B (transfer and lower-order sum), then the largest of
+//   probes   scene + 2B (transfer and lower-order sum) + the lower-order sum as halves (the lit
+//            hits' rows, 3·n2 padded to 64-byte lines a vertex), then the largest of
 //              trace     BVH + per lattice point a slot and its n2²·3 floats + per thread the
 //                        double accumulators + the checkpoint's save/read buffers
 //              assemble  slots and lattice transfer + the compacted copy + the grid's
@@ -190,7 +191,9 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   // then the per-instance copies of the sums.
   e.surfacePeak =
       e.scene + std::max(layout + e.bvh + e.hits + 3 * e.transfer + direct + lower, 2 * (e.transfer + direct + lower));
-  if (probes) e.probePeak = e.scene + 2 * e.transfer + direct + probeStagePeak(scene, *probes, triangles, e.probes);
+  const uint64_t lowerHalves = vertices * ((3 * n2 + 31) / 32 * 64);  // probe_bake.cpp: the lit hits' rows
+  if (probes)
+    e.probePeak = e.scene + 2 * e.transfer + direct + lowerHalves + probeStagePeak(scene, *probes, triangles, e.probes);
   e.writePeak = e.scene + e.transfer + direct + lower + kWriteInputCopies * gltfInputBytes(scene) +
                 kWriteTransferCopies * (e.transfer + direct);
   if (s.refineVertices > 0 && shadowed)

@@ -24,6 +24,12 @@
 // in light space (|n_z| floored at 0.02, 88.9°), less a bias of (1 + |grad|) texels for the nearest-texel
 // quantisation. The spiral is turned per pixel by interleaved gradient noise (Jimenez 2014) of
 // the pixel position: deterministic, and it turns the banding of a few samples into noise.
+// 4. Over the pixel's square: a pixel is the mean over its square, so both disks are convolved
+//    with the square mapped into the map (pixelFootprint): each sample adds an R2 point of the
+//    square to its spiral point. A pixel across an edge sharper than a pixel gets its square's
+//    share, not the 0 or 1 at its centre.
+// 5. Samples on empty texels (nothing drawn there) lie on no surface and do not vote: every
+//    sample on a surface blocked is fully shadowed, the filter's share is over those samples.
 //
 // Loops. llvmpipe (Mesa 22.3) runs a fragment shader on vectors of pixels and executes both sides
 // of every branch for all of them (masked), but it leaves a loop once no pixel of the vector

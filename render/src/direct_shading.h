@@ -22,9 +22,13 @@ constexpr int kBlockerSamples = 8, kFilterSamples = 16;
 /// Largest search/filter radius, in shadow-map texels: wider penumbrae are sampled this wide.
 constexpr int kMaxKernelTexels = 48;
 
-/// GLSL (fragment stage) declaring the direct lights' uniforms and
-///   vec3 directIrradiance(vec3 x, vec3 n)
-/// = Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x), the last 1 when uShadowed is 0.
+/// GLSL (fragment stage) declaring the direct lights' uniforms, the input vWorldPixel (the
+/// world position interpolated at the pixel's centre, which the vertex stage must write),
+///   void pixelFootprint(out vec3 dxW, out vec3 dyW)
+/// (to call at the top of main: the world position's change across the pixel) and
+///   vec3 directIrradiance(vec3 x, vec3 n, vec3 dxW, vec3 dyW)
+/// = Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x) over the pixel's square, the last 1
+/// when uShadowed is 0.
 std::string directLightingGlsl();
 
 /// One shadow map: an orthographic view along a light, fitted to a box.
