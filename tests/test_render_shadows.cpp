@@ -298,6 +298,20 @@ double peak(const std::vector<OraclePixel>& o) {
   return p;
 }
 
+// `meshes` at 3 bands, all of one grey material (albedo 0.8).
+Scene greyScene(const std::string& path, std::vector<MeshInstance> meshes) {
+  Scene s;
+  s.path = path;
+  Material grey;
+  grey.baseColorFactor = glm::vec4(0.8f, 0.8f, 0.8f, 1.0f);
+  s.materials = {grey};
+  for (MeshInstance& m : meshes) m.material = 0;
+  s.meshes = std::move(meshes);
+  s.transferBands = 3;
+  updateBounds(s);
+  return s;
+}
+
 // The test scene: a 3 m floor in 6 × 6 quads, a floating slab and a wall behind it, all baked
 // (random transfer), grey materials of different albedo.
 Scene slabScene(int bands) {
@@ -462,32 +476,45 @@ TEST(RenderDirect, MatchesRayTracedOracleAwayFromShadowEdges) {
   EXPECT_LT(c.edge, c.covered * 2 / 5);
 }
 
+// Per pixel of the floor (instance 0, albedo 0.8) lit by `l` alone (no SH light): the rendered
+// share (the frame over ρ/π E_r · directCosineFactor(n)), the oracle's share at the pixel's
+// centre and averaged over its square (4 × 4 points; the pixels whose square leaves the floor
+// are left out).
+struct FloorShare {
+  double got, centre, square;
+};
+
+std::vector<FloorShare> floorShares(const Scene& s, const CameraView& cam, const Rendered& r, const DirectLight& l) {
+  const bake::RayScene rays(s);
+  std::vector<FloorShare> out;
+  for (int py = 1; py + 1 < kH; ++py)
+    for (int px = 1; px + 1 < kW; ++px) {
+      const OraclePixel& q = r.oracle[size_t(py) * kW + px];
+      if (!q.s.hit || q.s.mesh != 0) continue;
+      const double square = footprintShare(s, rays, cam, kW, kH, px, py, 0, l, 4);
+      const double unshadowed = 0.8 * kInvPi * l.irradiance.x * directCosineFactor(l, q.s.n);
+      if (square < 0.0 || unshadowed <= 0.0) continue;
+      out.push_back({double(r.image.at(px, py).x) / unshadowed, q.share[0], square});
+    }
+  return out;
+}
+
 // Inside the penumbra the filtered share follows the disk's: mean |rendered − traced| share over
-// the band pixels (the direct term divided by its unshadowed value), the traced share averaged
-// over each pixel's square (4 × 4 points) as the renderer filters it.
+// the band pixels, the traced share averaged over each pixel's square as the renderer filters it.
 TEST(RenderDirect, PenumbraFollowsTheDisk) {
   const Scene s = slabScene(3);
   const CameraView cam = lookAt({0.0, 2.6, 1.6}, {0.0, 0.0, 0.0}, 45.0);
   const std::vector<DirectLight> lights = {sun(60.0, 200.0, 4.0, {2.0, 2.0, 2.0})};
   const Rendered rendered = renderWithOracle(s, cam, sh::ShRgb(3), sh::ShRgb(3), lights);
-  const bake::RayScene rays(s);
-  const std::vector<OraclePixel>& o = rendered.oracle;
-  const ImageRgb& img = rendered.image;
   double sum = 0.0, worst = 0.0, sumCentre = 0.0;
   int n = 0;
-  for (int py = 1; py + 1 < kH; ++py)
-    for (int px = 1; px + 1 < kW; ++px) {
-      const OraclePixel& q = o[size_t(py) * kW + px];
-      if (!q.s.hit || q.s.mesh != 0 || q.share[0] <= 0.0 || q.share[0] >= 1.0) continue;
-      const double want = footprintShare(s, rays, cam, kW, kH, px, py, 0, lights[0], 4);
-      if (want < 0.0) continue;
-      const double unshadowed = q.direct[0].x / q.share[0];
-      const double got = double(img.at(px, py).x) / unshadowed;
-      sum += std::abs(got - want);
-      sumCentre += std::abs(got - q.share[0]);
-      worst = std::max(worst, std::abs(got - want));
-      ++n;
-    }
+  for (const FloorShare& f : floorShares(s, cam, rendered, lights[0])) {
+    if (f.centre <= 0.0 || f.centre >= 1.0) continue;  // the band: partly lit at the centre
+    sum += std::abs(f.got - f.square);
+    sumCentre += std::abs(f.got - f.centre);
+    worst = std::max(worst, std::abs(f.got - f.square));
+    ++n;
+  }
   std::printf("[ measured ] %d floor pixels in the penumbra: mean share error %.3f, worst %.3f (against the share at "
               "pixel centres: mean %.3f)\n", n, sum / n, worst, sumCentre / n);
   ASSERT_GT(n, 50);
@@ -498,31 +525,20 @@ TEST(RenderDirect, PenumbraFollowsTheDisk) {
 
 // A pixel straddling a hard shadow edge (a 0.265° sun) gets the share of its square, as a
 // box-filtered reference (Cycles' box filter, --supersample) does, not the 0 or 1 at its centre:
-// mean |rendered − traced| share over the floor pixels whose square the edge crosses, the traced
-// share averaged over 4 × 4 points of the square.
+// mean |rendered − traced| share over the floor pixels whose square the edge crosses.
 TEST(RenderDirect, PixelsAcrossAHardShadowEdgeGetTheShareOfTheirSquare) {
   const Scene s = slabScene(3);
   const CameraView cam = lookAt({0.0, 2.6, 1.6}, {0.0, 0.0, 0.0}, 45.0);
   const std::vector<DirectLight> lights = {sun(50.0, 160.0, 0.265, {2.0, 2.0, 2.0})};
   const Rendered rendered = renderWithOracle(s, cam, sh::ShRgb(3), sh::ShRgb(3), lights);
-  const bake::RayScene rays(s);
-  const std::vector<OraclePixel>& o = rendered.oracle;
-  const ImageRgb& img = rendered.image;
-  // Unshadowed, every floor pixel gets ρ/π E · cos θ (one normal).
-  const double unshadowed = 0.8 * kInvPi * 2.0 * directCosineFactor(lights[0], glm::dvec3(0.0, 1.0, 0.0));
   double sum = 0.0, sumCentre = 0.0;
   int n = 0;
-  for (int py = 1; py + 1 < kH; ++py)
-    for (int px = 1; px + 1 < kW; ++px) {
-      const OraclePixel& q = o[size_t(py) * kW + px];
-      if (!q.s.hit || q.s.mesh != 0) continue;
-      const double want = footprintShare(s, rays, cam, kW, kH, px, py, 0, lights[0], 4);
-      if (want <= 0.0 || want >= 1.0) continue;  // not on the floor, or the edge misses the square
-      const double got = double(img.at(px, py).x) / unshadowed;
-      sum += std::abs(got - want);
-      sumCentre += std::abs(q.share[0] - want);
-      ++n;
-    }
+  for (const FloorShare& f : floorShares(s, cam, rendered, lights[0])) {
+    if (f.square <= 0.0 || f.square >= 1.0) continue;  // the edge misses the square
+    sum += std::abs(f.got - f.square);
+    sumCentre += std::abs(f.centre - f.square);
+    ++n;
+  }
   std::printf("[ measured ] %d floor pixels across the edge: mean share error %.3f (the share at their centres: "
               "%.3f)\n", n, sum / n, sumCentre / n);
   ASSERT_GT(n, 40);
@@ -538,19 +554,12 @@ TEST(RenderDirect, PixelsAcrossAHardShadowEdgeGetTheShareOfTheirSquare) {
 // every floor pixel whose square's floor part the oracle finds wholly shadowed gets no direct
 // light, the pixels whose square the contact line crosses among them.
 TEST(RenderDirect, NoLightLeaksAlongAContactLine) {
-  Scene s;
-  s.path = "contact";
-  Material grey;
-  grey.baseColorFactor = glm::vec4(0.8f, 0.8f, 0.8f, 1.0f);
-  s.materials = {grey};
   // The floor ends at the wall, as in a room of single-sided walls: behind it the map is empty.
   MeshInstance floor = quad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -1.5f}, 6, 3);
   MeshInstance wall = quad("wall", {-1.5f, 0.0f, 0.0f}, {3.0f, 0.0f, 0.0f}, {0.0f, 1.2f, 0.0f}, 6, 2);  // faces +Z
-  floor.material = wall.material = 0;
-  s.meshes = {floor, wall};
-  for (size_t k = 0; k < s.meshes.size(); ++k) fillTransfer(s.meshes[k], 3, uint32_t(31 + k));
-  s.transferBands = 3;
-  updateBounds(s);
+  fillTransfer(floor, 3, 31);
+  fillTransfer(wall, 3, 32);
+  const Scene s = greyScene("contact", {floor, wall});
   const CameraView cam = lookAt({0.4, 1.0, 1.6}, {0.0, 0.1, 0.0}, 50.0);
   // From −Z, behind the wall; 1° wide, so that the blocker search reaches a few cm around a point.
   const std::vector<DirectLight> lights = {sun(75.0, 200.0, 1.0, {2.0, 2.0, 2.0})};
@@ -582,21 +591,13 @@ TEST(RenderDirect, NoLightLeaksAlongAContactLine) {
 // place; the receiver's direct term (its frame minus the frame without the direct light, the SH
 // part being equal) agrees with the oracle's on the receiver, 0 in the wall's shadow.
 TEST(RenderDirect, ReceiverCastsAndReceivesSunShadows) {
-  Scene s;
-  s.path = "receiver";
-  Material grey;
-  grey.baseColorFactor = glm::vec4(0.8f, 0.8f, 0.8f, 1.0f);
-  s.materials = {grey};
   MeshInstance floor = quad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -3.0f}, 6, 6);
   MeshInstance wall = box("wall", {0.4f, 0.0f, -1.5f}, {0.5f, 1.5f, 0.0f});
   MeshInstance cube = box("cube", {-0.55f, 0.3f, -0.25f}, {-0.05f, 0.8f, 0.25f});
-  floor.material = wall.material = cube.material = 0;
   fillTransfer(floor, 3, 1);
   fillTransfer(wall, 3, 2);
   cube.receiverOnly = true;
-  s.meshes = {floor, wall, cube};
-  s.transferBands = 3;
-  updateBounds(s);
+  const Scene s = greyScene("receiver", {floor, wall, cube});
   bake::ProbeSettings ps;
   ps.dims = glm::ivec3(4);
   ps.samples = 256;
