@@ -140,8 +140,11 @@ TEST(Cli, SunOverPlaneIsLitExactlyThroughTheDirectPart) {
   ASSERT_EQ(b.status, 0) << b.err;
   const Scene s = loadScene(baked);
   ASSERT_TRUE(s.bakeRecord && s.bakeRecord->directTransfer);
-  for (const MeshInstance& m : s.meshes)
-    if (!m.transfer.empty()) EXPECT_EQ(m.transferDirect.size(), m.transfer.size());
+  for (const MeshInstance& m : s.meshes) {
+    if (!m.transfer.empty()) {
+      EXPECT_EQ(m.transferDirect.size(), m.transfer.size());
+    }
+  }
   // Sun 30° from the zenith: cos θ = 0.8660254.
   const std::vector<std::string> sun = {"--sun-elevation", "60", "--sun-azimuth", "20", "--sun-irradiance", "2"};
   std::vector<std::string> args = {"relight", baked, "-o", lit, "--csv", csv};

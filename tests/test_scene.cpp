@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -353,6 +354,34 @@ TEST_F(SceneLoad, MaterialAlbedoCombinesFactorSrgbTextureAndColor) {
   // interpolated to (1, 0.6, 1).
   glm::vec3 mean = (glm::vec3(1, 0, 0) + glm::vec3(0, 1, 0) + glm::vec3(0, 0, 1) + glm::vec3(grey)) / 4.0f;
   expectNear(prt::albedoAt(scene, m, 0, 0.5f, 0.5f), mean * glm::vec3(0.5f, 0.6f, 1.0f));
+}
+
+// An 8-bit image keeps its bytes (Texture::texels8), which sample() reads: the same texels,
+// exactly (each byte's decode is the float texel), so every lookup gives the float path's bits,
+// across the wrap modes and at texel centres, edges and beyond the texture.
+TEST_F(SceneLoad, EightBitTexelsSampleTheBitsOfTheFloatOnes) {
+  std::string png;
+  prt::Scene scene = prt::loadScene(writeTexturedScene(dir_, "albedo8.png", &png));
+  ASSERT_EQ(scene.textures.size(), 1u);
+  const prt::Texture& eight = scene.textures[0];
+  ASSERT_EQ(eight.texels8.size(), eight.texels.size());
+  for (size_t i = 0; i < eight.texels.size(); ++i)
+    for (int c = 0; c < 4; ++c)
+      EXPECT_EQ(eight.texels[i][c], eight.levels8[c < 3 ? 0 : 1][(eight.texels8[i] >> (8 * c)) & 255u]) << i << " " << c;
+  prt::Texture floats = eight;
+  floats.texels8.clear();
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-2.5f, 2.5f);
+  int differ = 0;
+  for (int mode : {prt::Texture::kRepeat, prt::Texture::kClampToEdge, prt::Texture::kMirroredRepeat}) {
+    prt::Texture a = eight, b = floats;
+    a.wrapS = a.wrapT = b.wrapS = b.wrapT = mode;
+    for (int k = 0; k < 20000; ++k) {
+      const glm::vec2 uv = k < 16 ? glm::vec2(0.25f * float(k % 4) + 0.125f, 0.25f * float(k / 4)) : glm::vec2(u(rng), u(rng));
+      differ += a.sample(uv) != b.sample(uv);
+    }
+  }
+  EXPECT_EQ(differ, 0);
 }
 
 /// A .glb whose base colour image lives in a buffer view (2×1: red, green).

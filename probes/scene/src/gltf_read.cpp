@@ -957,6 +957,17 @@ Texture decodeBaseColorTexture(const Gltf& g, int index, bool srgb = true) {
   out.texels.resize(size_t(w) * size_t(h));
   std::array<float, 256> lut8;
   for (int i = 0; i < 256; ++i) lut8[size_t(i)] = static_cast<float>(srgbDecode(i / 255.0));
+  if (!wide) {  // Texture::sample reads the bytes: the same values as the floats below, exactly
+    out.texels8.resize(out.texels.size());
+    const auto* b = static_cast<const unsigned char*>(pixels);
+    for (size_t i = 0; i < out.texels8.size(); ++i)
+      out.texels8[i] = uint32_t(b[4 * i]) | uint32_t(b[4 * i + 1]) << 8 | uint32_t(b[4 * i + 2]) << 16 |
+                       uint32_t(b[4 * i + 3]) << 24;
+    for (int i = 0; i < 256; ++i) {
+      out.levels8[0][size_t(i)] = srgb ? lut8[size_t(i)] : i / 255.0f;
+      out.levels8[1][size_t(i)] = i / 255.0f;
+    }
+  }
   for (size_t i = 0; i < out.texels.size(); ++i) {
     for (int c = 0; c < 4; ++c) {
       float v;

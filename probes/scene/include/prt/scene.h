@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,11 @@ struct Texture {
   int width = 0;
   int height = 0;
   std::vector<glm::vec4> texels;  // row-major, row 0 = top of the image (v = 0)
+  /// The 8-bit texels `texels` were decoded from (RGBA, R in the low byte), when the image had 8
+  /// bits a channel: texels[i][c] == levels8[c < 3 ? 0 : 1][byte c of texels8[i]], exactly.
+  /// sample() reads these (a quarter of the bytes, the same values); empty otherwise.
+  std::vector<uint32_t> texels8;
+  std::array<std::array<float, 256>, 2> levels8{};  // [0]: the colour channels' decode, [1]: alpha's
   /// glTF sampler wrap modes, as the file stores them.
   static constexpr int kRepeat = 10497, kClampToEdge = 33071, kMirroredRepeat = 33648;
   int wrapS = kRepeat;
