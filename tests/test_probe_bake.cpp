@@ -251,12 +251,16 @@ TEST(ProbeBake, HalfPathsGiveTheSameBits) {
   ps.bounces = 2;
   std::vector<bake::SurfaceTransfer> surfaces;
   std::vector<ProbeGrid> grids;
-  for (bool portable : {false, true}) {
-    bake::forcePortableHalves() = portable;
-    surfaces.push_back(bake::bakeSurface(s, bs));
-    grids.push_back(bake::bakeProbes(s, surfaces.back().perMeshLowerOrder, ps));
+  {
+    struct Restore {
+      ~Restore() { bake::forcePortableHalves() = false; }  // however the bakes end
+    } restore;
+    for (bool portable : {false, true}) {
+      bake::forcePortableHalves() = portable;
+      surfaces.push_back(bake::bakeSurface(s, bs));
+      grids.push_back(bake::bakeProbes(s, surfaces.back().perMeshLowerOrder, ps));
+    }
   }
-  bake::forcePortableHalves() = false;
   ASSERT_EQ(surfaces[0].perMesh.size(), surfaces[1].perMesh.size());
   for (size_t k = 0; k < surfaces[0].perMesh.size(); ++k) {
     ASSERT_EQ(surfaces[0].perMesh[k].size(), surfaces[1].perMesh[k].size());

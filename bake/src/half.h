@@ -96,6 +96,7 @@ struct HalfRows {
     });
   }
   const uint16_t* row(size_t v) const { return rows + v * stride; }
+  bool empty() const { return rows == nullptr; }
 };
 
 }  // namespace prt::bake

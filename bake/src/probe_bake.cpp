@@ -201,8 +201,9 @@ __attribute__((target("avx2,f16c"))) void litLightF16c(const uint16_t* t0, const
 struct Tracer {
   const Scene& scene;
   const RayScene& rays;
-  const std::vector<std::vector<glm::vec3>>& lowerOrder;
-  const std::vector<HalfRows>& lowerHalf;  // lowerOrder as halves, per instance (its rows: vertex × side)
+  // The lower-order surface transfer as halves, per instance (its rows: vertex × side; empty
+  // where the instance has none, and no entries without bounces).
+  const std::vector<HalfRows>& lowerHalf;
   const AlbedoLookup& albedo;
   int bands;
   uint64_t seed;
@@ -226,7 +227,7 @@ struct Tracer {
       acc.count = {};
     }
     const SphereSet set(seed, stream);
-    const bool haveTransfer = !lowerOrder.empty();
+    const bool haveTransfer = !lowerHalf.empty();
     StreamRows& rows = acc.stream;
     if (full) rows.reset(bands);
     const int ldy = padded(n2), ldg = padded(3 * n2);
@@ -289,7 +290,7 @@ struct Tracer {
         ++acc.count[face];
         if (!r.hit())
           sh::evaluate(bands, r.dir, &rows.yEscaped[size_t(rows.escaped++) * ldy]);
-        else if (!back && haveTransfer && !lowerOrder[r.mesh].empty())
+        else if (!back && haveTransfer && !lowerHalf[r.mesh].empty())
           lit[cur][litCount[cur]++] = uint16_t(j);
       }
       if (!full) continue;
@@ -817,14 +818,14 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
     AlbedoLookup albedo(scene);
     const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
     std::vector<HalfRows> lowerHalf(lowerOrder.size());
-    for (size_t k = 0; k < lowerOrder.size(); ++k)
-      if (!lowerOrder[k].empty()) lowerHalf[k].assign(lowerOrder[k], lowerOrder[k].size() / size_t(n2), n2);
-    Tracer tracer{scene, rays, lowerOrder, lowerHalf, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing), {}};
+    Tracer tracer{scene, rays, lowerHalf, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing), {}};
     for (const MeshInstance& m : scene.meshes) tracer.twoSided.push_back(bakesBackSide(scene, m));
-    for (size_t k = 0; k < lowerOrder.size(); ++k)  // both sides' transfer where both are baked
-      if (!lowerOrder[k].empty())
-        PRT_CHECK_EQ(lowerOrder[k].size(),
-                     (tracer.twoSided[k] ? 2 : 1) * scene.meshes[k].vertexCount() * size_t(settings.bands) * settings.bands);
+    for (size_t k = 0; k < lowerOrder.size(); ++k) {  // both sides' transfer where both are baked
+      if (lowerOrder[k].empty()) continue;
+      const size_t rows = (tracer.twoSided[k] ? 2 : 1) * scene.meshes[k].vertexCount();
+      PRT_CHECK_EQ(lowerOrder[k].size(), rows * size_t(n2));
+      lowerHalf[k].assign(lowerOrder[k], rows, n2);
+    }
     const ProbeBaker baker(tracer, grid, settings);
     // Deterministic and cheap (about kProbeTestRays per point of the lattice, a few percent of
     // the bake), so a resumed bake classifies again rather than storing it.

@@ -44,7 +44,7 @@ glm::vec4 Texture::sample(const glm::vec2& uv) const {
   if (texels8.size() == texels.size()) {  // the same values from a quarter of the bytes
     return filter([&](int x, int y) {
       const uint32_t p = texels8[size_t(y) * size_t(width) + size_t(x)];
-      const std::array<float, 256>&c = levels8[0];
+      const std::array<float, 256>& c = levels8[0];
       return glm::dvec4(c[p & 255u], c[(p >> 8) & 255u], c[(p >> 16) & 255u], levels8[1][p >> 24]);
     });
   }

@@ -13,9 +13,9 @@
 // primitive, their vertices kept); points and lines are skipped with a warning.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
-#include <array>
 #include <string>
 #include <vector>
 
