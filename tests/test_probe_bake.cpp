@@ -24,7 +24,7 @@
 #include "prt/sh.h"
 #include "probe_brute_force.h"
 #include "test_scenes.h"
-#include "../bake/src/half.h"  // forcePortableHalves
+#include "../bake/src/half.h"  // forcePortableKernels
 
 namespace prt {
 namespace {
@@ -236,8 +236,9 @@ TEST(ProbeBake, SameSeedSameGridAnyThreadCountWithLitSurfaces) {
   }
 }
 
-// The halves' two paths (F16C where the CPU has it, the portable one lane by lane) give the same
-// bits: the bounces' gather of the previous order and the probes' lit hits (half.h).
+// The kernels' two paths (AVX2 + F16C where the CPU has it, the portable ones lane by lane) give
+// the same bits: the bounces' gather of the previous order (half.h), the probes' ray directions,
+// lit hits and products of a stream's rays.
 TEST(ProbeBake, HalfPathsGiveTheSameBits) {
   if (!bake::useF16c()) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
   Scene s = test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f);
@@ -253,10 +254,10 @@ TEST(ProbeBake, HalfPathsGiveTheSameBits) {
   std::vector<ProbeGrid> grids;
   {
     struct Restore {
-      ~Restore() { bake::forcePortableHalves() = false; }  // however the bakes end
+      ~Restore() { bake::forcePortableKernels() = false; }  // however the bakes end
     } restore;
     for (bool portable : {false, true}) {
-      bake::forcePortableHalves() = portable;
+      bake::forcePortableKernels() = portable;
       surfaces.push_back(bake::bakeSurface(s, bs));
       grids.push_back(bake::bakeProbes(s, surfaces.back().perMeshLowerOrder, ps));
     }
@@ -270,6 +271,9 @@ TEST(ProbeBake, HalfPathsGiveTheSameBits) {
   ASSERT_GT(grids[0].transfer.size(), 0u);
   ASSERT_EQ(grids[0].transfer.size(), grids[1].transfer.size());
   EXPECT_EQ(0, std::memcmp(grids[0].transfer.data(), grids[1].transfer.data(), grids[0].transfer.size() * sizeof(float)));
+  ASSERT_EQ(grids[0].direct.size(), grids[1].direct.size());
+  EXPECT_EQ(0, std::memcmp(grids[0].direct.data(), grids[1].direct.data(), grids[0].direct.size() * sizeof(float)));
+  EXPECT_EQ(grids[0].moments, grids[1].moments);
 }
 
 // Interpolated probe irradiance against an independent brute-force estimate: at random points

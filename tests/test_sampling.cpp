@@ -307,6 +307,39 @@ TEST(BakeSampling, UniformSphereFitsItsPdf) {
   EXPECT_EQ(r.pooledCells, 0);
 }
 
+// The probe bake's directions: sampleUniformSphere without libm, from the points' 24-bit digits.
+glm::vec3 sphereFromBits(const glm::vec2& u) {
+  return bake::uniformSphereFromBits(std::min(uint32_t(u.x * 0x1p24f), (1u << 24) - 1),
+                                     std::min(uint32_t(u.y * 0x1p24f), (1u << 24) - 1));
+}
+
+TEST(BakeSampling, UniformSphereFromBitsFitsItsPdf) {
+  ChiSquareResult r = chiSquareTest(kSphere, sphereFromBits,
+                                    [](const glm::vec3&) { return double(bake::uniformSpherePdf()); }, 3);
+  expectFits(r);
+  EXPECT_EQ(r.pooledCells, 0);
+}
+
+TEST(BakeSampling, UniformSphereFromBitsIsTheSameMap) {
+  // Every quarter turn's ends and middle, and a spread of other digits, against libm.
+  std::vector<uint32_t> ys;
+  for (uint32_t q = 0; q <= 4; ++q)
+    for (int64_t o : {-2, -1, 0, 1, 2, (1 << 21) - 1, 1 << 21, (1 << 21) + 1})
+      if (const int64_t v = int64_t(q) * (1 << 22) + o; v >= 0 && v < (1 << 24)) ys.push_back(uint32_t(v));
+  for (uint32_t k = 0; k < 4096; ++k) ys.push_back(bake::sobol1Bits(k, 0x9e3779b9u));
+  float worst = 0.0f;
+  for (uint32_t by : ys)
+    for (uint32_t bx : {0u, 1u, 1u << 23, (1u << 24) - 1, bake::sobol0Bits(by, 12345u)}) {
+      const glm::vec3 d = bake::uniformSphereFromBits(bx, by);
+      // The map in double (sampleUniformSphere's float φ = 2π·u alone is off by up to 4.8e-7).
+      const double z = 1.0 - 2.0 * double(bx) * 0x1p-24, r = std::sqrt(std::max(0.0, 1.0 - z * z));
+      const double phi = 2.0 * M_PI * double(by) * 0x1p-24;
+      const glm::dvec3 e(r * std::cos(phi), r * std::sin(phi), z);
+      worst = std::max(worst, float(glm::length(glm::dvec3(d) - e)));
+    }
+  EXPECT_LT(worst, 2.5e-7f);
+}
+
 // ---- The harness can tell: a peaked lobe passes with pooling, a slightly wrong pdf fails.
 
 TEST(BakeSampling, ChiSquareAcceptsAPeakedPdf) {

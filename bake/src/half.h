@@ -64,15 +64,16 @@ inline bool cpuHasF16c() {
   return __get_cpuid(1, &a, &b, &c, &d) && (c & bit_F16C) != 0;
 }
 
-/// Whether the gathers over halves take their F16C path: AVX2 and F16C on this CPU, unless
-/// forcePortableHalves() is set (tests compare the two paths, which must give the same bits).
-inline std::atomic<bool>& forcePortableHalves() {
+/// Whether the bake's vector kernels (the gathers over halves, the probe rays' directions and
+/// products) take their AVX2 + F16C paths: both on this CPU, unless forcePortableKernels() is
+/// set (tests compare the two paths, which must give the same bits).
+inline std::atomic<bool>& forcePortableKernels() {
   static std::atomic<bool> force{false};
   return force;
 }
 inline bool useF16c() {
   static const bool hardware = __builtin_cpu_supports("avx2") && cpuHasF16c();
-  return hardware && !forcePortableHalves().load(std::memory_order_relaxed);
+  return hardware && !forcePortableKernels().load(std::memory_order_relaxed);
 }
 
 /// RGB SH transfer rows (3·n2 floats each) as halves, each row padded with zeros to whole 64-byte

@@ -51,6 +51,62 @@ constexpr uint32_t kProbeTestRays = 64;
 // (probeBounds), bounds the user gave are refused (validate).
 constexpr double kFlatFraction = 1e-3;
 
+// uniformSphereFromBits of each (bx, by), into dx, dy, dz: with AVX2 eight at a time, the same
+// operations in the same order, so both give the same bits (where sincosf was a call per ray).
+void sphereDirectionsPortable(const uint32_t* bx, const uint32_t* by, uint32_t n, float* dx, float* dy, float* dz) {
+  for (uint32_t j = 0; j < n; ++j) {
+    const glm::vec3 d = uniformSphereFromBits(bx[j], by[j]);
+    dx[j] = d.x;
+    dy[j] = d.y;
+    dz[j] = d.z;
+  }
+}
+
+__attribute__((target("avx2"))) void sphereDirectionsAvx2(const uint32_t* bx, const uint32_t* by, uint32_t n,
+                                                          float* dx, float* dy, float* dz) {
+  const __m256 one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f), zero = _mm256_setzero_ps();
+  const __m256 half = _mm256_set1_ps(0.5f), unit = _mm256_set1_ps(0x1p-24f);
+  const __m256 angle = _mm256_set1_ps(0x1p-22f * 0.5f * kPi);
+  const __m256 s1 = _mm256_set1_ps(-1.6666654611e-1f), s2 = _mm256_set1_ps(8.3321608736e-3f),
+               s3 = _mm256_set1_ps(-1.9515295891e-4f);
+  const __m256 c1 = _mm256_set1_ps(4.166664568298827e-2f), c2 = _mm256_set1_ps(-1.388731625493765e-3f),
+               c3 = _mm256_set1_ps(2.443315711809948e-5f);
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  uint32_t j = 0;
+  for (; j + 8 <= n; j += 8) {
+    const __m256i ix = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(bx + j));
+    const __m256i iy = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(by + j));
+    const __m256 z = _mm256_sub_ps(one, _mm256_mul_ps(two, _mm256_mul_ps(_mm256_cvtepi32_ps(ix), unit)));
+    const __m256 r = _mm256_sqrt_ps(_mm256_max_ps(_mm256_sub_ps(one, _mm256_mul_ps(z, z)), zero));
+    const __m256i q = _mm256_srli_epi32(_mm256_add_epi32(iy, _mm256_set1_epi32(1 << 21)), 22);
+    const __m256 a = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(iy, _mm256_slli_epi32(q, 22))), angle);
+    const __m256 a2 = _mm256_mul_ps(a, a);
+    const __m256 sn = _mm256_add_ps(
+        a, _mm256_mul_ps(_mm256_mul_ps(a, a2),
+                         _mm256_add_ps(s1, _mm256_mul_ps(a2, _mm256_add_ps(s2, _mm256_mul_ps(a2, s3))))));
+    const __m256 cs = _mm256_add_ps(
+        _mm256_sub_ps(one, _mm256_mul_ps(half, a2)),
+        _mm256_mul_ps(_mm256_mul_ps(a2, a2), _mm256_add_ps(c1, _mm256_mul_ps(a2, _mm256_add_ps(c2, _mm256_mul_ps(a2, c3))))));
+    // Quarter turn k: (cos, sin) → k 0: (c, s), 1: (−s, c), 2: (−c, −s), 3: (s, −c).
+    const __m256i k = _mm256_and_si256(q, _mm256_set1_epi32(3));
+    const __m256 odd = _mm256_castsi256_ps(_mm256_slli_epi32(k, 31));  // k = 1, 3: swap
+    const __m256 negX = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(k, _mm256_set1_epi32(1)), 30));
+    const __m256 negY = _mm256_castsi256_ps(_mm256_slli_epi32(k, 30));
+    const __m256 x = _mm256_blendv_ps(cs, sn, odd), y = _mm256_blendv_ps(sn, cs, odd);
+    _mm256_storeu_ps(dx + j, _mm256_mul_ps(r, _mm256_xor_ps(x, _mm256_and_ps(negX, sign))));
+    _mm256_storeu_ps(dy + j, _mm256_mul_ps(r, _mm256_xor_ps(y, _mm256_and_ps(negY, sign))));
+    _mm256_storeu_ps(dz + j, z);
+  }
+  sphereDirectionsPortable(bx + j, by + j, n - j, dx + j, dy + j, dz + j);
+}
+
+void sphereDirections(const uint32_t* bx, const uint32_t* by, uint32_t n, float* dx, float* dy, float* dz) {
+  if (useF16c())
+    sphereDirectionsAvx2(bx, by, n, dx, dy, dz);
+  else
+    sphereDirectionsPortable(bx, by, n, dx, dy, dz);
+}
+
 // The sphere directions of one stream: scrambled Sobol points, one scramble per stream, so each
 // probe's rays depend on (seed, stream) only and never on the thread that traces them.
 struct SphereSet {
@@ -60,16 +116,21 @@ struct SphereSet {
     s0 = uint32_t(h);
     s1 = uint32_t(h >> 32);
   }
-  Ray ray(const glm::vec3& x, uint32_t k) const {
-    Ray r;
-    set(r, x, k);
-    return r;
+  // Rays first … first + count − 1 (count ≤ kStream) from x into r, field by field: a Ray built
+  // aside and copied whole is written in 4-byte parts and read back in 16-byte ones, a
+  // store-forwarding stall that cost more than the direction itself. The directions are
+  // computed first, all together (sphereDirections).
+  void fill(Ray* r, const glm::vec3& x, uint32_t first, uint32_t count) const {
+    alignas(32) uint32_t bx[kStream] = {}, by[kStream] = {};  // zeroed: the compiler cannot see count ≤ kStream
+    alignas(32) float dx[kStream], dy[kStream], dz[kStream];
+    for (uint32_t j = 0; j < count; ++j) {
+      bx[j] = sobol0Bits(first + j, s0);
+      by[j] = sobol1Bits(first + j, s1);
+    }
+    sphereDirections(bx, by, count, dx, dy, dz);
+    for (uint32_t j = 0; j < count; ++j) set(r[j], x, {dx[j], dy[j], dz[j]});
   }
-  // Makes r that ray (the same as r = ray(x, k)) field by field: a Ray built aside and copied
-  // whole is written in 4-byte parts and read back in 16-byte ones, a store-forwarding stall
-  // that cost more than the direction itself.
-  void set(Ray& r, const glm::vec3& x, uint32_t k) const {
-    const glm::vec3 d = sampleUniformSphere({sobol0(k, s0), sobol1(k, s1)});
+  static void set(Ray& r, const glm::vec3& x, const glm::vec3& d) {
     r.org.x = x.x, r.org.y = x.y, r.org.z = x.z;
     r.tnear = 0.0f;
     r.dir.x = d.x, r.dir.y = d.y, r.dir.z = d.z;
@@ -98,35 +159,73 @@ constexpr int kBlock = 8;
 constexpr int padded(int n) { return (n + kBlock - 1) / kBlock * kBlock; }
 
 // c[a·ldc + j] += Σ_k y[k·ldy + a] · v[k·ldv + j] for a < rows, j < cols, k < n: one stream's
-// rays summed in float, then added to the double matrix c. Each row's columns go in blocks of
-// up to 32 floats whose sums stay in registers over the k loop (independent sums, so the loop
-// vectorises without reordering any sum: every element adds its rays in ray order); ldv is a
-// multiple of kBlock and v's padding columns are zero.
-template <int B>  // B·kBlock columns from j0
-inline __attribute__((always_inline)) void addBlock(const float* y, int ldy, const float* v, int ldv, int n, int a, int j0, int cols, double* crow) {
-  float s[B * kBlock] = {};
-  for (int k = 0; k < n; ++k) {
-    const float ya = y[size_t(k) * ldy + a];
-    const float* vk = v + size_t(k) * ldv + j0;
-    for (int j = 0; j < B * kBlock; ++j) s[j] += ya * vk[j];
-  }
-  for (int j = 0; j < B * kBlock && j0 + j < cols; ++j) crow[j0 + j] += double(s[j]);
+// rays summed in float, then added to the double matrix c. Every element adds its rays in ray
+// order, one multiplication and one addition each (no FMA), so the AVX2 kernel and the portable
+// loop give the same bits. ldv is a multiple of kBlock and v's padding columns are zero.
+void addProductsPortable(const float* y, int ldy, const float* v, int ldv, int n, int rows, int cols, double* c, int ldc) {
+  for (int a = 0; a < rows; ++a)
+    for (int j = 0; j < cols; ++j) {
+      float s = 0.0f;
+      for (int k = 0; k < n; ++k) s = s + y[size_t(k) * ldy + a] * v[size_t(k) * ldv + j];
+      c[size_t(a) * ldc + j] += double(s);
+    }
 }
 
-// Built for AVX2 too where the CPU has it (no FMA: the same operations, so the same bits).
-__attribute__((target_clones("avx2", "default"))) void addProducts(const float* y, int ldy, const float* v, int ldv, int n, int rows, int cols, double* c, int ldc) {
-  if (n == 0) return;
-  for (int a = 0; a < rows; ++a) {
-    double* crow = c + size_t(a) * ldc;
-    int j0 = 0;
-    for (; j0 + 4 * kBlock <= ldv; j0 += 4 * kBlock) addBlock<4>(y, ldy, v, ldv, n, a, j0, cols, crow);
-    switch ((ldv - j0) / kBlock) {
-      case 3: addBlock<3>(y, ldy, v, ldv, n, a, j0, cols, crow); break;
-      case 2: addBlock<2>(y, ldy, v, ldv, n, a, j0, cols, crow); break;
-      case 1: addBlock<1>(y, ldy, v, ldv, n, a, j0, cols, crow); break;
-      default: break;
+// R rows from a0 by B vectors of 8 columns from j0, the R·B sums held in registers over the
+// ray loop (each v vector loaded once for R rows).
+template <int R, int B>
+__attribute__((target("avx2"), always_inline)) inline void productBlockAvx2(const float* y, int ldy, const float* v,
+                                                                             int ldv, int n, int a0, int j0, int cols,
+                                                                             double* c, int ldc) {
+  __m256 s[R][B];
+  for (int r = 0; r < R; ++r)
+    for (int b = 0; b < B; ++b) s[r][b] = _mm256_setzero_ps();
+  for (int k = 0; k < n; ++k) {
+    const float* vk = v + size_t(k) * ldv + j0;
+    __m256 w[B];
+    for (int b = 0; b < B; ++b) w[b] = _mm256_loadu_ps(vk + 8 * b);
+    for (int r = 0; r < R; ++r) {
+      const __m256 ya = _mm256_broadcast_ss(y + size_t(k) * ldy + a0 + r);
+      for (int b = 0; b < B; ++b) s[r][b] = _mm256_add_ps(s[r][b], _mm256_mul_ps(ya, w[b]));
     }
   }
+  for (int r = 0; r < R; ++r) {
+    double* crow = c + size_t(a0 + r) * ldc;
+    for (int b = 0; b < B; ++b) {
+      alignas(32) float t[8];
+      _mm256_store_ps(t, s[r][b]);
+      for (int l = 0; l < 8 && j0 + 8 * b + l < cols; ++l) crow[j0 + 8 * b + l] += double(t[l]);
+    }
+  }
+}
+
+template <int B>
+__attribute__((target("avx2"), always_inline)) inline void productColumnsAvx2(const float* y, int ldy, const float* v,
+                                                                               int ldv, int n, int rows, int j0,
+                                                                               int cols, double* c, int ldc) {
+  int a = 0;
+  for (; a + 2 <= rows; a += 2) productBlockAvx2<2, B>(y, ldy, v, ldv, n, a, j0, cols, c, ldc);
+  if (a < rows) productBlockAvx2<1, B>(y, ldy, v, ldv, n, a, j0, cols, c, ldc);
+}
+
+__attribute__((target("avx2"))) void addProductsAvx2(const float* y, int ldy, const float* v, int ldv, int n, int rows,
+                                                     int cols, double* c, int ldc) {
+  int j0 = 0;
+  for (; j0 + 4 * kBlock <= ldv; j0 += 4 * kBlock) productColumnsAvx2<4>(y, ldy, v, ldv, n, rows, j0, cols, c, ldc);
+  switch ((ldv - j0) / kBlock) {
+    case 3: productColumnsAvx2<3>(y, ldy, v, ldv, n, rows, j0, cols, c, ldc); break;
+    case 2: productColumnsAvx2<2>(y, ldy, v, ldv, n, rows, j0, cols, c, ldc); break;
+    case 1: productColumnsAvx2<1>(y, ldy, v, ldv, n, rows, j0, cols, c, ldc); break;
+    default: break;
+  }
+}
+
+void addProducts(const float* y, int ldy, const float* v, int ldv, int n, int rows, int cols, double* c, int ldc) {
+  if (n == 0) return;
+  if (useF16c())
+    addProductsAvx2(y, ldy, v, ldv, n, rows, cols, c, ldc);
+  else
+    addProductsPortable(y, ldy, v, ldv, n, rows, cols, c, ldc);
 }
 
 // One stream's rays that add to the transfer, one row each: the SH basis of the escaped rays
@@ -267,7 +366,7 @@ struct Tracer {
       if (interruptRequested()) return false;
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
       Ray* batch = batches[cur].rays();
-      for (uint32_t j = 0; j < count; ++j) set.set(batch[j], x, first + j);
+      set.fill(batch, x, first, count);
       rays.intersect(batch, count);
       rows.escaped = 0;
       for (uint32_t j = 0; j < count; ++j) {
@@ -882,8 +981,9 @@ std::vector<Ray> probeBakeRays(const ProbeGrid& layout, const ProbeSettings& set
     const glm::vec3 x(layout.latticePosition(c));
     Ray* r = out.data() + k * per;
     const SphereSet test(settings.seed, 2 * idx), full(settings.seed, 2 * idx + 1);
-    for (uint32_t j = 0; j < kProbeTestRays; ++j) r[j] = test.ray(x, j);
-    for (uint32_t j = 0; j < uint32_t(settings.samples); ++j) r[kProbeTestRays + j] = full.ray(x, j);
+    test.fill(r, x, 0, kProbeTestRays);
+    for (uint32_t first = 0; first < uint32_t(settings.samples); first += kStream)
+      full.fill(r + kProbeTestRays + first, x, first, std::min<uint32_t>(kStream, uint32_t(settings.samples) - first));
   }
   return out;
 }

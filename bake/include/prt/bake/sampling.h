@@ -21,15 +21,17 @@ inline uint64_t splitMix64(uint64_t x) {
 
 /// First two dimensions of the Sobol sequence, digit-scrambled by XOR with `scramble` (which
 /// keeps the (0, m, 2)-net property of every power-of-two prefix). Values in [0, 1).
-inline float sobol0(uint32_t i, uint32_t scramble) {
+/// sobol0Bits and sobol1Bits are the same values as 24-bit integers (value = bits · 2⁻²⁴).
+inline uint32_t sobol0Bits(uint32_t i, uint32_t scramble) {
   uint32_t r = i;
   r = (r << 16) | (r >> 16);
   r = ((r & 0x00ff00ffu) << 8) | ((r & 0xff00ff00u) >> 8);
   r = ((r & 0x0f0f0f0fu) << 4) | ((r & 0xf0f0f0f0u) >> 4);
   r = ((r & 0x33333333u) << 2) | ((r & 0xccccccccu) >> 2);
   r = ((r & 0x55555555u) << 1) | ((r & 0xaaaaaaaau) >> 1);
-  return float((r ^ scramble) >> 8) * 0x1p-24f;
+  return (r ^ scramble) >> 8;
 }
+inline float sobol0(uint32_t i, uint32_t scramble) { return float(sobol0Bits(i, scramble)) * 0x1p-24f; }
 // The second dimension's generator matrix applied a byte of the index at a time: entry
 // [j][b] is the XOR of the direction numbers v_k (v_0 = 2³¹, v_k = v_{k−1} ^ (v_{k−1} >> 1)) of
 // the bits k = 8j… of b. The same values as a bit-by-bit loop, without its data-dependent
@@ -51,11 +53,12 @@ struct Sobol1Table {
 };
 inline constexpr Sobol1Table kSobol1{};
 
-inline float sobol1(uint32_t i, uint32_t scramble) {
+inline uint32_t sobol1Bits(uint32_t i, uint32_t scramble) {
   const uint32_t r = kSobol1.t[0][i & 0xffu] ^ kSobol1.t[1][(i >> 8) & 0xffu] ^ kSobol1.t[2][(i >> 16) & 0xffu] ^
                      kSobol1.t[3][i >> 24];
-  return float((r ^ scramble) >> 8) * 0x1p-24f;
+  return (r ^ scramble) >> 8;
 }
+inline float sobol1(uint32_t i, uint32_t scramble) { return float(sobol1Bits(i, scramble)) * 0x1p-24f; }
 
 /// Shirley-Chiu concentric map from the unit square to the unit disk (area preserving).
 inline glm::vec2 sampleConcentricDisk(const glm::vec2& u) {
@@ -109,6 +112,33 @@ inline glm::vec3 sampleUniformSphere(const glm::vec2& u) {
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
 inline float uniformSpherePdf() { return 1.0f / (4.0f * kPi); }
+
+/// sin a and cos a for |a| ≤ π/4, by the minimax polynomials of Cephes' sinf and cosf (within
+/// 1.2e-7 of both): additions and multiplications only, so that a loop of them vectorises and
+/// gives the same bits in every lane and on every machine, where libm's sincosf is a call per
+/// angle, with no promise about its last bit.
+inline void sinCosQuarter(float a, float& s, float& c) {
+  const float a2 = a * a;
+  s = a + a * a2 * (-1.6666654611e-1f + a2 * (8.3321608736e-3f + a2 * -1.9515295891e-4f));
+  c = 1.0f - 0.5f * a2 + a2 * a2 * (4.166664568298827e-2f + a2 * (-1.388731625493765e-3f + a2 * 2.443315711809948e-5f));
+}
+
+/// sampleUniformSphere of the point (bx · 2⁻²⁴, by · 2⁻²⁴), bx, by < 2²⁴ (sobol0Bits,
+/// sobol1Bits), within 2e-7 of it: φ = 2π · by · 2⁻²⁴ is split exactly, in integers, into its
+/// quarter turn q and a remainder of at most π/4 (sinCosQuarter). Branch-free: the directions of
+/// a stream are computed in one vectorised loop (the probe bake's rays).
+inline glm::vec3 uniformSphereFromBits(uint32_t bx, uint32_t by) {
+  const float z = 1.0f - 2.0f * (float(bx) * 0x1p-24f);
+  const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+  const uint32_t q = (by + (1u << 21)) >> 22;  // the nearest quarter turn, 0 … 4
+  const float a = float(int32_t(by) - int32_t(q << 22)) * (0x1p-22f * 0.5f * kPi);
+  float s, c;
+  sinCosQuarter(a, s, c);
+  const uint32_t k = q & 3u;  // rotate (cos a, sin a) by k quarter turns
+  const float cx = k == 0 ? c : k == 1 ? -s : k == 2 ? -c : s;
+  const float sy = k == 0 ? s : k == 1 ? c : k == 2 ? -s : -c;
+  return {r * cx, r * sy, z};
+}
 inline glm::vec2 invertUniformSphere(const glm::vec3& w) {
   float phi = std::atan2(w.y, w.x);
   if (phi < 0.0f) phi += 2.0f * kPi;
