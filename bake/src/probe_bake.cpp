@@ -308,6 +308,10 @@ struct Tracer {
   uint64_t seed;
   float maxDistance;
   std::vector<char> twoSided;  // per Scene::meshes entry: bakesBackSide
+  // Per Scene::meshes entry (at least one entry): kTwoSided, and kLit where its hits send light
+  // (it has lower-order transfer).
+  static constexpr uint8_t kTwoSided = 1, kLit = 2;
+  std::vector<uint8_t> meshFlags;
 
   // Traces `n` sphere directions from x. full = reset acc, then accumulate M and moments;
   // otherwise only count rays and back faces into acc (the inside test). False when an
@@ -326,7 +330,6 @@ struct Tracer {
       acc.count = {};
     }
     const SphereSet set(seed, stream);
-    const bool haveTransfer = !lowerHalf.empty();
     StreamRows& rows = acc.stream;
     if (full) rows.reset(bands);
     const int ldy = padded(n2), ldg = padded(3 * n2);
@@ -368,31 +371,50 @@ struct Tracer {
       Ray* batch = batches[cur].rays();
       set.fill(batch, x, first, count);
       rays.intersect(batch, count);
-      rows.escaped = 0;
+      // Per ray, without branches on what it hit (which no predictor guesses): counts, the
+      // moments of its face, and its index in the list it goes to (escaped, lit). A ray that
+      // escapes keeps tfar = ∞ and ng = 0, so it is nearer than nothing and never a back face,
+      // and its depth is the cap.
+      uint32_t backs = 0, backsTwoSided = 0, escapes = 0, nLit = 0;
+      uint16_t escapedIdx[kStream];
+      float nearest = acc.nearest;
+      const double cap = maxDistance;
       for (uint32_t j = 0; j < count; ++j) {
         const Ray& r = batch[j];
-        ++acc.rays;
-        const bool backside = r.hit() && r.backface();
-        const bool back = backside && !twoSided[r.mesh];
-        acc.backfaces += back;
-        acc.backTwoSided += backside && !back;
-        acc.escaped += !r.hit();
-        if (r.hit()) acc.nearest = std::min(acc.nearest, r.tfar);
+        const bool hit = r.hit();
+        const uint8_t flags = meshFlags[hit ? r.mesh : 0];
+        const bool backside = r.backface();
+        const bool back = backside && !(flags & kTwoSided);
+        backs += back;
+        backsTwoSided += backside && !back;
+        nearest = std::min(nearest, r.tfar);
+        escapedIdx[escapes] = uint16_t(j);
+        escapes += !hit;
+        lit[cur][nLit] = uint16_t(j);
+        nLit += hit && !back && (flags & kLit);
         if (!full) continue;
         // Depth along the face's axis, not the ray's length: a wall perpendicular to the axis
-        // then has one depth for every ray of the face (docs/probes.md, "Visibility").
-        const int face = faceOf(r.dir);
-        const double d = r.hit() ? std::min(double(r.tfar) * std::fabs(double(r.dir[face / 2])), double(maxDistance))
-                                 : double(maxDistance);
+        // then has one depth for every ray of the face (docs/probes.md, "Visibility"). The face
+        // as faceOf gives it: the dominant axis (ties to the earlier), then the sign.
+        const float ax = std::fabs(r.dir.x), ay = std::fabs(r.dir.y), az = std::fabs(r.dir.z);
+        const int axis = ax >= ay && ax >= az ? 0 : ay >= az ? 1 : 2;
+        const float along = axis == 0 ? r.dir.x : axis == 1 ? r.dir.y : r.dir.z;
+        const int face = 2 * axis + !(along >= 0.0f);
+        const double d = std::min(double(r.tfar) * std::fabs(double(along)), cap);
         acc.sumD[face] += d;
         acc.sumD2[face] += d * d;
         ++acc.count[face];
-        if (!r.hit())
-          sh::evaluate(bands, r.dir, &rows.yEscaped[size_t(rows.escaped++) * ldy]);
-        else if (!back && haveTransfer && !lowerHalf[r.mesh].empty())
-          lit[cur][litCount[cur]++] = uint16_t(j);
       }
+      acc.rays += count;
+      acc.backfaces += backs;
+      acc.backTwoSided += backsTwoSided;
+      acc.escaped += escapes;
+      acc.nearest = nearest;
+      litCount[cur] = nLit;
       if (!full) continue;
+      rows.escaped = int(escapes);
+      for (uint32_t e = 0; e < escapes; ++e)
+        sh::evaluate(bands, batch[escapedIdx[e]].dir, &rows.yEscaped[size_t(e) * ldy]);
       // The direct part of the stream's escaped rays: M⁰ += Σ y yᵀ.
       addProducts(rows.yEscaped.data(), ldy, rows.yEscaped.data(), ldy, rows.escaped, n2, n2, acc.direct.data(), n2);
       for (uint32_t h = 0; h < litCount[cur]; ++h) __builtin_prefetch(corners(batch[lit[cur][h]]));
@@ -925,6 +947,10 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       PRT_CHECK_EQ(lowerOrder[k].size(), rows * size_t(n2));
       lowerHalf[k].assign(lowerOrder[k], rows, n2);
     }
+    tracer.meshFlags.assign(std::max<size_t>(scene.meshes.size(), 1), 0);
+    for (size_t k = 0; k < scene.meshes.size(); ++k)
+      tracer.meshFlags[k] = uint8_t((tracer.twoSided[k] ? Tracer::kTwoSided : 0) |
+                                    (k < lowerHalf.size() && !lowerHalf[k].empty() ? Tracer::kLit : 0));
     const ProbeBaker baker(tracer, grid, settings);
     // Deterministic and cheap (about kProbeTestRays per point of the lattice, a few percent of
     // the bake), so a resumed bake classifies again rather than storing it.
