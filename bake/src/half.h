@@ -65,14 +65,14 @@ inline bool cpuHasF16c() {
 }
 
 /// Whether the bake's vector kernels (the gathers over halves, the probe rays' directions and
-/// products) take their AVX2 + F16C paths: both on this CPU, unless forcePortableKernels() is
+/// products) take their AVX2 + FMA + F16C paths: all three on this CPU, unless forcePortableKernels() is
 /// set (tests compare the two paths, which must give the same bits).
 inline std::atomic<bool>& forcePortableKernels() {
   static std::atomic<bool> force{false};
   return force;
 }
 inline bool useF16c() {
-  static const bool hardware = __builtin_cpu_supports("avx2") && cpuHasF16c();
+  static const bool hardware = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && cpuHasF16c();
   return hardware && !forcePortableKernels().load(std::memory_order_relaxed);
 }
 

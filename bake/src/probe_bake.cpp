@@ -160,37 +160,48 @@ constexpr int padded(int n) { return (n + kBlock - 1) / kBlock * kBlock; }
 
 // c[a·ldc + j] += Σ_k y[k·ldy + a] · v[k·ldv + j] for a < rows, j < cols, k < n: one stream's
 // rays summed in float, then added to the double matrix c. Every element adds its rays in ray
-// order, one multiplication and one addition each (no FMA), so the AVX2 kernel and the portable
-// loop give the same bits. ldv is a multiple of kBlock and v's padding columns are zero.
+// order, one fused multiply-add each (rounded once), so the AVX2 kernel and the portable loop
+// (std::fma, exact in software where the CPU has no FMA) give the same bits. ldv is a multiple
+// of kBlock and v's padding columns are zero.
 void addProductsPortable(const float* y, int ldy, const float* v, int ldv, int n, int rows, int cols, double* c, int ldc) {
   for (int a = 0; a < rows; ++a)
     for (int j = 0; j < cols; ++j) {
       float s = 0.0f;
-      for (int k = 0; k < n; ++k) s = s + y[size_t(k) * ldy + a] * v[size_t(k) * ldv + j];
+      for (int k = 0; k < n; ++k) s = std::fma(y[size_t(k) * ldy + a], v[size_t(k) * ldv + j], s);
       c[size_t(a) * ldc + j] += double(s);
     }
 }
 
 // R rows from a0 by B vectors of 8 columns from j0, the R·B sums held in registers over the
-// ray loop (each v vector loaded once for R rows).
+// ray loop (each v vector loaded once for R rows). R·B = 8 sums hide the FMA's latency (4 cycles
+// on two ports).
 template <int R, int B>
-__attribute__((target("avx2"), always_inline)) inline void productBlockAvx2(const float* y, int ldy, const float* v,
+__attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(const float* y, int ldy, const float* v,
                                                                              int ldv, int n, int a0, int j0, int cols,
                                                                              double* c, int ldc) {
+  // The unroll pragmas let the sums live in registers only: unrolled later, GCC keeps the array
+  // in memory too and stores every sum on every ray (a store-port bound, twice the FMAs' time).
   __m256 s[R][B];
+#pragma GCC unroll 2
   for (int r = 0; r < R; ++r)
+#pragma GCC unroll 4
     for (int b = 0; b < B; ++b) s[r][b] = _mm256_setzero_ps();
   for (int k = 0; k < n; ++k) {
     const float* vk = v + size_t(k) * ldv + j0;
     __m256 w[B];
+#pragma GCC unroll 4
     for (int b = 0; b < B; ++b) w[b] = _mm256_loadu_ps(vk + 8 * b);
+#pragma GCC unroll 2
     for (int r = 0; r < R; ++r) {
       const __m256 ya = _mm256_broadcast_ss(y + size_t(k) * ldy + a0 + r);
-      for (int b = 0; b < B; ++b) s[r][b] = _mm256_add_ps(s[r][b], _mm256_mul_ps(ya, w[b]));
+#pragma GCC unroll 4
+      for (int b = 0; b < B; ++b) s[r][b] = _mm256_fmadd_ps(ya, w[b], s[r][b]);
     }
   }
+#pragma GCC unroll 2
   for (int r = 0; r < R; ++r) {
     double* crow = c + size_t(a0 + r) * ldc;
+#pragma GCC unroll 4
     for (int b = 0; b < B; ++b) {
       alignas(32) float t[8];
       _mm256_store_ps(t, s[r][b]);
@@ -200,7 +211,7 @@ __attribute__((target("avx2"), always_inline)) inline void productBlockAvx2(cons
 }
 
 template <int B>
-__attribute__((target("avx2"), always_inline)) inline void productColumnsAvx2(const float* y, int ldy, const float* v,
+__attribute__((target("avx2,fma"), always_inline)) inline void productColumnsAvx2(const float* y, int ldy, const float* v,
                                                                                int ldv, int n, int rows, int j0,
                                                                                int cols, double* c, int ldc) {
   int a = 0;
@@ -208,7 +219,7 @@ __attribute__((target("avx2"), always_inline)) inline void productColumnsAvx2(co
   if (a < rows) productBlockAvx2<1, B>(y, ldy, v, ldv, n, a, j0, cols, c, ldc);
 }
 
-__attribute__((target("avx2"))) void addProductsAvx2(const float* y, int ldy, const float* v, int ldv, int n, int rows,
+__attribute__((target("avx2,fma"))) void addProductsAvx2(const float* y, int ldy, const float* v, int ldv, int n, int rows,
                                                      int cols, double* c, int ldc) {
   int j0 = 0;
   for (; j0 + 4 * kBlock <= ldv; j0 += 4 * kBlock) productColumnsAvx2<4>(y, ldy, v, ldv, n, rows, j0, cols, c, ldc);
@@ -417,7 +428,10 @@ struct Tracer {
         sh::evaluate(bands, batch[escapedIdx[e]].dir, &rows.yEscaped[size_t(e) * ldy]);
       // The direct part of the stream's escaped rays: M⁰ += Σ y yᵀ.
       addProducts(rows.yEscaped.data(), ldy, rows.yEscaped.data(), ldy, rows.escaped, n2, n2, acc.direct.data(), n2);
+      // The lit hits' corners now, the previous stream's sums while they arrive, then their rows
+      // (which need the corners), to be used one stream later.
       for (uint32_t h = 0; h < litCount[cur]; ++h) __builtin_prefetch(corners(batch[lit[cur][h]]));
+      sumLit(cur ^ 1);  // the previous stream's
       for (uint32_t h = 0; h < litCount[cur]; ++h) {
         const Ray& r = batch[lit[cur][h]];
         const uint32_t* ix = corners(r);
@@ -428,7 +442,6 @@ struct Tracer {
           for (size_t o = 0; o < t.stride * sizeof(uint16_t); o += 64) __builtin_prefetch(p + o);
         }
       }
-      sumLit(cur ^ 1);  // the previous stream's
     }
     if (full) sumLit(cur ^ 1);
     return true;
