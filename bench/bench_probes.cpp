@@ -15,7 +15,9 @@
 // fraction of the lattice, in runs of 16 consecutive probes, with nothing done per ray; prt's
 // tracing alone traces them through RayScene as the bake calls it. Each round measures both
 // and bakes; ratios are taken within a round and reported as the fastest bake's round and the
-// range; memory is the first round's.
+// range; memory is the first round's. The share not tracing is measured in the bake itself
+// (the time its threads spend inside Embree's calls) and, as a cross-check, estimated from
+// prt's tracing rate (`_by_rate`).
 #include <malloc.h>
 #include <unistd.h>
 
@@ -32,6 +34,7 @@
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "bench_cli.h"
 #include "cpu_clock.h"
@@ -180,6 +183,7 @@ int main(int argc, char** argv) {
     // from other processes on a shared machine does not decide the ratios, which are taken
     // within a round. The result must be the same grid every time.
     std::vector<double> bakeSeconds{stats.seconds}, directSeconds{directStats.seconds};
+    std::vector<double> traceSeconds{stats.traceSeconds};  // inside Embree's calls, all threads
     for (int round = 1; round < repeat; ++round) {
       measureTracing();
       bake::ProbeStats again, directAgain;
@@ -189,18 +193,24 @@ int main(int argc, char** argv) {
       if (other.transfer != grid.transfer) throw Error("the probe bake gave a different grid on a second run");
       (void)bake::bakeProbes(scene, none, settings, &directAgain);
       bakeSeconds.push_back(again.seconds);
+      traceSeconds.push_back(again.traceSeconds);
       directSeconds.push_back(directAgain.seconds);
     }
     // Per round and timing (wall clock, process CPU time: cpu_clock.h): the bake's rate
-    // against that round's ceiling, and the share of the bake that is not tracing (its rays
-    // at prt's tracing rate of that round, against its time).
-    std::vector<double> vsCeiling[2], notTracing[2];
+    // against that round's ceiling, and the share of the bake that is not tracing, two ways:
+    // measured in the bake (ProbeStats::traceSeconds, the time its threads spent inside
+    // Embree's calls, against threads × wall time or against its CPU time), and estimated from
+    // rates (its rays at prt's tracing rate of that round, against its time; that tracing runs
+    // with warm caches and nothing between its calls, so this share comes out lower).
+    const int used = tbb::this_task_arena::max_concurrency();
+    std::vector<double> vsCeiling[2], notTracing[2], notTracingByRate[2];
     for (int t = 0; t < 2; ++t)
       for (int round = 0; round < repeat; ++round) {
         const double seconds = (t == 0 ? bakeSeconds : bakeCpu)[size_t(round)];
         const double rate = double(stats.rays) / seconds;
         vsCeiling[t].push_back(rate / bench::roundRate(ceiling, size_t(round), bench::Timing(t)));
-        notTracing[t].push_back(1.0 - double(stats.rays) / prtRates[t][size_t(round)] / seconds);
+        notTracing[t].push_back(1.0 - traceSeconds[size_t(round)] / (t == 0 ? used * seconds : seconds));
+        notTracingByRate[t].push_back(1.0 - double(stats.rays) / prtRates[t][size_t(round)] / seconds);
       }
     const size_t bestRound = size_t(std::min_element(bakeSeconds.begin(), bakeSeconds.end()) - bakeSeconds.begin());
     stats.seconds = bakeSeconds[bestRound];
@@ -262,6 +272,9 @@ int main(int argc, char** argv) {
     j["bake_vs_ceiling_range"] = range(vsCeiling[0]);
     j["not_tracing_share"] = notTracing[0][bestRound];
     j["not_tracing_share_range"] = range(notTracing[0]);
+    j["not_tracing_share_by_rate"] = notTracingByRate[0][bestRound];
+    j["not_tracing_share_by_rate_range"] = range(notTracingByRate[0]);
+    j["threads_used"] = used;
     {  // the same figures by CPU time, the fastest round by CPU time
       const size_t r = size_t(std::min_element(bakeCpu.begin(), bakeCpu.end()) - bakeCpu.begin());
       nlohmann::json c;
@@ -275,6 +288,8 @@ int main(int argc, char** argv) {
       c["bake_vs_ceiling_range"] = range(vsCeiling[1]);
       c["not_tracing_share"] = notTracing[1][r];
       c["not_tracing_share_range"] = range(notTracing[1]);
+      c["not_tracing_share_by_rate"] = notTracingByRate[1][r];
+      c["not_tracing_share_by_rate_range"] = range(notTracingByRate[1]);
       j["cpu"] = c;
     }
     j["direct_only_bake_seconds"] = directStats.seconds;

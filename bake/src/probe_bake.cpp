@@ -323,6 +323,19 @@ struct Tracer {
   // (it has lower-order transfer).
   static constexpr uint8_t kTwoSided = 1, kLit = 2;
   std::vector<uint8_t> meshFlags;
+  // Nanoseconds spent inside Embree's calls, all threads together (ProbeStats::traceSeconds):
+  // two clock reads a call, a call being a stream of up to kStream rays.
+  mutable std::atomic<int64_t> traceNanos{0};
+
+  void intersect(Ray* r, size_t n) const { timed([&] { rays.intersect(r, n); }); }
+  void occluded(Ray* r, size_t n) const { timed([&] { rays.occluded(r, n); }); }
+  template <class F>
+  void timed(F&& call) const {
+    const auto t0 = std::chrono::steady_clock::now();
+    call();
+    traceNanos.fetch_add(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count(),
+                         std::memory_order_relaxed);
+  }
 
   // Traces `n` sphere directions from x. full = reset acc, then accumulate M and moments;
   // otherwise only count rays and back faces into acc (the inside test). False when an
@@ -381,7 +394,7 @@ struct Tracer {
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
       Ray* batch = batches[cur].rays();
       set.fill(batch, x, first, count);
-      rays.intersect(batch, count);
+      intersect(batch, count);
       // Per ray, without branches on what it hit (which no predictor guesses): counts, the
       // moments of its face, and its index in the list it goes to (escaped, lit). A ray that
       // escapes keeps tfar = ∞ and ng = 0, so it is nearer than nothing and never a back face,
@@ -634,7 +647,7 @@ std::vector<uint8_t> sealedSpace(const Tracer& tracer, const ProbeGrid& grid, La
         if (c[a] == dims[a] - 1) add(a, 1.0f, std::numeric_limits<float>::infinity(), 8u);
       }
       if (n == 0) continue;
-      tracer.rays.occluded(batch, size_t(n), false);
+      tracer.occluded(batch, size_t(n));
       for (int k = 0; k < n; ++k)
         if (!batch[k].occludedHit()) links[idx] |= bitOf[k];
     }
@@ -678,7 +691,7 @@ std::vector<uint8_t> sealedSpace(const Tracer& tracer, const ProbeGrid& grid, La
 // Above the level: open sky straight up (+Y, glTF's up) and nothing within `height` straight
 // down. Where a roofless level's walls surround a point, a receiver still stands on something:
 // what lies higher above the ground than any receiver reaches is the void over the level.
-bool aboveTheLevel(const RayScene& rays, const glm::vec3& x, float height) {
+bool aboveTheLevel(const Tracer& tracer, const glm::vec3& x, float height) {
   alignas(64) Ray batch[2];
   for (int k = 0; k < 2; ++k) {
     batch[k] = Ray{};
@@ -686,7 +699,7 @@ bool aboveTheLevel(const RayScene& rays, const glm::vec3& x, float height) {
     batch[k].dir = glm::vec3(0.0f, k == 0 ? 1.0f : -1.0f, 0.0f);
     batch[k].tfar = k == 0 ? std::numeric_limits<float>::infinity() : height;
   }
-  rays.occluded(batch, 2, false);
+  tracer.occluded(batch, 2);
   return !batch[0].occludedHit() && !batch[1].occludedHit();
 }
 
@@ -730,7 +743,7 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
       const bool nearSurface = test.nearest <= nearDistance;
       bool surrounded = double(test.rays - test.escaped) > kOpenAirShare * double(test.rays);
       if (reg.free[idx] && !nearSurface && surrounded && settings.maxHeight > 0.0 && settings.region == Region::Auto &&
-          aboveTheLevel(tracer.rays, x, float(settings.maxHeight))) {
+          aboveTheLevel(tracer, x, float(settings.maxHeight))) {
         surrounded = false;
         high[idx] = 1;
       }
@@ -999,6 +1012,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
                         return outcome;
                       })
                       .rays;
+    stats.traceSeconds = 1e-9 * double(tracer.traceNanos.load());
   }
   if (cp) cp->releaseStages();
   stats.restored = stage.restoredItems();

@@ -72,6 +72,9 @@ struct ProbeStats {
   uint64_t rays = 0;          // cast by this run: inside tests, relocation candidates, full sets
   uint64_t restored = 0;      // lattice points restored from the checkpoint (not traced again)
   double seconds = 0.0;
+  // Inside Embree's calls, all threads of this process together (so up to threads × seconds):
+  // what of the bake is tracing, measured in the bake itself (prt_bench_probes).
+  double traceSeconds = 0.0;
 };
 
 /// Checkpoint stage of the probe bake: lattice points in chunks of kProbeChunk, in lattice
