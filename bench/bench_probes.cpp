@@ -184,6 +184,7 @@ int main(int argc, char** argv) {
     // within a round. The result must be the same grid every time.
     std::vector<double> bakeSeconds{stats.seconds}, directSeconds{directStats.seconds};
     std::vector<double> traceSeconds{stats.traceSeconds};  // inside Embree's calls, all threads
+    std::vector<double> directTrace{directStats.traceSeconds};
     for (int round = 1; round < repeat; ++round) {
       measureTracing();
       bake::ProbeStats again, directAgain;
@@ -195,6 +196,7 @@ int main(int argc, char** argv) {
       bakeSeconds.push_back(again.seconds);
       traceSeconds.push_back(again.traceSeconds);
       directSeconds.push_back(directAgain.seconds);
+      directTrace.push_back(directAgain.traceSeconds);
     }
     // Per round and timing (wall clock, process CPU time: cpu_clock.h): the bake's rate
     // against that round's ceiling, and the share of the bake that is not tracing, two ways:
@@ -204,6 +206,12 @@ int main(int argc, char** argv) {
     // with warm caches and nothing between its calls, so this share comes out lower).
     const int used = tbb::this_task_arena::max_concurrency();
     std::vector<double> vsCeiling[2], notTracing[2], notTracingByRate[2];
+    std::vector<double> directVsCeiling, directNotTracing;  // wall clock: the same bake with no lit surfaces
+    for (int round = 0; round < repeat; ++round) {
+      const double seconds = directSeconds[size_t(round)];
+      directVsCeiling.push_back(double(directStats.rays) / seconds / bench::roundRate(ceiling, size_t(round), bench::Timing::Wall));
+      directNotTracing.push_back(1.0 - directTrace[size_t(round)] / (used * seconds));
+    }
     for (int t = 0; t < 2; ++t)
       for (int round = 0; round < repeat; ++round) {
         const double seconds = (t == 0 ? bakeSeconds : bakeCpu)[size_t(round)];
@@ -294,6 +302,8 @@ int main(int argc, char** argv) {
     }
     j["direct_only_bake_seconds"] = directStats.seconds;
     j["indirect_time_share"] = 1.0 - directStats.seconds / stats.seconds;
+    j["direct_only_vs_ceiling_range"] = range(directVsCeiling);
+    j["direct_only_not_tracing_share_range"] = range(directNotTracing);
     j["surface_bake_share_of_total"] = lit.stats.seconds / (lit.stats.seconds + stats.seconds);
     j["file_bytes_float"] = floatBytes;
     j["file_bytes_half"] = halfBytes;
