@@ -124,12 +124,15 @@ int main(int argc, char** argv) {
     std::vector<std::vector<glm::vec3>> lowerOrder = std::move(lit.perMeshLowerOrder);
     if (lowerOrder.empty()) lowerOrder.assign(scene.meshes.size(), {});
 
-    // The rays: runs of 16 consecutive lattice points, every (1/fraction)-th run, as the probe
-    // bake casts them (bake::probeBakeRays: the inside test's 64 rays, then the full set),
+    // The rays: those the probe bake cast for its valid probes that stayed at their lattice
+    // point (bake::probeBakeRays: the inside test's 64 rays, then the full set; the bake
+    // skips open air and traces only the test rays inside geometry, so rays from every lattice
+    // point, most escaping, would make a ceiling of cheaper rays), in runs of 16 consecutive
+    // such probes, every (1/fraction)-th run, picked from the first round's grid and
     // generated outside every timer. The ceiling (embree_ceiling.h: its own BVH, every Embree
     // 3 way of tracing, the fastest kept) and prt's tracing alone (RayScene, called as the probe
     // bake calls it: the test rays as one stream, then streams of 256) trace them with nothing
-    // done per ray. The arrays are freed before the bake so that they do not count in its memory.
+    // done per ray. The arrays are freed before each bake so that they do not count in its memory.
     ProbeGrid layout;
     glm::dvec3 lo, hi;
     bake::probeBounds(settings, scene, lo, hi);  // the bake's bounds, flat axes padded
@@ -137,8 +140,6 @@ int main(int argc, char** argv) {
     const size_t total = size_t(dims) * dims * dims;
     const size_t every = std::max<size_t>(1, size_t(std::lround(1.0 / ceilingFraction)));
     std::vector<size_t> picked;
-    for (size_t run = 0; run * 16 < total; run += every)
-      for (size_t p = run * 16; p < std::min(total, run * 16 + 16); ++p) picked.push_back(p);
     const bench::EmbreeCeiling embree(scene);
     const bake::RayScene rays(scene);
     const size_t per = 64 + size_t(settings.samples);  // rays per lattice point
@@ -160,7 +161,6 @@ int main(int argc, char** argv) {
       prtRates[0].push_back(double(batch.size()) / std::chrono::duration<double>(Clock::now() - t0).count());
       prtRates[1].push_back(double(batch.size()) / (bench::processCpuSeconds() - cpu0));
     };
-    measureTracing();
 
     // The probe bake as `prt bake --probes` runs it; its own peak memory is measured from here.
     // Freed heap (the rays, the surface bake's scratch) goes back to the system first, so that
@@ -179,6 +179,19 @@ int main(int argc, char** argv) {
     bake::ProbeStats directStats;
     const std::vector<std::vector<glm::vec3>> none(scene.meshes.size());
     (void)bake::bakeProbes(scene, none, settings, &directStats);
+
+    // Round one's tracing, on the rays of the probes this bake traced in full.
+    std::vector<size_t> baked;
+    for (size_t p = 0; p < grid.probeCount(); ++p)
+      if (grid.validity[p] > 0.5f && grid.offset[p] == glm::vec3(0.0f)) {
+        const glm::ivec3 c = grid.coord[p];
+        baked.push_back(size_t(c.x) + size_t(grid.dims.x) * (size_t(c.y) + size_t(grid.dims.y) * size_t(c.z)));
+      }
+    std::sort(baked.begin(), baked.end());
+    for (size_t run = 0; run * 16 < baked.size(); run += every)
+      for (size_t k = run * 16; k < std::min(baked.size(), run * 16 + 16); ++k) picked.push_back(baked[k]);
+    if (picked.empty()) throw Error("the probe bake traced no probe in full: nothing to compare with the ceiling");
+    measureTracing();
     // Further rounds (--repeat): tracing, bake, direct-only bake again, so that a burst of load
     // from other processes on a shared machine does not decide the ratios, which are taken
     // within a round. The result must be the same grid every time.
