@@ -116,10 +116,8 @@ struct SphereSet {
     s0 = uint32_t(h);
     s1 = uint32_t(h >> 32);
   }
-  // Rays first … first + count − 1 (count ≤ kStream) from x into r, field by field: a Ray built
-  // aside and copied whole is written in 4-byte parts and read back in 16-byte ones, a
-  // store-forwarding stall that cost more than the direction itself. The directions are
-  // computed first, all together (sphereDirections).
+  // Rays first … first + count − 1 (count ≤ kStream) from x into r, field by field
+  // (Ray::start). The directions are computed first, all together (sphereDirections).
   void fill(Ray* r, const glm::vec3& x, uint32_t first, uint32_t count) const {
     alignas(32) uint32_t bx[kStream] = {}, by[kStream] = {};  // zeroed: the compiler cannot see count ≤ kStream
     alignas(32) float dx[kStream], dy[kStream], dz[kStream];
@@ -128,19 +126,8 @@ struct SphereSet {
       by[j] = sobol1Bits(first + j, s1);
     }
     sphereDirections(bx, by, count, dx, dy, dz);
-    for (uint32_t j = 0; j < count; ++j) set(r[j], x, {dx[j], dy[j], dz[j]});
-  }
-  static void set(Ray& r, const glm::vec3& x, const glm::vec3& d) {
-    r.org.x = x.x, r.org.y = x.y, r.org.z = x.z;
-    r.tnear = 0.0f;
-    r.dir.x = d.x, r.dir.y = d.y, r.dir.z = d.z;
-    r.time = 0.0f;
-    r.tfar = std::numeric_limits<float>::infinity();
-    r.mask = 0xffffffffu;
-    r.id = r.flags = 0;
-    r.ng.x = r.ng.y = r.ng.z = 0.0f;
-    r.u = r.v = 0.0f;
-    r.tri = r.mesh = r.inst = Ray::kInvalid;
+    for (uint32_t j = 0; j < count; ++j)
+      r[j].start(x, {dx[j], dy[j], dz[j]}, 0.0f, std::numeric_limits<float>::infinity());
   }
 };
 
@@ -258,7 +245,7 @@ struct StreamRows {
 };
 
 // Storage for a stream of rays, left uninitialised (Ray is an implicit-lifetime aggregate, and
-// SphereSet::set writes every field before Embree reads it): constructing 2 × 256 Rays per
+// SphereSet::fill starts every field before Embree reads it): constructing 2 × 256 Rays per
 // trace would write more than the rays themselves for the inside test's 64.
 struct RayBuffer {
   alignas(64) std::byte bytes[sizeof(Ray) * kStream];

@@ -28,11 +28,8 @@ struct VertexSampler {
     s1 = uint32_t(h >> 32);
   }
   void make(uint32_t j, Ray& ray) const {
-    ray = Ray{};
-    ray.org = origin;
-    ray.tnear = tnear;
-    ray.dir = frame.toWorld(sampleCosineHemisphere({sobol0(j, s0), sobol1(j, s1)}));
-    ray.tfar = std::numeric_limits<float>::infinity();
+    ray.start(origin, frame.toWorld(sampleCosineHemisphere({sobol0(j, s0), sobol1(j, s1)})), tnear,
+              std::numeric_limits<float>::infinity());
   }
 };
 

@@ -31,6 +31,22 @@ struct alignas(16) Ray {
   uint32_t mesh = kInvalid;  // index into Scene::meshes, kInvalid on a miss
   uint32_t inst = kInvalid;
 
+  /// Every field as a fresh Ray{} from org towards dir over [tn, tf], written one by one: a Ray
+  /// built aside and copied whole is written in 4-byte parts and read back in 16-byte ones, a
+  /// store-forwarding stall that cost more than making the direction.
+  void start(const glm::vec3& o, const glm::vec3& d, float tn, float tf) {
+    org.x = o.x, org.y = o.y, org.z = o.z;
+    tnear = tn;
+    dir.x = d.x, dir.y = d.y, dir.z = d.z;
+    time = 0.0f;
+    tfar = tf;
+    mask = 0xffffffffu;
+    id = flags = 0;
+    ng.x = ng.y = ng.z = 0.0f;
+    u = v = 0.0f;
+    tri = mesh = inst = kInvalid;
+  }
+
   bool hit() const { return mesh != kInvalid; }
   bool occludedHit() const { return tfar < 0.0f; }
   /// True when the ray hit the back of the triangle (geometric normal along the ray).

@@ -60,19 +60,29 @@ inline uint32_t sobol1Bits(uint32_t i, uint32_t scramble) {
 }
 inline float sobol1(uint32_t i, uint32_t scramble) { return float(sobol1Bits(i, scramble)) * 0x1p-24f; }
 
+/// sin a and cos a for |a| ≤ π/4, by the minimax polynomials of Cephes' sinf and cosf (within
+/// 1.2e-7 of both): additions and multiplications only, so that a loop of them vectorises and
+/// gives the same bits in every lane and on every machine, where libm's sincosf is a call per
+/// angle, with no promise about its last bit.
+inline void sinCosQuarter(float a, float& s, float& c) {
+  const float a2 = a * a;
+  s = a + a * a2 * (-1.6666654611e-1f + a2 * (8.3321608736e-3f + a2 * -1.9515295891e-4f));
+  c = 1.0f - 0.5f * a2 + a2 * a2 * (4.166664568298827e-2f + a2 * (-1.388731625493765e-3f + a2 * 2.443315711809948e-5f));
+}
+
 /// Shirley-Chiu concentric map from the unit square to the unit disk (area preserving).
 inline glm::vec2 sampleConcentricDisk(const glm::vec2& u) {
   glm::vec2 o = 2.0f * u - 1.0f;
   if (o.x == 0.0f && o.y == 0.0f) return {0.0f, 0.0f};
-  float r, theta;
-  if (std::fabs(o.x) > std::fabs(o.y)) {
-    r = o.x;
-    theta = (kPi / 4.0f) * (o.y / o.x);
-  } else {
-    r = o.y;
-    theta = kPi / 2.0f - (kPi / 4.0f) * (o.x / o.y);
-  }
-  return r * glm::vec2(std::cos(theta), std::sin(theta));
+  // θ = π/4 · minor/major in the wedge of the larger coordinate, |π/4 · minor/major| ≤ π/4:
+  // sinCosQuarter without a range reduction; the top and bottom wedges (θ = π/2 − π/4 · x/y)
+  // swap its sine and cosine.
+  const bool wide = std::fabs(o.x) > std::fabs(o.y);
+  const float r = wide ? o.x : o.y;
+  const float a = (kPi / 4.0f) * (wide ? o.y / o.x : o.x / o.y);
+  float s, c;
+  sinCosQuarter(a, s, c);
+  return wide ? glm::vec2(r * c, r * s) : glm::vec2(r * s, r * c);
 }
 inline glm::vec2 invertConcentricDisk(const glm::vec2& p) {
   float r = std::sqrt(p.x * p.x + p.y * p.y);
@@ -112,16 +122,6 @@ inline glm::vec3 sampleUniformSphere(const glm::vec2& u) {
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
 inline float uniformSpherePdf() { return 1.0f / (4.0f * kPi); }
-
-/// sin a and cos a for |a| ≤ π/4, by the minimax polynomials of Cephes' sinf and cosf (within
-/// 1.2e-7 of both): additions and multiplications only, so that a loop of them vectorises and
-/// gives the same bits in every lane and on every machine, where libm's sincosf is a call per
-/// angle, with no promise about its last bit.
-inline void sinCosQuarter(float a, float& s, float& c) {
-  const float a2 = a * a;
-  s = a + a * a2 * (-1.6666654611e-1f + a2 * (8.3321608736e-3f + a2 * -1.9515295891e-4f));
-  c = 1.0f - 0.5f * a2 + a2 * a2 * (4.166664568298827e-2f + a2 * (-1.388731625493765e-3f + a2 * 2.443315711809948e-5f));
-}
 
 /// sampleUniformSphere of the point (bx · 2⁻²⁴, by · 2⁻²⁴), bx, by < 2²⁴ (sobol0Bits,
 /// sobol1Bits), within 2e-7 of it: φ = 2π · by · 2⁻²⁴ is split exactly, in integers, into its
