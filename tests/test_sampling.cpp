@@ -340,6 +340,27 @@ TEST(BakeSampling, UniformSphereFromBitsIsTheSameMap) {
   EXPECT_LT(worst, 2.5e-7f);
 }
 
+// The surface bake's disk (sinCosQuarter instead of libm) against the map in double, over a
+// grid that holds every wedge's edges (the diagonals, where the wedges meet, and the axes) and
+// the centre.
+TEST(BakeSampling, ConcentricDiskIsTheSameMap) {
+  float worst = 0.0f;
+  for (int i = 0; i <= 256; ++i)
+    for (int j = 0; j <= 256; ++j) {
+      const glm::vec2 u(float(i) / 256.0f, float(j) / 256.0f);
+      const glm::vec2 p = bake::sampleConcentricDisk(u);
+      const double ox = 2.0 * double(u.x) - 1.0, oy = 2.0 * double(u.y) - 1.0;
+      glm::dvec2 e(0.0);
+      if (ox != 0.0 || oy != 0.0) {
+        const bool wide = std::fabs(ox) > std::fabs(oy);
+        const double r = wide ? ox : oy, t = wide ? M_PI / 4 * (oy / ox) : M_PI / 2 - M_PI / 4 * (ox / oy);
+        e = r * glm::dvec2(std::cos(t), std::sin(t));
+      }
+      worst = std::max(worst, float(glm::length(glm::dvec2(p) - e)));
+    }
+  EXPECT_LT(worst, 2.5e-7f);
+}
+
 // ---- The harness can tell: a peaked lobe passes with pooling, a slightly wrong pdf fails.
 
 TEST(BakeSampling, ChiSquareAcceptsAPeakedPdf) {
