@@ -18,7 +18,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstddef>
-#include <cstring>
 #include <iomanip>
 #include <limits>
 #include <memory>
@@ -130,16 +129,6 @@ struct SphereSet {
       r[j].start(x, {dx[j], dy[j], dz[j]}, 0.0f, std::numeric_limits<float>::infinity());
   }
 };
-
-// Four floats, unaligned loads and stores (GCC vector extensions: SSE2 on x86-64).
-typedef float V4 __attribute__((vector_size(16)));
-inline V4 load4(const float* p) {
-  V4 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-inline void store4(float* p, V4 v) { std::memcpy(p, &v, sizeof v); }
-inline V4 splat(float x) { return V4{x, x, x, x}; }
 
 // Columns of one stream's rows (StreamRows) are padded with zeros to a multiple of kBlock floats.
 constexpr int kBlock = 8;
