@@ -214,7 +214,9 @@ int main(int argc, char** argv) {
     // Per round and timing (wall clock, process CPU time: cpu_clock.h): the bake's rate
     // against that round's ceiling, and the share of the bake that is not tracing, two ways:
     // measured in the bake (ProbeStats::traceSeconds, the time its threads spent inside
-    // Embree's calls, against threads × wall time or against its CPU time), and estimated from
+    // Embree's calls, against threads × wall time, under both timings: a uniform load stretches
+    // both alike, where against CPU time a call preempted on a loaded machine would count more
+    // than its share), and estimated from
     // rates (its rays at prt's tracing rate of that round, against its time; that tracing runs
     // with warm caches and nothing between its calls, so this share comes out lower).
     const int used = tbb::this_task_arena::max_concurrency();
@@ -230,7 +232,7 @@ int main(int argc, char** argv) {
         const double seconds = (t == 0 ? bakeSeconds : bakeCpu)[size_t(round)];
         const double rate = double(stats.rays) / seconds;
         vsCeiling[t].push_back(rate / bench::roundRate(ceiling, size_t(round), bench::Timing(t)));
-        notTracing[t].push_back(1.0 - traceSeconds[size_t(round)] / (t == 0 ? used * seconds : seconds));
+        notTracing[t].push_back(1.0 - traceSeconds[size_t(round)] / (used * bakeSeconds[size_t(round)]));
         notTracingByRate[t].push_back(1.0 - double(stats.rays) / prtRates[t][size_t(round)] / seconds);
       }
     const size_t bestRound = size_t(std::min_element(bakeSeconds.begin(), bakeSeconds.end()) - bakeSeconds.begin());

@@ -46,6 +46,9 @@ struct StageStats {
   std::string name;       // "direct", "bounce 1", ...
   double seconds = 0.0;
   uint64_t rays = 0;
+  // The direct pass: time inside Embree's calls, all threads of this process together (so up to
+  // threads × seconds), measured in the bake (prt_bench_bake's share not tracing).
+  double traceSeconds = 0.0;
 };
 
 struct BakeStats {
