@@ -15,11 +15,11 @@
 // same rays through prt's RayScene as the direct pass calls it, also with nothing done per ray.
 // What is not tracing (ray generation, SH evaluation, hit records) is measured in the bake: 1 −
 // the time its threads spent inside Embree's calls (StageStats::traceSeconds) / (threads × its
-// wall time), the same figure under both timings; `_by_rate`: estimated instead as the bake's time beyond rays /
-// prt's tracing rate, which runs with warm caches (lower, at times negative). Every round
-// measures the ceiling, prt's tracing, the bake without
-// bounces (occlusion rays) and the bake with --bounces (closest hits, then the bounces);
-// ratios are taken within a round, and reported as the best round's and the range.
+// wall time), the same figure under both timings; `_by_rate`: estimated instead as the bake's
+// time beyond rays / prt's tracing rate, which runs with warm caches (lower, at times
+// negative). Every round measures the ceiling, prt's tracing, the bake without bounces
+// (occlusion rays) and the bake with --bounces (closest hits, then the bounces); ratios are
+// taken within a round, and reported as the best round's and the range.
 #include <algorithm>
 #include <array>
 #include <chrono>

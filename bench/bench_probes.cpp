@@ -12,7 +12,7 @@
 // but is not part of the probe numbers. The ceiling (embree_ceiling.h: its own BVH, every
 // Embree 3 way of tracing closest hits, the fastest kept) traces exactly the rays the probe bake
 // casts (bake::probeBakeRays: the inside test's 64 rays and the full set per probe) for a
-// fraction of the lattice, in runs of 16 consecutive probes, with nothing done per ray; prt's
+// fraction of the probes it traced in full, in runs of 16, with nothing done per ray; prt's
 // tracing alone traces them through RayScene as the bake calls it. Each round measures both
 // and bakes; ratios are taken within a round and reported as the fastest bake's round and the
 // range; memory is the first round's. The share not tracing is measured in the bake itself

@@ -36,6 +36,7 @@
 #include "prt/error.h"
 #include "prt/sh.h"
 #include "stage_runner.h"
+#include "trace_clock.h"
 
 namespace prt::bake {
 
@@ -299,19 +300,10 @@ struct Tracer {
   // (it has lower-order transfer).
   static constexpr uint8_t kTwoSided = 1, kLit = 2;
   std::vector<uint8_t> meshFlags;
-  // Nanoseconds spent inside Embree's calls, all threads together (ProbeStats::traceSeconds):
-  // two clock reads a call, a call being a stream of up to kStream rays.
-  mutable std::atomic<int64_t> traceNanos{0};
+  mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
 
-  void intersect(Ray* r, size_t n) const { timed([&] { rays.intersect(r, n); }); }
-  void occluded(Ray* r, size_t n) const { timed([&] { rays.occluded(r, n); }); }
-  template <class F>
-  void timed(F&& call) const {
-    const auto t0 = std::chrono::steady_clock::now();
-    call();
-    traceNanos.fetch_add(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count(),
-                         std::memory_order_relaxed);
-  }
+  void intersect(Ray* r, size_t n) const { inEmbree.time([&] { rays.intersect(r, n); }); }
+  void occluded(Ray* r, size_t n) const { inEmbree.time([&] { rays.occluded(r, n); }); }
 
   // Traces `n` sphere directions from x. full = reset acc, then accumulate M and moments;
   // otherwise only count rays and back faces into acc (the inside test). False when an
@@ -988,7 +980,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
                         return outcome;
                       })
                       .rays;
-    stats.traceSeconds = 1e-9 * double(tracer.traceNanos.load());
+    stats.traceSeconds = tracer.inEmbree.seconds();
   }
   if (cp) cp->releaseStages();
   stats.restored = stage.restoredItems();

@@ -23,7 +23,6 @@
 #include "prt/bake/surface_bake.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -41,6 +40,7 @@
 #include "prt/sh.h"
 #include "stage_runner.h"
 #include "surface_layout.h"
+#include "trace_clock.h"
 #include "vertex_rays.h"
 
 namespace prt::bake {
@@ -163,7 +163,7 @@ struct DirectPass {
   const RayScene& rays;
   const std::vector<glm::vec3>& origins;
   float tnear;
-  std::atomic<int64_t>& traceNanos;  // inside Embree's calls: two clock reads a stream
+  TraceClock& inEmbree;  // all threads' time inside Embree's calls (StageStats::traceSeconds)
 
   ChunkOutcome operator()(const Chunk& c) const {
     alignas(64) Ray batch[kStream];
@@ -183,14 +183,12 @@ struct DirectPass {
       for (uint32_t first = 0; first < N; first += kStream) {
         const uint32_t count = std::min<uint32_t>(kStream, N - first);
         for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
-        const auto t0 = std::chrono::steady_clock::now();
-        if (ch)
-          rays.intersect(batch, count);
-        else
-          rays.occluded(batch, count);
-        traceNanos.fetch_add(
-            std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count(),
-            std::memory_order_relaxed);
+        inEmbree.time([&] {
+          if (ch)
+            rays.intersect(batch, count);
+          else
+            rays.occluded(batch, count);
+        });
         for (uint32_t j = 0; j < count; ++j) {
           const Ray& ray = batch[j];
           const bool blocked = ch ? ray.hit() : ray.occludedHit();
@@ -449,9 +447,9 @@ void runDirectPass(SurfaceBake& b, ChunkedStage& stage, const BakeControl& contr
   stage.exchangeWith([&b](uint64_t c, ByteWriter& w) { writeDirectChunk(b, b.chunk(c), w, false); },
                      [&b](const Chunk& c, ByteReader& r) { readDirectChunk(b, c, r); });
   stage.begin(std::move(io));
-  std::atomic<int64_t> traceNanos{0};
-  StageStats run = left > 0 ? stage.run(DirectPass{b, *rays, origins, tnear, traceNanos}) : stage.run({});
-  run.traceSeconds = 1e-9 * double(traceNanos.load());
+  TraceClock inEmbree;
+  StageStats run = left > 0 ? stage.run(DirectPass{b, *rays, origins, tnear, inEmbree}) : stage.run({});
+  run.traceSeconds = inEmbree.seconds();
   stats.rays = run.rays;
   if (left > 0) stats.stages.push_back(run);
   b.countHits();
