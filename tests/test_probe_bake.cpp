@@ -240,7 +240,7 @@ TEST(ProbeBake, SameSeedSameGridAnyThreadCountWithLitSurfaces) {
 // the same bits: the bounces' gather of the previous order (half.h), the probes' ray directions,
 // lit hits and products of a stream's rays.
 TEST(ProbeBake, HalfPathsGiveTheSameBits) {
-  if (!bake::useF16c()) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
+  if (!bake::useVectorKernels()) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
   Scene s = test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f);
   bake::BakeSettings bs;
   bs.samples = 64;

@@ -71,7 +71,7 @@ inline std::atomic<bool>& forcePortableKernels() {
   static std::atomic<bool> force{false};
   return force;
 }
-inline bool useF16c() {
+inline bool useVectorKernels() {
   static const bool hardware = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && cpuHasF16c();
   return hardware && !forcePortableKernels().load(std::memory_order_relaxed);
 }

@@ -101,7 +101,7 @@ __attribute__((target("avx2"))) void sphereDirectionsAvx2(const uint32_t* bx, co
 }
 
 void sphereDirections(const uint32_t* bx, const uint32_t* by, uint32_t n, float* dx, float* dy, float* dz) {
-  if (useF16c())
+  if (useVectorKernels())
     sphereDirectionsAvx2(bx, by, n, dx, dy, dz);
   else
     sphereDirectionsPortable(bx, by, n, dx, dy, dz);
@@ -210,7 +210,7 @@ __attribute__((target("avx2,fma"))) void addProductsAvx2(const float* y, int ldy
 
 void addProducts(const float* y, int ldy, const float* v, int ldv, int n, int rows, int cols, double* c, int ldc) {
   if (n == 0) return;
-  if (useF16c())
+  if (useVectorKernels())
     addProductsAvx2(y, ldy, v, ldv, n, rows, cols, c, ldc);
   else
     addProductsPortable(y, ldy, v, ldv, n, rows, cols, c, ldc);
@@ -335,7 +335,7 @@ struct Tracer {
     const auto corners = [&](const Ray& r) { return &scene.meshes[r.mesh].indices[3 * size_t(r.tri)]; };
     // The first row of the hit side's transfer (rows: front sides, then back sides).
     const auto firstRow = [&](const Ray& r) { return r.backface() ? scene.meshes[r.mesh].vertexCount() : size_t(0); };
-    const bool f16c = useF16c();
+    const bool f16c = useVectorKernels();
     // The indirect part of the buffer's lit hits: M += Σ y gᵀ, g = ρ/π · t(h).
     const auto sumLit = [&](int buf) {
       rows.hits = 0;
@@ -386,13 +386,9 @@ struct Tracer {
         nLit += hit && !back && (flags & kLit);
         if (!full) continue;
         // Depth along the face's axis, not the ray's length: a wall perpendicular to the axis
-        // then has one depth for every ray of the face (docs/probes.md, "Visibility"). The face
-        // as faceOf gives it: the dominant axis (ties to the earlier), then the sign.
-        const float ax = std::fabs(r.dir.x), ay = std::fabs(r.dir.y), az = std::fabs(r.dir.z);
-        const int axis = ax >= ay && ax >= az ? 0 : ay >= az ? 1 : 2;
-        const float along = axis == 0 ? r.dir.x : axis == 1 ? r.dir.y : r.dir.z;
-        const int face = 2 * axis + !(along >= 0.0f);
-        const double d = std::min(double(r.tfar) * std::fabs(double(along)), cap);
+        // then has one depth for every ray of the face (docs/probes.md, "Visibility").
+        const int face = faceOf(r.dir);
+        const double d = std::min(double(r.tfar) * std::fabs(double(r.dir[face / 2])), cap);
         acc.sumD[face] += d;
         acc.sumD2[face] += d * d;
         ++acc.count[face];

@@ -323,7 +323,7 @@ __attribute__((target("avx2,f16c"))) void gatherChunkF16c(SurfaceBake& b, const 
 }
 
 ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk& c) {
-  if (!useF16c()) {
+  if (!useVectorKernels()) {
     gatherChunkPortable(b, albedo, c);
     return {true, 0};
   }
