@@ -18,7 +18,9 @@ using Args = std::vector<std::string>;
 using test::RunResult;
 
 // A small bake with every stage: the direct pass, two bounces (cornell_open: 12.5 k vertices,
-// 196 chunks per pass) and probes (4×4×4, one chunk of 64 points). Refinement stays on (its
+// 196 chunks per pass) and probes (8×8×8, 8 chunks of 64 points, over bounds wider than the
+// room: of the 512 points 10 lie in geometry, 12 are moved out and 54 are left out in open
+// air, so the ranks' shares of the placement test decide all three). Refinement stays on (its
 // default): MPI ranks share its points, shards each refine the whole scene, and all must agree.
 // `samples`: the bake's and refinement's directions (refinement's are at most the bake's).
 Args bakeArgs(const fs::path& dir, const std::string& name, const std::string& samples = "") {
@@ -28,7 +30,8 @@ Args bakeArgs(const fs::path& dir, const std::string& name, const std::string& s
           "--samples",  samples.empty() ? "32" : samples,
           "--bands",    "2",
           "--bounces",  "2",
-          "--probe-dims", "4,4,4",
+          "--probe-dims", "8,8,8",
+          "--probe-bounds", "-4,-1,-4,4,4,4",
           "--probe-samples", "64",
           "--refine-samples", samples.empty() ? "16" : samples,
           "-q"};

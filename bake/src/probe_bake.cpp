@@ -18,10 +18,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <iomanip>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <string>
 #include <type_traits>
 
 #include <tbb/blocked_range.h>
@@ -692,10 +694,16 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
   std::vector<float> nearest(total, 0.0f);  // the quick test's nearest hit
   std::vector<uint8_t> high(total, 0);      // surrounded, but above the level (aboveTheLevel)
   const float nearDistance = float(kNearSpacings * std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z}));
+  // MPI ranks (ranks.h) test their share of the points, point i on rank i mod N, and trade
+  // the outcomes (what the rest of the classification reads of a point), as refinement trades
+  // its points; shards, which run apart, each test the whole lattice.
+  Ranks& spread = ranks();
+  const bool shared = spread.exchanges();
   std::atomic<bool> stopped{false};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, total, 256), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t idx = r.begin(); idx != r.end(); ++idx) {
       if (stopped.load(std::memory_order_relaxed)) return;
+      if (shared && !spread.owns(idx)) continue;
       ProbeAccum test;
       const glm::vec3 x(grid.latticePosition(coordOf(idx)));
       if (!tracer.trace(x, kProbeTestRays, 2 * idx, false, test)) {
@@ -717,6 +725,35 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
   if (stopped) {
     reg.interrupted = true;
     return reg;
+  }
+  if (shared) {
+    struct Outcome {
+      float nearest;
+      uint8_t free, wanted, high, unused;
+    };
+    static_assert(sizeof(Outcome) == 8 && std::is_trivially_copyable_v<Outcome>);
+    std::string mine;
+    mine.reserve((total / size_t(spread.size()) + 1) * sizeof(Outcome));
+    for (size_t idx = 0; idx < total; ++idx) {
+      if (!spread.owns(idx)) continue;
+      const Outcome o{nearest[idx], reg.free[idx], wanted[idx], high[idx], 0};
+      mine.append(reinterpret_cast<const char*>(&o), sizeof o);
+    }
+    const std::vector<std::string> all = spread.gather(std::move(mine), true);
+    std::vector<size_t> at(all.size(), 0);
+    for (size_t idx = 0; idx < total; ++idx) {
+      const size_t from = idx % all.size();
+      if (int(from) == spread.rank()) continue;
+      if (at[from] + sizeof(Outcome) > all[from].size())
+        throw Error(cat("rank exchange of the probe placement: rank ", from, " sent too few points"));
+      Outcome o;
+      std::memcpy(&o, all[from].data() + at[from], sizeof o);
+      at[from] += sizeof o;
+      nearest[idx] = o.nearest;
+      reg.free[idx] = o.free;
+      wanted[idx] = o.wanted;
+      high[idx] = o.high;
+    }
   }
   for (uint8_t f : reg.free) reg.freeCount += f;
   const bool anyWanted = std::find(wanted.begin(), wanted.end(), uint8_t(1)) != wanted.end();
