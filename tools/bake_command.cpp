@@ -358,6 +358,10 @@ int runBake(const BakeArgs& a) {
   }
   bake::BakeControl control;
   control.checkpoint = checkpoint ? &*checkpoint : nullptr;
+  // With probes, the direct pass's BVH is kept for the probe stage (one build, not two); it is
+  // built after refinement, which changes the meshes, and freed once the probes are traced.
+  std::optional<bake::SharedRayScene> sharedRays;
+  if (!a.probes.empty()) control.rays = &sharedRays.emplace(scene);
   // The refinement phase is over when the bake checks again, but the estimate it reports
   // still bounds the whole run's peak: it keeps that phase.
   const uint64_t refinePeak = estimate.refinePeak;
@@ -394,7 +398,8 @@ int runBake(const BakeArgs& a) {
     if (!a.probes.empty()) {
       if (result.perMeshLowerOrder.empty()) result.perMeshLowerOrder.assign(scene.meshes.size(), {});
       ProbeGrid grid = runStage([&] {
-        return bake::bakeProbes(scene, result.perMeshLowerOrder, ps, &probeStats, checkpoint ? &*checkpoint : nullptr);
+        return bake::bakeProbes(scene, result.perMeshLowerOrder, ps, &probeStats, checkpoint ? &*checkpoint : nullptr,
+                                control.rays);  // which it releases once traced
       });
       grid.info.scene = sceneName;
       if (writer) {

@@ -5,7 +5,8 @@
 //   surface  scene + layout + BVH + hit records + 3B (t^{k-1}, t^k, running sum) + D
 //            + the bounces' gather tables (t^{k-1} as halves, 3·n2 padded to 64-byte lines
 //            a vertex, and 16 bytes of corners per triangle)
-//            (+ B for the lower-order sum when probes follow)
+//            (+ B for the lower-order sum when probes follow; the BVH then stays for them, so
+//            the per-instance copies of the sums after the last bounce count it too)
 //   probes   scene + 2B (transfer and lower-order sum) + the lower-order sum as halves (the lit
 //            hits' rows, 3·n2 padded to 64-byte lines a vertex), then the largest of
 //              trace     BVH + per lattice point a slot and its n2²·3 floats + per thread the
@@ -189,8 +190,9 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   const uint64_t direct = e.transfer / 3;  // the direct part, kept to the end of the bake
   // Surface stage: during the last bounce (or the direct pass and its copy without bounces),
   // then the per-instance copies of the sums.
-  e.surfacePeak =
-      e.scene + std::max(layout + e.bvh + e.hits + 3 * e.transfer + direct + lower, 2 * (e.transfer + direct + lower));
+  // With probes to follow, the BVH stays for them (SharedRayScene) through the copies too.
+  e.surfacePeak = e.scene + std::max(layout + e.bvh + e.hits + 3 * e.transfer + direct + lower,
+                                     2 * (e.transfer + direct + lower) + (probes ? e.bvh : 0));
   const uint64_t lowerHalves = vertices * ((3 * n2 + 31) / 32 * 64);  // probe_bake.cpp: the lit hits' rows
   if (probes)
     e.probePeak = e.scene + 2 * e.transfer + direct + lowerHalves + probeStagePeak(scene, *probes, triangles, e.probes);

@@ -923,7 +923,7 @@ void assembleGrid(const std::vector<ProbeSlot>& slots, std::vector<float> transf
 // chunk in lattice order; a chunk record holds its points' slots and transfer, the very values
 // the grid is assembled from, so a resumed bake assembles the same bits.
 ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3>>& lowerOrder,
-                     const ProbeSettings& settings, ProbeStats* statsOut, Checkpoint* cp) {
+                     const ProbeSettings& settings, ProbeStats* statsOut, Checkpoint* cp, SharedRayScene* shared) {
   validate(settings);
   const auto t0 = std::chrono::steady_clock::now();
   const ThreadLimit threadLimit(settings.threads);
@@ -962,7 +962,8 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   ProbeStats stats;
   stats.probes = total;
   {
-    RayScene rays(scene);
+    std::optional<RayScene> own;  // without a shared one (BakeControl::rays), built here
+    const RayScene& rays = shared ? shared->get() : own.emplace(scene);
     AlbedoLookup albedo(scene);
     const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
     std::vector<HalfRows> lowerHalf(lowerOrder.size());
@@ -1015,6 +1016,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
                       .rays;
     stats.traceSeconds = tracer.inEmbree.seconds();
   }
+  if (shared) shared->release();  // the last stage that traces: the assembly needs its memory
   if (cp) cp->releaseStages();
   stats.restored = stage.restoredItems();
   if (ranks().rank() != 0) return grid;  // the lattice holds this rank's chunks only

@@ -426,11 +426,12 @@ void runDirectPass(SurfaceBake& b, ChunkedStage& stage, const BakeControl& contr
   b.direct.resize(b.values);
   const size_t left = stage.chunksLeft();
   auto tBuild = Clock::now();
-  std::optional<RayScene> rays;
+  std::optional<RayScene> own;
+  const RayScene* rays = nullptr;
   std::vector<glm::vec3> origins;
   float tnear = 0.0f;
   if (left > 0) {
-    rays.emplace(b.scene);
+    rays = control.rays ? &control.rays->get() : &own.emplace(b.scene);
     origins = rayOrigins(b.scene, b.lay, rays->sceneExtent());
     tnear = tnearFor(rays->sceneExtent());
     stats.stages.push_back({"bvh", secondsSince(tBuild), 0});

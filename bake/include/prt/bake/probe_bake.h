@@ -97,7 +97,8 @@ void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& settings);
 /// interrupt), and the result has the same bits as an uninterrupted bake. Throws
 /// prt::Interrupted within about a second of interruptRequested() (after saving, if any).
 ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3>>& lowerOrder,
-                     const ProbeSettings& settings, ProbeStats* stats = nullptr, Checkpoint* checkpoint = nullptr);
+                     const ProbeSettings& settings, ProbeStats* stats = nullptr, Checkpoint* checkpoint = nullptr,
+                     SharedRayScene* rays = nullptr);  // null: builds its own; else traces it and releases it
 
 /// The rays bakeProbes casts from the given lattice points (linear index x + dims.x·(y + dims.y·z)
 /// into layout.dims, lattice from layoutGrid): per point the inside test's 64 rays, then the

@@ -82,4 +82,23 @@ private:
   float extent_ = 1.0f;
 };
 
+/// One RayScene for the stages of a bake that trace the same scene, built when the first of
+/// them asks (the surface bake's direct pass, then the probe bake: one BVH build instead of
+/// two; a resumed bake past the direct pass builds it for the probes). The scene must outlive
+/// it unchanged. Not thread-safe: the stages' own thread asks, before it starts their workers.
+class SharedRayScene {
+public:
+  explicit SharedRayScene(const Scene& scene) : scene_(scene) {}
+  const RayScene& get() {
+    if (!rays_) rays_ = std::make_unique<RayScene>(scene_);
+    return *rays_;
+  }
+  /// Frees the BVH (the last stage that traces is done with it); get() would build it again.
+  void release() { rays_.reset(); }
+
+private:
+  const Scene& scene_;
+  std::unique_ptr<RayScene> rays_;
+};
+
 }  // namespace prt::bake

@@ -101,6 +101,9 @@ struct BakeControl {
   /// kept as hit records, front faces and double-sided backs (what the hit records will take; exact when the checkpoint already
   /// holds the direct pass). May throw prt::Error to refuse the bake (memory guard).
   std::function<void(double frontHitShare)> checkMemory;
+  /// The BVH to trace, shared with the stages that follow (null: the direct pass builds its
+  /// own and frees it before the bounces).
+  SharedRayScene* rays = nullptr;
 };
 
 /// Bakes transfer for every non-receiver instance of the scene. Deterministic: the same seed
