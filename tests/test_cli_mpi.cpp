@@ -97,22 +97,19 @@ TEST_F(CliMpi, RanksWriteTheBytesOfOneProcess) {
   }
 }
 
-TEST_F(CliMpi, RankStoppedMidBakeResumesWithTheOthers) {
-  // Rank 1 is interrupted in bounce 1 (its 150th chunk: 98 direct, then 52 of its bounce-1
-  // chunks); it saves and stops the job, and rank 0 dies with what it had not saved (its
-  // checkpoint interval is long). The ranks resume together, from the earliest point either
-  // reached, to the bytes of one process.
-  const test::TempDir tmp;
-  const fs::path dir = tmp.path();
-  ASSERT_EQ(test::runPrt(bakeArgs(dir, "ref")).status, 0);
-  const fs::path out = dir / "out";
-  fs::create_directories(out);
-  const Args common = bakeArgs(out, "b");
+// Two ranks with `common`, rank 1 interrupted after its 150th chunk (98 direct, then 52 of its
+// bounce-1 chunks) with `rank1Extra` added to its arguments: it saves and stops the job, and
+// rank 0 dies with what it had not saved.
+RunResult stopRank1InBounce1(const Args& common, const Args& rank1Extra) {
   Args a = {"--oversubscribe", "--allow-run-as-root", "-n", "1", test::prtExe()};
   a.insert(a.end(), common.begin(), common.end());
   a.insert(a.end(), {":", "-n", "1", "env", "PRT_TEST_INTERRUPT_AFTER=150", test::prtExe()});
   a.insert(a.end(), common.begin(), common.end());
-  RunResult stopped = test::run("mpirun", a, {.env = {{"ASAN_OPTIONS", "detect_leaks=0"}}});
+  a.insert(a.end(), rank1Extra.begin(), rank1Extra.end());
+  return test::run("mpirun", a, {.env = {{"ASAN_OPTIONS", "detect_leaks=0"}}});
+}
+
+void expectStoppedInBounce1(const RunResult& stopped, const fs::path& out) {
   EXPECT_NE(stopped.status, 0);
   EXPECT_EQ(prtLines(stopped.err), 1) << stopped.err;
   EXPECT_NE(stopped.err.find("interrupted: checkpoints saved to " + (out / "b.glb.prt-checkpoint").string() +
@@ -120,6 +117,23 @@ TEST_F(CliMpi, RankStoppedMidBakeResumesWithTheOthers) {
             std::string::npos)
       << stopped.err;
   EXPECT_FALSE(fs::exists(out / "b.glb"));
+}
+
+TEST_F(CliMpi, RankStoppedMidBakeResumesWithTheOthers) {
+  // Rank 1 is interrupted in bounce 1. No rank had saved before (the checkpoint interval is
+  // long), so the ranks skipped their stage-end saves: rank 0 has no file, and the ranks
+  // resume together from the direct pass (rank 1 restores its direct chunks) to the bytes of
+  // one process.
+  const test::TempDir tmp;
+  const fs::path dir = tmp.path();
+  ASSERT_EQ(test::runPrt(bakeArgs(dir, "ref")).status, 0);
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  const Args common = bakeArgs(out, "b");
+  const RunResult stopped = stopRank1InBounce1(common, {});
+  expectStoppedInBounce1(stopped, out);
+  EXPECT_EQ(names(out), (std::vector<std::string>{"b.glb.prt-checkpoint.rank-1-of-2"}))
+      << "a stage-end save while no rank had saved";
   RunResult fresh = mpirun(2, common);  // a checkpoint is there: not without --resume
   EXPECT_EQ(fresh.status, 1) << fresh.err;
   EXPECT_EQ(prtLines(fresh.err), 1) << fresh.err;
@@ -140,6 +154,28 @@ TEST_F(CliMpi, RankStoppedMidBakeResumesWithTheOthers) {
   ASSERT_EQ(again.status, 0) << again.err;
   EXPECT_TRUE(test::fileBytes(out / "b.glb") == test::fileBytes(dir / "ref.glb"));
   EXPECT_TRUE(test::fileBytes(out / "b.vdb") == test::fileBytes(dir / "ref.vdb"));
+}
+
+TEST_F(CliMpi, OnceOneRankSavedEveryRankSavesAtTheStageEnd) {
+  // Rank 1 alone saves every few milliseconds: it has a file before the direct pass ends, so at
+  // its end every rank saves its chunks, rank 0 too (whose own interval is long). Rank 1 is
+  // interrupted in bounce 1; rank 0 dies with its bounce-1 chunks unsaved and resumes with the
+  // direct chunks of its file.
+  const test::TempDir tmp;
+  const fs::path dir = tmp.path();
+  ASSERT_EQ(test::runPrt(bakeArgs(dir, "ref")).status, 0);
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  const Args common = bakeArgs(out, "b");
+  const RunResult stopped = stopRank1InBounce1(common, {"--checkpoint-interval", "0.001"});
+  expectStoppedInBounce1(stopped, out);
+  EXPECT_EQ(names(out), (std::vector<std::string>{"b.glb.prt-checkpoint.rank-0-of-2",
+                                                   "b.glb.prt-checkpoint.rank-1-of-2"}));
+  const RunResult resumed = mpirun(2, test::plus(common, {"--resume"}));
+  ASSERT_EQ(resumed.status, 0) << resumed.err;
+  EXPECT_TRUE(test::fileBytes(out / "b.glb") == test::fileBytes(dir / "ref.glb"));
+  EXPECT_TRUE(test::fileBytes(out / "b.vdb") == test::fileBytes(dir / "ref.vdb"));
+  EXPECT_EQ(names(out), (std::vector<std::string>{"b.glb", "b.vdb"}));
 }
 
 TEST_F(CliMpi, AFailingRankStopsEveryRankWithOneLine) {

@@ -153,9 +153,14 @@ StageStats ChunkedStage::run(const ChunkFn& fn) {
   stopIfInterrupted(cp_);
   Ranks& r = ranks();
   if (r.size() > 1) {
-    // Every rank's file holds all its chunks of this stage before any rank goes on, so the
-    // ranks' checkpoints can always resume together from the earliest of them.
-    if (cp_ && (r.exchanges() || !merged)) cp_->save();
+    // Once any rank has a file, every rank's file holds all its chunks of this stage before
+    // any rank goes on, so the ranks' checkpoints can always resume together from the earliest
+    // of them. While no rank has one (a bake shorter than the checkpoint interval, as one
+    // process writes none), the ranks save nothing here: a rank that saves later (its interval,
+    // an interrupt) holds the state of its stage and the direct pass's chunks, and a rank
+    // without a file makes the ranks resume from the direct pass (docs/scale.md, "Checkpoints").
+    // A shard always saves: its file is its share.
+    if (cp_ && (r.exchanges() ? r.sum(cp_->exists() ? 1 : 0) > 0 : !merged)) cp_->save();
     if (r.exchanges()) {
       exchange();
     } else if (!merged) {
