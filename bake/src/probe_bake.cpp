@@ -118,19 +118,33 @@ struct SphereSet {
     s0 = uint32_t(h);
     s1 = uint32_t(h >> 32);
   }
-  // Rays first … first + count − 1 (count ≤ kStream) from x into r, field by field
-  // (Ray::start). The directions are computed first, all together (sphereDirections).
-  void fill(Ray* r, const glm::vec3& x, uint32_t first, uint32_t count) const {
-    alignas(32) uint32_t bx[kStream] = {}, by[kStream] = {};  // zeroed: the compiler cannot see count ≤ kStream
-    alignas(32) float dx[kStream], dy[kStream], dz[kStream];
-    for (uint32_t j = 0; j < count; ++j) {
-      bx[j] = sobol0Bits(first + j, s0);
-      by[j] = sobol1Bits(first + j, s1);
-    }
-    sphereDirections(bx, by, count, dx, dy, dz);
+  // Rays first … first + count − 1 (count ≤ kStream) from x: into packets of 8 (lane j % 8 of
+  // packet j / 8, as the bake traces them) or into Rays (the benches' list of the same rays),
+  // field by field (RayPacket8::start, Ray::start). The directions are computed first, all
+  // together (sphereDirections).
+  void fill(RayPacket8* p, const glm::vec3& x, uint32_t first, uint32_t count) const {
+    Directions d(*this, first, count);
     for (uint32_t j = 0; j < count; ++j)
-      r[j].start(x, {dx[j], dy[j], dz[j]}, 0.0f, std::numeric_limits<float>::infinity());
+      p[j >> 3].start(int(j & 7), x, {d.x[j], d.y[j], d.z[j]}, 0.0f, std::numeric_limits<float>::infinity());
   }
+  void fill(Ray* r, const glm::vec3& x, uint32_t first, uint32_t count) const {
+    Directions d(*this, first, count);
+    for (uint32_t j = 0; j < count; ++j)
+      r[j].start(x, {d.x[j], d.y[j], d.z[j]}, 0.0f, std::numeric_limits<float>::infinity());
+  }
+
+private:
+  struct Directions {
+    alignas(32) float x[kStream], y[kStream], z[kStream];
+    Directions(const SphereSet& s, uint32_t first, uint32_t count) {
+      alignas(32) uint32_t bx[kStream] = {}, by[kStream] = {};  // zeroed: the compiler cannot see count ≤ kStream
+      for (uint32_t j = 0; j < count; ++j) {
+        bx[j] = sobol0Bits(first + j, s.s0);
+        by[j] = sobol1Bits(first + j, s.s1);
+      }
+      sphereDirections(bx, by, count, x, y, z);
+    }
+  };
 };
 
 // Columns of one stream's rows (StreamRows) are padded with zeros to a multiple of kBlock floats.
@@ -239,9 +253,10 @@ struct StreamRows {
 // Storage for a stream of rays, left uninitialised (Ray is an implicit-lifetime aggregate, and
 // SphereSet::fill starts every field before Embree reads it): constructing 2 × 256 Rays per
 // trace would write more than the rays themselves for the inside test's 64.
+static_assert(kStream % 8 == 0);
 struct RayBuffer {
-  alignas(64) std::byte bytes[sizeof(Ray) * kStream];
-  Ray* rays() { return reinterpret_cast<Ray*>(bytes); }
+  alignas(64) std::byte bytes[sizeof(RayPacket8) * (kStream / 8)];
+  RayPacket8* packets() { return reinterpret_cast<RayPacket8*>(bytes); }
 };
 
 struct ProbeAccum {
@@ -305,6 +320,7 @@ struct Tracer {
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
 
   void intersect(Ray* r, size_t n) const { inEmbree.time([&] { rays.intersect(r, n); }); }
+  void intersect8(RayPacket8* p, size_t n) const { inEmbree.time([&] { rays.intersect8(p, n); }); }
   void occluded(Ray* r, size_t n) const { inEmbree.time([&] { rays.occluded(r, n); }); }
 
   // Traces `n` sphere directions from x. full = reset acc, then accumulate M and moments;
@@ -334,26 +350,34 @@ struct Tracer {
     RayBuffer batches[2];
     uint16_t lit[2][kStream];  // per buffer: its rays that hit a lit surface
     uint32_t litCount[2] = {0, 0};
-    const auto corners = [&](const Ray& r) { return &scene.meshes[r.mesh].indices[3 * size_t(r.tri)]; };
+    // Ray j of a buffer: lane j % 8 of its packet j / 8.
+    const auto packet = [&](int buf, uint32_t j) -> const RayPacket8& { return batches[buf].packets()[j >> 3]; };
+    const auto corners = [&](const RayPacket8& p, int l) {
+      return &scene.meshes[p.mesh[l]].indices[3 * size_t(p.tri[l])];
+    };
     // The first row of the hit side's transfer (rows: front sides, then back sides).
-    const auto firstRow = [&](const Ray& r) { return r.backface() ? scene.meshes[r.mesh].vertexCount() : size_t(0); };
+    const auto firstRow = [&](const RayPacket8& p, int l) {
+      return p.backface(l) ? scene.meshes[p.mesh[l]].vertexCount() : size_t(0);
+    };
     const bool f16c = useVectorKernels();
     // The indirect part of the buffer's lit hits: M += Σ y gᵀ, g = ρ/π · t(h).
     const auto sumLit = [&](int buf) {
       rows.hits = 0;
       for (uint32_t h = 0; h < litCount[buf]; ++h) {
-        const Ray& r = batches[buf].rays()[lit[buf][h]];
-        const uint32_t* ix = corners(r);
-        const HalfRows& t = lowerHalf[r.mesh];
-        const size_t base = firstRow(r);
-        const glm::vec3 rho = albedo.at(r.mesh, r.tri, r.u, r.v) * float(1.0 / M_PI);
+        const RayPacket8& p = packet(buf, lit[buf][h]);
+        const int l = int(lit[buf][h] & 7);
+        const uint32_t* ix = corners(p, l);
+        const HalfRows& t = lowerHalf[p.mesh[l]];
+        const size_t base = firstRow(p, l);
+        const float u = p.u[l], v = p.v[l];
+        const glm::vec3 rho = albedo.at(p.mesh[l], p.tri[l], u, v) * float(1.0 / M_PI);
         float* g = &rows.gHit[size_t(rows.hits) * ldg];
-        const float b0 = 1.0f - r.u - r.v;
+        const float b0 = 1.0f - u - v;
         if (f16c)
-          litLightF16c(t.row(base + ix[0]), t.row(base + ix[1]), t.row(base + ix[2]), b0, r.u, r.v, rho, ldg, g);
+          litLightF16c(t.row(base + ix[0]), t.row(base + ix[1]), t.row(base + ix[2]), b0, u, v, rho, ldg, g);
         else
-          litLightPortable(t.row(base + ix[0]), t.row(base + ix[1]), t.row(base + ix[2]), b0, r.u, r.v, rho, ldg, g);
-        sh::evaluate(bands, r.dir, &rows.yHit[size_t(rows.hits++) * ldy]);
+          litLightPortable(t.row(base + ix[0]), t.row(base + ix[1]), t.row(base + ix[2]), b0, u, v, rho, ldg, g);
+        sh::evaluate(bands, p.dir(l), &rows.yHit[size_t(rows.hits++) * ldy]);
       }
       addProducts(rows.yHit.data(), ldy, rows.gHit.data(), ldg, rows.hits, n2, 3 * n2, acc.indirect.data(), 3 * n2);
       litCount[buf] = 0;
@@ -362,9 +386,9 @@ struct Tracer {
     for (uint32_t first = 0; first < n; first += kStream, cur ^= 1) {
       if (interruptRequested()) return false;
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
-      Ray* batch = batches[cur].rays();
+      RayPacket8* batch = batches[cur].packets();
       set.fill(batch, x, first, count);
-      intersect(batch, count);
+      intersect8(batch, count);
       // Per ray, without branches on what it hit (which no predictor guesses): counts, the
       // moments of its face, and its index in the list it goes to (escaped, lit). A ray that
       // escapes keeps tfar = ∞ and ng = 0, so it is nearer than nothing and never a back face,
@@ -374,14 +398,16 @@ struct Tracer {
       float nearest = acc.nearest;
       const double cap = maxDistance;
       for (uint32_t j = 0; j < count; ++j) {
-        const Ray& r = batch[j];
-        const bool hit = r.hit();
-        const uint8_t flags = meshFlags[hit ? r.mesh : 0];
-        const bool backside = r.backface();
+        const RayPacket8& r = batch[j >> 3];
+        const int l = int(j & 7);
+        const bool hit = r.hit(l);
+        const uint8_t flags = meshFlags[hit ? r.mesh[l] : 0];
+        const bool backside = r.backface(l);
         const bool back = backside && !(flags & kTwoSided);
         backs += back;
         backsTwoSided += backside && !back;
-        nearest = std::min(nearest, r.tfar);
+        const float tfar = r.tfar[l];
+        nearest = std::min(nearest, tfar);
         escapedIdx[escapes] = uint16_t(j);
         escapes += !hit;
         lit[cur][nLit] = uint16_t(j);
@@ -389,8 +415,9 @@ struct Tracer {
         if (!full) continue;
         // Depth along the face's axis, not the ray's length: a wall perpendicular to the axis
         // then has one depth for every ray of the face (docs/probes.md, "Visibility").
-        const int face = faceOf(r.dir);
-        const double d = std::min(double(r.tfar) * std::fabs(double(r.dir[face / 2])), cap);
+        const glm::vec3 dir = r.dir(l);
+        const int face = faceOf(dir);
+        const double d = std::min(double(tfar) * std::fabs(double(dir[face / 2])), cap);
         acc.sumD[face] += d;
         acc.sumD2[face] += d * d;
         ++acc.count[face];
@@ -404,18 +431,20 @@ struct Tracer {
       if (!full) continue;
       rows.escaped = int(escapes);
       for (uint32_t e = 0; e < escapes; ++e)
-        sh::evaluate(bands, batch[escapedIdx[e]].dir, &rows.yEscaped[size_t(e) * ldy]);
+        sh::evaluate(bands, batch[escapedIdx[e] >> 3].dir(int(escapedIdx[e] & 7)), &rows.yEscaped[size_t(e) * ldy]);
       // The direct part of the stream's escaped rays: M⁰ += Σ y yᵀ.
       addProducts(rows.yEscaped.data(), ldy, rows.yEscaped.data(), ldy, rows.escaped, n2, n2, acc.direct.data(), n2);
       // The lit hits' corners now, the previous stream's sums while they arrive, then their rows
       // (which need the corners), to be used one stream later.
-      for (uint32_t h = 0; h < litCount[cur]; ++h) __builtin_prefetch(corners(batch[lit[cur][h]]));
+      for (uint32_t h = 0; h < litCount[cur]; ++h)
+        __builtin_prefetch(corners(batch[lit[cur][h] >> 3], int(lit[cur][h] & 7)));
       sumLit(cur ^ 1);  // the previous stream's
       for (uint32_t h = 0; h < litCount[cur]; ++h) {
-        const Ray& r = batch[lit[cur][h]];
-        const uint32_t* ix = corners(r);
-        const HalfRows& t = lowerHalf[r.mesh];
-        const size_t base = firstRow(r);
+        const RayPacket8& r = batch[lit[cur][h] >> 3];
+        const int l = int(lit[cur][h] & 7);
+        const uint32_t* ix = corners(r, l);
+        const HalfRows& t = lowerHalf[r.mesh[l]];
+        const size_t base = firstRow(r, l);
         for (int c = 0; c < 3; ++c) {
           const char* p = reinterpret_cast<const char*>(t.row(base + ix[c]));
           for (size_t o = 0; o < t.stride * sizeof(uint16_t); o += 64) __builtin_prefetch(p + o);

@@ -15,6 +15,16 @@
 namespace prt::bake {
 
 // Ray is traced in place as RTCRayHit (and its prefix as RTCRay for occlusion).
+static_assert(sizeof(RayPacket8) == sizeof(RTCRayHit8) && alignof(RayPacket8) == alignof(RTCRayHit8));
+static_assert(offsetof(RayPacket8, tnear) == offsetof(RTCRayHit8, ray.tnear));
+static_assert(offsetof(RayPacket8, dirX) == offsetof(RTCRayHit8, ray.dir_x));
+static_assert(offsetof(RayPacket8, tfar) == offsetof(RTCRayHit8, ray.tfar));
+static_assert(offsetof(RayPacket8, flags) == offsetof(RTCRayHit8, ray.flags));
+static_assert(offsetof(RayPacket8, ngX) == offsetof(RTCRayHit8, hit.Ng_x));
+static_assert(offsetof(RayPacket8, u) == offsetof(RTCRayHit8, hit.u));
+static_assert(offsetof(RayPacket8, tri) == offsetof(RTCRayHit8, hit.primID));
+static_assert(offsetof(RayPacket8, mesh) == offsetof(RTCRayHit8, hit.geomID));
+static_assert(offsetof(RayPacket8, inst) == offsetof(RTCRayHit8, hit.instID));
 static_assert(sizeof(Ray) == sizeof(RTCRayHit));
 static_assert(alignof(Ray) == alignof(RTCRayHit));
 static_assert(offsetof(Ray, tnear) == offsetof(RTCRayHit, ray.tnear));
@@ -150,6 +160,21 @@ void RayScene::intersect(Ray* rays, size_t n, bool coherent) const {
   }
   rtcIntersect1M(impl_->scene, &ctx, reinterpret_cast<RTCRayHit*>(rays), static_cast<unsigned>(n),
                  sizeof(Ray));
+}
+
+void RayScene::intersect8(RayPacket8* packets, size_t n) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  for (size_t p = 0; p * 8 < n; ++p) {
+    RayPacket8& k = packets[p];
+    alignas(32) int valid[8];
+    for (size_t l = 0; l < 8; ++l) {
+      valid[l] = p * 8 + l < n ? -1 : 0;
+      k.mesh[l] = k.inst[l] = Ray::kInvalid;
+    }
+    rtcIntersect8(valid, impl_->scene, &ctx, reinterpret_cast<RTCRayHit8*>(&k));
+  }
 }
 
 void RayScene::occluded(Ray* rays, size_t n, bool coherent) const {

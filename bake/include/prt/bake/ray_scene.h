@@ -53,6 +53,39 @@ struct alignas(16) Ray {
   bool backface() const { return glm::dot(ng, dir) > 0.0f; }
 };
 
+/// Eight rays and their hits, lane l of each field: Embree's RTCRayHit8, checked by
+/// static_assert in ray_scene.cpp, so packets are traced in place. Lanes past the count given to
+/// RayScene::intersect8 are not traced (their contents do not matter).
+struct alignas(32) RayPacket8 {
+  float orgX[8], orgY[8], orgZ[8], tnear[8];
+  float dirX[8], dirY[8], dirZ[8], time[8];
+  float tfar[8];  // in: max distance; out: hit distance
+  uint32_t mask[8], id[8], flags[8];
+  float ngX[8], ngY[8], ngZ[8];  // unnormalised geometric normal
+  float u[8], v[8];
+  uint32_t tri[8];   // triangle index within the instance
+  uint32_t mesh[8];  // index into Scene::meshes, Ray::kInvalid on a miss
+  uint32_t inst[8];
+
+  /// Lane l as Ray::start: from o towards d over [tn, tf].
+  void start(int l, const glm::vec3& o, const glm::vec3& d, float tn, float tf) {
+    orgX[l] = o.x, orgY[l] = o.y, orgZ[l] = o.z;
+    tnear[l] = tn;
+    dirX[l] = d.x, dirY[l] = d.y, dirZ[l] = d.z;
+    time[l] = 0.0f;
+    tfar[l] = tf;
+    mask[l] = 0xffffffffu;
+    id[l] = flags[l] = 0;
+    ngX[l] = ngY[l] = ngZ[l] = 0.0f;
+    u[l] = v[l] = 0.0f;
+    tri[l] = mesh[l] = inst[l] = Ray::kInvalid;
+  }
+  glm::vec3 dir(int l) const { return {dirX[l], dirY[l], dirZ[l]}; }
+  bool hit(int l) const { return mesh[l] != Ray::kInvalid; }
+  /// As Ray::backface, with the same arithmetic.
+  bool backface(int l) const { return glm::dot(glm::vec3(ngX[l], ngY[l], ngZ[l]), dir(l)) > 0.0f; }
+};
+
 class RayScene {
 public:
   /// Builds a BVH over the scene's non-receiver instances (geometry ids = instance indices).
@@ -72,6 +105,11 @@ public:
   void intersect(Ray* rays, size_t n, bool coherent = false) const;
   /// Any-hit visibility of n rays (sets tfar = -inf where occluded). Thread-safe.
   void occluded(Ray* rays, size_t n, bool coherent = false) const;
+  /// Closest hits of the first n rays of packets[0 .. ceil(n / 8)), traced as packets of 8 with
+  /// the incoherent flag: the fastest of Embree's ways for rays of one origin spread over a
+  /// sphere (bench/embree_ceiling.cpp measures them all; docs/bake.md, "Speed"). The same hits
+  /// as intersect(). Thread-safe.
+  void intersect8(RayPacket8* packets, size_t n) const;
 
   /// Bounding-box diagonal of the traced geometry, for ray offsets.
   float sceneExtent() const { return extent_; }
