@@ -175,7 +175,7 @@ __attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(
   // The unroll pragmas let the sums live in registers only: unrolled later, GCC keeps the array
   // in memory too and stores every sum on every ray (a store-port bound, twice the FMAs' time).
   __m256 s[R][B];
-#pragma GCC unroll 2
+#pragma GCC unroll 4
   for (int r = 0; r < R; ++r)
 #pragma GCC unroll 4
     for (int b = 0; b < B; ++b) s[r][b] = _mm256_setzero_ps();
@@ -184,14 +184,14 @@ __attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(
     __m256 w[B];
 #pragma GCC unroll 4
     for (int b = 0; b < B; ++b) w[b] = _mm256_loadu_ps(vk + 8 * b);
-#pragma GCC unroll 2
+#pragma GCC unroll 4
     for (int r = 0; r < R; ++r) {
       const __m256 ya = _mm256_broadcast_ss(y + size_t(k) * ldy + a0 + r);
 #pragma GCC unroll 4
       for (int b = 0; b < B; ++b) s[r][b] = _mm256_fmadd_ps(ya, w[b], s[r][b]);
     }
   }
-#pragma GCC unroll 2
+#pragma GCC unroll 4
   for (int r = 0; r < R; ++r) {
     double* crow = c + size_t(a0 + r) * ldc;
 #pragma GCC unroll 4
@@ -207,8 +207,16 @@ template <int B>
 __attribute__((target("avx2,fma"), always_inline)) inline void productColumnsAvx2(const float* y, int ldy, const float* v,
                                                                                int ldv, int n, int rows, int j0,
                                                                                int cols, double* c, int ldc) {
+  // R rows at a time with R·B ≥ 8 sums where the registers allow (16 ymm: the sums, B column
+  // vectors and a broadcast): 4 × 2 for M⁰'s 16 columns, 2 × 4 for the indirect 32.
+  constexpr int R = B <= 2 ? 4 : 2;
   int a = 0;
-  for (; a + 2 <= rows; a += 2) productBlockAvx2<2, B>(y, ldy, v, ldv, n, a, j0, cols, c, ldc);
+  for (; a + R <= rows; a += R) productBlockAvx2<R, B>(y, ldy, v, ldv, n, a, j0, cols, c, ldc);
+  if constexpr (R == 4)
+    if (a + 2 <= rows) {
+      productBlockAvx2<2, B>(y, ldy, v, ldv, n, a, j0, cols, c, ldc);
+      a += 2;
+    }
   if (a < rows) productBlockAvx2<1, B>(y, ldy, v, ldv, n, a, j0, cols, c, ldc);
 }
 
