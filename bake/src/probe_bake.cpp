@@ -124,8 +124,10 @@ struct SphereSet {
   // together (sphereDirections).
   void fill(RayPacket8* p, const glm::vec3& x, uint32_t first, uint32_t count) const {
     Directions d(*this, first, count);
-    for (uint32_t j = 0; j < count; ++j)
-      p[j >> 3].start(int(j & 7), x, {d.x[j], d.y[j], d.z[j]}, 0.0f, std::numeric_limits<float>::infinity());
+    constexpr float inf = std::numeric_limits<float>::infinity();
+    uint32_t j = 0;
+    for (; j + 8 <= count; j += 8) p[j >> 3].startAll(x, d.x + j, d.y + j, d.z + j, 0.0f, inf);
+    for (; j < count; ++j) p[j >> 3].start(int(j & 7), x, {d.x[j], d.y[j], d.z[j]}, 0.0f, inf);
   }
   void fill(Ray* r, const glm::vec3& x, uint32_t first, uint32_t count) const {
     Directions d(*this, first, count);

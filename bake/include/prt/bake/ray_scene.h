@@ -80,6 +80,24 @@ struct alignas(32) RayPacket8 {
     u[l] = v[l] = 0.0f;
     tri[l] = mesh[l] = inst[l] = Ray::kInvalid;
   }
+  /// All 8 lanes as start(l, o, {dx[l], dy[l], dz[l]}, tn, tf), field by field: a few vector
+  /// stores where eight start() calls write each lane apart.
+  void startAll(const glm::vec3& o, const float* dx, const float* dy, const float* dz, float tn, float tf) {
+    for (int l = 0; l < 8; ++l) orgX[l] = o.x;
+    for (int l = 0; l < 8; ++l) orgY[l] = o.y;
+    for (int l = 0; l < 8; ++l) orgZ[l] = o.z;
+    for (int l = 0; l < 8; ++l) tnear[l] = tn;
+    for (int l = 0; l < 8; ++l) dirX[l] = dx[l];
+    for (int l = 0; l < 8; ++l) dirY[l] = dy[l];
+    for (int l = 0; l < 8; ++l) dirZ[l] = dz[l];
+    for (int l = 0; l < 8; ++l) time[l] = 0.0f;
+    for (int l = 0; l < 8; ++l) tfar[l] = tf;
+    for (int l = 0; l < 8; ++l) mask[l] = 0xffffffffu;
+    for (int l = 0; l < 8; ++l) id[l] = flags[l] = 0;
+    for (int l = 0; l < 8; ++l) ngX[l] = ngY[l] = ngZ[l] = 0.0f;
+    for (int l = 0; l < 8; ++l) u[l] = v[l] = 0.0f;
+    for (int l = 0; l < 8; ++l) tri[l] = mesh[l] = inst[l] = Ray::kInvalid;
+  }
   glm::vec3 dir(int l) const { return {dirX[l], dirY[l], dirZ[l]}; }
   bool hit(int l) const { return mesh[l] != Ray::kInvalid; }
   /// As Ray::backface, with the same arithmetic.
