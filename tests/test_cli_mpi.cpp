@@ -109,6 +109,16 @@ RunResult stopRank1InBounce1(const Args& common, const Args& rank1Extra) {
   return test::run("mpirun", a, {.env = {{"ASAN_OPTIONS", "detect_leaks=0"}}});
 }
 
+// `mpirun -n 2 ... --resume` of `common` (its outputs b.glb, b.vdb in out) writes the bytes of
+// the reference bake (ref.glb, ref.vdb in dir) and leaves no checkpoint behind.
+void expectResumedToTheReference(const Args& common, const fs::path& out, const fs::path& dir) {
+  const RunResult resumed = mpirun(2, test::plus(common, {"--resume"}));
+  ASSERT_EQ(resumed.status, 0) << resumed.err;
+  EXPECT_TRUE(test::fileBytes(out / "b.glb") == test::fileBytes(dir / "ref.glb"));
+  EXPECT_TRUE(test::fileBytes(out / "b.vdb") == test::fileBytes(dir / "ref.vdb"));
+  EXPECT_EQ(names(out), (std::vector<std::string>{"b.glb", "b.vdb"}));
+}
+
 void expectStoppedInBounce1(const RunResult& stopped, const fs::path& out) {
   EXPECT_NE(stopped.status, 0);
   EXPECT_EQ(prtLines(stopped.err), 1) << stopped.err;
@@ -137,11 +147,7 @@ TEST_F(CliMpi, RankStoppedMidBakeResumesWithTheOthers) {
   RunResult fresh = mpirun(2, common);  // a checkpoint is there: not without --resume
   EXPECT_EQ(fresh.status, 1) << fresh.err;
   EXPECT_EQ(prtLines(fresh.err), 1) << fresh.err;
-  RunResult resumed = mpirun(2, test::plus(common, {"--resume"}));
-  ASSERT_EQ(resumed.status, 0) << resumed.err;
-  EXPECT_TRUE(test::fileBytes(out / "b.glb") == test::fileBytes(dir / "ref.glb"));
-  EXPECT_TRUE(test::fileBytes(out / "b.vdb") == test::fileBytes(dir / "ref.vdb"));
-  EXPECT_EQ(names(out), (std::vector<std::string>{"b.glb", "b.vdb"}));
+  expectResumedToTheReference(common, out, dir);
   // Both ranks stopped in bounce 1: they resume there, and first trade the direct pass's
   // chunks (each rank's file holds its own, and every rank keeps the whole direct part).
   fs::remove(out / "b.glb");
@@ -150,10 +156,7 @@ TEST_F(CliMpi, RankStoppedMidBakeResumesWithTheOthers) {
   EXPECT_NE(both.status, 0);
   EXPECT_EQ(prtLines(both.err), 1) << both.err;
   EXPECT_NE(both.err.find(": bounce 1 "), std::string::npos) << both.err;
-  RunResult again = mpirun(2, test::plus(common, {"--resume"}));
-  ASSERT_EQ(again.status, 0) << again.err;
-  EXPECT_TRUE(test::fileBytes(out / "b.glb") == test::fileBytes(dir / "ref.glb"));
-  EXPECT_TRUE(test::fileBytes(out / "b.vdb") == test::fileBytes(dir / "ref.vdb"));
+  expectResumedToTheReference(common, out, dir);
 }
 
 TEST_F(CliMpi, OnceOneRankSavedEveryRankSavesAtTheStageEnd) {
@@ -171,11 +174,7 @@ TEST_F(CliMpi, OnceOneRankSavedEveryRankSavesAtTheStageEnd) {
   expectStoppedInBounce1(stopped, out);
   EXPECT_EQ(names(out), (std::vector<std::string>{"b.glb.prt-checkpoint.rank-0-of-2",
                                                    "b.glb.prt-checkpoint.rank-1-of-2"}));
-  const RunResult resumed = mpirun(2, test::plus(common, {"--resume"}));
-  ASSERT_EQ(resumed.status, 0) << resumed.err;
-  EXPECT_TRUE(test::fileBytes(out / "b.glb") == test::fileBytes(dir / "ref.glb"));
-  EXPECT_TRUE(test::fileBytes(out / "b.vdb") == test::fileBytes(dir / "ref.vdb"));
-  EXPECT_EQ(names(out), (std::vector<std::string>{"b.glb", "b.vdb"}));
+  expectResumedToTheReference(common, out, dir);
 }
 
 TEST_F(CliMpi, AFailingRankStopsEveryRankWithOneLine) {

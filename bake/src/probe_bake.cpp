@@ -260,9 +260,10 @@ struct StreamRows {
   }
 };
 
-// Storage for a stream of rays, left uninitialised (Ray is an implicit-lifetime aggregate, and
-// SphereSet::fill starts every field before Embree reads it): constructing 2 × 256 Rays per
-// trace would write more than the rays themselves for the inside test's 64.
+// Storage for a stream of rays as packets of 8, left uninitialised (RayPacket8 is an
+// implicit-lifetime aggregate, and SphereSet::fill starts every field of the lanes traced before
+// Embree reads them): constructing 2 × 32 packets per trace would write more than the rays
+// themselves for the inside test's 64.
 static_assert(kStream % 8 == 0);
 struct RayBuffer {
   alignas(64) std::byte bytes[sizeof(RayPacket8) * (kStream / 8)];
@@ -441,16 +442,15 @@ struct Tracer {
       if (!full) continue;
       rows.escaped = int(escapes);
       for (uint32_t e = 0; e < escapes; ++e)
-        sh::evaluate(bands, batch[escapedIdx[e] >> 3].dir(int(escapedIdx[e] & 7)), &rows.yEscaped[size_t(e) * ldy]);
+        sh::evaluate(bands, packet(cur, escapedIdx[e]).dir(int(escapedIdx[e] & 7)), &rows.yEscaped[size_t(e) * ldy]);
       // The direct part of the stream's escaped rays: M⁰ += Σ y yᵀ.
       addProducts(rows.yEscaped.data(), ldy, rows.yEscaped.data(), ldy, rows.escaped, n2, n2, acc.direct.data(), n2);
       // The lit hits' corners now, the previous stream's sums while they arrive, then their rows
       // (which need the corners), to be used one stream later.
-      for (uint32_t h = 0; h < litCount[cur]; ++h)
-        __builtin_prefetch(corners(batch[lit[cur][h] >> 3], int(lit[cur][h] & 7)));
+      for (uint32_t h = 0; h < litCount[cur]; ++h) __builtin_prefetch(corners(packet(cur, lit[cur][h]), int(lit[cur][h] & 7)));
       sumLit(cur ^ 1);  // the previous stream's
       for (uint32_t h = 0; h < litCount[cur]; ++h) {
-        const RayPacket8& r = batch[lit[cur][h] >> 3];
+        const RayPacket8& r = packet(cur, lit[cur][h]);
         const int l = int(lit[cur][h] & 7);
         const uint32_t* ix = corners(r, l);
         const HalfRows& t = lowerHalf[r.mesh[l]];
