@@ -129,17 +129,27 @@ void expectStoppedInBounce1(const RunResult& stopped, const fs::path& out) {
   EXPECT_FALSE(fs::exists(out / "b.glb"));
 }
 
-TEST_F(CliMpi, RankStoppedMidBakeResumesWithTheOthers) {
+// A reference bake by one process in dir, and the same bake's arguments for ranks writing to
+// dir/out (b.glb, b.vdb), for the resume tests.
+class CliMpiResume : public CliMpi {
+protected:
+  void SetUp() override {
+    CliMpi::SetUp();
+    if (IsSkipped()) return;
+    ASSERT_EQ(test::runPrt(bakeArgs(dir, "ref")).status, 0);
+    fs::create_directories(out);
+  }
+  const test::TempDir tmp;
+  const fs::path dir = tmp.path();
+  const fs::path out = dir / "out";
+  const Args common = bakeArgs(out, "b");
+};
+
+TEST_F(CliMpiResume, RankStoppedMidBakeResumesWithTheOthers) {
   // Rank 1 is interrupted in bounce 1. No rank had saved before (the checkpoint interval is
   // long), so the ranks skipped their stage-end saves: rank 0 has no file, and the ranks
   // resume together from the direct pass (rank 1 restores its direct chunks) to the bytes of
   // one process.
-  const test::TempDir tmp;
-  const fs::path dir = tmp.path();
-  ASSERT_EQ(test::runPrt(bakeArgs(dir, "ref")).status, 0);
-  const fs::path out = dir / "out";
-  fs::create_directories(out);
-  const Args common = bakeArgs(out, "b");
   const RunResult stopped = stopRank1InBounce1(common, {});
   expectStoppedInBounce1(stopped, out);
   EXPECT_EQ(names(out), (std::vector<std::string>{"b.glb.prt-checkpoint.rank-1-of-2"}))
@@ -159,17 +169,11 @@ TEST_F(CliMpi, RankStoppedMidBakeResumesWithTheOthers) {
   expectResumedToTheReference(common, out, dir);
 }
 
-TEST_F(CliMpi, OnceOneRankSavedEveryRankSavesAtTheStageEnd) {
+TEST_F(CliMpiResume, OnceOneRankSavedEveryRankSavesAtTheStageEnd) {
   // Rank 1 alone saves every few milliseconds: it has a file before the direct pass ends, so at
   // its end every rank saves its chunks, rank 0 too (whose own interval is long). Rank 1 is
   // interrupted in bounce 1; rank 0 dies with its bounce-1 chunks unsaved and resumes with the
   // direct chunks of its file.
-  const test::TempDir tmp;
-  const fs::path dir = tmp.path();
-  ASSERT_EQ(test::runPrt(bakeArgs(dir, "ref")).status, 0);
-  const fs::path out = dir / "out";
-  fs::create_directories(out);
-  const Args common = bakeArgs(out, "b");
   const RunResult stopped = stopRank1InBounce1(common, {"--checkpoint-interval", "0.001"});
   expectStoppedInBounce1(stopped, out);
   EXPECT_EQ(names(out), (std::vector<std::string>{"b.glb.prt-checkpoint.rank-0-of-2",
