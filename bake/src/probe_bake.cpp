@@ -330,7 +330,6 @@ struct Tracer {
   std::vector<uint8_t> meshFlags;
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
 
-  void intersect(Ray* r, size_t n) const { inEmbree.time([&] { rays.intersect(r, n); }); }
   void intersect8(RayPacket8* p, size_t n) const { inEmbree.time([&] { rays.intersect8(p, n); }); }
   void occluded(Ray* r, size_t n) const { inEmbree.time([&] { rays.occluded(r, n); }); }
 
