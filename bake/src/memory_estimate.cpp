@@ -11,8 +11,9 @@
 //            hits' rows, 3·n2 padded to 64-byte lines a vertex), then the largest of
 //              trace     BVH + per lattice point a slot and its n2²·3 floats + per thread the
 //                        double accumulators + the checkpoint's save/read buffers
-//              assemble  slots and lattice transfer + the compacted copy + the grid's
-//                        attribute vectors (growing) + its dense index
+//              assemble  slots and lattice transfer + the grid (its transfer copied out of
+//                        the lattice's, its attribute vectors, its dense index) + the list of
+//                        active points
 //              write     the grid + its OpenVDB copy (whole 8³ leaves) + OpenVDB's buffers +
 //                        the written file read back whole for its content UUID
 //   write    scene + B (transfer in the scene) [+ B lower-order sum] + the glTF writer: copies
@@ -139,10 +140,10 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   const uint64_t accum = pn2 * pn2 * (8 + 24) + 2 * kAllocOverhead;
   lattice = points * (kProbeSlotBytes + matrix);
   const uint64_t trace = triangles * kBvhBytesPerTriangle + lattice + threads * accum + kCheckpointBuffers;
-  // Compaction keeps the lattice's transfer and, when it shrinks, a copy of at most 0.8 of it;
-  // the attribute vectors grow by doubling.
+  // The assembly copies the active points' transfer out of the lattice's into the grid's arrays,
+  // each allocated once at its size, with an 8-byte list of the active points.
   const uint64_t gridBytes = points * (matrix + kProbeAttributeBytes + kProbeIndexBytes);
-  const uint64_t assemble = lattice + points * (matrix * 4 / 5 + 2 * kProbeAttributeBytes + kProbeIndexBytes);
+  const uint64_t assemble = lattice + gridBytes + points * 8;
   const uint64_t trees = (pn2 * pn2 + kVdbVec3Grids) * vdbTreeBytes(12, 16, dims) +
                          (kVdbFloatGrids + pn2 * (pn2 + 1) / 2) * vdbTreeBytes(4, 8, dims);
   const uint64_t write = gridBytes + trees + kVdbHashBuffer + kVdbWriteBytes;

@@ -36,6 +36,7 @@
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
+#include "prt/huge_pages.h"
 #include "prt/sh.h"
 #include "stage_runner.h"
 #include "trace_clock.h"
@@ -494,9 +495,10 @@ static_assert(sizeof(ProbeSlot) == 72 && std::is_trivially_copyable_v<ProbeSlot>
 // memory, whenever it happens.
 struct LatticeResults {
   std::vector<ProbeSlot> slots;
-  // stride floats per lattice point, zero for invalid points: M (n2² RGB triples), then the
-  // upper triangle of its direct part M⁰ (n2(n2+1)/2 floats, ProbeGrid::direct's layout).
-  std::vector<float> transfer;
+  // stride floats per lattice point, written for valid points only (the others' are never read:
+  // left unwritten, their pages are never faulted in): M (n2² RGB triples), then the upper
+  // triangle of its direct part M⁰ (n2(n2+1)/2 floats, ProbeGrid::direct's layout).
+  std::unique_ptr<float[]> transfer;
   size_t stride = 0;
 };
 
@@ -504,7 +506,7 @@ struct LatticeResults {
 void writeProbeChunk(const LatticeResults& res, size_t begin, size_t end, ByteWriter& w) {
   w.putArray(res.slots.data() + begin, end - begin);
   for (size_t i = begin; i < end; ++i)
-    if (res.slots[i].valid) w.write(res.transfer.data() + i * res.stride, res.stride * sizeof(float));
+    if (res.slots[i].valid) w.write(res.transfer.get() + i * res.stride, res.stride * sizeof(float));
 }
 
 void readProbeChunk(LatticeResults& res, size_t begin, size_t end, ByteReader& r) {
@@ -512,7 +514,7 @@ void readProbeChunk(LatticeResults& res, size_t begin, size_t end, ByteReader& r
   for (size_t i = begin; i < end; ++i) {
     const ProbeSlot& slot = res.slots[i];
     if (slot.valid > 1 || slot.moved > 1 || slot.outside > 1 || (slot.valid && slot.outside)) r.fail("probe record");
-    if (slot.valid) r.read(res.transfer.data() + i * res.stride, res.stride * sizeof(float));
+    if (slot.valid) r.read(res.transfer.get() + i * res.stride, res.stride * sizeof(float));
   }
 }
 
@@ -908,49 +910,54 @@ void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& s) {
 namespace {
 
 // Active: valid probes, and invalid ones next to a valid probe (so the file shows where
-// interpolation must not read); solid interiors far from free space are not stored. Moves the
-// lattice's results into the grid, compacted to the active probes in lattice order.
-void assembleGrid(const std::vector<ProbeSlot>& slots, std::vector<float> transfer, size_t stride, ProbeGrid& grid,
+// interpolation must not read); solid interiors far from free space are not stored. Copies the
+// lattice's results into the grid, compacted to the active probes in lattice order: M into
+// grid.transfer, M⁰'s triangle into grid.direct (zeros for invalid probes, whose lattice
+// transfer was never written), each array allocated once at its size, on huge pages.
+void assembleGrid(const std::vector<ProbeSlot>& slots, const float* transfer, size_t stride, ProbeGrid& grid,
                   ProbeStats& stats) {
   const glm::ivec3 dims = grid.dims;
   auto validAt = [&](const glm::ivec3& c) {
     if (glm::any(glm::lessThan(c, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(c, dims))) return false;
     return slots[size_t(c.x) + size_t(dims.x) * (size_t(c.y) + size_t(dims.y) * c.z)].valid != 0;
   };
-  size_t active = 0;
+  std::vector<size_t> activeIdx;  // lattice indices of the active points, in lattice order
   for (int z = 0; z < dims.z; ++z)
     for (int y = 0; y < dims.y; ++y)
       for (int x = 0; x < dims.x; ++x) {
         const glm::ivec3 c(x, y, z);
         const size_t idx = size_t(x) + size_t(dims.x) * (size_t(y) + size_t(dims.y) * z);
-        const ProbeSlot& slot = slots[idx];
-        bool isActive = slot.valid;
+        bool isActive = slots[idx].valid;
         for (int d = 0; d < 27 && !isActive; ++d)
           isActive = validAt(c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1));
-        if (!isActive) continue;
-        grid.coord.push_back(c);
-        grid.validity.push_back(slot.valid ? 1.0f : 0.0f);
-        grid.offset.push_back(slot.offset);
-        grid.moments.push_back(slot.moments);
-        grid.skyVisibility.push_back(slot.skyVisibility);
-        // Compact in place: active probes keep lattice order, so probe `active` ≤ idx and the
-        // copy only ever moves data towards the front.
-        if (active != idx)
-          std::copy_n(transfer.begin() + ptrdiff_t(idx * stride), stride, transfer.begin() + ptrdiff_t(active * stride));
-        ++active;
-        stats.active += 1;
-        stats.invalid += !slot.valid && !slot.outside;
-        stats.valid += slot.valid;
-        stats.moved += slot.valid && slot.moved;
+        if (isActive) activeIdx.push_back(idx);
       }
-  // Each compacted record is M then M⁰'s triangle: split them into the grid's two arrays.
-  const size_t rgb = grid.transferStride(), tri = stride - rgb;
+  const size_t active = activeIdx.size(), rgb = grid.transferStride(), tri = stride - rgb;
   PRT_CHECK_EQ(tri, ProbeGrid::directStride(grid.bands));
-  grid.transfer.resize(active * rgb);
-  grid.direct.resize(active * tri);
+  resizeOnHugePages(grid.transfer, active * rgb);  // zeros, kept by invalid probes
+  resizeOnHugePages(grid.direct, active * tri);
+  grid.coord.reserve(active);
+  grid.validity.reserve(active);
+  grid.offset.reserve(active);
+  grid.moments.reserve(active);
+  grid.skyVisibility.reserve(active);
   for (size_t p = 0; p < active; ++p) {
-    std::copy_n(transfer.begin() + ptrdiff_t(p * stride), rgb, grid.transfer.begin() + ptrdiff_t(p * rgb));
-    std::copy_n(transfer.begin() + ptrdiff_t(p * stride + rgb), tri, grid.direct.begin() + ptrdiff_t(p * tri));
+    const size_t idx = activeIdx[p];
+    const ProbeSlot& slot = slots[idx];
+    grid.coord.push_back(glm::ivec3(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y))));
+    grid.validity.push_back(slot.valid ? 1.0f : 0.0f);
+    grid.offset.push_back(slot.offset);
+    grid.moments.push_back(slot.moments);
+    grid.skyVisibility.push_back(slot.skyVisibility);
+    if (slot.valid) {
+      const float* record = transfer + idx * stride;
+      std::copy_n(record, rgb, grid.transfer.begin() + ptrdiff_t(p * rgb));
+      std::copy_n(record + rgb, tri, grid.direct.begin() + ptrdiff_t(p * tri));
+    }
+    stats.active += 1;
+    stats.invalid += !slot.valid && !slot.outside;
+    stats.valid += slot.valid;
+    stats.moved += slot.valid && slot.moved;
   }
   grid.buildIndex();
 }
@@ -980,7 +987,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   const size_t stride = size_t(n2) * n2 * 3 + ProbeGrid::directStride(settings.bands);
   auto res = std::make_shared<LatticeResults>();
   res->slots.resize(total);
-  res->transfer.assign(total * stride, 0.0f);  // lattice order; compacted below
+  res->transfer = uninitialisedOnHugePages<float>(total * stride);  // lattice order; compacted below
   res->stride = stride;
 
   // The stage's writer holds `res`; forget it however this function ends, so that the
@@ -1046,7 +1053,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
                             continue;
                           }
                           outcome.finished = baker.bake(idx, region.free[idx] != 0, acc, slot,
-                                                        res->transfer.data() + idx * stride);
+                                                        res->transfer.get() + idx * stride);
                           outcome.rays += slot.traced;
                         }
                         return outcome;
@@ -1058,7 +1065,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   if (cp) cp->releaseStages();
   stats.restored = stage.restoredItems();
   if (ranks().rank() != 0) return grid;  // the lattice holds this rank's chunks only
-  assembleGrid(res->slots, std::move(res->transfer), stride, grid, stats);
+  assembleGrid(res->slots, res->transfer.get(), stride, grid, stats);
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (statsOut) *statsOut = stats;
   return grid;
