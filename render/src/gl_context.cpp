@@ -1,10 +1,13 @@
 // The one file that talks to OSMesa and EGL.
 #include "prt/render/gl_context.h"
 
+#include <dlfcn.h>
+
 #include <algorithm>
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <type_traits>
 #include <vector>
 
 #include <EGL/egl.h>
@@ -89,6 +92,36 @@ bool hasExtension(const char* list, const char* name) {
   return false;
 }
 
+// OSMesa is opened at run time, by the first OSMesa context. libOSMesa pulls in LLVM (llvmpipe):
+// linked, its relocations cost every prt process ~55 ms at start, whether it renders or not
+// (`prt --version` took 0.14 s, 0.08 s without it). EGL (glvnd's libEGL) is cheap and stays linked.
+struct OsMesaApi {
+  decltype(&::OSMesaCreateContextAttribs) createContextAttribs = nullptr;
+  decltype(&::OSMesaGetProcAddress) getProcAddress = nullptr;
+  decltype(&::OSMesaMakeCurrent) makeCurrent = nullptr;
+  decltype(&::OSMesaDestroyContext) destroyContext = nullptr;
+};
+
+constexpr const char* kOsMesaLibrary = "libOSMesa.so.8";  // Mesa's soname since 2015
+
+const OsMesaApi& osmesaApi() {
+  static const OsMesaApi api = [] {  // a throw leaves it uninitialised: the next call tries again
+    void* lib = dlopen(kOsMesaLibrary, RTLD_NOW | RTLD_LOCAL);
+    if (!lib) throw Error(cat("OSMesa: cannot load ", kOsMesaLibrary, " (", dlerror(), ")"));
+    OsMesaApi a;
+    const auto load = [&](auto& fn, const char* name) {
+      fn = reinterpret_cast<std::remove_reference_t<decltype(fn)>>(dlsym(lib, name));
+      if (!fn) throw Error(cat("OSMesa: ", kOsMesaLibrary, " has no ", name));
+    };
+    load(a.createContextAttribs, "OSMesaCreateContextAttribs");
+    load(a.getProcAddress, "OSMesaGetProcAddress");
+    load(a.makeCurrent, "OSMesaMakeCurrent");
+    load(a.destroyContext, "OSMesaDestroyContext");
+    return a;  // the library stays loaded for the process
+  }();
+  return api;
+}
+
 template <class F>
 F eglProc(const char* name) {
   return reinterpret_cast<F>(eglGetProcAddress(name));
@@ -143,11 +176,11 @@ void GlContext::Impl::openOSMesa() {
                          OSMESA_PROFILE, OSMESA_CORE_PROFILE,
                          OSMESA_CONTEXT_MAJOR_VERSION, kMajor,
                          OSMESA_CONTEXT_MINOR_VERSION, kMinor, 0};
-  osmesa = OSMesaCreateContextAttribs(attribs, nullptr);
+  osmesa = osmesaApi().createContextAttribs(attribs, nullptr);
   if (!osmesa) throw Error(cat("OSMesa: no OpenGL ", kMajor, ".", kMinor, " core context"));
   platform = "OSMesa";
   makeCurrent();
-  gl.load([](const char* name) { return reinterpret_cast<void*>(OSMesaGetProcAddress(name)); },
+  gl.load([](const char* name) { return reinterpret_cast<void*>(osmesaApi().getProcAddress(name)); },
           "OSMesa");
   queryAndCheck("OSMesa");
 }
@@ -266,7 +299,7 @@ void GlContext::Impl::openEgl(EglPlatform want) {
 
 void GlContext::Impl::makeCurrent() {
   if (backend == GlBackend::OSMesa) {
-    if (!OSMesaMakeCurrent(osmesa, osmesaBuffer.data(), GL_UNSIGNED_BYTE, 4, 4))
+    if (!osmesaApi().makeCurrent(osmesa, osmesaBuffer.data(), GL_UNSIGNED_BYTE, 4, 4))
       throw Error("OSMesa: OSMesaMakeCurrent failed");
   } else {
     if (!eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context))
@@ -294,7 +327,7 @@ void GlContext::Impl::queryAndCheck(const char* who) {
 
 void GlContext::Impl::close() {
   if (osmesa) {
-    OSMesaDestroyContext(osmesa);
+    osmesaApi().destroyContext(osmesa);
     osmesa = nullptr;
   }
   if (context != EGL_NO_CONTEXT) {
