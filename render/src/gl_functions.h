@@ -2,9 +2,9 @@
 //
 // Why not call GL directly: a binary that links libGL or libOpenGL next to libOSMesa gets its
 // direct GL calls dispatched to GLX/GLVND instead of OSMesa, where they silently do nothing
-// (glGetString returns NULL). prt links only libOSMesa and libEGL and fetches every entry point
-// through OSMesaGetProcAddress / eglGetProcAddress of the context that is current
-// (../../shared/notes/platform.md). glad is not packaged, libepoxy aborts under OSMesa, and GLEW
+// (glGetString returns NULL). prt links only libEGL (libOSMesa is opened at run time, in
+// gl_context.cpp) and fetches every entry point through OSMesaGetProcAddress / eglGetProcAddress
+// of the context that is current (../../shared/notes/platform.md). glad is not packaged, libepoxy aborts under OSMesa, and GLEW
 // misreports under EGL, so the table is ours: one line per function in PRT_GL_FUNCTIONS.
 #pragma once
 

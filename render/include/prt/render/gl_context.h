@@ -2,7 +2,8 @@
 //
 // Both back ends run Mesa's llvmpipe on the machines prt is developed on; EGL can also reach a
 // real GPU through EGL_EXT_platform_device. No window system is involved: a context draws into
-// framebuffer objects only. The binary links libOSMesa and libEGL, never libGL/libOpenGL, and
+// framebuffer objects only. The binary links libEGL and opens libOSMesa at run time, never
+// libGL/libOpenGL, and
 // every GL entry point is loaded from the current context (docs/render.md says why).
 #pragma once
 
