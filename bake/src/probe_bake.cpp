@@ -987,7 +987,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   const size_t stride = size_t(n2) * n2 * 3 + ProbeGrid::directStride(settings.bands);
   auto res = std::make_shared<LatticeResults>();
   res->slots.resize(total);
-  res->transfer = uninitialisedOnHugePages<float>(total * stride);  // lattice order; compacted below
+  res->transfer = uninitialisedOnHugePages<float>(total * stride);  // lattice order; the grid copies it out
   res->stride = stride;
 
   // The stage's writer holds `res`; forget it however this function ends, so that the

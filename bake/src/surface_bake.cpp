@@ -172,15 +172,18 @@ struct DirectPass {
     const int n2 = b.n2;
     const uint32_t N = b.N;
     ChunkHits* ch = b.keepHits ? &b.chunkHits[c.index] : nullptr;
-    // The chunk's hit records go to a buffer of this thread's that keeps its capacity (the
-    // chunk's bound, every ray a hit) from chunk to chunk, and are copied once, at the end, into
-    // a vector of their count. Pushed into the chunk's own vector they were copied two or three
-    // times, each time into fresh pages (memmove and page faults: 7% of the room's bake).
+    // The chunk's hit records go to a buffer of this thread's that keeps its capacity from
+    // chunk to chunk (reserved for the chunk's bound, every ray a hit, up to kScratchHits), and
+    // are copied once, at the end, into a vector of their count. Pushed into the chunk's own
+    // vector they were copied two or three times, each time into fresh pages (memmove and its
+    // page faults: 7% of a profile of the room's bake; the one copy left still faults its
+    // destination in, docs/bake.md "Page faults").
+    constexpr size_t kScratchHits = size_t(1) << 20;  // 8 MiB; beyond, the buffer grows as needed
     thread_local std::vector<HitRecord> hits;
     if (ch) {
       ch->begin.assign(1, 0);
       hits.clear();
-      hits.reserve((c.end - c.begin) * N);
+      hits.reserve(std::min(kScratchHits, (c.end - c.begin) * size_t(N)));
     }
     for (size_t v = c.begin; v < c.end; ++v) {
       if (interruptRequested()) {  // a chunk can take long at a huge sample count

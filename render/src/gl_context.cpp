@@ -94,7 +94,7 @@ bool hasExtension(const char* list, const char* name) {
 
 // OSMesa is opened at run time, by the first OSMesa context. libOSMesa pulls in LLVM (llvmpipe):
 // linked, its relocations cost every prt process ~55 ms at start, whether it renders or not
-// (`prt --version` took 0.14 s, 0.08 s without it). EGL (glvnd's libEGL) is cheap and stays linked.
+// (`prt --version` took 0.14 s, 0.06–0.07 s without it). EGL (glvnd's libEGL) is cheap and stays linked.
 struct OsMesaApi {
   decltype(&::OSMesaCreateContextAttribs) createContextAttribs = nullptr;
   decltype(&::OSMesaGetProcAddress) getProcAddress = nullptr;
