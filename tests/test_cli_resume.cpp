@@ -359,8 +359,12 @@ TEST(CliMemory, RefusalWritesNothingAndEstimateBoundsThePeak) {
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("--max-memory lots"), std::string::npos) << r.err;
 
-  // A moderate bake: the estimate printed is at least the measured peak, and not far above.
-  r = prtBake({"bake", scenePath("cornell_open.gltf"), "-o", out, "--samples", "256"});
+  // A moderate bake: the estimate printed is at least the measured peak, and not far above. At
+  // the default 1024 samples the surface stage (hit records, transfer buffers) is the largest
+  // phase of the estimate and of the bake (estimated 214 MiB, peak 144 MiB, 2026-12-05); at 256
+  // samples the refinement's estimate, a loose bound per vertex (memory_estimate.cpp), is the
+  // largest, and since the hit records are copied once the bake's peak is 74 MiB against 121.
+  r = prtBake({"bake", scenePath("cornell_open.gltf"), "-o", out, "--samples", "1024"});
   ASSERT_EQ(r.status, 0) << r.err;
   std::smatch m;
   ASSERT_TRUE(std::regex_search(r.err, m, std::regex("memory: estimated ([0-9.]+) MiB, peak ([0-9.]+) MiB"))) << r.err;
