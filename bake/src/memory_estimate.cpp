@@ -142,9 +142,10 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   lattice = points * (kProbeSlotBytes + matrix);
   const uint64_t trace = triangles * kBvhBytesPerTriangle + lattice + threads * accum + kCheckpointBuffers;
   // The assembly copies the active points' transfer out of the lattice's into the grid's arrays,
-  // each allocated once at its size, with an 8-byte list of the active points.
+  // each allocated once at its size, with a list of the active points (8 bytes each, up to
+  // twice that while the list grows).
   const uint64_t gridBytes = points * (matrix + kProbeAttributeBytes + kProbeIndexBytes);
-  const uint64_t assemble = lattice + gridBytes + points * 8;
+  const uint64_t assemble = lattice + gridBytes + points * 16;
   const uint64_t trees = (pn2 * pn2 + kVdbVec3Grids) * vdbTreeBytes(12, 16, dims) +
                          (kVdbFloatGrids + pn2 * (pn2 + 1) / 2) * vdbTreeBytes(4, 8, dims);
   const uint64_t write = gridBytes + trees + kVdbHashBuffer + kVdbWriteBytes;
