@@ -27,6 +27,16 @@ void resizeOnHugePages(std::vector<T>& v, size_t n) {
   v.resize(n);
 }
 
+/// Keeps memory the process frees for its own next allocations, instead of handing it back to
+/// the kernel and faulting it in again (glibc; elsewhere nothing). By default glibc maps every
+/// block above 128 KiB on its own (a threshold that grows to at most 32 MiB as such blocks are
+/// freed) and unmaps it on free, and it returns the top of its heap once 128 KiB of it is free:
+/// the 81 OpenVDB trees of a probe grid (a 512 KiB node each) were fresh pages every time.
+/// After this, blocks below 32 MiB come from the heap, and up to 256 MiB of free heap is kept.
+/// Larger blocks (a big scene's per-vertex arrays) are still mapped alone and returned when
+/// freed. Called once, first thing in main.
+void keepFreedMemory();
+
 /// n uninitialised Ts (T trivial) on huge pages: nothing is written, so pages never touched
 /// are never faulted in.
 template <class T>
