@@ -109,9 +109,17 @@ void guardMemory(const bake::MemoryEstimate& e, const std::optional<bake::Memory
   bake::checkMemory(e, *limit, scene, s, probes, flags);
 }
 
-uint64_t testInterruptAfter() {
+// PRT_TEST_INTERRUPT_AFTER=N: interrupt after N chunks of this run; =S:N after N chunks of
+// the stage whose checkpoint id is S (under MPI a rank's chunks per stage vary, ranks.h).
+void testInterruptAfter(bake::CheckpointOptions& co) {
   const char* v = std::getenv("PRT_TEST_INTERRUPT_AFTER");
-  return v ? std::strtoull(v, nullptr, 10) : 0;
+  if (!v) return;
+  char* end = nullptr;
+  co.interruptAfterChunks = std::strtoull(v, &end, 10);
+  if (*end == ':') {
+    co.interruptInStage = uint32_t(co.interruptAfterChunks);
+    co.interruptAfterChunks = std::strtoull(end + 1, nullptr, 10);
+  }
 }
 
 // The probe options of prt bake: each needs --probes (never silently ignored), --probe-dims and
@@ -325,7 +333,7 @@ int runBake(const BakeArgs& a) {
     co.path = checkpointPath;
     co.intervalSeconds = a.checkpointInterval;
     co.resume = a.resume;
-    co.interruptAfterChunks = testInterruptAfter();
+    testInterruptAfter(co);
     bake::Fingerprint fp = bakeFingerprint(scene, a, s, refine, psp);
     if (mpi) {
       // One file per rank, each holding the chunks its rank computed; they resume together.

@@ -108,6 +108,7 @@ struct Checkpoint::Impl {
   std::vector<Pending> pending;
   std::mutex saveMutex;
   std::atomic<uint64_t> completedThisRun{0};
+  std::atomic<uint64_t> completedInStage{0};  // of opt.interruptInStage, this run
   std::chrono::steady_clock::time_point lastSave = std::chrono::steady_clock::now();
 
   std::string where() const { return opt.path; }
@@ -268,7 +269,8 @@ void Checkpoint::complete(uint64_t chunk) {
     m.pending.push_back({m.current, chunk});
     ++m.stages.find(m.current)->second.done;
   }
-  const uint64_t n = m.completedThisRun.fetch_add(1) + 1;
+  uint64_t n = m.completedThisRun.fetch_add(1) + 1;
+  if (m.opt.interruptInStage != 0) n = m.current == m.opt.interruptInStage ? m.completedInStage.fetch_add(1) + 1 : 0;
   if (m.opt.interruptAfterChunks > 0 && n == m.opt.interruptAfterChunks) requestInterrupt(SIGINT);
   if (m.opt.intervalSeconds <= 0.0 || interruptRequested()) return;
   std::unique_lock lock(m.saveMutex, std::try_to_lock);

@@ -118,10 +118,14 @@ public:
     MPI_Comm_set_errhandler(MPI_COMM_WORLD, MPI_ERRORS_RETURN);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
+    shareCounters();
   }
   ~MpiRanks() override {
     // While an exception unwinds, other ranks may wait in a collective: stopAllRanks ends them.
-    if (std::uncaught_exceptions() == 0) MPI_Finalize();
+    if (std::uncaught_exceptions() != 0) return;
+    if (locked_) MPI_Win_unlock_all(window_);
+    if (window_ != MPI_WIN_NULL) MPI_Win_free(&window_);
+    MPI_Finalize();
   }
   int rank() const override { return rank_; }
   int size() const override { return size_; }
@@ -190,13 +194,53 @@ public:
     await(req, "MPI_Ibarrier");
   }
 
+  uint64_t* chunkCounter(uint32_t slot) override { return counters_ && slot < kCounterSlots ? counters_ + slot : nullptr; }
+
   std::string transportChoice() const override {
     return sharedMemory_ ? "Open MPI's ob1 over shared memory, chosen for one host" : "";
   }
 
 private:
+  // The chunk counters (Ranks::chunkCounter), when every rank runs on this host: an MPI-3
+  // shared window of kCounterSlots uint64 on rank 0, which every rank maps, zeroed before any
+  // rank reads it, open for loads and stores (a passive epoch) until the end. Ranks on several
+  // hosts, or a window that cannot be made, leave the chunks split statically: on every rank
+  // alike (the outcome is agreed).
+  void shareCounters() {
+    MPI_Comm host = MPI_COMM_NULL;
+    if (MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank_, MPI_INFO_NULL, &host) != MPI_SUCCESS) return;
+    int hostSize = 0;
+    MPI_Comm_size(host, &hostSize);
+    bool ok = false;
+    if (hostSize == size_) {  // the same answer on every rank: all on one host, or not
+      void* mine = nullptr;
+      const MPI_Aint bytes = rank_ == 0 ? MPI_Aint(kCounterSlots * sizeof(uint64_t)) : 0;
+      if (MPI_Win_allocate_shared(bytes, int(sizeof(uint64_t)), MPI_INFO_NULL, host, &mine, &window_) == MPI_SUCCESS) {
+        MPI_Win_set_errhandler(window_, MPI_ERRORS_RETURN);
+        MPI_Aint size = 0;
+        int unit = 0;
+        void* first = nullptr;
+        locked_ = MPI_Win_lock_all(MPI_MODE_NOCHECK, window_) == MPI_SUCCESS;
+        ok = locked_ && MPI_Win_shared_query(window_, 0, &size, &unit, &first) == MPI_SUCCESS && first != nullptr &&
+             size >= MPI_Aint(kCounterSlots * sizeof(uint64_t));
+        if (ok) {
+          counters_ = static_cast<uint64_t*>(first);
+          if (rank_ == 0) std::fill_n(counters_, kCounterSlots, uint64_t(0));
+          MPI_Win_sync(window_);
+        }
+      }
+    }
+    MPI_Comm_free(&host);
+    // Every rank uses the counters or none does; this also orders rank 0's zeros before any use.
+    if (allReduce(ok ? 0 : 1, MPI_SUM) != 0) counters_ = nullptr;
+    if (window_ != MPI_WIN_NULL) MPI_Win_sync(window_);
+  }
+
   bool sharedMemory_ = false;
   int rank_ = 0, size_ = 1;
+  MPI_Win window_ = MPI_WIN_NULL;
+  bool locked_ = false;
+  uint64_t* counters_ = nullptr;
 };
 
 }  // namespace

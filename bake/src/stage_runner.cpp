@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "prt/error.h"
 #include "prt/progress.h"
@@ -32,6 +33,12 @@ void stopIfInterrupted(Checkpoint* cp) {
 ChunkedStage::ChunkedStage(StageSpec spec, Checkpoint* cp) : spec_(std::move(spec)), cp_(cp) {
   PRT_CHECK_GT(spec_.chunkSize, size_t(0));
   done_.assign((spec_.items + spec_.chunkSize - 1) / spec_.chunkSize, 0);
+  mine_.assign(done_.size(), 0);
+  if (spec_.computes) {
+    PRT_CHECK_EQ(spec_.computes->size(), done_.size());
+  } else if (ranks().exchanges()) {
+    counter_ = ranks().chunkCounter(stageCounterSlot(spec_.id));
+  }
 }
 
 void ChunkedStage::restore(const RestoreFn& fn, const std::string& what) {
@@ -43,16 +50,28 @@ void ChunkedStage::restore(const RestoreFn& fn, const std::string& what) {
     fn(ch, r);
     if (!done_[c]) restoredItems_ += ch.end - ch.begin;
     done_[c] = 1;
+    mine_[c] = 1;  // a rank's checkpoint holds the chunks it computed
   });
+  // Taken from a shared counter, the chunks restored on other ranks are skipped too: every
+  // rank learns which they are (collective; on every rank alike, as the counter is).
+  Ranks& r = ranks();
+  if (counter_ && r.sum(restoredChunks_) > 0) {
+    const std::vector<std::string> all = r.gather(std::string(done_.begin(), done_.end()), true);
+    for (const std::string& done : all)
+      for (size_t c = 0; c < done.size() && c < done_.size(); ++c) done_[c] |= uint8_t(done[c]);
+  }
 }
 
-size_t ChunkedStage::chunksLeft() const { return assignedChunks().size(); }
+size_t ChunkedStage::chunksLeft() const {
+  if (counter_) return size_t(std::count(done_.begin(), done_.end(), 0));
+  return assignedChunks().size();
+}
 
 std::vector<uint64_t> ChunkedStage::assignedChunks() const {
   const Ranks& r = ranks();
   std::vector<uint64_t> mine;
   for (uint64_t c = 0; c < done_.size(); ++c)
-    if (!done_[c] && r.owns(c)) mine.push_back(c);
+    if (!done_[c] && (spec_.computes ? (*spec_.computes)[c] != 0 : r.owns(c))) mine.push_back(c);
   return mine;
 }
 
@@ -98,7 +117,7 @@ void ChunkedStage::exchange() {
   std::string record;
   StringWriter rec(record);
   for (uint64_t c = 0; c < done_.size(); ++c) {
-    if (!done_[c] || !r.owns(c)) continue;
+    if (!mine_[c]) continue;
     record.clear();
     write_(c, rec);
     out.put(c);
@@ -124,27 +143,74 @@ void ChunkedStage::exchange() {
   }
 }
 
+void ChunkedStage::finishChunk(const Chunk& c, uint64_t rays, std::atomic<uint64_t>& total) {
+  done_[c.index] = 1;
+  mine_[c.index] = 1;
+  total += rays;
+  if (cp_) cp_->complete(c.index);
+}
+
+void forRankShare(uint64_t* counter, uint64_t count, const std::function<void(uint64_t)>& fn) {
+  if (!counter) {
+    const Ranks& r = ranks();
+    tbb::parallel_for(uint64_t(0), count, [&](uint64_t i) {
+      if (r.owns(i) && !interruptRequested()) fn(i);
+    });
+    return;
+  }
+  std::atomic_ref<uint64_t> next(*counter);
+  const size_t threads = size_t(std::max(1, tbb::this_task_arena::max_concurrency()));
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, threads, 1), [&](const tbb::blocked_range<size_t>&) {
+    while (!interruptRequested()) {
+      const uint64_t i = next.fetch_add(1, std::memory_order_relaxed);
+      if (i >= count) return;
+      fn(i);
+    }
+  });
+}
+
+// Ranks on one host: each of this rank's threads takes the next chunk from the counter all
+// ranks share until none is left, so the ranks finish within about a chunk of each other
+// however their cores are slowed. The progress bar shows the chunks taken by all ranks.
+void ChunkedStage::runShared(const ChunkFn& fn, std::atomic<uint64_t>& rays, Progress& progress) {
+  std::atomic_ref<uint64_t> next(*counter_);
+  std::atomic<uint64_t> shown{0};
+  forRankShare(counter_, done_.size(), [&](uint64_t index) {
+    if (done_[index]) return;  // restored, here or on another rank
+    const Chunk c = chunk(index);
+    const ChunkOutcome outcome = fn(c);
+    if (!outcome.finished) return;  // interrupted: the chunk is done again on resume
+    finishChunk(c, outcome.rays, rays);
+    const uint64_t taken = std::min<uint64_t>(spec_.items, next.load(std::memory_order_relaxed) * spec_.chunkSize);
+    uint64_t before = shown.load();
+    while (before < taken && !shown.compare_exchange_weak(before, taken)) {
+    }
+    if (before < taken) progress.add(taken - before);
+  });
+}
+
 StageStats ChunkedStage::run(const ChunkFn& fn) {
   const auto t0 = Clock::now();
-  const std::vector<uint64_t> mine = assignedChunks();
   // A shard goes past a stage only when the merged shards hold all of it; a stage it works on
   // (or worked on, before it was stopped) ends its run.
   const bool merged = std::find(done_.begin(), done_.end(), 0) == done_.end() && !(cp_ && cp_->ownChunks(spec_.id));
   std::atomic<uint64_t> rays{0};
-  if (!mine.empty()) {
+  if (counter_ && chunksLeft() > 0) {
+    Progress progress(spec_.name, spec_.items, spec_.unit, spec_.progress);
+    runShared(fn, rays, progress);
+    progress.finish();
+  } else if (const std::vector<uint64_t> mine = counter_ ? std::vector<uint64_t>{} : assignedChunks(); !mine.empty()) {
     Progress progress(spec_.name, spec_.items, spec_.unit, spec_.progress);
     size_t left = 0;
     for (uint64_t c : mine) left += chunk(c).end - chunk(c).begin;
-    progress.add(spec_.items - left);  // the chunks restored
+    progress.add(spec_.items - left);  // the chunks restored, and other ranks'
     tbb::parallel_for(tbb::blocked_range<size_t>(0, mine.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t i = r.begin(); i != r.end(); ++i) {
         if (interruptRequested()) continue;
         const Chunk c = chunk(mine[i]);
         const ChunkOutcome outcome = fn(c);
         if (!outcome.finished) continue;  // interrupted: the chunk is done again on resume
-        done_[c.index] = 1;
-        rays += outcome.rays;
-        if (cp_) cp_->complete(c.index);
+        finishChunk(c, outcome.rays, rays);
         progress.add(c.end - c.begin);
       }
     });

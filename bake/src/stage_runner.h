@@ -7,12 +7,13 @@
 // Determinism: a chunk's result must depend on the chunk alone (its items, the settings and
 // the seed), never on the thread that computes it or on the other chunks. The runner may then
 // run chunks in any order, restore some from a checkpoint, and take them from other processes
-// (ranks.h: chunk c is computed by rank c mod N, and at the end of the stage the ranks trade
-// chunk records and apply them as a restore does), and the stage's buffers end up with the
-// same bits.
+// (ranks.h: ranks on one host take chunks from a shared counter as they come free, elsewhere
+// chunk c is computed by rank c mod N; at the end of the stage the ranks trade chunk records
+// and apply them as a restore does), and the stage's buffers end up with the same bits.
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -25,6 +26,10 @@
 #include "prt/bake/checkpoint.h"
 #include "prt/bake/ranks.h"
 #include "prt/bake/surface_bake.h"
+
+namespace prt {
+class Progress;
+}
 
 namespace prt::bake {
 
@@ -85,6 +90,10 @@ struct StageSpec {
   bool progress = false;  // progress bar on stderr
   /// Other ranks' chunks: every rank needs them (false: only rank 0, which writes the outputs).
   bool everyRankNeedsChunks = true;
+  /// The chunks this rank computes (nonzero entries), whatever the ranks' split: a bounce
+  /// gathers where the direct pass's hit records are (SurfaceBake::holds). Null: the ranks'
+  /// split (Ranks::chunkCounter, or Ranks::owns).
+  const std::vector<uint8_t>* computes = nullptr;
 };
 
 /// One stage's chunks: which are done, and running the rest.
@@ -109,11 +118,13 @@ public:
   uint64_t restoredChunks() const { return restoredChunks_; }
   /// Items of the restored chunks.
   size_t restoredItems() const { return restoredItems_; }
-  /// Chunks of this rank not done yet.
+  /// Chunks not done yet that this rank may compute: its own (split statically, or
+  /// StageSpec::computes), or, taken from a shared counter, those no rank has done.
   size_t chunksLeft() const;
-  /// The chunks this process computes, in increasing order: the chunks of its rank
-  /// (Ranks::owns, every chunk for one process) not done yet. The one place where chunks are
-  /// handed to ranks.
+  /// The chunks this process computes, in increasing order, where they are known before the
+  /// stage runs: StageSpec::computes, or the chunks of its rank (Ranks::owns, every chunk for
+  /// one process), not done yet. With a shared counter (Ranks::chunkCounter), run() takes them
+  /// as they come instead. Here and in run() chunks meet ranks.
   std::vector<uint64_t> assignedChunks() const;
   /// What ranks trade at the end of the stage, when it is not the checkpoint's chunk record
   /// (StageIo::writeChunk) read back by the restore function: the direct pass sends its
@@ -137,16 +148,26 @@ public:
 
 private:
   void exchange();
+  void runShared(const ChunkFn& fn, std::atomic<uint64_t>& rays, Progress& progress);
+  void finishChunk(const Chunk& c, uint64_t rays, std::atomic<uint64_t>& total);
 
   StageSpec spec_;
   Checkpoint* cp_;
-  std::vector<uint8_t> done_;
+  uint64_t* counter_ = nullptr;  // Ranks::chunkCounter of this stage, or null
+  std::vector<uint8_t> done_;    // done by any rank (as far as this rank knows)
+  std::vector<uint8_t> mine_;    // computed by this rank, or restored from its checkpoint: what it sends
   WriteFn write_;
   RestoreFn read_;
   bool exchangeSet_ = false;
   uint64_t restoredChunks_ = 0;
   size_t restoredItems_ = 0;
 };
+
+/// Calls fn(i) on TBB threads for this rank's share of the indices [0, count) of a loop the MPI
+/// ranks split (Ranks::exchanges): taken from `counter` (Ranks::chunkCounter) as this rank's
+/// threads come free, or, without one, the indices the rank owns (Ranks::owns). Stops taking
+/// once an interrupt is requested.
+void forRankShare(uint64_t* counter, uint64_t count, const std::function<void(uint64_t)>& fn);
 
 /// A stage whose restored chunks need nothing before it runs: restore, begin, run.
 StageStats runChunkedStage(StageSpec spec, Checkpoint* cp, const ChunkedStage::RestoreFn& restore,

@@ -135,6 +135,9 @@ struct SurfaceBake {
   int bounces;
   uint32_t stageDone;  // checkpoint stage id of the finished surface stage
   std::vector<ChunkHits> chunkHits;
+  // Per chunk: this rank holds its hit records (it computed the chunk in the direct pass, or
+  // restored it from its checkpoint), so it gathers the chunk in every bounce.
+  std::vector<uint8_t> holds;
   // t⁰, colourless: values floats (the direct part the files keep apart from the total).
   std::vector<float> direct;
   std::vector<glm::vec3> total, lowerOrder, prev, cur;
@@ -145,7 +148,7 @@ struct SurfaceBake {
   SurfaceBake(const Scene& sc, const BakeSettings& s, const Layout& l)
       : scene(sc), settings(s), lay(l), n2(s.bands * s.bands), values(l.vertices * n2), N(uint32_t(s.samples)),
         keepHits(s.bounces > 0), bounces(keepHits ? s.bounces : 0), stageDone(uint32_t(2 + bounces)),
-        chunkHits(keepHits ? (l.vertices + kChunk - 1) / kChunk : 0) {}
+        chunkHits(keepHits ? (l.vertices + kChunk - 1) / kChunk : 0), holds(chunkHits.size(), 0) {}
 
   Chunk chunk(uint64_t c) const { return chunkOf(lay.vertices, kChunk, c); }
   StageSpec spec(uint32_t id, const std::string& label, const std::string& name) const {
@@ -217,7 +220,10 @@ struct DirectPass {
       for (int i = 0; i < n2; ++i) b.direct[v * n2 + i] = float(acc[i] * w);
       if (ch) ch->begin.push_back(uint32_t(hits.size()));
     }
-    if (ch) ch->hits.assign(hits.begin(), hits.end());
+    if (ch) {
+      ch->hits.assign(hits.begin(), hits.end());
+      b.holds[c.index] = 1;
+    }
     return {true, uint64_t(c.end - c.begin) * N};
   }
 };
@@ -373,8 +379,10 @@ void readDirectChunk(SurfaceBake& b, const Chunk& c, ByteReader& r) {
   std::vector<float> v = r.getVector<float>();
   if (v.size() != (c.end - c.begin) * b.n2) r.fail("direct chunk size");
   std::copy(v.begin(), v.end(), b.direct.begin() + ptrdiff_t(c.begin * b.n2));
-  // Another rank's chunk (a merged shard's, or a trade): its hits stay with its own rank.
-  const bool keep = ranks().owns(c.index);
+  // Another rank's chunk (a merged shard's, or a trade): its hits stay with its own rank. An
+  // MPI rank's checkpoint holds only the chunks it computed, whichever they were (ranks.h); a
+  // shard reads the merged shards' chunks too, and keeps those of its static share.
+  const bool keep = ranks().exchanges() || ranks().owns(c.index);
   if (b.keepHits && !(flags & 2)) {
     ChunkHits& ch = b.chunkHits[c.index];
     ch.begin = r.getVector<uint32_t>();
@@ -384,6 +392,7 @@ void readDirectChunk(SurfaceBake& b, const Chunk& c, ByteReader& r) {
     for (const HitRecord& h : ch.hits)
       if (h.tri >= b.lay.triangles) r.fail("hit records");
     if (!keep) ch = ChunkHits{};
+    b.holds[c.index] = keep;
   }
 }
 
@@ -479,7 +488,8 @@ void runBounces(SurfaceBake& b, uint32_t resumeStage, Checkpoint* cp, BakeStats&
   const int n2 = b.n2;
   for (int k = int(resumeStage) - 1; k <= b.bounces; ++k) {
     b.half.assign(b.prev, b.lay.vertices, n2);
-    const StageSpec spec = b.spec(uint32_t(1 + k), cat("bounce ", k), cat("bounce ", k));
+    StageSpec spec = b.spec(uint32_t(1 + k), cat("bounce ", k), cat("bounce ", k));
+    spec.computes = &b.holds;  // where the hit records are
     Checkpoint::StageIo io;
     io.writeState = [&b](ByteWriter& w) {
       w.putArray(b.prev.data(), b.prev.size());

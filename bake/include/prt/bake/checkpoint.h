@@ -58,8 +58,10 @@ struct CheckpointOptions {
   double intervalSeconds = 60.0;
   /// Continue the checkpoint at `path` (it must exist and match); otherwise there must be none.
   bool resume = false;
-  /// Tests: request an interrupt (SIGINT) once this many chunks have finished in this run.
+  /// Tests: request an interrupt (SIGINT) once this many chunks have finished in this run, or,
+  /// with interruptInStage, in that stage (its id) of this run.
   uint64_t interruptAfterChunks = 0;
+  uint32_t interruptInStage = 0;
   /// With resume: a missing file is a fresh checkpoint (a rank that never saved, ranks.h).
   bool missingIsFresh = false;
   /// A checkpoint read before this one's own records and never written (shards read the

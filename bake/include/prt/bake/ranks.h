@@ -1,9 +1,12 @@
 // One bake spread over processes (docs/scale.md): MPI ranks (`mpirun -n N prt bake ...`) or
 // the shards of a farm without MPI (`prt bake --shard I/N`, then `prt merge`).
 //
-// Every stage of a bake is split into deterministic chunks (stage_runner.h); chunk c of every
-// stage belongs to rank c mod N, so a rank keeps the direct pass's hit records of its own
-// chunks only and gathers the same chunks in every bounce. At the end of a stage the ranks
+// Every stage of a bake is split into deterministic chunks (stage_runner.h). MPI ranks that
+// share one host take the chunks of a stage as they come free, from a counter in memory they
+// share (chunkCounter): a rank slowed by anything else on its core takes fewer, and none waits
+// for a slower one at the stage's end. Elsewhere (shards, ranks on several hosts) chunk c
+// belongs to rank c mod N. Either way a rank keeps the direct pass's hit records of the chunks
+// it computed and gathers those chunks in every bounce. At the end of a stage the ranks
 // trade the chunk records the checkpoint already writes (MPI_Allgatherv, or to rank 0 only
 // for the probe stage, whose results only the writer needs) and apply the others' chunks as a
 // resume restores them: the buffers end up with the bits one process computes.
@@ -49,8 +52,18 @@ public:
   /// What prt chose of the ranks' transport itself, for the summary; empty when it chose
   /// nothing (one process, shards, or the launcher's or the user's choice).
   virtual std::string transportChoice() const { return {}; }
-  /// Does this rank compute chunk `c` of a stage? c mod size() == rank().
+  /// Does chunk `c` belong to this rank where chunks are split statically? c mod size() == rank().
   bool owns(uint64_t c) const { return int(c % uint64_t(size())) == rank(); }
+  /// Counter `slot` (stageCounterSlot, refineCounterSlot) of the next chunk to compute, counted
+  /// by all ranks together: ranks on one host share it in memory and take chunks from it with
+  /// an atomic add, first come first served. Null where chunks are split statically (owns):
+  /// one process, shards, ranks on several hosts, or a slot past kCounterSlots. Starts at 0;
+  /// every rank that asks for a slot gets the same counter. A slot serves one loop of a bake.
+  virtual uint64_t* chunkCounter(uint32_t slot) {
+    (void)slot;
+    return nullptr;
+  }
+  static constexpr uint32_t kCounterSlots = 1024;
   /// Bytes this rank received from other ranks in gather() so far, and the gathers.
   uint64_t bytesReceived() const { return received_; }
   uint64_t gathers() const { return gathers_; }
@@ -58,6 +71,13 @@ public:
 protected:
   uint64_t received_ = 0, gathers_ = 0;
 };
+
+/// Ranks::chunkCounter's slot of a chunked stage: its checkpoint id modulo 256 (the ids of one
+/// bake differ modulo 256: 1 to 66 for the surface stages, 1000 for the probes).
+constexpr uint32_t stageCounterSlot(uint32_t stageId) { return stageId % 256; }
+/// The slot of refinement's `pass`-th loop shared by the ranks (its points, then per round its
+/// new points and its scores); past the last slot the ranks split the loop statically.
+constexpr uint32_t refineCounterSlot(uint32_t pass) { return 256 + pass; }
 
 /// The ranks of this process (one process unless a RanksScope says otherwise).
 Ranks& ranks();
