@@ -40,6 +40,7 @@
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
+#include "prt/huge_pages.h"
 #include "prt/progress.h"
 #include "prt/scene.h"
 
@@ -100,6 +101,7 @@ struct BakeRounds {
 }  // namespace
 
 int main(int argc, char** argv) {
+  prt::tuneHeap();  // as prt does (tools/main.cpp)
   std::string scenePath = PRT_SOURCE_DIR "/scenes/cornell_open.gltf", jsonPath;
   size_t minVertices = 100000;
   bake::BakeSettings settings;

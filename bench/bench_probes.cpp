@@ -43,6 +43,7 @@
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
+#include "prt/huge_pages.h"
 #include "prt/probe_grid.h"
 #include "prt/progress.h"
 #include "prt/scene.h"
@@ -82,6 +83,7 @@ uint64_t fnv1a(const void* data, size_t bytes, uint64_t h = 1469598103934665603u
 }  // namespace
 
 int main(int argc, char** argv) {
+  prt::tuneHeap();  // as prt does (tools/main.cpp)
   std::string scenePath = PRT_SOURCE_DIR "/scenes/cornell_open.gltf", jsonPath;
   int dims = 32, threads = 0;
   bake::BakeSettings surface;

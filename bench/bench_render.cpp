@@ -40,6 +40,7 @@
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
+#include "prt/huge_pages.h"
 #include "prt/light.h"
 #include "prt/probe_grid.h"
 #include "prt/relight.h"
@@ -378,6 +379,7 @@ nlohmann::json lightUpdates(render::GlContext& context, const Scene& scene, cons
 }  // namespace
 
 int main(int argc, char** argv) {
+  prt::tuneHeap();  // as prt does (tools/main.cpp)
   std::string bakedPath, probesPath, jsonPath, gl = "osmesa";
   int width = 1920, height = 1080, frames = 12, samples = 128, probeDims = 16;
   int framesOnly = 0, sunOnly = 0;

@@ -62,7 +62,7 @@ struct Command {
 }  // namespace
 
 int main(int argc, char** argv) {
-  keepFreedMemory();  // page faults cost ~12 µs each on VMs (prt/huge_pages.h)
+  tuneHeap();  // page faults cost ~12 µs each on VMs (prt/huge_pages.h)
   CLI::App app{"prt: precomputed radiance transfer. Bake once, relight with a dot product."};
   app.require_subcommand(1);
   app.set_version_flag("--version", cat("prt ", kVersion));

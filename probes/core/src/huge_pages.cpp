@@ -1,9 +1,11 @@
 #include "prt/huge_pages.h"
 
 #include <cstdint>
+#include <cstdlib>
 
 #if defined(__linux__)
 #include <sys/mman.h>
+#include <unistd.h>
 #endif
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -23,11 +25,21 @@ void adviseHugePages(void* p, size_t bytes) {
 #endif
 }
 
-void keepFreedMemory() {
+void tuneHeap() {
 #if defined(__GLIBC__)
-  // Setting either turns off glibc's sliding thresholds, so both are set.
+  // Setting a threshold turns off glibc's sliding ones, so both are set.
   (void)mallopt(M_MMAP_THRESHOLD, 32 << 20);
-  (void)mallopt(M_TRIM_THRESHOLD, 256 << 20);
+  (void)mallopt(M_TRIM_THRESHOLD, 512 << 20);  // above the reservation: it is never trimmed
+  // The reservation: one allocation that grows the heap by 256 MiB more than it needs (glibc's
+  // top pad), advised onto huge pages, then freed into the heap's top, which stays.
+  constexpr int kReserve = 256 << 20;
+  (void)mallopt(M_TOP_PAD, kReserve);
+  char* before = static_cast<char*>(sbrk(0));
+  void* p = std::malloc(size_t(1) << 20);
+  char* after = static_cast<char*>(sbrk(0));
+  (void)mallopt(M_TOP_PAD, 128 << 10);  // glibc's default for the heap's growth from here on
+  if (p && before != reinterpret_cast<char*>(-1) && after > before) adviseHugePages(before, size_t(after - before));
+  std::free(p);
 #endif
 }
 
