@@ -16,6 +16,19 @@
 
 namespace prt::test {
 
+/// Built with AddressSanitizer: its allocator replaces malloc, and peaks and faults are its own.
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kAddressSanitizer = true;
+#else
+inline constexpr bool kAddressSanitizer = false;
+#endif
+#else
+inline constexpr bool kAddressSanitizer = false;
+#endif
+
 /// How a program is started. The environment is the test's own, changed by `env`: a value sets
 /// the variable, std::nullopt removes it.
 struct RunOptions {

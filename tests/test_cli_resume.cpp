@@ -332,18 +332,6 @@ TEST(CliResumeProbes, SigintInTheProbeStageThenKillNineThenResume) {
   EXPECT_FALSE(fs::exists(ckpt));
 }
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAddressSanitizer = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAddressSanitizer = true;
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-
 TEST(CliMemory, RefusalWritesNothingAndEstimateBoundsThePeak) {
   const test::TempDir tmp("cli_memory");
   const fs::path dir = tmp.path();
@@ -371,7 +359,7 @@ TEST(CliMemory, RefusalWritesNothingAndEstimateBoundsThePeak) {
   const double estimated = std::stod(m[1]), peak = std::stod(m[2]);
   // AddressSanitizer's shadow memory and quarantine add to every allocation; the estimate is for
   // the uninstrumented program (the Release suite checks it).
-  if (kAddressSanitizer) GTEST_SKIP() << "peak under ASan is not the program's peak";
+  if (test::kAddressSanitizer) GTEST_SKIP() << "peak under ASan is not the program's peak";
   EXPECT_GE(estimated, peak);
   EXPECT_LE(estimated, 2.0 * peak);
 }
@@ -395,7 +383,7 @@ TEST(CliMemory, EstimateBoundsThePeakOfAProbeBake) {
                probes = std::stod(m[4]);
   EXPECT_EQ(estimated, probes);  // the probe stage is the largest phase
   EXPECT_GT(probes, surface);
-  if (kAddressSanitizer) GTEST_SKIP() << "peak under ASan is not the program's peak";
+  if (test::kAddressSanitizer) GTEST_SKIP() << "peak under ASan is not the program's peak";
   EXPECT_GE(estimated, peak);
   EXPECT_LE(estimated, 2.0 * peak);
 }

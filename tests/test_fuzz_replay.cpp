@@ -36,18 +36,6 @@ std::vector<fs::path> fuzzInputs(const std::string& target) {
   return files;
 }
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAsan = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAsan = true;
-#else
-constexpr bool kAsan = false;
-#endif
-#else
-constexpr bool kAsan = false;
-#endif
-
 template <class Load>
 void replay(const std::string& target, Load&& load) {
   std::vector<fs::path> files = fuzzInputs(target);
@@ -57,7 +45,7 @@ void replay(const std::string& target, Load&& load) {
     // bad_alloc_*: a library asks for an impossible allocation, which must throw
     // std::bad_alloc (reported as a corrupt file); ASan's operator new aborts instead, so these
     // are replayed by the other builds (and by fuzz_vdb, which restores the standard new).
-    if (kAsan && f.filename().string().rfind("bad_alloc_", 0) == 0) continue;
+    if (test::kAddressSanitizer && f.filename().string().rfind("bad_alloc_", 0) == 0) continue;
     try {
       load(f.string());
     } catch (const Error& e) {

@@ -13,21 +13,10 @@
 #include <sstream>
 #include <string>
 
+#include "harness.h"
 #include "prt/huge_pages.h"
 
 namespace {
-
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-constexpr bool kSanitizerAllocator = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-constexpr bool kSanitizerAllocator = true;
-#else
-constexpr bool kSanitizerAllocator = false;
-#endif
-#else
-constexpr bool kSanitizerAllocator = false;
-#endif
 
 long minorFaults() {
   rusage u{};
@@ -72,7 +61,7 @@ TEST(CoreMemory, FreedBlocksAreReusedWithoutFaults) {
 #if !defined(__GLIBC__)
   GTEST_SKIP() << "tuneHeap tunes glibc's malloc";
 #endif
-  if (kSanitizerAllocator) GTEST_SKIP() << "the sanitizer's allocator replaces malloc";
+  if (prt::test::kAddressSanitizer) GTEST_SKIP() << "the sanitizer's allocator replaces malloc";
   prt::tuneHeap();
   constexpr size_t kBytes = size_t(16) << 20;
   constexpr long kPages = long(kBytes / 4096);
@@ -87,7 +76,7 @@ TEST(CoreMemory, TheHeapIsAdvisedOntoHugePages) {
 #if !defined(__GLIBC__) || !defined(MADV_HUGEPAGE)
   GTEST_SKIP() << "tuneHeap tunes glibc's malloc on Linux";
 #endif
-  if (kSanitizerAllocator) GTEST_SKIP() << "the sanitizer's allocator replaces malloc";
+  if (prt::test::kAddressSanitizer) GTEST_SKIP() << "the sanitizer's allocator replaces malloc";
   if (!std::ifstream("/sys/kernel/mm/transparent_hugepage/enabled")) GTEST_SKIP() << "no transparent huge pages";
   prt::tuneHeap();
   std::unique_ptr<char[]> p(new char[size_t(8) << 20]);  // from the heap (below 32 MiB)
