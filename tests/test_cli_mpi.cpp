@@ -97,14 +97,15 @@ TEST_F(CliMpi, RanksWriteTheBytesOfOneProcess) {
   }
 }
 
-// Two ranks with `common`, rank 1 interrupted after its 20th chunk of bounce 1 (checkpoint
-// stage 2; a rank gathers the chunks whose direct pass it computed, about half of the 196,
-// taken as they came) with `rank1Extra` added to its arguments: it saves and stops the job,
-// and rank 0 dies with what it had not saved.
+// Two ranks with `common`, rank 1 interrupted after its first chunk of bounce 1 (checkpoint
+// stage 2; a rank gathers the chunks whose direct pass it computed, taken as they came: about
+// half of the 196, far fewer when its core is busy with something else, so not a count that
+// holds only for a static split) with `rank1Extra` added to its arguments: it saves and stops
+// the job, and rank 0 dies with what it had not saved.
 RunResult stopRank1InBounce1(const Args& common, const Args& rank1Extra) {
   Args a = {"--oversubscribe", "--allow-run-as-root", "-n", "1", test::prtExe()};
   a.insert(a.end(), common.begin(), common.end());
-  a.insert(a.end(), {":", "-n", "1", "env", "PRT_TEST_INTERRUPT_AFTER=2:20", test::prtExe()});
+  a.insert(a.end(), {":", "-n", "1", "env", "PRT_TEST_INTERRUPT_AFTER=2:1", test::prtExe()});
   a.insert(a.end(), common.begin(), common.end());
   a.insert(a.end(), rank1Extra.begin(), rank1Extra.end());
   return test::run("mpirun", a, {.env = {{"ASAN_OPTIONS", "detect_leaks=0"}}});
@@ -163,7 +164,7 @@ TEST_F(CliMpiResume, RankStoppedMidBakeResumesWithTheOthers) {
   // chunks (each rank's file holds its own, and every rank keeps the whole direct part).
   fs::remove(out / "b.glb");
   fs::remove(out / "b.vdb");
-  RunResult both = mpirun(2, common, {.env = {{"PRT_TEST_INTERRUPT_AFTER", "2:20"}}});
+  RunResult both = mpirun(2, common, {.env = {{"PRT_TEST_INTERRUPT_AFTER", "2:1"}}});
   EXPECT_NE(both.status, 0);
   EXPECT_EQ(prtLines(both.err), 1) << both.err;
   EXPECT_NE(both.err.find(": bounce 1 "), std::string::npos) << both.err;
