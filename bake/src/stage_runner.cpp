@@ -189,31 +189,37 @@ void ChunkedStage::runShared(const ChunkFn& fn, std::atomic<uint64_t>& rays, Pro
   });
 }
 
+// Split statically (one process, shards, ranks on several hosts), or by StageSpec::computes:
+// this rank's chunks, known before the stage runs.
+void ChunkedStage::runAssigned(const ChunkFn& fn, std::atomic<uint64_t>& rays, Progress& progress) {
+  const std::vector<uint64_t> mine = assignedChunks();
+  size_t left = 0;
+  for (uint64_t c : mine) left += chunk(c).end - chunk(c).begin;
+  progress.add(spec_.items - left);  // the chunks restored, and other ranks'
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, mine.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      if (interruptRequested()) continue;
+      const Chunk c = chunk(mine[i]);
+      const ChunkOutcome outcome = fn(c);
+      if (!outcome.finished) continue;  // interrupted: the chunk is done again on resume
+      finishChunk(c, outcome.rays, rays);
+      progress.add(c.end - c.begin);
+    }
+  });
+}
+
 StageStats ChunkedStage::run(const ChunkFn& fn) {
   const auto t0 = Clock::now();
   // A shard goes past a stage only when the merged shards hold all of it; a stage it works on
   // (or worked on, before it was stopped) ends its run.
   const bool merged = std::find(done_.begin(), done_.end(), 0) == done_.end() && !(cp_ && cp_->ownChunks(spec_.id));
   std::atomic<uint64_t> rays{0};
-  if (counter_ && chunksLeft() > 0) {
+  if (chunksLeft() > 0) {
     Progress progress(spec_.name, spec_.items, spec_.unit, spec_.progress);
-    runShared(fn, rays, progress);
-    progress.finish();
-  } else if (const std::vector<uint64_t> mine = counter_ ? std::vector<uint64_t>{} : assignedChunks(); !mine.empty()) {
-    Progress progress(spec_.name, spec_.items, spec_.unit, spec_.progress);
-    size_t left = 0;
-    for (uint64_t c : mine) left += chunk(c).end - chunk(c).begin;
-    progress.add(spec_.items - left);  // the chunks restored, and other ranks'
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, mine.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t i = r.begin(); i != r.end(); ++i) {
-        if (interruptRequested()) continue;
-        const Chunk c = chunk(mine[i]);
-        const ChunkOutcome outcome = fn(c);
-        if (!outcome.finished) continue;  // interrupted: the chunk is done again on resume
-        finishChunk(c, outcome.rays, rays);
-        progress.add(c.end - c.begin);
-      }
-    });
+    if (counter_)
+      runShared(fn, rays, progress);
+    else
+      runAssigned(fn, rays, progress);
     progress.finish();
   }
   stopIfInterrupted(cp_);

@@ -149,6 +149,7 @@ public:
 private:
   void exchange();
   void runShared(const ChunkFn& fn, std::atomic<uint64_t>& rays, Progress& progress);
+  void runAssigned(const ChunkFn& fn, std::atomic<uint64_t>& rays, Progress& progress);
   void finishChunk(const Chunk& c, uint64_t rays, std::atomic<uint64_t>& total);
 
   StageSpec spec_;

@@ -11,6 +11,8 @@
 #include <memory>
 #include <vector>
 
+#include "prt/error.h"
+
 namespace prt {
 
 /// Asks the kernel to back the 2 MiB-aligned part of [p, p + bytes) with transparent huge pages
@@ -22,6 +24,7 @@ void adviseHugePages(void* p, size_t bytes);
 /// Precondition: v is empty (nothing to move).
 template <class T>
 void resizeOnHugePages(std::vector<T>& v, size_t n) {
+  PRT_CHECK(v.empty());
   v.reserve(n);
   adviseHugePages(v.data(), n * sizeof(T));
   v.resize(n);
