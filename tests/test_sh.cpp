@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <string>
 #include <vector>
@@ -154,6 +155,30 @@ TEST(ShBasis, CartesianFormsBands0To2) {
     EXPECT_NEAR(v[6], 0.315392f * (3.0f * z * z - 1.0f), kTol);
     EXPECT_NEAR(v[7], 1.092548f * x * z, kTol);
     EXPECT_NEAR(v[8], 0.546274f * (x * x - y * y), kTol);
+  }
+}
+
+// Eight directions at once give each direction's bits, at every band count (the probe bake
+// evaluates a packet of rays with evaluate8 where it evaluated them one by one).
+TEST(ShBasis, EightLanesGiveEachDirectionsBits) {
+  std::mt19937 rng(7);
+  for (int bands = 1; bands <= kMaxBands; ++bands) {
+    float x[8], y[8], z[8];
+    for (int l = 0; l < 8; ++l) {
+      const glm::vec3 d(randomDir(rng));
+      x[l] = d.x, y[l] = d.y, z[l] = d.z;
+    }
+    x[5] = 0.0f, y[5] = 0.0f, z[5] = -1.0f;  // a pole
+    std::vector<float> lanes(size_t(numCoeffs(bands)) * 8);
+    evaluate8(bands, x, y, z, lanes.data());
+    for (int l = 0; l < 8; ++l) {
+      const std::vector<float> one = evaluate(bands, glm::vec3(x[l], y[l], z[l]));
+      for (int i = 0; i < numCoeffs(bands); ++i) {
+        float lane = lanes[size_t(8 * i + l)];
+        EXPECT_EQ(0, std::memcmp(&lane, &one[size_t(i)], sizeof(float)))
+            << "bands " << bands << " lane " << l << " coefficient " << i << ": " << lane << " vs " << one[size_t(i)];
+      }
+    }
   }
 }
 

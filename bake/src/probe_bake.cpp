@@ -110,6 +110,27 @@ void sphereDirections(const uint32_t* bx, const uint32_t* by, uint32_t n, float*
     sphereDirectionsPortable(bx, by, n, dx, dy, dz);
 }
 
+// The low 8 bits of the second Sobol dimension's 32-bit point `i` (which sobol1Bits drops).
+uint32_t sobol1Low(uint32_t i) {
+  return (kSobol1.t[0][i & 0xffu] ^ kSobol1.t[1][(i >> 8) & 0xffu] ^ kSobol1.t[2][(i >> 16) & 0xffu] ^
+          kSobol1.t[3][i >> 24]) & 0xffu;
+}
+
+// The 32-bit points j < kStream of both Sobol dimensions, unscrambled.
+struct StreamPoints {
+  uint32_t x[256], y[256];
+  constexpr StreamPoints() : x{}, y{} {
+    for (uint32_t j = 0; j < 256; ++j) {
+      uint32_t r = 0;
+      for (int b = 0; b < 32; ++b)
+        if (j >> b & 1u) r |= 1u << (31 - b);
+      x[j] = r;
+      y[j] = kSobol1.t[0][j];
+    }
+  }
+};
+constexpr StreamPoints kStreamPoints{};
+
 // The sphere directions of one stream: scrambled Sobol points, one scramble per stream, so each
 // probe's rays depend on (seed, stream) only and never on the thread that traces them.
 struct SphereSet {
@@ -141,9 +162,15 @@ private:
     alignas(32) float x[kStream], y[kStream], z[kStream];
     Directions(const SphereSet& s, uint32_t first, uint32_t count) {
       alignas(32) uint32_t bx[kStream] = {}, by[kStream] = {};  // zeroed: the compiler cannot see count ≤ kStream
+      // Both dimensions are linear over GF(2) in the index's bits, and a stream starts at a
+      // multiple of kStream: point first + j (j < kStream) is point first XOR point j, the
+      // scramble folded into the first. The same bits as sobol0Bits and sobol1Bits of first + j.
+      static_assert(kStream <= 256);
+      PRT_CHECK_EQ(first % kStream, 0u);
+      const uint32_t x0 = (sobol0Bits(first, 0) << 8) ^ s.s0, y0 = (sobol1Bits(first, 0) << 8 | sobol1Low(first)) ^ s.s1;
       for (uint32_t j = 0; j < count; ++j) {
-        bx[j] = sobol0Bits(first + j, s.s0);
-        by[j] = sobol1Bits(first + j, s.s1);
+        bx[j] = (kStreamPoints.x[j] ^ x0) >> 8;
+        by[j] = (kStreamPoints.y[j] ^ y0) >> 8;
       }
       sphereDirections(bx, by, count, x, y, z);
     }
@@ -249,7 +276,6 @@ void addProducts(const float* y, int ldy, const float* v, int ldv, int n, int ro
 struct StreamRows {
   int n2 = 0;
   std::vector<float> yEscaped, yHit, gHit;
-  int escaped = 0, hits = 0;
   void reset(int bands) {
     if (n2 != bands * bands) {  // the padding columns are zero and never written
       n2 = bands * bands;
@@ -257,7 +283,6 @@ struct StreamRows {
       yHit.assign(size_t(kStream) * padded(n2), 0.0f);
       gHit.assign(size_t(kStream) * padded(3 * n2), 0.0f);
     }
-    escaped = hits = 0;
   }
 };
 
@@ -314,6 +339,29 @@ __attribute__((target("avx2,f16c"))) void litLightF16c(const uint16_t* t0, const
   }
 }
 
+// faceOf and |d[faceOf(d) / 2]| of a packet's eight directions, lane by lane (GCC's vector
+// extension: compares and selects, where faceOf's branches on random directions are
+// mispredicted about half the time).
+void packetFaces(const RayPacket8& r, int32_t* faces, float* axis) {
+  typedef float F8 __attribute__((vector_size(32)));
+  typedef int32_t I8 __attribute__((vector_size(32)));
+  F8 x, y, z;
+  std::memcpy(&x, r.dirX, sizeof x);
+  std::memcpy(&y, r.dirY, sizeof y);
+  std::memcpy(&z, r.dirZ, sizeof z);
+  const F8 zero{};
+  const I8 magnitude = I8{} + 0x7fffffff;  // |v|: the sign bit cleared, as fabs
+  const F8 ax = F8(I8(x) & magnitude), ay = F8(I8(y) & magnitude), az = F8(I8(z) & magnitude);
+  const I8 onX = (ax >= ay) & (ax >= az), onY = ay >= az;  // ties go to the earlier axis, as faceOf
+  const I8 one = I8{} + 1, two = I8{} + 2, four = I8{} + 4;
+  // Face::PosX … NegZ = 2·axis + (component < 0).
+  const I8 fx = x >= zero ? I8{} : one, fy = y >= zero ? two : two + 1, fz = z >= zero ? four : four + 1;
+  const I8 face = onX ? fx : (onY ? fy : fz);
+  const F8 a = onX ? ax : (onY ? ay : az);
+  std::memcpy(faces, &face, sizeof face);
+  std::memcpy(axis, &a, sizeof a);
+}
+
 struct Tracer {
   const Scene& scene;
   const RayScene& rays;
@@ -329,6 +377,15 @@ struct Tracer {
   // (it has lower-order transfer).
   static constexpr uint8_t kTwoSided = 1, kLit = 2;
   std::vector<uint8_t> meshFlags;
+  // Per Scene::meshes entry with lower-order transfer: where a lit hit's corners and rows are.
+  struct LitMesh {
+    const uint32_t* indices = nullptr;  // 3 per triangle
+    const uint16_t* rows = nullptr;     // the front sides' rows (HalfRows), stride halves apart
+    const uint16_t* backRows = nullptr;  // the back sides' (the front's where only one side is baked)
+    size_t stride = 0;
+  };
+  std::vector<LitMesh> litMeshes;
+  static constexpr uint32_t kBackSide = 1u << 8;  // in a lit-hit entry: the ray hit a back side
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
 
   void intersect8(RayPacket8* p, size_t n) const { inEmbree.time([&] { rays.intersect8(p, n); }); }
@@ -354,115 +411,133 @@ struct Tracer {
     StreamRows& rows = acc.stream;
     if (full) rows.reset(bands);
     const int ldy = padded(n2), ldg = padded(3 * n2);
-    // The lit hits read their triangle's corners and the corners' transfer: random reads from
-    // arrays larger than the caches. They are started (prefetched) as soon as a stream is
-    // traced and used one stream later, once the next stream's trace has given them time to
-    // arrive: the stream being traced and the one whose hits wait, two buffers of rays.
-    RayBuffer batches[2];
-    uint16_t lit[2][kStream];  // per buffer: its rays that hit a lit surface
-    uint32_t litCount[2] = {0, 0};
-    // Ray j of a buffer: lane j % 8 of its packet j / 8.
-    const auto packet = [&](int buf, uint32_t j) -> const RayPacket8& { return batches[buf].packets()[j >> 3]; };
-    const auto corners = [&](const RayPacket8& p, int l) {
-      return &scene.meshes[p.mesh[l]].indices[3 * size_t(p.tri[l])];
-    };
-    // The first row of the hit side's transfer (rows: front sides, then back sides).
-    const auto firstRow = [&](const RayPacket8& p, int l) {
-      return p.backface(l) ? scene.meshes[p.mesh[l]].vertexCount() : size_t(0);
-    };
-    const bool f16c = useVectorKernels();
-    // The indirect part of the buffer's lit hits: M += Σ y gᵀ, g = ρ/π · t(h).
-    const auto sumLit = [&](int buf) {
-      rows.hits = 0;
-      for (uint32_t h = 0; h < litCount[buf]; ++h) {
-        const RayPacket8& p = packet(buf, lit[buf][h]);
-        const int l = int(lit[buf][h] & 7);
-        const uint32_t* ix = corners(p, l);
-        const HalfRows& t = lowerHalf[p.mesh[l]];
-        const size_t base = firstRow(p, l);
-        const float u = p.u[l], v = p.v[l];
-        const glm::vec3 rho = albedo.at(p.mesh[l], p.tri[l], u, v) * float(1.0 / M_PI);
-        float* g = &rows.gHit[size_t(rows.hits) * ldg];
-        const float b0 = 1.0f - u - v;
-        if (f16c)
-          litLightF16c(t.row(base + ix[0]), t.row(base + ix[1]), t.row(base + ix[2]), b0, u, v, rho, ldg, g);
-        else
-          litLightPortable(t.row(base + ix[0]), t.row(base + ix[1]), t.row(base + ix[2]), b0, u, v, rho, ldg, g);
-        sh::evaluate(bands, p.dir(l), &rows.yHit[size_t(rows.hits++) * ldy]);
-      }
-      addProducts(rows.yHit.data(), ldy, rows.gHit.data(), ldg, rows.hits, n2, 3 * n2, acc.indirect.data(), 3 * n2);
-      litCount[buf] = 0;
-    };
-    int cur = 0;
-    for (uint32_t first = 0; first < n; first += kStream, cur ^= 1) {
+    RayBuffer buffer;
+    RayPacket8* batch = buffer.packets();
+    uint16_t lit[kStream];  // the stream's rays that hit a lit surface: j, and kBackSide on a back side
+    for (uint32_t first = 0; first < n; first += kStream) {
       if (interruptRequested()) return false;
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
-      RayPacket8* batch = batches[cur].packets();
       set.fill(batch, x, first, count);
       intersect8(batch, count);
       // Per ray, without branches on what it hit (which no predictor guesses): counts, the
-      // moments of its face, and its index in the list it goes to (escaped, lit). A ray that
-      // escapes keeps tfar = ∞ and ng = 0, so it is nearer than nothing and never a back face,
-      // and its depth is the cap.
+      // moments of its face, and its SH row in the list it goes to (escaped, lit: written to
+      // both, the list's length advanced where it belongs). A ray that escapes keeps tfar = ∞
+      // and ng = 0, so it is nearer than nothing and never a back face, and its depth is the
+      // cap. A packet's faces and SH rows are computed eight lanes at once.
       uint32_t backs = 0, backsTwoSided = 0, escapes = 0, nLit = 0;
-      uint16_t escapedIdx[kStream];
       float nearest = acc.nearest;
       const double cap = maxDistance;
-      for (uint32_t j = 0; j < count; ++j) {
-        const RayPacket8& r = batch[j >> 3];
-        const int l = int(j & 7);
-        const bool hit = r.hit(l);
-        const uint8_t flags = meshFlags[hit ? r.mesh[l] : 0];
-        const bool backside = r.backface(l);
-        const bool back = backside && !(flags & kTwoSided);
-        backs += back;
-        backsTwoSided += backside && !back;
-        const float tfar = r.tfar[l];
-        nearest = std::min(nearest, tfar);
-        escapedIdx[escapes] = uint16_t(j);
-        escapes += !hit;
-        lit[cur][nLit] = uint16_t(j);
-        nLit += hit && !back && (flags & kLit);
-        if (!full) continue;
-        // Depth along the face's axis, not the ray's length: a wall perpendicular to the axis
-        // then has one depth for every ray of the face (docs/probes.md, "Visibility").
-        const glm::vec3 dir = r.dir(l);
-        const int face = faceOf(dir);
-        const double d = std::min(double(tfar) * std::fabs(double(dir[face / 2])), cap);
-        acc.sumD[face] += d;
-        acc.sumD2[face] += d * d;
-        ++acc.count[face];
+      float* yEscaped = rows.yEscaped.data();
+      float* yLit = rows.yHit.data();
+      for (uint32_t p0 = 0; p0 < count; p0 += 8) {
+        const RayPacket8& r = batch[p0 >> 3];
+        const int lanes = int(std::min<uint32_t>(8, count - p0));
+        alignas(32) float ys[sh::kMaxBands * sh::kMaxBands * 8];
+        alignas(32) int32_t faces[8];
+        alignas(32) float axis[8];  // |the direction's component along its face's axis|
+        if (full) {
+          sh::evaluate8(bands, r.dirX, r.dirY, r.dirZ, ys);
+          packetFaces(r, faces, axis);
+        }
+        for (int l = 0; l < lanes; ++l) {
+          const bool hit = r.hit(l);
+          const uint8_t flags = meshFlags[hit ? r.mesh[l] : 0];
+          const bool backside = r.backface(l);
+          const bool back = backside && !(flags & kTwoSided);
+          backs += back;
+          backsTwoSided += backside && !back;
+          const float tfar = r.tfar[l];
+          nearest = std::min(nearest, tfar);
+          lit[nLit] = uint16_t((p0 + uint32_t(l)) | (backside ? kBackSide : 0u));
+          const bool toLit = hit && !back && (flags & kLit);
+          if (full) {
+            // Depth along the face's axis, not the ray's length: a wall perpendicular to the
+            // axis then has one depth for every ray of the face (docs/probes.md, "Visibility").
+            const int face = faces[l];
+            const double d = std::min(double(tfar) * double(axis[l]), cap);
+            acc.sumD[size_t(face)] += d;
+            acc.sumD2[size_t(face)] += d * d;
+            ++acc.count[size_t(face)];
+            float* e = yEscaped + size_t(escapes) * ldy;
+            float* h = yLit + size_t(nLit) * ldy;
+            for (int a = 0; a < n2; ++a) e[a] = h[a] = ys[8 * a + l];
+          }
+          escapes += !hit;
+          nLit += toLit;
+        }
       }
       acc.rays += count;
       acc.backfaces += backs;
       acc.backTwoSided += backsTwoSided;
       acc.escaped += escapes;
       acc.nearest = nearest;
-      litCount[cur] = nLit;
       if (!full) continue;
-      rows.escaped = int(escapes);
-      for (uint32_t e = 0; e < escapes; ++e)
-        sh::evaluate(bands, packet(cur, escapedIdx[e]).dir(int(escapedIdx[e] & 7)), &rows.yEscaped[size_t(e) * ldy]);
       // The direct part of the stream's escaped rays: M⁰ += Σ y yᵀ.
-      addProducts(rows.yEscaped.data(), ldy, rows.yEscaped.data(), ldy, rows.escaped, n2, n2, acc.direct.data(), n2);
-      // The lit hits' corners now, the previous stream's sums while they arrive, then their rows
-      // (which need the corners), to be used one stream later.
-      for (uint32_t h = 0; h < litCount[cur]; ++h) __builtin_prefetch(corners(packet(cur, lit[cur][h]), int(lit[cur][h] & 7)));
-      sumLit(cur ^ 1);  // the previous stream's
-      for (uint32_t h = 0; h < litCount[cur]; ++h) {
-        const RayPacket8& r = packet(cur, lit[cur][h]);
-        const int l = int(lit[cur][h] & 7);
-        const uint32_t* ix = corners(r, l);
-        const HalfRows& t = lowerHalf[r.mesh[l]];
-        const size_t base = firstRow(r, l);
-        for (int c = 0; c < 3; ++c) {
-          const char* p = reinterpret_cast<const char*>(t.row(base + ix[c]));
-          for (size_t o = 0; o < t.stride * sizeof(uint16_t); o += 64) __builtin_prefetch(p + o);
-        }
+      addProducts(yEscaped, ldy, yEscaped, ldy, int(escapes), n2, n2, acc.direct.data(), n2);
+      // The indirect part of its lit hits: M += Σ y gᵀ.
+      if (nLit) {
+        gatherLit(batch, lit, nLit, rows.gHit.data(), ldg);
+        addProducts(yLit, ldy, rows.gHit.data(), ldg, int(nLit), n2, 3 * n2, acc.indirect.data(), 3 * n2);
       }
     }
-    if (full) sumLit(cur ^ 1);
     return true;
+  }
+
+  // g = ρ/π · t(h) of each lit hit, into rows of ldg floats. The reads of a hit's corners and of
+  // their transfer rows go to random places in arrays larger than the caches: they are started
+  // (prefetched) in a pipeline, the corners kCornersAhead hits ahead, the rows (which need the
+  // corners) kRowsAhead hits ahead, so that they have arrived when the hit is summed.
+  void gatherLit(const RayPacket8* batch, const uint16_t* lit, uint32_t hits, float* gHit, int ldg) const {
+    constexpr uint32_t kCornersAhead = 16, kRowsAhead = 8;
+    const auto where = [&](uint32_t h, const RayPacket8*& p, int& l) {
+      const uint32_t j = lit[h] & (kBackSide - 1);
+      p = &batch[j >> 3];
+      l = int(j & 7);
+    };
+    const auto corners = [&](const RayPacket8& p, int l) { return litMeshes[p.mesh[l]].indices + 3 * size_t(p.tri[l]); };
+    const auto rowsOf = [&](uint32_t h, const RayPacket8& p, int l) {  // the hit side's first row
+      const LitMesh& m = litMeshes[p.mesh[l]];
+      return (lit[h] & kBackSide) ? m.backRows : m.rows;
+    };
+    const bool f16c = useVectorKernels();
+    for (uint32_t h = 0; h < std::min(hits, kCornersAhead); ++h) {
+      const RayPacket8* p;
+      int l;
+      where(h, p, l);
+      __builtin_prefetch(corners(*p, l));
+    }
+    for (uint32_t h = 0; h < hits; ++h) {
+      const RayPacket8* p;
+      int l;
+      if (h + kCornersAhead < hits) {
+        where(h + kCornersAhead, p, l);
+        __builtin_prefetch(corners(*p, l));
+      }
+      if (h == 0 || h + kRowsAhead < hits)
+        for (uint32_t a = h == 0 ? 0 : h + kRowsAhead; a <= h + kRowsAhead && a < hits; ++a) {
+          where(a, p, l);
+          const uint32_t* ix = corners(*p, l);
+          const uint16_t* t = rowsOf(a, *p, l);
+          const size_t stride = litMeshes[p->mesh[l]].stride;
+          for (int c = 0; c < 3; ++c) {
+            const char* row = reinterpret_cast<const char*>(t + ix[c] * stride);
+            for (size_t o = 0; o < stride * sizeof(uint16_t); o += 64) __builtin_prefetch(row + o);
+          }
+        }
+      where(h, p, l);
+      const uint32_t* ix = corners(*p, l);
+      const uint16_t* t = rowsOf(h, *p, l);
+      const size_t stride = litMeshes[p->mesh[l]].stride;
+      const float u = p->u[l], v = p->v[l];
+      const glm::vec3 rho = albedo.at(p->mesh[l], p->tri[l], u, v) * float(1.0 / M_PI);
+      float* g = gHit + size_t(h) * ldg;
+      const float b0 = 1.0f - u - v;
+      const uint16_t *t0 = t + ix[0] * stride, *t1 = t + ix[1] * stride, *t2 = t + ix[2] * stride;
+      if (f16c)
+        litLightF16c(t0, t1, t2, b0, u, v, rho, ldg, g);
+      else
+        litLightPortable(t0, t1, t2, b0, u, v, rho, ldg, g);
+    }
   }
 };
 
@@ -1019,6 +1094,15 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       const size_t rows = (tracer.twoSided[k] ? 2 : 1) * scene.meshes[k].vertexCount();
       PRT_CHECK_EQ(lowerOrder[k].size(), rows * size_t(n2));
       lowerHalf[k].assign(lowerOrder[k], rows, n2);
+    }
+    tracer.litMeshes.resize(scene.meshes.size());
+    for (size_t k = 0; k < lowerHalf.size(); ++k) {
+      if (lowerHalf[k].empty()) continue;
+      Tracer::LitMesh& m = tracer.litMeshes[k];
+      m.indices = scene.meshes[k].indices.data();
+      m.stride = lowerHalf[k].stride;
+      m.rows = lowerHalf[k].row(0);
+      m.backRows = tracer.twoSided[k] ? lowerHalf[k].row(scene.meshes[k].vertexCount()) : m.rows;
     }
     tracer.meshFlags.assign(std::max<size_t>(scene.meshes.size(), 1), 0);
     for (size_t k = 0; k < scene.meshes.size(); ++k)

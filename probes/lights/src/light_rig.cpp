@@ -413,11 +413,11 @@ RigLighting LightRig::evaluateLighting(double frame, int bands) const {
       residual *= glm::vec3(intensity);
       out.sh += residual;
       for (const ExtractedSun& sun : suns.suns) {
-        DirectLight d;
-        d.direction = glm::normalize(rotation * sun.direction);
-        d.radius = sun.radius;
-        d.irradiance = sun.irradiance * intensity;
-        addDirect(d, k, sun.powerShare);
+        DirectLight turned;
+        turned.direction = glm::normalize(rotation * sun.direction);
+        turned.radius = sun.radius;
+        turned.irradiance = sun.irradiance * intensity;
+        addDirect(turned, k, sun.powerShare);
       }
     } else {
       rest.lights.push_back(light);

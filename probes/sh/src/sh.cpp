@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstring>
 
 #include "prt/error.h"
 #include "prt/math.h"
@@ -73,7 +74,56 @@ void evaluateT(int runtimeBands, const V& d, T* out) {
   }
 }
 
+// Eight floats as one value, for evaluateT: GCC's vector extension, whose operators work lane
+// by lane with float's rounding (no contraction: ISO C++), so each lane computes what the
+// scalar evaluate() does.
+typedef float Float8 __attribute__((vector_size(32)));
+struct Lanes8 {
+  Float8 v;
+  Lanes8() = default;
+  explicit Lanes8(Float8 x) : v(x) {}
+  Lanes8(double s) {  // NOLINT(google-explicit-constructor): T(constant) in evaluateT
+    const float f = float(s);
+    v = Float8{f, f, f, f, f, f, f, f};
+  }
+  friend Lanes8 operator+(Lanes8 a, Lanes8 b) { return Lanes8(a.v + b.v); }
+  friend Lanes8 operator-(Lanes8 a, Lanes8 b) { return Lanes8(a.v - b.v); }
+  friend Lanes8 operator*(Lanes8 a, Lanes8 b) { return Lanes8(a.v * b.v); }
+  friend Lanes8 operator/(Lanes8 a, Lanes8 b) { return Lanes8(a.v / b.v); }
+  Lanes8& operator*=(Lanes8 b) {
+    v *= b.v;
+    return *this;
+  }
+};
+struct Lanes8Vec3 {
+  Lanes8 x, y, z;
+};
+
+Lanes8 load8(const float* p) {
+  Float8 v;
+  std::memcpy(&v, p, sizeof v);
+  return Lanes8(v);
+}
+
+template <int B>
+void evaluate8T(int bands, const float* x, const float* y, const float* z, float* out) {
+  const Lanes8Vec3 d{load8(x), load8(y), load8(z)};
+  std::array<Lanes8, size_t(kMaxBands) * kMaxBands> o;
+  evaluateT<Lanes8, Lanes8Vec3, B>(bands, d, o.data());
+  std::memcpy(out, o.data(), size_t(bands) * bands * sizeof(Lanes8));
+}
+
 }  // namespace
+
+void evaluate8(int bands, const float* x, const float* y, const float* z, float* out) {
+  static_assert(sizeof(Lanes8) == 8 * sizeof(float));
+  switch (bands) {
+    case 2: return evaluate8T<2>(bands, x, y, z, out);
+    case 3: return evaluate8T<3>(bands, x, y, z, out);
+    case 4: return evaluate8T<4>(bands, x, y, z, out);
+    default: return evaluate8T<0>(bands, x, y, z, out);
+  }
+}
 
 int bandOf(int i) {
   int l = static_cast<int>(std::sqrt(static_cast<double>(i)));
