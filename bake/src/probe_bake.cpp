@@ -270,12 +270,21 @@ void addProducts(const float* y, int ldy, const float* v, int ldv, int n, int ro
     addProductsPortable(y, ldy, v, ldv, n, rows, cols, c, ldc);
 }
 
+// A lit hit's inputs to g: its corners' rows, its barycentrics b1, b2 (b0 = 1 − b1 − b2) and
+// ρ/π (then a zero).
+struct LitRecord {
+  const uint16_t* t[3];
+  float b1, b2;
+  float rho[4];
+};
+
 // One stream's rays that add to the transfer, one row each: the SH basis of the escaped rays
 // (padded(n2) floats a row), the basis of the rays that hit a lit surface (the same) and the
 // light those hits send (ρ/π · t(h), padded(3·n2) floats: n2 RGB triples).
 struct StreamRows {
   int n2 = 0;
   std::vector<float> yEscaped, yHit, gHit;
+  std::vector<LitRecord> lit = std::vector<LitRecord>(kStream);
   void reset(int bands) {
     if (n2 != bands * bands) {  // the padding columns are zero and never written
       n2 = bands * bands;
@@ -322,20 +331,34 @@ void litLightPortable(const uint16_t* t0, const uint16_t* t1, const uint16_t* t2
   }
 }
 
-__attribute__((target("avx2,f16c"))) void litLightF16c(const uint16_t* t0, const uint16_t* t1, const uint16_t* t2,
-                                                        float b0, float b1, float b2, const glm::vec3& rho, int lanes,
-                                                        float* g) {
-  const float cr = rho.r, cg = rho.g, cb = rho.b;
-  const __m256 rp[3] = {_mm256_setr_ps(cr, cg, cb, cr, cg, cb, cr, cg), _mm256_setr_ps(cb, cr, cg, cb, cr, cg, cb, cr),
-                        _mm256_setr_ps(cg, cb, cr, cg, cb, cr, cg, cb)};
-  const __m256 w0 = _mm256_set1_ps(b0), w1 = _mm256_set1_ps(b1), w2 = _mm256_set1_ps(b2);
-  for (int k = 0; k < lanes / 8; ++k) {
-    const __m256 f0 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t0) + k));
-    const __m256 f1 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t1) + k));
-    const __m256 f2 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t2) + k));
-    __m256 sum = _mm256_add_ps(_mm256_mul_ps(w0, f0), _mm256_mul_ps(w1, f1));
-    sum = _mm256_add_ps(sum, _mm256_mul_ps(w2, f2));
-    _mm256_storeu_ps(g + 8 * k, _mm256_mul_ps(rp[k % 3], sum));
+void litLightsPortable(const LitRecord* rec, uint32_t n, int lanes, float* g, int ldg) {
+  for (uint32_t h = 0; h < n; ++h) {
+    const LitRecord& r = rec[h];
+    litLightPortable(r.t[0], r.t[1], r.t[2], 1.0f - r.b1 - r.b2, r.b1, r.b2, glm::vec3(r.rho[0], r.rho[1], r.rho[2]),
+                     lanes, g + size_t(h) * ldg);
+  }
+}
+
+// litLightPortable of n records, into rows ldg floats apart, as one call.
+__attribute__((target("avx2,f16c"))) void litLightsF16c(const LitRecord* rec, uint32_t n, int lanes, float* g, int ldg) {
+  // ρ's channels in the lanes of vectors k % 3 = 0, 1, 2 (lane i of vector k is channel (8k + i) % 3).
+  const __m256i order[3] = {_mm256_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1), _mm256_setr_epi32(2, 0, 1, 2, 0, 1, 2, 0),
+                            _mm256_setr_epi32(1, 2, 0, 1, 2, 0, 1, 2)};
+  for (uint32_t h = 0; h < n; ++h) {
+    const LitRecord& r = rec[h];
+    const __m256 rho = _mm256_castps128_ps256(_mm_loadu_ps(r.rho));
+    const __m256 rp[3] = {_mm256_permutevar8x32_ps(rho, order[0]), _mm256_permutevar8x32_ps(rho, order[1]),
+                          _mm256_permutevar8x32_ps(rho, order[2])};
+    const __m256 w0 = _mm256_set1_ps(1.0f - r.b1 - r.b2), w1 = _mm256_set1_ps(r.b1), w2 = _mm256_set1_ps(r.b2);
+    float* out = g + size_t(h) * ldg;
+    for (int k = 0; k < lanes / 8; ++k) {
+      const __m256 f0 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[0]) + k));
+      const __m256 f1 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[1]) + k));
+      const __m256 f2 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[2]) + k));
+      __m256 sum = _mm256_add_ps(_mm256_mul_ps(w0, f0), _mm256_mul_ps(w1, f1));
+      sum = _mm256_add_ps(sum, _mm256_mul_ps(w2, f2));
+      _mm256_storeu_ps(out + 8 * k, _mm256_mul_ps(rp[k % 3], sum));
+    }
   }
 }
 
@@ -383,6 +406,8 @@ struct Tracer {
     const uint16_t* rows = nullptr;     // the front sides' rows (HalfRows), stride halves apart
     const uint16_t* backRows = nullptr;  // the back sides' (the front's where only one side is baked)
     size_t stride = 0;
+    bool uniform = false;  // one base colour (AlbedoLookup::uniform): ρ/π is `rho`
+    glm::vec3 rho{0.0f};
   };
   std::vector<LitMesh> litMeshes;
   static constexpr uint32_t kBackSide = 1u << 8;  // in a lit-hit entry: the ray hit a back side
@@ -476,68 +501,50 @@ struct Tracer {
       addProducts(yEscaped, ldy, yEscaped, ldy, int(escapes), n2, n2, acc.direct.data(), n2);
       // The indirect part of its lit hits: M += Σ y gᵀ.
       if (nLit) {
-        gatherLit(batch, lit, nLit, rows.gHit.data(), ldg);
+        gatherLit(batch, lit, nLit, rows.lit.data(), rows.gHit.data(), ldg);
         addProducts(yLit, ldy, rows.gHit.data(), ldg, int(nLit), n2, 3 * n2, acc.indirect.data(), 3 * n2);
       }
     }
     return true;
   }
 
-  // g = ρ/π · t(h) of each lit hit, into rows of ldg floats. The reads of a hit's corners and of
-  // their transfer rows go to random places in arrays larger than the caches: they are started
-  // (prefetched) in a pipeline, the corners kCornersAhead hits ahead, the rows (which need the
-  // corners) kRowsAhead hits ahead, so that they have arrived when the hit is summed.
-  void gatherLit(const RayPacket8* batch, const uint16_t* lit, uint32_t hits, float* gHit, int ldg) const {
-    constexpr uint32_t kCornersAhead = 16, kRowsAhead = 8;
-    const auto where = [&](uint32_t h, const RayPacket8*& p, int& l) {
+  // g = ρ/π · t(h) of each lit hit, into rows of ldg floats. A hit's corners and their transfer
+  // rows lie at random places in arrays larger than the caches: a first pass reads what each
+  // hit needs into a record, the corners prefetched kAhead hits ahead and the rows as soon as
+  // the corners are read, and a second sums the rows, which have arrived by then.
+  void gatherLit(const RayPacket8* batch, const uint16_t* lit, uint32_t hits, LitRecord* rec, float* gHit,
+                 int ldg) const {
+    constexpr uint32_t kAhead = 8;
+    const auto corners = [&](uint32_t h) {
       const uint32_t j = lit[h] & (kBackSide - 1);
-      p = &batch[j >> 3];
-      l = int(j & 7);
+      const RayPacket8& p = batch[j >> 3];
+      const int l = int(j & 7);
+      return litMeshes[p.mesh[l]].indices + 3 * size_t(p.tri[l]);
     };
-    const auto corners = [&](const RayPacket8& p, int l) { return litMeshes[p.mesh[l]].indices + 3 * size_t(p.tri[l]); };
-    const auto rowsOf = [&](uint32_t h, const RayPacket8& p, int l) {  // the hit side's first row
-      const LitMesh& m = litMeshes[p.mesh[l]];
-      return (lit[h] & kBackSide) ? m.backRows : m.rows;
-    };
-    const bool f16c = useVectorKernels();
-    for (uint32_t h = 0; h < std::min(hits, kCornersAhead); ++h) {
-      const RayPacket8* p;
-      int l;
-      where(h, p, l);
-      __builtin_prefetch(corners(*p, l));
-    }
+    for (uint32_t h = 0; h < std::min(hits, kAhead); ++h) __builtin_prefetch(corners(h));
     for (uint32_t h = 0; h < hits; ++h) {
-      const RayPacket8* p;
-      int l;
-      if (h + kCornersAhead < hits) {
-        where(h + kCornersAhead, p, l);
-        __builtin_prefetch(corners(*p, l));
+      if (h + kAhead < hits) __builtin_prefetch(corners(h + kAhead));
+      const uint32_t j = lit[h] & (kBackSide - 1);
+      const RayPacket8& p = batch[j >> 3];
+      const int l = int(j & 7);
+      const LitMesh& m = litMeshes[p.mesh[l]];
+      const uint32_t* ix = m.indices + 3 * size_t(p.tri[l]);
+      const uint16_t* t = (lit[h] & kBackSide) ? m.backRows : m.rows;
+      LitRecord& r = rec[h];
+      for (int c = 0; c < 3; ++c) {
+        r.t[c] = t + ix[c] * m.stride;
+        const char* row = reinterpret_cast<const char*>(r.t[c]);
+        for (size_t o = 0; o < m.stride * sizeof(uint16_t); o += 64) __builtin_prefetch(row + o);
       }
-      if (h == 0 || h + kRowsAhead < hits)
-        for (uint32_t a = h == 0 ? 0 : h + kRowsAhead; a <= h + kRowsAhead && a < hits; ++a) {
-          where(a, p, l);
-          const uint32_t* ix = corners(*p, l);
-          const uint16_t* t = rowsOf(a, *p, l);
-          const size_t stride = litMeshes[p->mesh[l]].stride;
-          for (int c = 0; c < 3; ++c) {
-            const char* row = reinterpret_cast<const char*>(t + ix[c] * stride);
-            for (size_t o = 0; o < stride * sizeof(uint16_t); o += 64) __builtin_prefetch(row + o);
-          }
-        }
-      where(h, p, l);
-      const uint32_t* ix = corners(*p, l);
-      const uint16_t* t = rowsOf(h, *p, l);
-      const size_t stride = litMeshes[p->mesh[l]].stride;
-      const float u = p->u[l], v = p->v[l];
-      const glm::vec3 rho = albedo.at(p->mesh[l], p->tri[l], u, v) * float(1.0 / M_PI);
-      float* g = gHit + size_t(h) * ldg;
-      const float b0 = 1.0f - u - v;
-      const uint16_t *t0 = t + ix[0] * stride, *t1 = t + ix[1] * stride, *t2 = t + ix[2] * stride;
-      if (f16c)
-        litLightF16c(t0, t1, t2, b0, u, v, rho, ldg, g);
-      else
-        litLightPortable(t0, t1, t2, b0, u, v, rho, ldg, g);
+      r.b1 = p.u[l];
+      r.b2 = p.v[l];
+      const glm::vec3 rho = m.uniform ? m.rho : albedo.at(p.mesh[l], p.tri[l], r.b1, r.b2) * float(1.0 / M_PI);
+      r.rho[0] = rho.r, r.rho[1] = rho.g, r.rho[2] = rho.b, r.rho[3] = 0.0f;
     }
+    if (useVectorKernels())
+      litLightsF16c(rec, hits, ldg, gHit, ldg);
+    else
+      litLightsPortable(rec, hits, ldg, gHit, ldg);
   }
 };
 
@@ -1103,6 +1110,8 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       m.stride = lowerHalf[k].stride;
       m.rows = lowerHalf[k].row(0);
       m.backRows = tracer.twoSided[k] ? lowerHalf[k].row(scene.meshes[k].vertexCount()) : m.rows;
+      m.uniform = albedo.uniform[k] != 0;
+      m.rho = albedo.constant[k] * float(1.0 / M_PI);
     }
     tracer.meshFlags.assign(std::max<size_t>(scene.meshes.size(), 1), 0);
     for (size_t k = 0; k < scene.meshes.size(); ++k)
