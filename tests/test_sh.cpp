@@ -168,7 +168,11 @@ TEST(ShBasis, EightLanesGiveEachDirectionsBits) {
       const glm::vec3 d(randomDir(rng));
       x[l] = d.x, y[l] = d.y, z[l] = d.z;
     }
-    x[5] = 0.0f, y[5] = 0.0f, z[5] = -1.0f;  // a pole
+    // A pole, and axes with zeros of both signs (0 · y is −0 for y < 0: the products stay).
+    x[4] = -0.0f, y[4] = -1.0f, z[4] = 0.0f;
+    x[5] = 0.0f, y[5] = 0.0f, z[5] = -1.0f;
+    x[6] = -1.0f, y[6] = -0.0f, z[6] = -0.0f;
+    x[7] = -0.0f, y[7] = 1.0f, z[7] = -0.0f;
     std::vector<float> lanes(size_t(numCoeffs(bands)) * 8);
     evaluate8(bands, x, y, z, lanes.data());
     for (int l = 0; l < 8; ++l) {

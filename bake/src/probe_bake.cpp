@@ -150,6 +150,9 @@ struct SphereSet {
     uint32_t j = 0;
     for (; j + 8 <= count; j += 8) p[j >> 3].startAll(x, d.x + j, d.y + j, d.z + j, 0.0f, inf);
     for (; j < count; ++j) p[j >> 3].start(int(j & 7), x, {d.x[j], d.y[j], d.z[j]}, 0.0f, inf);
+    // The last packet's lanes past the count are not traced, but their SH values are computed
+    // with the packet's (Tracer::trace): a unit direction, not whatever the buffer held.
+    for (; j % 8 != 0; ++j) p[j >> 3].start(int(j & 7), x, {0.0f, 0.0f, 1.0f}, 0.0f, inf);
   }
   void fill(Ray* r, const glm::vec3& x, uint32_t first, uint32_t count) const {
     Directions d(*this, first, count);
@@ -177,20 +180,22 @@ private:
   };
 };
 
-// Columns of one stream's rows (StreamRows) are padded with zeros to a multiple of kBlock floats.
+// Columns of the lit hits' rows g (StreamRows) are padded with zeros to a multiple of kBlock floats.
 constexpr int kBlock = 8;
 constexpr int padded(int n) { return (n + kBlock - 1) / kBlock * kBlock; }
 
-// c[a·ldc + j] += Σ_k y[k·ldy + a] · v[k·ldv + j] for a < rows, j < cols, k < n: one stream's
-// rays summed in float, then added to the double matrix c. Every element adds its rays in ray
-// order, one fused multiply-add each (rounded once), so the AVX2 kernel and the portable loop
-// (std::fma, exact in software where the CPU has no FMA) give the same bits. ldv is a multiple
-// of kBlock and v's padding columns are zero.
-void addProductsPortable(const float* y, int ldy, const float* v, int ldv, int n, int rows, int cols, double* c, int ldc) {
+// c[a·ldc + j] += Σ_k y[yOff[k] + a·8] · v[k·ldv + j] for a < rows, j < cols, k < n: one
+// stream's lit hits summed in float, then added to the double matrix c; hit k's SH values lie
+// in the stream's packet-major table (StreamRows::ys), 8 floats apart, from yOff[k]. Every
+// element adds its hits in ray order, one fused multiply-add each (rounded once), so the AVX2
+// kernel and the portable loop (std::fma, exact in software where the CPU has no FMA) give the
+// same bits. ldv is a multiple of kBlock and v's padding columns are zero.
+void addProductsPortable(const float* y, const uint32_t* yOff, const float* v, int ldv, int n, int rows, int cols,
+                         double* c, int ldc) {
   for (int a = 0; a < rows; ++a)
     for (int j = 0; j < cols; ++j) {
       float s = 0.0f;
-      for (int k = 0; k < n; ++k) s = std::fma(y[size_t(k) * ldy + a], v[size_t(k) * ldv + j], s);
+      for (int k = 0; k < n; ++k) s = std::fma(y[yOff[k] + size_t(a) * 8], v[size_t(k) * ldv + j], s);
       c[size_t(a) * ldc + j] += double(s);
     }
 }
@@ -199,9 +204,9 @@ void addProductsPortable(const float* y, int ldy, const float* v, int ldv, int n
 // ray loop (each v vector loaded once for R rows). R·B = 8 sums hide the FMA's latency (4 cycles
 // on two ports).
 template <int R, int B>
-__attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(const float* y, int ldy, const float* v,
-                                                                             int ldv, int n, int a0, int j0, int cols,
-                                                                             double* c, int ldc) {
+__attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(const float* y, const uint32_t* yOff,
+                                                                             const float* v, int ldv, int n, int a0,
+                                                                             int j0, int cols, double* c, int ldc) {
   // The unroll pragmas let the sums live in registers only: unrolled later, GCC keeps the array
   // in memory too and stores every sum on every ray (a store-port bound, twice the FMAs' time).
   __m256 s[R][B];
@@ -216,7 +221,7 @@ __attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(
     for (int b = 0; b < B; ++b) w[b] = _mm256_loadu_ps(vk + 8 * b);
 #pragma GCC unroll 4
     for (int r = 0; r < R; ++r) {
-      const __m256 ya = _mm256_broadcast_ss(y + size_t(k) * ldy + a0 + r);
+      const __m256 ya = _mm256_broadcast_ss(y + yOff[k] + size_t(a0 + r) * 8);
 #pragma GCC unroll 4
       for (int b = 0; b < B; ++b) s[r][b] = _mm256_fmadd_ps(ya, w[b], s[r][b]);
     }
@@ -234,40 +239,94 @@ __attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(
 }
 
 template <int B>
-__attribute__((target("avx2,fma"), always_inline)) inline void productColumnsAvx2(const float* y, int ldy, const float* v,
-                                                                               int ldv, int n, int rows, int j0,
-                                                                               int cols, double* c, int ldc) {
+__attribute__((target("avx2,fma"), always_inline)) inline void productColumnsAvx2(const float* y, const uint32_t* yOff,
+                                                                               const float* v, int ldv, int n, int rows,
+                                                                               int j0, int cols, double* c, int ldc) {
   // R rows at a time with R·B ≥ 8 sums where the registers allow (16 ymm: the sums, B column
   // vectors and a broadcast): 4 × 2 for M⁰'s 16 columns, 2 × 4 for the indirect 32.
   constexpr int R = B <= 2 ? 4 : 2;
   int a = 0;
-  for (; a + R <= rows; a += R) productBlockAvx2<R, B>(y, ldy, v, ldv, n, a, j0, cols, c, ldc);
+  for (; a + R <= rows; a += R) productBlockAvx2<R, B>(y, yOff, v, ldv, n, a, j0, cols, c, ldc);
   if constexpr (R == 4)
     if (a + 2 <= rows) {
-      productBlockAvx2<2, B>(y, ldy, v, ldv, n, a, j0, cols, c, ldc);
+      productBlockAvx2<2, B>(y, yOff, v, ldv, n, a, j0, cols, c, ldc);
       a += 2;
     }
-  if (a < rows) productBlockAvx2<1, B>(y, ldy, v, ldv, n, a, j0, cols, c, ldc);
+  if (a < rows) productBlockAvx2<1, B>(y, yOff, v, ldv, n, a, j0, cols, c, ldc);
 }
 
-__attribute__((target("avx2,fma"))) void addProductsAvx2(const float* y, int ldy, const float* v, int ldv, int n, int rows,
-                                                     int cols, double* c, int ldc) {
+__attribute__((target("avx2,fma"))) void addProductsAvx2(const float* y, const uint32_t* yOff, const float* v, int ldv,
+                                                     int n, int rows, int cols, double* c, int ldc) {
   int j0 = 0;
-  for (; j0 + 4 * kBlock <= ldv; j0 += 4 * kBlock) productColumnsAvx2<4>(y, ldy, v, ldv, n, rows, j0, cols, c, ldc);
+  for (; j0 + 4 * kBlock <= ldv; j0 += 4 * kBlock) productColumnsAvx2<4>(y, yOff, v, ldv, n, rows, j0, cols, c, ldc);
   switch ((ldv - j0) / kBlock) {
-    case 3: productColumnsAvx2<3>(y, ldy, v, ldv, n, rows, j0, cols, c, ldc); break;
-    case 2: productColumnsAvx2<2>(y, ldy, v, ldv, n, rows, j0, cols, c, ldc); break;
-    case 1: productColumnsAvx2<1>(y, ldy, v, ldv, n, rows, j0, cols, c, ldc); break;
+    case 3: productColumnsAvx2<3>(y, yOff, v, ldv, n, rows, j0, cols, c, ldc); break;
+    case 2: productColumnsAvx2<2>(y, yOff, v, ldv, n, rows, j0, cols, c, ldc); break;
+    case 1: productColumnsAvx2<1>(y, yOff, v, ldv, n, rows, j0, cols, c, ldc); break;
     default: break;
   }
 }
 
-void addProducts(const float* y, int ldy, const float* v, int ldv, int n, int rows, int cols, double* c, int ldc) {
+void addProducts(const float* y, const uint32_t* yOff, const float* v, int ldv, int n, int rows, int cols, double* c,
+                 int ldc) {
   if (n == 0) return;
   if (useVectorKernels())
-    addProductsAvx2(y, ldy, v, ldv, n, rows, cols, c, ldc);
+    addProductsAvx2(y, yOff, v, ldv, n, rows, cols, c, ldc);
   else
-    addProductsPortable(y, ldy, v, ldv, n, rows, cols, c, ldc);
+    addProductsPortable(y, yOff, v, ldv, n, rows, cols, c, ldc);
+}
+
+// M⁰'s upper triangle from one packet's escaped rays, lane by lane: sums[p][l] += ye_a · y_b for
+// the pairs p = (a ≤ b) in row order, where y_a is coefficient a of the eight lanes (ys, 8 floats
+// apart) and ye_a the same with zeros in the lanes that did not escape (their SH values are
+// finite: every lane's direction is a unit vector). One fused multiply-add per lane and pair in
+// both paths, so they give the same bits.
+void addDirectPortable(const float* ys, const int32_t* escaped, int n2, float* sums) {
+  for (int a = 0, p = 0; a < n2; ++a)
+    for (int b = a; b < n2; ++b, ++p)
+      for (int l = 0; l < 8; ++l)
+        sums[8 * p + l] = std::fma(escaped[l] ? ys[8 * a + l] : 0.0f, ys[8 * b + l], sums[8 * p + l]);
+}
+
+// addDirectPortable of `packets` packets (ys: n2 · 8 floats a packet, escaped: 8 a packet), sums
+// starting at zero: the same fused multiply-adds in the same order, lane by lane, but pair by
+// pair over the packets with NB pairs' sums in registers, where packet by packet every sum is
+// loaded and stored again.
+template <int NB>
+__attribute__((target("avx2,fma"), always_inline)) inline void directPairsAvx2(const float* ys, const int32_t* escaped,
+                                                                            int packets, int n2, int a, int b0,
+                                                                            float* sums) {
+  __m256 s[NB];
+#pragma GCC unroll 8
+  for (int i = 0; i < NB; ++i) s[i] = _mm256_setzero_ps();
+  for (int q = 0; q < packets; ++q) {
+    const float* y = ys + size_t(q) * n2 * 8;
+    const __m256 mask = _mm256_castsi256_ps(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(escaped + 8 * q)));
+    const __m256 ya = _mm256_and_ps(mask, _mm256_loadu_ps(y + 8 * a));
+#pragma GCC unroll 8
+    for (int i = 0; i < NB; ++i) s[i] = _mm256_fmadd_ps(ya, _mm256_loadu_ps(y + 8 * (b0 + i)), s[i]);
+  }
+  // Pair (a, b) is number a·n2 − a(a−1)/2 + (b − a) in row order.
+  const int p0 = a * n2 - a * (a - 1) / 2 + (b0 - a);
+#pragma GCC unroll 8
+  for (int i = 0; i < NB; ++i) _mm256_storeu_ps(sums + 8 * (p0 + i), s[i]);
+}
+
+__attribute__((target("avx2,fma"))) void addDirectAvx2(const float* ys, const int32_t* escaped, int packets, int n2,
+                                                   float* sums) {
+  for (int a = 0; a < n2; ++a)
+    for (int b0 = a; b0 < n2; b0 += 8) {
+      switch (std::min(8, n2 - b0)) {
+        case 1: directPairsAvx2<1>(ys, escaped, packets, n2, a, b0, sums); break;
+        case 2: directPairsAvx2<2>(ys, escaped, packets, n2, a, b0, sums); break;
+        case 3: directPairsAvx2<3>(ys, escaped, packets, n2, a, b0, sums); break;
+        case 4: directPairsAvx2<4>(ys, escaped, packets, n2, a, b0, sums); break;
+        case 5: directPairsAvx2<5>(ys, escaped, packets, n2, a, b0, sums); break;
+        case 6: directPairsAvx2<6>(ys, escaped, packets, n2, a, b0, sums); break;
+        case 7: directPairsAvx2<7>(ys, escaped, packets, n2, a, b0, sums); break;
+        default: directPairsAvx2<8>(ys, escaped, packets, n2, a, b0, sums); break;
+      }
+    }
 }
 
 // A lit hit's inputs to g: its corners' rows, its barycentrics b1, b2 (b0 = 1 − b1 − b2) and
@@ -278,18 +337,22 @@ struct LitRecord {
   float rho[4];
 };
 
-// One stream's rays that add to the transfer, one row each: the SH basis of the escaped rays
-// (padded(n2) floats a row), the basis of the rays that hit a lit surface (the same) and the
-// light those hits send (ρ/π · t(h), padded(3·n2) floats: n2 RGB triples).
+// Scratch of one stream of rays: the SH basis of every ray, packet by packet (n2 coefficients of
+// 8 lanes a packet: ray j's coefficient a at ys[(j / 8 · n2 + a) · 8 + j % 8]); the lane sums of
+// M⁰'s upper triangle (n2(n2+1)/2 pairs of 8 lanes); and per ray that hit a lit surface, the
+// offset of its SH values in ys, what its light reads (LitRecord) and the light it sends
+// (ρ/π · t(h), padded(3·n2) floats: n2 RGB triples).
 struct StreamRows {
   int n2 = 0;
-  std::vector<float> yEscaped, yHit, gHit;
+  std::vector<float> ys, directSums, gHit;
+  std::vector<uint32_t> litOffset = std::vector<uint32_t>(kStream);
+  std::vector<int32_t> escaped = std::vector<int32_t>(kStream);  // per ray: −1 where it escaped, else 0
   std::vector<LitRecord> lit = std::vector<LitRecord>(kStream);
   void reset(int bands) {
-    if (n2 != bands * bands) {  // the padding columns are zero and never written
+    if (n2 != bands * bands) {  // the padding columns of gHit are zero and never written
       n2 = bands * bands;
-      yEscaped.assign(size_t(kStream) * padded(n2), 0.0f);
-      yHit.assign(size_t(kStream) * padded(n2), 0.0f);
+      ys.assign(size_t(kStream) * n2, 0.0f);
+      directSums.assign(size_t(n2) * (n2 + 1) / 2 * 8, 0.0f);
       gHit.assign(size_t(kStream) * padded(3 * n2), 0.0f);
     }
   }
@@ -435,7 +498,8 @@ struct Tracer {
     const SphereSet set(seed, stream);
     StreamRows& rows = acc.stream;
     if (full) rows.reset(bands);
-    const int ldy = padded(n2), ldg = padded(3 * n2);
+    const int ldg = padded(3 * n2);
+    const bool vector = useVectorKernels();
     RayBuffer buffer;
     RayPacket8* batch = buffer.packets();
     uint16_t lit[kStream];  // the stream's rays that hit a lit surface: j, and kBackSide on a back side
@@ -445,20 +509,20 @@ struct Tracer {
       set.fill(batch, x, first, count);
       intersect8(batch, count);
       // Per ray, without branches on what it hit (which no predictor guesses): counts, the
-      // moments of its face, and its SH row in the list it goes to (escaped, lit: written to
-      // both, the list's length advanced where it belongs). A ray that escapes keeps tfar = ∞
-      // and ng = 0, so it is nearer than nothing and never a back face, and its depth is the
-      // cap. A packet's faces and SH rows are computed eight lanes at once.
+      // moments of its face, and its place in the list of lit hits (written, the list's length
+      // advanced where it belongs). A ray that escapes keeps tfar = ∞ and ng = 0, so it is
+      // nearer than nothing and never a back face, and its depth is the cap. A packet's faces,
+      // SH values and M⁰ sums are computed eight lanes at once.
       uint32_t backs = 0, backsTwoSided = 0, escapes = 0, nLit = 0;
       float nearest = acc.nearest;
       const double cap = maxDistance;
-      float* yEscaped = rows.yEscaped.data();
-      float* yLit = rows.yHit.data();
+      if (full && !vector) std::fill(rows.directSums.begin(), rows.directSums.end(), 0.0f);
       for (uint32_t p0 = 0; p0 < count; p0 += 8) {
         const RayPacket8& r = batch[p0 >> 3];
         const int lanes = int(std::min<uint32_t>(8, count - p0));
-        alignas(32) float ys[sh::kMaxBands * sh::kMaxBands * 8];
+        float* ys = rows.ys.data() + size_t(p0) * n2;  // this packet's (p0 / 8 · n2 · 8)
         alignas(32) int32_t faces[8];
+        int32_t* escaped = &rows.escaped[p0];  // this packet's 8 lanes
         alignas(32) float axis[8];  // |the direction's component along its face's axis|
         if (full) {
           sh::evaluate8(bands, r.dirX, r.dirY, r.dirZ, ys);
@@ -474,37 +538,50 @@ struct Tracer {
           const float tfar = r.tfar[l];
           nearest = std::min(nearest, tfar);
           lit[nLit] = uint16_t((p0 + uint32_t(l)) | (backside ? kBackSide : 0u));
+          rows.litOffset[nLit] = p0 * uint32_t(n2) + uint32_t(l);
           const bool toLit = hit && !back && (flags & kLit);
-          if (full) {
-            // Depth along the face's axis, not the ray's length: a wall perpendicular to the
-            // axis then has one depth for every ray of the face (docs/probes.md, "Visibility").
-            const int face = faces[l];
-            const double d = std::min(double(tfar) * double(axis[l]), cap);
-            acc.sumD[size_t(face)] += d;
-            acc.sumD2[size_t(face)] += d * d;
-            ++acc.count[size_t(face)];
-            float* e = yEscaped + size_t(escapes) * ldy;
-            float* h = yLit + size_t(nLit) * ldy;
-            for (int a = 0; a < n2; ++a) e[a] = h[a] = ys[8 * a + l];
-          }
+          escaped[l] = -int32_t(!hit);  // lanes past the count stay 0 (zeroed below)
           escapes += !hit;
           nLit += toLit;
+          if (!full) continue;
+          // Depth along the face's axis, not the ray's length: a wall perpendicular to the axis
+          // then has one depth for every ray of the face (docs/probes.md, "Visibility").
+          const int face = faces[l];
+          const double d = std::min(double(tfar) * double(axis[l]), cap);
+          acc.sumD[size_t(face)] += d;
+          acc.sumD2[size_t(face)] += d * d;
+          ++acc.count[size_t(face)];
         }
+        for (int l = lanes; l < 8; ++l) escaped[l] = 0;
+        // The direct part of the packet's escaped rays: M⁰ += Σ y yᵀ, lane by lane (all the
+        // stream's packets at once with AVX2, below).
+        if (full && !vector) addDirectPortable(ys, escaped, n2, rows.directSums.data());
       }
+      if (full && vector) addDirectAvx2(rows.ys.data(), rows.escaped.data(), int((count + 7) / 8), n2, rows.directSums.data());
       acc.rays += count;
       acc.backfaces += backs;
       acc.backTwoSided += backsTwoSided;
       acc.escaped += escapes;
       acc.nearest = nearest;
       if (!full) continue;
-      // The direct part of the stream's escaped rays: M⁰ += Σ y yᵀ.
-      addProducts(yEscaped, ldy, yEscaped, ldy, int(escapes), n2, n2, acc.direct.data(), n2);
+      // The stream's M⁰ sums into the double matrix's upper triangle, lane by lane in order.
+      for (int a = 0, p = 0; a < n2; ++a)
+        for (int b = a; b < n2; ++b, ++p) {
+          const float* lane = &rows.directSums[size_t(8 * p)];
+          double sum = 0.0;
+          for (int l = 0; l < 8; ++l) sum += double(lane[l]);
+          acc.direct[size_t(a) * n2 + b] += sum;
+        }
       // The indirect part of its lit hits: M += Σ y gᵀ.
       if (nLit) {
         gatherLit(batch, lit, nLit, rows.lit.data(), rows.gHit.data(), ldg);
-        addProducts(yLit, ldy, rows.gHit.data(), ldg, int(nLit), n2, 3 * n2, acc.indirect.data(), 3 * n2);
+        addProducts(rows.ys.data(), rows.litOffset.data(), rows.gHit.data(), ldg, int(nLit), n2, 3 * n2,
+                    acc.indirect.data(), 3 * n2);
       }
     }
+    if (full)  // M⁰ is symmetric: its lower triangle from the upper
+      for (int a = 0; a < n2; ++a)
+        for (int b = 0; b < a; ++b) acc.direct[size_t(a) * n2 + b] = acc.direct[size_t(b) * n2 + a];
     return true;
   }
 

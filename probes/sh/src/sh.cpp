@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstring>
 
+#include <immintrin.h>
+
 #include "prt/error.h"
 #include "prt/math.h"
 
@@ -74,54 +76,52 @@ void evaluateT(int runtimeBands, const V& d, T* out) {
   }
 }
 
-// Eight floats as one value, for evaluateT: GCC's vector extension, whose operators work lane
-// by lane with float's rounding (no contraction: ISO C++), so each lane computes what the
-// scalar evaluate() does.
-typedef float Float8 __attribute__((vector_size(32)));
-struct Lanes8 {
-  Float8 v;
-  Lanes8() = default;
-  explicit Lanes8(Float8 x) : v(x) {}
-  Lanes8(double s) {  // NOLINT(google-explicit-constructor): T(constant) in evaluateT
-    const float f = float(s);
-    v = Float8{f, f, f, f, f, f, f, f};
-  }
-  friend Lanes8 operator+(Lanes8 a, Lanes8 b) { return Lanes8(a.v + b.v); }
-  friend Lanes8 operator-(Lanes8 a, Lanes8 b) { return Lanes8(a.v - b.v); }
-  friend Lanes8 operator*(Lanes8 a, Lanes8 b) { return Lanes8(a.v * b.v); }
-  friend Lanes8 operator/(Lanes8 a, Lanes8 b) { return Lanes8(a.v / b.v); }
-  Lanes8& operator*=(Lanes8 b) {
-    v *= b.v;
-    return *this;
-  }
-};
-struct Lanes8Vec3 {
-  Lanes8 x, y, z;
-};
-
-Lanes8 load8(const float* p) {
-  Float8 v;
-  std::memcpy(&v, p, sizeof v);
-  return Lanes8(v);
-}
-
-template <int B>
-void evaluate8T(int bands, const float* x, const float* y, const float* z, float* out) {
-  const Lanes8Vec3 d{load8(x), load8(y), load8(z)};
-  std::array<Lanes8, size_t(kMaxBands) * kMaxBands> o;
-  evaluateT<Lanes8, Lanes8Vec3, B>(bands, d, o.data());
-  std::memcpy(out, o.data(), size_t(bands) * bands * sizeof(Lanes8));
+// evaluateT<float, glm::vec3, 3>'s operations, written out, at eight directions (AVX2): the
+// loops unrolled with cm = 1, sm = 0, qmm = 1 at the start, every product kept (0 · y is −0 for
+// y < 0, and x − (−0) is not x when x = −0), so each lane has the scalar function's bits. The
+// eight-lane paths for other band counts evaluate lane by lane.
+__attribute__((target("avx2"))) void evaluate8Bands3Avx2(const float* px, const float* py, const float* pz,
+                                                          float* out) {
+  const __m256 x = _mm256_loadu_ps(px), y = _mm256_loadu_ps(py), z = _mm256_loadu_ps(pz);
+  __m256 k[3][3];  // K_l^m as floats (T(kNorms.k[l][m]))
+  for (int l = 0; l < 3; ++l)
+    for (int m = 0; m <= l; ++m) k[l][m] = _mm256_set1_ps(float(kNorms.k[l][m]));
+  const __m256 one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f), three = _mm256_set1_ps(3.0f);
+  const __m256 zero = _mm256_setzero_ps();
+  // m = 0: Q_0^0 = 1, Q_1^0 = (1 · z) · 1, Q_2^0 = ((3 · z) · Q_1^0 − 1 · 1) / 2.
+  const __m256 q10 = _mm256_mul_ps(_mm256_mul_ps(one, z), one);
+  const __m256 q20 = _mm256_div_ps(
+      _mm256_sub_ps(_mm256_mul_ps(_mm256_mul_ps(three, z), q10), _mm256_mul_ps(one, one)), two);
+  _mm256_storeu_ps(out + 8 * 0, _mm256_mul_ps(k[0][0], one));
+  _mm256_storeu_ps(out + 8 * 2, _mm256_mul_ps(k[1][0], q10));
+  _mm256_storeu_ps(out + 8 * 6, _mm256_mul_ps(k[2][0], q20));
+  // m = 1: (cm, sm) = (1 · x − 0 · y, 1 · y + 0 · x), Q_1^1 = 1 · 1, Q_2^1 = (3 · z) · Q_1^1.
+  const __m256 c1 = _mm256_sub_ps(_mm256_mul_ps(one, x), _mm256_mul_ps(zero, y));
+  const __m256 s1 = _mm256_add_ps(_mm256_mul_ps(one, y), _mm256_mul_ps(zero, x));
+  const __m256 q11 = _mm256_mul_ps(one, one);
+  const __m256 k11 = _mm256_mul_ps(k[1][1], q11);
+  const __m256 k21 = _mm256_mul_ps(k[2][1], _mm256_mul_ps(_mm256_mul_ps(three, z), q11));
+  _mm256_storeu_ps(out + 8 * 3, _mm256_mul_ps(k11, c1));
+  _mm256_storeu_ps(out + 8 * 1, _mm256_mul_ps(k11, s1));
+  _mm256_storeu_ps(out + 8 * 7, _mm256_mul_ps(k21, c1));
+  _mm256_storeu_ps(out + 8 * 5, _mm256_mul_ps(k21, s1));
+  // m = 2: (cm, sm) advanced by (x + iy), Q_2^2 = Q_1^1 · 3.
+  const __m256 c2 = _mm256_sub_ps(_mm256_mul_ps(c1, x), _mm256_mul_ps(s1, y));
+  const __m256 s2 = _mm256_add_ps(_mm256_mul_ps(c1, y), _mm256_mul_ps(s1, x));
+  const __m256 k22 = _mm256_mul_ps(k[2][2], _mm256_mul_ps(q11, three));
+  _mm256_storeu_ps(out + 8 * 8, _mm256_mul_ps(k22, c2));
+  _mm256_storeu_ps(out + 8 * 4, _mm256_mul_ps(k22, s2));
 }
 
 }  // namespace
 
 void evaluate8(int bands, const float* x, const float* y, const float* z, float* out) {
-  static_assert(sizeof(Lanes8) == 8 * sizeof(float));
-  switch (bands) {
-    case 2: return evaluate8T<2>(bands, x, y, z, out);
-    case 3: return evaluate8T<3>(bands, x, y, z, out);
-    case 4: return evaluate8T<4>(bands, x, y, z, out);
-    default: return evaluate8T<0>(bands, x, y, z, out);
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  if (bands == 3 && avx2) return evaluate8Bands3Avx2(x, y, z, out);
+  float one[kMaxBands * kMaxBands];
+  for (int l = 0; l < 8; ++l) {
+    evaluate(bands, glm::vec3(x[l], y[l], z[l]), one);
+    for (int i = 0; i < bands * bands; ++i) out[8 * i + l] = one[i];
   }
 }
 
