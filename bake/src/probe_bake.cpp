@@ -238,31 +238,28 @@ __attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(
   }
 }
 
-template <int B>
-__attribute__((target("avx2,fma"), always_inline)) inline void productColumnsAvx2(const float* y, const uint32_t* yOff,
-                                                                               const float* v, int ldv, int n, int rows,
-                                                                               int j0, int cols, double* c, int ldc) {
-  // R rows at a time with R·B ≥ 8 sums where the registers allow (16 ymm: the sums, B column
-  // vectors and a broadcast): 4 × 2 for M⁰'s 16 columns, 2 × 4 for the indirect 32.
-  constexpr int R = B <= 2 ? 4 : 2;
-  int a = 0;
+// Rows [a, rows) of columns [j0, j0 + 8B) in blocks of R rows, the last block smaller.
+template <int R, int B>
+__attribute__((target("avx2,fma"), always_inline)) inline void productRowsAvx2(const float* y, const uint32_t* yOff,
+                                                                            const float* v, int ldv, int n, int rows,
+                                                                            int a, int j0, int cols, double* c,
+                                                                            int ldc) {
   for (; a + R <= rows; a += R) productBlockAvx2<R, B>(y, yOff, v, ldv, n, a, j0, cols, c, ldc);
-  if constexpr (R == 4)
-    if (a + 2 <= rows) {
-      productBlockAvx2<2, B>(y, yOff, v, ldv, n, a, j0, cols, c, ldc);
-      a += 2;
-    }
-  if (a < rows) productBlockAvx2<1, B>(y, yOff, v, ldv, n, a, j0, cols, c, ldc);
+  if constexpr (R > 1)
+    if (a < rows) productRowsAvx2<R - 1, B>(y, yOff, v, ldv, n, rows, a, j0, cols, c, ldc);
 }
 
+// Column vectors three at a time with 3 rows (9 sums), the rest one or two at a time with up to
+// 9 or 4 rows: at least 8 sums in flight to hide the FMA's latency (4 cycles on two ports) within
+// 16 ymm registers (the sums, B column vectors and a broadcast). The indirect part's 27 columns
+// at 3 bands: 24 in 3 blocks of 3 rows, then 3 (padded to 8) in one block of all 9 rows.
 __attribute__((target("avx2,fma"))) void addProductsAvx2(const float* y, const uint32_t* yOff, const float* v, int ldv,
                                                      int n, int rows, int cols, double* c, int ldc) {
   int j0 = 0;
-  for (; j0 + 4 * kBlock <= ldv; j0 += 4 * kBlock) productColumnsAvx2<4>(y, yOff, v, ldv, n, rows, j0, cols, c, ldc);
+  for (; j0 + 3 * kBlock <= ldv; j0 += 3 * kBlock) productRowsAvx2<3, 3>(y, yOff, v, ldv, n, rows, 0, j0, cols, c, ldc);
   switch ((ldv - j0) / kBlock) {
-    case 3: productColumnsAvx2<3>(y, yOff, v, ldv, n, rows, j0, cols, c, ldc); break;
-    case 2: productColumnsAvx2<2>(y, yOff, v, ldv, n, rows, j0, cols, c, ldc); break;
-    case 1: productColumnsAvx2<1>(y, yOff, v, ldv, n, rows, j0, cols, c, ldc); break;
+    case 2: productRowsAvx2<4, 2>(y, yOff, v, ldv, n, rows, 0, j0, cols, c, ldc); break;
+    case 1: productRowsAvx2<9, 1>(y, yOff, v, ldv, n, rows, 0, j0, cols, c, ldc); break;
     default: break;
   }
 }
