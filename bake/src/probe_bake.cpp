@@ -334,20 +334,20 @@ struct LitRecord {
   float rho[4];
 };
 
-// Scratch of one stream of rays: the SH basis of every ray, packet by packet (n2 coefficients of
-// 8 lanes a packet: ray j's coefficient a at ys[(j / 8 · n2 + a) · 8 + j % 8]); the lane sums of
-// M⁰'s upper triangle (n2(n2+1)/2 pairs of 8 lanes); and per ray that hit a lit surface, the
-// offset of its SH values in ys, what its light reads (LitRecord) and the light it sends
-// (ρ/π · t(h), padded(3·n2) floats: n2 RGB triples).
+// Scratch of one stream of rays, sized for the bands once per probe's accumulator (the inside
+// tests need none): the SH basis of every ray, packet by packet (n2 coefficients of 8 lanes a
+// packet: ray j's coefficient a at ys[(j / 8 · n2 + a) · 8 + j % 8]); the lane sums of M⁰'s
+// upper triangle (n2(n2+1)/2 pairs of 8 lanes); and per ray that hit a lit surface, what its
+// light reads (LitRecord) and the light it sends (ρ/π · t(h), padded(3·n2) floats: n2 RGB
+// triples).
 struct StreamRows {
   int n2 = 0;
   std::vector<float> ys, directSums, gHit;
-  std::vector<uint32_t> litOffset = std::vector<uint32_t>(kStream);
-  std::vector<int32_t> escaped = std::vector<int32_t>(kStream);  // per ray: −1 where it escaped, else 0
-  std::vector<LitRecord> lit = std::vector<LitRecord>(kStream);
+  std::vector<LitRecord> lit;
   void reset(int bands) {
     if (n2 != bands * bands) {  // the padding columns of gHit are zero and never written
       n2 = bands * bands;
+      lit.resize(kStream);
       ys.assign(size_t(kStream) * n2, 0.0f);
       directSums.assign(size_t(n2) * (n2 + 1) / 2 * 8, 0.0f);
       gHit.assign(size_t(kStream) * padded(3 * n2), 0.0f);
@@ -499,7 +499,11 @@ struct Tracer {
     const bool vector = useVectorKernels();
     RayBuffer buffer;
     RayPacket8* batch = buffer.packets();
-    uint16_t lit[kStream];  // the stream's rays that hit a lit surface: j, and kBackSide on a back side
+    // The stream's rays that hit a lit surface: j, and kBackSide on a back side; the offset of
+    // their SH values in rows.ys. Per ray: −1 where it escaped, else 0.
+    uint16_t lit[kStream];
+    uint32_t litOffset[kStream];
+    alignas(32) int32_t escapedLanes[kStream];
     for (uint32_t first = 0; first < n; first += kStream) {
       if (interruptRequested()) return false;
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
@@ -519,7 +523,7 @@ struct Tracer {
         const int lanes = int(std::min<uint32_t>(8, count - p0));
         float* ys = rows.ys.data() + size_t(p0) * n2;  // this packet's (p0 / 8 · n2 · 8)
         alignas(32) int32_t faces[8];
-        int32_t* escaped = &rows.escaped[p0];  // this packet's 8 lanes
+        int32_t* escaped = escapedLanes + p0;  // this packet's 8 lanes
         alignas(32) float axis[8];  // |the direction's component along its face's axis|
         if (full) {
           sh::evaluate8(bands, r.dirX, r.dirY, r.dirZ, ys);
@@ -535,7 +539,7 @@ struct Tracer {
           const float tfar = r.tfar[l];
           nearest = std::min(nearest, tfar);
           lit[nLit] = uint16_t((p0 + uint32_t(l)) | (backside ? kBackSide : 0u));
-          rows.litOffset[nLit] = p0 * uint32_t(n2) + uint32_t(l);
+          litOffset[nLit] = p0 * uint32_t(n2) + uint32_t(l);
           const bool toLit = hit && !back && (flags & kLit);
           escaped[l] = -int32_t(!hit);  // lanes past the count stay 0 (zeroed below)
           escapes += !hit;
@@ -554,7 +558,7 @@ struct Tracer {
         // stream's packets at once with AVX2, below).
         if (full && !vector) addDirectPortable(ys, escaped, n2, rows.directSums.data());
       }
-      if (full && vector) addDirectAvx2(rows.ys.data(), rows.escaped.data(), int((count + 7) / 8), n2, rows.directSums.data());
+      if (full && vector) addDirectAvx2(rows.ys.data(), escapedLanes, int((count + 7) / 8), n2, rows.directSums.data());
       acc.rays += count;
       acc.backfaces += backs;
       acc.backTwoSided += backsTwoSided;
@@ -572,7 +576,7 @@ struct Tracer {
       // The indirect part of its lit hits: M += Σ y gᵀ.
       if (nLit) {
         gatherLit(batch, lit, nLit, rows.lit.data(), rows.gHit.data(), ldg);
-        addProducts(rows.ys.data(), rows.litOffset.data(), rows.gHit.data(), ldg, int(nLit), n2, 3 * n2,
+        addProducts(rows.ys.data(), litOffset, rows.gHit.data(), ldg, int(nLit), n2, 3 * n2,
                     acc.indirect.data(), 3 * n2);
       }
     }
