@@ -449,7 +449,7 @@ struct Tracer {
   const Scene& scene;
   const RayScene& rays;
   // The lower-order surface transfer as halves, per instance (its rows: vertex × side; empty
-  // where the instance has none, and no entries without bounces).
+  // where the instance has none, and no entries without bounces): what litMeshes points into.
   const std::vector<HalfRows>& lowerHalf;
   const AlbedoLookup& albedo;
   int bands;
@@ -521,7 +521,7 @@ struct Tracer {
       for (uint32_t p0 = 0; p0 < count; p0 += 8) {
         const RayPacket8& r = batch[p0 >> 3];
         const int lanes = int(std::min<uint32_t>(8, count - p0));
-        float* ys = rows.ys.data() + size_t(p0) * n2;  // this packet's (p0 / 8 · n2 · 8)
+        float* ys = full ? rows.ys.data() + size_t(p0) * n2 : nullptr;  // this packet's (p0 / 8 · n2 · 8)
         alignas(32) int32_t faces[8];
         int32_t* escaped = escapedLanes + p0;  // this packet's 8 lanes
         alignas(32) float axis[8];  // |the direction's component along its face's axis|
