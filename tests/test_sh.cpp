@@ -159,7 +159,8 @@ TEST(ShBasis, CartesianFormsBands0To2) {
 }
 
 // Eight directions at once give each direction's bits, at every band count (the probe bake
-// evaluates a packet of rays with evaluate8 where it evaluated them one by one).
+// evaluates a packet of rays with evaluate8 where it evaluated them one by one). The 3-band AVX2
+// kernel is the one written apart from evaluate(); the other counts check the lane layout.
 TEST(ShBasis, EightLanesGiveEachDirectionsBits) {
   std::mt19937 rng(7);
   for (int bands = 1; bands <= kMaxBands; ++bands) {

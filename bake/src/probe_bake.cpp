@@ -110,22 +110,13 @@ void sphereDirections(const uint32_t* bx, const uint32_t* by, uint32_t n, float*
     sphereDirectionsPortable(bx, by, n, dx, dy, dz);
 }
 
-// The low 8 bits of the second Sobol dimension's 32-bit point `i` (which sobol1Bits drops).
-uint32_t sobol1Low(uint32_t i) {
-  return (kSobol1.t[0][i & 0xffu] ^ kSobol1.t[1][(i >> 8) & 0xffu] ^ kSobol1.t[2][(i >> 16) & 0xffu] ^
-          kSobol1.t[3][i >> 24]) & 0xffu;
-}
-
 // The 32-bit points j < kStream of both Sobol dimensions, unscrambled.
 struct StreamPoints {
-  uint32_t x[256], y[256];
+  uint32_t x[kStream], y[kStream];
   constexpr StreamPoints() : x{}, y{} {
-    for (uint32_t j = 0; j < 256; ++j) {
-      uint32_t r = 0;
-      for (int b = 0; b < 32; ++b)
-        if (j >> b & 1u) r |= 1u << (31 - b);
-      x[j] = r;
-      y[j] = kSobol1.t[0][j];
+    for (uint32_t j = 0; j < uint32_t(kStream); ++j) {
+      x[j] = sobol0Point(j);
+      y[j] = sobol1Point(j);
     }
   }
 };
@@ -165,12 +156,12 @@ private:
     alignas(32) float x[kStream], y[kStream], z[kStream];
     Directions(const SphereSet& s, uint32_t first, uint32_t count) {
       alignas(32) uint32_t bx[kStream] = {}, by[kStream] = {};  // zeroed: the compiler cannot see count ≤ kStream
-      // Both dimensions are linear over GF(2) in the index's bits, and a stream starts at a
-      // multiple of kStream: point first + j (j < kStream) is point first XOR point j, the
-      // scramble folded into the first. The same bits as sobol0Bits and sobol1Bits of first + j.
-      static_assert(kStream <= 256);
+      // Both dimensions are linear over GF(2) and a stream starts at a multiple of kStream (a
+      // power of two): point first + j (j < kStream) is point first XOR point j, the scramble
+      // folded into the first. The same bits as sobol0Bits and sobol1Bits of first + j.
+      static_assert((kStream & (kStream - 1)) == 0);
       PRT_CHECK_EQ(first % kStream, 0u);
-      const uint32_t x0 = (sobol0Bits(first, 0) << 8) ^ s.s0, y0 = (sobol1Bits(first, 0) << 8 | sobol1Low(first)) ^ s.s1;
+      const uint32_t x0 = sobol0Point(first) ^ s.s0, y0 = sobol1Point(first) ^ s.s1;
       for (uint32_t j = 0; j < count; ++j) {
         bx[j] = (kStreamPoints.x[j] ^ x0) >> 8;
         by[j] = (kStreamPoints.y[j] ^ y0) >> 8;
@@ -391,16 +382,17 @@ void litLightPortable(const uint16_t* t0, const uint16_t* t1, const uint16_t* t2
   }
 }
 
-void litLightsPortable(const LitRecord* rec, uint32_t n, int lanes, float* g, int ldg) {
+// litLightPortable of n records, each into a row of ldg floats (3·n2 padded to whole vectors).
+void litLightsPortable(const LitRecord* rec, uint32_t n, float* g, int ldg) {
   for (uint32_t h = 0; h < n; ++h) {
     const LitRecord& r = rec[h];
     litLightPortable(r.t[0], r.t[1], r.t[2], 1.0f - r.b1 - r.b2, r.b1, r.b2, glm::vec3(r.rho[0], r.rho[1], r.rho[2]),
-                     lanes, g + size_t(h) * ldg);
+                     ldg, g + size_t(h) * ldg);
   }
 }
 
-// litLightPortable of n records, into rows ldg floats apart, as one call.
-__attribute__((target("avx2,f16c"))) void litLightsF16c(const LitRecord* rec, uint32_t n, int lanes, float* g, int ldg) {
+// The same with F16C, as one call.
+__attribute__((target("avx2,f16c"))) void litLightsF16c(const LitRecord* rec, uint32_t n, float* g, int ldg) {
   // ρ's channels in the lanes of vectors k % 3 = 0, 1, 2 (lane i of vector k is channel (8k + i) % 3).
   const __m256i order[3] = {_mm256_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1), _mm256_setr_epi32(2, 0, 1, 2, 0, 1, 2, 0),
                             _mm256_setr_epi32(1, 2, 0, 1, 2, 0, 1, 2)};
@@ -411,7 +403,7 @@ __attribute__((target("avx2,f16c"))) void litLightsF16c(const LitRecord* rec, ui
                           _mm256_permutevar8x32_ps(rho, order[2])};
     const __m256 w0 = _mm256_set1_ps(1.0f - r.b1 - r.b2), w1 = _mm256_set1_ps(r.b1), w2 = _mm256_set1_ps(r.b2);
     float* out = g + size_t(h) * ldg;
-    for (int k = 0; k < lanes / 8; ++k) {
+    for (int k = 0; k < ldg / 8; ++k) {
       const __m256 f0 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[0]) + k));
       const __m256 f1 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[1]) + k));
       const __m256 f2 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[2]) + k));
@@ -466,11 +458,10 @@ struct Tracer {
     const uint16_t* rows = nullptr;     // the front sides' rows (HalfRows), stride halves apart
     const uint16_t* backRows = nullptr;  // the back sides' (the front's where only one side is baked)
     size_t stride = 0;
-    bool uniform = false;  // one base colour (AlbedoLookup::uniform): ρ/π is `rho`
-    glm::vec3 rho{0.0f};
   };
   std::vector<LitMesh> litMeshes;
   static constexpr uint32_t kBackSide = 1u << 8;  // in a lit-hit entry: the ray hit a back side
+  static_assert(uint32_t(kStream) <= kBackSide, "a lit-hit entry holds the ray's index below kBackSide");
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
 
   void intersect8(RayPacket8* p, size_t n) const { inEmbree.time([&] { rays.intersect8(p, n); }); }
@@ -538,13 +529,12 @@ struct Tracer {
           backsTwoSided += backside && !back;
           const float tfar = r.tfar[l];
           nearest = std::min(nearest, tfar);
+          escapes += !hit;
+          if (!full) continue;  // the inside test: counts only
           lit[nLit] = uint16_t((p0 + uint32_t(l)) | (backside ? kBackSide : 0u));
           litOffset[nLit] = p0 * uint32_t(n2) + uint32_t(l);
-          const bool toLit = hit && !back && (flags & kLit);
+          nLit += hit && !back && (flags & kLit);
           escaped[l] = -int32_t(!hit);  // lanes past the count stay 0 (zeroed below)
-          escapes += !hit;
-          nLit += toLit;
-          if (!full) continue;
           // Depth along the face's axis, not the ray's length: a wall perpendicular to the axis
           // then has one depth for every ray of the face (docs/probes.md, "Visibility").
           const int face = faces[l];
@@ -553,10 +543,11 @@ struct Tracer {
           acc.sumD2[size_t(face)] += d * d;
           ++acc.count[size_t(face)];
         }
+        if (!full) continue;
         for (int l = lanes; l < 8; ++l) escaped[l] = 0;
         // The direct part of the packet's escaped rays: M⁰ += Σ y yᵀ, lane by lane (all the
         // stream's packets at once with AVX2, below).
-        if (full && !vector) addDirectPortable(ys, escaped, n2, rows.directSums.data());
+        if (!vector) addDirectPortable(ys, escaped, n2, rows.directSums.data());
       }
       if (full && vector) addDirectAvx2(rows.ys.data(), escapedLanes, int((count + 7) / 8), n2, rows.directSums.data());
       acc.rays += count;
@@ -593,20 +584,19 @@ struct Tracer {
   void gatherLit(const RayPacket8* batch, const uint16_t* lit, uint32_t hits, LitRecord* rec, float* gHit,
                  int ldg) const {
     constexpr uint32_t kAhead = 8;
+    const auto lane = [&](uint32_t h) { return int(lit[h] & 7); };
+    const auto packet = [&](uint32_t h) -> const RayPacket8& { return batch[(lit[h] & (kBackSide - 1)) >> 3]; };
     const auto corners = [&](uint32_t h) {
-      const uint32_t j = lit[h] & (kBackSide - 1);
-      const RayPacket8& p = batch[j >> 3];
-      const int l = int(j & 7);
-      return litMeshes[p.mesh[l]].indices + 3 * size_t(p.tri[l]);
+      const RayPacket8& p = packet(h);
+      return litMeshes[p.mesh[lane(h)]].indices + 3 * size_t(p.tri[lane(h)]);
     };
     for (uint32_t h = 0; h < std::min(hits, kAhead); ++h) __builtin_prefetch(corners(h));
     for (uint32_t h = 0; h < hits; ++h) {
       if (h + kAhead < hits) __builtin_prefetch(corners(h + kAhead));
-      const uint32_t j = lit[h] & (kBackSide - 1);
-      const RayPacket8& p = batch[j >> 3];
-      const int l = int(j & 7);
+      const RayPacket8& p = packet(h);
+      const int l = lane(h);
       const LitMesh& m = litMeshes[p.mesh[l]];
-      const uint32_t* ix = m.indices + 3 * size_t(p.tri[l]);
+      const uint32_t* ix = corners(h);
       const uint16_t* t = (lit[h] & kBackSide) ? m.backRows : m.rows;
       LitRecord& r = rec[h];
       for (int c = 0; c < 3; ++c) {
@@ -616,13 +606,13 @@ struct Tracer {
       }
       r.b1 = p.u[l];
       r.b2 = p.v[l];
-      const glm::vec3 rho = m.uniform ? m.rho : albedo.at(p.mesh[l], p.tri[l], r.b1, r.b2) * float(1.0 / M_PI);
+      const glm::vec3 rho = albedo.at(p.mesh[l], p.tri[l], r.b1, r.b2) * float(1.0 / M_PI);
       r.rho[0] = rho.r, r.rho[1] = rho.g, r.rho[2] = rho.b, r.rho[3] = 0.0f;
     }
     if (useVectorKernels())
-      litLightsF16c(rec, hits, ldg, gHit, ldg);
+      litLightsF16c(rec, hits, gHit, ldg);
     else
-      litLightsPortable(rec, hits, ldg, gHit, ldg);
+      litLightsPortable(rec, hits, gHit, ldg);
   }
 };
 
@@ -1188,8 +1178,6 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       m.stride = lowerHalf[k].stride;
       m.rows = lowerHalf[k].row(0);
       m.backRows = tracer.twoSided[k] ? lowerHalf[k].row(scene.meshes[k].vertexCount()) : m.rows;
-      m.uniform = albedo.uniform[k] != 0;
-      m.rho = albedo.constant[k] * float(1.0 / M_PI);
     }
     tracer.meshFlags.assign(std::max<size_t>(scene.meshes.size(), 1), 0);
     for (size_t k = 0; k < scene.meshes.size(); ++k)

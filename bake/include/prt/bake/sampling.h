@@ -21,16 +21,18 @@ inline uint64_t splitMix64(uint64_t x) {
 
 /// First two dimensions of the Sobol sequence, digit-scrambled by XOR with `scramble` (which
 /// keeps the (0, m, 2)-net property of every power-of-two prefix). Values in [0, 1).
-/// sobol0Bits and sobol1Bits are the same values as 24-bit integers (value = bits · 2⁻²⁴).
-inline uint32_t sobol0Bits(uint32_t i, uint32_t scramble) {
+/// sobol0Bits and sobol1Bits are the same values as 24-bit integers (value = bits · 2⁻²⁴), and
+/// sobol0Point and sobol1Point the unscrambled 32-bit points they are cut from. Both dimensions
+/// are linear over GF(2): the point of i XOR j is the XOR of their points.
+constexpr uint32_t sobol0Point(uint32_t i) {  // the index's bits reversed
   uint32_t r = i;
   r = (r << 16) | (r >> 16);
   r = ((r & 0x00ff00ffu) << 8) | ((r & 0xff00ff00u) >> 8);
   r = ((r & 0x0f0f0f0fu) << 4) | ((r & 0xf0f0f0f0u) >> 4);
   r = ((r & 0x33333333u) << 2) | ((r & 0xccccccccu) >> 2);
-  r = ((r & 0x55555555u) << 1) | ((r & 0xaaaaaaaau) >> 1);
-  return (r ^ scramble) >> 8;
+  return ((r & 0x55555555u) << 1) | ((r & 0xaaaaaaaau) >> 1);
 }
+inline uint32_t sobol0Bits(uint32_t i, uint32_t scramble) { return (sobol0Point(i) ^ scramble) >> 8; }
 inline float sobol0(uint32_t i, uint32_t scramble) { return float(sobol0Bits(i, scramble)) * 0x1p-24f; }
 // The second dimension's generator matrix applied a byte of the index at a time: entry
 // [j][b] is the XOR of the direction numbers v_k (v_0 = 2³¹, v_k = v_{k−1} ^ (v_{k−1} >> 1)) of
@@ -53,11 +55,11 @@ struct Sobol1Table {
 };
 inline constexpr Sobol1Table kSobol1{};
 
-inline uint32_t sobol1Bits(uint32_t i, uint32_t scramble) {
-  const uint32_t r = kSobol1.t[0][i & 0xffu] ^ kSobol1.t[1][(i >> 8) & 0xffu] ^ kSobol1.t[2][(i >> 16) & 0xffu] ^
-                     kSobol1.t[3][i >> 24];
-  return (r ^ scramble) >> 8;
+constexpr uint32_t sobol1Point(uint32_t i) {
+  return kSobol1.t[0][i & 0xffu] ^ kSobol1.t[1][(i >> 8) & 0xffu] ^ kSobol1.t[2][(i >> 16) & 0xffu] ^
+         kSobol1.t[3][i >> 24];
 }
+inline uint32_t sobol1Bits(uint32_t i, uint32_t scramble) { return (sobol1Point(i) ^ scramble) >> 8; }
 inline float sobol1(uint32_t i, uint32_t scramble) { return float(sobol1Bits(i, scramble)) * 0x1p-24f; }
 
 /// sin a and cos a for |a| ≤ π/4, by the minimax polynomials of Cephes' sinf and cosf (within

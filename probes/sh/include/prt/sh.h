@@ -50,9 +50,9 @@ int bandOf(int i);
 void evaluate(int bands, const glm::vec3& d, float* out);
 /// Same in double precision (tests, projections).
 void evaluate(int bands, const glm::dvec3& d, double* out);
-/// evaluate() at eight unit directions (x[k], y[k], z[k]), k < 8, at once: out[8·i + k] is
-/// coefficient i of direction k, with the same bits as evaluate() of that direction (the same
-/// operations in the same order, eight lanes wide).
+/// evaluate() at eight unit directions (x[k], y[k], z[k]), k < 8: out[8·i + k] is coefficient i
+/// of direction k, with the same bits as evaluate() of that direction. At 3 bands with AVX2 the
+/// eight lanes at once (evaluate's operations written out); otherwise one direction at a time.
 void evaluate8(int bands, const float* x, const float* y, const float* z, float* out);
 /// Convenience form returning a vector.
 std::vector<float> evaluate(int bands, const glm::vec3& d);
