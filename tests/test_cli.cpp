@@ -402,7 +402,7 @@ TEST(CliHostileInput, CliRefusesCorruptInputsOfEveryCommand) {
   std::string deep = root.write("scene/deep.gltf", "{\"asset\":{\"version\":\"2.0\"},\"extras\":" +
                                                        std::string(5000, '[') + std::string(5000, ']') + "}");
   std::string hdr = root.write("scene/many.hdr", "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 20000 +X 20000\n");
-  std::string vdb = root.write("scene/cut.vdb", std::string(" BDV\0\0\0\0\xdc\0\0\0", 12));
+  std::string vdb = root.write("scene/cut.vdb", std::string(" BDV\0\0\0\0\xe0\0\0\0", 12));
   const std::pair<std::vector<std::string>, std::string> cases[] = {
       {{"bake", deep, "-o", (out / "a.glb").string(), "-q"}, "deep.gltf: JSON nested deeper"},
       {{"light", hdr, "-o", (out / "l.json").string()}, "many.hdr: image 20000x20000 is too large"},

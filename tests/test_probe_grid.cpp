@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -673,6 +674,66 @@ TEST(ProbeGridVdb, MissingNonVdbAndTruncatedFilesRaiseErrors) {
     expectError([&] { readProbeGrid(cut); }, cut, "corrupt or truncated");
     expectError([&] { describeProbeFile(cut); }, cut, "corrupt or truncated");
   }
+}
+
+// OpenVDB makes a string or vector as long as a size field says (up to 4 GiB, zero-filled) before
+// reading it: a corrupt 18 KB file cost 2.5 GB and 5 s. prt checks every such field against the
+// bytes left first (vdb_layout.h), so each corrupt size below is named in the message, where
+// OpenVDB itself would have allocated and then reported only the end of the file.
+TEST(ProbeGridVdb, SizeFieldsAreCheckedBeforeOpenVdbTrustsThem) {
+  TempDir dir;
+  std::mt19937 rng(12);
+  const std::string good = dir.file("good.vdb");
+  writeProbeGrid(randomGrid(2, glm::dvec3(0.5), rng), good);
+  const std::string bytes = [&] {
+    std::ifstream in(good, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }();
+  const auto u32 = [](uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  const auto at = [&](const std::string& needle) {
+    const size_t i = bytes.find(needle);
+    EXPECT_NE(i, std::string::npos) << "no '" << needle << "' in the file";
+    return i == std::string::npos ? size_t(0) : i;
+  };
+  const auto patched = [&](size_t offset, const std::string& with) {
+    std::string b = bytes;
+    b.replace(offset, with.size(), with);
+    return b;
+  };
+  // The file's metadata item "scene": its name, its type name "string", then the value's size.
+  const size_t scene = at(u32(5) + "scene" + u32(6) + "string");
+  // The first grid's descriptor: its name, its type name, an empty instance parent, 3 offsets.
+  const std::string firstGrid = u32(14) + "transfer_00_00";
+  const size_t descriptor = at(firstGrid);
+  uint32_t typeLength = 0;
+  std::memcpy(&typeLength, bytes.data() + descriptor + firstGrid.size(), 4);
+  const size_t offsets = descriptor + firstGrid.size() + 4 + typeLength + 4;
+  // Its io::DelayedLoadMetadata: name, type, byte count, then the count of leaf entries.
+  const size_t delayed = at(u32(17) + "file_delayed_load" + u32(13) + "__delayedload") + 4 + 17 + 4 + 13 + 4;
+
+  const std::pair<std::string, const char*> cases[] = {
+      {patched(scene + 19, u32(0x7fffffff)), "metadata 'scene' (string) of 2147483647 bytes at byte"},
+      {patched(scene, u32(0xf0000000)), "'s name of 4026531840 bytes at byte"},
+      {patched(8, u32(221)), "VDB file format version 221 is older than prt reads"},
+      {patched(8, u32(225)), "VDB file format version 225 is newer than this OpenVDB reads (224)"},
+      {patched(20, std::string(1, '\0')), "a VDB stream without grid offsets"},
+      {patched(offsets + 16, std::string(8, '\x7f')), "grid 'transfer_00_00''s offsets"},
+      {patched(delayed, u32(0x10000000)), "268435456 leaf entries in a grid of"},
+  };
+  int n = 0;
+  for (const auto& [content, what] : cases) {
+    const std::string bad = dir.file(cat("bad_", n++, ".vdb"));
+    writeText(bad, content);
+    expectError([&] { readProbeGrid(bad); }, bad, what);
+    try {
+      describeProbeFile(bad);
+      ADD_FAILURE() << bad << " was read";
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    }
+  }
+  // The unpatched file still reads (the walk accepts what OpenVDB writes).
+  EXPECT_NO_THROW(readProbeGrid(good));
 }
 
 // Files that are valid VDB but not a consistent probe grid, made by editing a good file with

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <tuple>
 
+#include <openvdb/io/DelayedLoadMetadata.h>
 #include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
 #include <tbb/blocked_range.h>
@@ -24,6 +25,7 @@
 #include "prt/math.h"
 #include "prt/probe_grid.h"
 #include "prt/progress.h"
+#include "vdb_layout.h"
 
 namespace prt {
 
@@ -119,10 +121,27 @@ struct LoadedFile {
   uintmax_t fileSize = 0;
 };
 
-// Reads every grid of the file. Through io::Stream on our own ifstream rather than io::File:
-// OpenVDB does not check for the end of the stream everywhere, so a truncated file could come
-// back as garbage (or a garbage size become a huge allocation); our stream throws on the first
-// short read instead. io::File would also memory-map the file for delayed loading.
+// How MetaMap::readMeta reads a value of this type, from OpenVDB's own registry (vdb_layout.h).
+vdb_layout::MetaType metaTypeOf(const std::string& type) {
+  using vdb_layout::MetaRead;
+  if (!vdb::Metadata::isRegisteredType(type) || type == vdb::StringMetadata::staticTypeName())
+    return {MetaRead::Bytes};
+  if (type == vdb::io::DelayedLoadMetadata::staticTypeName()) return {MetaRead::DelayedLoad};
+  static std::mutex mutex;
+  static std::map<std::string, uint32_t> sizes;
+  std::lock_guard lock(mutex);
+  auto it = sizes.find(type);
+  if (it == sizes.end()) it = sizes.emplace(type, vdb::Metadata::createMetadata(type)->size()).first;
+  return {MetaRead::Fixed, it->second};
+}
+
+// Reads every grid of the file. First vdb_layout::walk checks every size OpenVDB would trust
+// before reading (a corrupt string length cost gigabytes). Then each grid goes through its own
+// io::Stream over the file's header and metadata and that grid's bytes (vdb_layout::SpliceBuf),
+// all read from our ifstream: OpenVDB does not check for the end of the stream everywhere, so a
+// truncated file could come back as garbage (or a garbage size become a huge allocation); our
+// stream throws on the first short read instead, and a corrupt tree ends at its own grid's end.
+// io::File would also memory-map the file for delayed loading.
 LoadedFile loadFile(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error(cat(path, ": no such file"));
@@ -139,10 +158,22 @@ LoadedFile loadFile(const std::string& path) {
   in.exceptions(std::ios::failbit | std::ios::badbit);
   initOpenVdb();
   try {
-    vdb::io::Stream stream(in, /*delayLoad=*/false);
-    out.meta = stream.getMetadata();
-    vdb::GridPtrVecPtr grids = stream.getGrids();
-    if (grids) out.grids = *grids;
+    const vdb_layout::Layout layout = vdb_layout::walk(in, out.fileSize, path, vdb::OPENVDB_FILE_VERSION, metaTypeOf);
+    std::string header(layout.prefixEnd, '\0');
+    in.seekg(0);
+    in.read(header.data(), std::streamsize(header.size()));
+    const auto readStream = [&](int32_t gridCount, uint64_t begin, uint64_t end) {
+      vdb_layout::SpliceBuf buf(vdb_layout::gridStreamPrefix(header, gridCount), in, begin, end);
+      std::istream gridIn(&buf);
+      gridIn.exceptions(std::ios::failbit | std::ios::badbit);
+      vdb::io::Stream stream(gridIn, /*delayLoad=*/false);
+      if (!out.meta) out.meta = stream.getMetadata();
+      if (vdb::GridPtrVecPtr grids = stream.getGrids()) out.grids.insert(out.grids.end(), grids->begin(), grids->end());
+    };
+    if (layout.grids.empty()) readStream(0, 0, 0);
+    for (const vdb_layout::GridSpan& g : layout.grids) readStream(1, g.begin, g.end);
+  } catch (const Error&) {
+    throw;
   } catch (const std::ios::failure&) {
     // OpenVDB's readTopology is not exception-safe: the half-read tree leaks (a few MB per bad
     // file, found with ASan). Acceptable for a reader that reports the file and moves on.
@@ -166,13 +197,13 @@ class MetaReader {
     vdb::Metadata::ConstPtr m = required(key);
     if (auto v = meta_.getMetadata<vdb::Int32Metadata>(key)) return v->value();
     if (auto v = meta_.getMetadata<vdb::Int64Metadata>(key)) return v->value();
-    throw Error(cat(path_, ": metadata '", key, "' is ", m->typeName(), ", expected an integer"));
+    throw Error(cat(path_, ": metadata '", key, "' is ", printable(m->typeName()), ", expected an integer"));
   }
 
   std::string string(const std::string& key) const {
     vdb::Metadata::ConstPtr m = required(key);
     if (auto v = meta_.getMetadata<vdb::StringMetadata>(key)) return v->value();
-    throw Error(cat(path_, ": metadata '", key, "' is ", m->typeName(), ", expected a string"));
+    throw Error(cat(path_, ": metadata '", key, "' is ", printable(m->typeName()), ", expected a string"));
   }
 
   glm::ivec3 vec3i(const std::string& key) const {
@@ -181,7 +212,7 @@ class MetaReader {
       const vdb::Vec3i& x = v->value();
       return {x[0], x[1], x[2]};
     }
-    throw Error(cat(path_, ": metadata '", key, "' is ", m->typeName(), ", expected vec3i"));
+    throw Error(cat(path_, ": metadata '", key, "' is ", printable(m->typeName()), ", expected vec3i"));
   }
 
   glm::dvec3 vec3d(const std::string& key) const {
@@ -190,7 +221,7 @@ class MetaReader {
       const vdb::Vec3d& x = v->value();
       return {x[0], x[1], x[2]};
     }
-    throw Error(cat(path_, ": metadata '", key, "' is ", m->typeName(), ", expected vec3d"));
+    throw Error(cat(path_, ": metadata '", key, "' is ", printable(m->typeName()), ", expected vec3d"));
   }
 
  private:

@@ -565,28 +565,6 @@ std::string quoteList(const std::vector<std::string>& names) {
 
 enum class Shape { Scalar, Color, Direction };
 
-// A string from the file for a message: cut after `maxBytes` bytes ("..."), control characters
-// and bytes that are not UTF-8 written as \xNN, so the message stays one short line.
-std::string printable(const std::string& s, size_t maxBytes = 40) {
-  std::string out;
-  for (size_t i = 0; i < s.size();) {
-    if (out.size() >= maxBytes) return out + "...";
-    const auto c = static_cast<unsigned char>(s[i]);
-    const size_t n = c < 0x80 ? 1 : c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
-    bool valid = n > 0 && i + n <= s.size() && (n > 1 || (c >= 0x20 && c != 0x7F));
-    for (size_t k = 1; valid && k < n; ++k) valid = (static_cast<unsigned char>(s[i + k]) & 0xC0) == 0x80;
-    if (valid) {
-      out.append(s, i, n);
-      i += n;
-    } else {
-      const char* hex = "0123456789abcdef";
-      out += {'\\', 'x', hex[c >> 4], hex[c & 15]};
-      ++i;
-    }
-  }
-  return out;
-}
-
 // A JSON value for a message: compact, and cut short so the message stays one readable line.
 std::string shortDump(const nlohmann::json& j) { return printable(j.dump()); }
 

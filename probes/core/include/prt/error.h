@@ -35,6 +35,10 @@ std::string cat(const Args&... args) {
   return os.str();
 }
 
+/// A string from a file for a one-line message: cut after `maxBytes` bytes ("..."), control
+/// characters and bytes that are not UTF-8 written as \xNN.
+std::string printable(const std::string& s, size_t maxBytes = 40);
+
 namespace detail {
 [[noreturn]] inline void checkFailed(const char* file, int line, const std::string& what) {
   std::fprintf(stderr, "prt: internal error at %s:%d: %s\n", file, line, what.c_str());
