@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "harness.h"
+#include "prt/atomic_file.h"
 #include "prt/error.h"
 #include "prt/probe_grid.h"
 #include "prt/sh.h"
@@ -661,10 +662,7 @@ TEST(ProbeGridVdb, MissingNonVdbAndTruncatedFilesRaiseErrors) {
   std::mt19937 rng(10);
   const std::string good = dir.file("good.vdb");
   writeProbeGrid(randomGrid(2, glm::dvec3(0.5), rng), good);
-  const std::string bytes = [&] {
-    std::ifstream in(good, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  }();
+  const std::string bytes = readFile(good);
   // Half the file (the case the brief names) and other cut points: inside the header, the
   // metadata, a grid's topology, its compressed buffers, one byte short.
   const std::string cut = dir.file("cut.vdb");
@@ -685,10 +683,7 @@ TEST(ProbeGridVdb, SizeFieldsAreCheckedBeforeOpenVdbTrustsThem) {
   std::mt19937 rng(12);
   const std::string good = dir.file("good.vdb");
   writeProbeGrid(randomGrid(2, glm::dvec3(0.5), rng), good);
-  const std::string bytes = [&] {
-    std::ifstream in(good, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  }();
+  const std::string bytes = readFile(good);
   const auto u32 = [](uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
   const auto at = [&](const std::string& needle) {
     const size_t i = bytes.find(needle);
