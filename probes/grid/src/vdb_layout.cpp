@@ -78,6 +78,8 @@ class Cursor {
 
 // A Blosc buffer of `bytes` bytes that OpenVDB decompresses into `expected` bytes: Blosc trusts
 // the sizes in its own 16-byte header (uncompressed size at byte 4, compressed size at byte 12).
+// OpenVDB pads arrays shorter than 128 bytes with zeros to 128 before compressing them
+// (points/StreamCompression.h, BLOSC_PAD_BYTES).
 void bloscBuffer(Cursor& c, uint32_t bytes, uint64_t expected, const std::string& what) {
   if (bytes < 16) c.corrupt(cat(what, ": a compressed buffer of ", bytes, " bytes, shorter than its header"));
   c.need(bytes, what);
@@ -86,9 +88,10 @@ void bloscBuffer(Cursor& c, uint32_t bytes, uint64_t expected, const std::string
   const uint32_t nbytes = c.read<uint32_t>(what.c_str());
   c.skip(4, what);
   const uint32_t cbytes = c.read<uint32_t>(what.c_str());
-  if (nbytes != expected || cbytes != bytes)
+  constexpr uint64_t kPadBytes = 128;
+  if ((nbytes != expected && !(expected < kPadBytes && nbytes == kPadBytes)) || cbytes != bytes)
     c.corrupt(cat(what, ": a compressed buffer says ", nbytes, " bytes from ", cbytes, ", expected ", expected,
-                  " from ", bytes));
+                  expected < kPadBytes ? " (or 128, padded)" : "", " from ", bytes));
   c.skip(bytes - (c.pos() - start), what);
 }
 
