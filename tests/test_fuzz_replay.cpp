@@ -42,10 +42,6 @@ void replay(const std::string& target, Load&& load) {
   EXPECT_FALSE(files.empty()) << "no seeds for " << target;
   for (const fs::path& f : files) {
     SCOPED_TRACE(f.string());
-    // bad_alloc_*: a library asks for an impossible allocation, which must throw
-    // std::bad_alloc (reported as a corrupt file); ASan's operator new aborts instead, so these
-    // are replayed by the other builds (and by fuzz_vdb, which restores the standard new).
-    if (test::kAddressSanitizer && f.filename().string().rfind("bad_alloc_", 0) == 0) continue;
     try {
       load(f.string());
     } catch (const Error& e) {

@@ -703,16 +703,21 @@ TEST(ProbeGridVdb, SizeFieldsAreCheckedBeforeOpenVdbTrustsThem) {
   uint32_t typeLength = 0;
   std::memcpy(&typeLength, bytes.data() + descriptor + firstGrid.size(), 4);
   const size_t offsets = descriptor + firstGrid.size() + 4 + typeLength + 4;
+  int64_t blockPos = 0;  // where the grid's topology ends and its leaves' buffers begin
+  std::memcpy(&blockPos, bytes.data() + offsets + 8, 8);
+  const auto i64 = [](int64_t v) { return std::string(reinterpret_cast<const char*>(&v), 8); };
   // Its io::DelayedLoadMetadata: name, type, byte count, then the count of leaf entries.
   const size_t delayed = at(u32(17) + "file_delayed_load" + u32(13) + "__delayedload") + 4 + 17 + 4 + 13 + 4;
 
-  const std::pair<std::string, const char*> cases[] = {
+  const std::pair<std::string, std::string> cases[] = {
       {patched(scene + 19, u32(0x7fffffff)), "metadata 'scene' (string) of 2147483647 bytes at byte"},
-      {patched(scene, u32(0xf0000000)), "'s name of 4026531840 bytes at byte"},
+      {patched(scene, u32(0xf0000000)), ", name of 4026531840 bytes at byte"},
       {patched(8, u32(221)), "VDB file format version 221 is older than prt reads"},
       {patched(8, u32(225)), "VDB file format version 225 is newer than this OpenVDB reads (224)"},
       {patched(20, std::string(1, '\0')), "a VDB stream without grid offsets"},
-      {patched(offsets + 16, std::string(8, '\x7f')), "grid 'transfer_00_00''s offsets"},
+      {patched(offsets + 16, std::string(8, '\x7f')), "grid 'transfer_00_00', offsets"},
+      {patched(offsets + 8, i64(blockPos - 1)), cat("grid 'transfer_00_00', topology ends at byte ", blockPos,
+                                                    ", where the file says ", blockPos - 1)},
       {patched(delayed, u32(0x10000000)), "268435456 leaf entries in a grid of"},
   };
   int n = 0;
@@ -729,6 +734,70 @@ TEST(ProbeGridVdb, SizeFieldsAreCheckedBeforeOpenVdbTrustsThem) {
   }
   // The unpatched file still reads (the walk accepts what OpenVDB writes).
   EXPECT_NO_THROW(readProbeGrid(good));
+}
+
+// The walk accepts what OpenVDB itself writes: level sets (inactive values ±background), one or
+// two other inactive values, all values, tiles, half floats, an empty grid, a bool grid (not
+// walked), many grids in one file. Each file then fails only as "not a prt probe file".
+TEST(ProbeGridVdb, WalkAcceptsWhatOpenVdbWrites) {
+  if (!havePyopenvdb()) GTEST_SKIP() << "pyopenvdb not available for " << kPython;
+  TempDir dir;
+  const std::string script = dir.file("variants.py");
+  writeText(script, R"(import random, sys
+import pyopenvdb as vdb
+random.seed(1)
+out = sys.argv[1]
+grids = []
+ls = vdb.createLevelSetSphere(radius=20.0, center=(0, 0, 0), voxelSize=0.5, halfWidth=3.0)
+ls.name = 'level_set'
+grids.append(ls)
+half = vdb.createLevelSetSphere(radius=10.0, center=(5, 0, 0), voxelSize=0.5, halfWidth=3.0)
+half.name = 'level_set_half'
+half.saveFloatAsHalf = True
+grids.append(half)
+# Leaves whose inactive values are all 7 (one value), all 7 or 3 (two), or anything (all values).
+for name, inactive in (('all_values', None), ('two_inactive', (7.0, 3.0)), ('one_inactive', (7.0,))):
+    g = vdb.FloatGrid(background=2.5)
+    g.name = name
+    g.fill((0, 0, 0), (31, 31, 31), 7.0, False)
+    a = g.getAccessor()
+    for i in range(2000):
+        c = (random.randint(0, 31), random.randint(0, 31), random.randint(0, 31))
+        a.setValueOn(c, random.random())
+        c = (random.randint(0, 31), random.randint(0, 31), random.randint(0, 31))
+        a.setValueOff(c, random.choice(inactive) if inactive else random.random())
+    grids.append(g)
+v = vdb.Vec3SGrid()
+v.name = 'vec3_half'
+v.saveFloatAsHalf = True
+va = v.getAccessor()
+for i in range(2000):
+    va.setValueOn((random.randint(-30, 30), random.randint(-30, 30), random.randint(-30, 30)), (1, 2, 3))
+grids.append(v)
+t = vdb.FloatGrid()
+t.name = 'tiles'
+t.fill((0, 0, 0), (400, 400, 40), 3.0)
+grids.append(t)
+e = vdb.FloatGrid()
+e.name = 'empty'
+grids.append(e)
+b = vdb.BoolGrid()
+b.name = 'bool'
+b.getAccessor().setValueOn((1, 2, 3), True)
+grids.append(b)
+vdb.write(out + '/all.vdb', grids)
+for g in grids:
+    vdb.write(out + '/' + g.name + '.vdb', [g])
+)");
+  const test::RunResult r = test::run(kPython, {script, dir.path().string()}, {.mergeOutput = true});
+  ASSERT_EQ(r.status, 0) << r.out;
+  int files = 0;
+  for (const auto& e : fs::directory_iterator(dir.path()))
+    if (e.path().extension() == ".vdb") {
+      ++files;
+      expectError([&] { readProbeGrid(e.path().string()); }, e.path().string(), "metadata 'prt_format_version' missing");
+    }
+  EXPECT_EQ(files, 10);
 }
 
 // Files that are valid VDB but not a consistent probe grid, made by editing a good file with

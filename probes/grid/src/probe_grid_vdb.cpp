@@ -135,6 +135,21 @@ vdb_layout::MetaType metaTypeOf(const std::string& type) {
   return {MetaRead::Fixed, it->second};
 }
 
+// The bytes a transform map of this type reads: a default one written out (0 for unknown types).
+uint32_t mapBytesOf(const std::string& type) {
+  if (!vdb::math::MapRegistry::isRegistered(type)) return 0;
+  static std::mutex mutex;
+  static std::map<std::string, uint32_t> sizes;
+  std::lock_guard lock(mutex);
+  auto it = sizes.find(type);
+  if (it == sizes.end()) {
+    std::ostringstream os;
+    vdb::math::MapRegistry::createMap(type)->write(os);
+    it = sizes.emplace(type, uint32_t(os.str().size())).first;
+  }
+  return it->second;
+}
+
 // Reads every grid of the file. First vdb_layout::walk checks every size OpenVDB would trust
 // before reading (a corrupt string length cost gigabytes). Then each grid goes through its own
 // io::Stream over the file's header and metadata and that grid's bytes (vdb_layout::SpliceBuf),
@@ -158,7 +173,7 @@ LoadedFile loadFile(const std::string& path) {
   in.exceptions(std::ios::failbit | std::ios::badbit);
   initOpenVdb();
   try {
-    const vdb_layout::Layout layout = vdb_layout::walk(in, out.fileSize, path, vdb::OPENVDB_FILE_VERSION, metaTypeOf);
+    const vdb_layout::Layout layout = vdb_layout::walk(in, out.fileSize, path, vdb::OPENVDB_FILE_VERSION, metaTypeOf, mapBytesOf);
     std::string header(layout.prefixEnd, '\0');
     in.seekg(0);
     in.read(header.data(), std::streamsize(header.size()));

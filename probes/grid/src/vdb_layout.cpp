@@ -5,7 +5,11 @@
 #include "vdb_layout.h"
 
 #include <algorithm>
+#include <array>
+#include <map>
+#include <string_view>
 #include <cstring>
+#include <type_traits>
 
 #include "prt/error.h"
 
@@ -16,6 +20,16 @@ namespace {
 constexpr uint32_t kOldestVersion = 222;  // OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION (2013)
 constexpr uint64_t kUuidBytes = 36;       // the header's UUID, as text with its 4 hyphens
 constexpr uint32_t kNoCompressedSizes = 0xffffffffu;
+
+// What a size is for, in a message: a string, or a function that makes one (walking a big file
+// makes millions of checks and only a failed one needs its words).
+std::string describe(const std::string& what) { return what; }
+std::string describe(const char* what) { return what; }
+template <class F>
+  requires std::is_invocable_r_v<std::string, const F&>
+std::string describe(const F& what) {
+  return what();
+}
 
 // Reads forward through [pos, limit) of the file: every size is checked against what is left
 // before anything of that size is read.
@@ -36,14 +50,15 @@ class Cursor {
     throw Error(cat(path_, ": corrupt or truncated VDB file (", what, ")"));
   }
 
-  void need(uint64_t n, const std::string& what) const {
+  template <class W>
+  void need(uint64_t n, const W& what) const {
     if (n > left())
-      corrupt(cat(what, " of ", n, " bytes at byte ", pos_, ", ", left() == 0 ? "none" : std::to_string(left()),
-                  " left", limit_ == fileSize() ? "" : " in its grid"));
+      corrupt(cat(describe(what), " of ", n, " bytes at byte ", pos_, ", ",
+                  left() == 0 ? "none" : std::to_string(left()), " left", limit_ == fileSize_ ? "" : " in its grid"));
   }
 
-  template <class T>
-  T read(const char* what) {
+  template <class T, class W>
+  T read(const W& what) {
     need(sizeof(T), what);
     T v{};
     in_.read(reinterpret_cast<char*>(&v), sizeof v);
@@ -51,8 +66,9 @@ class Cursor {
     return v;
   }
 
-  std::string string(const std::string& what) {
-    const uint32_t n = read<uint32_t>(what.c_str());
+  template <class W>
+  std::string string(const W& what) {
+    const uint32_t n = read<uint32_t>(what);
     need(n, what);
     std::string s(n, '\0');
     in_.read(s.data(), std::streamsize(n));
@@ -60,13 +76,16 @@ class Cursor {
     return s;
   }
 
-  void skip(uint64_t n, const std::string& what) {
+  // Short skips through the stream's buffer (a seek would drop it), long ones by seeking.
+  template <class W>
+  void skip(uint64_t n, const W& what) {
     need(n, what);
-    in_.seekg(std::streamoff(n), std::ios::cur);
+    if (n <= 4096)
+      in_.ignore(std::streamsize(n));
+    else
+      in_.seekg(std::streamoff(n), std::ios::cur);
     pos_ += n;
   }
-
-  uint64_t fileSize() const { return fileSize_; }
 
  private:
   std::istream& in_;
@@ -126,9 +145,9 @@ void metaMap(Cursor& c, const MetaTypeOf& metaType, uint64_t regionBytes, const 
   const uint32_t count = c.read<uint32_t>(cat(where, " metadata count").c_str());
   for (uint32_t i = 0; i < count; ++i) {
     const std::string item = cat(where, " metadata item ", i);
-    const std::string name = c.string(cat(item, "'s name"));
+    const std::string name = c.string(cat(item, ", name"));
     const std::string what = cat(where, " metadata '", printable(name, 64), "'");
-    const std::string type = c.string(cat(what, "'s type name"));
+    const std::string type = c.string(cat(what, ", type name"));
     const uint32_t numBytes = c.read<uint32_t>(what.c_str());
     c.need(numBytes, cat(what, " (", printable(type, 64), ")"));
     const MetaType t = metaType(type);
@@ -147,10 +166,149 @@ void metaMap(Cursor& c, const MetaTypeOf& metaType, uint64_t regionBytes, const 
   }
 }
 
+// ---- Trees (tree/Tree.h, RootNode.h, InternalNode.h, LeafNode.h and io/Compression.h)
+
+constexpr uint32_t kZip = 0x1, kActiveMask = 0x2, kBlosc = 0x4;  // io::COMPRESS_*
+
+// A standard 5-4-3 tree's values: bytes of a value, and of the value saved as half (0: not a
+// floating-point type, which is never saved as half).
+struct TreeValues {
+  uint32_t bytes = 0, halfBytes = 0;
+};
+
+TreeValues treeValues(const std::string& gridType) {
+  static const std::pair<const char*, TreeValues> kTypes[] = {
+      {"Tree_float_5_4_3", {4, 2}},  {"Tree_double_5_4_3", {8, 2}}, {"Tree_int32_5_4_3", {4, 0}},
+      {"Tree_int64_5_4_3", {8, 0}},  {"Tree_vec2s_5_4_3", {8, 4}},  {"Tree_vec2d_5_4_3", {16, 4}},
+      {"Tree_vec2i_5_4_3", {8, 0}},  {"Tree_vec3s_5_4_3", {12, 6}}, {"Tree_vec3d_5_4_3", {24, 6}},
+      {"Tree_vec3i_5_4_3", {12, 0}},
+  };
+  for (const auto& [name, values] : kTypes)
+    if (gridType == name) return values;
+  return {};
+}
+
+// The walk of one grid's tree. Where it is (top node or leaf) is kept as numbers and put into
+// words only for a message.
+class TreeWalk {
+ public:
+  TreeWalk(Cursor& c, const std::string& grid, uint32_t compression, TreeValues values, bool half)
+      : c_(c), grid_(grid), compression_(compression), values_(values), half_(half && values.halfBytes > 0) {}
+
+  // Where the walk is, in words (for a message only).
+  std::string here() const { return cat(grid_, inBuffers_ ? ", leaf " : ", top node ", node_); }
+  auto at(const char* part) const {
+    return [this, part] { return cat(here(), ", ", part); };
+  }
+
+  // Tree::readTopology and RootNode::readTopology (file format 213 and later); the leaves' count.
+  uint64_t topology() {
+    c_.skip(4, at("buffer count"));
+    c_.skip(values_.bytes, at("background"));
+    const uint32_t tiles = c_.read<uint32_t>(at("tile count"));
+    const uint32_t children = c_.read<uint32_t>(at("child count"));
+    c_.skip(uint64_t(tiles) * (12 + values_.bytes + 1), [&] { return cat(grid_, ", ", tiles, " tiles"); });
+    // The root's table is a std::map by origin: a child read later replaces one read earlier at
+    // the same origin (and its leaves' buffers are never read).
+    std::map<std::array<int32_t, 3>, uint64_t> leaves;
+    for (uint32_t n = 0; n < children; ++n) {
+      node_ = n;
+      std::array<int32_t, 3> origin{};
+      for (int32_t& o : origin) o = c_.read<int32_t>(at("origin"));
+      leaves[origin] = internal(5);
+    }
+    uint64_t total = 0;
+    for (const auto& entry : leaves) total += entry.second;
+    return total;
+  }
+
+  // The leaves' buffers (LeafNode::readBuffers, format 222 and later): value mask, then values.
+  void buffers(uint64_t leaves) {
+    inBuffers_ = true;
+    for (uint64_t n = 0; n < leaves; ++n) {
+      node_ = n;
+      values(3, readMask(3));
+    }
+  }
+
+ private:
+  std::vector<uint64_t> readMask(int log2Dim) {
+    const size_t words = (size_t(1) << (3 * log2Dim)) / 64;
+    c_.need(words * 8, at("mask"));
+    std::vector<uint64_t> mask(words);
+    for (uint64_t& w : mask) w = c_.read<uint64_t>(at("mask"));
+    return mask;
+  }
+
+  // InternalNode::readTopology: child and value masks, the node's values, then its children
+  // in the order of the child mask; leaves (LeafNode::readTopology) store their value mask.
+  uint64_t internal(int log2Dim) {
+    const std::vector<uint64_t> childMask = readMask(log2Dim);
+    const std::vector<uint64_t> valueMask = readMask(log2Dim);
+    values(log2Dim, valueMask);
+    uint64_t leaves = 0;
+    for (uint64_t word : childMask)
+      for (; word; word &= word - 1) {
+        if (log2Dim == 5) {
+          leaves += internal(4);
+        } else {
+          c_.skip(64, at("leaf mask"));
+          ++leaves;
+        }
+      }
+    return leaves;
+  }
+
+  // io::readCompressedValues for a node of 2^(3·log2Dim) values and this value mask.
+  void values(int log2Dim, const std::vector<uint64_t>& valueMask) {
+    const uint64_t size = uint64_t(1) << (3 * log2Dim);
+    const int8_t meta = c_.read<int8_t>(at("compression metadata"));
+    enum { kNoMaskOneInactive = 2, kMaskNoInactive = 3, kMaskOneInactive = 4, kMaskTwoInactive = 5, kAllValues = 6 };
+    if (meta == kNoMaskOneInactive || meta == kMaskOneInactive || meta == kMaskTwoInactive)
+      c_.skip(uint64_t(values_.bytes) * (meta == kMaskTwoInactive ? 2 : 1), at("inactive values"));
+    if (meta == kMaskNoInactive || meta == kMaskOneInactive || meta == kMaskTwoInactive)
+      c_.skip(size / 8, at("selection mask"));
+    uint64_t count = size;
+    if ((compression_ & kActiveMask) && meta != kAllValues) {
+      count = 0;
+      for (uint64_t w : valueMask) count += uint64_t(__builtin_popcountll(w));
+    }
+    if (half_ && count == 0) return;  // io::HalfReader reads nothing for no values
+    block(count * (half_ ? values_.halfBytes : values_.bytes));
+  }
+
+  // io::readData: Blosc's or zlib's block (a signed size first: negative for bytes stored as
+  // they are), or the bytes themselves.
+  void block(uint64_t bytes) {
+    if (!(compression_ & (kBlosc | kZip))) {
+      c_.skip(bytes, at("values"));
+      return;
+    }
+    const int64_t n = c_.read<int64_t>(at("block size"));
+    if (n <= 0) {
+      const uint64_t stored = uint64_t(0) - uint64_t(n);
+      if (stored != bytes) c_.corrupt(cat(here(), ": a block of ", stored, " bytes as they are, expected ", bytes));
+      c_.skip(stored, at("values"));
+    } else if (compression_ & kBlosc) {
+      bloscBuffer(c_, uint64_t(n) > 0xffffffffu ? 0xffffffffu : uint32_t(n), bytes, cat(here(), ", values"));
+    } else {
+      c_.skip(uint64_t(n), at("values"));  // zlib's uncompress stops at the buffer's end
+    }
+  }
+
+  Cursor& c_;
+  const std::string& grid_;
+  uint32_t compression_;
+  TreeValues values_;
+  bool half_;
+  bool inBuffers_ = false;
+  uint64_t node_ = 0;
+};
+
 }  // namespace
 
 Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32_t maxVersion,
-            const MetaTypeOf& metaType) {
+            const MetaTypeOf& metaType, const MapBytesOf& mapBytes) {
   Layout out;
   Cursor c(in, fileSize, path);
   c.seek(0);
@@ -178,10 +336,13 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
     // io::GridDescriptor::read
     GridSpan span;
     span.begin = c.pos();
-    span.name = c.string(cat("grid ", g, "'s name"));
+    span.name = c.string(cat("grid ", g, ", name"));
     const std::string what = cat("grid '", printable(span.name, 64), "'");
-    c.string(cat(what, "'s type name"));
-    const std::string parent = c.string(cat(what, "'s instance parent name"));
+    std::string type = c.string(cat(what, ", type name"));
+    constexpr std::string_view kHalf = "_HalfFloat";  // io::GridDescriptor's suffix for half floats
+    const bool half = type.size() > kHalf.size() && type.compare(type.size() - kHalf.size(), kHalf.size(), kHalf) == 0;
+    if (half) type.resize(type.size() - kHalf.size());
+    const std::string parent = c.string(cat(what, ", instance parent name"));
     if (!parent.empty())
       throw Error(cat(path, ": grid '", printable(span.name, 64), "' is an instance of '", printable(parent, 64),
                       "' (it shares that grid's tree); prt probe files have no instanced grids"));
@@ -189,14 +350,26 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
     const auto blockPos = c.read<int64_t>(what.c_str());
     const auto endPos = c.read<int64_t>(what.c_str());
     if (gridPos != int64_t(c.pos()) || blockPos < gridPos || endPos < blockPos || uint64_t(endPos) > fileSize)
-      c.corrupt(cat(what, "'s offsets ", gridPos, ", ", blockPos, ", ", endPos, " do not fit its descriptor's end ",
+      c.corrupt(cat(what, ", offsets ", gridPos, ", ", blockPos, ", ", endPos, " do not fit its descriptor's end ",
                     c.pos(), " and the file's ", fileSize, " bytes"));
     span.end = uint64_t(endPos);
-    // io::Archive::readGrid up to the tree, within the grid's own bytes.
+    // io::Archive::readGrid, within the grid's own bytes.
     c.setLimit(span.end);
-    c.read<uint32_t>(cat(what, "'s compression flags").c_str());
+    const uint32_t compression = c.read<uint32_t>(cat(what, ", compression flags").c_str());
     metaMap(c, metaType, span.end - span.begin, what);
-    c.string(cat(what, "'s transform type name"));  // math::Transform::read; the map is fixed-size
+    // math::Transform::read: the map's type name, then the map.
+    const std::string map = c.string(cat(what, ", transform type name"));
+    const uint32_t mapSize = mapBytes(map);
+    const TreeValues values = treeValues(type);
+    if (mapSize > 0 && values.bytes > 0) {
+      c.skip(mapSize, cat(what, ", transform"));
+      TreeWalk tree(c, what, compression, values, half);
+      const uint64_t leaves = tree.topology();
+      if (c.pos() != uint64_t(blockPos))
+        c.corrupt(cat(what, ", topology ends at byte ", c.pos(), ", where the file says ", blockPos));
+      tree.buffers(leaves);
+      if (c.pos() != span.end) c.corrupt(cat(what, ", buffers end at byte ", c.pos(), ", where the file says ", span.end));
+    }
     c.setLimit(fileSize);
     c.seek(span.end);
     out.grids.push_back(std::move(span));

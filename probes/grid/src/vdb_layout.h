@@ -1,16 +1,22 @@
 // The layout of an OpenVDB file, checked before OpenVDB reads it, and a stream over one grid of it.
 //
-// OpenVDB 10 trusts the size fields that precede its strings and metadata values: it makes a
-// string or vector as long as the field says (up to 4 GiB, filled with zeros) before it reads a
-// byte of it. A corrupt 18 KB file cost 2.5 GB and 5 s before OpenVDB noticed the end of the
-// file. walkVdb reads the file's structure (header, metadata, grid descriptors, each grid's
-// metadata and transform name) the way OpenVDB will, and checks every such size against the bytes
-// that are left, so OpenVDB is only handed files whose sizes fit. The trees (topology and values)
-// it does not parse: GridStream gives OpenVDB one grid's bytes at a time, from its descriptor to the
-// end offset the file records for it, so a corrupt tree reaches the end of its own bytes (a short
-// read, which throws) instead of running on into the next grid's descriptor.
+// OpenVDB 10 trusts the size fields in a file: it makes a string or vector as long as a field
+// says (up to 4 GiB, filled with zeros) before it reads a byte of it (a corrupt 18 KB file cost
+// 2.5 GB and 5 s before OpenVDB noticed the end of the file), and it reads an uncompressed block
+// of the length the block's size field says into a buffer of the length the tree expects (a heap
+// overflow). walk() reads the file's structure the way OpenVDB will (header, metadata, grid
+// descriptors, each grid's metadata, transform, tree topology and leaf buffers) and checks every
+// such size against the bytes left and against what OpenVDB will read it into, so OpenVDB is only
+// handed files whose sizes fit. Each grid's walk must end at the offsets the file records for its
+// buffers and its end. SpliceBuf then gives OpenVDB one grid's bytes at a time, from its
+// descriptor to its recorded end, so OpenVDB reads exactly the bytes that were walked.
 //
-// No OpenVDB here: how a metadata type is read is asked of OpenVDB's registry by the caller.
+// Trees are walked for the value types of OpenVDB's standard 5-4-3 trees (float, double, int32,
+// int64, vec2/vec3 of s, d, i); other trees (bool and mask leaves, point data) only get the
+// bounded stream.
+//
+// No OpenVDB here: how a metadata type or transform map is read is asked of OpenVDB's registry by
+// the caller.
 #pragma once
 
 #include <cstdint>
@@ -33,6 +39,9 @@ struct MetaType {
   uint32_t size = 0;  // Fixed only
 };
 using MetaTypeOf = std::function<MetaType(const std::string& typeName)>;
+// The bytes a transform map of this type reads (math::MapBase::read); 0 for a type OpenVDB does
+// not know (it then refuses the file itself).
+using MapBytesOf = std::function<uint32_t(const std::string& mapType)>;
 
 // One grid of the file: [begin, end) holds its descriptor (names and offsets) and its data.
 struct GridSpan {
@@ -50,9 +59,10 @@ struct Layout {
 // Walks `in` (fileSize bytes, positioned anywhere). Throws prt::Error "path: corrupt or truncated
 // VDB file (...)" naming the first size that does not fit, or "path: ..." for a file OpenVDB could
 // read but prt does not take (a file format older than 222, or newer than maxVersion; a stream
-// without grid offsets; an instanced grid).
+// without grid offsets; an instanced grid). Grid counts and sizes are bounded by the file's bytes,
+// so the walk's time and memory are too.
 Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32_t maxVersion,
-            const MetaTypeOf& metaType);
+            const MetaTypeOf& metaType, const MapBytesOf& mapBytes);
 
 // A read-only stream buffer: `prefix` (bytes in memory), then bytes [begin, end) of `file`. Reading
 // past the end is the end of the stream. tellg works; other seeks fail.
