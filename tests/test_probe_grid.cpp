@@ -737,8 +737,8 @@ TEST(ProbeGridVdb, SizeFieldsAreCheckedBeforeOpenVdbTrustsThem) {
 }
 
 // The walk accepts what OpenVDB itself writes: level sets (inactive values ±background), one or
-// two other inactive values, all values, tiles, half floats, an empty grid, a bool grid (not
-// walked), many grids in one file. Each file then fails only as "not a prt probe file".
+// two other inactive values, all values, tiles, half floats, an empty grid, a frustum transform,
+// many grids in one file. Each file then fails only as "not a prt probe file".
 TEST(ProbeGridVdb, WalkAcceptsWhatOpenVdbWrites) {
   if (!havePyopenvdb()) GTEST_SKIP() << "pyopenvdb not available for " << kPython;
   TempDir dir;
@@ -781,13 +781,18 @@ grids.append(t)
 e = vdb.FloatGrid()
 e.name = 'empty'
 grids.append(e)
-b = vdb.BoolGrid()
-b.name = 'bool'
-b.getAccessor().setValueOn((1, 2, 3), True)
-grids.append(b)
+f = vdb.FloatGrid()
+f.name = 'frustum'
+f.fill((0, 0, 0), (9, 9, 9), 1.0)
+f.transform = vdb.createFrustumTransform(xyzMin=(0, 0, 0), xyzMax=(10, 10, 10), taper=0.5, depth=3.0, voxelSize=1.0)
+grids.append(f)
 vdb.write(out + '/all.vdb', grids)
 for g in grids:
     vdb.write(out + '/' + g.name + '.vdb', [g])
+b = vdb.BoolGrid()
+b.name = 'bool'
+b.getAccessor().setValueOn((1, 2, 3), True)
+vdb.write(out + '/bool.grid', [b])
 )");
   const test::RunResult r = test::run(kPython, {script, dir.path().string()}, {.mergeOutput = true});
   ASSERT_EQ(r.status, 0) << r.out;
@@ -798,6 +803,20 @@ for g in grids:
       expectError([&] { readProbeGrid(e.path().string()); }, e.path().string(), "metadata 'prt_format_version' missing");
     }
   EXPECT_EQ(files, 10);
+  // Bool trees (another leaf layout, whose blocks OpenVDB 10 reads as unchecked as any) are
+  // refused by name, not handed to OpenVDB.
+  const std::string boolGrid = dir.file("bool.grid");
+  expectError([&] { readProbeGrid(boolGrid); }, boolGrid, "grid 'bool' is a Tree_bool_5_4_3 grid, which prt does not read");
+  // A frustum map names a second map: its name's length is checked as well.
+  const std::string frustum = dir.file("frustum.vdb");
+  std::string bytes = readFile(frustum);
+  const std::string affine = std::string("\x09\0\0\0", 4) + "AffineMap";
+  const size_t at = bytes.find(affine);
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at, 4, std::string("\xf0\xff\xff\x7f", 4));
+  const std::string bad = dir.file("frustum_bad.grid");
+  writeText(bad, bytes);
+  expectError([&] { readProbeGrid(bad); }, bad, "frustum's second map type name of 2147483632 bytes");
 }
 
 // Files that are valid VDB but not a consistent probe grid, made by editing a good file with

@@ -174,19 +174,19 @@ LoadedFile loadFile(const std::string& path) {
   initOpenVdb();
   try {
     const vdb_layout::Layout layout = vdb_layout::walk(in, out.fileSize, path, vdb::OPENVDB_FILE_VERSION, metaTypeOf, mapBytesOf);
-    std::string header(layout.prefixEnd, '\0');
+    std::string start(layout.metadataEnd, '\0');
     in.seekg(0);
-    in.read(header.data(), std::streamsize(header.size()));
-    const auto readStream = [&](int32_t gridCount, uint64_t begin, uint64_t end) {
-      vdb_layout::SpliceBuf buf(vdb_layout::gridStreamPrefix(header, gridCount), in, begin, end);
+    in.read(start.data(), std::streamsize(start.size()));
+    const auto readStream = [&](bool metadata, int32_t gridCount, uint64_t begin, uint64_t end) {
+      vdb_layout::SpliceBuf buf(vdb_layout::streamPrefix(start, layout, metadata, gridCount), in, begin, end);
       std::istream gridIn(&buf);
       gridIn.exceptions(std::ios::failbit | std::ios::badbit);
       vdb::io::Stream stream(gridIn, /*delayLoad=*/false);
-      if (!out.meta) out.meta = stream.getMetadata();
+      if (metadata) out.meta = stream.getMetadata();
       if (vdb::GridPtrVecPtr grids = stream.getGrids()) out.grids.insert(out.grids.end(), grids->begin(), grids->end());
     };
-    if (layout.grids.empty()) readStream(0, 0, 0);
-    for (const vdb_layout::GridSpan& g : layout.grids) readStream(1, g.begin, g.end);
+    readStream(true, 0, 0, 0);  // the file's metadata, once
+    for (const vdb_layout::GridSpan& g : layout.grids) readStream(false, 1, g.begin, g.end);
   } catch (const Error&) {
     throw;
   } catch (const std::ios::failure&) {

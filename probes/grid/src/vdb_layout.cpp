@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <limits>
 #include <map>
 #include <string_view>
 #include <cstring>
@@ -97,9 +98,9 @@ class Cursor {
 
 // A Blosc buffer of `bytes` bytes that OpenVDB decompresses into `expected` bytes: Blosc trusts
 // the sizes in its own 16-byte header (uncompressed size at byte 4, compressed size at byte 12).
-// OpenVDB pads arrays shorter than 128 bytes with zeros to 128 before compressing them
-// (points/StreamCompression.h, BLOSC_PAD_BYTES).
-void bloscBuffer(Cursor& c, uint32_t bytes, uint64_t expected, const std::string& what) {
+// `padded`: compressed by points/StreamCompression (DelayedLoadMetadata), which pads arrays
+// shorter than 128 bytes with zeros to 128 first (BLOSC_PAD_BYTES); trees' blocks never are.
+void bloscBuffer(Cursor& c, uint32_t bytes, uint64_t expected, bool padded, const std::string& what) {
   if (bytes < 16) c.corrupt(cat(what, ": a compressed buffer of ", bytes, " bytes, shorter than its header"));
   c.need(bytes, what);
   const uint64_t start = c.pos();
@@ -108,9 +109,10 @@ void bloscBuffer(Cursor& c, uint32_t bytes, uint64_t expected, const std::string
   c.skip(4, what);
   const uint32_t cbytes = c.read<uint32_t>(what.c_str());
   constexpr uint64_t kPadBytes = 128;
-  if ((nbytes != expected && !(expected < kPadBytes && nbytes == kPadBytes)) || cbytes != bytes)
+  const bool pad = padded && expected < kPadBytes;
+  if ((nbytes != expected && !(pad && nbytes == kPadBytes)) || cbytes != bytes)
     c.corrupt(cat(what, ": a compressed buffer says ", nbytes, " bytes from ", cbytes, ", expected ", expected,
-                  expected < kPadBytes ? " (or 128, padded)" : "", " from ", bytes));
+                  pad ? " (or 128, padded)" : "", " from ", bytes));
   c.skip(bytes - (c.pos() - start), what);
 }
 
@@ -126,13 +128,13 @@ void delayedLoad(Cursor& c, uint32_t numBytes, uint64_t regionBytes, const std::
     c.corrupt(cat(what, ": ", count, " leaf entries in a grid of ", regionBytes, " bytes"));
   const uint32_t maskBytes = c.read<uint32_t>(what.c_str());
   if (maskBytes > 0)
-    bloscBuffer(c, maskBytes, count, what);
+    bloscBuffer(c, maskBytes, count, true, what);
   else
     c.skip(count, what);
   const uint32_t sizeBytes = c.read<uint32_t>(what.c_str());
   if (sizeBytes == kNoCompressedSizes) {
   } else if (sizeBytes > 0) {
-    bloscBuffer(c, sizeBytes, uint64_t(count) * 8, what);
+    bloscBuffer(c, sizeBytes, uint64_t(count) * 8, true, what);
   } else {
     c.skip(uint64_t(count) * 8, what);
   }
@@ -171,16 +173,16 @@ void metaMap(Cursor& c, const MetaTypeOf& metaType, uint64_t regionBytes, const 
 constexpr uint32_t kZip = 0x1, kActiveMask = 0x2, kBlosc = 0x4;  // io::COMPRESS_*
 
 // A standard 5-4-3 tree's values: bytes of a value, and of the value saved as half (0: not a
-// floating-point type, which is never saved as half).
+// floating-point type, which is never saved as half). The grid types OpenVDB 10 registers, less
+// bool and mask trees (other leaf layouts) and point grids.
 struct TreeValues {
   uint32_t bytes = 0, halfBytes = 0;
 };
 
 TreeValues treeValues(const std::string& gridType) {
   static const std::pair<const char*, TreeValues> kTypes[] = {
-      {"Tree_float_5_4_3", {4, 2}},  {"Tree_double_5_4_3", {8, 2}}, {"Tree_int32_5_4_3", {4, 0}},
-      {"Tree_int64_5_4_3", {8, 0}},  {"Tree_vec2s_5_4_3", {8, 4}},  {"Tree_vec2d_5_4_3", {16, 4}},
-      {"Tree_vec2i_5_4_3", {8, 0}},  {"Tree_vec3s_5_4_3", {12, 6}}, {"Tree_vec3d_5_4_3", {24, 6}},
+      {"Tree_float_5_4_3", {4, 2}}, {"Tree_double_5_4_3", {8, 2}},  {"Tree_int32_5_4_3", {4, 0}},
+      {"Tree_int64_5_4_3", {8, 0}}, {"Tree_vec3s_5_4_3", {12, 6}}, {"Tree_vec3d_5_4_3", {24, 6}},
       {"Tree_vec3i_5_4_3", {12, 0}},
   };
   for (const auto& [name, values] : kTypes)
@@ -290,7 +292,9 @@ class TreeWalk {
       if (stored != bytes) c_.corrupt(cat(here(), ": a block of ", stored, " bytes as they are, expected ", bytes));
       c_.skip(stored, at("values"));
     } else if (compression_ & kBlosc) {
-      bloscBuffer(c_, uint64_t(n) > 0xffffffffu ? 0xffffffffu : uint32_t(n), bytes, cat(here(), ", values"));
+      // io::bloscToStream writes Blosc's int-sized result: a larger block is corrupt.
+      if (n > std::numeric_limits<int32_t>::max()) c_.corrupt(cat(here(), ": a compressed block of ", n, " bytes"));
+      bloscBuffer(c_, uint32_t(n), bytes, false, cat(here(), ", values"));
     } else {
       c_.skip(uint64_t(n), at("values"));  // zlib's uncompress stops at the buffer's end
     }
@@ -304,6 +308,21 @@ class TreeWalk {
   bool inBuffers_ = false;
   uint64_t node_ = 0;
 };
+
+// math::Transform::read: the map's type name, then the map. A frustum map holds a second map,
+// named again (math::NonlinearFrustumMap::read: its box, taper and depth, then that map).
+void transform(Cursor& c, const MapBytesOf& mapBytes, const std::string& what, const std::string& path) {
+  constexpr const char* kFrustum = "NonlinearFrustumMap";
+  std::string map = c.string(cat(what, ", transform type name"));
+  if (map == kFrustum) {
+    c.skip(2 * 24 + 8 + 8, cat(what, ", frustum"));
+    map = c.string(cat(what, ", frustum's second map type name"));
+    if (map == kFrustum) c.corrupt(cat(what, ": a frustum map inside a frustum map"));
+  }
+  const uint32_t bytes = mapBytes(map);
+  if (bytes == 0) throw Error(cat(path, ": ", what, ": transform map '", printable(map, 64), "' is not one OpenVDB knows"));
+  c.skip(bytes, cat(what, ", transform"));
+}
 
 }  // namespace
 
@@ -327,8 +346,9 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
     throw Error(cat(path, ": a VDB stream without grid offsets (written by io::Stream); prt reads probe files "
                           "written as files (io::File, as prt bake and pyopenvdb write them)"));
   c.skip(kUuidBytes, "the header's UUID");
+  out.headerEnd = c.pos();
   metaMap(c, metaType, fileSize, "the file's");
-  out.prefixEnd = c.pos();
+  out.metadataEnd = c.pos();
 
   const int32_t gridCount = c.read<int32_t>("the grid count");
   if (gridCount < 0) c.corrupt(cat("a grid count of ", gridCount));
@@ -342,6 +362,13 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
     constexpr std::string_view kHalf = "_HalfFloat";  // io::GridDescriptor's suffix for half floats
     const bool half = type.size() > kHalf.size() && type.compare(type.size() - kHalf.size(), kHalf.size(), kHalf) == 0;
     if (half) type.resize(type.size() - kHalf.size());
+    // Trees the walk does not know are refused, not handed to OpenVDB unchecked: bool and mask
+    // trees reach the same unchecked block reads, point grids trust their own counts.
+    const TreeValues values = treeValues(type);
+    if (values.bytes == 0)
+      throw Error(cat(path, ": grid '", printable(span.name, 64), "' is a ", printable(type, 64),
+                      " grid, which prt does not read (a probe file holds float and vec3s grids; prt reads "
+                      "trees of float, double, int32, int64 and vec3 values)"));
     const std::string parent = c.string(cat(what, ", instance parent name"));
     if (!parent.empty())
       throw Error(cat(path, ": grid '", printable(span.name, 64), "' is an instance of '", printable(parent, 64),
@@ -357,19 +384,13 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
     c.setLimit(span.end);
     const uint32_t compression = c.read<uint32_t>(cat(what, ", compression flags").c_str());
     metaMap(c, metaType, span.end - span.begin, what);
-    // math::Transform::read: the map's type name, then the map.
-    const std::string map = c.string(cat(what, ", transform type name"));
-    const uint32_t mapSize = mapBytes(map);
-    const TreeValues values = treeValues(type);
-    if (mapSize > 0 && values.bytes > 0) {
-      c.skip(mapSize, cat(what, ", transform"));
-      TreeWalk tree(c, what, compression, values, half);
-      const uint64_t leaves = tree.topology();
-      if (c.pos() != uint64_t(blockPos))
-        c.corrupt(cat(what, ", topology ends at byte ", c.pos(), ", where the file says ", blockPos));
-      tree.buffers(leaves);
-      if (c.pos() != span.end) c.corrupt(cat(what, ", buffers end at byte ", c.pos(), ", where the file says ", span.end));
-    }
+    transform(c, mapBytes, what, path);
+    TreeWalk tree(c, what, compression, values, half);
+    const uint64_t leaves = tree.topology();
+    if (c.pos() != uint64_t(blockPos))
+      c.corrupt(cat(what, ", topology ends at byte ", c.pos(), ", where the file says ", blockPos));
+    tree.buffers(leaves);
+    if (c.pos() != span.end) c.corrupt(cat(what, ", buffers end at byte ", c.pos(), ", where the file says ", span.end));
     c.setLimit(fileSize);
     c.seek(span.end);
     out.grids.push_back(std::move(span));
@@ -377,11 +398,11 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
   return out;
 }
 
-std::string gridStreamPrefix(const std::string& headerAndMetadata, int32_t gridCount) {
-  std::string out = headerAndMetadata;
-  char bytes[sizeof gridCount];
-  std::memcpy(bytes, &gridCount, sizeof gridCount);
-  out.append(bytes, sizeof bytes);
+std::string streamPrefix(const std::string& fileStart, const Layout& layout, bool metadata, int32_t gridCount) {
+  std::string out = fileStart.substr(0, metadata ? layout.metadataEnd : layout.headerEnd);
+  const auto append = [&](auto v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  if (!metadata) append(uint32_t(0));  // an empty metadata map
+  append(gridCount);
   return out;
 }
 

@@ -12,8 +12,7 @@
 // descriptor to its recorded end, so OpenVDB reads exactly the bytes that were walked.
 //
 // Trees are walked for the value types of OpenVDB's standard 5-4-3 trees (float, double, int32,
-// int64, vec2/vec3 of s, d, i); other trees (bool and mask leaves, point data) only get the
-// bounded stream.
+// int64, vec3 of s, d, i); grids of other trees (bool and mask leaves, point data) are refused.
 //
 // No OpenVDB here: how a metadata type or transform map is read is asked of OpenVDB's registry by
 // the caller.
@@ -52,7 +51,8 @@ struct GridSpan {
 
 struct Layout {
   uint32_t fileVersion = 0;
-  uint64_t prefixEnd = 0;  // the header and the file's metadata: [0, prefixEnd), then the grid count
+  uint64_t headerEnd = 0;    // [0, headerEnd): the header
+  uint64_t metadataEnd = 0;  // [headerEnd, metadataEnd): the file's metadata; then the grid count
   std::vector<GridSpan> grids;
 };
 
@@ -83,7 +83,9 @@ class SpliceBuf final : public std::streambuf {
   std::vector<char> buf_;
 };
 
-// The bytes a grid stream starts with: the file's header and metadata, then a grid count.
-std::string gridStreamPrefix(const std::string& headerAndMetadata, int32_t gridCount);
+// The bytes a stream of the file's parts starts with, from fileStart (the file's first
+// layout.metadataEnd bytes): the header, the file's metadata (or an empty map, so that a file of
+// many grids does not have its metadata read once a grid), then a grid count.
+std::string streamPrefix(const std::string& fileStart, const Layout& layout, bool metadata, int32_t gridCount);
 
 }  // namespace prt::vdb_layout
