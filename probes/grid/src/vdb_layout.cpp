@@ -1,15 +1,17 @@
-// The walk mirrors OpenVDB 10's readers, each step named after the function it mirrors:
-// io::Archive::readHeader, MetaMap::readMeta, io::GridDescriptor::read, io::Archive::readGrid
-// (up to the transform), math::Transform::read (its map's name) and
-// io::DelayedLoadMetadata::readValue. Layouts: docs/robustness.md, "VDB files".
+// The walk mirrors OpenVDB 10.0.1's readers, each step named after the function it mirrors:
+// io::Archive::readHeader, MetaMap::readMeta, io::DelayedLoadMetadata::readValue,
+// io::GridDescriptor::read, io::Archive::readGrid, math::Transform::read (and
+// NonlinearFrustumMap::read), Tree/RootNode/InternalNode/LeafNode::readTopology and readBuffers,
+// io::readCompressedValues, io::HalfReader and io::readData (bloscFromStream, unzipFromStream).
+// What it checks and why: docs/robustness.md (the probe VDB row and the fuzz_vdb findings).
 #include "vdb_layout.h"
 
 #include <algorithm>
 #include <array>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <string_view>
-#include <cstring>
 #include <type_traits>
 
 #include "prt/error.h"
