@@ -33,17 +33,15 @@ for t in "${targets[@]}"; do
   # OpenVDB leaks the node it was reading when a corrupt file makes it throw (suppressed, see
   # tests/sanitizer_suppressions.txt); in one process that adds up to the RSS limit within a
   # minute. Fork mode runs the target in short-lived child processes; OOMs still count.
-  # OpenVDB also allocates whatever a corrupt size field says before reading: prt checks those
-  # sizes first (probes/grid/src/vdb_layout.h), but trees it does not walk (bool, mask, point
-  # grids) can still ask; as in a normal build, an impossible size must throw std::bad_alloc
-  # (which prt reports as a corrupt file; fuzz_vdb.cpp restores that under ASan), so single
-  # allocations are not capped; the RSS limit still counts memory actually used.
-  # OpenVDB also fills strings and metadata as long as a corrupt length field says (up to 4 GiB)
-  # before reading them: prt now checks those lengths first (probes/grid/src/vdb_layout.h; such
-  # inputs had run past -timeout under ASan). What OpenVDB still sizes from the file is inside
-  # trees (node tables, compressed blocks), which prt does not parse: out-of-memory reports of this
-  # target stay skipped as OpenVDB's (none in a 300 s run on 2026-12-05); crashes, sanitizer
-  # reports and hangs (-timeout) still fail the run.
+  # OpenVDB also allocates and fills whatever a corrupt size field says before reading (strings
+  # and metadata up to 4 GiB, compressed blocks): prt checks every such size first
+  # (probes/grid/src/vdb_layout.h; such inputs had run past -timeout under ASan, and one block
+  # overflowed its buffer). Should one still get through, an impossible size must throw
+  # std::bad_alloc as in a normal build (fuzz_vdb.cpp restores that under ASan), so single
+  # allocations are not capped; the RSS limit still counts memory actually used. Out-of-memory
+  # reports of this target stay skipped as OpenVDB's: a valid sparse tree takes up to ~100x its
+  # bytes in memory (none in 540 s of runs on 2026-12-05); crashes, sanitizer reports and hangs
+  # (-timeout) fail the run.
   vdb_asan=""
   if [ "$t" = vdb ]; then
     # -detect_leaks=0: LeakSanitizer's per-input check (stop-the-world through ptrace) can

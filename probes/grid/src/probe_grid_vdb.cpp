@@ -151,9 +151,10 @@ uint32_t mapBytesOf(const std::string& type) {
 }
 
 // Reads every grid of the file. First vdb_layout::walk checks every size OpenVDB would trust
-// before reading (a corrupt string length cost gigabytes). Then each grid goes through its own
-// io::Stream over the file's header and metadata and that grid's bytes (vdb_layout::SpliceBuf),
-// all read from our ifstream: OpenVDB does not check for the end of the stream everywhere, so a
+// before reading (a corrupt string length cost gigabytes, a corrupt block size overflowed a
+// buffer). Then the file's metadata goes through one io::Stream, and each grid through its own
+// over the file's header and that grid's bytes (vdb_layout::SpliceBuf), all read from our
+// ifstream: OpenVDB does not check for the end of the stream everywhere, so a
 // truncated file could come back as garbage (or a garbage size become a huge allocation); our
 // stream throws on the first short read instead, and a corrupt tree ends at its own grid's end.
 // io::File would also memory-map the file for delayed loading.
