@@ -8,7 +8,8 @@
 #include "prt/probe_grid.h"
 
 // OpenVDB allocates whatever a corrupt size field says (bloscFromStream: new char[size])
-// before reading the bytes. In a normal build an impossible size throws std::bad_alloc, which
+// before reading the bytes. prt's walk of the file (probes/grid/src/vdb_layout.h) refuses such
+// sizes first; should one get through, in a normal build an impossible size throws std::bad_alloc, which
 // prt reports as a corrupt file; ASan's operator new aborts instead. These replacements give
 // back the standard behaviour on top of ASan's malloc (run with allocator_may_return_null=1
 // and alloc_dealloc_mismatch=0, as tests/fuzz/run.sh does), so the fuzzer tests what users get.

@@ -107,9 +107,9 @@ void bloscBuffer(Cursor& c, uint32_t bytes, uint64_t expected, bool padded, cons
   c.need(bytes, what);
   const uint64_t start = c.pos();
   c.skip(4, what);
-  const uint32_t nbytes = c.read<uint32_t>(what.c_str());
+  const uint32_t nbytes = c.read<uint32_t>(what);
   c.skip(4, what);
-  const uint32_t cbytes = c.read<uint32_t>(what.c_str());
+  const uint32_t cbytes = c.read<uint32_t>(what);
   constexpr uint64_t kPadBytes = 128;
   const bool pad = padded && expected < kPadBytes;
   if ((nbytes != expected && !(pad && nbytes == kPadBytes)) || cbytes != bytes)
@@ -125,15 +125,15 @@ void bloscBuffer(Cursor& c, uint32_t bytes, uint64_t expected, bool padded, cons
 void delayedLoad(Cursor& c, uint32_t numBytes, uint64_t regionBytes, const std::string& what) {
   if (numBytes == 0) return;
   const uint64_t end = c.pos() + numBytes;  // numBytes was checked against what is left
-  const uint32_t count = c.read<uint32_t>(what.c_str());
+  const uint32_t count = c.read<uint32_t>(what);
   if (uint64_t(count) * 8 > regionBytes)
     c.corrupt(cat(what, ": ", count, " leaf entries in a grid of ", regionBytes, " bytes"));
-  const uint32_t maskBytes = c.read<uint32_t>(what.c_str());
+  const uint32_t maskBytes = c.read<uint32_t>(what);
   if (maskBytes > 0)
     bloscBuffer(c, maskBytes, count, true, what);
   else
     c.skip(count, what);
-  const uint32_t sizeBytes = c.read<uint32_t>(what.c_str());
+  const uint32_t sizeBytes = c.read<uint32_t>(what);
   if (sizeBytes == kNoCompressedSizes) {
   } else if (sizeBytes > 0) {
     bloscBuffer(c, sizeBytes, uint64_t(count) * 8, true, what);
@@ -146,13 +146,13 @@ void delayedLoad(Cursor& c, uint32_t numBytes, uint64_t regionBytes, const std::
 
 // MetaMap::readMeta: a count, then per item its name, its type name, a byte count and the value.
 void metaMap(Cursor& c, const MetaTypeOf& metaType, uint64_t regionBytes, const std::string& where) {
-  const uint32_t count = c.read<uint32_t>(cat(where, " metadata count").c_str());
+  const uint32_t count = c.read<uint32_t>(cat(where, " metadata count"));
   for (uint32_t i = 0; i < count; ++i) {
     const std::string item = cat(where, " metadata item ", i);
     const std::string name = c.string(cat(item, ", name"));
     const std::string what = cat(where, " metadata '", printable(name, 64), "'");
     const std::string type = c.string(cat(what, ", type name"));
-    const uint32_t numBytes = c.read<uint32_t>(what.c_str());
+    const uint32_t numBytes = c.read<uint32_t>(what);
     c.need(numBytes, cat(what, " (", printable(type, 64), ")"));
     const MetaType t = metaType(type);
     switch (t.read) {
@@ -335,12 +335,12 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
   c.seek(0);
   // io::Archive::readHeader, for versions 222 and later.
   c.skip(8, "the header's magic number");  // checked by the caller
-  out.fileVersion = c.read<uint32_t>("the header's file format version");
-  if (out.fileVersion < kOldestVersion)
-    throw Error(cat(path, ": VDB file format version ", out.fileVersion, " is older than prt reads (", kOldestVersion,
+  const uint32_t version = c.read<uint32_t>("the header's file format version");
+  if (version < kOldestVersion)
+    throw Error(cat(path, ": VDB file format version ", version, " is older than prt reads (", kOldestVersion,
                     ", OpenVDB 2.0, and later); write it again with a current OpenVDB"));
-  if (out.fileVersion > maxVersion)
-    throw Error(cat(path, ": VDB file format version ", out.fileVersion, " is newer than this OpenVDB reads (",
+  if (version > maxVersion)
+    throw Error(cat(path, ": VDB file format version ", version, " is newer than this OpenVDB reads (",
                     maxVersion, ")"));
   c.skip(8, "the header's library version");
   const uint8_t hasGridOffsets = c.read<uint8_t>("the header's grid offsets flag");
@@ -358,8 +358,7 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
     // io::GridDescriptor::read
     GridSpan span;
     span.begin = c.pos();
-    span.name = c.string(cat("grid ", g, ", name"));
-    const std::string what = cat("grid '", printable(span.name, 64), "'");
+    const std::string what = cat("grid '", printable(c.string(cat("grid ", g, ", name")), 64), "'");
     std::string type = c.string(cat(what, ", type name"));
     constexpr std::string_view kHalf = "_HalfFloat";  // io::GridDescriptor's suffix for half floats
     const bool half = type.size() > kHalf.size() && type.compare(type.size() - kHalf.size(), kHalf.size(), kHalf) == 0;
@@ -368,23 +367,23 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
     // trees reach the same unchecked block reads, point grids trust their own counts.
     const TreeValues values = treeValues(type);
     if (values.bytes == 0)
-      throw Error(cat(path, ": grid '", printable(span.name, 64), "' is a ", printable(type, 64),
+      throw Error(cat(path, ": ", what, " is a ", printable(type, 64),
                       " grid, which prt does not read (a probe file holds float and vec3s grids; prt reads "
                       "trees of float, double, int32, int64 and vec3 values)"));
     const std::string parent = c.string(cat(what, ", instance parent name"));
     if (!parent.empty())
-      throw Error(cat(path, ": grid '", printable(span.name, 64), "' is an instance of '", printable(parent, 64),
+      throw Error(cat(path, ": ", what, " is an instance of '", printable(parent, 64),
                       "' (it shares that grid's tree); prt probe files have no instanced grids"));
-    const auto gridPos = c.read<int64_t>(what.c_str());
-    const auto blockPos = c.read<int64_t>(what.c_str());
-    const auto endPos = c.read<int64_t>(what.c_str());
+    const auto gridPos = c.read<int64_t>(what);
+    const auto blockPos = c.read<int64_t>(what);
+    const auto endPos = c.read<int64_t>(what);
     if (gridPos != int64_t(c.pos()) || blockPos < gridPos || endPos < blockPos || uint64_t(endPos) > fileSize)
       c.corrupt(cat(what, ", offsets ", gridPos, ", ", blockPos, ", ", endPos, " do not fit its descriptor's end ",
                     c.pos(), " and the file's ", fileSize, " bytes"));
     span.end = uint64_t(endPos);
     // io::Archive::readGrid, within the grid's own bytes.
     c.setLimit(span.end);
-    const uint32_t compression = c.read<uint32_t>(cat(what, ", compression flags").c_str());
+    const uint32_t compression = c.read<uint32_t>(cat(what, ", compression flags"));
     metaMap(c, metaType, span.end - span.begin, what);
     transform(c, mapBytes, what, path);
     TreeWalk tree(c, what, compression, values, half);
@@ -393,9 +392,8 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
       c.corrupt(cat(what, ", topology ends at byte ", c.pos(), ", where the file says ", blockPos));
     tree.buffers(leaves);
     if (c.pos() != span.end) c.corrupt(cat(what, ", buffers end at byte ", c.pos(), ", where the file says ", span.end));
-    c.setLimit(fileSize);
-    c.seek(span.end);
-    out.grids.push_back(std::move(span));
+    c.setLimit(fileSize);  // the walk ended at span.end, where the next descriptor begins
+    out.grids.push_back(span);
   }
   return out;
 }

@@ -44,13 +44,11 @@ using MapBytesOf = std::function<uint32_t(const std::string& mapType)>;
 
 // One grid of the file: [begin, end) holds its descriptor (names and offsets) and its data.
 struct GridSpan {
-  std::string name;
   uint64_t begin = 0;
   uint64_t end = 0;
 };
 
 struct Layout {
-  uint32_t fileVersion = 0;
   uint64_t headerEnd = 0;    // [0, headerEnd): the header
   uint64_t metadataEnd = 0;  // [headerEnd, metadataEnd): the file's metadata; then the grid count
   std::vector<GridSpan> grids;
