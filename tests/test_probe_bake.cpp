@@ -236,44 +236,60 @@ TEST(ProbeBake, SameSeedSameGridAnyThreadCountWithLitSurfaces) {
   }
 }
 
-// The kernels' two paths (AVX2 + F16C where the CPU has it, the portable ones lane by lane) give
-// the same bits: the bounces' gather of the previous order (half.h), the probes' ray directions,
-// lit hits and products of a stream's rays.
+// The kernels' paths (AVX-512 where the CPU has it, AVX2 + F16C, the portable ones lane by lane)
+// give the same bits: the bounces' gather of the previous order (half.h), the probes' ray
+// directions, their classification and moments, lit hits and products of a stream's rays.
 TEST(ProbeBake, HalfPathsGiveTheSameBits) {
   if (!bake::useVectorKernels()) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
   Scene s = test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f);
+  // 3 bands (the AVX-512 products' 9 rows), 2 (4 rows) and 4 (AVX2 only); 300 rays: whole
+  // packets of 8 and a partial one.
+  for (int bands : {3, 2, 4}) {
+  SCOPED_TRACE(cat(bands, " bands"));
   bake::BakeSettings bs;
+  bs.bands = bands;
   bs.samples = 64;
   bs.bounces = 2;
   bs.keepLowerOrder = true;
   bake::ProbeSettings ps;
+  ps.bands = bands;
   ps.dims = glm::ivec3(3);
   ps.samples = 300;
   ps.bounces = 2;
   std::vector<bake::SurfaceTransfer> surfaces;
   std::vector<ProbeGrid> grids;
+  enum class Path { Avx512, Avx2, Portable };
+  std::vector<Path> paths{Path::Avx2, Path::Portable};
+  if (bake::useAvx512Kernels()) paths.insert(paths.begin(), Path::Avx512);
   {
     struct Restore {
-      ~Restore() { bake::forcePortableKernels() = false; }  // however the bakes end
+      ~Restore() { bake::forcePortableKernels() = bake::forceAvx2Kernels() = false; }  // however the bakes end
     } restore;
-    for (bool portable : {false, true}) {
-      bake::forcePortableKernels() = portable;
+    for (Path path : paths) {
+      bake::forcePortableKernels() = path == Path::Portable;
+      bake::forceAvx2Kernels() = path == Path::Avx2;
       surfaces.push_back(bake::bakeSurface(s, bs));
       grids.push_back(bake::bakeProbes(s, surfaces.back().perMeshLowerOrder, ps));
     }
   }
-  ASSERT_EQ(surfaces[0].perMesh.size(), surfaces[1].perMesh.size());
-  for (size_t k = 0; k < surfaces[0].perMesh.size(); ++k) {
-    ASSERT_EQ(surfaces[0].perMesh[k].size(), surfaces[1].perMesh[k].size());
-    EXPECT_EQ(0, std::memcmp(surfaces[0].perMesh[k].data(), surfaces[1].perMesh[k].data(),
-                             surfaces[0].perMesh[k].size() * sizeof(glm::vec3)));
-  }
   ASSERT_GT(grids[0].transfer.size(), 0u);
-  ASSERT_EQ(grids[0].transfer.size(), grids[1].transfer.size());
-  EXPECT_EQ(0, std::memcmp(grids[0].transfer.data(), grids[1].transfer.data(), grids[0].transfer.size() * sizeof(float)));
-  ASSERT_EQ(grids[0].direct.size(), grids[1].direct.size());
-  EXPECT_EQ(0, std::memcmp(grids[0].direct.data(), grids[1].direct.data(), grids[0].direct.size() * sizeof(float)));
-  EXPECT_EQ(grids[0].moments, grids[1].moments);
+  for (size_t p = 1; p < paths.size(); ++p) {
+    SCOPED_TRACE(cat("path ", p, " against path 0 (", paths.size(), " paths)"));
+    ASSERT_EQ(surfaces[0].perMesh.size(), surfaces[p].perMesh.size());
+    for (size_t k = 0; k < surfaces[0].perMesh.size(); ++k) {
+      ASSERT_EQ(surfaces[0].perMesh[k].size(), surfaces[p].perMesh[k].size());
+      EXPECT_EQ(0, std::memcmp(surfaces[0].perMesh[k].data(), surfaces[p].perMesh[k].data(),
+                               surfaces[0].perMesh[k].size() * sizeof(glm::vec3)));
+    }
+    ASSERT_EQ(grids[0].transfer.size(), grids[p].transfer.size());
+    EXPECT_EQ(0, std::memcmp(grids[0].transfer.data(), grids[p].transfer.data(), grids[0].transfer.size() * sizeof(float)));
+    ASSERT_EQ(grids[0].direct.size(), grids[p].direct.size());
+    EXPECT_EQ(0, std::memcmp(grids[0].direct.data(), grids[p].direct.data(), grids[0].direct.size() * sizeof(float)));
+    EXPECT_EQ(grids[0].moments, grids[p].moments);
+    EXPECT_EQ(grids[0].validity, grids[p].validity);
+    EXPECT_EQ(grids[0].skyVisibility, grids[p].skyVisibility);
+  }
+  }
 }
 
 // Interpolated probe irradiance against an independent brute-force estimate: at random points

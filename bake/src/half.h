@@ -76,6 +76,18 @@ inline bool useVectorKernels() {
   return hardware && !forcePortableKernels().load(std::memory_order_relaxed);
 }
 
+/// Whether the probe bake's lit-hit products take their AVX-512 path (AVX-512F, as well as the
+/// vector kernels), unless forceAvx2Kernels() is set: the tests compare it with the AVX2 and
+/// the portable paths, which all give the same bits.
+inline std::atomic<bool>& forceAvx2Kernels() {
+  static std::atomic<bool> force{false};
+  return force;
+}
+inline bool useAvx512Kernels() {
+  static const bool hardware = __builtin_cpu_supports("avx512f");
+  return hardware && useVectorKernels() && !forceAvx2Kernels().load(std::memory_order_relaxed);
+}
+
 /// RGB SH transfer rows (3·n2 floats each) as halves, each row padded with zeros to whole 64-byte
 /// lines (one line at 3 bands instead of two): for gathers that read rows at random, where the
 /// lines read are the cost.

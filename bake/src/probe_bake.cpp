@@ -41,6 +41,16 @@
 #include "stage_runner.h"
 #include "trace_clock.h"
 
+// GCC 12 warns that the AVX-512 intrinsics' own _mm512_undefined_* values may be used
+// uninitialised; around the AVX-512 kernels, that warning is off.
+#if defined(__GNUC__) && !defined(__clang__)
+#define PRT_AVX512_BEGIN _Pragma("GCC diagnostic push") _Pragma("GCC diagnostic ignored \"-Wmaybe-uninitialized\"")
+#define PRT_AVX512_END _Pragma("GCC diagnostic pop")
+#else
+#define PRT_AVX512_BEGIN
+#define PRT_AVX512_END
+#endif
+
 namespace prt::bake {
 
 namespace {
@@ -276,18 +286,20 @@ void addDirectPortable(const float* ys, const int32_t* escaped, int n2, float* s
         sums[8 * p + l] = std::fma(escaped[l] ? ys[8 * a + l] : 0.0f, ys[8 * b + l], sums[8 * p + l]);
 }
 
-// addDirectPortable of `packets` packets (ys: n2 · 8 floats a packet, escaped: 8 a packet), sums
-// starting at zero: the same fused multiply-adds in the same order, lane by lane, but pair by
-// pair over the packets with NB pairs' sums in registers, where packet by packet every sum is
-// loaded and stored again.
+// addDirectPortable of the packets in `list` (ys: n2 · 8 floats a packet, escaped: 8 a packet),
+// sums starting at zero: the same fused multiply-adds in the same order, lane by lane, but pair
+// by pair over the packets with NB pairs' sums in registers, where packet by packet every sum is
+// loaded and stored again. Packets with no escaped ray are left out of the list: they add
+// zeros, which leave every sum as it is (sums from +0 never become −0).
 template <int NB>
 __attribute__((target("avx2,fma"), always_inline)) inline void directPairsAvx2(const float* ys, const int32_t* escaped,
-                                                                            int packets, int n2, int a, int b0,
-                                                                            float* sums) {
+                                                                            const uint8_t* list, int packets, int n2,
+                                                                            int a, int b0, float* sums) {
   __m256 s[NB];
 #pragma GCC unroll 8
   for (int i = 0; i < NB; ++i) s[i] = _mm256_setzero_ps();
-  for (int q = 0; q < packets; ++q) {
+  for (int k = 0; k < packets; ++k) {
+    const int q = list[k];
     const float* y = ys + size_t(q) * n2 * 8;
     const __m256 mask = _mm256_castsi256_ps(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(escaped + 8 * q)));
     const __m256 ya = _mm256_and_ps(mask, _mm256_loadu_ps(y + 8 * a));
@@ -300,19 +312,19 @@ __attribute__((target("avx2,fma"), always_inline)) inline void directPairsAvx2(c
   for (int i = 0; i < NB; ++i) _mm256_storeu_ps(sums + 8 * (p0 + i), s[i]);
 }
 
-__attribute__((target("avx2,fma"))) void addDirectAvx2(const float* ys, const int32_t* escaped, int packets, int n2,
-                                                   float* sums) {
+__attribute__((target("avx2,fma"))) void addDirectAvx2(const float* ys, const int32_t* escaped, const uint8_t* list,
+                                                   int packets, int n2, float* sums) {
   for (int a = 0; a < n2; ++a)
     for (int b0 = a; b0 < n2; b0 += 8) {
       switch (std::min(8, n2 - b0)) {
-        case 1: directPairsAvx2<1>(ys, escaped, packets, n2, a, b0, sums); break;
-        case 2: directPairsAvx2<2>(ys, escaped, packets, n2, a, b0, sums); break;
-        case 3: directPairsAvx2<3>(ys, escaped, packets, n2, a, b0, sums); break;
-        case 4: directPairsAvx2<4>(ys, escaped, packets, n2, a, b0, sums); break;
-        case 5: directPairsAvx2<5>(ys, escaped, packets, n2, a, b0, sums); break;
-        case 6: directPairsAvx2<6>(ys, escaped, packets, n2, a, b0, sums); break;
-        case 7: directPairsAvx2<7>(ys, escaped, packets, n2, a, b0, sums); break;
-        default: directPairsAvx2<8>(ys, escaped, packets, n2, a, b0, sums); break;
+        case 1: directPairsAvx2<1>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 2: directPairsAvx2<2>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 3: directPairsAvx2<3>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 4: directPairsAvx2<4>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 5: directPairsAvx2<5>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 6: directPairsAvx2<6>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 7: directPairsAvx2<7>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        default: directPairsAvx2<8>(ys, escaped, list, packets, n2, a, b0, sums); break;
       }
     }
 }
@@ -325,23 +337,44 @@ struct LitRecord {
   float rho[4];
 };
 
-// Scratch of one stream of rays, sized for the bands once per probe's accumulator (the inside
+// Streams traced before their lit hits are summed (a group): the corners of every lit hit are
+// prefetched as its stream is classified, and read after the group's last stream is traced;
+// their rows are prefetched then, and read a whole pass over the group's hits later. A lit hit's
+// data lies at random places in arrays larger than the caches: read at once, each hit waited
+// for two misses in a row (its corners, then their rows).
+constexpr int kGroupStreams = 4;
+constexpr int kGroup = kStream * kGroupStreams;
+// Lit hits whose light g is computed, then multiplied in, at a time (g stays in the L1 cache).
+constexpr int kChunk = 64;
+
+// In a lit hit's yOff (StreamRows::hitYOff): the ray hit a back side (of a double-sided surface).
+constexpr uint32_t kBackBit = 1u << 31;
+
+// Scratch of one group of rays, sized for the bands once per probe's accumulator (the inside
 // tests need none): the SH basis of every ray, packet by packet (n2 coefficients of 8 lanes a
 // packet: ray j's coefficient a at ys[(j / 8 · n2 + a) · 8 + j % 8]); the lane sums of M⁰'s
-// upper triangle (n2(n2+1)/2 pairs of 8 lanes); and per ray that hit a lit surface, what its
-// light reads (LitRecord) and the light it sends (ρ/π · t(h), padded(3·n2) floats: n2 RGB
-// triples).
+// upper triangle for one stream (n2(n2+1)/2 pairs of 8 lanes); per ray that hit a lit surface,
+// where (its instance, triangle and barycentrics, and the offset of its ray's SH values in ys,
+// with kBackBit on a back side: written eight lanes at a time, so with 8 entries to spare) and
+// what its light reads (LitRecord); and the light of a chunk of them (ρ/π · t(h), padded(3·n2)
+// floats: n2 RGB triples).
 struct StreamRows {
   int n2 = 0;
   std::vector<float> ys, directSums, gHit;
+  std::vector<uint32_t> hitMesh, hitTri, hitYOff;
+  std::vector<float> hitU, hitV;
   std::vector<LitRecord> lit;
+  std::vector<uint32_t> yOff;
   void reset(int bands) {
     if (n2 != bands * bands) {  // the padding columns of gHit are zero and never written
       n2 = bands * bands;
-      lit.resize(kStream);
-      ys.assign(size_t(kStream) * n2, 0.0f);
+      for (auto* v : {&hitMesh, &hitTri, &hitYOff}) v->resize(kGroup + 8);
+      for (auto* v : {&hitU, &hitV}) v->resize(kGroup + 8);
+      lit.resize(kGroup);
+      yOff.resize(kGroup);
+      ys.assign(size_t(kGroup) * n2, 0.0f);
       directSums.assign(size_t(n2) * (n2 + 1) / 2 * 8, 0.0f);
-      gHit.assign(size_t(kStream) * padded(3 * n2), 0.0f);
+      gHit.assign(size_t(kChunk) * padded(3 * n2), 0.0f);
     }
   }
 };
@@ -364,7 +397,9 @@ struct ProbeAccum {
   uint32_t rays = 0, backfaces = 0, escaped = 0;
   uint32_t backTwoSided = 0;  // hits on the back of double-sided faces
   float nearest = std::numeric_limits<float>::infinity();  // of the hits (any face)
-  std::array<double, 6> sumD{}, sumD2{};
+  // Per cube face and lane of a packet (face · 8 + lane), summed over the packets in ray order:
+  // the vector and portable classifications add in the same order. Summed lane by lane at the end.
+  std::array<double, 48> sumD{}, sumD2{};
   std::array<uint32_t, 6> count{};
 };
 
@@ -414,6 +449,58 @@ __attribute__((target("avx2,f16c"))) void litLightsF16c(const LitRecord* rec, ui
   }
 }
 
+// litLightsF16c, then addProducts, of n records in one pass with AVX-512, for R = n2 ≤ 9
+// (3·n2 ≤ 32 columns: V vectors of 16 floats; rows of 32 halves): each hit's light g is computed
+// in registers, and the R × V sums over the records stay in registers. The same operations
+// per element in the same order (the rounded multiplies and adds of litLightsF16c, then one
+// fused multiply-add per hit into sums from zero, added to c at the end), so the same bits.
+PRT_AVX512_BEGIN
+template <int R>
+__attribute__((target("avx512f"))) void litProductsAvx512(const LitRecord* rec, const uint32_t* yOff, const float* y,
+                                                      uint32_t n, double* c) {
+  constexpr int V = (3 * R + 15) / 16, cols = 3 * R;
+  constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;  // explicit: never contracted into FMAs
+  // ρ's channels in the lanes of vector v (lane i is channel (16v + i) % 3).
+  const __m512i order[2] = {_mm512_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0),
+                            _mm512_setr_epi32(1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1)};
+  __m512 s[R][V];
+#pragma GCC unroll 16
+  for (int a = 0; a < R; ++a)
+#pragma GCC unroll 2
+    for (int v = 0; v < V; ++v) s[a][v] = _mm512_setzero_ps();
+  for (uint32_t h = 0; h < n; ++h) {
+    const LitRecord& r = rec[h];
+    const __m512 rho = _mm512_castps128_ps512(_mm_loadu_ps(r.rho));
+    const __m512 w0 = _mm512_set1_ps(1.0f - r.b1 - r.b2), w1 = _mm512_set1_ps(r.b1), w2 = _mm512_set1_ps(r.b2);
+    __m512 g[V];
+#pragma GCC unroll 2
+    for (int v = 0; v < V; ++v) {
+      const __m512 f0 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(r.t[0]) + v));
+      const __m512 f1 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(r.t[1]) + v));
+      const __m512 f2 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(r.t[2]) + v));
+      __m512 sum = _mm512_add_round_ps(_mm512_mul_round_ps(w0, f0, kRound), _mm512_mul_round_ps(w1, f1, kRound), kRound);
+      sum = _mm512_add_round_ps(sum, _mm512_mul_round_ps(w2, f2, kRound), kRound);
+      g[v] = _mm512_mul_round_ps(_mm512_permutexvar_ps(order[v], rho), sum, kRound);
+    }
+    const float* yh = y + yOff[h];
+#pragma GCC unroll 16
+    for (int a = 0; a < R; ++a) {
+      const __m512 ya = _mm512_set1_ps(yh[size_t(a) * 8]);
+#pragma GCC unroll 2
+      for (int v = 0; v < V; ++v) s[a][v] = _mm512_fmadd_ps(ya, g[v], s[a][v]);
+    }
+  }
+#pragma GCC unroll 16
+  for (int a = 0; a < R; ++a)
+#pragma GCC unroll 2
+    for (int v = 0; v < V; ++v) {
+      alignas(64) float t[16];
+      _mm512_store_ps(t, s[a][v]);
+      for (int l = 0; l < 16 && 16 * v + l < cols; ++l) c[size_t(a) * cols + 16 * v + l] += double(t[l]);
+    }
+}
+PRT_AVX512_END
+
 // faceOf and |d[faceOf(d) / 2]| of a packet's eight directions, lane by lane (GCC's vector
 // extension: compares and selects, where faceOf's branches on random directions are
 // mispredicted about half the time).
@@ -437,6 +524,22 @@ void packetFaces(const RayPacket8& r, int32_t* faces, float* axis) {
   std::memcpy(axis, &a, sizeof a);
 }
 
+// What classifyAvx512 counts of a stream's rays.
+struct StreamTally {
+  uint32_t backs, backsTwoSided, escapes;
+  float nearest;
+};
+
+// The per-ray classification of Tracer::trace (the full set of rays) for `packets` whole packets,
+// eight lanes at once with AVX-512: the same counts, lit-hit entries in the same order, the same
+// escaped lanes, and the same moments (each face and lane's sums in the same order, the
+// multiplies and adds rounded one by one as the portable loop's).
+PRT_AVX512_BEGIN
+__attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx512(
+    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags32, uint32_t yBase, uint32_t n2, double cap,
+    StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc, StreamTally& t);
+PRT_AVX512_END
+
 struct Tracer {
   const Scene& scene;
   const RayScene& rays;
@@ -452,6 +555,7 @@ struct Tracer {
   // (it has lower-order transfer).
   static constexpr uint8_t kTwoSided = 1, kLit = 2;
   std::vector<uint8_t> meshFlags;
+  std::vector<uint32_t> meshFlags32;  // the same as 32-bit values (for classifyAvx512's gathers)
   // Per Scene::meshes entry with lower-order transfer: where a lit hit's corners and rows are.
   struct LitMesh {
     const uint32_t* indices = nullptr;  // 3 per triangle
@@ -460,8 +564,6 @@ struct Tracer {
     size_t stride = 0;
   };
   std::vector<LitMesh> litMeshes;
-  static constexpr uint32_t kBackSide = 1u << 8;  // in a lit-hit entry: the ray hit a back side
-  static_assert(uint32_t(kStream) <= kBackSide, "a lit-hit entry holds the ray's index below kBackSide");
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
 
   void intersect8(RayPacket8* p, size_t n) const { inEmbree.time([&] { rays.intersect8(p, n); }); }
@@ -482,22 +584,20 @@ struct Tracer {
       acc.sumD = {};
       acc.sumD2 = {};
       acc.count = {};
+      acc.stream.reset(bands);
     }
     const SphereSet set(seed, stream);
     StreamRows& rows = acc.stream;
-    if (full) rows.reset(bands);
-    const int ldg = padded(3 * n2);
     const bool vector = useVectorKernels();
     RayBuffer buffer;
     RayPacket8* batch = buffer.packets();
-    // The stream's rays that hit a lit surface: j, and kBackSide on a back side; the offset of
-    // their SH values in rows.ys. Per ray: −1 where it escaped, else 0.
-    uint16_t lit[kStream];
-    uint32_t litOffset[kStream];
-    alignas(32) int32_t escapedLanes[kStream];
+    alignas(32) int32_t escapedLanes[kStream];  // per ray of the stream: −1 where it escaped, else 0
+    // The group's lit hits so far (rows.hits).
+    uint32_t nLit = 0;
     for (uint32_t first = 0; first < n; first += kStream) {
       if (interruptRequested()) return false;
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
+      const uint32_t inGroup = first % kGroup;  // the stream's first ray within its group
       set.fill(batch, x, first, count);
       intersect8(batch, count);
       // Per ray, without branches on what it hit (which no predictor guesses): counts, the
@@ -505,21 +605,37 @@ struct Tracer {
       // advanced where it belongs). A ray that escapes keeps tfar = ∞ and ng = 0, so it is
       // nearer than nothing and never a back face, and its depth is the cap. A packet's faces,
       // SH values and M⁰ sums are computed eight lanes at once.
-      uint32_t backs = 0, backsTwoSided = 0, escapes = 0, nLit = 0;
+      uint32_t backs = 0, backsTwoSided = 0, escapes = 0;
+      const uint32_t litBefore = nLit;
       float nearest = acc.nearest;
       const double cap = maxDistance;
+      float* groupYs = full ? rows.ys.data() + size_t(inGroup) * n2 : nullptr;  // the stream's packets
       if (full && !vector) std::fill(rows.directSums.begin(), rows.directSums.end(), 0.0f);
-      for (uint32_t p0 = 0; p0 < count; p0 += 8) {
+      uint32_t p0 = 0;  // the packets before p0 are classified
+      if (full) {
+        for (uint32_t q = 0; q < count; q += 8) {
+          const RayPacket8& r = batch[q >> 3];
+          sh::evaluate8(bands, r.dirX, r.dirY, r.dirZ, groupYs + size_t(q) * n2);
+        }
+        if (useAvx512Kernels()) {  // the whole packets; a last, partial one lane by lane below
+          StreamTally t{};
+          p0 = count / 8 * 8;
+          classifyAvx512(batch, p0 / 8, meshFlags32.data(), (inGroup * uint32_t(n2)), uint32_t(n2), cap, rows, nLit,
+                         escapedLanes, acc, t);
+          backs += t.backs;
+          backsTwoSided += t.backsTwoSided;
+          escapes += t.escapes;
+          nearest = std::min(nearest, t.nearest);
+        }
+      }
+      for (; p0 < count; p0 += 8) {
         const RayPacket8& r = batch[p0 >> 3];
         const int lanes = int(std::min<uint32_t>(8, count - p0));
-        float* ys = full ? rows.ys.data() + size_t(p0) * n2 : nullptr;  // this packet's (p0 / 8 · n2 · 8)
+        float* ys = full ? groupYs + size_t(p0) * n2 : nullptr;  // this packet's (p0 / 8 · n2 · 8)
         alignas(32) int32_t faces[8];
         int32_t* escaped = escapedLanes + p0;  // this packet's 8 lanes
         alignas(32) float axis[8];  // |the direction's component along its face's axis|
-        if (full) {
-          sh::evaluate8(bands, r.dirX, r.dirY, r.dirZ, ys);
-          packetFaces(r, faces, axis);
-        }
+        if (full) packetFaces(r, faces, axis);
         for (int l = 0; l < lanes; ++l) {
           const bool hit = r.hit(l);
           const uint8_t flags = meshFlags[hit ? r.mesh[l] : 0];
@@ -531,44 +647,61 @@ struct Tracer {
           nearest = std::min(nearest, tfar);
           escapes += !hit;
           if (!full) continue;  // the inside test: counts only
-          lit[nLit] = uint16_t((p0 + uint32_t(l)) | (backside ? kBackSide : 0u));
-          litOffset[nLit] = p0 * uint32_t(n2) + uint32_t(l);
+          rows.hitMesh[nLit] = r.mesh[l];
+          rows.hitTri[nLit] = r.tri[l];
+          rows.hitU[nLit] = r.u[l];
+          rows.hitV[nLit] = r.v[l];
+          rows.hitYOff[nLit] = ((inGroup + p0) * uint32_t(n2) + uint32_t(l)) | (backside ? kBackBit : 0u);
           nLit += hit && !back && (flags & kLit);
           escaped[l] = -int32_t(!hit);  // lanes past the count stay 0 (zeroed below)
           // Depth along the face's axis, not the ray's length: a wall perpendicular to the axis
           // then has one depth for every ray of the face (docs/probes.md, "Visibility").
           const int face = faces[l];
           const double d = std::min(double(tfar) * double(axis[l]), cap);
-          acc.sumD[size_t(face)] += d;
-          acc.sumD2[size_t(face)] += d * d;
+          acc.sumD[size_t(8 * face + l)] += d;
+          acc.sumD2[size_t(8 * face + l)] += d * d;
           ++acc.count[size_t(face)];
         }
         if (!full) continue;
         for (int l = lanes; l < 8; ++l) escaped[l] = 0;
         // The direct part of the packet's escaped rays: M⁰ += Σ y yᵀ, lane by lane (all the
         // stream's packets at once with AVX2, below).
-        if (!vector) addDirectPortable(ys, escaped, n2, rows.directSums.data());
+        // (A packet with no escaped ray adds zeros, which leave the sums as they are.)
+        if (!vector && (escaped[0] | escaped[1] | escaped[2] | escaped[3] | escaped[4] | escaped[5] | escaped[6] |
+                        escaped[7]))
+          addDirectPortable(ys, escaped, n2, rows.directSums.data());
       }
-      if (full && vector) addDirectAvx2(rows.ys.data(), escapedLanes, int((count + 7) / 8), n2, rows.directSums.data());
       acc.rays += count;
       acc.backfaces += backs;
       acc.backTwoSided += backsTwoSided;
       acc.escaped += escapes;
       acc.nearest = nearest;
       if (!full) continue;
-      // The stream's M⁰ sums into the double matrix's upper triangle, lane by lane in order.
-      for (int a = 0, p = 0; a < n2; ++a)
+      // The corners of the stream's lit hits, fetched while the group's other streams trace.
+      for (uint32_t h = litBefore; h < nLit; ++h)
+        __builtin_prefetch(litMeshes[rows.hitMesh[h]].indices + 3 * size_t(rows.hitTri[h]));
+      // The packets with an escaped ray, for M⁰.
+      uint8_t escapedPackets[kStream / 8];
+      int nEscaped = 0;
+      for (uint32_t q = 0; q < (count + 7) / 8; ++q) {
+        const int32_t* e = escapedLanes + 8 * q;
+        escapedPackets[nEscaped] = uint8_t(q);
+        nEscaped += (e[0] | e[1] | e[2] | e[3] | e[4] | e[5] | e[6] | e[7]) != 0;
+      }
+      if (vector && nEscaped) addDirectAvx2(groupYs, escapedLanes, escapedPackets, nEscaped, n2, rows.directSums.data());
+      // The stream's M⁰ sums into the double matrix's upper triangle, lane by lane in order
+      // (nothing to add where no ray escaped).
+      for (int a = 0, p = 0; nEscaped && a < n2; ++a)
         for (int b = a; b < n2; ++b, ++p) {
           const float* lane = &rows.directSums[size_t(8 * p)];
           double sum = 0.0;
           for (int l = 0; l < 8; ++l) sum += double(lane[l]);
           acc.direct[size_t(a) * n2 + b] += sum;
         }
-      // The indirect part of its lit hits: M += Σ y gᵀ.
-      if (nLit) {
-        gatherLit(batch, lit, nLit, rows.lit.data(), rows.gHit.data(), ldg);
-        addProducts(rows.ys.data(), litOffset, rows.gHit.data(), ldg, int(nLit), n2, 3 * n2,
-                    acc.indirect.data(), 3 * n2);
+      // The indirect part of the group's lit hits, once its last stream is traced: M += Σ y gᵀ.
+      if (inGroup + count == uint32_t(kGroup) || first + count == n) {
+        sumLit(rows, nLit, acc.indirect.data());
+        nLit = 0;
       }
     }
     if (full)  // M⁰ is symmetric: its lower triangle from the upper
@@ -577,44 +710,133 @@ struct Tracer {
     return true;
   }
 
-  // g = ρ/π · t(h) of each lit hit, into rows of ldg floats. A hit's corners and their transfer
-  // rows lie at random places in arrays larger than the caches: a first pass reads what each
-  // hit needs into a record, the corners prefetched kAhead hits ahead and the rows as soon as
-  // the corners are read, and a second sums the rows, which have arrived by then.
-  void gatherLit(const RayPacket8* batch, const uint16_t* lit, uint32_t hits, LitRecord* rec, float* gHit,
-                 int ldg) const {
-    constexpr uint32_t kAhead = 8;
-    const auto lane = [&](uint32_t h) { return int(lit[h] & 7); };
-    const auto packet = [&](uint32_t h) -> const RayPacket8& { return batch[(lit[h] & (kBackSide - 1)) >> 3]; };
-    const auto corners = [&](uint32_t h) {
-      const RayPacket8& p = packet(h);
-      return litMeshes[p.mesh[lane(h)]].indices + 3 * size_t(p.tri[lane(h)]);
-    };
-    for (uint32_t h = 0; h < std::min(hits, kAhead); ++h) __builtin_prefetch(corners(h));
+  // M += Σ y gᵀ over a group's lit hits, g = ρ/π · t(h). A first pass reads each hit's corners
+  // (prefetched as its stream was classified) into a record and prefetches their rows; a second,
+  // chunk by chunk, computes g from the rows, which have arrived by then, and multiplies it in.
+  void sumLit(StreamRows& rows, uint32_t hits, double* indirect) const {
+    const int n2 = rows.n2, ldg = padded(3 * n2);
     for (uint32_t h = 0; h < hits; ++h) {
-      if (h + kAhead < hits) __builtin_prefetch(corners(h + kAhead));
-      const RayPacket8& p = packet(h);
-      const int l = lane(h);
-      const LitMesh& m = litMeshes[p.mesh[l]];
-      const uint32_t* ix = corners(h);
-      const uint16_t* t = (lit[h] & kBackSide) ? m.backRows : m.rows;
-      LitRecord& r = rec[h];
+      const uint32_t mesh = rows.hitMesh[h], tri = rows.hitTri[h];
+      const LitMesh& m = litMeshes[mesh];
+      const uint32_t* ix = m.indices + 3 * size_t(tri);
+      const uint16_t* t = (rows.hitYOff[h] & kBackBit) ? m.backRows : m.rows;
+      LitRecord& r = rows.lit[h];
       for (int c = 0; c < 3; ++c) {
         r.t[c] = t + ix[c] * m.stride;
         const char* row = reinterpret_cast<const char*>(r.t[c]);
         for (size_t o = 0; o < m.stride * sizeof(uint16_t); o += 64) __builtin_prefetch(row + o);
       }
-      r.b1 = p.u[l];
-      r.b2 = p.v[l];
-      const glm::vec3 rho = albedo.at(p.mesh[l], p.tri[l], r.b1, r.b2) * float(1.0 / M_PI);
+      r.b1 = rows.hitU[h];
+      r.b2 = rows.hitV[h];
+      rows.yOff[h] = rows.hitYOff[h] & ~kBackBit;
+      const glm::vec3 rho = albedo.at(mesh, tri, r.b1, r.b2) * float(1.0 / M_PI);
       r.rho[0] = rho.r, r.rho[1] = rho.g, r.rho[2] = rho.b, r.rho[3] = 0.0f;
     }
-    if (useVectorKernels())
-      litLightsF16c(rec, hits, gHit, ldg);
-    else
-      litLightsPortable(rec, hits, gHit, ldg);
+    for (uint32_t h0 = 0; h0 < hits; h0 += kChunk) {
+      const uint32_t k = std::min<uint32_t>(kChunk, hits - h0);
+      if (useAvx512Kernels() && n2 <= 9) {  // rows of 32 halves: HalfRows pads 3·n2 ≤ 27 to one line
+        const LitRecord* rec = rows.lit.data() + h0;
+        const uint32_t* yo = rows.yOff.data() + h0;
+        switch (n2) {
+          case 1: litProductsAvx512<1>(rec, yo, rows.ys.data(), k, indirect); break;
+          case 4: litProductsAvx512<4>(rec, yo, rows.ys.data(), k, indirect); break;
+          default: litProductsAvx512<9>(rec, yo, rows.ys.data(), k, indirect); break;
+        }
+        continue;
+      }
+      if (useVectorKernels())
+        litLightsF16c(rows.lit.data() + h0, k, rows.gHit.data(), ldg);
+      else
+        litLightsPortable(rows.lit.data() + h0, k, rows.gHit.data(), ldg);
+      addProducts(rows.ys.data(), rows.yOff.data() + h0, rows.gHit.data(), ldg, int(k), n2, 3 * n2, indirect, 3 * n2);
+    }
   }
 };
+
+PRT_AVX512_BEGIN
+__attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx512(
+    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags32, uint32_t yBase, uint32_t n2, double cap,
+    StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc, StreamTally& t) {
+  constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;  // explicit: never contracted into FMAs
+  // Each face's sums of the eight lanes, in registers over the stream.
+  __m512d sumD[6], sumD2[6];
+  uint32_t count[6] = {};
+  for (int f = 0; f < 6; ++f) {
+    sumD[f] = _mm512_loadu_pd(&acc.sumD[size_t(8 * f)]);
+    sumD2[f] = _mm512_loadu_pd(&acc.sumD2[size_t(8 * f)]);
+  }
+  const __m256i invalid = _mm256_set1_epi32(int(Ray::kInvalid));
+  const __m256i twoSided = _mm256_set1_epi32(Tracer::kTwoSided), lit = _mm256_set1_epi32(Tracer::kLit);
+  const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256 zero = _mm256_setzero_ps();
+  const __m512d capV = _mm512_set1_pd(cap);
+  __m256 nearest = _mm256_set1_ps(std::numeric_limits<float>::infinity());
+  uint32_t backs = 0, backsTwoSided = 0, escapes = 0, n = nLit;
+  for (uint32_t p = 0; p < packets; ++p) {
+    const RayPacket8& r = batch[p];
+    const __m256i mesh = _mm256_load_si256(reinterpret_cast<const __m256i*>(r.mesh));
+    const __mmask8 hit = _mm256_cmpneq_epu32_mask(mesh, invalid);
+    const __m256i flags = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), hit, mesh, meshFlags32, 4);
+    const __m256 dx = _mm256_load_ps(r.dirX), dy = _mm256_load_ps(r.dirY), dz = _mm256_load_ps(r.dirZ);
+    // Ray::backface: ng · d > 0, as glm::dot: (x·x' + y·y') + z·z', each rounded.
+    __m512 dot = _mm512_add_round_ps(_mm512_mul_round_ps(_mm512_zextps256_ps512(_mm256_load_ps(r.ngX)), _mm512_zextps256_ps512(dx), kRound),
+                                     _mm512_mul_round_ps(_mm512_zextps256_ps512(_mm256_load_ps(r.ngY)), _mm512_zextps256_ps512(dy), kRound), kRound);
+    dot = _mm512_add_round_ps(dot, _mm512_mul_round_ps(_mm512_zextps256_ps512(_mm256_load_ps(r.ngZ)), _mm512_zextps256_ps512(dz), kRound), kRound);
+    const __mmask8 backside = __mmask8(_mm512_cmp_ps_mask(dot, _mm512_setzero_ps(), _CMP_GT_OQ));
+    const __mmask8 two = _mm256_test_epi32_mask(flags, twoSided), litMesh = _mm256_test_epi32_mask(flags, lit);
+    const __mmask8 back = backside & ~two;
+    backs += uint32_t(__builtin_popcount(back));
+    backsTwoSided += uint32_t(__builtin_popcount(backside & two));
+    escapes += uint32_t(__builtin_popcount(__mmask8(~hit)));
+    const __m256 tfar = _mm256_load_ps(r.tfar);
+    nearest = _mm256_min_ps(nearest, tfar);
+    // The lit hits, packed in lane order.
+    const __mmask8 take = hit & ~back & litMesh;
+    const __m256i yOff = _mm256_mask_or_epi32(_mm256_add_epi32(_mm256_set1_epi32(int(yBase + 8 * p * n2)), lanes),
+                                              backside, _mm256_add_epi32(_mm256_set1_epi32(int(yBase + 8 * p * n2)), lanes),
+                                              _mm256_set1_epi32(int(kBackBit)));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(&rows.hitMesh[n]), _mm256_maskz_compress_epi32(take, mesh));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(&rows.hitTri[n]),
+                        _mm256_maskz_compress_epi32(take, _mm256_load_si256(reinterpret_cast<const __m256i*>(r.tri))));
+    _mm256_storeu_ps(&rows.hitU[n], _mm256_maskz_compress_ps(take, _mm256_load_ps(r.u)));
+    _mm256_storeu_ps(&rows.hitV[n], _mm256_maskz_compress_ps(take, _mm256_load_ps(r.v)));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(&rows.hitYOff[n]), _mm256_maskz_compress_epi32(take, yOff));
+    n += uint32_t(__builtin_popcount(take));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(escapedLanes + 8 * p), _mm256_movm_epi32(__mmask8(~hit)));
+    // packetFaces: the face (ties to the earlier axis) and |the direction along its axis|.
+    const __m256 sign = _mm256_set1_ps(-0.0f);
+    const __m256 ax = _mm256_andnot_ps(sign, dx), ay = _mm256_andnot_ps(sign, dy), az = _mm256_andnot_ps(sign, dz);
+    const __mmask8 onX = _mm256_cmp_ps_mask(ax, ay, _CMP_GE_OQ) & _mm256_cmp_ps_mask(ax, az, _CMP_GE_OQ);
+    const __mmask8 onY = __mmask8(~onX) & _mm256_cmp_ps_mask(ay, az, _CMP_GE_OQ);
+    const __mmask8 onZ = __mmask8(~(onX | onY));
+    const __mmask8 posX = _mm256_cmp_ps_mask(dx, zero, _CMP_GE_OQ), posY = _mm256_cmp_ps_mask(dy, zero, _CMP_GE_OQ),
+                   posZ = _mm256_cmp_ps_mask(dz, zero, _CMP_GE_OQ);
+    const __mmask8 face[6] = {__mmask8(onX & posX), __mmask8(onX & ~posX), __mmask8(onY & posY),
+                              __mmask8(onY & ~posY), __mmask8(onZ & posZ), __mmask8(onZ & ~posZ)};
+    const __m256 a = _mm256_mask_blend_ps(onX, _mm256_mask_blend_ps(onY, az, ay), ax);
+    // Depth along the face's axis, capped; float × float is exact in double.
+    const __m512d d = _mm512_min_pd(_mm512_mul_round_pd(_mm512_cvtps_pd(tfar), _mm512_cvtps_pd(a), kRound), capV);
+    const __m512d d2 = _mm512_mul_round_pd(d, d, kRound);
+    for (int f = 0; f < 6; ++f) {
+      sumD[f] = _mm512_mask_add_round_pd(sumD[f], face[f], sumD[f], d, kRound);
+      sumD2[f] = _mm512_mask_add_round_pd(sumD2[f], face[f], sumD2[f], d2, kRound);
+      count[f] += uint32_t(__builtin_popcount(face[f]));
+    }
+  }
+  for (int f = 0; f < 6; ++f) {
+    _mm512_storeu_pd(&acc.sumD[size_t(8 * f)], sumD[f]);
+    _mm512_storeu_pd(&acc.sumD2[size_t(8 * f)], sumD2[f]);
+    acc.count[size_t(f)] += count[f];
+  }
+  alignas(32) float lanesNearest[8];
+  _mm256_store_ps(lanesNearest, nearest);
+  t.nearest = *std::min_element(lanesNearest, lanesNearest + 8);
+  t.backs = backs;
+  t.backsTwoSided = backsTwoSided;
+  t.escapes = escapes;
+  nLit = n;
+}
+PRT_AVX512_END
 
 // Back faces of any kind, one-sided or double-sided, on more than this share of a probe's rays:
 // it is inside solid mass.
@@ -725,7 +947,14 @@ struct ProbeBaker {
     slot.offset = glm::vec3(offset);
     if (!ok) return true;
     for (int f = 0; f < 6; ++f)
-      if (const uint32_t n = acc.count[f]) slot.moments[f] = glm::vec2(float(acc.sumD[f] / n), float(acc.sumD2[f] / n));
+      if (const uint32_t n = acc.count[f]) {
+        double d = 0.0, d2 = 0.0;
+        for (int l = 0; l < 8; ++l) {
+          d += acc.sumD[size_t(8 * f + l)];
+          d2 += acc.sumD2[size_t(8 * f + l)];
+        }
+        slot.moments[f] = glm::vec2(float(d / n), float(d2 / n));
+      }
     slot.skyVisibility = acc.rays ? float(double(acc.escaped) / acc.rays) : 0.0f;
     const double w = 4.0 * M_PI / settings.samples;
     const size_t n2 = size_t(acc.n2);
@@ -1183,6 +1412,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
     for (size_t k = 0; k < scene.meshes.size(); ++k)
       tracer.meshFlags[k] = uint8_t((tracer.twoSided[k] ? Tracer::kTwoSided : 0) |
                                     (k < lowerHalf.size() && !lowerHalf[k].empty() ? Tracer::kLit : 0));
+    tracer.meshFlags32.assign(tracer.meshFlags.begin(), tracer.meshFlags.end());
     const ProbeBaker baker(tracer, grid, settings);
     // Deterministic and cheap (about kProbeTestRays per point of the lattice, a few percent of
     // the bake), so a resumed bake classifies again rather than storing it.
