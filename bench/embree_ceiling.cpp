@@ -89,10 +89,24 @@ double ModeRate::best(Timing t) const {
   return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
 }
 
+double ModeRate::median(Timing t) const {
+  std::vector<double> v = raysPerSecond[int(t)];
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
 const ModeRate& Ceiling::bestMode(Timing t) const {
   PRT_CHECK(!modes.empty());
   return *std::max_element(modes.begin(), modes.end(),
                            [t](const ModeRate& a, const ModeRate& b) { return a.best(t) < b.best(t); });
+}
+
+const ModeRate& Ceiling::bestMedianMode(Timing t) const {
+  PRT_CHECK(!modes.empty());
+  return *std::max_element(modes.begin(), modes.end(),
+                           [t](const ModeRate& a, const ModeRate& b) { return a.median(t) < b.median(t); });
 }
 
 nlohmann::json toJson(const Ceiling& c) {

@@ -29,6 +29,7 @@ struct ModeRate {
   std::string mode;
   std::vector<double> raysPerSecond[2];  // [Timing], one per round
   double best(Timing t) const;
+  double median(Timing t) const;  // of its rounds
 };
 
 /// Every mode's rates for one kind of ray; the ceiling is the fastest mode's fastest round.
@@ -38,6 +39,10 @@ struct Ceiling {
   std::vector<ModeRate> modes;
   const ModeRate& bestMode(Timing t) const;
   double rate(Timing t) const { return bestMode(t).best(t); }
+  /// The mode with the highest median over the rounds. The fastest mode of each round is the
+  /// largest of many noisy timings, above what that mode, or any, typically does; this one is
+  /// for ratios against the best mode's rate in the same round, with no such bias.
+  const ModeRate& bestMedianMode(Timing t) const;
 };
 
 /// The ceiling, its best mode and every mode's best rate and range, per timing.
