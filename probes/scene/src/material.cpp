@@ -9,12 +9,21 @@
 
 namespace prt {
 
-glm::vec4 Texture::sample(const glm::vec2& uv) const {
+namespace {
+
+// Texture::sample, inlined where this file samples (albedoAt, alphaAt): called, its vec4 came
+// back through the stack, read back in halves before the store had landed, and that stall was a
+// fifth of a lookup.
+inline __attribute__((always_inline)) glm::vec4 sampleTexture(const Texture& t, const glm::vec2& uv) {
+  const int width = t.width, height = t.height, wrapS = t.wrapS, wrapT = t.wrapT;
+  const std::vector<glm::vec4>& texels = t.texels;
+  const std::vector<uint32_t>& texels8 = t.texels8;
+  const std::array<std::array<float, 256>, 2>& levels8 = t.levels8;
   if (width <= 0 || height <= 0 || texels.empty()) return glm::vec4(1.0f);
   // Texel i covers [i, i+1)/w, its centre at (i+0.5)/w; x is in texel units from the first centre.
   auto wrap = [](double i, int n, int mode) -> int {
-    if (mode == kClampToEdge) return static_cast<int>(std::clamp(i, 0.0, double(n - 1)));
-    if (mode == kMirroredRepeat) {
+    if (mode == Texture::kClampToEdge) return static_cast<int>(std::clamp(i, 0.0, double(n - 1)));
+    if (mode == Texture::kMirroredRepeat) {
       double m = i - 2.0 * n * std::floor(i / (2.0 * n));  // in [0, 2n)
       return static_cast<int>(m < n ? m : 2.0 * n - 1.0 - m);
     }
@@ -51,6 +60,10 @@ glm::vec4 Texture::sample(const glm::vec2& uv) const {
   return filter([&](int x, int y) { return glm::dvec4(texels[size_t(y) * size_t(width) + size_t(x)]); });
 }
 
+}  // namespace
+
+glm::vec4 Texture::sample(const glm::vec2& uv) const { return sampleTexture(*this, uv); }
+
 glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v) {
   PRT_CHECK_LT(size_t(v), mesh.vertexCount());
   glm::vec3 albedo(1.0f);
@@ -75,7 +88,7 @@ glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, f
     if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty()) {
       // Interpolate the coordinates, not the texels: the texture varies inside the triangle.
       glm::vec2 uv = b0 * mesh.texcoords[i[0]] + b1 * mesh.texcoords[i[1]] + b2 * mesh.texcoords[i[2]];
-      albedo *= glm::vec3(scene.textures[size_t(mat.baseColorTexture)].sample(uv));
+      albedo *= glm::vec3(sampleTexture(scene.textures[size_t(mat.baseColorTexture)], uv));
     }
   }
   if (!mesh.colors.empty())
@@ -93,7 +106,7 @@ float alphaAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float 
     alpha = mat.baseColorFactor.a;
     if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty()) {
       glm::vec2 uv = b0 * mesh.texcoords[i[0]] + b1 * mesh.texcoords[i[1]] + b2 * mesh.texcoords[i[2]];
-      alpha *= scene.textures[size_t(mat.baseColorTexture)].sample(uv).a;
+      alpha *= sampleTexture(scene.textures[size_t(mat.baseColorTexture)], uv).a;
     }
   }
   if (!mesh.colors.empty()) alpha *= b0 * mesh.colors[i[0]].a + b1 * mesh.colors[i[1]].a + b2 * mesh.colors[i[2]].a;
