@@ -76,15 +76,16 @@ inline bool useVectorKernels() {
   return hardware && !forcePortableKernels().load(std::memory_order_relaxed);
 }
 
-/// Whether the probe bake's lit-hit products take their AVX-512 path (AVX-512F, as well as the
-/// vector kernels), unless forceAvx2Kernels() is set: the tests compare it with the AVX2 and
-/// the portable paths, which all give the same bits.
+/// Whether the probe bake's lit-hit products and ray classification take their AVX-512 paths
+/// (AVX-512 F, VL, DQ and BW, as well as the vector kernels), unless forceAvx2Kernels() is set:
+/// the tests compare them with the AVX2 and the portable paths, which all give the same bits.
 inline std::atomic<bool>& forceAvx2Kernels() {
   static std::atomic<bool> force{false};
   return force;
 }
 inline bool useAvx512Kernels() {
-  static const bool hardware = __builtin_cpu_supports("avx512f");
+  static const bool hardware = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+                              __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512bw");
   return hardware && useVectorKernels() && !forceAvx2Kernels().load(std::memory_order_relaxed);
 }
 
