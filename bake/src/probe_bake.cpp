@@ -562,6 +562,8 @@ struct Tracer {
     const uint16_t* rows = nullptr;     // the front sides' rows (HalfRows), stride halves apart
     const uint16_t* backRows = nullptr;  // the back sides' (the front's where only one side is baked)
     size_t stride = 0;
+    bool uniform = false;  // one colour (AlbedoLookup::uniform): its ρ/π in rhoPi, else looked up per hit
+    float rhoPi[4] = {};   // then a zero
   };
   std::vector<LitMesh> litMeshes;
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
@@ -729,6 +731,10 @@ struct Tracer {
       r.b1 = rows.hitU[h];
       r.b2 = rows.hitV[h];
       rows.yOff[h] = rows.hitYOff[h] & ~kBackBit;
+      if (m.uniform) {
+        std::memcpy(r.rho, m.rhoPi, sizeof r.rho);
+        continue;
+      }
       const glm::vec3 rho = albedo.at(mesh, tri, r.b1, r.b2) * float(1.0 / M_PI);
       r.rho[0] = rho.r, r.rho[1] = rho.g, r.rho[2] = rho.b, r.rho[3] = 0.0f;
     }
@@ -1407,6 +1413,9 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       m.stride = lowerHalf[k].stride;
       m.rows = lowerHalf[k].row(0);
       m.backRows = tracer.twoSided[k] ? lowerHalf[k].row(scene.meshes[k].vertexCount()) : m.rows;
+      m.uniform = albedo.uniform[k];
+      const glm::vec3 rhoPi = albedo.constant[k] * float(1.0 / M_PI);  // AlbedoLookup::at's, as a lit hit's
+      m.rhoPi[0] = rhoPi.r, m.rhoPi[1] = rhoPi.g, m.rhoPi[2] = rhoPi.b;
     }
     tracer.meshFlags.assign(std::max<size_t>(scene.meshes.size(), 1), 0);
     for (size_t k = 0; k < scene.meshes.size(); ++k)
