@@ -317,16 +317,9 @@ int main(int argc, char** argv) {
       std::vector<double> ratios;
       for (int round = 0; round < repeat; ++round)
         ratios.push_back(double(stats.rays) / bakeSeconds[size_t(round)] / m.raysPerSecond[0][size_t(round)]);
-      std::vector<double> sorted = ratios, perRound = vsCeiling[0];
-      std::sort(sorted.begin(), sorted.end());
-      std::sort(perRound.begin(), perRound.end());
-      auto median = [](const std::vector<double>& v) {
-        const size_t n = v.size();
-        return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-      };
-      j["bake_vs_ceiling_median"] = median(perRound);
+      j["bake_vs_ceiling_median"] = bench::median(vsCeiling[0]);
       j["ceiling_median_best_mode"] = m.mode;
-      j["bake_vs_median_best_mode"] = median(sorted);
+      j["bake_vs_median_best_mode"] = bench::median(ratios);
       j["bake_vs_median_best_mode_range"] = range(ratios);
     }
     j["not_tracing_share"] = notTracing[bestRound];

@@ -21,6 +21,9 @@ enum class RayKind { Occlusion, ClosestHit };
 
 const char* kindName(RayKind kind);
 
+/// The median of v (the mean of the middle two for an even count; 0 when empty).
+double median(std::vector<double> v);
+
 /// How a rate is timed: wall clock, or the process's CPU time (cpu_clock.h).
 enum class Timing { Wall, Cpu };
 

@@ -364,14 +364,12 @@ struct StreamRows {
   std::vector<uint32_t> hitMesh, hitTri, hitYOff;
   std::vector<float> hitU, hitV;
   std::vector<LitRecord> lit;
-  std::vector<uint32_t> yOff;
   void reset(int bands) {
     if (n2 != bands * bands) {  // the padding columns of gHit are zero and never written
       n2 = bands * bands;
       for (auto* v : {&hitMesh, &hitTri, &hitYOff}) v->resize(kGroup + 8);
       for (auto* v : {&hitU, &hitV}) v->resize(kGroup + 8);
       lit.resize(kGroup);
-      yOff.resize(kGroup);
       ys.assign(size_t(kGroup) * n2, 0.0f);
       directSums.assign(size_t(n2) * (n2 + 1) / 2 * 8, 0.0f);
       gHit.assign(size_t(kChunk) * padded(3 * n2), 0.0f);
@@ -536,7 +534,7 @@ struct StreamTally {
 // multiplies and adds rounded one by one as the portable loop's).
 PRT_AVX512_BEGIN
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx512(
-    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags32, uint32_t yBase, uint32_t n2, double cap,
+    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags, uint32_t yBase, uint32_t n2, double cap,
     StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc, StreamTally& t);
 PRT_AVX512_END
 
@@ -554,8 +552,7 @@ struct Tracer {
   // Per Scene::meshes entry (at least one entry): kTwoSided, and kLit where its hits send light
   // (it has lower-order transfer).
   static constexpr uint8_t kTwoSided = 1, kLit = 2;
-  std::vector<uint8_t> meshFlags;
-  std::vector<uint32_t> meshFlags32;  // the same as 32-bit values (for classifyAvx512's gathers)
+  std::vector<uint32_t> meshFlags;  // 32-bit: classifyAvx512 gathers them
   // Per Scene::meshes entry with lower-order transfer: where a lit hit's corners and rows are.
   struct LitMesh {
     const uint32_t* indices = nullptr;  // 3 per triangle
@@ -594,7 +591,7 @@ struct Tracer {
     RayBuffer buffer;
     RayPacket8* batch = buffer.packets();
     alignas(32) int32_t escapedLanes[kStream];  // per ray of the stream: −1 where it escaped, else 0
-    // The group's lit hits so far (rows.hits).
+    // The group's lit hits so far (rows.hitMesh …).
     uint32_t nLit = 0;
     for (uint32_t first = 0; first < n; first += kStream) {
       if (interruptRequested()) return false;
@@ -622,7 +619,7 @@ struct Tracer {
         if (useAvx512Kernels()) {  // the whole packets; a last, partial one lane by lane below
           StreamTally t{};
           p0 = count / 8 * 8;
-          classifyAvx512(batch, p0 / 8, meshFlags32.data(), (inGroup * uint32_t(n2)), uint32_t(n2), cap, rows, nLit,
+          classifyAvx512(batch, p0 / 8, meshFlags.data(), inGroup * uint32_t(n2), uint32_t(n2), cap, rows, nLit,
                          escapedLanes, acc, t);
           backs += t.backs;
           backsTwoSided += t.backsTwoSided;
@@ -633,14 +630,13 @@ struct Tracer {
       for (; p0 < count; p0 += 8) {
         const RayPacket8& r = batch[p0 >> 3];
         const int lanes = int(std::min<uint32_t>(8, count - p0));
-        float* ys = full ? groupYs + size_t(p0) * n2 : nullptr;  // this packet's (p0 / 8 · n2 · 8)
         alignas(32) int32_t faces[8];
         int32_t* escaped = escapedLanes + p0;  // this packet's 8 lanes
         alignas(32) float axis[8];  // |the direction's component along its face's axis|
         if (full) packetFaces(r, faces, axis);
         for (int l = 0; l < lanes; ++l) {
           const bool hit = r.hit(l);
-          const uint8_t flags = meshFlags[hit ? r.mesh[l] : 0];
+          const uint32_t flags = meshFlags[hit ? r.mesh[l] : 0];
           const bool backside = r.backface(l);
           const bool back = backside && !(flags & kTwoSided);
           backs += back;
@@ -666,12 +662,6 @@ struct Tracer {
         }
         if (!full) continue;
         for (int l = lanes; l < 8; ++l) escaped[l] = 0;
-        // The direct part of the packet's escaped rays: M⁰ += Σ y yᵀ, lane by lane (all the
-        // stream's packets at once with AVX2, below).
-        // (A packet with no escaped ray adds zeros, which leave the sums as they are.)
-        if (!vector && (escaped[0] | escaped[1] | escaped[2] | escaped[3] | escaped[4] | escaped[5] | escaped[6] |
-                        escaped[7]))
-          addDirectPortable(ys, escaped, n2, rows.directSums.data());
       }
       acc.rays += count;
       acc.backfaces += backs;
@@ -682,7 +672,9 @@ struct Tracer {
       // The corners of the stream's lit hits, fetched while the group's other streams trace.
       for (uint32_t h = litBefore; h < nLit; ++h)
         __builtin_prefetch(litMeshes[rows.hitMesh[h]].indices + 3 * size_t(rows.hitTri[h]));
-      // The packets with an escaped ray, for M⁰.
+      // The direct part of the escaped rays, M⁰ += Σ y yᵀ, over the packets with one (a packet
+      // whose rays all hit adds zeros, which leave the sums as they are): lane by lane, or with
+      // AVX2 pair by pair over the packets.
       uint8_t escapedPackets[kStream / 8];
       int nEscaped = 0;
       for (uint32_t q = 0; q < (count + 7) / 8; ++q) {
@@ -691,6 +683,10 @@ struct Tracer {
         nEscaped += (e[0] | e[1] | e[2] | e[3] | e[4] | e[5] | e[6] | e[7]) != 0;
       }
       if (vector && nEscaped) addDirectAvx2(groupYs, escapedLanes, escapedPackets, nEscaped, n2, rows.directSums.data());
+      for (int k = 0; !vector && k < nEscaped; ++k) {
+        const uint32_t q = escapedPackets[k];
+        addDirectPortable(groupYs + size_t(q) * 8 * n2, escapedLanes + 8 * q, n2, rows.directSums.data());
+      }
       // The stream's M⁰ sums into the double matrix's upper triangle, lane by lane in order
       // (nothing to add where no ray escaped).
       for (int a = 0, p = 0; nEscaped && a < n2; ++a)
@@ -730,7 +726,7 @@ struct Tracer {
       }
       r.b1 = rows.hitU[h];
       r.b2 = rows.hitV[h];
-      rows.yOff[h] = rows.hitYOff[h] & ~kBackBit;
+      rows.hitYOff[h] &= ~kBackBit;  // read: from here the products' offsets
       if (m.uniform) {
         std::memcpy(r.rho, m.rhoPi, sizeof r.rho);
         continue;
@@ -742,7 +738,7 @@ struct Tracer {
       const uint32_t k = std::min<uint32_t>(kChunk, hits - h0);
       if (useAvx512Kernels() && n2 <= 9) {  // rows of 32 halves: HalfRows pads 3·n2 ≤ 27 to one line
         const LitRecord* rec = rows.lit.data() + h0;
-        const uint32_t* yo = rows.yOff.data() + h0;
+        const uint32_t* yo = rows.hitYOff.data() + h0;
         switch (n2) {
           case 1: litProductsAvx512<1>(rec, yo, rows.ys.data(), k, indirect); break;
           case 4: litProductsAvx512<4>(rec, yo, rows.ys.data(), k, indirect); break;
@@ -754,14 +750,14 @@ struct Tracer {
         litLightsF16c(rows.lit.data() + h0, k, rows.gHit.data(), ldg);
       else
         litLightsPortable(rows.lit.data() + h0, k, rows.gHit.data(), ldg);
-      addProducts(rows.ys.data(), rows.yOff.data() + h0, rows.gHit.data(), ldg, int(k), n2, 3 * n2, indirect, 3 * n2);
+      addProducts(rows.ys.data(), rows.hitYOff.data() + h0, rows.gHit.data(), ldg, int(k), n2, 3 * n2, indirect, 3 * n2);
     }
   }
 };
 
 PRT_AVX512_BEGIN
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx512(
-    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags32, uint32_t yBase, uint32_t n2, double cap,
+    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags, uint32_t yBase, uint32_t n2, double cap,
     StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc, StreamTally& t) {
   constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;  // explicit: never contracted into FMAs
   // Each face's sums of the eight lanes, in registers over the stream.
@@ -782,12 +778,15 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx51
     const RayPacket8& r = batch[p];
     const __m256i mesh = _mm256_load_si256(reinterpret_cast<const __m256i*>(r.mesh));
     const __mmask8 hit = _mm256_cmpneq_epu32_mask(mesh, invalid);
-    const __m256i flags = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), hit, mesh, meshFlags32, 4);
+    const __m256i flags = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), hit, mesh, meshFlags, 4);
     const __m256 dx = _mm256_load_ps(r.dirX), dy = _mm256_load_ps(r.dirY), dz = _mm256_load_ps(r.dirZ);
     // Ray::backface: ng · d > 0, as glm::dot: (x·x' + y·y') + z·z', each rounded.
-    __m512 dot = _mm512_add_round_ps(_mm512_mul_round_ps(_mm512_zextps256_ps512(_mm256_load_ps(r.ngX)), _mm512_zextps256_ps512(dx), kRound),
-                                     _mm512_mul_round_ps(_mm512_zextps256_ps512(_mm256_load_ps(r.ngY)), _mm512_zextps256_ps512(dy), kRound), kRound);
-    dot = _mm512_add_round_ps(dot, _mm512_mul_round_ps(_mm512_zextps256_ps512(_mm256_load_ps(r.ngZ)), _mm512_zextps256_ps512(dz), kRound), kRound);
+    // (In 512-bit registers: only they take an explicit rounding.)
+    const __m512 nx = _mm512_zextps256_ps512(_mm256_load_ps(r.ngX)), ny = _mm512_zextps256_ps512(_mm256_load_ps(r.ngY)),
+                 nz = _mm512_zextps256_ps512(_mm256_load_ps(r.ngZ));
+    __m512 dot = _mm512_add_round_ps(_mm512_mul_round_ps(nx, _mm512_zextps256_ps512(dx), kRound),
+                                     _mm512_mul_round_ps(ny, _mm512_zextps256_ps512(dy), kRound), kRound);
+    dot = _mm512_add_round_ps(dot, _mm512_mul_round_ps(nz, _mm512_zextps256_ps512(dz), kRound), kRound);
     const __mmask8 backside = __mmask8(_mm512_cmp_ps_mask(dot, _mm512_setzero_ps(), _CMP_GT_OQ));
     const __mmask8 two = _mm256_test_epi32_mask(flags, twoSided), litMesh = _mm256_test_epi32_mask(flags, lit);
     const __mmask8 back = backside & ~two;
@@ -798,9 +797,8 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx51
     nearest = _mm256_min_ps(nearest, tfar);
     // The lit hits, packed in lane order.
     const __mmask8 take = hit & ~back & litMesh;
-    const __m256i yOff = _mm256_mask_or_epi32(_mm256_add_epi32(_mm256_set1_epi32(int(yBase + 8 * p * n2)), lanes),
-                                              backside, _mm256_add_epi32(_mm256_set1_epi32(int(yBase + 8 * p * n2)), lanes),
-                                              _mm256_set1_epi32(int(kBackBit)));
+    const __m256i offsets = _mm256_add_epi32(_mm256_set1_epi32(int(yBase + 8 * p * n2)), lanes);
+    const __m256i yOff = _mm256_mask_or_epi32(offsets, backside, offsets, _mm256_set1_epi32(int(kBackBit)));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(&rows.hitMesh[n]), _mm256_maskz_compress_epi32(take, mesh));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(&rows.hitTri[n]),
                         _mm256_maskz_compress_epi32(take, _mm256_load_si256(reinterpret_cast<const __m256i*>(r.tri))));
@@ -1419,9 +1417,8 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
     }
     tracer.meshFlags.assign(std::max<size_t>(scene.meshes.size(), 1), 0);
     for (size_t k = 0; k < scene.meshes.size(); ++k)
-      tracer.meshFlags[k] = uint8_t((tracer.twoSided[k] ? Tracer::kTwoSided : 0) |
+      tracer.meshFlags[k] = uint32_t((tracer.twoSided[k] ? Tracer::kTwoSided : 0) |
                                     (k < lowerHalf.size() && !lowerHalf[k].empty() ? Tracer::kLit : 0));
-    tracer.meshFlags32.assign(tracer.meshFlags.begin(), tracer.meshFlags.end());
     const ProbeBaker baker(tracer, grid, settings);
     // Deterministic and cheap (about kProbeTestRays per point of the lattice, a few percent of
     // the bake), so a resumed bake classifies again rather than storing it.
