@@ -89,6 +89,16 @@ inline bool useAvx512Kernels() {
   return hardware && useVectorKernels() && !forceAvx2Kernels().load(std::memory_order_relaxed);
 }
 
+// GCC 12 warns that the AVX-512 intrinsics' own _mm512_undefined_* values may be used
+// uninitialised; around the AVX-512 kernels, that warning is off.
+#if defined(__GNUC__) && !defined(__clang__)
+#define PRT_AVX512_BEGIN _Pragma("GCC diagnostic push") _Pragma("GCC diagnostic ignored \"-Wmaybe-uninitialized\"")
+#define PRT_AVX512_END _Pragma("GCC diagnostic pop")
+#else
+#define PRT_AVX512_BEGIN
+#define PRT_AVX512_END
+#endif
+
 /// RGB SH transfer rows (3·n2 floats each) as halves, each row padded with zeros to whole 64-byte
 /// lines (one line at 3 bands instead of two): for gathers that read rows at random, where the
 /// lines read are the cost.

@@ -41,16 +41,6 @@
 #include "stage_runner.h"
 #include "trace_clock.h"
 
-// GCC 12 warns that the AVX-512 intrinsics' own _mm512_undefined_* values may be used
-// uninitialised; around the AVX-512 kernels, that warning is off.
-#if defined(__GNUC__) && !defined(__clang__)
-#define PRT_AVX512_BEGIN _Pragma("GCC diagnostic push") _Pragma("GCC diagnostic ignored \"-Wmaybe-uninitialized\"")
-#define PRT_AVX512_END _Pragma("GCC diagnostic pop")
-#else
-#define PRT_AVX512_BEGIN
-#define PRT_AVX512_END
-#endif
-
 namespace prt::bake {
 
 namespace {
@@ -364,12 +354,16 @@ struct StreamRows {
   std::vector<uint32_t> hitMesh, hitTri, hitYOff;
   std::vector<float> hitU, hitV;
   std::vector<LitRecord> lit;
+  std::vector<uint32_t> albedoHits;  // the group's lit hits whose colour is looked up (AlbedoLookup::atMany)
+  std::vector<glm::vec3> albedoRgb;  // and their colours
   void reset(int bands) {
     if (n2 != bands * bands) {  // the padding columns of gHit are zero and never written
       n2 = bands * bands;
       for (auto* v : {&hitMesh, &hitTri, &hitYOff}) v->resize(kGroup + 8);
       for (auto* v : {&hitU, &hitV}) v->resize(kGroup + 8);
       lit.resize(kGroup);
+      albedoHits.resize(kGroup);
+      albedoRgb.resize(kGroup);
       ys.assign(size_t(kGroup) * n2, 0.0f);
       directSums.assign(size_t(n2) * (n2 + 1) / 2 * 8, 0.0f);
       gHit.assign(size_t(kChunk) * padded(3 * n2), 0.0f);
@@ -713,6 +707,7 @@ struct Tracer {
   // chunk by chunk, computes g from the rows, which have arrived by then, and multiplies it in.
   void sumLit(StreamRows& rows, uint32_t hits, double* indirect) const {
     const int n2 = rows.n2, ldg = padded(3 * n2);
+    uint32_t nAlbedo = 0;
     for (uint32_t h = 0; h < hits; ++h) {
       const uint32_t mesh = rows.hitMesh[h], tri = rows.hitTri[h];
       const LitMesh& m = litMeshes[mesh];
@@ -727,11 +722,17 @@ struct Tracer {
       r.b1 = rows.hitU[h];
       r.b2 = rows.hitV[h];
       rows.hitYOff[h] &= ~kBackBit;  // read: from here the products' offsets
-      if (m.uniform) {
+      if (m.uniform)
         std::memcpy(r.rho, m.rhoPi, sizeof r.rho);
-        continue;
-      }
-      const glm::vec3 rho = albedo.at(mesh, tri, r.b1, r.b2) * float(1.0 / M_PI);
+      else
+        rows.albedoHits[nAlbedo++] = h;
+    }
+    // The hits on textured or vertex-coloured instances, eight at a time where AVX-512 is.
+    albedo.atMany(rows.hitMesh.data(), rows.hitTri.data(), rows.hitU.data(), rows.hitV.data(), rows.albedoHits.data(),
+                  nAlbedo, rows.albedoRgb.data());
+    for (uint32_t k = 0; k < nAlbedo; ++k) {
+      const glm::vec3 rho = rows.albedoRgb[k] * float(1.0 / M_PI);
+      LitRecord& r = rows.lit[rows.albedoHits[k]];
       r.rho[0] = rho.r, r.rho[1] = rho.g, r.rho[2] = rho.b, r.rho[3] = 0.0f;
     }
     for (uint32_t h0 = 0; h0 < hits; h0 += kChunk) {
