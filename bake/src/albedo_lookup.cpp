@@ -79,41 +79,14 @@ PRT_TARGET __m512d decode8(__m256i p, int c, __m256i table, const float* levels,
 
 #undef PRT_TARGET
 
-// A batch of eight hits (k0 .. k0+count of `which`): their instances' lines and flags, and, where
-// the colour varies over the triangle, the barycentrics and corners.
+// A batch of eight hits: their instances' lines and flags, and, where the colour varies over
+// the triangle (textured or coloured), the barycentrics and corners.
 struct Lanes {
-  __mmask8 valid, fast, tex, col;  // fast: the kernel's instances; tex, col: textured, coloured
-  __m256i h, line, flags;
-  __m256 w[3];     // b0, b1, b2
-  __m256i ix[3];   // the corners' vertex indices
+  __mmask8 fast, tex, col;  // fast: the kernel's instances; tex, col: textured, coloured
+  __m256i line, flags;
+  __m256 w[3];    // b0, b1, b2
+  __m256i ix[3];  // the corners' vertex indices
 };
-
-__attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inline Lanes lanes8(
-    const char* lines, const uint32_t* mesh, const uint32_t* tri, const float* b1, const float* b2,
-    const uint32_t* which, uint32_t count) {
-  const __m256i zero = _mm256_setzero_si256();
-  const __m256 zerof = _mm256_setzero_ps();
-  Lanes l;
-  l.valid = __mmask8((1u << count) - 1u);
-  l.h = _mm256_maskz_loadu_epi32(l.valid, which);
-  l.line = _mm256_slli_epi32(_mm256_mmask_i32gather_epi32(zero, l.valid, l.h, mesh, 4), 6);  // × sizeof(Batched)
-  l.flags = _mm256_mmask_i32gather_epi32(zero, l.valid, l.line, lines + offsetof(Batched, flags), 1);
-  l.fast = l.valid & _mm256_test_epi32_mask(l.flags, _mm256_set1_epi32(int(AlbedoLookup::kKernel)));
-  l.tex = l.fast & _mm256_test_epi32_mask(l.flags, _mm256_set1_epi32(int(AlbedoLookup::kTextured)));
-  l.col = l.fast & _mm256_test_epi32_mask(l.flags, _mm256_set1_epi32(int(AlbedoLookup::kColoured)));
-  const __mmask8 varies = l.tex | l.col;
-  if (!varies) return l;
-  const __m256i t = _mm256_mmask_i32gather_epi32(zero, varies, l.h, tri, 4);
-  l.w[1] = _mm256_mmask_i32gather_ps(zerof, varies, l.h, b1, 4);
-  l.w[2] = _mm256_mmask_i32gather_ps(zerof, varies, l.h, b2, 4);
-  l.w[0] = _mm256_sub_ps(_mm256_sub_ps(_mm256_set1_ps(1.0f), l.w[1]), l.w[2]);  // b0 = 1 − b1 − b2
-  const __m512i indices =
-      _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), varies, l.line, lines + offsetof(Batched, indices), 1);
-  const __m512i first = address8(indices, _mm256_mullo_epi32(t, _mm256_set1_epi32(3)), 2);  // indices[3·tri]
-  for (int c = 0; c < 3; ++c)
-    l.ix[c] = _mm512_mask_i64gather_epi32(zero, varies, _mm512_add_epi64(first, _mm512_set1_epi64(4 * c)), nullptr, 1);
-  return l;
-}
 
 // What pass 1 found of eight hits, for pass 2: the texels' addresses and filter weights, the
 // base colour factor and the interpolated vertex colour.
@@ -131,7 +104,7 @@ struct alignas(64) Staged {
 // the texels and multiplies in the factor and the colours.
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void atManyAvx512(
     const AlbedoLookup& lookup, const Batched* table, const float* levels, const uint32_t* mesh, const uint32_t* tri,
-    const float* b1, const float* b2, const uint32_t* which, uint32_t n, glm::vec3* out) {
+    const float* b1, const float* b2, uint32_t n, glm::vec3* out) {
   constexpr uint32_t kBlock = 256;
   const char* lines = reinterpret_cast<const char*>(table);
   const __m256i zero = _mm256_setzero_si256();
@@ -143,10 +116,9 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void atManyAvx512(
     const uint32_t end = std::min(n, s + kBlock);
     // Pass 0.
     for (uint32_t k = s; k < end; ++k) {
-      const uint32_t h = which[k];
-      const Batched& b = table[mesh[h]];
+      const Batched& b = table[mesh[k]];
       if (!(b.flags & AlbedoLookup::kKernel)) continue;
-      const uint32_t* ix = b.indices + 3 * size_t(tri[h]);
+      const uint32_t* ix = b.indices + 3 * size_t(tri[k]);
       for (int c = 0; c < 3; ++c) {
         if (b.flags & AlbedoLookup::kTextured) __builtin_prefetch(b.texcoords + ix[c]);
         if (b.flags & AlbedoLookup::kColoured) __builtin_prefetch(b.colors + ix[c]);
@@ -154,11 +126,28 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void atManyAvx512(
     }
     // Pass 1.
     for (uint32_t k0 = s; k0 < end; k0 += 8) {
-      const Lanes l = lanes8(lines, mesh, tri, b1, b2, which + k0, std::min<uint32_t>(8, end - k0));
+      // The instances' lines and flags.
+      const __mmask8 valid = __mmask8((1u << std::min<uint32_t>(8, end - k0)) - 1u);
+      Lanes l;
+      l.line = _mm256_slli_epi32(_mm256_maskz_loadu_epi32(valid, mesh + k0), 6);  // × sizeof(Batched)
+      l.flags = _mm256_mmask_i32gather_epi32(zero, valid, l.line, lines + offsetof(Batched, flags), 1);
+      l.fast = valid & _mm256_test_epi32_mask(l.flags, _mm256_set1_epi32(int(AlbedoLookup::kKernel)));
+      l.tex = l.fast & _mm256_test_epi32_mask(l.flags, _mm256_set1_epi32(int(AlbedoLookup::kTextured)));
+      l.col = l.fast & _mm256_test_epi32_mask(l.flags, _mm256_set1_epi32(int(AlbedoLookup::kColoured)));
       Staged& st = staged[(k0 - s) / 8];
       st.fast = l.fast, st.tex = l.tex, st.col = l.col;
       for (int c = 0; c < 3; ++c)
         st.factor[c] = _mm256_mmask_i32gather_ps(zerof, l.fast, l.line, lines + offsetof(Batched, factor) + 4 * c, 1);
+      if (!(l.tex | l.col)) continue;
+      // Where the colour varies over the triangle: the barycentrics and the corners, indices[3·tri + c].
+      const __mmask8 varies = l.tex | l.col;
+      l.w[1] = _mm256_maskz_loadu_ps(varies, b1 + k0);
+      l.w[2] = _mm256_maskz_loadu_ps(varies, b2 + k0);
+      l.w[0] = _mm256_sub_ps(_mm256_sub_ps(_mm256_set1_ps(1.0f), l.w[1]), l.w[2]);  // b0 = 1 − b1 − b2
+      const __m512i indices = _mm512_mask_i32gather_epi64(zero64, varies, l.line, lines + offsetof(Batched, indices), 1);
+      const __m512i first = address8(indices, _mm256_mullo_epi32(_mm256_maskz_loadu_epi32(varies, tri + k0), three), 2);
+      for (int c = 0; c < 3; ++c)
+        l.ix[c] = _mm512_mask_i64gather_epi32(zero, varies, _mm512_add_epi64(first, _mm512_set1_epi64(4 * c)), nullptr, 1);
       if (l.col) {  // b0 c0 + b1 c1 + b2 c2
         const __m512i colors = _mm512_mask_i32gather_epi64(zero64, l.col, l.line, lines + offsetof(Batched, colors), 1);
         for (int c = 0; c < 3; ++c) {
@@ -229,11 +218,8 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void atManyAvx512(
       _mm256_store_ps(r, rgb[0]);
       _mm256_store_ps(g, rgb[1]);
       _mm256_store_ps(b, rgb[2]);
-      for (uint32_t lane = 0; lane < count; ++lane) {
-        const uint32_t h = which[k0 + lane];
-        out[k0 + lane] =
-            (st.fast >> lane) & 1u ? glm::vec3(r[lane], g[lane], b[lane]) : lookup.at(mesh[h], tri[h], b1[h], b2[h]);
-      }
+      for (uint32_t lane = 0, k = k0; lane < count; ++lane, ++k)
+        out[k] = (st.fast >> lane) & 1u ? glm::vec3(r[lane], g[lane], b[lane]) : lookup.at(mesh[k], tri[k], b1[k], b2[k]);
     }
   }
 }
@@ -285,15 +271,12 @@ AlbedoLookup::AlbedoLookup(const Scene& s) : scene(s) {
 }
 
 void AlbedoLookup::atMany(const uint32_t* mesh, const uint32_t* tri, const float* b1, const float* b2,
-                          const uint32_t* which, uint32_t n, glm::vec3* out) const {
+                          uint32_t n, glm::vec3* out) const {
   if (kernel_ && useAvx512Kernels()) {
-    atManyAvx512(*this, batched_.data(), levels_.data(), mesh, tri, b1, b2, which, n, out);
+    atManyAvx512(*this, batched_.data(), levels_.data(), mesh, tri, b1, b2, n, out);
     return;
   }
-  for (uint32_t k = 0; k < n; ++k) {
-    const uint32_t h = which[k];
-    out[k] = at(mesh[h], tri[h], b1[h], b2[h]);
-  }
+  for (uint32_t k = 0; k < n; ++k) out[k] = at(mesh[k], tri[k], b1[k], b2[k]);
 }
 
 }  // namespace prt::bake

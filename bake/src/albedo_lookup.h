@@ -23,13 +23,13 @@ struct AlbedoLookup {
     return albedoAt(scene, scene.meshes[mesh], localTri, b1, b2);
   }
 
-  /// out[k] = at(mesh[h], tri[h], b1[h], b2[h]) with h = which[k], for k < n, bit for bit. With
+  /// out[k] = at(mesh[k], tri[k], b1[k], b2[k]) for k < n, bit for bit. With
   /// AVX-512 (useAvx512Kernels) eight hits at a time: the corners, texture coordinates, texels,
   /// their decode and vertex colours by gathers, and Texture::sample's wrap and bilinear filter
   /// in doubles, each operation rounded as the scalar code rounds it. A hit on an instance the
   /// kernel does not take (a texture without 8-bit texels) is looked up one by one.
-  void atMany(const uint32_t* mesh, const uint32_t* tri, const float* b1, const float* b2, const uint32_t* which,
-              uint32_t n, glm::vec3* out) const;
+  void atMany(const uint32_t* mesh, const uint32_t* tri, const float* b1, const float* b2, uint32_t n,
+              glm::vec3* out) const;
 
   /// What atMany's kernel reads of an instance: one cache line, gathered by instance.
   struct alignas(64) Batched {

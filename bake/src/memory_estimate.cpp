@@ -62,7 +62,7 @@ constexpr uint64_t kHitBytes = 8, kHitOffsetBytes = 4;
 // (lattice order, kept in the checkpoint's chunk records as they are); per worker thread one
 // set of accumulators (n2² doubles and n2² double RGB) and the scratch of a group of 1024 rays
 // (StreamRows: their SH values, n2 floats a ray; per lit hit its lists' 20 bytes and a 48-byte
-// record, and for a colour looked up its index and RGB, 16; g of a chunk of 64 hits); per active probe the grid's
+// record, and for a colour looked up its index, instance, triangle, barycentrics and RGB, 32; g of a chunk of 64 hits); per active probe the grid's
 // attributes: coordinate 12, validity 4, offset 12, moments 48, sky 4 (80), and a 4-byte
 // dense index entry per lattice point.
 constexpr uint64_t kProbeSlotBytes = 72, kProbeAttributeBytes = 80, kProbeIndexBytes = 4, kAllocOverhead = 32;
@@ -140,7 +140,7 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   const uint64_t pn2 = uint64_t(p.bands) * p.bands;
   const uint64_t matrix = pn2 * pn2 * 12 + pn2 * (pn2 + 1) / 2 * 4;  // M and M⁰'s triangle
   const uint64_t threads = std::max(1u, p.threads > 0 ? unsigned(p.threads) : std::thread::hardware_concurrency());
-  const uint64_t scratch = 1024 * (pn2 * 4 + 20 + 48 + 16) + 64 * ((3 * pn2 + 7) / 8 * 8) * 4;
+  const uint64_t scratch = 1024 * (pn2 * 4 + 20 + 48 + 32) + 64 * ((3 * pn2 + 7) / 8 * 8) * 4;
   const uint64_t accum = pn2 * pn2 * (8 + 24) + scratch + 8 * kAllocOverhead;
   lattice = points * (kProbeSlotBytes + matrix);
   const uint64_t trace = triangles * kBvhBytesPerTriangle + lattice + threads * accum + kCheckpointBuffers;

@@ -354,16 +354,22 @@ struct StreamRows {
   std::vector<uint32_t> hitMesh, hitTri, hitYOff;
   std::vector<float> hitU, hitV;
   std::vector<LitRecord> lit;
-  std::vector<uint32_t> albedoHits;  // the group's lit hits whose colour is looked up (AlbedoLookup::atMany)
-  std::vector<glm::vec3> albedoRgb;  // and their colours
+  // The group's lit hits whose colour is looked up (AlbedoLookup::atMany): which hit, its
+  // instance, triangle and barycentrics, and the colour.
+  struct Lookups {
+    std::vector<uint32_t> hit, mesh, tri;
+    std::vector<float> b1, b2;
+    std::vector<glm::vec3> rgb;
+  } albedo;
   void reset(int bands) {
     if (n2 != bands * bands) {  // the padding columns of gHit are zero and never written
       n2 = bands * bands;
       for (auto* v : {&hitMesh, &hitTri, &hitYOff}) v->resize(kGroup + 8);
       for (auto* v : {&hitU, &hitV}) v->resize(kGroup + 8);
       lit.resize(kGroup);
-      albedoHits.resize(kGroup);
-      albedoRgb.resize(kGroup);
+      for (auto* v : {&albedo.hit, &albedo.mesh, &albedo.tri}) v->resize(kGroup);
+      for (auto* v : {&albedo.b1, &albedo.b2}) v->resize(kGroup);
+      albedo.rgb.resize(kGroup);
       ys.assign(size_t(kGroup) * n2, 0.0f);
       directSums.assign(size_t(n2) * (n2 + 1) / 2 * 8, 0.0f);
       gHit.assign(size_t(kChunk) * padded(3 * n2), 0.0f);
@@ -722,17 +728,20 @@ struct Tracer {
       r.b1 = rows.hitU[h];
       r.b2 = rows.hitV[h];
       rows.hitYOff[h] &= ~kBackBit;  // read: from here the products' offsets
-      if (m.uniform)
+      if (m.uniform) {
         std::memcpy(r.rho, m.rhoPi, sizeof r.rho);
-      else
-        rows.albedoHits[nAlbedo++] = h;
+        continue;
+      }
+      StreamRows::Lookups& a = rows.albedo;
+      a.hit[nAlbedo] = h, a.mesh[nAlbedo] = mesh, a.tri[nAlbedo] = tri, a.b1[nAlbedo] = r.b1, a.b2[nAlbedo] = r.b2;
+      ++nAlbedo;
     }
     // The hits on textured or vertex-coloured instances, eight at a time where AVX-512 is.
-    albedo.atMany(rows.hitMesh.data(), rows.hitTri.data(), rows.hitU.data(), rows.hitV.data(), rows.albedoHits.data(),
-                  nAlbedo, rows.albedoRgb.data());
+    StreamRows::Lookups& a = rows.albedo;
+    albedo.atMany(a.mesh.data(), a.tri.data(), a.b1.data(), a.b2.data(), nAlbedo, a.rgb.data());
     for (uint32_t k = 0; k < nAlbedo; ++k) {
-      const glm::vec3 rho = rows.albedoRgb[k] * float(1.0 / M_PI);
-      LitRecord& r = rows.lit[rows.albedoHits[k]];
+      const glm::vec3 rho = a.rgb[k] * float(1.0 / M_PI);
+      LitRecord& r = rows.lit[a.hit[k]];
       r.rho[0] = rho.r, r.rho[1] = rho.g, r.rho[2] = rho.b, r.rho[3] = 0.0f;
     }
     for (uint32_t h0 = 0; h0 < hits; h0 += kChunk) {
