@@ -1302,11 +1302,29 @@ void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& s) {
 
 namespace {
 
+// v.resize(n) on huge pages, the new storage faulted in by the workers side by side first: one
+// thread's first writes would fault it in alone, a page at a time, while the others wait (on the
+// VMs prt is measured on, fresh memory costs about 2 ms a MiB to fault in, on huge pages too).
+template <class T>
+void resizeFaultedInParallel(std::vector<T>& v, size_t n) {
+  PRT_CHECK(v.empty());
+  v.reserve(n);
+  const size_t bytes = n * sizeof(T), kBlock = size_t(2) << 20;
+  char* p = reinterpret_cast<char*>(v.data());
+  adviseHugePages(p, bytes);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, (bytes + kBlock - 1) / kBlock, 1), [&](const tbb::blocked_range<size_t>& r) {
+    const size_t begin = r.begin() * kBlock;
+    populatePages(p + begin, std::min(bytes, r.end() * kBlock) - begin);
+  });
+  v.resize(n);
+}
+
 // Active: valid probes, and invalid ones next to a valid probe (so the file shows where
 // interpolation must not read); solid interiors far from free space are not stored. Copies the
 // lattice's results into the grid, compacted to the active probes in lattice order: M into
 // grid.transfer, M⁰'s triangle into grid.direct (zeros for invalid probes, whose lattice
-// transfer was never written), each array allocated once at its size, on huge pages.
+// transfer was never written), each array allocated once at its size, on huge pages, and
+// faulted in by the workers together.
 void assembleGrid(const std::vector<ProbeSlot>& slots, const float* transfer, size_t stride, ProbeGrid& grid,
                   ProbeStats& stats) {
   const glm::ivec3 dims = grid.dims;
@@ -1327,8 +1345,8 @@ void assembleGrid(const std::vector<ProbeSlot>& slots, const float* transfer, si
       }
   const size_t active = activeIdx.size(), rgb = grid.transferStride(), tri = stride - rgb;
   PRT_CHECK_EQ(tri, ProbeGrid::directStride(grid.bands));
-  resizeOnHugePages(grid.transfer, active * rgb);  // zeros, kept by invalid probes
-  resizeOnHugePages(grid.direct, active * tri);
+  resizeFaultedInParallel(grid.transfer, active * rgb);  // zeros, kept by invalid probes
+  resizeFaultedInParallel(grid.direct, active * tri);
   grid.coord.reserve(active);
   grid.validity.reserve(active);
   grid.offset.reserve(active);

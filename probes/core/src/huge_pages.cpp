@@ -25,6 +25,19 @@ void adviseHugePages(void* p, size_t bytes) {
 #endif
 }
 
+void populatePages(void* p, size_t bytes) {
+#if defined(__linux__)
+  constexpr int kPopulateWrite = 23;  // MADV_POPULATE_WRITE, where the headers predate it
+  constexpr uintptr_t kPage = 4096;
+  const uintptr_t begin = reinterpret_cast<uintptr_t>(p) & ~(kPage - 1);
+  const uintptr_t end = reinterpret_cast<uintptr_t>(p) + bytes;
+  if (p && end > begin) (void)madvise(reinterpret_cast<void*>(begin), end - begin, kPopulateWrite);  // advice only
+#else
+  (void)p;
+  (void)bytes;
+#endif
+}
+
 void tuneHeap() {
 #if defined(__GLIBC__)
   // Setting a threshold turns off glibc's sliding ones, so both are set.

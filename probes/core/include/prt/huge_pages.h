@@ -9,9 +9,6 @@
 
 #include <cstddef>
 #include <memory>
-#include <vector>
-
-#include "prt/error.h"
 
 namespace prt {
 
@@ -20,15 +17,11 @@ namespace prt {
 /// without the kernel's support or where it is refused, and the contents are unchanged.
 void adviseHugePages(void* p, size_t bytes);
 
-/// v.resize(n), the new storage advised onto huge pages before it is first touched.
-/// Precondition: v is empty (nothing to move).
-template <class T>
-void resizeOnHugePages(std::vector<T>& v, size_t n) {
-  PRT_CHECK(v.empty());
-  v.reserve(n);
-  adviseHugePages(v.data(), n * sizeof(T));
-  v.resize(n);
-}
+/// Maps [p, p + bytes) in now, writable, as a first write would (madvise MADV_POPULATE_WRITE,
+/// Linux 5.14 on; elsewhere nothing): threads that call it on parts of an array fault it in
+/// side by side, where one thread's first writes would fault it page by page alone. Contents
+/// are unchanged (fresh memory reads zero).
+void populatePages(void* p, size_t bytes);
 
 /// Sets up glibc's heap for few page faults (elsewhere nothing); called once, first thing in
 /// main.
