@@ -237,6 +237,7 @@ AlbedoLookup::AlbedoLookup(const Scene& s) : scene(s) {
     const bool textured = m.material >= 0 && s.materials[size_t(m.material)].baseColorTexture >= 0;
     const bool uni = !textured && m.colors.empty();
     uniform.push_back(uni);
+    varies = varies || !uni;
     constant.push_back(uni && m.triangleCount() ? albedoAtVertex(s, m, m.indices[0]) : glm::vec3(0));
     // What albedoAt does at a hit on this instance, as the kernel's table says it.
     Batched& b = batched_[k];

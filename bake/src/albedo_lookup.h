@@ -15,6 +15,7 @@ struct AlbedoLookup {
   const Scene& scene;
   std::vector<uint8_t> uniform;      // per instance: no texture, no vertex colours
   std::vector<glm::vec3> constant;   // its colour when uniform
+  bool varies = false;               // some instance is not uniform
 
   explicit AlbedoLookup(const Scene& s);
 

@@ -242,13 +242,17 @@ DirectIrradiance DirectBounce::bounce(const DirectIrradiance& e0) const {
     tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {
       const ChunkHits& ch = b.chunks[c];
       const size_t first = c * kChunk;
+      thread_local VaryingColours colours;
       for (size_t v = first; v + 1 - first < ch.begin.size(); ++v) {
         glm::vec3 acc(0.0f);
-        for (uint32_t h = ch.begin[v - first]; h < ch.begin[v - first + 1]; ++h) {
+        const uint32_t begin = ch.begin[v - first], end = ch.begin[v - first + 1];
+        const glm::vec3* varying = b.albedo.varies ? colours.lookUp(b.albedo, lay, ch.hits.data(), begin, end) : nullptr;
+        for (uint32_t h = begin; h < end; ++h) {
           const HitRecord& rec = ch.hits[h];
           const float b1 = rec.b1 * (1.0f / 65535.0f), b2 = rec.b2 * (1.0f / 65535.0f), b0 = 1.0f - b1 - b2;
           const uint32_t* tv = &lay.triVerts[3 * size_t(rec.tri)];
-          const glm::vec3 rho = b.albedo.at(lay.meshOfTri[rec.tri], lay.localTriangle(rec.tri), b1, b2);
+          const uint32_t mesh = lay.meshOfTri[rec.tri];
+          const glm::vec3 rho = b.albedo.uniform[mesh] ? b.albedo.constant[mesh] : *varying++;
           acc += rho * (b0 * prev[tv[0]] + b1 * prev[tv[1]] + b2 * prev[tv[2]]);
         }
         cur[v] = acc * w;

@@ -13,6 +13,7 @@
 
 #include <glm/glm.hpp>
 
+#include "albedo_lookup.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/scene.h"
 
@@ -62,6 +63,34 @@ glm::vec3 normalOf(const Scene& scene, const Layout& lay, size_t v);
 struct HitRecord {
   uint32_t tri;     // global triangle
   uint16_t b1, b2;  // barycentrics of its 2nd and 3rd vertex, 16-bit fixed point
+};
+
+// The base colours of hit records [first, last) (one vertex's) on instances whose colour varies
+// over their surface (textured or vertex-coloured), looked up together (AlbedoLookup::atMany:
+// eight at a time with AVX-512), in the records' order; the barycentrics as the gathers
+// dequantise them. A thread's scratch, kept from vertex to vertex.
+struct VaryingColours {
+  std::vector<uint32_t> mesh, tri;
+  std::vector<float> b1, b2;
+  std::vector<glm::vec3> rgb;
+  const glm::vec3* lookUp(const AlbedoLookup& albedo, const Layout& lay, const HitRecord* hits, uint32_t first,
+                          uint32_t last) {
+    if (mesh.size() < last - first) {
+      for (auto* v : {&mesh, &tri}) v->resize(last - first);
+      for (auto* v : {&b1, &b2}) v->resize(last - first);
+      rgb.resize(last - first);
+    }
+    uint32_t n = 0;
+    for (uint32_t h = first; h < last; ++h) {
+      const uint32_t m = lay.meshOfTri[hits[h].tri];
+      if (albedo.uniform[m]) continue;
+      mesh[n] = m, tri[n] = lay.localTriangle(hits[h].tri);
+      b1[n] = hits[h].b1 * (1.0f / 65535.0f), b2[n] = hits[h].b2 * (1.0f / 65535.0f);
+      ++n;
+    }
+    albedo.atMany(mesh.data(), tri.data(), b1.data(), b2.data(), n, rgb.data());
+    return rgb.data();
+  }
 };
 
 inline uint16_t quantise(float b) {
