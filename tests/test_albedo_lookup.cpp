@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "../bake/src/albedo_lookup.h"
+#include "../bake/src/surface_layout.h"  // VaryingColours, makeLayout, HitRecord
 #include "../bake/src/half.h"  // useAvx512Kernels, forceAvx2Kernels
 #include "prt/scene.h"
 
@@ -68,9 +69,8 @@ MeshInstance randomMesh(std::mt19937& rng, int material, size_t vertices, size_t
   return m;
 }
 
-TEST(AlbedoLookup, ManyAtOnceGiveAtsBits) {
-  if (!bake::useAvx512Kernels()) GTEST_SKIP() << "no AVX-512 on this CPU: atMany looks each hit up with at()";
-  std::mt19937 rng(7);
+// Instances of every kind the lookup tells apart, over the textures above; some double-sided.
+Scene randomScene(std::mt19937& rng) {
   Scene s;
   const int R = Texture::kRepeat, C = Texture::kClampToEdge, M = Texture::kMirroredRepeat;
   s.textures.push_back(randomTexture(rng, 7, 5, R, R, true, 2.2f));
@@ -83,6 +83,7 @@ TEST(AlbedoLookup, ManyAtOnceGiveAtsBits) {
     Material m;
     m.baseColorFactor = glm::vec4(0.3f + 0.1f * t, 0.9f, 0.55f, 1.0f);
     m.baseColorTexture = t;
+    m.doubleSided = t % 2 == 1;  // both sides baked: back triangles in the bake's numbering
     s.materials.push_back(m);
   }
   Material plain;
@@ -97,6 +98,13 @@ TEST(AlbedoLookup, ManyAtOnceGiveAtsBits) {
   s.meshes.push_back(randomMesh(rng, -1, 20, 30, false, true));                // no material: colours alone
   s.meshes.push_back(randomMesh(rng, int(s.textures.size()), 20, 30, true, true));  // factor × colours
   s.meshes.push_back(randomMesh(rng, int(s.textures.size()), 20, 30, false, false));  // uniform
+  return s;
+}
+
+TEST(AlbedoLookup, ManyAtOnceGiveAtsBits) {
+  if (!bake::useAvx512Kernels()) GTEST_SKIP() << "no AVX-512 on this CPU: atMany looks each hit up with at()";
+  std::mt19937 rng(7);
+  const Scene s = randomScene(rng);
 
   // Hits on every instance, barycentrics inside the triangle and on its edges and corners.
   const size_t hits = 4000;
@@ -124,6 +132,42 @@ TEST(AlbedoLookup, ManyAtOnceGiveAtsBits) {
                       << one.b << "), atMany (" << many[h].r << ", " << many[h].g << ", " << many[h].b << ")";
     }
     EXPECT_EQ(wrong, 0) << "of " << n;
+  }
+}
+
+// The bounces' lookups (VaryingColours) hand out the colours of a vertex's hit records on
+// varying instances in the records' order, a window of 4 096 at a time: over windows, from any
+// first record, and started again on other records, each the colour at() gives.
+TEST(AlbedoLookup, VaryingColoursFollowTheRecords) {
+  std::mt19937 rng(11);
+  const Scene s = randomScene(rng);
+  const bake::Layout lay = bake::makeLayout(s);
+  ASSERT_GT(lay.triangles, lay.frontTriangles) << "the scene should have back sides";
+  const bake::AlbedoLookup lookup(s);
+  std::vector<bake::HitRecord> hits(10000);
+  for (bake::HitRecord& r : hits) {
+    r.tri = uint32_t(rng() % lay.triangles);
+    r.b1 = uint16_t(rng() % 65536);
+    r.b2 = uint16_t(rng() % (65536 - r.b1));
+  }
+  bake::VaryingColours colours;
+  for (auto [first, last] : {std::pair<uint32_t, uint32_t>{37, 10000}, {5, 9000}, {100, 100}, {0, 10000}}) {
+    colours.start(lookup, lay, hits.data(), first, last);
+    int wrong = 0, varying = 0;
+    for (uint32_t h = first; h < last; ++h) {
+      const uint32_t mesh = lay.meshOfTri[hits[h].tri];
+      if (lookup.uniform[mesh]) continue;
+      ++varying;
+      const glm::vec3 want = lookup.at(mesh, lay.localTriangle(hits[h].tri), hits[h].b1 * (1.0f / 65535.0f),
+                                       hits[h].b2 * (1.0f / 65535.0f));
+      const glm::vec3 got = colours.next();
+      if (std::memcmp(&want, &got, sizeof want) != 0 && ++wrong <= 5)
+        ADD_FAILURE() << "record " << h << " of [" << first << ", " << last << ")";
+    }
+    EXPECT_EQ(wrong, 0);
+    if (last - first > 8192) {
+      EXPECT_GT(varying, int(bake::VaryingColours::kWindow)) << "more than a window";
+    }
   }
 }
 

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 
 #include "half.h"  // useAvx512Kernels, PRT_AVX512_BEGIN
 

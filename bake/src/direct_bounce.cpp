@@ -246,13 +246,13 @@ DirectIrradiance DirectBounce::bounce(const DirectIrradiance& e0) const {
       for (size_t v = first; v + 1 - first < ch.begin.size(); ++v) {
         glm::vec3 acc(0.0f);
         const uint32_t begin = ch.begin[v - first], end = ch.begin[v - first + 1];
-        const glm::vec3* varying = b.albedo.varies ? colours.lookUp(b.albedo, lay, ch.hits.data(), begin, end) : nullptr;
+        if (b.albedo.varies) colours.start(b.albedo, lay, ch.hits.data(), begin, end);
         for (uint32_t h = begin; h < end; ++h) {
           const HitRecord& rec = ch.hits[h];
           const float b1 = rec.b1 * (1.0f / 65535.0f), b2 = rec.b2 * (1.0f / 65535.0f), b0 = 1.0f - b1 - b2;
           const uint32_t* tv = &lay.triVerts[3 * size_t(rec.tri)];
           const uint32_t mesh = lay.meshOfTri[rec.tri];
-          const glm::vec3 rho = b.albedo.uniform[mesh] ? b.albedo.constant[mesh] : *varying++;
+          const glm::vec3 rho = b.albedo.uniform[mesh] ? b.albedo.constant[mesh] : colours.next();
           acc += rho * (b0 * prev[tv[0]] + b1 * prev[tv[1]] + b2 * prev[tv[2]]);
         }
         cur[v] = acc * w;

@@ -92,7 +92,7 @@ constexpr uint64_t kVdbWriteBytes = uint64_t(8) << 20;
 // vector sizes of libstdc++ and rounded up (zdm2, 116 k refined vertices: 243 MiB peak in all).
 constexpr uint64_t kRefinedVertexBytes = 96, kRefinePointsPerVertex = 6, kRefineBytesPerVertex = 1536;
 // On top of the sum: allocator rounding, the hit records' scratch of each thread (surface_bake.cpp, at
-// most 8 MiB a thread).
+// most 8 MiB a thread) and its bounces' colour lookups (VaryingColours, 128 KiB).
 constexpr double kSlack = 1.10;
 
 uint64_t sceneBytes(const Scene& scene) {

@@ -253,16 +253,16 @@ struct RecordWeights {
 };
 
 // A record's weights; the colour of an instance whose colour varies is the next of `varying`
-// (VaryingColours::lookUp's, for the records of the vertex in order).
+// (started on the vertex's records).
 inline RecordWeights weightsOf(const SurfaceBake& b, const AlbedoLookup& albedo, const HitRecord& rec,
-                               const glm::vec3*& varying) {
+                               VaryingColours& varying) {
   RecordWeights w;
   w.b1 = rec.b1 * (1.0f / 65535.0f);
   w.b2 = rec.b2 * (1.0f / 65535.0f);
   w.b0 = 1.0f - w.b1 - w.b2;
   w.corners = &b.corners[rec.tri];
   const uint32_t mesh = w.corners->mesh;
-  w.rho = albedo.uniform[mesh] ? albedo.constant[mesh] : *varying++;
+  w.rho = albedo.uniform[mesh] ? albedo.constant[mesh] : varying.next();
   return w;
 }
 
@@ -290,10 +290,10 @@ void gatherChunkPortable(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk
   for (size_t v = c.begin; v < c.end; ++v) {
     std::fill_n(acc, lanes, 0.0f);
     const uint32_t first = ch.begin[v - c.begin], last = ch.begin[v - c.begin + 1];
-    const glm::vec3* varying = albedo.varies ? colours.lookUp(albedo, b.lay, hits, first, last) : nullptr;
+    if (albedo.varies) colours.start(albedo, b.lay, hits, first, last);
     for (uint32_t h = first; h < last; ++h) {
       prefetchAhead(b, hits, h, end);
-      const RecordWeights r = weightsOf(b, albedo, hits[h], varying);
+      const RecordWeights r = weightsOf(b, albedo, hits[h], colours);
       const uint16_t* t0 = b.half.row(r.corners->v[0]);
       const uint16_t* t1 = b.half.row(r.corners->v[1]);
       const uint16_t* t2 = b.half.row(r.corners->v[2]);
@@ -324,10 +324,10 @@ __attribute__((target("avx2,f16c"))) void gatherChunkF16c(SurfaceBake& b, const 
     __m256 acc[K];
     for (int k = 0; k < K; ++k) acc[k] = _mm256_setzero_ps();
     const uint32_t first = ch.begin[v - c.begin], last = ch.begin[v - c.begin + 1];
-    const glm::vec3* varying = albedo.varies ? colours.lookUp(albedo, b.lay, hits, first, last) : nullptr;
+    if (albedo.varies) colours.start(albedo, b.lay, hits, first, last);
     for (uint32_t h = first; h < last; ++h) {
       prefetchAhead(b, hits, h, end);
-      const RecordWeights r = weightsOf(b, albedo, hits[h], varying);
+      const RecordWeights r = weightsOf(b, albedo, hits[h], colours);
       const float cr = r.rho.r, cg = r.rho.g, cb = r.rho.b;
       const __m256 rho[3] = {_mm256_setr_ps(cr, cg, cb, cr, cg, cb, cr, cg),
                              _mm256_setr_ps(cb, cr, cg, cb, cr, cg, cb, cr),

@@ -65,32 +65,47 @@ struct HitRecord {
   uint16_t b1, b2;  // barycentrics of its 2nd and 3rd vertex, 16-bit fixed point
 };
 
-// The base colours of hit records [first, last) (one vertex's) on instances whose colour varies
-// over their surface (textured or vertex-coloured), looked up together (AlbedoLookup::atMany:
-// eight at a time with AVX-512), in the records' order; the barycentrics as the gathers
-// dequantise them. A thread's scratch, kept from vertex to vertex.
-struct VaryingColours {
-  std::vector<uint32_t> mesh, tri;
-  std::vector<float> b1, b2;
-  std::vector<glm::vec3> rgb;
-  const glm::vec3* lookUp(const AlbedoLookup& albedo, const Layout& lay, const HitRecord* hits, uint32_t first,
-                          uint32_t last) {
-    if (mesh.size() < last - first) {
-      for (auto* v : {&mesh, &tri}) v->resize(last - first);
-      for (auto* v : {&b1, &b2}) v->resize(last - first);
-      rgb.resize(last - first);
-    }
-    uint32_t n = 0;
-    for (uint32_t h = first; h < last; ++h) {
-      const uint32_t m = lay.meshOfTri[hits[h].tri];
-      if (albedo.uniform[m]) continue;
-      mesh[n] = m, tri[n] = lay.localTriangle(hits[h].tri);
-      b1[n] = hits[h].b1 * (1.0f / 65535.0f), b2[n] = hits[h].b2 * (1.0f / 65535.0f);
-      ++n;
-    }
-    albedo.atMany(mesh.data(), tri.data(), b1.data(), b2.data(), n, rgb.data());
-    return rgb.data();
+// The base colours of one vertex's hit records on instances whose colour varies over their
+// surface (textured or vertex-coloured), in the records' order: start() on the vertex's records,
+// then next() for each such record. They are looked up kWindow at a time (AlbedoLookup::atMany:
+// eight at a time with AVX-512), the barycentrics dequantised as the gathers do. A thread's
+// scratch, kept from vertex to vertex (kWindow · 32 bytes, whatever the sample count).
+class VaryingColours {
+public:
+  static constexpr uint32_t kWindow = 4096;
+  void start(const AlbedoLookup& albedo, const Layout& lay, const HitRecord* hits, uint32_t first, uint32_t last) {
+    albedo_ = &albedo, lay_ = &lay, hits_ = hits, scan_ = first, last_ = last, at_ = count_ = 0;
   }
+  const glm::vec3& next() {
+    if (at_ == count_) fill();
+    return rgb_[at_++];
+  }
+
+private:
+  void fill() {
+    if (mesh_.empty()) {
+      for (auto* v : {&mesh_, &tri_}) v->resize(kWindow);
+      for (auto* v : {&b1_, &b2_}) v->resize(kWindow);
+      rgb_.resize(kWindow);
+    }
+    at_ = count_ = 0;
+    for (; scan_ < last_ && count_ < kWindow; ++scan_) {
+      const HitRecord& rec = hits_[scan_];
+      const uint32_t m = lay_->meshOfTri[rec.tri];
+      if (albedo_->uniform[m]) continue;
+      mesh_[count_] = m, tri_[count_] = lay_->localTriangle(rec.tri);
+      b1_[count_] = rec.b1 * (1.0f / 65535.0f), b2_[count_] = rec.b2 * (1.0f / 65535.0f);
+      ++count_;
+    }
+    albedo_->atMany(mesh_.data(), tri_.data(), b1_.data(), b2_.data(), count_, rgb_.data());
+  }
+  const AlbedoLookup* albedo_ = nullptr;
+  const Layout* lay_ = nullptr;
+  const HitRecord* hits_ = nullptr;
+  uint32_t scan_ = 0, last_ = 0, at_ = 0, count_ = 0;
+  std::vector<uint32_t> mesh_, tri_;
+  std::vector<float> b1_, b2_;
+  std::vector<glm::vec3> rgb_;
 };
 
 inline uint16_t quantise(float b) {
