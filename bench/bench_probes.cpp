@@ -11,9 +11,11 @@
 // --surface-samples) supplies the transfer a probe ray sees where it hits a surface; it is timed
 // but is not part of the probe numbers. The ceiling (embree_ceiling.h: its own BVH, every
 // Embree 3 way of tracing closest hits, the fastest kept) traces exactly the rays the probe bake
-// casts (bake::probeBakeRays: the inside test's 64 rays and the full set per probe) for a
-// fraction of the probes it traced in full, in runs of 16, with nothing done per ray; prt's
-// tracing alone traces them through RayScene as the bake calls it. Each round measures both
+// cast (ProbeStats::traced), a fraction of each class in runs of 16: the 64-ray inside tests
+// (every point's, and relocation candidates': bake::probeTestRays) and the full sets
+// (bake::probeFullRays), with nothing done per ray; prt's tracing alone traces them through
+// RayScene as the bake calls it. The ratio is the ceiling's time for the bake's rays (each
+// class's count at its rate) over the bake's time. Each round measures both
 // and bakes; ratios are taken within a round and reported as the fastest bake's round and the
 // range, and their median; besides, against the mode whose median over the rounds is best, in
 // the same round (`bake_vs_median_best_mode`: each round's fastest mode is the largest of ~15
@@ -128,57 +130,64 @@ int main(int argc, char** argv) {
     std::vector<std::vector<glm::vec3>> lowerOrder = std::move(lit.perMeshLowerOrder);
     if (lowerOrder.empty()) lowerOrder.assign(scene.meshes.size(), {});
 
-    // The rays: those the probe bake cast for its valid probes that stayed at their lattice
-    // point (bake::probeBakeRays: the inside test's 64 rays, then the full set; the bake
-    // skips open air and traces only the test rays inside geometry, so rays from every lattice
-    // point, most escaping, would make a ceiling of cheaper rays), in runs of 16 consecutive
-    // such probes, every (1/fraction)-th run, picked from the first round's grid and
-    // generated outside every timer. The ceiling (embree_ceiling.h: its own BVH, every Embree
-    // 3 way of tracing, the fastest kept) and prt's tracing alone (RayScene, called as the probe
-    // bake calls it: the test rays as one stream, then streams of 256) trace them with nothing
-    // done per ray. The arrays are freed before each bake so that they do not count in its memory.
+    // The rays: what the probe bake cast (ProbeStats::traced), in two classes, each sampled in
+    // runs of 16 consecutive sets, every (1/fraction)-th run, picked after the first round's
+    // bake and generated outside every timer: the 64-ray inside tests (every lattice point's,
+    // and the relocation candidates' from their positions: bake::probeTestRays) and the full
+    // sets (from the point, or the candidate a probe moved to: bake::probeFullRays). The
+    // ceiling (embree_ceiling.h: its own BVH, every Embree 3 way of tracing, the fastest kept)
+    // and prt's tracing alone (RayScene, called as the probe bake calls it: a test as one stream,
+    // a full set as streams of 256) trace each class with nothing done per ray; their time for
+    // the bake's rays is each class's count at its rate, summed. Times, not rates, are compared:
+    // tests of open air or of solid space are cheaper than a full set from a probe in a room, and
+    // a bake of many such (a closed map) would otherwise outrun its ceiling. The arrays are freed
+    // before each bake so that they do not count in its memory.
     ProbeGrid layout;
     glm::dvec3 lo, hi;
     bake::probeBounds(settings, scene, lo, hi);  // the bake's bounds, flat axes padded
     bake::layoutGrid(settings, lo, hi, layout);
     const size_t total = size_t(dims) * dims * dims;
     const size_t every = std::max<size_t>(1, size_t(std::lround(1.0 / ceilingFraction)));
-    std::vector<size_t> picked;
+    std::vector<bake::ProbeRaySet> pickedTests, pickedFull;
     const bench::EmbreeCeiling embree(scene);
     const bake::RayScene rays(scene);
-    const size_t per = 64 + size_t(settings.samples);  // rays per lattice point
-    bench::Ceiling ceiling;
-    std::vector<double> prtRates[2];  // [Timing]
-    auto measureTracing = [&]() {
-      std::vector<bake::Ray> batch = bake::probeBakeRays(layout, settings, picked);
-      PRT_CHECK_EQ(batch.size(), picked.size() * per);
-      bench::appendRounds(ceiling, embree.measure(batch, per, 16, bench::RayKind::ClosestHit, 1));
-      // prt's own way, as the bake traces: per lattice point the 64 test rays, then streams of
-      // 256, each as packets of 8 (RayScene::intersect8), laid out before the timer starts.
-      std::vector<std::pair<size_t, size_t>> segments;  // per point: (first ray, count)
-      for (size_t i = 0; i < picked.size(); ++i) {
-        segments.push_back({i * per, 64});
-        for (size_t first = 64; first < per; first += 256) segments.push_back({i * per + first, std::min<size_t>(256, per - first)});
-      }
-      std::vector<size_t> packetOf(segments.size() + 1, 0);
-      for (size_t s = 0; s < segments.size(); ++s) packetOf[s + 1] = packetOf[s] + (segments[s].second + 7) / 8;
+    bench::Ceiling ceilingTests, ceilingFull;
+    std::vector<double> prtTestRates[2], prtFullRates[2];  // [Timing]
+    // prt's own way, as the bake traces: a set's rays as streams of `stream` rays, each as
+    // packets of 8 (RayScene::intersect8), laid out before the timer starts; rays/s, wall and CPU.
+    auto tracePrt = [&](const std::vector<bake::Ray>& batch, size_t per, size_t stream, std::vector<double>* rates) {
+      const size_t sets = batch.size() / per, streams = (per + stream - 1) / stream;
+      std::vector<size_t> packetOf(sets * streams + 1, 0);
+      for (size_t q = 0; q < sets * streams; ++q)
+        packetOf[q + 1] = packetOf[q] + (std::min(stream, per - (q % streams) * stream) + 7) / 8;
       std::vector<bake::RayPacket8> packets(packetOf.back());
-      for (size_t s = 0; s < segments.size(); ++s)
-        for (size_t j = 0; j < segments[s].second; ++j) {
-          const bake::Ray& r = batch[segments[s].first + j];
-          packets[packetOf[s] + j / 8].start(int(j % 8), r.org, r.dir, r.tnear, r.tfar);
+      for (size_t q = 0; q < sets * streams; ++q) {
+        const size_t first = (q / streams) * per + (q % streams) * stream, count = std::min(stream, per - (q % streams) * stream);
+        for (size_t j = 0; j < count; ++j) {
+          const bake::Ray& r = batch[first + j];
+          packets[packetOf[q] + j / 8].start(int(j % 8), r.org, r.dir, r.tnear, r.tfar);
         }
-      std::vector<bake::Ray>().swap(batch);  // freed before the timer: only the packets stay
-      const size_t perPoint = segments.size() / std::max<size_t>(picked.size(), 1);
+      }
       const double cpu0 = bench::processCpuSeconds();
       const auto t0 = Clock::now();
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, picked.size(), 16), [&](const tbb::blocked_range<size_t>& r) {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, sets, 16), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i)
-          for (size_t s = i * perPoint; s < (i + 1) * perPoint; ++s) rays.intersect8(&packets[packetOf[s]], segments[s].second);
+          for (size_t q = i * streams; q < (i + 1) * streams; ++q)
+            rays.intersect8(&packets[packetOf[q]], std::min(stream, per - (q % streams) * stream));
       });
-      const size_t traced = picked.size() * per;
-      prtRates[0].push_back(double(traced) / std::chrono::duration<double>(Clock::now() - t0).count());
-      prtRates[1].push_back(double(traced) / (bench::processCpuSeconds() - cpu0));
+      rates[0].push_back(double(batch.size()) / std::chrono::duration<double>(Clock::now() - t0).count());
+      rates[1].push_back(double(batch.size()) / (bench::processCpuSeconds() - cpu0));
+    };
+    const size_t perFull = size_t(settings.samples);
+    auto measureTracing = [&]() {
+      {
+        const std::vector<bake::Ray> batch = bake::probeTestRays(layout, settings, pickedTests);
+        bench::appendRounds(ceilingTests, embree.measure(batch, 64, 16, bench::RayKind::ClosestHit, 1));
+        tracePrt(batch, 64, 64, prtTestRates);
+      }
+      const std::vector<bake::Ray> batch = bake::probeFullRays(layout, settings, pickedFull);
+      bench::appendRounds(ceilingFull, embree.measure(batch, perFull, 16, bench::RayKind::ClosestHit, 1));
+      tracePrt(batch, perFull, 256, prtFullRates);
     };
 
     // The probe bake as `prt bake --probes` runs it; its own peak memory is measured from here.
@@ -199,17 +208,30 @@ int main(int argc, char** argv) {
     const std::vector<std::vector<glm::vec3>> none(scene.meshes.size());
     (void)bake::bakeProbes(scene, none, settings, &directStats);
 
-    // Round one's tracing, on the rays of the probes this bake traced in full.
-    std::vector<size_t> baked;
-    for (size_t p = 0; p < grid.probeCount(); ++p)
-      if (grid.validity[p] > 0.5f && grid.offset[p] == glm::vec3(0.0f)) {
-        const glm::ivec3 c = grid.coord[p];
-        baked.push_back(size_t(c.x) + size_t(grid.dims.x) * (size_t(c.y) + size_t(grid.dims.y) * size_t(c.z)));
+    // Round one's ray sets (the same every round: the bake is deterministic).
+    std::vector<bake::ProbeRaySet> tests, fulls;
+    {
+      std::vector<uint8_t> beyond(total, 0);  // points listed in stats.traced
+      for (const bake::ProbeStats::Traced& t : stats.traced) beyond[size_t(t.lattice)] = 1;
+      size_t next = 0;  // lattice order: a point's test, its candidates' tests
+      for (size_t idx = 0; idx < total; ++idx) {
+        tests.push_back({idx, -1});
+        if (!beyond[idx]) continue;
+        const bake::ProbeStats::Traced& t = stats.traced[next++];
+        for (uint32_t c = 0; c < t.candidates; ++c) tests.push_back({idx, int(c)});
+        if (t.full) fulls.push_back({idx, t.candidates ? int(t.candidates) - 1 : -1});
       }
-    std::sort(baked.begin(), baked.end());
-    for (size_t run = 0; run * 16 < baked.size(); run += every)
-      for (size_t k = run * 16; k < std::min(baked.size(), run * 16 + 16); ++k) picked.push_back(baked[k]);
-    if (picked.empty()) throw Error("the probe bake traced no probe in full: nothing to compare with the ceiling");
+    }
+    const uint64_t testRays = uint64_t(tests.size()) * 64, fullRays = uint64_t(fulls.size()) * perFull;
+    if (testRays + fullRays != stats.rays)
+      throw Error(cat("the bake's rays (", stats.rays, ") are not its tests' and full sets' (", testRays, " + ", fullRays, ")"));
+    auto pick = [every](const std::vector<bake::ProbeRaySet>& from, std::vector<bake::ProbeRaySet>& into) {
+      for (size_t run = 0; run * 16 < from.size(); run += every)
+        for (size_t k = run * 16; k < std::min(from.size(), run * 16 + 16); ++k) into.push_back(from[k]);
+    };
+    pick(tests, pickedTests);
+    pick(fulls, pickedFull);
+    if (pickedFull.empty()) throw Error("the probe bake traced no probe in full: nothing to compare with the ceiling");
     measureTracing();
     // Further rounds (--repeat): tracing, bake, direct-only bake again, so that a burst of load
     // from other processes on a shared machine does not decide the ratios, which are taken
@@ -239,20 +261,25 @@ int main(int argc, char** argv) {
     // rates (its rays at prt's tracing rate of that round, against its time; that tracing runs
     // with warm caches and nothing between its calls, so this share comes out lower).
     const int used = tbb::this_task_arena::max_concurrency();
+    // Seconds the bake's rays take at given rates of the two classes (rays/s).
+    auto secondsAt = [&](double testRate, double fullRate) { return double(testRays) / testRate + double(fullRays) / fullRate; };
+    auto ceilingSeconds = [&](size_t round, bench::Timing t) {
+      return secondsAt(bench::roundRate(ceilingTests, round, t), bench::roundRate(ceilingFull, round, t));
+    };
     std::vector<double> vsCeiling[2], notTracingByRate[2], notTracing;  // notTracing: measured, per round
     std::vector<double> directVsCeiling, directNotTracing;  // wall clock: the same bake with no lit surfaces
     for (int round = 0; round < repeat; ++round) {
       const double seconds = directSeconds[size_t(round)];
-      directVsCeiling.push_back(double(directStats.rays) / seconds / bench::roundRate(ceiling, size_t(round), bench::Timing::Wall));
+      directVsCeiling.push_back(ceilingSeconds(size_t(round), bench::Timing::Wall) / seconds);  // the same rays
       directNotTracing.push_back(1.0 - directTrace[size_t(round)] / (used * seconds));
       notTracing.push_back(1.0 - traceSeconds[size_t(round)] / (used * bakeSeconds[size_t(round)]));
     }
     for (int t = 0; t < 2; ++t)
       for (int round = 0; round < repeat; ++round) {
         const double seconds = (t == 0 ? bakeSeconds : bakeCpu)[size_t(round)];
-        const double rate = double(stats.rays) / seconds;
-        vsCeiling[t].push_back(rate / bench::roundRate(ceiling, size_t(round), bench::Timing(t)));
-        notTracingByRate[t].push_back(1.0 - double(stats.rays) / prtRates[t][size_t(round)] / seconds);
+        vsCeiling[t].push_back(ceilingSeconds(size_t(round), bench::Timing(t)) / seconds);
+        notTracingByRate[t].push_back(
+            1.0 - secondsAt(prtTestRates[t][size_t(round)], prtFullRates[t][size_t(round)]) / seconds);
       }
     const size_t bestRound = size_t(std::min_element(bakeSeconds.begin(), bakeSeconds.end()) - bakeSeconds.begin());
     stats.seconds = bakeSeconds[bestRound];
@@ -301,24 +328,35 @@ int main(int argc, char** argv) {
     j["probes_per_s"] = double(stats.probes) / stats.seconds;
     j["rays"] = stats.rays;
     j["bake_rays_per_s"] = double(stats.rays) / stats.seconds;
-    j["ceiling"] = bench::toJson(ceiling);
-    j["ceiling_rays_per_s"] = ceiling.rate(bench::Timing::Wall);
-    j["ceiling_best_mode"] = ceiling.bestMode(bench::Timing::Wall).mode;
-    j["prt_trace_rays_per_s"] = *std::max_element(prtRates[0].begin(), prtRates[0].end());
-    j["prt_trace_rays_per_s_range"] = range(prtRates[0]);
+    // Per class: the ceiling (every mode) and prt's tracing alone; and for the bake's rays, the
+    // ceiling's rate (its rays over the ceiling's seconds, in the bake's fastest round).
+    j["test_rays"] = testRays;
+    j["full_set_rays"] = fullRays;
+    j["ceiling_tests"] = bench::toJson(ceilingTests);
+    j["ceiling_full_sets"] = bench::toJson(ceilingFull);
+    j["ceiling_rays_per_s"] = double(stats.rays) / ceilingSeconds(bestRound, bench::Timing::Wall);
+    j["ceiling_best_mode"] = ceilingFull.bestMode(bench::Timing::Wall).mode;  // of the full sets
+    j["prt_trace_rays_per_s"] = double(stats.rays) / secondsAt(*std::max_element(prtTestRates[0].begin(), prtTestRates[0].end()),
+                                                              *std::max_element(prtFullRates[0].begin(), prtFullRates[0].end()));
+    j["prt_trace_tests_rays_per_s_range"] = range(prtTestRates[0]);
+    j["prt_trace_full_sets_rays_per_s_range"] = range(prtFullRates[0]);
     j["repeat"] = repeat;
     j["probe_bake_seconds_each"] = bakeSeconds;
     j["direct_only_bake_seconds_each"] = directSeconds;
-    j["ceiling_probes"] = picked.size();
+    j["ceiling_tests_sampled"] = pickedTests.size();
+    j["ceiling_full_sets_sampled"] = pickedFull.size();
     j["bake_vs_ceiling"] = vsCeiling[0][bestRound];
     j["bake_vs_ceiling_range"] = range(vsCeiling[0]);
     {  // the same, per round, against the mode with the best median rate (Ceiling::bestMedianMode)
-      const bench::ModeRate& m = ceiling.bestMedianMode(bench::Timing::Wall);
+      const bench::ModeRate& mt = ceilingTests.bestMedianMode(bench::Timing::Wall);
+      const bench::ModeRate& mf = ceilingFull.bestMedianMode(bench::Timing::Wall);
       std::vector<double> ratios;
       for (int round = 0; round < repeat; ++round)
-        ratios.push_back(double(stats.rays) / bakeSeconds[size_t(round)] / m.raysPerSecond[0][size_t(round)]);
+        ratios.push_back(secondsAt(mt.raysPerSecond[0][size_t(round)], mf.raysPerSecond[0][size_t(round)]) /
+                         bakeSeconds[size_t(round)]);
       j["bake_vs_ceiling_median"] = bench::median(vsCeiling[0]);
-      j["ceiling_median_best_mode"] = m.mode;
+      j["ceiling_median_best_mode"] = mf.mode;  // of the full sets (the tests': mt.mode)
+      j["ceiling_tests_median_best_mode"] = mt.mode;
       j["bake_vs_median_best_mode"] = bench::median(ratios);
       j["bake_vs_median_best_mode_range"] = range(ratios);
     }
@@ -330,10 +368,10 @@ int main(int argc, char** argv) {
     {  // the same figures by CPU time, the fastest round by CPU time
       const size_t r = size_t(std::min_element(bakeCpu.begin(), bakeCpu.end()) - bakeCpu.begin());
       nlohmann::json c;
-      c["ceiling_rays_per_s"] = ceiling.rate(bench::Timing::Cpu);
-      c["ceiling_best_mode"] = ceiling.bestMode(bench::Timing::Cpu).mode;
-      c["prt_trace_rays_per_s"] = *std::max_element(prtRates[1].begin(), prtRates[1].end());
-      c["prt_trace_rays_per_s_range"] = range(prtRates[1]);
+      c["ceiling_rays_per_s"] = double(stats.rays) / ceilingSeconds(r, bench::Timing::Cpu);
+      c["ceiling_best_mode"] = ceilingFull.bestMode(bench::Timing::Cpu).mode;
+      c["prt_trace_rays_per_s"] = double(stats.rays) / secondsAt(*std::max_element(prtTestRates[1].begin(), prtTestRates[1].end()),
+                                                                *std::max_element(prtFullRates[1].begin(), prtFullRates[1].end()));
       c["probe_bake_cpu_seconds"] = bakeCpu[r];
       c["bake_rays_per_s"] = double(stats.rays) / bakeCpu[r];
       c["bake_vs_ceiling"] = vsCeiling[1][r];

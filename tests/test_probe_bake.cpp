@@ -185,6 +185,45 @@ TEST(ProbeBake, ProbeJustInsideGeometryIsMovedOut) {
   EXPECT_NEAR(g.skyVisibility[0], 0.5, 0.05);
 }
 
+// ProbeStats::traced says what each point traced (the benches regenerate those rays): a probe
+// inside a box tries every relocation candidate, one just inside a slab moves with its full
+// set traced from the candidate, free ones trace theirs from the point; with every point's
+// inside test that is all the bake's rays, and the generators give rays from those origins.
+TEST(ProbeBake, TracedRecordsAccountForEveryRay) {
+  Scene s = test::makeScene({test::makeSlab(glm::vec3(-2.0f, -1.0f, -1.0f), glm::vec3(2.0f, 1.0f, 1.0f)),
+                             test::makeSlab(glm::vec3(5.0f, -5.0f, -5.0f), glm::vec3(9.0f, 0.1f, 5.0f))},
+                            0.5f);
+  bake::ProbeSettings ps;
+  ps.dims = glm::ivec3(5, 1, 1);  // cell centres x = -3.3, -0.9 and 1.5 (in the box), 3.9, 6.3 (just in the slab)
+  ps.boundsMin = glm::dvec3(-4.5, -0.5, -0.5);
+  ps.boundsMax = glm::dvec3(7.5, 0.5, 0.5);
+  ps.region = bake::ProbeSettings::Region::Everywhere;
+  ps.samples = 256;
+  bake::ProbeStats stats;
+  const ProbeGrid g = bake::bakeProbes(s, {}, ps, &stats);
+  uint64_t rays = 5 * 64;  // the inside tests
+  std::vector<bake::ProbeRaySet> tests, fulls;
+  for (const bake::ProbeStats::Traced& t : stats.traced) {
+    rays += 64 * uint64_t(t.candidates) + (t.full ? 256u : 0u);
+    for (uint32_t c = 0; c < t.candidates; ++c) tests.push_back({t.lattice, int(c)});
+    if (t.full) fulls.push_back({t.lattice, t.candidates ? int(t.candidates) - 1 : -1});
+  }
+  EXPECT_EQ(rays, stats.rays);
+  EXPECT_GE(stats.moved, 1u) << "the probe just inside the slab";
+  EXPECT_FALSE(tests.empty()) << "candidates tried in the box";
+  EXPECT_LT(fulls.size(), stats.traced.size()) << "a probe deep in the box traces no full set";
+  const std::vector<bake::Ray> testRays = bake::probeTestRays(g, ps, tests), fullRays = bake::probeFullRays(g, ps, fulls);
+  ASSERT_EQ(testRays.size(), tests.size() * 64);
+  ASSERT_EQ(fullRays.size(), fulls.size() * 256);
+  for (size_t k = 0; k < fulls.size(); ++k) {  // from the point, or where the probe moved to
+    const int p = g.find(glm::ivec3(int(fulls[k].lattice), 0, 0));
+    if (p < 0 || g.validity[size_t(p)] == 0.0f) continue;  // found inside after all: its offset is not kept
+    const glm::vec3 origin = glm::vec3(g.latticePosition(glm::ivec3(int(fulls[k].lattice), 0, 0))) + g.offset[size_t(p)];
+    EXPECT_LT(glm::length(fullRays[k * 256].org - origin), 1e-5f) << "point " << fulls[k].lattice;
+  }
+  for (const bake::Ray& r : testRays) EXPECT_NEAR(glm::length(r.dir), 1.0f, 1e-5f);
+}
+
 TEST(ProbeBake, SameSeedSameGridAnyThreadCount) {
   Scene s = test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f);
   bake::ProbeSettings ps;

@@ -64,8 +64,10 @@ constexpr uint64_t kHitBytes = 8, kHitOffsetBytes = 4;
 // (StreamRows: their SH values, n2 floats a ray; per lit hit its lists' 20 bytes and a 48-byte
 // record, and for a colour looked up its index, instance, triangle, barycentrics and RGB, 32; g of a chunk of 64 hits); per active probe the grid's
 // attributes: coordinate 12, validity 4, offset 12, moments 48, sky 4 (80), and a 4-byte
-// dense index entry per lattice point.
+// dense index entry per lattice point; and ProbeStats::traced, 16 bytes per lattice point
+// (reserved for all), from the end of the trace on.
 constexpr uint64_t kProbeSlotBytes = 72, kProbeAttributeBytes = 80, kProbeIndexBytes = 4, kAllocOverhead = 32;
+constexpr uint64_t kProbeTracedBytes = 16;
 // The .vdb's grids: n2² Vec3s transfer grids, irradiance preview, offset and four moment grids
 // (Vec3s), validity and sky visibility (float). An OpenVDB 10 tree (5-4-3) has one 32³ upper
 // node (the lattice, at most 512 per axis from 0, lies within its 4096³ span), a 16³ lower
@@ -143,12 +145,13 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   const uint64_t scratch = 1024 * (pn2 * 4 + 20 + 48 + 32) + 64 * ((3 * pn2 + 7) / 8 * 8) * 4;
   const uint64_t accum = pn2 * pn2 * (8 + 24) + scratch + 8 * kAllocOverhead;
   lattice = points * (kProbeSlotBytes + matrix);
-  const uint64_t trace = triangles * kBvhBytesPerTriangle + lattice + threads * accum + kCheckpointBuffers;
+  const uint64_t trace = triangles * kBvhBytesPerTriangle + lattice + threads * accum + kCheckpointBuffers +
+                         points * kProbeTracedBytes;
   // The assembly copies the active points' transfer out of the lattice's into the grid's arrays,
   // each allocated once at its size, with a list of the active points (8 bytes each, up to
   // twice that while the list grows).
   const uint64_t gridBytes = points * (matrix + kProbeAttributeBytes + kProbeIndexBytes);
-  const uint64_t assemble = lattice + gridBytes + points * 16;
+  const uint64_t assemble = lattice + gridBytes + points * (16 + kProbeTracedBytes);
   const uint64_t trees = (pn2 * pn2 + kVdbVec3Grids) * vdbTreeBytes(12, 16, dims) +
                          (kVdbFloatGrids + pn2 * (pn2 + 1) / 2) * vdbTreeBytes(4, 8, dims);
   const uint64_t write = gridBytes + trees + kVdbHashBuffer + kVdbWriteBytes;

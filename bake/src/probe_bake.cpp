@@ -904,6 +904,22 @@ void readProbeChunk(LatticeResults& res, size_t begin, size_t end, ByteReader& r
   }
 }
 
+// Relocation candidates, in a fixed order, as fractions of the spacing: along the axes, then
+// towards the corners; all inside the probe's cell.
+std::vector<glm::dvec3> relocationCandidates() {
+  std::vector<glm::dvec3> candidates;
+  for (double f : {0.25, 0.45})
+    for (int axis = 0; axis < 3; ++axis)
+      for (double sgn : {1.0, -1.0}) {
+        glm::dvec3 o(0.0);
+        o[axis] = sgn * f;
+        candidates.push_back(o);
+      }
+  for (int c = 0; c < 8; ++c)
+    candidates.push_back(glm::dvec3(c & 1 ? 0.3 : -0.3, c & 2 ? 0.3 : -0.3, c & 4 ? 0.3 : -0.3));
+  return candidates;
+}
+
 // Bakes lattice points one at a time: the inside test, relocation, the full set of rays.
 struct ProbeBaker {
   const Tracer& tracer;
@@ -911,19 +927,8 @@ struct ProbeBaker {
   const ProbeSettings& settings;
   std::vector<glm::dvec3> candidates;
 
-  ProbeBaker(const Tracer& t, const ProbeGrid& g, const ProbeSettings& s) : tracer(t), grid(g), settings(s) {
-    // Relocation candidates, in a fixed order, as fractions of the spacing: along the axes,
-    // then towards the corners; all inside the probe's cell.
-    for (double f : {0.25, 0.45})
-      for (int axis = 0; axis < 3; ++axis)
-        for (double sgn : {1.0, -1.0}) {
-          glm::dvec3 o(0.0);
-          o[axis] = sgn * f;
-          candidates.push_back(o);
-        }
-    for (int c = 0; c < 8; ++c)
-      candidates.push_back(glm::dvec3(c & 1 ? 0.3 : -0.3, c & 2 ? 0.3 : -0.3, c & 4 ? 0.3 : -0.3));
-  }
+  ProbeBaker(const Tracer& t, const ProbeGrid& g, const ProbeSettings& s)
+      : tracer(t), grid(g), settings(s), candidates(relocationCandidates()) {}
 
   // Lattice point idx into slot and out (n2² RGB floats, then M⁰'s upper triangle); quickFree: its quick inside test
   // (classifyLattice) passed. The double accumulators `acc` live only during this point's
@@ -1483,6 +1488,20 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
                       })
                       .rays;
     stats.traceSeconds = tracer.inEmbree.seconds();
+    // What each point traced beyond its test (ProbeBaker::bake): a free point its full set; any
+    // other its candidates' tests until one was free (moved: then its full set from there).
+    const uint32_t samples = uint32_t(settings.samples);
+    static_assert(sizeof(ProbeStats::Traced) == 16);  // as the memory estimate counts it
+    stats.traced.reserve(total);
+    for (size_t idx = 0; idx < total; ++idx) {
+      if (region.skip[idx]) continue;
+      const ProbeSlot& slot = res->slots[idx];
+      ProbeStats::Traced t;
+      t.lattice = idx;
+      t.full = region.free[idx] || slot.moved;
+      t.candidates = region.free[idx] ? 0 : (slot.traced - (t.full ? samples : 0)) / kProbeTestRays;
+      stats.traced.push_back(t);
+    }
   }
   if (shared) shared->release();  // the last stage that traces: the assembly needs its memory
   if (cp) cp->releaseStages();
@@ -1494,20 +1513,42 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   return grid;
 }
 
-std::vector<Ray> probeBakeRays(const ProbeGrid& layout, const ProbeSettings& settings,
-                               const std::vector<size_t>& lattice) {
+namespace {
+
+// The origin of a ray set: the lattice point, or its relocation candidate's position, as the
+// bake computes it (ProbeBaker::bake, classifyLattice).
+glm::vec3 raySetOrigin(const ProbeGrid& layout, const std::vector<glm::dvec3>& candidates, const ProbeRaySet& set) {
   const glm::ivec3 dims = layout.dims;
-  const size_t per = kProbeTestRays + size_t(settings.samples);
-  std::vector<Ray> out(lattice.size() * per);
-  for (size_t k = 0; k < lattice.size(); ++k) {
-    const size_t idx = lattice[k];
-    const glm::ivec3 c(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
-    const glm::vec3 x(layout.latticePosition(c));
-    Ray* r = out.data() + k * per;
-    const SphereSet test(settings.seed, 2 * idx), full(settings.seed, 2 * idx + 1);
-    test.fill(r, x, 0, kProbeTestRays);
-    for (uint32_t first = 0; first < uint32_t(settings.samples); first += kStream)
-      full.fill(r + kProbeTestRays + first, x, first, std::min<uint32_t>(kStream, uint32_t(settings.samples) - first));
+  const size_t idx = size_t(set.lattice);
+  const glm::ivec3 c(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
+  const glm::dvec3 base = layout.latticePosition(c);
+  if (set.candidate < 0) return glm::vec3(base);
+  PRT_CHECK_LT(size_t(set.candidate), candidates.size());
+  return glm::vec3(base + candidates[size_t(set.candidate)] * layout.spacing);
+}
+
+}  // namespace
+
+std::vector<Ray> probeTestRays(const ProbeGrid& layout, const ProbeSettings& settings,
+                               const std::vector<ProbeRaySet>& sets) {
+  const std::vector<glm::dvec3> candidates = relocationCandidates();
+  std::vector<Ray> out(sets.size() * kProbeTestRays);
+  for (size_t k = 0; k < sets.size(); ++k)
+    SphereSet(settings.seed, 2 * sets[k].lattice)
+        .fill(out.data() + k * kProbeTestRays, raySetOrigin(layout, candidates, sets[k]), 0, kProbeTestRays);
+  return out;
+}
+
+std::vector<Ray> probeFullRays(const ProbeGrid& layout, const ProbeSettings& settings,
+                               const std::vector<ProbeRaySet>& sets) {
+  const std::vector<glm::dvec3> candidates = relocationCandidates();
+  const size_t per = size_t(settings.samples);
+  std::vector<Ray> out(sets.size() * per);
+  for (size_t k = 0; k < sets.size(); ++k) {
+    const SphereSet full(settings.seed, 2 * sets[k].lattice + 1);
+    const glm::vec3 x = raySetOrigin(layout, candidates, sets[k]);
+    for (uint32_t first = 0; first < uint32_t(per); first += kStream)
+      full.fill(out.data() + k * per + first, x, first, std::min<uint32_t>(kStream, uint32_t(per) - first));
   }
   return out;
 }

@@ -70,6 +70,15 @@ struct ProbeStats {
   bool insideOnly = false;   // only sealed space was baked (a closed level)
   uint64_t valid = 0;        // stored with transfer
   uint64_t rays = 0;          // cast by this run: inside tests, relocation candidates, full sets
+  /// What this run traced from each lattice point beyond its inside test, in lattice order (the
+  /// points skipped after their test are not listed; on rank 0 of an MPI bake): for benchmarks,
+  /// which regenerate the rays with probeTestRays and probeFullRays.
+  struct Traced {
+    uint64_t lattice = 0;
+    uint32_t candidates = 0;  // relocation candidates tested, in the bake's order (64 rays each)
+    bool full = false;        // the full set traced: from the point, or from the last candidate (moved)
+  };
+  std::vector<Traced> traced;
   uint64_t restored = 0;      // lattice points restored from the checkpoint (not traced again)
   double seconds = 0.0;
   // Inside Embree's calls, all threads of this process together (so up to threads × seconds):
@@ -100,12 +109,22 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
                      const ProbeSettings& settings, ProbeStats* stats = nullptr, Checkpoint* checkpoint = nullptr,
                      SharedRayScene* rays = nullptr);  // null: builds its own; else traces it and releases it
 
-/// The rays bakeProbes casts from the given lattice points (linear index x + dims.x·(y + dims.y·z)
-/// into layout.dims, lattice from layoutGrid): per point the inside test's 64 rays, then the
-/// settings.samples rays of the full trace, in the bake's order; untraced. For benchmarks: the
-/// bake casts exactly these, except that a probe moved out of geometry traces its full set from
-/// the moved position (and the relocation candidates' tests are not included).
-std::vector<Ray> probeBakeRays(const ProbeGrid& layout, const ProbeSettings& settings,
-                               const std::vector<size_t>& lattice);
+/// A set of rays bakeProbes casts from lattice point `lattice` (linear index x + dims.x·(y +
+/// dims.y·z) into layout.dims, lattice from layoutGrid), from the point itself (candidate −1)
+/// or from relocation candidate `candidate`'s position.
+struct ProbeRaySet {
+  uint64_t lattice = 0;
+  int candidate = -1;
+};
+
+/// The 64-ray inside tests of `sets` (the point's quick test, or a relocation candidate's),
+/// 64 rays each, in the bake's order; untraced. For benchmarks (with ProbeStats::traced).
+std::vector<Ray> probeTestRays(const ProbeGrid& layout, const ProbeSettings& settings,
+                               const std::vector<ProbeRaySet>& sets);
+
+/// The full sets of `sets` (settings.samples rays each, from the point or the candidate it moved
+/// to), in the bake's order; untraced. For benchmarks (with ProbeStats::traced).
+std::vector<Ray> probeFullRays(const ProbeGrid& layout, const ProbeSettings& settings,
+                               const std::vector<ProbeRaySet>& sets);
 
 }  // namespace prt::bake
