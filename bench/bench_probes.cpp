@@ -210,18 +210,7 @@ int main(int argc, char** argv) {
 
     // Round one's ray sets (the same every round: the bake is deterministic).
     std::vector<bake::ProbeRaySet> tests, fulls;
-    {
-      std::vector<uint8_t> beyond(total, 0);  // points listed in stats.traced
-      for (const bake::ProbeStats::Traced& t : stats.traced) beyond[size_t(t.lattice)] = 1;
-      size_t next = 0;  // lattice order: a point's test, its candidates' tests
-      for (size_t idx = 0; idx < total; ++idx) {
-        tests.push_back({idx, -1});
-        if (!beyond[idx]) continue;
-        const bake::ProbeStats::Traced& t = stats.traced[next++];
-        for (uint32_t c = 0; c < t.candidates; ++c) tests.push_back({idx, int(c)});
-        if (t.full) fulls.push_back({idx, t.candidates ? int(t.candidates) - 1 : -1});
-      }
-    }
+    bake::probeRaySets(stats, total, tests, fulls);
     const uint64_t testRays = uint64_t(tests.size()) * 64, fullRays = uint64_t(fulls.size()) * perFull;
     if (testRays + fullRays != stats.rays)
       throw Error(cat("the bake's rays (", stats.rays, ") are not its tests' and full sets' (", testRays, " + ", fullRays, ")"));

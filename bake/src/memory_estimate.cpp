@@ -62,7 +62,8 @@ constexpr uint64_t kHitBytes = 8, kHitOffsetBytes = 4;
 // (lattice order, kept in the checkpoint's chunk records as they are); per worker thread one
 // set of accumulators (n2² doubles and n2² double RGB) and the scratch of a group of 1024 rays
 // (StreamRows: their SH values, n2 floats a ray; per lit hit its lists' 20 bytes and a 48-byte
-// record, and for a colour looked up its index, instance, triangle, barycentrics and RGB, 32; g of a chunk of 64 hits); per active probe the grid's
+// record, and for a colour looked up its index, instance, triangle, barycentrics and RGB, 32;
+// g of a chunk of 64 hits); per active probe the grid's
 // attributes: coordinate 12, validity 4, offset 12, moments 48, sky 4 (80), and a 4-byte
 // dense index entry per lattice point; and ProbeStats::traced, 16 bytes per lattice point
 // (reserved for all), from the end of the trace on.

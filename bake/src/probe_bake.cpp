@@ -713,6 +713,7 @@ struct Tracer {
   // chunk by chunk, computes g from the rows, which have arrived by then, and multiplies it in.
   void sumLit(StreamRows& rows, uint32_t hits, double* indirect) const {
     const int n2 = rows.n2, ldg = padded(3 * n2);
+    StreamRows::Lookups& a = rows.albedo;  // the hits whose colour is looked up
     uint32_t nAlbedo = 0;
     for (uint32_t h = 0; h < hits; ++h) {
       const uint32_t mesh = rows.hitMesh[h], tri = rows.hitTri[h];
@@ -732,12 +733,10 @@ struct Tracer {
         std::memcpy(r.rho, m.rhoPi, sizeof r.rho);
         continue;
       }
-      StreamRows::Lookups& a = rows.albedo;
       a.hit[nAlbedo] = h, a.mesh[nAlbedo] = mesh, a.tri[nAlbedo] = tri, a.b1[nAlbedo] = r.b1, a.b2[nAlbedo] = r.b2;
       ++nAlbedo;
     }
     // The hits on textured or vertex-coloured instances, eight at a time where AVX-512 is.
-    StreamRows::Lookups& a = rows.albedo;
     albedo.atMany(a.mesh.data(), a.tri.data(), a.b1.data(), a.b2.data(), nAlbedo, a.rgb.data());
     for (uint32_t k = 0; k < nAlbedo; ++k) {
       const glm::vec3 rho = a.rgb[k] * float(1.0 / M_PI);
@@ -904,6 +903,11 @@ void readProbeChunk(LatticeResults& res, size_t begin, size_t end, ByteReader& r
   }
 }
 
+// The lattice coordinate of linear index idx = x + dims.x·(y + dims.y·z).
+glm::ivec3 latticeCoord(const glm::ivec3& dims, size_t idx) {
+  return glm::ivec3(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
+}
+
 // Relocation candidates, in a fixed order, as fractions of the spacing: along the axes, then
 // towards the corners; all inside the probe's cell.
 std::vector<glm::dvec3> relocationCandidates() {
@@ -937,7 +941,7 @@ struct ProbeBaker {
   // and out are then incomplete).
   bool bake(size_t idx, bool quickFree, ProbeAccum& acc, ProbeSlot& slot, float* out) const {
     const glm::ivec3 dims = grid.dims;
-    const glm::ivec3 c(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
+    const glm::ivec3 c = latticeCoord(dims, idx);
     const glm::dvec3 base = grid.latticePosition(c);
     slot = ProbeSlot{};
     glm::dvec3 offset(0.0);
@@ -1023,9 +1027,6 @@ std::vector<uint8_t> sealedSpace(const Tracer& tracer, const ProbeGrid& grid, La
   const size_t total = size_t(dims.x) * dims.y * dims.z;
   const size_t sy = size_t(dims.x), sz = size_t(dims.x) * dims.y;
   const size_t step[3] = {1, sy, sz};
-  auto coordOf = [&](size_t idx) {
-    return glm::ivec3(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / sz));
-  };
   // Segments to the +x, +y, +z free neighbours, and outward rays of boundary points.
   std::vector<uint8_t> links(total, 0);  // bit a: joined to the +a neighbour; bit 3: touches the outside
   tbb::parallel_for(tbb::blocked_range<size_t>(0, total, 256), [&](const tbb::blocked_range<size_t>& r) {
@@ -1033,7 +1034,7 @@ std::vector<uint8_t> sealedSpace(const Tracer& tracer, const ProbeGrid& grid, La
     uint8_t bitOf[9];
     for (size_t idx = r.begin(); idx != r.end(); ++idx) {
       if (!reg.free[idx]) continue;
-      const glm::ivec3 c = coordOf(idx);
+      const glm::ivec3 c = latticeCoord(dims, idx);
       const glm::vec3 x(grid.latticePosition(c));
       int n = 0;
       auto add = [&](int a, float sign, float tfar, uint8_t bit) {
@@ -1058,7 +1059,7 @@ std::vector<uint8_t> sealedSpace(const Tracer& tracer, const ProbeGrid& grid, La
   });
   for (size_t idx = 0; idx < total; ++idx) {
     if (!reg.free[idx]) continue;
-    const glm::ivec3 c = coordOf(idx);
+    const glm::ivec3 c = latticeCoord(dims, idx);
     for (int a = 0; a < 3; ++a)
       reg.rays += uint64_t(c[a] + 1 < dims[a] && reg.free[idx + step[a]]) + (c[a] == 0) + (c[a] == dims[a] - 1);
   }
@@ -1072,7 +1073,7 @@ std::vector<uint8_t> sealedSpace(const Tracer& tracer, const ProbeGrid& grid, La
     }
   for (size_t head = 0; head < queue.size(); ++head) {
     const size_t idx = queue[head];
-    const glm::ivec3 c = coordOf(idx);
+    const glm::ivec3 c = latticeCoord(dims, idx);
     for (int a = 0; a < 3; ++a) {
       if (c[a] + 1 < dims[a] && (links[idx] & (1u << a)) && !out[idx + step[a]]) {
         out[idx + step[a]] = 1;
@@ -1112,11 +1113,8 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
   const glm::ivec3 dims = grid.dims;
   const size_t total = size_t(dims.x) * dims.y * dims.z;
   const size_t sy = size_t(dims.x), sz = size_t(dims.x) * dims.y;
-  auto coordOf = [&](size_t idx) {
-    return glm::ivec3(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / sz));
-  };
   auto forNeighbours = [&](size_t idx, auto&& f) {  // the 26 neighbours inside the lattice
-    const glm::ivec3 c = coordOf(idx);
+    const glm::ivec3 c = latticeCoord(dims, idx);
     for (int d = 0; d < 27; ++d) {
       const glm::ivec3 q = c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1);
       if (d == 13 || glm::any(glm::lessThan(q, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(q, dims))) continue;
@@ -1143,7 +1141,7 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
       if (stopped.load(std::memory_order_relaxed)) return;
       if (shared && !spread.owns(idx)) continue;
       ProbeAccum test;
-      const glm::vec3 x(grid.latticePosition(coordOf(idx)));
+      const glm::vec3 x(grid.latticePosition(latticeCoord(dims, idx)));
       if (!tracer.trace(x, kProbeTestRays, 2 * idx, false, test)) {
         stopped = true;
         return;
@@ -1360,7 +1358,7 @@ void assembleGrid(const std::vector<ProbeSlot>& slots, const float* transfer, si
   for (size_t p = 0; p < active; ++p) {
     const size_t idx = activeIdx[p];
     const ProbeSlot& slot = slots[idx];
-    grid.coord.push_back(glm::ivec3(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y))));
+    grid.coord.push_back(latticeCoord(dims, idx));
     grid.validity.push_back(slot.valid ? 1.0f : 0.0f);
     grid.offset.push_back(slot.offset);
     grid.moments.push_back(slot.moments);
@@ -1520,7 +1518,7 @@ namespace {
 glm::vec3 raySetOrigin(const ProbeGrid& layout, const std::vector<glm::dvec3>& candidates, const ProbeRaySet& set) {
   const glm::ivec3 dims = layout.dims;
   const size_t idx = size_t(set.lattice);
-  const glm::ivec3 c(int(idx % dims.x), int((idx / dims.x) % dims.y), int(idx / (size_t(dims.x) * dims.y)));
+  const glm::ivec3 c = latticeCoord(dims, idx);
   const glm::dvec3 base = layout.latticePosition(c);
   if (set.candidate < 0) return glm::vec3(base);
   PRT_CHECK_LT(size_t(set.candidate), candidates.size());
@@ -1528,6 +1526,19 @@ glm::vec3 raySetOrigin(const ProbeGrid& layout, const std::vector<glm::dvec3>& c
 }
 
 }  // namespace
+
+void probeRaySets(const ProbeStats& stats, uint64_t points, std::vector<ProbeRaySet>& tests,
+                  std::vector<ProbeRaySet>& fulls) {
+  size_t next = 0;  // stats.traced is in lattice order
+  for (uint64_t idx = 0; idx < points; ++idx) {
+    tests.push_back({idx, -1});
+    if (next == stats.traced.size() || stats.traced[next].lattice != idx) continue;
+    const ProbeStats::Traced& t = stats.traced[next++];
+    for (uint32_t c = 0; c < t.candidates; ++c) tests.push_back({idx, int(c)});
+    if (t.full) fulls.push_back({idx, int(t.candidates) - 1});  // −1 when none was tested
+  }
+  PRT_CHECK_EQ(next, stats.traced.size());
+}
 
 std::vector<Ray> probeTestRays(const ProbeGrid& layout, const ProbeSettings& settings,
                                const std::vector<ProbeRaySet>& sets) {

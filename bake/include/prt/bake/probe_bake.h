@@ -117,6 +117,13 @@ struct ProbeRaySet {
   int candidate = -1;
 };
 
+/// The ray sets a bake of `points` lattice points cast, as `stats` (ProbeStats::traced) tells
+/// them: into `tests` every point's inside test and its relocation candidates' tests, in lattice
+/// order; into `fulls` the full sets, from the point or from the last candidate it tested (the
+/// one it moved to). Their rays, 64 per test and settings.samples per full set, are stats.rays.
+void probeRaySets(const ProbeStats& stats, uint64_t points, std::vector<ProbeRaySet>& tests,
+                  std::vector<ProbeRaySet>& fulls);
+
 /// The 64-ray inside tests of `sets` (the point's quick test, or a relocation candidate's),
 /// 64 rays each, in the bake's order; untraced. For benchmarks (with ProbeStats::traced).
 std::vector<Ray> probeTestRays(const ProbeGrid& layout, const ProbeSettings& settings,
