@@ -58,9 +58,10 @@ constexpr uint64_t kWriteTransferCopies = 5, kWriteInputCopies = 3;
 constexpr uint64_t kLayoutPerVertex = 28, kLayoutPerTriangle = 16;
 // One hit record, and the CSR offset per vertex.
 constexpr uint64_t kHitBytes = 8, kHitOffsetBytes = 4;
-// Probe bake (probe_bake.cpp): a 72-byte slot per lattice point next to its n2²·3 floats
-// (lattice order, kept in the checkpoint's chunk records as they are); per worker thread one
-// set of accumulators (n2² doubles and n2² double RGB) and the scratch of a group of 1024 rays
+// Probe bake (probe_bake.cpp): a 72-byte slot per lattice point, and per valid point its
+// transfer (kept per chunk, as the checkpoint's chunk records hold them); per worker thread one
+// set of accumulators (n2² doubles and n2² double RGB), a chunk's transfer being baked
+// (kProbeChunk points) and the scratch of a group of 1024 rays
 // (StreamRows: their SH values, n2 floats a ray; per lit hit its lists' 20 bytes and a 48-byte
 // record, and for a colour looked up its index, instance, triangle, barycentrics and RGB, 32;
 // g of a chunk of 64 hits); per active probe the grid's
@@ -144,11 +145,11 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   const uint64_t matrix = pn2 * pn2 * 12 + pn2 * (pn2 + 1) / 2 * 4;  // M and M⁰'s triangle
   const uint64_t threads = std::max(1u, p.threads > 0 ? unsigned(p.threads) : std::thread::hardware_concurrency());
   const uint64_t scratch = 1024 * (pn2 * 4 + 20 + 48 + 32) + 64 * ((3 * pn2 + 7) / 8 * 8) * 4;
-  const uint64_t accum = pn2 * pn2 * (8 + 24) + scratch + 8 * kAllocOverhead;
+  const uint64_t accum = pn2 * pn2 * (8 + 24) + scratch + kProbeChunk * matrix + 8 * kAllocOverhead;
   lattice = points * (kProbeSlotBytes + matrix);
   const uint64_t trace = triangles * kBvhBytesPerTriangle + lattice + threads * accum + kCheckpointBuffers +
                          points * kProbeTracedBytes;
-  // The assembly copies the active points' transfer out of the lattice's into the grid's arrays,
+  // The assembly copies the valid points' transfer out of the chunks' into the grid's arrays,
   // each allocated once at its size, with a list of the active points (8 bytes each, up to
   // twice that while the list grows).
   const uint64_t gridBytes = points * (matrix + kProbeAttributeBytes + kProbeIndexBytes);

@@ -880,27 +880,35 @@ static_assert(sizeof(ProbeSlot) == 72 && std::is_trivially_copyable_v<ProbeSlot>
 // memory, whenever it happens.
 struct LatticeResults {
   std::vector<ProbeSlot> slots;
-  // stride floats per lattice point, written for valid points only (the others' are never read:
-  // left unwritten, their pages are never faulted in): M (n2² RGB triples), then the upper
-  // triangle of its direct part M⁰ (n2(n2+1)/2 floats, ProbeGrid::direct's layout).
-  std::unique_ptr<float[]> transfer;
+  // Per chunk (kProbeChunk points), the transfer of its valid points in lattice order, stride
+  // floats each: M (n2² RGB triples), then the upper triangle of its direct part M⁰
+  // (n2(n2+1)/2 floats, ProbeGrid::direct's layout). Only valid points hold one: on a sparse
+  // level (a closed map keeps a few percent of its lattice) a matrix for every point, written
+  // at a few of them, had most of its pages faulted in all the same.
+  std::vector<std::vector<float>> chunks;
   size_t stride = 0;
 };
 
 // Chunk record: the chunk's slots, then the transfer of its valid points only.
-void writeProbeChunk(const LatticeResults& res, size_t begin, size_t end, ByteWriter& w) {
-  w.putArray(res.slots.data() + begin, end - begin);
-  for (size_t i = begin; i < end; ++i)
-    if (res.slots[i].valid) w.write(res.transfer.get() + i * res.stride, res.stride * sizeof(float));
+void writeProbeChunk(const LatticeResults& res, const Chunk& c, ByteWriter& w) {
+  w.putArray(res.slots.data() + c.begin, c.end - c.begin);
+  const std::vector<float>& records = res.chunks[c.index];
+  PRT_CHECK_EQ(records.size(), size_t(std::count_if(res.slots.begin() + ptrdiff_t(c.begin), res.slots.begin() + ptrdiff_t(c.end),
+                                                    [](const ProbeSlot& s) { return s.valid != 0; })) * res.stride);
+  if (!records.empty()) w.write(records.data(), records.size() * sizeof(float));
 }
 
-void readProbeChunk(LatticeResults& res, size_t begin, size_t end, ByteReader& r) {
-  r.getArray(res.slots.data() + begin, end - begin);
-  for (size_t i = begin; i < end; ++i) {
+void readProbeChunk(LatticeResults& res, const Chunk& c, ByteReader& r) {
+  r.getArray(res.slots.data() + c.begin, c.end - c.begin);
+  size_t valid = 0;
+  for (size_t i = c.begin; i < c.end; ++i) {
     const ProbeSlot& slot = res.slots[i];
     if (slot.valid > 1 || slot.moved > 1 || slot.outside > 1 || (slot.valid && slot.outside)) r.fail("probe record");
-    if (slot.valid) r.read(res.transfer.get() + i * res.stride, res.stride * sizeof(float));
+    valid += slot.valid;
   }
+  std::vector<float>& records = res.chunks[c.index];
+  records.resize(valid * res.stride);  // read even when empty: a record too short fails
+  r.read(records.data(), records.size() * sizeof(float));
 }
 
 // The lattice coordinate of linear index idx = x + dims.x·(y + dims.y·z).
@@ -1324,12 +1332,12 @@ void resizeFaultedInParallel(std::vector<T>& v, size_t n) {
 
 // Active: valid probes, and invalid ones next to a valid probe (so the file shows where
 // interpolation must not read); solid interiors far from free space are not stored. Copies the
-// lattice's results into the grid, compacted to the active probes in lattice order: M into
-// grid.transfer, M⁰'s triangle into grid.direct (zeros for invalid probes, whose lattice
-// transfer was never written), each array allocated once at its size, on huge pages, and
+// chunks' records into the grid, compacted to the active probes in lattice order: M into
+// grid.transfer, M⁰'s triangle into grid.direct (zeros for invalid probes, which have no
+// record), each array allocated once at its size, on huge pages, and
 // faulted in by the workers together.
-void assembleGrid(const std::vector<ProbeSlot>& slots, const float* transfer, size_t stride, ProbeGrid& grid,
-                  ProbeStats& stats) {
+void assembleGrid(const std::vector<ProbeSlot>& slots, const std::vector<std::vector<float>>& chunks, size_t stride,
+                  ProbeGrid& grid, ProbeStats& stats) {
   const glm::ivec3 dims = grid.dims;
   auto validAt = [&](const glm::ivec3& c) {
     if (glm::any(glm::lessThan(c, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(c, dims))) return false;
@@ -1355,6 +1363,7 @@ void assembleGrid(const std::vector<ProbeSlot>& slots, const float* transfer, si
   grid.offset.reserve(active);
   grid.moments.reserve(active);
   grid.skyVisibility.reserve(active);
+  size_t chunk = chunks.size(), at = 0;  // the next valid point's record: chunks[chunk][at]
   for (size_t p = 0; p < active; ++p) {
     const size_t idx = activeIdx[p];
     const ProbeSlot& slot = slots[idx];
@@ -1363,8 +1372,11 @@ void assembleGrid(const std::vector<ProbeSlot>& slots, const float* transfer, si
     grid.offset.push_back(slot.offset);
     grid.moments.push_back(slot.moments);
     grid.skyVisibility.push_back(slot.skyVisibility);
-    if (slot.valid) {
-      const float* record = transfer + idx * stride;
+    if (slot.valid) {  // valid points are active: each chunk's records are met in their order
+      if (idx / kProbeChunk != chunk) chunk = idx / kProbeChunk, at = 0;
+      PRT_CHECK_LE(at + stride, chunks[chunk].size());
+      const float* record = chunks[chunk].data() + at;
+      at += stride;
       std::copy_n(record, rgb, grid.transfer.begin() + ptrdiff_t(p * rgb));
       std::copy_n(record + rgb, tri, grid.direct.begin() + ptrdiff_t(p * tri));
     }
@@ -1401,7 +1413,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   const size_t stride = size_t(n2) * n2 * 3 + ProbeGrid::directStride(settings.bands);
   auto res = std::make_shared<LatticeResults>();
   res->slots.resize(total);
-  res->transfer = uninitialisedOnHugePages<float>(total * stride);  // lattice order; the grid copies it out
+  res->chunks.resize((total + kProbeChunk - 1) / kProbeChunk);
   res->stride = stride;
 
   // The stage's writer holds `res`; forget it however this function ends, so that the
@@ -1409,12 +1421,11 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   const StageRelease release(cp);
   // Only rank 0 assembles and writes the grid: the other ranks send it their chunks.
   ChunkedStage stage({kProbeStage, "probe stage", "probes", "probes", total, kProbeChunk, settings.progress, false}, cp);
-  stage.restore([&](const Chunk& c, ByteReader& r) { readProbeChunk(*res, c.begin, c.end, r); }, "probe chunk index");
+  stage.restore([&](const Chunk& c, ByteReader& r) { readProbeChunk(*res, c, r); }, "probe chunk index");
   Checkpoint::StageIo io;
   io.chunksOutliveStage = true;
   io.writeChunk = [res, total](uint64_t c, ByteWriter& w) {
-    const Chunk ch = chunkOf(total, kProbeChunk, c);
-    writeProbeChunk(*res, ch.begin, ch.end, w);
+    writeProbeChunk(*res, chunkOf(total, kProbeChunk, c), w);
   };
   stage.begin(std::move(io));
 
@@ -1470,6 +1481,8 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
                       .run([&](const Chunk& c) {
                         ProbeAccum acc;  // reused by the probes of this chunk
                         ChunkOutcome outcome;
+                        std::vector<float> records;  // of its valid points (LatticeResults::chunks)
+                        records.reserve((c.end - c.begin) * stride);
                         for (size_t idx = c.begin; outcome.finished && idx < c.end; ++idx) {
                           ProbeSlot& slot = res->slots[idx];
                           if (region.skip[idx]) {
@@ -1478,9 +1491,15 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
                             slot.moments.fill(glm::vec2(tracer.maxDistance, tracer.maxDistance * tracer.maxDistance));
                             continue;
                           }
-                          outcome.finished = baker.bake(idx, region.free[idx] != 0, acc, slot,
-                                                        res->transfer.get() + idx * stride);
+                          const size_t at = records.size();
+                          records.resize(at + stride);
+                          outcome.finished = baker.bake(idx, region.free[idx] != 0, acc, slot, records.data() + at);
+                          if (!slot.valid) records.resize(at);
                           outcome.rays += slot.traced;
+                        }
+                        if (outcome.finished) {
+                          records.shrink_to_fit();
+                          res->chunks[c.index] = std::move(records);
                         }
                         return outcome;
                       })
@@ -1505,7 +1524,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   if (cp) cp->releaseStages();
   stats.restored = stage.restoredItems();
   if (ranks().rank() != 0) return grid;  // the lattice holds this rank's chunks only
-  assembleGrid(res->slots, res->transfer.get(), stride, grid, stats);
+  assembleGrid(res->slots, res->chunks, stride, grid, stats);
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (statsOut) *statsOut = stats;
   return grid;

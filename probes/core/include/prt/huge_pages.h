@@ -38,13 +38,4 @@ void populatePages(void* p, size_t bytes);
 ///   Where that reservation is refused (strict overcommit), the heap grows as glibc's does.
 void tuneHeap();
 
-/// n uninitialised Ts (T trivial) on huge pages: nothing is written, so pages never touched
-/// are never faulted in.
-template <class T>
-std::unique_ptr<T[]> uninitialisedOnHugePages(size_t n) {
-  std::unique_ptr<T[]> p(new T[n]);  // default-initialised: left as it is
-  adviseHugePages(p.get(), n * sizeof(T));
-  return p;
-}
-
 }  // namespace prt
