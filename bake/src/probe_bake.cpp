@@ -716,19 +716,22 @@ struct Tracer {
     StreamRows::Lookups& a = rows.albedo;  // the hits whose colour is looked up
     uint32_t nAlbedo = 0;
     for (uint32_t h = 0; h < hits; ++h) {
-      const uint32_t mesh = rows.hitMesh[h], tri = rows.hitTri[h];
+      const uint32_t mesh = rows.hitMesh[h], tri = rows.hitTri[h], yOff = rows.hitYOff[h];
       const LitMesh& m = litMeshes[mesh];
       const uint32_t* ix = m.indices + 3 * size_t(tri);
-      const uint16_t* t = (rows.hitYOff[h] & kBackBit) ? m.backRows : m.rows;
+      const uint16_t* t = (yOff & kBackBit) ? m.backRows : m.rows;
       LitRecord& r = rows.lit[h];
-      for (int c = 0; c < 3; ++c) {
-        r.t[c] = t + ix[c] * m.stride;
+      r.t[0] = t + ix[0] * m.stride;
+      r.t[1] = t + ix[1] * m.stride;
+      r.t[2] = t + ix[2] * m.stride;
+      for (int c = 0; c < 3; ++c) __builtin_prefetch(r.t[c]);  // a row's first line; up to 3 bands its only one
+      for (int c = 0; m.stride > 32 && c < 3; ++c) {
         const char* row = reinterpret_cast<const char*>(r.t[c]);
-        for (size_t o = 0; o < m.stride * sizeof(uint16_t); o += 64) __builtin_prefetch(row + o);
+        for (size_t o = 64; o < m.stride * sizeof(uint16_t); o += 64) __builtin_prefetch(row + o);
       }
       r.b1 = rows.hitU[h];
       r.b2 = rows.hitV[h];
-      rows.hitYOff[h] &= ~kBackBit;  // read: from here the products' offsets
+      rows.hitYOff[h] = yOff & ~kBackBit;  // read: from here the products' offsets
       if (m.uniform) {
         std::memcpy(r.rho, m.rhoPi, sizeof r.rho);
         continue;
