@@ -220,9 +220,8 @@ int main(int argc, char** argv) {
         for (size_t k = run * 16; k < std::min(from.size(), run * 16 + 16); ++k) into.push_back(from[k]);
     };
     // The full sets at the fraction; the tests at a larger one where they are fewer rays, up to
-    // as many as the full sets' sample (each mode's timing of a 2% sample of a room's tests
-    // lasted 4 ms, too short to time a mode: the fastest of fifteen such timings sat above
-    // every mode's typical rate).
+    // as many as the full sets' sample: at 2% a room's tests took 4 ms a mode, too short a
+    // timing on a shared machine.
     const size_t everyTest = std::clamp<size_t>(
         size_t(std::llround(double(every) * double(testRays) / double(std::max<uint64_t>(fullRays, 1)))), 1, every);
     pick(tests, everyTest, pickedTests);

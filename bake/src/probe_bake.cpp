@@ -896,8 +896,9 @@ struct LatticeResults {
 void writeProbeChunk(const LatticeResults& res, const Chunk& c, ByteWriter& w) {
   w.putArray(res.slots.data() + c.begin, c.end - c.begin);
   const std::vector<float>& records = res.chunks[c.index];
-  PRT_CHECK_EQ(records.size(), size_t(std::count_if(res.slots.begin() + ptrdiff_t(c.begin), res.slots.begin() + ptrdiff_t(c.end),
-                                                    [](const ProbeSlot& s) { return s.valid != 0; })) * res.stride);
+  size_t valid = 0;
+  for (size_t i = c.begin; i < c.end; ++i) valid += res.slots[i].valid;
+  PRT_CHECK_EQ(records.size(), valid * res.stride);
   if (!records.empty()) w.write(records.data(), records.size() * sizeof(float));
 }
 
