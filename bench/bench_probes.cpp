@@ -158,12 +158,12 @@ int main(int argc, char** argv) {
     // packets of 8 (RayScene::intersect8), laid out before the timer starts; rays/s, wall and CPU.
     auto tracePrt = [&](const std::vector<bake::Ray>& batch, size_t per, size_t stream, std::vector<double>* rates) {
       const size_t sets = batch.size() / per, streams = (per + stream - 1) / stream;
+      auto countOf = [&](size_t q) { return std::min(stream, per - (q % streams) * stream); };  // stream q's rays
       std::vector<size_t> packetOf(sets * streams + 1, 0);
-      for (size_t q = 0; q < sets * streams; ++q)
-        packetOf[q + 1] = packetOf[q] + (std::min(stream, per - (q % streams) * stream) + 7) / 8;
+      for (size_t q = 0; q < sets * streams; ++q) packetOf[q + 1] = packetOf[q] + (countOf(q) + 7) / 8;
       std::vector<bake::RayPacket8> packets(packetOf.back());
       for (size_t q = 0; q < sets * streams; ++q) {
-        const size_t first = (q / streams) * per + (q % streams) * stream, count = std::min(stream, per - (q % streams) * stream);
+        const size_t first = (q / streams) * per + (q % streams) * stream, count = countOf(q);
         for (size_t j = 0; j < count; ++j) {
           const bake::Ray& r = batch[first + j];
           packets[packetOf[q] + j / 8].start(int(j % 8), r.org, r.dir, r.tnear, r.tfar);
@@ -174,7 +174,7 @@ int main(int argc, char** argv) {
       tbb::parallel_for(tbb::blocked_range<size_t>(0, sets, 16), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i)
           for (size_t q = i * streams; q < (i + 1) * streams; ++q)
-            rays.intersect8(&packets[packetOf[q]], std::min(stream, per - (q % streams) * stream));
+            rays.intersect8(&packets[packetOf[q]], countOf(q));
       });
       rates[0].push_back(double(batch.size()) / std::chrono::duration<double>(Clock::now() - t0).count());
       rates[1].push_back(double(batch.size()) / (bench::processCpuSeconds() - cpu0));
@@ -261,6 +261,10 @@ int main(int argc, char** argv) {
     auto ceilingSeconds = [&](size_t round, bench::Timing t) {
       return secondsAt(bench::roundRate(ceilingTests, round, t), bench::roundRate(ceilingFull, round, t));
     };
+    auto prtFastestSeconds = [&](int t) {  // prt's tracing alone, each class at its fastest round
+      return secondsAt(*std::max_element(prtTestRates[t].begin(), prtTestRates[t].end()),
+                       *std::max_element(prtFullRates[t].begin(), prtFullRates[t].end()));
+    };
     std::vector<double> vsCeiling[2], notTracingByRate[2], notTracing;  // notTracing: measured, per round
     std::vector<double> directVsCeiling, directNotTracing;  // wall clock: the same bake with no lit surfaces
     for (int round = 0; round < repeat; ++round) {
@@ -331,8 +335,7 @@ int main(int argc, char** argv) {
     j["ceiling_full_sets"] = bench::toJson(ceilingFull);
     j["ceiling_rays_per_s"] = double(stats.rays) / ceilingSeconds(bestRound, bench::Timing::Wall);
     j["ceiling_best_mode"] = ceilingFull.bestMode(bench::Timing::Wall).mode;  // of the full sets
-    j["prt_trace_rays_per_s"] = double(stats.rays) / secondsAt(*std::max_element(prtTestRates[0].begin(), prtTestRates[0].end()),
-                                                              *std::max_element(prtFullRates[0].begin(), prtFullRates[0].end()));
+    j["prt_trace_rays_per_s"] = double(stats.rays) / prtFastestSeconds(0);
     j["prt_trace_tests_rays_per_s_range"] = range(prtTestRates[0]);
     j["prt_trace_full_sets_rays_per_s_range"] = range(prtFullRates[0]);
     j["repeat"] = repeat;
@@ -365,8 +368,7 @@ int main(int argc, char** argv) {
       nlohmann::json c;
       c["ceiling_rays_per_s"] = double(stats.rays) / ceilingSeconds(r, bench::Timing::Cpu);
       c["ceiling_best_mode"] = ceilingFull.bestMode(bench::Timing::Cpu).mode;
-      c["prt_trace_rays_per_s"] = double(stats.rays) / secondsAt(*std::max_element(prtTestRates[1].begin(), prtTestRates[1].end()),
-                                                                *std::max_element(prtFullRates[1].begin(), prtFullRates[1].end()));
+      c["prt_trace_rays_per_s"] = double(stats.rays) / prtFastestSeconds(1);
       c["probe_bake_cpu_seconds"] = bakeCpu[r];
       c["bake_rays_per_s"] = double(stats.rays) / bakeCpu[r];
       c["bake_vs_ceiling"] = vsCeiling[1][r];

@@ -725,10 +725,9 @@ struct Tracer {
       r.t[1] = t + ix[1] * m.stride;
       r.t[2] = t + ix[2] * m.stride;
       for (int c = 0; c < 3; ++c) __builtin_prefetch(r.t[c]);  // a row's first line; up to 3 bands its only one
-      for (int c = 0; m.stride > 32 && c < 3; ++c) {
-        const char* row = reinterpret_cast<const char*>(r.t[c]);
-        for (size_t o = 64; o < m.stride * sizeof(uint16_t); o += 64) __builtin_prefetch(row + o);
-      }
+      const size_t rowBytes = m.stride * sizeof(uint16_t);
+      for (int c = 0; rowBytes > 64 && c < 3; ++c)
+        for (size_t o = 64; o < rowBytes; o += 64) __builtin_prefetch(reinterpret_cast<const char*>(r.t[c]) + o);
       r.b1 = rows.hitU[h];
       r.b2 = rows.hitV[h];
       rows.hitYOff[h] = yOff & ~kBackBit;  // read: from here the products' offsets
