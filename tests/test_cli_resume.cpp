@@ -388,5 +388,43 @@ TEST(CliMemory, EstimateBoundsThePeakOfAProbeBake) {
   EXPECT_LE(estimated, 2.0 * peak);
 }
 
+TEST(CliMemory, ASparseLatticeIsCountedByItsPlacement) {
+  // A cavity in a lattice 8 times its size, 40³ points: nearly all are open air far from its
+  // surfaces, which the probe bake leaves out. Under a limit the bound (every point baked)
+  // exceeds, the placement's count is checked instead, and the bake runs with the same bytes.
+  const test::TempDir tmp("cli_memory_sparse");
+  const fs::path dir = tmp.path();
+  auto args = [&](const std::string& name, const std::string& limit) {
+    return std::vector<std::string>{"bake", scenePath("cavity.gltf"), "-o", (dir / (name + ".glb")).string(),
+                                    "--probes", (dir / (name + ".vdb")).string(), "--samples", "16", "--bounces",
+                                    "1", "--probe-dims", "40,40,40", "--probe-bounds", "-8,-8,-8,8,8,8",
+                                    "--probe-samples", "16", "--max-memory", limit};
+  };
+  const std::regex estimate("memory: estimated ([0-9.]+) MiB, peak ([0-9.]+) MiB");
+  std::smatch m;
+  RunResult r = prtBake(args("bound", "64G"));
+  ASSERT_EQ(r.status, 0) << r.err;
+  ASSERT_TRUE(std::regex_search(r.err, m, estimate)) << r.err;
+  const double bound = std::stod(m[1]);
+  // Just under the bound: refused before, counted now.
+  const int limit = int(bound) - 1;
+  r = prtBake(args("counted", cat(limit, "M")));
+  ASSERT_EQ(r.status, 0) << r.err;
+  ASSERT_TRUE(std::regex_search(r.err, m, estimate)) << r.err;
+  const double counted = std::stod(m[1]), peak = std::stod(m[2]);
+  EXPECT_LT(counted, 0.75 * bound) << r.err;
+  EXPECT_EQ(slurp(dir / "counted.glb"), slurp(dir / "bound.glb"));
+  EXPECT_EQ(slurp(dir / "counted.vdb"), slurp(dir / "bound.vdb"));
+  // Still refused, in one line and writing nothing, where even the count does not fit.
+  r = prtBake(args("refused", cat(int(counted) / 2, "M")));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("not enough memory"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "refused.glb"));
+  EXPECT_FALSE(fs::exists(dir / "refused.vdb"));
+  if (test::kAddressSanitizer) GTEST_SKIP() << "peak under ASan is not the program's peak";
+  EXPECT_GE(counted, peak);
+}
+
 }  // namespace
 }  // namespace prt

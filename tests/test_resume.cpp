@@ -559,5 +559,43 @@ TEST(BakeMemory, PilotBoundsTheHitRecordsAndTheRefusalSuggestsAWayOut) {
   EXPECT_GT(sys->bytes, uint64_t(0));
 }
 
+TEST(BakeMemory, APlacementCountsOnlyTheProbesTheBakeKeeps) {
+  // A cavity in a lattice eight times its size: most points are open air far from its
+  // surfaces, which the probe bake leaves out, so the bound that counts them all is loose.
+  const Scene scene = test::makeScene({test::makeCavity(0.6, 20, 32)}, 0.7f);
+  ProbeSettings p;
+  p.dims = {24, 24, 24};
+  p.boundsMin = glm::dvec3(-4.0);
+  p.boundsMax = glm::dvec3(4.0);
+  p.samples = 16;
+  const ProbePlacement placed = placeProbes(scene, p);
+  ProbeStats stats;
+  (void)bakeProbes(scene, {}, p, &stats);
+  // The placement the bake made, and bounds on what it kept.
+  EXPECT_EQ(placed.points, stats.probes);
+  EXPECT_EQ(placed.points - placed.baked, stats.outside);  // a cavity alone: no point deep in solid
+  EXPECT_GE(placed.baked, stats.valid);
+  EXPECT_GE(placed.activeBound, stats.active);
+  EXPECT_GT(stats.valid, uint64_t(0));
+  EXPECT_LT(placed.baked * 4, placed.points);
+  EXPECT_GE(placed.leafBlocks, uint64_t(1));
+  EXPECT_LE(placed.leafBlocks, uint64_t(27));  // 3³ blocks of 8³ cover 24³
+  EXPECT_EQ(placed.lowerBlocks, uint64_t(1));
+
+  BakeSettings s = resumeSettings();
+  const MemoryEstimate worst = estimateBakeMemory(scene, s, &p, 1.0);
+  const MemoryEstimate counted = estimateBakeMemory(scene, s, &p, 1.0, &placed);
+  EXPECT_FALSE(worst.placement.has_value());
+  ASSERT_TRUE(counted.placement.has_value());
+  EXPECT_LT(counted.probes * 2, worst.probes);
+  EXPECT_LT(counted.probePeak, worst.probePeak);
+  EXPECT_EQ(counted.surfacePeak, worst.surfacePeak);
+  // Every point baked and active, in every block: the bound itself.
+  const ProbePlacement all{placed.points, placed.points, placed.points, 27, 1};
+  const MemoryEstimate whole = estimateBakeMemory(scene, s, &p, 1.0, &all);
+  EXPECT_EQ(whole.probePeak, worst.probePeak);
+  EXPECT_EQ(whole.total, worst.total);
+}
+
 }  // namespace
 }  // namespace prt

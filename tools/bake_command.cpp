@@ -321,8 +321,16 @@ int runBake(const BakeArgs& a) {
   // Memory guard: first without the hit records (before the BVH is built) and with the
   // refinement's budget, then with the bound the bake measures on a pilot of its own rays on
   // the refined scene (BakeControl::checkMemory).
+  // The probe stage's bound counts every lattice point as baked; where that bound is what does
+  // not fit, the placement's own rays (about 64 a point, on the scene before refinement, whose
+  // surfaces refinement keeps) count the points the bake keeps, and that count is checked.
   std::optional<bake::MemoryLimit> limit = bake::memoryLimit(a.maxMemory);
   bake::MemoryEstimate estimate = bake::estimateBakeMemory(scene, s, psp, 0.0);
+  std::optional<bake::ProbePlacement> placement;
+  if (limit && psp && estimate.total > limit->bytes && estimate.probePeak >= std::max({estimate.surfacePeak, estimate.writePeak, estimate.refinePeak})) {
+    placement = bake::placeProbes(scene, *psp);
+    estimate = bake::estimateBakeMemory(scene, s, psp, 0.0, &*placement);
+  }
   guardMemory(estimate, limit, scene, s, psp);
 
   std::optional<bake::Checkpoint> checkpoint;
@@ -374,7 +382,7 @@ int runBake(const BakeArgs& a) {
   // still bounds the whole run's peak: it keeps that phase.
   const uint64_t refinePeak = estimate.refinePeak;
   control.checkMemory = [&](double share) {
-    estimate = bake::estimateBakeMemory(scene, s, psp, share);
+    estimate = bake::estimateBakeMemory(scene, s, psp, share, placement ? &*placement : nullptr);
     guardMemory(estimate, limit, scene, s, psp);
     estimate.keepRefinePhase(refinePeak);
   };

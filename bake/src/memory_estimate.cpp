@@ -122,40 +122,46 @@ uint64_t gltfInputBytes(const Scene& scene) {
 std::string mib(uint64_t b) { return formatBytes(b); }
 
 // One OpenVDB tree over the lattice (see kVdbUpperEntries): values of `valueBytes`, node
-// entries of `entryBytes`.
-uint64_t vdbTreeBytes(uint64_t valueBytes, uint64_t entryBytes, const glm::u64vec3& dims) {
-  auto blocks = [&](uint64_t side) { return ((dims.x + side - 1) / side) * ((dims.y + side - 1) / side) *
-                                            ((dims.z + side - 1) / side); };
-  return kVdbUpperEntries * entryBytes + kVdbNodeOverhead +
-         blocks(128) * (kVdbLowerEntries * entryBytes + kVdbNodeOverhead) +
-         blocks(8) * (kVdbLeafVoxels * valueBytes + kVdbLeafOverhead);
+// entries of `entryBytes`, with `lower` 128³ nodes and `leaves` 8³ leaves.
+uint64_t vdbTreeBytes(uint64_t valueBytes, uint64_t entryBytes, uint64_t lower, uint64_t leaves) {
+  return kVdbUpperEntries * entryBytes + kVdbNodeOverhead + lower * (kVdbLowerEntries * entryBytes + kVdbNodeOverhead) +
+         leaves * (kVdbLeafVoxels * valueBytes + kVdbLeafOverhead);
 }
 
 // The probe stage on top of the scene and the surface transfer: the largest of its trace,
-// assembly and write. Every lattice point is counted as valid and active (the bound). Sets
-// `lattice` to the bytes of the lattice's own results (slots and transfer).
-uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t triangles, uint64_t& lattice) {
+// assembly and write. Without a measured placement every lattice point is counted as valid
+// and active (the bound); with one, its baked points as valid and the points next to them as
+// active, in the blocks they fill. Sets `lattice` to the bytes of the lattice's own results
+// (slots and transfer).
+uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t triangles, const ProbePlacement* placed,
+                        uint64_t& lattice) {
   ProbeGrid grid;
   glm::dvec3 lo, hi;
   probeBounds(p, scene, lo, hi);
   layoutGrid(p, lo, hi, grid);
   const glm::u64vec3 dims(grid.dims);
   const uint64_t points = dims.x * dims.y * dims.z;
+  auto blocks = [&](uint64_t side) {
+    return ((dims.x + side - 1) / side) * ((dims.y + side - 1) / side) * ((dims.z + side - 1) / side);
+  };
+  if (placed) PRT_CHECK_EQ(placed->points, points);  // measured for these settings
+  const uint64_t valid = placed ? placed->baked : points, active = placed ? placed->activeBound : points;
+  const uint64_t lower = placed ? placed->lowerBlocks : blocks(128), leaves = placed ? placed->leafBlocks : blocks(8);
   const uint64_t pn2 = uint64_t(p.bands) * p.bands;
   const uint64_t matrix = pn2 * pn2 * 12 + pn2 * (pn2 + 1) / 2 * 4;  // M and M⁰'s triangle
   const uint64_t threads = std::max(1u, p.threads > 0 ? unsigned(p.threads) : std::thread::hardware_concurrency());
   const uint64_t scratch = 1024 * (pn2 * 4 + 20 + 48 + 32) + 64 * ((3 * pn2 + 7) / 8 * 8) * 4;
   const uint64_t accum = pn2 * pn2 * (8 + 24) + scratch + kProbeChunk * matrix + 8 * kAllocOverhead;
-  lattice = points * (kProbeSlotBytes + matrix);
+  lattice = points * kProbeSlotBytes + valid * matrix;
   const uint64_t trace = triangles * kBvhBytesPerTriangle + lattice + threads * accum + kCheckpointBuffers +
                          points * kProbeTracedBytes;
   // The assembly copies the valid points' transfer out of the chunks' into the grid's arrays,
   // each allocated once at its size, with a list of the active points (8 bytes each, up to
   // twice that while the list grows).
-  const uint64_t gridBytes = points * (matrix + kProbeAttributeBytes + kProbeIndexBytes);
-  const uint64_t assemble = lattice + gridBytes + points * (16 + kProbeTracedBytes);
-  const uint64_t trees = (pn2 * pn2 + kVdbVec3Grids) * vdbTreeBytes(12, 16, dims) +
-                         (kVdbFloatGrids + pn2 * (pn2 + 1) / 2) * vdbTreeBytes(4, 8, dims);
+  const uint64_t gridBytes = active * (matrix + kProbeAttributeBytes) + points * kProbeIndexBytes;
+  const uint64_t assemble = lattice + gridBytes + active * 16 + points * kProbeTracedBytes;
+  const uint64_t trees = (pn2 * pn2 + kVdbVec3Grids) * vdbTreeBytes(12, 16, lower, leaves) +
+                         (kVdbFloatGrids + pn2 * (pn2 + 1) / 2) * vdbTreeBytes(4, 8, lower, leaves);
   const uint64_t write = gridBytes + trees + kVdbHashBuffer + kVdbWriteBytes;
   return std::max({trace, assemble, write});
 }
@@ -163,8 +169,9 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
 }  // namespace
 
 MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, const ProbeSettings* probes,
-                                  double frontHitShare) {
+                                  double frontHitShare, const ProbePlacement* placement) {
   MemoryEstimate e;
+  if (probes && placement) e.placement = *placement;
   uint64_t vertices = 0, triangles = 0;
   uint64_t backVertices = 0, backTriangles = 0;  // the back sides of double-sided instances
   for (const MeshInstance& m : scene.meshes) {
@@ -206,7 +213,7 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
                                      2 * (e.transfer + direct + lower) + (probes ? e.bvh : 0));
   const uint64_t lowerHalves = vertices * ((3 * n2 + 31) / 32 * 64);  // probe_bake.cpp: the lit hits' rows
   if (probes)
-    e.probePeak = e.scene + 2 * e.transfer + direct + lowerHalves + probeStagePeak(scene, *probes, triangles, e.probes);
+    e.probePeak = e.scene + 2 * e.transfer + direct + lowerHalves + probeStagePeak(scene, *probes, triangles, placement, e.probes);
   e.writePeak = e.scene + e.transfer + direct + lower + kWriteInputCopies * gltfInputBytes(scene) +
                 kWriteTransferCopies * (e.transfer + direct);
   if (s.refineVertices > 0 && shadowed)
@@ -324,14 +331,16 @@ std::optional<MemoryAdvice> memoryShortfall(const MemoryEstimate& e, const Memor
                                             const BakeSettings& s, const ProbeSettings* probes) {
   if (e.total <= limit.bytes) return std::nullopt;
   // A concrete way out: the largest power-of-two sample count that fits, else a coarser probe
-  // lattice, else fewer bands.
+  // lattice, else fewer bands. The placement measured for this lattice holds for other sample
+  // counts and bands (its rays are fixed); a coarser lattice is counted whole.
+  const ProbePlacement* placed = e.placement ? &*e.placement : nullptr;
   MemoryAdvice advice;
   if (e.hits > 0) {
     for (int n = 1 << 20; n >= 16; n /= 2) {
       if (n >= s.samples) continue;
       BakeSettings t = s;
       t.samples = n;
-      if (estimateBakeMemory(scene, t, probes, e.frontHitShare).total <= limit.bytes) {
+      if (estimateBakeMemory(scene, t, probes, e.frontHitShare, placed).total <= limit.bytes) {
         advice.samples = n;
         break;
       }
@@ -355,7 +364,7 @@ std::optional<MemoryAdvice> memoryShortfall(const MemoryEstimate& e, const Memor
     t.bands = b;
     ProbeSettings p = probes ? *probes : ProbeSettings{};
     p.bands = b;
-    if (estimateBakeMemory(scene, t, probes ? &p : nullptr, e.frontHitShare).total <= limit.bytes)
+    if (estimateBakeMemory(scene, t, probes ? &p : nullptr, e.frontHitShare, placed).total <= limit.bytes)
       advice.bands = b;
   }
   return advice;

@@ -1119,7 +1119,22 @@ bool aboveTheLevel(const Tracer& tracer, const glm::vec3& x, float height) {
   return !batch[0].occludedHit() && !batch[1].occludedHit();
 }
 
-LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const ProbeSettings& settings) {
+// The tracer's per-instance flags: which instances bake their back sides (twoSided), then
+// meshFlags from them and from which instances send light (lowerHalf).
+void setTwoSided(Tracer& tracer) {
+  for (const MeshInstance& m : tracer.scene.meshes) tracer.twoSided.push_back(bakesBackSide(tracer.scene, m));
+}
+void setMeshFlags(Tracer& tracer) {
+  const size_t n = tracer.scene.meshes.size();
+  tracer.meshFlags.assign(std::max<size_t>(n, 1), 0);
+  for (size_t k = 0; k < n; ++k)
+    tracer.meshFlags[k] = uint32_t((tracer.twoSided[k] ? Tracer::kTwoSided : 0) |
+                                   (k < tracer.lowerHalf.size() && !tracer.lowerHalf[k].empty() ? Tracer::kLit : 0));
+}
+
+// alone: this process tests every point itself, even under MPI (placeProbes).
+LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const ProbeSettings& settings,
+                              bool alone = false) {
   using Region = ProbeSettings::Region;
   const glm::ivec3 dims = grid.dims;
   const size_t total = size_t(dims.x) * dims.y * dims.z;
@@ -1145,7 +1160,7 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
   // the outcomes (what the rest of the classification reads of a point), as refinement trades
   // its points; shards, which run apart, each test the whole lattice.
   Ranks& spread = ranks();
-  const bool shared = spread.exchanges();
+  const bool shared = !alone && spread.exchanges();
   std::atomic<bool> stopped{false};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, total, 256), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t idx = r.begin(); idx != r.end(); ++idx) {
@@ -1235,6 +1250,55 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
 
 
 }  // namespace
+
+ProbePlacement placeProbes(const Scene& scene, const ProbeSettings& settings) {
+  validate(settings);
+  const ThreadLimit threadLimit(settings.threads);
+  ProbeGrid grid;
+  grid.bands = settings.bands;
+  glm::dvec3 lo, hi;
+  probeBounds(settings, scene, lo, hi);
+  layoutGrid(settings, lo, hi, grid);
+  const RayScene rays(scene);
+  const AlbedoLookup albedo(scene);
+  const std::vector<HalfRows> none;  // the placement's rays gather no light
+  const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
+  Tracer tracer{scene, rays, none, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing), {}};
+  setTwoSided(tracer);
+  setMeshFlags(tracer);
+  const LatticeRegion region = classifyLattice(tracer, grid, settings, true);
+  if (region.interrupted) throw Interrupted("interrupted (probe placement)");
+
+  const glm::ivec3 dims = grid.dims;
+  const size_t total = size_t(dims.x) * dims.y * dims.z;
+  ProbePlacement out;
+  out.points = total;
+  std::vector<uint8_t> near(total, 0);  // baked, or next to a baked point
+  for (size_t idx = 0; idx < total; ++idx) {
+    if (region.skip[idx]) continue;
+    ++out.baked;
+    const glm::ivec3 c = latticeCoord(dims, idx);
+    for (int d = 0; d < 27; ++d) {
+      const glm::ivec3 q = c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1);
+      if (glm::any(glm::lessThan(q, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(q, dims))) continue;
+      near[size_t(q.x) + size_t(dims.x) * (size_t(q.y) + size_t(dims.y) * q.z)] = 1;
+    }
+  }
+  auto countBlocks = [&](int side) {  // blocks of side³ points, from the origin, holding a near point
+    const glm::ivec3 b = (dims + side - 1) / side;
+    std::vector<uint8_t> held(size_t(b.x) * b.y * b.z, 0);
+    for (size_t idx = 0; idx < total; ++idx) {
+      if (!near[idx]) continue;
+      const glm::ivec3 c = latticeCoord(dims, idx) / side;
+      held[size_t(c.x) + size_t(b.x) * (size_t(c.y) + size_t(b.y) * c.z)] = 1;
+    }
+    return uint64_t(std::count(held.begin(), held.end(), uint8_t(1)));
+  };
+  out.activeBound = uint64_t(std::count(near.begin(), near.end(), uint8_t(1)));
+  out.leafBlocks = countBlocks(8);
+  out.lowerBlocks = countBlocks(128);
+  return out;
+}
 
 void validate(const ProbeSettings& s) {
   validateBands(s.bands);
@@ -1441,7 +1505,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
     const double maxSpacing = std::max(grid.spacing.x, std::max(grid.spacing.y, grid.spacing.z));
     std::vector<HalfRows> lowerHalf(lowerOrder.size());
     Tracer tracer{scene, rays, lowerHalf, albedo, settings.bands, settings.seed, float(2.0 * maxSpacing), {}};
-    for (const MeshInstance& m : scene.meshes) tracer.twoSided.push_back(bakesBackSide(scene, m));
+    setTwoSided(tracer);
     for (size_t k = 0; k < lowerOrder.size(); ++k) {  // both sides' transfer where both are baked
       if (lowerOrder[k].empty()) continue;
       const size_t rows = (tracer.twoSided[k] ? 2 : 1) * scene.meshes[k].vertexCount();
@@ -1460,10 +1524,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       const glm::vec3 rhoPi = albedo.constant[k] * float(1.0 / M_PI);  // AlbedoLookup::at's, as a lit hit's
       m.rhoPi[0] = rhoPi.r, m.rhoPi[1] = rhoPi.g, m.rhoPi[2] = rhoPi.b;
     }
-    tracer.meshFlags.assign(std::max<size_t>(scene.meshes.size(), 1), 0);
-    for (size_t k = 0; k < scene.meshes.size(); ++k)
-      tracer.meshFlags[k] = uint32_t((tracer.twoSided[k] ? Tracer::kTwoSided : 0) |
-                                    (k < lowerHalf.size() && !lowerHalf[k].empty() ? Tracer::kLit : 0));
+    setMeshFlags(tracer);
     const ProbeBaker baker(tracer, grid, settings);
     // Deterministic and cheap (about kProbeTestRays per point of the lattice, a few percent of
     // the bake), so a resumed bake classifies again rather than storing it.

@@ -22,6 +22,9 @@ struct MemoryEstimate {
   uint64_t transfer = 0;   // one per-vertex transfer buffer (vertices × bands² × 12)
   uint64_t probes = 0;     // probe bake: the lattice's slots and transfer (its part that scales)
   double frontHitShare = 1.0;  // share of direct rays assumed to hit a front face
+  /// The probe placement counted, where it was measured (placeProbes); else every lattice point
+  /// counts as baked and active.
+  std::optional<ProbePlacement> placement;
   // Peaks of the phases.
   uint64_t surfacePeak = 0, probePeak = 0, writePeak = 0;
   uint64_t refinePeak = 0;  // refinement (BakeSettings::refineVertices > 0), before the bake
@@ -39,9 +42,11 @@ struct MemoryEstimate {
 
 /// The bound for this scene and these settings; `probes` null when no probe grid is baked.
 /// `frontHitShare` bounds the share of direct rays that hit a front face (1 = worst case:
-/// every ray leaves a hit record).
+/// every ray leaves a hit record). `placement` (placeProbes for these probe settings) counts
+/// only the lattice points the probe bake keeps; null: all of them (the worst case).
 MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& settings,
-                                  const ProbeSettings* probes, double frontHitShare);
+                                  const ProbeSettings* probes, double frontHitShare,
+                                  const ProbePlacement* placement = nullptr);
 
 struct MemoryLimit {
   uint64_t bytes = 0;

@@ -97,6 +97,23 @@ constexpr size_t kProbeChunk = 64;
 /// own entries come from addSceneFingerprint.
 void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& settings);
 
+/// What the probe placement (docs/probes.md, "Where probes go") keeps of a lattice, counted for
+/// the memory guard (memory_estimate.h): the points it bakes, and bounds on the active probes
+/// (the valid ones and their neighbours, so within one lattice step of a baked point) and on
+/// the OpenVDB blocks that hold them.
+struct ProbePlacement {
+  uint64_t points = 0;       // lattice points
+  uint64_t baked = 0;        // not left out: each may keep a transfer record
+  uint64_t activeBound = 0;  // points within one step (of the 26 around) of a baked point, or baked
+  uint64_t leafBlocks = 0;   // 8³ blocks of the lattice (from its origin) holding such a point
+  uint64_t lowerBlocks = 0;  // 128³ blocks likewise
+};
+
+/// The placement bakeProbes makes for these settings, on a BVH of its own, in this process
+/// alone (no MPI exchange: every rank that calls it gets the same answer). About
+/// kProbeTestRays (64) rays per lattice point. Throws prt::Interrupted if interrupted.
+ProbePlacement placeProbes(const Scene& scene, const ProbeSettings& settings);
+
 /// Bakes the probe grid. `lowerOrder[k]` is instance k's surface transfer summed over bounces
 /// 0..K−1 (SurfaceTransfer::perMeshLowerOrder; empty vectors when K = 0; both sides, front
 /// then back, for an instance whose back side is baked), so a receiver at a point is lit like
