@@ -327,7 +327,9 @@ int runBake(const BakeArgs& a) {
   std::optional<bake::MemoryLimit> limit = bake::memoryLimit(a.maxMemory);
   bake::MemoryEstimate estimate = bake::estimateBakeMemory(scene, s, psp, 0.0);
   std::optional<bake::ProbePlacement> placement;
-  if (limit && psp && estimate.total > limit->bytes && estimate.probePeak >= std::max({estimate.surfacePeak, estimate.writePeak, estimate.refinePeak})) {
+  const bool probesLargest =
+      estimate.probePeak >= std::max({estimate.surfacePeak, estimate.writePeak, estimate.refinePeak});
+  if (limit && psp && estimate.total > limit->bytes && probesLargest) {
     placement = bake::placeProbes(scene, *psp);
     estimate = bake::estimateBakeMemory(scene, s, psp, 0.0, &*placement);
   }

@@ -213,7 +213,8 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
                                      2 * (e.transfer + direct + lower) + (probes ? e.bvh : 0));
   const uint64_t lowerHalves = vertices * ((3 * n2 + 31) / 32 * 64);  // probe_bake.cpp: the lit hits' rows
   if (probes)
-    e.probePeak = e.scene + 2 * e.transfer + direct + lowerHalves + probeStagePeak(scene, *probes, triangles, placement, e.probes);
+    e.probePeak = e.scene + 2 * e.transfer + direct + lowerHalves +
+                  probeStagePeak(scene, *probes, triangles, placement, e.probes);
   e.writePeak = e.scene + e.transfer + direct + lower + kWriteInputCopies * gltfInputBytes(scene) +
                 kWriteTransferCopies * (e.transfer + direct);
   if (s.refineVertices > 0 && shadowed)
