@@ -10,7 +10,7 @@
 #    into out/;
 #    test: runs ctest in build/; then builds the suite with AddressSanitizer +
 #    UndefinedBehaviorSanitizer (clang) in build-asan/ and runs ctest there; then builds the
-#    libFuzzer targets in the same build-asan/ and runs each for PRT_FUZZ_SECONDS (default 30) on a
+#    libFuzzer targets in the same build-asan/ and runs each for PRT_FUZZ_SECONDS (default 20) on a
 #    temporary copy of its seed corpus. Exits non-zero if any phase fails.
 #    PRT_TEST_PHASES (default "release asan fuzz") picks phases.
 # Run as root, or as a user with sudo (used for apt-get only). Under sudo, the build and the
@@ -131,7 +131,7 @@ case "$mode" in
     ;;
   test)
     phases=${PRT_TEST_PHASES:-release asan fuzz}
-    fuzz_seconds=${PRT_FUZZ_SECONDS:-30}
+    fuzz_seconds=${PRT_FUZZ_SECONDS:-20}
     status=0
     phase_times=()
     timed() {  # timed NAME COMMAND...: runs, records the seconds, keeps the first failure
