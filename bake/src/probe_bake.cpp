@@ -1132,22 +1132,27 @@ void setMeshFlags(Tracer& tracer) {
                                    (k < tracer.lowerHalf.size() && !tracer.lowerHalf[k].empty() ? Tracer::kLit : 0));
 }
 
+// Whether f(j) holds for one of the 26 neighbours j of lattice point idx inside the lattice
+// (linear indices, as latticeCoord's), stopping at the first.
+template <class F>
+bool anyNeighbour(const glm::ivec3& dims, size_t idx, F&& f) {
+  const size_t sy = size_t(dims.x), sz = size_t(dims.x) * dims.y;
+  const glm::ivec3 c = latticeCoord(dims, idx);
+  for (int d = 0; d < 27; ++d) {
+    const glm::ivec3 q = c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1);
+    if (d == 13 || glm::any(glm::lessThan(q, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(q, dims))) continue;
+    if (f(size_t(q.x) + sy * size_t(q.y) + sz * size_t(q.z))) return true;
+  }
+  return false;
+}
+
 // alone: this process tests every point itself, even under MPI (placeProbes).
 LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const ProbeSettings& settings,
                               bool alone = false) {
   using Region = ProbeSettings::Region;
   const glm::ivec3 dims = grid.dims;
   const size_t total = size_t(dims.x) * dims.y * dims.z;
-  const size_t sy = size_t(dims.x), sz = size_t(dims.x) * dims.y;
-  auto forNeighbours = [&](size_t idx, auto&& f) {  // the 26 neighbours inside the lattice
-    const glm::ivec3 c = latticeCoord(dims, idx);
-    for (int d = 0; d < 27; ++d) {
-      const glm::ivec3 q = c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1);
-      if (d == 13 || glm::any(glm::lessThan(q, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(q, dims))) continue;
-      if (f(size_t(q.x) + sy * size_t(q.y) + sz * size_t(q.z))) return true;
-    }
-    return false;
-  };
+  auto forNeighbours = [&](size_t idx, auto&& f) { return anyNeighbour(dims, idx, f); };
   LatticeRegion reg;
   reg.free.assign(total, 0);
   reg.skip.assign(total, 0);
@@ -1255,7 +1260,6 @@ ProbePlacement placeProbes(const Scene& scene, const ProbeSettings& settings) {
   validate(settings);
   const ThreadLimit threadLimit(settings.threads);
   ProbeGrid grid;
-  grid.bands = settings.bands;
   glm::dvec3 lo, hi;
   probeBounds(settings, scene, lo, hi);
   layoutGrid(settings, lo, hi, grid);
@@ -1273,16 +1277,10 @@ ProbePlacement placeProbes(const Scene& scene, const ProbeSettings& settings) {
   const size_t total = size_t(dims.x) * dims.y * dims.z;
   ProbePlacement out;
   out.points = total;
-  std::vector<uint8_t> near(total, 0);  // baked, or next to a baked point
+  std::vector<uint8_t> near(total, 0);  // baked, or next to a baked point (as assembleGrid's active)
   for (size_t idx = 0; idx < total; ++idx) {
-    if (region.skip[idx]) continue;
-    ++out.baked;
-    const glm::ivec3 c = latticeCoord(dims, idx);
-    for (int d = 0; d < 27; ++d) {
-      const glm::ivec3 q = c + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1);
-      if (glm::any(glm::lessThan(q, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(q, dims))) continue;
-      near[size_t(q.x) + size_t(dims.x) * (size_t(q.y) + size_t(dims.y) * q.z)] = 1;
-    }
+    out.baked += !region.skip[idx];
+    near[idx] = !region.skip[idx] || anyNeighbour(dims, idx, [&](size_t j) { return !region.skip[j]; });
   }
   auto countBlocks = [&](int side) {  // blocks of side³ points, from the origin, holding a near point
     const glm::ivec3 b = (dims + side - 1) / side;
