@@ -34,7 +34,7 @@ usage: bash tools/setup.sh demo|test
   demo   install dependencies, build, then bake scenes/cornell_open.gltf and relight it
          with scenes/env/royal_esplanade_128.hdr into out/
   test   install dependencies, build, run the test suite (ctest); then the same suite
-         built with ASan + UBSan (build-asan/), then each fuzz target for 30 s (also in build-asan/);
+         built with ASan + UBSan (build-asan/), then each fuzz target for 20 s (also in build-asan/);
          exit non-zero if any phase fails
 
 Installs Debian 12 packages with apt-get (as root, or through sudo) and builds Release
