@@ -145,6 +145,22 @@ struct SphereSet {
     // with the packet's (Tracer::trace): a unit direction, not whatever the buffer held.
     for (; j % 8 != 0; ++j) p[j >> 3].start(int(j & 7), x, {0.0f, 0.0f, 1.0f}, 0.0f, inf);
   }
+  // The same rays into packets that fill (from the same origin, at least as many rays) and a
+  // trace have used since: RayPacket8::restart, which writes less than half of what a packet
+  // holds. The last packet's lanes past the count keep the unit direction fill gave them.
+  void refill(RayPacket8* p, uint32_t first, uint32_t count) const {
+    Directions d(*this, first, count);
+    constexpr float inf = std::numeric_limits<float>::infinity();
+    uint32_t j = 0;
+    for (; j + 8 <= count; j += 8) p[j >> 3].restart(d.x + j, d.y + j, d.z + j, inf);
+    if (j == count) return;
+    alignas(32) float x[8], y[8], z[8];
+    for (uint32_t l = 0; l < 8; ++l) {
+      const bool ray = j + l < count;
+      x[l] = ray ? d.x[j + l] : 0.0f, y[l] = ray ? d.y[j + l] : 0.0f, z[l] = ray ? d.z[j + l] : 1.0f;
+    }
+    p[j >> 3].restart(x, y, z, inf);
+  }
   void fill(Ray* r, const glm::vec3& x, uint32_t first, uint32_t count) const {
     Directions d(*this, first, count);
     for (uint32_t j = 0; j < count; ++j)
@@ -597,7 +613,10 @@ struct Tracer {
       if (interruptRequested()) return false;
       const uint32_t count = std::min<uint32_t>(kStream, n - first);
       const uint32_t inGroup = first % kGroup;  // the stream's first ray within its group
-      set.fill(batch, x, first, count);
+      if (first == 0)
+        set.fill(batch, x, first, count);
+      else  // the first stream's packets, all of them (it was the longest), from the same origin
+        set.refill(batch, first, count);
       intersect8(batch, count);
       // Per ray, without branches on what it hit (which no predictor guesses): counts, the
       // moments of its face, and its place in the list of lit hits (written, the list's length

@@ -98,6 +98,17 @@ struct alignas(32) RayPacket8 {
     for (int l = 0; l < 8; ++l) u[l] = v[l] = 0.0f;
     for (int l = 0; l < 8; ++l) tri[l] = mesh[l] = inst[l] = Ray::kInvalid;
   }
+  /// The next eight rays from the same origin, in a packet startAll (or start, lane by lane) set
+  /// and a trace has used since: only what the trace changed and the next reads is written again
+  /// (the directions, tfar, and the normal, which a miss leaves as an earlier hit wrote it; the
+  /// trace sets mesh and inst itself, and u, v and tri are read only where a ray hit).
+  void restart(const float* dx, const float* dy, const float* dz, float tf) {
+    for (int l = 0; l < 8; ++l) dirX[l] = dx[l];
+    for (int l = 0; l < 8; ++l) dirY[l] = dy[l];
+    for (int l = 0; l < 8; ++l) dirZ[l] = dz[l];
+    for (int l = 0; l < 8; ++l) tfar[l] = tf;
+    for (int l = 0; l < 8; ++l) ngX[l] = ngY[l] = ngZ[l] = 0.0f;
+  }
   glm::vec3 dir(int l) const { return {dirX[l], dirY[l], dirZ[l]}; }
   bool hit(int l) const { return mesh[l] != Ray::kInvalid; }
   /// As Ray::backface, with the same arithmetic.
