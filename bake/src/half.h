@@ -106,8 +106,9 @@ struct HalfRows {
   size_t stride = 0;  // halves per row: 3·n2, padded to a multiple of 32 (a 64-byte line)
   std::vector<uint16_t> storage;
   uint16_t* rows = nullptr;  // 64-byte aligned, inside storage
-  /// Rows 0 .. count−1 of t (count · n2 RGB triples), rounded to nearest even.
-  void assign(const std::vector<glm::vec3>& t, size_t count, int n2) {
+  /// Rows 0 .. count−1 of t (count · n2 RGB triples), each channel times `scale`'s (in float),
+  /// rounded to nearest even.
+  void assign(const std::vector<glm::vec3>& t, size_t count, int n2, const glm::vec3& scale = glm::vec3(1.0f)) {
     stride = (size_t(3 * n2) + 31) / 32 * 32;
     if (storage.size() != count * stride + 32) storage.assign(count * stride + 32, 0);  // padding stays 0
     rows = reinterpret_cast<uint16_t*>((reinterpret_cast<uintptr_t>(storage.data()) + 63) & ~uintptr_t(63));
@@ -115,7 +116,7 @@ struct HalfRows {
       for (size_t v = r.begin(); v != r.end(); ++v) {
         const float* src = &t[v * size_t(n2)].x;
         uint16_t* dst = rows + v * stride;
-        for (int i = 0; i < 3 * n2; ++i) dst[i] = halfFromFloat(src[i]);
+        for (int i = 0; i < 3 * n2; ++i) dst[i] = halfFromFloat(src[i] * scale[i % 3]);
       }
     });
   }

@@ -420,13 +420,14 @@ struct ProbeAccum {
 // The light a lit hit sends, g = ρ/π · (b0 t0 + b1 t1 + b2 t2), from its corners' transfer rows
 // as halves (HalfRows: one 64-byte line a corner at 3 bands, where the floats took two: the
 // reads of the rows are most of what a lit hit costs). g's `lanes` floats (3·n2 padded to
-// whole 8-float vectors; the rows' padding is zero, so g's is too). Without F16C the same
-// operations lane by lane (lane i is RGB channel i % 3), so both give the same bits.
+// whole 8-float vectors; the rows' padding is zero, so g's is too). The weighted sum is
+// b2 t2 + (b1 t1 + b0 t0) in two fused multiply-adds, then one multiply by ρ/π, which is 1 for
+// an instance of one colour (its rows hold ρ/π · t already: Tracer::LitMesh). Without F16C the
+// same operations lane by lane (std::fma; lane i is RGB channel i % 3), so both give the same bits.
 void litLightPortable(const uint16_t* t0, const uint16_t* t1, const uint16_t* t2, float b0, float b1, float b2,
                       const glm::vec3& rho, int lanes, float* g) {
   for (int i = 0; i < lanes; ++i) {
-    float s = b0 * floatFromHalf(t0[i]) + b1 * floatFromHalf(t1[i]);
-    s = s + b2 * floatFromHalf(t2[i]);
+    const float s = std::fma(b2, floatFromHalf(t2[i]), std::fma(b1, floatFromHalf(t1[i]), b0 * floatFromHalf(t0[i])));
     g[i] = rho[i % 3] * s;
   }
 }
@@ -441,7 +442,7 @@ void litLightsPortable(const LitRecord* rec, uint32_t n, float* g, int ldg) {
 }
 
 // The same with F16C, as one call.
-__attribute__((target("avx2,f16c"))) void litLightsF16c(const LitRecord* rec, uint32_t n, float* g, int ldg) {
+__attribute__((target("avx2,f16c,fma"))) void litLightsF16c(const LitRecord* rec, uint32_t n, float* g, int ldg) {
   // ρ's channels in the lanes of vectors k % 3 = 0, 1, 2 (lane i of vector k is channel (8k + i) % 3).
   const __m256i order[3] = {_mm256_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1), _mm256_setr_epi32(2, 0, 1, 2, 0, 1, 2, 0),
                             _mm256_setr_epi32(1, 2, 0, 1, 2, 0, 1, 2)};
@@ -456,8 +457,7 @@ __attribute__((target("avx2,f16c"))) void litLightsF16c(const LitRecord* rec, ui
       const __m256 f0 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[0]) + k));
       const __m256 f1 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[1]) + k));
       const __m256 f2 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[2]) + k));
-      __m256 sum = _mm256_add_ps(_mm256_mul_ps(w0, f0), _mm256_mul_ps(w1, f1));
-      sum = _mm256_add_ps(sum, _mm256_mul_ps(w2, f2));
+      const __m256 sum = _mm256_fmadd_ps(w2, f2, _mm256_fmadd_ps(w1, f1, _mm256_mul_ps(w0, f0)));
       _mm256_storeu_ps(out + 8 * k, _mm256_mul_ps(rp[k % 3], sum));
     }
   }
@@ -466,10 +466,12 @@ __attribute__((target("avx2,f16c"))) void litLightsF16c(const LitRecord* rec, ui
 // litLightsF16c, then addProducts, of n records in one pass with AVX-512, for R = n2 ≤ 9
 // (3·n2 ≤ 32 columns: V vectors of 16 floats; rows of 32 halves): each hit's light g is computed
 // in registers, and the R × V sums over the records stay in registers. The same operations
-// per element in the same order (the rounded multiplies and adds of litLightsF16c, then one
-// fused multiply-add per hit into sums from zero, added to c at the end), so the same bits.
+// per element in the same order (litLightsF16c's multiply, two fused multiply-adds and the
+// multiply by ρ/π, then one fused multiply-add per hit into sums from zero, added to c at the
+// end), so the same bits. Rho = false leaves out the multiply by ρ/π, for records whose ρ/π is
+// 1 (x · 1 is x): the same bits again.
 PRT_AVX512_BEGIN
-template <int R>
+template <int R, bool Rho>
 __attribute__((target("avx512f"))) void litProductsAvx512(const LitRecord* rec, const uint32_t* yOff, const float* y,
                                                       uint32_t n, double* c) {
   constexpr int V = (3 * R + 15) / 16, cols = 3 * R;
@@ -492,9 +494,8 @@ __attribute__((target("avx512f"))) void litProductsAvx512(const LitRecord* rec, 
       const __m512 f0 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(r.t[0]) + v));
       const __m512 f1 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(r.t[1]) + v));
       const __m512 f2 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(r.t[2]) + v));
-      __m512 sum = _mm512_add_round_ps(_mm512_mul_round_ps(w0, f0, kRound), _mm512_mul_round_ps(w1, f1, kRound), kRound);
-      sum = _mm512_add_round_ps(sum, _mm512_mul_round_ps(w2, f2, kRound), kRound);
-      g[v] = _mm512_mul_round_ps(_mm512_permutexvar_ps(order[v], rho), sum, kRound);
+      const __m512 sum = _mm512_fmadd_ps(w2, f2, _mm512_fmadd_ps(w1, f1, _mm512_mul_round_ps(w0, f0, kRound)));
+      g[v] = Rho ? _mm512_mul_round_ps(_mm512_permutexvar_ps(order[v], rho), sum, kRound) : sum;
     }
     const float* yh = y + yOff[h];
 #pragma GCC unroll 16
@@ -575,8 +576,10 @@ struct Tracer {
     const uint16_t* rows = nullptr;     // the front sides' rows (HalfRows), stride halves apart
     const uint16_t* backRows = nullptr;  // the back sides' (the front's where only one side is baked)
     size_t stride = 0;
-    bool uniform = false;  // one colour (AlbedoLookup::uniform): its ρ/π in rhoPi, else looked up per hit
-    float rhoPi[4] = {};   // then a zero
+    // One colour (AlbedoLookup::uniform): its rows hold ρ/π · t and rhoPi is 1; else ρ/π is
+    // looked up per hit.
+    bool uniform = false;
+    float rhoPi[4] = {};  // then a zero
   };
   std::vector<LitMesh> litMeshes;
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
@@ -769,10 +772,15 @@ struct Tracer {
       if (useAvx512Kernels() && n2 <= 9) {  // rows of 32 halves: HalfRows pads 3·n2 ≤ 27 to one line
         const LitRecord* rec = rows.lit.data() + h0;
         const uint32_t* yo = rows.hitYOff.data() + h0;
-        switch (n2) {
-          case 1: litProductsAvx512<1>(rec, yo, rows.ys.data(), k, indirect); break;
-          case 4: litProductsAvx512<4>(rec, yo, rows.ys.data(), k, indirect); break;
-          default: litProductsAvx512<9>(rec, yo, rows.ys.data(), k, indirect); break;
+        // Without a hit on a textured or vertex-coloured instance, every record's ρ/π is 1.
+        const float* y = rows.ys.data();
+        switch (n2 + (nAlbedo ? 16 : 0)) {
+          case 1: litProductsAvx512<1, false>(rec, yo, y, k, indirect); break;
+          case 4: litProductsAvx512<4, false>(rec, yo, y, k, indirect); break;
+          case 9: litProductsAvx512<9, false>(rec, yo, y, k, indirect); break;
+          case 17: litProductsAvx512<1, true>(rec, yo, y, k, indirect); break;
+          case 20: litProductsAvx512<4, true>(rec, yo, y, k, indirect); break;
+          default: litProductsAvx512<9, true>(rec, yo, y, k, indirect); break;
         }
         continue;
       }
@@ -1527,7 +1535,10 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       if (lowerOrder[k].empty()) continue;
       const size_t rows = (tracer.twoSided[k] ? 2 : 1) * scene.meshes[k].vertexCount();
       PRT_CHECK_EQ(lowerOrder[k].size(), rows * size_t(n2));
-      lowerHalf[k].assign(lowerOrder[k], rows, n2);
+      // ρ/π of an instance of one colour (AlbedoLookup::at's, as a lit hit's) folded into its
+      // rows: a lit hit's light is then the rows' weighted sum alone (Tracer::LitMesh).
+      const glm::vec3 rhoPi = albedo.uniform[k] ? albedo.constant[k] * float(1.0 / M_PI) : glm::vec3(1.0f);
+      lowerHalf[k].assign(lowerOrder[k], rows, n2, rhoPi);
     }
     tracer.litMeshes.resize(scene.meshes.size());
     for (size_t k = 0; k < lowerHalf.size(); ++k) {
@@ -1538,8 +1549,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       m.rows = lowerHalf[k].row(0);
       m.backRows = tracer.twoSided[k] ? lowerHalf[k].row(scene.meshes[k].vertexCount()) : m.rows;
       m.uniform = albedo.uniform[k];
-      const glm::vec3 rhoPi = albedo.constant[k] * float(1.0 / M_PI);  // AlbedoLookup::at's, as a lit hit's
-      m.rhoPi[0] = rhoPi.r, m.rhoPi[1] = rhoPi.g, m.rhoPi[2] = rhoPi.b;
+      m.rhoPi[0] = m.rhoPi[1] = m.rhoPi[2] = 1.0f;  // in the rows
     }
     setMeshFlags(tracer);
     const ProbeBaker baker(tracer, grid, settings);
