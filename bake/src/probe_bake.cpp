@@ -171,14 +171,15 @@ private:
   struct Directions {
     alignas(32) float x[kStream], y[kStream], z[kStream];
     Directions(const SphereSet& s, uint32_t first, uint32_t count) {
-      alignas(32) uint32_t bx[kStream] = {}, by[kStream] = {};  // zeroed: the compiler cannot see count ≤ kStream
+      alignas(32) uint32_t bx[kStream], by[kStream];  // every entry written: no zeroing per stream
       // Both dimensions are linear over GF(2) and a stream starts at a multiple of kStream (a
       // power of two): point first + j (j < kStream) is point first XOR point j, the scramble
       // folded into the first. The same bits as sobol0Bits and sobol1Bits of first + j.
       static_assert((kStream & (kStream - 1)) == 0);
       PRT_CHECK_EQ(first % kStream, 0u);
       const uint32_t x0 = sobol0Point(first) ^ s.s0, y0 = sobol1Point(first) ^ s.s1;
-      for (uint32_t j = 0; j < count; ++j) {
+      PRT_CHECK(count <= uint32_t(kStream));
+      for (uint32_t j = 0; j < uint32_t(kStream); ++j) {
         bx[j] = (kStreamPoints.x[j] ^ x0) >> 8;
         by[j] = (kStreamPoints.y[j] ^ y0) >> 8;
       }
