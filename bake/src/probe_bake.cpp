@@ -1402,6 +1402,10 @@ void addProbeFingerprint(Fingerprint& fp, const ProbeSettings& s) {
                          : s.region == ProbeSettings::Region::Everywhere ? "everywhere"
                                                                          : "inside");
   fp.add("probe max height", num(s.maxHeight));
+  // Raised whenever the probe bake's arithmetic changes its bits (2: ρ/π in the rows, session
+  // 23), so that a checkpoint of an earlier build is refused rather than resumed into a grid
+  // whose chunks were computed two ways.
+  fp.add("probe arithmetic", "2");
 }
 
 namespace {
