@@ -577,10 +577,9 @@ struct Tracer {
     const uint16_t* rows = nullptr;     // the front sides' rows (HalfRows), stride halves apart
     const uint16_t* backRows = nullptr;  // the back sides' (the front's where only one side is baked)
     size_t stride = 0;
-    // One colour (AlbedoLookup::uniform): its rows hold ρ/π · t and rhoPi is 1; else ρ/π is
-    // looked up per hit.
+    // One colour (AlbedoLookup::uniform): its rows hold ρ/π · t and its hits' records carry
+    // ρ/π = 1; else ρ/π is looked up per hit.
     bool uniform = false;
-    float rhoPi[4] = {};  // then a zero
   };
   std::vector<LitMesh> litMeshes;
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
@@ -755,7 +754,8 @@ struct Tracer {
       r.b2 = rows.hitV[h];
       rows.hitYOff[h] = yOff & ~kBackBit;  // read: from here the products' offsets
       if (m.uniform) {
-        std::memcpy(r.rho, m.rhoPi, sizeof r.rho);
+        static constexpr float kInTheRows[4] = {1.0f, 1.0f, 1.0f, 0.0f};  // ρ/π, then a zero
+        std::memcpy(r.rho, kInTheRows, sizeof r.rho);
         continue;
       }
       a.hit[nAlbedo] = h, a.mesh[nAlbedo] = mesh, a.tri[nAlbedo] = tri, a.b1[nAlbedo] = r.b1, a.b2[nAlbedo] = r.b2;
@@ -773,16 +773,18 @@ struct Tracer {
       if (useAvx512Kernels() && n2 <= 9) {  // rows of 32 halves: HalfRows pads 3·n2 ≤ 27 to one line
         const LitRecord* rec = rows.lit.data() + h0;
         const uint32_t* yo = rows.hitYOff.data() + h0;
+        auto products = [&]<bool Rho>() {
+          switch (n2) {
+            case 1: return litProductsAvx512<1, Rho>(rec, yo, rows.ys.data(), k, indirect);
+            case 4: return litProductsAvx512<4, Rho>(rec, yo, rows.ys.data(), k, indirect);
+            default: return litProductsAvx512<9, Rho>(rec, yo, rows.ys.data(), k, indirect);
+          }
+        };
         // Without a hit on a textured or vertex-coloured instance, every record's ρ/π is 1.
-        const float* y = rows.ys.data();
-        switch (n2 + (nAlbedo ? 16 : 0)) {
-          case 1: litProductsAvx512<1, false>(rec, yo, y, k, indirect); break;
-          case 4: litProductsAvx512<4, false>(rec, yo, y, k, indirect); break;
-          case 9: litProductsAvx512<9, false>(rec, yo, y, k, indirect); break;
-          case 17: litProductsAvx512<1, true>(rec, yo, y, k, indirect); break;
-          case 20: litProductsAvx512<4, true>(rec, yo, y, k, indirect); break;
-          default: litProductsAvx512<9, true>(rec, yo, y, k, indirect); break;
-        }
+        if (nAlbedo)
+          products.template operator()<true>();
+        else
+          products.template operator()<false>();
         continue;
       }
       if (useVectorKernels())
@@ -1180,7 +1182,6 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
   using Region = ProbeSettings::Region;
   const glm::ivec3 dims = grid.dims;
   const size_t total = size_t(dims.x) * dims.y * dims.z;
-  auto forNeighbours = [&](size_t idx, auto&& f) { return anyNeighbour(dims, idx, f); };
   LatticeRegion reg;
   reg.free.assign(total, 0);
   reg.skip.assign(total, 0);
@@ -1258,7 +1259,7 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
     keep = reg.free;
   } else if (settings.region == Region::Auto) {
     for (size_t idx = 0; idx < total; ++idx)
-      keep[idx] = reg.free[idx] && (wanted[idx] || forNeighbours(idx, [&](size_t j) { return wanted[j] != 0; }));
+      keep[idx] = reg.free[idx] && (wanted[idx] || anyNeighbour(dims, idx, [&](size_t j) { return wanted[j] != 0; }));
   } else {
     keep = sealedSpace(tracer, grid, reg);
     reg.insideOnly = true;
@@ -1274,8 +1275,8 @@ LatticeRegion classifyLattice(const Tracer& tracer, const ProbeGrid& grid, const
       reg.aboveLevel += !keep[idx] && high[idx];
       continue;
     }
-    const bool nearFree = forNeighbours(idx, [&](size_t j) { return reg.free[j] != 0; });
-    const bool nearKept = forNeighbours(idx, [&](size_t j) { return keep[j] != 0; });
+    const bool nearFree = anyNeighbour(dims, idx, [&](size_t j) { return reg.free[j] != 0; });
+    const bool nearKept = anyNeighbour(dims, idx, [&](size_t j) { return keep[j] != 0; });
     reg.skip[idx] = nearFree ? !nearKept : nearest[idx] > solidDistance;
   }
   return reg;
@@ -1554,7 +1555,6 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       m.rows = lowerHalf[k].row(0);
       m.backRows = tracer.twoSided[k] ? lowerHalf[k].row(scene.meshes[k].vertexCount()) : m.rows;
       m.uniform = albedo.uniform[k];
-      m.rhoPi[0] = m.rhoPi[1] = m.rhoPi[2] = 1.0f;  // in the rows
     }
     setMeshFlags(tracer);
     const ProbeBaker baker(tracer, grid, settings);
