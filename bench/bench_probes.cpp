@@ -341,6 +341,10 @@ int main(int argc, char** argv) {
     j["repeat"] = repeat;
     j["probe_bake_seconds_each"] = bakeSeconds;
     j["direct_only_bake_seconds_each"] = directSeconds;
+    // Seconds inside Embree's calls, all threads together: the full bake's against the direct
+    // part's (the same rays), which shows what the lit hits' work costs the tracing (caches).
+    j["trace_thread_seconds_each"] = traceSeconds;
+    j["direct_only_trace_thread_seconds_each"] = directTrace;
     j["ceiling_tests_sampled"] = pickedTests.size();
     j["ceiling_full_sets_sampled"] = pickedFull.size();
     j["bake_vs_ceiling"] = vsCeiling[0][bestRound];

@@ -103,8 +103,54 @@ __attribute__((target("avx2"))) void sphereDirectionsAvx2(const uint32_t* bx, co
   sphereDirectionsPortable(bx + j, by + j, n - j, dx + j, dy + j, dz + j);
 }
 
+// sphereDirectionsAvx2 sixteen at a time with AVX-512: the same operations, each rounded on its
+// own (an explicit rounding mode: never contracted into a fused multiply-add), so the same bits.
+PRT_AVX512_BEGIN
+__attribute__((target("avx512f,avx512dq"))) void sphereDirectionsAvx512(const uint32_t* bx, const uint32_t* by,
+                                                                       uint32_t n, float* dx, float* dy, float* dz) {
+  constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;
+#define mul(a, b) _mm512_mul_round_ps(a, b, kRound)
+#define add(a, b) _mm512_add_round_ps(a, b, kRound)
+#define sub(a, b) _mm512_sub_round_ps(a, b, kRound)
+  const __m512 one = _mm512_set1_ps(1.0f), two = _mm512_set1_ps(2.0f), zero = _mm512_setzero_ps();
+  const __m512 half = _mm512_set1_ps(0.5f), unit = _mm512_set1_ps(0x1p-24f);
+  const __m512 angle = _mm512_set1_ps(0x1p-22f * 0.5f * kPi);
+  const __m512 s1 = _mm512_set1_ps(-1.6666654611e-1f), s2 = _mm512_set1_ps(8.3321608736e-3f),
+               s3 = _mm512_set1_ps(-1.9515295891e-4f);
+  const __m512 c1 = _mm512_set1_ps(4.166664568298827e-2f), c2 = _mm512_set1_ps(-1.388731625493765e-3f),
+               c3 = _mm512_set1_ps(2.443315711809948e-5f);
+  const __m512i sign = _mm512_set1_epi32(int(0x80000000u));
+  uint32_t j = 0;
+  for (; j + 16 <= n; j += 16) {
+    const __m512i ix = _mm512_loadu_si512(bx + j), iy = _mm512_loadu_si512(by + j);
+    const __m512 z = sub(one, mul(two, mul(_mm512_cvtepi32_ps(ix), unit)));
+    const __m512 r = _mm512_sqrt_round_ps(_mm512_max_ps(sub(one, mul(z, z)), zero), kRound);
+    const __m512i q = _mm512_srli_epi32(_mm512_add_epi32(iy, _mm512_set1_epi32(1 << 21)), 22);
+    const __m512 a = mul(_mm512_cvtepi32_ps(_mm512_sub_epi32(iy, _mm512_slli_epi32(q, 22))), angle);
+    const __m512 a2 = mul(a, a);
+    const __m512 sn = add(a, mul(mul(a, a2), add(s1, mul(a2, add(s2, mul(a2, s3))))));
+    const __m512 cs = add(sub(one, mul(half, a2)), mul(mul(a2, a2), add(c1, mul(a2, add(c2, mul(a2, c3))))));
+    // Quarter turn k: (cos, sin) → k 0: (c, s), 1: (−s, c), 2: (−c, −s), 3: (s, −c).
+    const __m512i k = _mm512_and_si512(q, _mm512_set1_epi32(3));
+    const __mmask16 odd = _mm512_test_epi32_mask(k, _mm512_set1_epi32(1));  // k = 1, 3: swap
+    const __m512i negX = _mm512_and_si512(_mm512_slli_epi32(_mm512_add_epi32(k, _mm512_set1_epi32(1)), 30), sign);
+    const __m512i negY = _mm512_and_si512(_mm512_slli_epi32(k, 30), sign);
+    const __m512 x = _mm512_mask_blend_ps(odd, cs, sn), y = _mm512_mask_blend_ps(odd, sn, cs);
+    _mm512_storeu_ps(dx + j, mul(r, _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(x), negX))));
+    _mm512_storeu_ps(dy + j, mul(r, _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(y), negY))));
+    _mm512_storeu_ps(dz + j, z);
+  }
+#undef mul
+#undef add
+#undef sub
+  sphereDirectionsAvx2(bx + j, by + j, n - j, dx + j, dy + j, dz + j);
+}
+PRT_AVX512_END
+
 void sphereDirections(const uint32_t* bx, const uint32_t* by, uint32_t n, float* dx, float* dy, float* dz) {
-  if (useVectorKernels())
+  if (useAvx512Kernels())
+    sphereDirectionsAvx512(bx, by, n, dx, dy, dz);
+  else if (useVectorKernels())
     sphereDirectionsAvx2(bx, by, n, dx, dy, dz);
   else
     sphereDirectionsPortable(bx, by, n, dx, dy, dz);
@@ -335,6 +381,56 @@ __attribute__((target("avx2,fma"))) void addDirectAvx2(const float* ys, const in
       }
     }
 }
+
+// directPairsAvx2 with AVX-512: two pairs (a, b) and (a, b + 1) in one sixteen-lane register
+// (coefficients b and b + 1 of a packet lie side by side), the eight lanes of ye_a in both halves;
+// the same fused multiply-add per lane and pair in the same order, so the same bits.
+template <int NB>
+__attribute__((target("avx512f,fma"), always_inline)) inline void directPairsAvx512(const float* ys,
+                                                                            const int32_t* escaped,
+                                                                            const uint8_t* list, int packets,
+                                                                            int n2, int a, int b0, float* sums) {
+  constexpr int NV = NB / 2;
+  __m512 s[NV > 0 ? NV : 1];
+  __m256 last = _mm256_setzero_ps();
+#pragma GCC unroll 4
+  for (int i = 0; i < NV; ++i) s[i] = _mm512_setzero_ps();
+  for (int k = 0; k < packets; ++k) {
+    const int q = list[k];
+    const float* y = ys + size_t(q) * n2 * 8;
+    const __m256 mask = _mm256_castsi256_ps(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(escaped + 8 * q)));
+    const __m256 ya = _mm256_and_ps(mask, _mm256_loadu_ps(y + 8 * a));
+    const __m512 ya2 = _mm512_castpd_ps(
+        _mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_castps_pd(ya)), _mm256_castps_pd(ya), 1));
+#pragma GCC unroll 4
+    for (int i = 0; i < NV; ++i) s[i] = _mm512_fmadd_ps(ya2, _mm512_loadu_ps(y + 8 * (b0 + 2 * i)), s[i]);
+    if constexpr (NB % 2) last = _mm256_fmadd_ps(ya, _mm256_loadu_ps(y + 8 * (b0 + NB - 1)), last);
+  }
+  const int p0 = a * n2 - a * (a - 1) / 2 + (b0 - a);  // pair (a, b0)'s number in row order
+#pragma GCC unroll 4
+  for (int i = 0; i < NV; ++i) _mm512_storeu_ps(sums + 8 * (p0 + 2 * i), s[i]);
+  if constexpr (NB % 2) _mm256_storeu_ps(sums + 8 * (p0 + NB - 1), last);
+}
+
+PRT_AVX512_BEGIN
+__attribute__((target("avx512f,avx512dq,fma"))) void addDirectAvx512(const float* ys, const int32_t* escaped,
+                                                                const uint8_t* list, int packets, int n2,
+                                                                float* sums) {
+  for (int a = 0; a < n2; ++a)
+    for (int b0 = a; b0 < n2; b0 += 8) {
+      switch (std::min(8, n2 - b0)) {
+        case 1: directPairsAvx512<1>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 2: directPairsAvx512<2>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 3: directPairsAvx512<3>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 4: directPairsAvx512<4>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 5: directPairsAvx512<5>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 6: directPairsAvx512<6>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 7: directPairsAvx512<7>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        default: directPairsAvx512<8>(ys, escaped, list, packets, n2, a, b0, sums); break;
+      }
+    }
+}
+PRT_AVX512_END
 
 // A lit hit's inputs to g: its corners' rows, its barycentrics b1, b2 (b0 = 1 − b1 − b2) and
 // ρ/π (then a zero).
@@ -634,7 +730,16 @@ struct Tracer {
       if (full && !vector) std::fill(rows.directSums.begin(), rows.directSums.end(), 0.0f);
       uint32_t p0 = 0;  // the packets before p0 are classified
       if (full) {
-        for (uint32_t q = 0; q < count; q += 8) {
+        uint32_t q = 0;
+        for (; useAvx512Kernels() && q + 8 < count; q += 16) {  // two packets at once
+          const RayPacket8 &r0 = batch[q >> 3], &r1 = batch[(q >> 3) + 1];
+          const float* const px[2] = {r0.dirX, r1.dirX};
+          const float* const py[2] = {r0.dirY, r1.dirY};
+          const float* const pz[2] = {r0.dirZ, r1.dirZ};
+          float* const out[2] = {groupYs + size_t(q) * n2, groupYs + size_t(q + 8) * n2};
+          sh::evaluate8Pair(bands, px, py, pz, out);
+        }
+        for (; q < count; q += 8) {
           const RayPacket8& r = batch[q >> 3];
           sh::evaluate8(bands, r.dirX, r.dirY, r.dirZ, groupYs + size_t(q) * n2);
         }
@@ -704,7 +809,12 @@ struct Tracer {
         escapedPackets[nEscaped] = uint8_t(q);
         nEscaped += (e[0] | e[1] | e[2] | e[3] | e[4] | e[5] | e[6] | e[7]) != 0;
       }
-      if (vector && nEscaped) addDirectAvx2(groupYs, escapedLanes, escapedPackets, nEscaped, n2, rows.directSums.data());
+      if (vector && nEscaped) {
+        if (useAvx512Kernels())
+          addDirectAvx512(groupYs, escapedLanes, escapedPackets, nEscaped, n2, rows.directSums.data());
+        else
+          addDirectAvx2(groupYs, escapedLanes, escapedPackets, nEscaped, n2, rows.directSums.data());
+      }
       for (int k = 0; !vector && k < nEscaped; ++k) {
         const uint32_t q = escapedPackets[k];
         addDirectPortable(groupYs + size_t(q) * 8 * n2, escapedLanes + 8 * q, n2, rows.directSums.data());
