@@ -106,8 +106,10 @@ __attribute__((target("avx2"))) void sphereDirectionsAvx2(const uint32_t* bx, co
 // sphereDirectionsAvx2 sixteen at a time with AVX-512: the same operations, each rounded on its
 // own (an explicit rounding mode: never contracted into a fused multiply-add), so the same bits.
 PRT_AVX512_BEGIN
-__attribute__((target("avx512f,avx512dq"))) void sphereDirectionsAvx512(const uint32_t* bx, const uint32_t* by,
-                                                                       uint32_t n, float* dx, float* dy, float* dz) {
+// The bits are (px[j] ^ kx) >> 8 and (py[j] ^ ky) >> 8: the points and their scrambles (SphereSet).
+__attribute__((target("avx512f,avx512dq"))) void sphereDirectionsAvx512(const uint32_t* px, const uint32_t* py,
+                                                                       uint32_t kx, uint32_t ky, uint32_t n,
+                                                                       float* dx, float* dy, float* dz) {
   constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;
 #define mul(a, b) _mm512_mul_round_ps(a, b, kRound)
 #define add(a, b) _mm512_add_round_ps(a, b, kRound)
@@ -122,7 +124,8 @@ __attribute__((target("avx512f,avx512dq"))) void sphereDirectionsAvx512(const ui
   const __m512i sign = _mm512_set1_epi32(int(0x80000000u));
   uint32_t j = 0;
   for (; j + 16 <= n; j += 16) {
-    const __m512i ix = _mm512_loadu_si512(bx + j), iy = _mm512_loadu_si512(by + j);
+    const __m512i ix = _mm512_srli_epi32(_mm512_xor_si512(_mm512_loadu_si512(px + j), _mm512_set1_epi32(int(kx))), 8);
+    const __m512i iy = _mm512_srli_epi32(_mm512_xor_si512(_mm512_loadu_si512(py + j), _mm512_set1_epi32(int(ky))), 8);
     const __m512 z = sub(one, mul(two, mul(_mm512_cvtepi32_ps(ix), unit)));
     const __m512 r = _mm512_sqrt_round_ps(_mm512_max_ps(sub(one, mul(z, z)), zero), kRound);
     const __m512i q = _mm512_srli_epi32(_mm512_add_epi32(iy, _mm512_set1_epi32(1 << 21)), 22);
@@ -143,14 +146,14 @@ __attribute__((target("avx512f,avx512dq"))) void sphereDirectionsAvx512(const ui
 #undef mul
 #undef add
 #undef sub
-  sphereDirectionsAvx2(bx + j, by + j, n - j, dx + j, dy + j, dz + j);
+  alignas(32) uint32_t bx[16], by[16];
+  for (uint32_t i = j; i < n; ++i) bx[i - j] = (px[i] ^ kx) >> 8, by[i - j] = (py[i] ^ ky) >> 8;
+  sphereDirectionsAvx2(bx, by, n - j, dx + j, dy + j, dz + j);
 }
 PRT_AVX512_END
 
 void sphereDirections(const uint32_t* bx, const uint32_t* by, uint32_t n, float* dx, float* dy, float* dz) {
-  if (useAvx512Kernels())
-    sphereDirectionsAvx512(bx, by, n, dx, dy, dz);
-  else if (useVectorKernels())
+  if (useVectorKernels())
     sphereDirectionsAvx2(bx, by, n, dx, dy, dz);
   else
     sphereDirectionsPortable(bx, by, n, dx, dy, dz);
@@ -217,7 +220,6 @@ private:
   struct Directions {
     alignas(32) float x[kStream], y[kStream], z[kStream];
     Directions(const SphereSet& s, uint32_t first, uint32_t count) {
-      alignas(32) uint32_t bx[kStream], by[kStream];  // every entry written: no zeroing per stream
       // Both dimensions are linear over GF(2) and a stream starts at a multiple of kStream (a
       // power of two): point first + j (j < kStream) is point first XOR point j, the scramble
       // folded into the first. The same bits as sobol0Bits and sobol1Bits of first + j.
@@ -225,6 +227,11 @@ private:
       PRT_CHECK_EQ(first % kStream, 0u);
       const uint32_t x0 = sobol0Point(first) ^ s.s0, y0 = sobol1Point(first) ^ s.s1;
       PRT_CHECK(count <= uint32_t(kStream));
+      if (useAvx512Kernels()) {  // the bits and directions in one pass
+        sphereDirectionsAvx512(kStreamPoints.x, kStreamPoints.y, x0, y0, count, x, y, z);
+        return;
+      }
+      alignas(32) uint32_t bx[kStream], by[kStream];  // every entry written: no zeroing per stream
       for (uint32_t j = 0; j < uint32_t(kStream); ++j) {
         bx[j] = (kStreamPoints.x[j] ^ x0) >> 8;
         by[j] = (kStreamPoints.y[j] ^ y0) >> 8;
@@ -650,6 +657,10 @@ PRT_AVX512_BEGIN
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx512(
     const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags, uint32_t yBase, uint32_t n2, double cap,
     StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc, StreamTally& t);
+// The counts alone (the inside test), with AVX-512: the same as Tracer::trace's loop.
+__attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) StreamTally tallyAvx512(const RayPacket8* batch,
+                                                                                    uint32_t packets,
+                                                                                    const uint32_t* meshFlags);
 PRT_AVX512_END
 
 struct Tracer {
@@ -753,6 +764,13 @@ struct Tracer {
           escapes += t.escapes;
           nearest = std::min(nearest, t.nearest);
         }
+      } else if (useAvx512Kernels()) {  // the inside test: the whole packets' counts
+        p0 = count / 8 * 8;
+        const StreamTally t = tallyAvx512(batch, p0 / 8, meshFlags.data());
+        backs += t.backs;
+        backsTwoSided += t.backsTwoSided;
+        escapes += t.escapes;
+        nearest = std::min(nearest, t.nearest);
       }
       for (; p0 < count; p0 += 8) {
         const RayPacket8& r = batch[p0 >> 3];
@@ -907,6 +925,54 @@ struct Tracer {
 };
 
 PRT_AVX512_BEGIN
+// What a packet's eight lanes hit, as masks: a hit, on a back side (Ray::backface: ng · d > 0,
+// as glm::dot: (x·x' + y·y') + z·z', each rounded), of a double-sided instance, of one that
+// sends light; with the instances and tfar.
+struct PacketHits {
+  __m256i mesh;
+  __m256 tfar;
+  __mmask8 hit, backside, twoSided, lit;
+};
+__attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inline PacketHits packetHitsAvx512(
+    const RayPacket8& r, const uint32_t* meshFlags) {
+  constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;  // explicit: never contracted into FMAs
+  PacketHits h;
+  h.mesh = _mm256_load_si256(reinterpret_cast<const __m256i*>(r.mesh));
+  h.hit = _mm256_cmpneq_epu32_mask(h.mesh, _mm256_set1_epi32(int(Ray::kInvalid)));
+  const __m256i flags = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), h.hit, h.mesh, meshFlags, 4);
+  // (In 512-bit registers: only they take an explicit rounding.)
+  const __m512 dx = _mm512_zextps256_ps512(_mm256_load_ps(r.dirX)), dy = _mm512_zextps256_ps512(_mm256_load_ps(r.dirY)),
+               dz = _mm512_zextps256_ps512(_mm256_load_ps(r.dirZ));
+  const __m512 nx = _mm512_zextps256_ps512(_mm256_load_ps(r.ngX)), ny = _mm512_zextps256_ps512(_mm256_load_ps(r.ngY)),
+               nz = _mm512_zextps256_ps512(_mm256_load_ps(r.ngZ));
+  __m512 dot = _mm512_add_round_ps(_mm512_mul_round_ps(nx, dx, kRound), _mm512_mul_round_ps(ny, dy, kRound), kRound);
+  dot = _mm512_add_round_ps(dot, _mm512_mul_round_ps(nz, dz, kRound), kRound);
+  h.backside = __mmask8(_mm512_cmp_ps_mask(dot, _mm512_setzero_ps(), _CMP_GT_OQ));
+  h.twoSided = _mm256_test_epi32_mask(flags, _mm256_set1_epi32(Tracer::kTwoSided));
+  h.lit = _mm256_test_epi32_mask(flags, _mm256_set1_epi32(Tracer::kLit));
+  h.tfar = _mm256_load_ps(r.tfar);
+  return h;
+}
+
+__attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) StreamTally tallyAvx512(const RayPacket8* batch,
+                                                                                    uint32_t packets,
+                                                                                    const uint32_t* meshFlags) {
+  __m256 nearest = _mm256_set1_ps(std::numeric_limits<float>::infinity());
+  StreamTally t{};
+  for (uint32_t p = 0; p < packets; ++p) {
+    const PacketHits h = packetHitsAvx512(batch[p], meshFlags);
+    const __mmask8 back = h.backside & ~h.twoSided;
+    t.backs += uint32_t(__builtin_popcount(back));
+    t.backsTwoSided += uint32_t(__builtin_popcount(h.backside & h.twoSided));
+    t.escapes += uint32_t(__builtin_popcount(__mmask8(~h.hit)));
+    nearest = _mm256_min_ps(nearest, h.tfar);
+  }
+  alignas(32) float lanesNearest[8];
+  _mm256_store_ps(lanesNearest, nearest);
+  t.nearest = *std::min_element(lanesNearest, lanesNearest + 8);
+  return t;
+}
+
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx512(
     const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags, uint32_t yBase, uint32_t n2, double cap,
     StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc, StreamTally& t) {
@@ -918,8 +984,6 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx51
     sumD[f] = _mm512_loadu_pd(&acc.sumD[size_t(8 * f)]);
     sumD2[f] = _mm512_loadu_pd(&acc.sumD2[size_t(8 * f)]);
   }
-  const __m256i invalid = _mm256_set1_epi32(int(Ray::kInvalid));
-  const __m256i twoSided = _mm256_set1_epi32(Tracer::kTwoSided), lit = _mm256_set1_epi32(Tracer::kLit);
   const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256 zero = _mm256_setzero_ps();
   const __m512d capV = _mm512_set1_pd(cap);
@@ -927,24 +991,15 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx51
   uint32_t backs = 0, backsTwoSided = 0, escapes = 0, n = nLit;
   for (uint32_t p = 0; p < packets; ++p) {
     const RayPacket8& r = batch[p];
-    const __m256i mesh = _mm256_load_si256(reinterpret_cast<const __m256i*>(r.mesh));
-    const __mmask8 hit = _mm256_cmpneq_epu32_mask(mesh, invalid);
-    const __m256i flags = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), hit, mesh, meshFlags, 4);
+    const PacketHits ph = packetHitsAvx512(r, meshFlags);
+    const __m256i mesh = ph.mesh;
+    const __mmask8 hit = ph.hit, backside = ph.backside, two = ph.twoSided, litMesh = ph.lit;
     const __m256 dx = _mm256_load_ps(r.dirX), dy = _mm256_load_ps(r.dirY), dz = _mm256_load_ps(r.dirZ);
-    // Ray::backface: ng · d > 0, as glm::dot: (x·x' + y·y') + z·z', each rounded.
-    // (In 512-bit registers: only they take an explicit rounding.)
-    const __m512 nx = _mm512_zextps256_ps512(_mm256_load_ps(r.ngX)), ny = _mm512_zextps256_ps512(_mm256_load_ps(r.ngY)),
-                 nz = _mm512_zextps256_ps512(_mm256_load_ps(r.ngZ));
-    __m512 dot = _mm512_add_round_ps(_mm512_mul_round_ps(nx, _mm512_zextps256_ps512(dx), kRound),
-                                     _mm512_mul_round_ps(ny, _mm512_zextps256_ps512(dy), kRound), kRound);
-    dot = _mm512_add_round_ps(dot, _mm512_mul_round_ps(nz, _mm512_zextps256_ps512(dz), kRound), kRound);
-    const __mmask8 backside = __mmask8(_mm512_cmp_ps_mask(dot, _mm512_setzero_ps(), _CMP_GT_OQ));
-    const __mmask8 two = _mm256_test_epi32_mask(flags, twoSided), litMesh = _mm256_test_epi32_mask(flags, lit);
     const __mmask8 back = backside & ~two;
     backs += uint32_t(__builtin_popcount(back));
     backsTwoSided += uint32_t(__builtin_popcount(backside & two));
     escapes += uint32_t(__builtin_popcount(__mmask8(~hit)));
-    const __m256 tfar = _mm256_load_ps(r.tfar);
+    const __m256 tfar = ph.tfar;
     nearest = _mm256_min_ps(nearest, tfar);
     // The lit hits, packed in lane order.
     const __mmask8 take = hit & ~back & litMesh;
