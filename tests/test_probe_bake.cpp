@@ -277,7 +277,8 @@ TEST(ProbeBake, SameSeedSameGridAnyThreadCountWithLitSurfaces) {
 
 // The kernels' paths (AVX-512 where the CPU has it, AVX2 + F16C, the portable ones lane by lane)
 // give the same bits: the bounces' gather of the previous order (half.h), the probes' ray
-// directions, their classification and moments, lit hits and products of a stream's rays.
+// directions, SH values, inside tests, classification and moments, M⁰, lit hits and products of
+// a stream's rays.
 TEST(ProbeBake, HalfPathsGiveTheSameBits) {
   if (!bake::useVectorKernels()) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
   // The cavity in one colour (its ρ/π in its rows: the AVX-512 products without ρ/π), and the
