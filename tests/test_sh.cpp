@@ -187,42 +187,6 @@ TEST(ShBasis, EightLanesGiveEachDirectionsBits) {
   }
 }
 
-// Two packets at once (the probe bake's sixteen lanes with AVX-512) give each direction's bits,
-// at every band count; where the CPU has no AVX-512 this checks the two calls of evaluate8.
-TEST(ShBasis, TwoPacketsGiveEachDirectionsBits) {
-  std::mt19937 rng(11);
-  for (int bands = 1; bands <= kMaxBands; ++bands) {
-    float x[2][8], y[2][8], z[2][8];
-    for (int p = 0; p < 2; ++p)
-      for (int l = 0; l < 8; ++l) {
-        const glm::vec3 d(randomDir(rng));
-        x[p][l] = d.x, y[p][l] = d.y, z[p][l] = d.z;
-      }
-    // Poles and axes with zeros of both signs, in the second packet (the upper lanes).
-    x[1][2] = -0.0f, y[1][2] = -1.0f, z[1][2] = 0.0f;
-    x[1][3] = 0.0f, y[1][3] = 0.0f, z[1][3] = -1.0f;
-    x[1][6] = -1.0f, y[1][6] = -0.0f, z[1][6] = -0.0f;
-    x[0][7] = -0.0f, y[0][7] = 1.0f, z[0][7] = -0.0f;
-    std::vector<float> lanes[2];
-    for (auto& v : lanes) v.assign(size_t(numCoeffs(bands)) * 8, 0.0f);
-    const float* const xs[2] = {x[0], x[1]};
-    const float* const ys[2] = {y[0], y[1]};
-    const float* const zs[2] = {z[0], z[1]};
-    float* const outs[2] = {lanes[0].data(), lanes[1].data()};
-    evaluate8Pair(bands, xs, ys, zs, outs);
-    for (int p = 0; p < 2; ++p)
-      for (int l = 0; l < 8; ++l) {
-        const std::vector<float> one = evaluate(bands, glm::vec3(x[p][l], y[p][l], z[p][l]));
-        for (int i = 0; i < numCoeffs(bands); ++i) {
-          float lane = lanes[p][size_t(8 * i + l)];
-          EXPECT_EQ(0, std::memcmp(&lane, &one[size_t(i)], sizeof(float)))
-              << "bands " << bands << " packet " << p << " lane " << l << " coefficient " << i << ": " << lane
-              << " vs " << one[size_t(i)];
-        }
-      }
-  }
-}
-
 // ---------------------------------------------------------------------------------------------
 // Clamped cosine
 

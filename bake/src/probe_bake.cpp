@@ -741,16 +741,7 @@ struct Tracer {
       if (full && !vector) std::fill(rows.directSums.begin(), rows.directSums.end(), 0.0f);
       uint32_t p0 = 0;  // the packets before p0 are classified
       if (full) {
-        uint32_t q = 0;
-        for (; useAvx512Kernels() && q + 8 < count; q += 16) {  // two packets at once
-          const RayPacket8 &r0 = batch[q >> 3], &r1 = batch[(q >> 3) + 1];
-          const float* const px[2] = {r0.dirX, r1.dirX};
-          const float* const py[2] = {r0.dirY, r1.dirY};
-          const float* const pz[2] = {r0.dirZ, r1.dirZ};
-          float* const out[2] = {groupYs + size_t(q) * n2, groupYs + size_t(q + 8) * n2};
-          sh::evaluate8Pair(bands, px, py, pz, out);
-        }
-        for (; q < count; q += 8) {
+        for (uint32_t q = 0; q < count; q += 8) {
           const RayPacket8& r = batch[q >> 3];
           sh::evaluate8(bands, r.dirX, r.dirY, r.dirZ, groupYs + size_t(q) * n2);
         }

@@ -29,8 +29,8 @@ inline __attribute__((always_inline)) glm::vec4 sampleTexture(const Texture& t, 
     }
     return static_cast<int>(i - n * std::floor(i / n));  // REPEAT
   };
-  auto axis = [&](float t, int n, int mode, int& i0, int& i1, double& f) {
-    double x = std::isfinite(t) ? std::clamp(double(t), -1e6, 1e6) * n - 0.5 : 0.0;
+  auto axis = [&](float coord, int n, int mode, int& i0, int& i1, double& f) {
+    double x = std::isfinite(coord) ? std::clamp(double(coord), -1e6, 1e6) * n - 0.5 : 0.0;
     double x0 = std::floor(x);
     f = x - x0;
     if (x0 >= 0.0 && x0 + 1.0 <= double(n - 1)) {  // both texels inside: every mode keeps them as they are

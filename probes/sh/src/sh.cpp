@@ -17,6 +17,7 @@ namespace {
 // Normalisation K_l^m = sqrt((2l+1)/(4π) · (l-m)!/(l+m)!), times √2 for m > 0 (real basis).
 struct Norms {
   std::array<std::array<double, kMaxBands>, kMaxBands> k{};
+  std::array<std::array<float, kMaxBands>, kMaxBands> f{};  // the same as floats (T(k[l][m]) at T = float)
   Norms() {
     for (int l = 0; l < kMaxBands; ++l)
       for (int m = 0; m <= l; ++m) {
@@ -24,6 +25,7 @@ struct Norms {
         for (int j = l - m + 1; j <= l + m; ++j) ratio /= j;
         double v = std::sqrt((2.0 * l + 1.0) / (4.0 * kPi) * ratio);
         k[l][m] = m == 0 ? v : std::sqrt(2.0) * v;
+        f[l][m] = float(k[l][m]);
       }
   }
 };
@@ -83,9 +85,9 @@ void evaluateT(int runtimeBands, const V& d, T* out) {
 __attribute__((target("avx2"))) void evaluate8Bands3Avx2(const float* px, const float* py, const float* pz,
                                                           float* out) {
   const __m256 x = _mm256_loadu_ps(px), y = _mm256_loadu_ps(py), z = _mm256_loadu_ps(pz);
-  __m256 k[3][3];  // K_l^m as floats (T(kNorms.k[l][m]))
+  __m256 k[3][3];  // K_l^m as floats (T(kNorms.k[l][m])), converted once (a call converted six)
   for (int l = 0; l < 3; ++l)
-    for (int m = 0; m <= l; ++m) k[l][m] = _mm256_set1_ps(float(kNorms.k[l][m]));
+    for (int m = 0; m <= l; ++m) k[l][m] = _mm256_broadcast_ss(&kNorms.f[size_t(l)][size_t(m)]);
   const __m256 one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f), three = _mm256_set1_ps(3.0f);
   const __m256 zero = _mm256_setzero_ps();
   // m = 0: Q_0^0 = 1, Q_1^0 = (1 · z) · 1, Q_2^0 = ((3 · z) · Q_1^0 − 1 · 1) / 2.
@@ -114,62 +116,6 @@ __attribute__((target("avx2"))) void evaluate8Bands3Avx2(const float* px, const 
   _mm256_storeu_ps(out + 8 * 4, _mm256_mul_ps(k22, s2));
 }
 
-// evaluate8Bands3Avx2 at two packets of eight directions, sixteen lanes at once (AVX-512): the
-// same operations, each rounded on its own (an explicit rounding mode: never contracted into a
-// fused multiply-add), so each lane has the scalar function's bits. Lanes 0–7 are packet 0's.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // the intrinsics' own undefined values
-#pragma GCC diagnostic ignored "-Wuninitialized"
-#endif
-#define PRT_SH_AVX512 __attribute__((target("avx512f"), always_inline)) inline
-constexpr int kRound512 = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;
-PRT_SH_AVX512 __m512 mul512(__m512 a, __m512 b) { return _mm512_mul_round_ps(a, b, kRound512); }
-PRT_SH_AVX512 __m512 add512(__m512 a, __m512 b) { return _mm512_add_round_ps(a, b, kRound512); }
-PRT_SH_AVX512 __m512 sub512(__m512 a, __m512 b) { return _mm512_sub_round_ps(a, b, kRound512); }
-// Two packets' eight floats as one register, packet 0 in the lower lanes; and back.
-PRT_SH_AVX512 __m512 loadPair(const float* const* p) {
-  return _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_castps_pd(_mm256_loadu_ps(p[0]))),
-                                             _mm256_castps_pd(_mm256_loadu_ps(p[1])), 1));
-}
-PRT_SH_AVX512 void storePair(float* const* out, int i, __m512 v) {
-  _mm256_storeu_ps(out[0] + 8 * i, _mm512_castps512_ps256(v));
-  _mm256_storeu_ps(out[1] + 8 * i, _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1)));
-}
-
-__attribute__((target("avx512f"))) void evaluate16Bands3Avx512(const float* const* px, const float* const* py,
-                                                              const float* const* pz, float* const* out) {
-  const __m512 x = loadPair(px), y = loadPair(py), z = loadPair(pz);
-  __m512 k[3][3];  // K_l^m as floats (T(kNorms.k[l][m]))
-  for (int l = 0; l < 3; ++l)
-    for (int m = 0; m <= l; ++m) k[l][m] = _mm512_set1_ps(float(kNorms.k[l][m]));
-  const __m512 one = _mm512_set1_ps(1.0f), half = _mm512_set1_ps(0.5f), three = _mm512_set1_ps(3.0f);
-  const __m512 zero = _mm512_setzero_ps();
-  const __m512 q10 = mul512(mul512(one, z), one);
-  const __m512 q20 = mul512(sub512(mul512(mul512(three, z), q10), mul512(one, one)), half);  // "/ 2"
-  storePair(out, 0, mul512(k[0][0], one));
-  storePair(out, 2, mul512(k[1][0], q10));
-  storePair(out, 6, mul512(k[2][0], q20));
-  const __m512 c1 = sub512(mul512(one, x), mul512(zero, y));
-  const __m512 s1 = add512(mul512(one, y), mul512(zero, x));
-  const __m512 q11 = mul512(one, one);
-  const __m512 k11 = mul512(k[1][1], q11);
-  const __m512 k21 = mul512(k[2][1], mul512(mul512(three, z), q11));
-  storePair(out, 3, mul512(k11, c1));
-  storePair(out, 1, mul512(k11, s1));
-  storePair(out, 7, mul512(k21, c1));
-  storePair(out, 5, mul512(k21, s1));
-  const __m512 c2 = sub512(mul512(c1, x), mul512(s1, y));
-  const __m512 s2 = add512(mul512(c1, y), mul512(s1, x));
-  const __m512 k22 = mul512(k[2][2], mul512(q11, three));
-  storePair(out, 8, mul512(k22, c2));
-  storePair(out, 4, mul512(k22, s2));
-}
-#undef PRT_SH_AVX512
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic pop
-#endif
-
 }  // namespace
 
 void evaluate8(int bands, const float* x, const float* y, const float* z, float* out) {
@@ -180,13 +126,6 @@ void evaluate8(int bands, const float* x, const float* y, const float* z, float*
     evaluate(bands, glm::vec3(x[l], y[l], z[l]), one);
     for (int i = 0; i < bands * bands; ++i) out[8 * i + l] = one[i];
   }
-}
-
-void evaluate8Pair(int bands, const float* const x[2], const float* const y[2], const float* const z[2],
-                   float* const out[2]) {
-  static const bool avx512 = __builtin_cpu_supports("avx512f");
-  if (bands == 3 && avx512) return evaluate16Bands3Avx512(x, y, z, out);
-  for (int p = 0; p < 2; ++p) evaluate8(bands, x[p], y[p], z[p], out[p]);
 }
 
 int bandOf(int i) {

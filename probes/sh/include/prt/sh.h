@@ -54,10 +54,6 @@ void evaluate(int bands, const glm::dvec3& d, double* out);
 /// of direction k, with the same bits as evaluate() of that direction. At 3 bands with AVX2 the
 /// eight lanes at once (evaluate's operations written out); otherwise one direction at a time.
 void evaluate8(int bands, const float* x, const float* y, const float* z, float* out);
-/// evaluate8() of two sets of eight directions, (x[p], y[p], z[p]) into out[p] for p = 0, 1, with
-/// the same bits. At 3 bands with AVX-512 the sixteen lanes at once; otherwise evaluate8() twice.
-void evaluate8Pair(int bands, const float* const x[2], const float* const y[2], const float* const z[2],
-                   float* const out[2]);
 /// Convenience form returning a vector.
 std::vector<float> evaluate(int bands, const glm::vec3& d);
 
