@@ -70,10 +70,8 @@ __attribute__((target("avx2"))) void sphereDirectionsAvx2(const uint32_t* bx, co
   const __m256 one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f), zero = _mm256_setzero_ps();
   const __m256 half = _mm256_set1_ps(0.5f), unit = _mm256_set1_ps(0x1p-24f);
   const __m256 angle = _mm256_set1_ps(0x1p-22f * 0.5f * kPi);
-  const __m256 s1 = _mm256_set1_ps(-1.6666654611e-1f), s2 = _mm256_set1_ps(8.3321608736e-3f),
-               s3 = _mm256_set1_ps(-1.9515295891e-4f);
-  const __m256 c1 = _mm256_set1_ps(4.166664568298827e-2f), c2 = _mm256_set1_ps(-1.388731625493765e-3f),
-               c3 = _mm256_set1_ps(2.443315711809948e-5f);
+  const __m256 s1 = _mm256_set1_ps(kSinS1), s2 = _mm256_set1_ps(kSinS2), s3 = _mm256_set1_ps(kSinS3);
+  const __m256 c1 = _mm256_set1_ps(kCosC1), c2 = _mm256_set1_ps(kCosC2), c3 = _mm256_set1_ps(kCosC3);
   const __m256 sign = _mm256_set1_ps(-0.0f);
   uint32_t j = 0;
   for (; j + 8 <= n; j += 8) {
@@ -117,10 +115,8 @@ __attribute__((target("avx512f,avx512dq"))) void sphereDirectionsAvx512(const ui
   const __m512 one = _mm512_set1_ps(1.0f), two = _mm512_set1_ps(2.0f), zero = _mm512_setzero_ps();
   const __m512 half = _mm512_set1_ps(0.5f), unit = _mm512_set1_ps(0x1p-24f);
   const __m512 angle = _mm512_set1_ps(0x1p-22f * 0.5f * kPi);
-  const __m512 s1 = _mm512_set1_ps(-1.6666654611e-1f), s2 = _mm512_set1_ps(8.3321608736e-3f),
-               s3 = _mm512_set1_ps(-1.9515295891e-4f);
-  const __m512 c1 = _mm512_set1_ps(4.166664568298827e-2f), c2 = _mm512_set1_ps(-1.388731625493765e-3f),
-               c3 = _mm512_set1_ps(2.443315711809948e-5f);
+  const __m512 s1 = _mm512_set1_ps(kSinS1), s2 = _mm512_set1_ps(kSinS2), s3 = _mm512_set1_ps(kSinS3);
+  const __m512 c1 = _mm512_set1_ps(kCosC1), c2 = _mm512_set1_ps(kCosC2), c3 = _mm512_set1_ps(kCosC3);
   const __m512i sign = _mm512_set1_epi32(int(0x80000000u));
   uint32_t j = 0;
   for (; j + 16 <= n; j += 16) {
@@ -352,9 +348,8 @@ void addDirectPortable(const float* ys, const int32_t* escaped, int n2, float* s
 // loaded and stored again. Packets with no escaped ray are left out of the list: they add
 // zeros, which leave every sum as it is (sums from +0 never become −0).
 template <int NB>
-__attribute__((target("avx2,fma"), always_inline)) inline void directPairsAvx2(const float* ys, const int32_t* escaped,
-                                                                            const uint8_t* list, int packets, int n2,
-                                                                            int a, int b0, float* sums) {
+__attribute__((target("avx2,fma"))) void directPairsAvx2(const float* ys, const int32_t* escaped, const uint8_t* list,
+                                                       int packets, int n2, int a, int b0, float* sums) {
   __m256 s[NB];
 #pragma GCC unroll 8
   for (int i = 0; i < NB; ++i) s[i] = _mm256_setzero_ps();
@@ -372,31 +367,37 @@ __attribute__((target("avx2,fma"), always_inline)) inline void directPairsAvx2(c
   for (int i = 0; i < NB; ++i) _mm256_storeu_ps(sums + 8 * (p0 + i), s[i]);
 }
 
-__attribute__((target("avx2,fma"))) void addDirectAvx2(const float* ys, const int32_t* escaped, const uint8_t* list,
-                                                   int packets, int n2, float* sums) {
+// M⁰'s upper triangle in blocks of at most 8 pairs (a, b0) … (a, b0 + NB − 1), row by row:
+// block.template operator()<NB>(a, b0) for each (a call per block, a few per stream).
+template <class Block>
+void forPairBlocks(int n2, const Block& block) {
   for (int a = 0; a < n2; ++a)
     for (int b0 = a; b0 < n2; b0 += 8) {
       switch (std::min(8, n2 - b0)) {
-        case 1: directPairsAvx2<1>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 2: directPairsAvx2<2>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 3: directPairsAvx2<3>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 4: directPairsAvx2<4>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 5: directPairsAvx2<5>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 6: directPairsAvx2<6>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 7: directPairsAvx2<7>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        default: directPairsAvx2<8>(ys, escaped, list, packets, n2, a, b0, sums); break;
+        case 1: block.template operator()<1>(a, b0); break;
+        case 2: block.template operator()<2>(a, b0); break;
+        case 3: block.template operator()<3>(a, b0); break;
+        case 4: block.template operator()<4>(a, b0); break;
+        case 5: block.template operator()<5>(a, b0); break;
+        case 6: block.template operator()<6>(a, b0); break;
+        case 7: block.template operator()<7>(a, b0); break;
+        default: block.template operator()<8>(a, b0); break;
       }
     }
+}
+
+void addDirectAvx2(const float* ys, const int32_t* escaped, const uint8_t* list, int packets, int n2, float* sums) {
+  forPairBlocks(n2, [&]<int NB>(int a, int b0) { directPairsAvx2<NB>(ys, escaped, list, packets, n2, a, b0, sums); });
 }
 
 // directPairsAvx2 with AVX-512: two pairs (a, b) and (a, b + 1) in one sixteen-lane register
 // (coefficients b and b + 1 of a packet lie side by side), the eight lanes of ye_a in both halves;
 // the same fused multiply-add per lane and pair in the same order, so the same bits.
+PRT_AVX512_BEGIN
 template <int NB>
-__attribute__((target("avx512f,fma"), always_inline)) inline void directPairsAvx512(const float* ys,
-                                                                            const int32_t* escaped,
-                                                                            const uint8_t* list, int packets,
-                                                                            int n2, int a, int b0, float* sums) {
+__attribute__((target("avx512f,fma"))) void directPairsAvx512(const float* ys, const int32_t* escaped,
+                                                              const uint8_t* list, int packets, int n2, int a,
+                                                              int b0, float* sums) {
   constexpr int NV = NB / 2;
   __m512 s[NV > 0 ? NV : 1];
   __m256 last = _mm256_setzero_ps();
@@ -418,26 +419,11 @@ __attribute__((target("avx512f,fma"), always_inline)) inline void directPairsAvx
   for (int i = 0; i < NV; ++i) _mm512_storeu_ps(sums + 8 * (p0 + 2 * i), s[i]);
   if constexpr (NB % 2) _mm256_storeu_ps(sums + 8 * (p0 + NB - 1), last);
 }
-
-PRT_AVX512_BEGIN
-__attribute__((target("avx512f,avx512dq,fma"))) void addDirectAvx512(const float* ys, const int32_t* escaped,
-                                                                const uint8_t* list, int packets, int n2,
-                                                                float* sums) {
-  for (int a = 0; a < n2; ++a)
-    for (int b0 = a; b0 < n2; b0 += 8) {
-      switch (std::min(8, n2 - b0)) {
-        case 1: directPairsAvx512<1>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 2: directPairsAvx512<2>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 3: directPairsAvx512<3>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 4: directPairsAvx512<4>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 5: directPairsAvx512<5>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 6: directPairsAvx512<6>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        case 7: directPairsAvx512<7>(ys, escaped, list, packets, n2, a, b0, sums); break;
-        default: directPairsAvx512<8>(ys, escaped, list, packets, n2, a, b0, sums); break;
-      }
-    }
-}
 PRT_AVX512_END
+
+void addDirectAvx512(const float* ys, const int32_t* escaped, const uint8_t* list, int packets, int n2, float* sums) {
+  forPairBlocks(n2, [&]<int NB>(int a, int b0) { directPairsAvx512<NB>(ys, escaped, list, packets, n2, a, b0, sums); });
+}
 
 // A lit hit's inputs to g: its corners' rows, its barycentrics b1, b2 (b0 = 1 − b1 − b2) and
 // ρ/π (then a zero).

@@ -66,10 +66,14 @@ inline float sobol1(uint32_t i, uint32_t scramble) { return float(sobol1Bits(i, 
 /// 1.2e-7 of both): additions and multiplications only, so that a loop of them vectorises and
 /// gives the same bits in every lane and on every machine, where libm's sincosf is a call per
 /// angle, with no promise about its last bit.
+/// The coefficients (also the probe bake's vector kernels'): sin a = a + a·a² (S1 + a² (S2 + a² S3)),
+/// cos a = 1 − a²/2 + a⁴ (C1 + a² (C2 + a² C3)).
+inline constexpr float kSinS1 = -1.6666654611e-1f, kSinS2 = 8.3321608736e-3f, kSinS3 = -1.9515295891e-4f;
+inline constexpr float kCosC1 = 4.166664568298827e-2f, kCosC2 = -1.388731625493765e-3f, kCosC3 = 2.443315711809948e-5f;
 inline void sinCosQuarter(float a, float& s, float& c) {
   const float a2 = a * a;
-  s = a + a * a2 * (-1.6666654611e-1f + a2 * (8.3321608736e-3f + a2 * -1.9515295891e-4f));
-  c = 1.0f - 0.5f * a2 + a2 * a2 * (4.166664568298827e-2f + a2 * (-1.388731625493765e-3f + a2 * 2.443315711809948e-5f));
+  s = a + a * a2 * (kSinS1 + a2 * (kSinS2 + a2 * kSinS3));
+  c = 1.0f - 0.5f * a2 + a2 * a2 * (kCosC1 + a2 * (kCosC2 + a2 * kCosC3));
 }
 
 /// Shirley-Chiu concentric map from the unit square to the unit disk (area preserving).
