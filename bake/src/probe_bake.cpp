@@ -101,17 +101,18 @@ __attribute__((target("avx2"))) void sphereDirectionsAvx2(const uint32_t* bx, co
   sphereDirectionsPortable(bx + j, by + j, n - j, dx + j, dy + j, dz + j);
 }
 
-// sphereDirectionsAvx2 sixteen at a time with AVX-512: the same operations, each rounded on its
-// own (an explicit rounding mode: never contracted into a fused multiply-add), so the same bits.
+// sphereDirectionsAvx2 sixteen at a time with AVX-512, from the bits (px[j] ^ kx) >> 8 and
+// (py[j] ^ ky) >> 8 (a stream's points and scrambles: SphereSet) made in the same pass: the same
+// operations, each rounded on its own (an explicit rounding mode: never contracted into a fused
+// multiply-add), so the same bits.
 PRT_AVX512_BEGIN
-// The bits are (px[j] ^ kx) >> 8 and (py[j] ^ ky) >> 8: the points and their scrambles (SphereSet).
 __attribute__((target("avx512f,avx512dq"))) void sphereDirectionsAvx512(const uint32_t* px, const uint32_t* py,
                                                                        uint32_t kx, uint32_t ky, uint32_t n,
                                                                        float* dx, float* dy, float* dz) {
   constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;
-#define mul(a, b) _mm512_mul_round_ps(a, b, kRound)
-#define add(a, b) _mm512_add_round_ps(a, b, kRound)
-#define sub(a, b) _mm512_sub_round_ps(a, b, kRound)
+#define MUL(a, b) _mm512_mul_round_ps(a, b, kRound)
+#define ADD(a, b) _mm512_add_round_ps(a, b, kRound)
+#define SUB(a, b) _mm512_sub_round_ps(a, b, kRound)
   const __m512 one = _mm512_set1_ps(1.0f), two = _mm512_set1_ps(2.0f), zero = _mm512_setzero_ps();
   const __m512 half = _mm512_set1_ps(0.5f), unit = _mm512_set1_ps(0x1p-24f);
   const __m512 angle = _mm512_set1_ps(0x1p-22f * 0.5f * kPi);
@@ -122,26 +123,26 @@ __attribute__((target("avx512f,avx512dq"))) void sphereDirectionsAvx512(const ui
   for (; j + 16 <= n; j += 16) {
     const __m512i ix = _mm512_srli_epi32(_mm512_xor_si512(_mm512_loadu_si512(px + j), _mm512_set1_epi32(int(kx))), 8);
     const __m512i iy = _mm512_srli_epi32(_mm512_xor_si512(_mm512_loadu_si512(py + j), _mm512_set1_epi32(int(ky))), 8);
-    const __m512 z = sub(one, mul(two, mul(_mm512_cvtepi32_ps(ix), unit)));
-    const __m512 r = _mm512_sqrt_round_ps(_mm512_max_ps(sub(one, mul(z, z)), zero), kRound);
+    const __m512 z = SUB(one, MUL(two, MUL(_mm512_cvtepi32_ps(ix), unit)));
+    const __m512 r = _mm512_sqrt_round_ps(_mm512_max_ps(SUB(one, MUL(z, z)), zero), kRound);
     const __m512i q = _mm512_srli_epi32(_mm512_add_epi32(iy, _mm512_set1_epi32(1 << 21)), 22);
-    const __m512 a = mul(_mm512_cvtepi32_ps(_mm512_sub_epi32(iy, _mm512_slli_epi32(q, 22))), angle);
-    const __m512 a2 = mul(a, a);
-    const __m512 sn = add(a, mul(mul(a, a2), add(s1, mul(a2, add(s2, mul(a2, s3))))));
-    const __m512 cs = add(sub(one, mul(half, a2)), mul(mul(a2, a2), add(c1, mul(a2, add(c2, mul(a2, c3))))));
+    const __m512 a = MUL(_mm512_cvtepi32_ps(_mm512_sub_epi32(iy, _mm512_slli_epi32(q, 22))), angle);
+    const __m512 a2 = MUL(a, a);
+    const __m512 sn = ADD(a, MUL(MUL(a, a2), ADD(s1, MUL(a2, ADD(s2, MUL(a2, s3))))));
+    const __m512 cs = ADD(SUB(one, MUL(half, a2)), MUL(MUL(a2, a2), ADD(c1, MUL(a2, ADD(c2, MUL(a2, c3))))));
     // Quarter turn k: (cos, sin) → k 0: (c, s), 1: (−s, c), 2: (−c, −s), 3: (s, −c).
     const __m512i k = _mm512_and_si512(q, _mm512_set1_epi32(3));
     const __mmask16 odd = _mm512_test_epi32_mask(k, _mm512_set1_epi32(1));  // k = 1, 3: swap
     const __m512i negX = _mm512_and_si512(_mm512_slli_epi32(_mm512_add_epi32(k, _mm512_set1_epi32(1)), 30), sign);
     const __m512i negY = _mm512_and_si512(_mm512_slli_epi32(k, 30), sign);
     const __m512 x = _mm512_mask_blend_ps(odd, cs, sn), y = _mm512_mask_blend_ps(odd, sn, cs);
-    _mm512_storeu_ps(dx + j, mul(r, _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(x), negX))));
-    _mm512_storeu_ps(dy + j, mul(r, _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(y), negY))));
+    _mm512_storeu_ps(dx + j, MUL(r, _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(x), negX))));
+    _mm512_storeu_ps(dy + j, MUL(r, _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(y), negY))));
     _mm512_storeu_ps(dz + j, z);
   }
-#undef mul
-#undef add
-#undef sub
+#undef MUL
+#undef ADD
+#undef SUB
   alignas(32) uint32_t bx[16], by[16];
   for (uint32_t i = j; i < n; ++i) bx[i - j] = (px[i] ^ kx) >> 8, by[i - j] = (py[i] ^ ky) >> 8;
   sphereDirectionsAvx2(bx, by, n - j, dx + j, dy + j, dz + j);
