@@ -642,8 +642,8 @@ struct StreamTally {
 // multiplies and adds rounded one by one as the portable loop's).
 PRT_AVX512_BEGIN
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx512(
-    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags, uint32_t yBase, uint32_t n2, double cap,
-    StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc, StreamTally& t);
+    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags, const uint32_t* const* corners, uint32_t yBase,
+    uint32_t n2, double cap, StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc, StreamTally& t);
 // The counts alone (the inside test), with AVX-512: the same as Tracer::trace's loop.
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) StreamTally tallyAvx512(const RayPacket8* batch,
                                                                                     uint32_t packets,
@@ -676,6 +676,7 @@ struct Tracer {
     bool uniform = false;
   };
   std::vector<LitMesh> litMeshes;
+  std::vector<const uint32_t*> cornerIndices;  // per Scene::meshes entry: LitMesh::indices (classifyAvx512)
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
 
   void intersect8(RayPacket8* p, size_t n) const { inEmbree.time([&] { rays.intersect8(p, n); }); }
@@ -727,6 +728,7 @@ struct Tracer {
       float* groupYs = full ? rows.ys.data() + size_t(inGroup) * n2 : nullptr;  // the stream's packets
       if (full && !vector) std::fill(rows.directSums.begin(), rows.directSums.end(), 0.0f);
       uint32_t p0 = 0;  // the packets before p0 are classified
+      uint32_t litPrefetched = litBefore;  // the lit hits before it have their corners fetched
       if (full) {
         for (uint32_t q = 0; q < count; q += 8) {
           const RayPacket8& r = batch[q >> 3];
@@ -735,8 +737,9 @@ struct Tracer {
         if (useAvx512Kernels()) {  // the whole packets; a last, partial one lane by lane below
           StreamTally t{};
           p0 = count / 8 * 8;
-          classifyAvx512(batch, p0 / 8, meshFlags.data(), inGroup * uint32_t(n2), uint32_t(n2), cap, rows, nLit,
-                         escapedLanes, acc, t);
+          classifyAvx512(batch, p0 / 8, meshFlags.data(), cornerIndices.data(), inGroup * uint32_t(n2), uint32_t(n2),
+                         cap, rows, nLit, escapedLanes, acc, t);
+          litPrefetched = nLit;
           backs += t.backs;
           backsTwoSided += t.backsTwoSided;
           escapes += t.escapes;
@@ -792,8 +795,9 @@ struct Tracer {
       acc.escaped += escapes;
       acc.nearest = nearest;
       if (!full) continue;
-      // The corners of the stream's lit hits, fetched while the group's other streams trace.
-      for (uint32_t h = litBefore; h < nLit; ++h)
+      // The corners of the stream's lit hits (those classifyAvx512 has not fetched), fetched while
+      // the group's other streams trace.
+      for (uint32_t h = litPrefetched; h < nLit; ++h)
         __builtin_prefetch(litMeshes[rows.hitMesh[h]].indices + 3 * size_t(rows.hitTri[h]));
       // The direct part of the escaped rays, M⁰ += Σ y yᵀ, over the packets with one (a packet
       // whose rays all hit adds zeros, which leave the sums as they are): lane by lane, or with
@@ -952,8 +956,8 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) StreamTally tallyA
 }
 
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx512(
-    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags, uint32_t yBase, uint32_t n2, double cap,
-    StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc, StreamTally& t) {
+    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags, const uint32_t* const* corners, uint32_t yBase,
+    uint32_t n2, double cap, StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc, StreamTally& t) {
   constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;  // explicit: never contracted into FMAs
   // Each face's sums of the eight lanes, in registers over the stream.
   __m512d sumD[6], sumD2[6];
@@ -989,7 +993,10 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx51
     _mm256_storeu_ps(&rows.hitU[n], _mm256_maskz_compress_ps(take, _mm256_load_ps(r.u)));
     _mm256_storeu_ps(&rows.hitV[n], _mm256_maskz_compress_ps(take, _mm256_load_ps(r.v)));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(&rows.hitYOff[n]), _mm256_maskz_compress_epi32(take, yOff));
-    n += uint32_t(__builtin_popcount(take));
+    // Their corners, fetched while the group's other streams trace: a packet's few at a time, as
+    // they are found (a stream's all at once stalled on the fill buffers).
+    for (const uint32_t end = n + uint32_t(__builtin_popcount(take)); n < end; ++n)
+      __builtin_prefetch(corners[rows.hitMesh[n]] + 3 * size_t(rows.hitTri[n]));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(escapedLanes + 8 * p), _mm256_movm_epi32(__mmask8(~hit)));
     // packetFaces: the face (ties to the earlier axis) and |the direction along its axis|.
     const __m256 sign = _mm256_set1_ps(-0.0f);
@@ -1690,10 +1697,11 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
       lowerHalf[k].assign(lowerOrder[k], rows, n2, rhoPi);
     }
     tracer.litMeshes.resize(scene.meshes.size());
+    tracer.cornerIndices.assign(scene.meshes.size(), nullptr);
     for (size_t k = 0; k < lowerHalf.size(); ++k) {
       if (lowerHalf[k].empty()) continue;
       Tracer::LitMesh& m = tracer.litMeshes[k];
-      m.indices = scene.meshes[k].indices.data();
+      m.indices = tracer.cornerIndices[k] = scene.meshes[k].indices.data();
       m.stride = lowerHalf[k].stride;
       m.rows = lowerHalf[k].row(0);
       m.backRows = tracer.twoSided[k] ? lowerHalf[k].row(scene.meshes[k].vertexCount()) : m.rows;
