@@ -275,26 +275,10 @@ TEST(ProbeBake, SameSeedSameGridAnyThreadCountWithLitSurfaces) {
   }
 }
 
-// The kernels' paths (AVX-512 where the CPU has it, AVX2 + F16C, the portable ones lane by lane)
-// give the same bits: the bounces' gather of the previous order (half.h), the probes' ray
-// directions, SH values, inside tests, classification and moments, M⁰, lit hits and products of
-// a stream's rays.
-TEST(ProbeBake, HalfPathsGiveTheSameBits) {
-  if (!bake::useVectorKernels()) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
-  // The cavity in one colour (its ρ/π in its rows: the AVX-512 products without ρ/π), and the
-  // same with a vertex-coloured slab inside (ρ/π looked up per hit: groups of lit hits of both
-  // kinds, the products with ρ/π, which is 1 for the cavity's hits).
-  std::vector<Scene> scenes{test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f)};
-  MeshInstance slab = test::makeSlab({0.25f, -0.6f, -0.2f}, {0.55f, -0.3f, 0.2f}, 0.1f);
-  for (size_t v = 0; v < slab.positions.size(); ++v)
-    slab.colors.push_back(glm::vec4(0.3f + 0.2f * float(v % 3), 0.5f, 0.9f - 0.1f * float(v % 5), 1.0f));
-  scenes.push_back(test::makeScene({test::makeCavity(M_PI / 3, 12, 24), slab}, 0.5f));
-  for (const Scene& s : scenes) {
-  SCOPED_TRACE(cat(s.meshes.size(), " instances"));
-  // 3 bands (the AVX-512 products' 9 rows), 2 (4 rows) and 4 (AVX2 only); 300 rays: whole
-  // packets of 8 and a partial one.
-  for (int bands : {3, 2, 4}) {
-  SCOPED_TRACE(cat(bands, " bands"));
+// The surface and probe bakes of s at `bands` by every kernel path this CPU has (AVX-512, AVX2 +
+// F16C, portable), each compared bit for bit with the first.
+void expectKernelPathsAgree(const Scene& s, int bands) {
+  SCOPED_TRACE(cat(s.meshes.size(), " instances, ", bands, " bands"));
   bake::BakeSettings bs;
   bs.bands = bands;
   bs.samples = 64;
@@ -338,8 +322,26 @@ TEST(ProbeBake, HalfPathsGiveTheSameBits) {
     EXPECT_EQ(grids[0].validity, grids[p].validity);
     EXPECT_EQ(grids[0].skyVisibility, grids[p].skyVisibility);
   }
-  }
-  }
+}
+
+// The kernels' paths (AVX-512 where the CPU has it, AVX2 + F16C, the portable ones lane by lane)
+// give the same bits: the bounces' gather of the previous order (half.h), the probes' ray
+// directions, SH values, inside tests, classification and moments, M⁰, lit hits and products of
+// a stream's rays.
+TEST(ProbeBake, HalfPathsGiveTheSameBits) {
+  if (!bake::useVectorKernels()) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
+  // The cavity in one colour (its ρ/π in its rows: the AVX-512 products without ρ/π), and the
+  // same with a vertex-coloured slab inside (ρ/π looked up per hit: groups of lit hits of both
+  // kinds, the products with ρ/π, which is 1 for the cavity's hits).
+  std::vector<Scene> scenes{test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f)};
+  MeshInstance slab = test::makeSlab({0.25f, -0.6f, -0.2f}, {0.55f, -0.3f, 0.2f}, 0.1f);
+  for (size_t v = 0; v < slab.positions.size(); ++v)
+    slab.colors.push_back(glm::vec4(0.3f + 0.2f * float(v % 3), 0.5f, 0.9f - 0.1f * float(v % 5), 1.0f));
+  scenes.push_back(test::makeScene({test::makeCavity(M_PI / 3, 12, 24), slab}, 0.5f));
+  // 3 bands (the AVX-512 products' 9 rows), 2 (4 rows) and 4 (AVX2 only); 300 rays: whole
+  // packets of 8 and a partial one.
+  for (const Scene& s : scenes)
+    for (int bands : {3, 2, 4}) expectKernelPathsAgree(s, bands);
 }
 
 // Interpolated probe irradiance against an independent brute-force estimate: at random points

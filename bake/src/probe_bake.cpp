@@ -665,9 +665,9 @@ struct Tracer {
   // (it has lower-order transfer).
   static constexpr uint8_t kTwoSided = 1, kLit = 2;
   std::vector<uint32_t> meshFlags;  // 32-bit: classifyAvx512 gathers them
-  // Per Scene::meshes entry with lower-order transfer: where a lit hit's corners and rows are.
+  // Per Scene::meshes entry with lower-order transfer: where a lit hit's rows are (its corners:
+  // cornerIndices).
   struct LitMesh {
-    const uint32_t* indices = nullptr;  // 3 per triangle
     const uint16_t* rows = nullptr;     // the front sides' rows (HalfRows), stride halves apart
     const uint16_t* backRows = nullptr;  // the back sides' (the front's where only one side is baked)
     size_t stride = 0;
@@ -676,7 +676,9 @@ struct Tracer {
     bool uniform = false;
   };
   std::vector<LitMesh> litMeshes;
-  std::vector<const uint32_t*> cornerIndices;  // per Scene::meshes entry: LitMesh::indices (classifyAvx512)
+  // Per Scene::meshes entry: its triangles' corners, 3 per triangle, where it sends light; else null.
+  // An array of their own, which classifyAvx512 reads.
+  std::vector<const uint32_t*> cornerIndices;
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
 
   void intersect8(RayPacket8* p, size_t n) const { inEmbree.time([&] { rays.intersect8(p, n); }); }
@@ -798,7 +800,7 @@ struct Tracer {
       // The corners of the stream's lit hits (those classifyAvx512 has not fetched), fetched while
       // the group's other streams trace.
       for (uint32_t h = litPrefetched; h < nLit; ++h)
-        __builtin_prefetch(litMeshes[rows.hitMesh[h]].indices + 3 * size_t(rows.hitTri[h]));
+        __builtin_prefetch(cornerIndices[rows.hitMesh[h]] + 3 * size_t(rows.hitTri[h]));
       // The direct part of the escaped rays, M⁰ += Σ y yᵀ, over the packets with one (a packet
       // whose rays all hit adds zeros, which leave the sums as they are): lane by lane, or with
       // AVX2 pair by pair over the packets.
@@ -850,7 +852,7 @@ struct Tracer {
     for (uint32_t h = 0; h < hits; ++h) {
       const uint32_t mesh = rows.hitMesh[h], tri = rows.hitTri[h], yOff = rows.hitYOff[h];
       const LitMesh& m = litMeshes[mesh];
-      const uint32_t* ix = m.indices + 3 * size_t(tri);
+      const uint32_t* ix = cornerIndices[mesh] + 3 * size_t(tri);
       const uint16_t* t = (yOff & kBackBit) ? m.backRows : m.rows;
       LitRecord& r = rows.lit[h];
       r.t[0] = t + ix[0] * m.stride;
@@ -936,23 +938,36 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inl
   return h;
 }
 
+// StreamTally's counts over packets, with each lane's nearest hit until finishTally.
+struct PacketTally {
+  StreamTally t{};
+  __m256 nearest;
+};
+__attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inline PacketTally startTally() {
+  return {{}, _mm256_set1_ps(std::numeric_limits<float>::infinity())};
+}
+__attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inline void addToTally(PacketTally& a,
+                                                                                                  const PacketHits& h) {
+  a.t.backs += uint32_t(__builtin_popcount(__mmask8(h.backside & ~h.twoSided)));
+  a.t.backsTwoSided += uint32_t(__builtin_popcount(__mmask8(h.backside & h.twoSided)));
+  a.t.escapes += uint32_t(__builtin_popcount(__mmask8(~h.hit)));
+  a.nearest = _mm256_min_ps(a.nearest, h.tfar);
+}
+__attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inline StreamTally finishTally(
+    const PacketTally& a) {
+  alignas(32) float lanesNearest[8];
+  _mm256_store_ps(lanesNearest, a.nearest);
+  StreamTally t = a.t;
+  t.nearest = *std::min_element(lanesNearest, lanesNearest + 8);
+  return t;
+}
+
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) StreamTally tallyAvx512(const RayPacket8* batch,
                                                                                     uint32_t packets,
                                                                                     const uint32_t* meshFlags) {
-  __m256 nearest = _mm256_set1_ps(std::numeric_limits<float>::infinity());
-  StreamTally t{};
-  for (uint32_t p = 0; p < packets; ++p) {
-    const PacketHits h = packetHitsAvx512(batch[p], meshFlags);
-    const __mmask8 back = h.backside & ~h.twoSided;
-    t.backs += uint32_t(__builtin_popcount(back));
-    t.backsTwoSided += uint32_t(__builtin_popcount(h.backside & h.twoSided));
-    t.escapes += uint32_t(__builtin_popcount(__mmask8(~h.hit)));
-    nearest = _mm256_min_ps(nearest, h.tfar);
-  }
-  alignas(32) float lanesNearest[8];
-  _mm256_store_ps(lanesNearest, nearest);
-  t.nearest = *std::min_element(lanesNearest, lanesNearest + 8);
-  return t;
+  PacketTally a = startTally();
+  for (uint32_t p = 0; p < packets; ++p) addToTally(a, packetHitsAvx512(batch[p], meshFlags));
+  return finishTally(a);
 }
 
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx512(
@@ -969,20 +984,17 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx51
   const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256 zero = _mm256_setzero_ps();
   const __m512d capV = _mm512_set1_pd(cap);
-  __m256 nearest = _mm256_set1_ps(std::numeric_limits<float>::infinity());
-  uint32_t backs = 0, backsTwoSided = 0, escapes = 0, n = nLit;
+  PacketTally tally = startTally();
+  uint32_t n = nLit;
   for (uint32_t p = 0; p < packets; ++p) {
     const RayPacket8& r = batch[p];
     const PacketHits ph = packetHitsAvx512(r, meshFlags);
+    addToTally(tally, ph);
     const __m256i mesh = ph.mesh;
-    const __mmask8 hit = ph.hit, backside = ph.backside, two = ph.twoSided, litMesh = ph.lit;
+    const __mmask8 hit = ph.hit, backside = ph.backside, litMesh = ph.lit;
     const __m256 dx = _mm256_load_ps(r.dirX), dy = _mm256_load_ps(r.dirY), dz = _mm256_load_ps(r.dirZ);
-    const __mmask8 back = backside & ~two;
-    backs += uint32_t(__builtin_popcount(back));
-    backsTwoSided += uint32_t(__builtin_popcount(backside & two));
-    escapes += uint32_t(__builtin_popcount(__mmask8(~hit)));
+    const __mmask8 back = backside & ~ph.twoSided;
     const __m256 tfar = ph.tfar;
-    nearest = _mm256_min_ps(nearest, tfar);
     // The lit hits, packed in lane order.
     const __mmask8 take = hit & ~back & litMesh;
     const __m256i offsets = _mm256_add_epi32(_mm256_set1_epi32(int(yBase + 8 * p * n2)), lanes);
@@ -1023,12 +1035,7 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx51
     _mm512_storeu_pd(&acc.sumD2[size_t(8 * f)], sumD2[f]);
     acc.count[size_t(f)] += count[f];
   }
-  alignas(32) float lanesNearest[8];
-  _mm256_store_ps(lanesNearest, nearest);
-  t.nearest = *std::min_element(lanesNearest, lanesNearest + 8);
-  t.backs = backs;
-  t.backsTwoSided = backsTwoSided;
-  t.escapes = escapes;
+  t = finishTally(tally);
   nLit = n;
 }
 PRT_AVX512_END
@@ -1701,7 +1708,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
     for (size_t k = 0; k < lowerHalf.size(); ++k) {
       if (lowerHalf[k].empty()) continue;
       Tracer::LitMesh& m = tracer.litMeshes[k];
-      m.indices = tracer.cornerIndices[k] = scene.meshes[k].indices.data();
+      tracer.cornerIndices[k] = scene.meshes[k].indices.data();
       m.stride = lowerHalf[k].stride;
       m.rows = lowerHalf[k].row(0);
       m.backRows = tracer.twoSided[k] ? lowerHalf[k].row(scene.meshes[k].vertexCount()) : m.rows;
