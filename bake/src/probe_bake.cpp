@@ -426,19 +426,30 @@ void addDirectAvx512(const float* ys, const int32_t* escaped, const uint8_t* lis
   forPairBlocks(n2, [&]<int NB>(int a, int b0) { directPairsAvx512<NB>(ys, escaped, list, packets, n2, a, b0, sums); });
 }
 
-// A lit hit's inputs to g: its corners' rows, its barycentrics b1, b2 (b0 = 1 − b1 − b2) and
-// ρ/π (then a zero).
+// Per instance with lower-order transfer (Tracer::litMeshes): where a lit hit's rows are (its
+// corners: Tracer::cornerIndices).
+struct LitMesh {
+  const uint16_t* rows = nullptr;     // the front sides' rows (HalfRows), stride halves apart
+  const uint16_t* backRows = nullptr;  // the back sides' (the front's where only one side is baked)
+  size_t stride = 0;
+  // One colour (AlbedoLookup::uniform): its rows hold ρ/π · t and its hits' records carry
+  // ρ/π = 1; else ρ/π is looked up per hit.
+  bool uniform = false;
+};
+
+// A lit hit's inputs to g besides ρ/π (StreamRows::rho): its corners' rows and its barycentrics
+// b1, b2 (b0 = 1 − b1 − b2).
 struct LitRecord {
   const uint16_t* t[3];
   float b1, b2;
-  float rho[4];
 };
 
 // Streams traced before their lit hits are summed (a group): the corners of every lit hit are
 // prefetched as its stream is classified, and read after the group's last stream is traced;
-// their rows are prefetched then, and read a whole pass over the group's hits later. A lit hit's
-// data lies at random places in arrays larger than the caches: read at once, each hit waited
-// for two misses in a row (its corners, then their rows).
+// their rows are prefetched then, a few hits ahead (AVX-512: litListedAvx512) or a whole pass
+// over the group's hits ahead (Tracer::sumLit). A lit hit's data lies at random places in arrays
+// larger than the caches: read at once, each hit waited for two misses in a row (its corners,
+// then their rows).
 constexpr int kGroupStreams = 4;
 constexpr int kGroup = kStream * kGroupStreams;
 // Lit hits whose light g is computed, then multiplied in, at a time (g stays in the L1 cache).
@@ -453,14 +464,15 @@ constexpr uint32_t kBackBit = 1u << 31;
 // upper triangle for one stream (n2(n2+1)/2 pairs of 8 lanes); per ray that hit a lit surface,
 // where (its instance, triangle and barycentrics, and the offset of its ray's SH values in ys,
 // with kBackBit on a back side: written eight lanes at a time, so with 8 entries to spare) and
-// what its light reads (LitRecord); and the light of a chunk of them (ρ/π · t(h), padded(3·n2)
-// floats: n2 RGB triples).
+// what its light reads (LitRecord, and its ρ/π); and the light of a chunk of them (ρ/π · t(h),
+// padded(3·n2) floats: n2 RGB triples).
 struct StreamRows {
   int n2 = 0;
   std::vector<float> ys, directSums, gHit;
   std::vector<uint32_t> hitMesh, hitTri, hitYOff;
   std::vector<float> hitU, hitV;
   std::vector<LitRecord> lit;
+  std::vector<float> rho;  // per lit hit, ρ/π and a zero (Tracer::lookUpAlbedo)
   // The group's lit hits whose colour is looked up (AlbedoLookup::atMany): which hit, its
   // instance, triangle and barycentrics, and the colour.
   struct Lookups {
@@ -474,6 +486,7 @@ struct StreamRows {
       for (auto* v : {&hitMesh, &hitTri, &hitYOff}) v->resize(kGroup + 8);
       for (auto* v : {&hitU, &hitV}) v->resize(kGroup + 8);
       lit.resize(kGroup);
+      rho.resize(4 * size_t(kGroup));
       for (auto* v : {&albedo.hit, &albedo.mesh, &albedo.tri}) v->resize(kGroup);
       for (auto* v : {&albedo.b1, &albedo.b2}) v->resize(kGroup);
       albedo.rgb.resize(kGroup);
@@ -523,23 +536,26 @@ void litLightPortable(const uint16_t* t0, const uint16_t* t1, const uint16_t* t2
   }
 }
 
-// litLightPortable of n records, each into a row of ldg floats (3·n2 padded to whole vectors).
-void litLightsPortable(const LitRecord* rec, uint32_t n, float* g, int ldg) {
+// litLightPortable of n records, each into a row of ldg floats (3·n2 padded to whole vectors);
+// record h's ρ/π at rho[4h].
+void litLightsPortable(const LitRecord* rec, const float* rho, uint32_t n, float* g, int ldg) {
   for (uint32_t h = 0; h < n; ++h) {
     const LitRecord& r = rec[h];
-    litLightPortable(r.t[0], r.t[1], r.t[2], 1.0f - r.b1 - r.b2, r.b1, r.b2, glm::vec3(r.rho[0], r.rho[1], r.rho[2]),
-                     ldg, g + size_t(h) * ldg);
+    const float* rh = rho + 4 * size_t(h);
+    litLightPortable(r.t[0], r.t[1], r.t[2], 1.0f - r.b1 - r.b2, r.b1, r.b2, glm::vec3(rh[0], rh[1], rh[2]), ldg,
+                     g + size_t(h) * ldg);
   }
 }
 
 // The same with F16C, as one call.
-__attribute__((target("avx2,f16c,fma"))) void litLightsF16c(const LitRecord* rec, uint32_t n, float* g, int ldg) {
+__attribute__((target("avx2,f16c,fma"))) void litLightsF16c(const LitRecord* rec, const float* rhos, uint32_t n,
+                                                           float* g, int ldg) {
   // ρ's channels in the lanes of vectors k % 3 = 0, 1, 2 (lane i of vector k is channel (8k + i) % 3).
   const __m256i order[3] = {_mm256_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1), _mm256_setr_epi32(2, 0, 1, 2, 0, 1, 2, 0),
                             _mm256_setr_epi32(1, 2, 0, 1, 2, 0, 1, 2)};
   for (uint32_t h = 0; h < n; ++h) {
     const LitRecord& r = rec[h];
-    const __m256 rho = _mm256_castps128_ps256(_mm_loadu_ps(r.rho));
+    const __m256 rho = _mm256_castps128_ps256(_mm_loadu_ps(rhos + 4 * size_t(h)));
     const __m256 rp[3] = {_mm256_permutevar8x32_ps(rho, order[0]), _mm256_permutevar8x32_ps(rho, order[1]),
                           _mm256_permutevar8x32_ps(rho, order[2])};
     const __m256 w0 = _mm256_set1_ps(1.0f - r.b1 - r.b2), w1 = _mm256_set1_ps(r.b1), w2 = _mm256_set1_ps(r.b2);
@@ -554,20 +570,50 @@ __attribute__((target("avx2,f16c,fma"))) void litLightsF16c(const LitRecord* rec
   }
 }
 
-// litLightsF16c, then addProducts, of n records in one pass with AVX-512, for R = n2 ≤ 9
-// (3·n2 ≤ 32 columns: V vectors of 16 floats; rows of 32 halves): each hit's light g is computed
-// in registers, and the R × V sums over the records stay in registers. The same operations
-// per element in the same order (litLightsF16c's multiply, two fused multiply-adds and the
-// multiply by ρ/π, then one fused multiply-add per hit into sums from zero, added to c at the
-// end), so the same bits. Rho = false leaves out the multiply by ρ/π, for records whose ρ/π is
-// 1 (x · 1 is x): the same bits again.
+// A group's lit hits as the classification listed them (StreamRows), and where their rows are.
+struct LitHits {
+  const uint32_t *mesh, *tri, *yOff;  // yOff with kBackBit on a back side
+  const float *b1, *b2;
+  const float* rho;  // 4 floats a hit (ρ/π, then a zero: StreamRows::rho), read only where one was looked up
+  const LitMesh* meshes;
+  const uint32_t* const* corners;
+  const float* y;
+  uint32_t count;
+  // Hit h's corner rows.
+  void rowsOf(uint32_t h, const uint16_t** t) const {
+    const LitMesh& m = meshes[mesh[h]];
+    const uint32_t* ix = corners[mesh[h]] + 3 * size_t(tri[h]);
+    const uint16_t* base = (yOff[h] & kBackBit) ? m.backRows : m.rows;
+    t[0] = base + ix[0] * m.stride;
+    t[1] = base + ix[1] * m.stride;
+    t[2] = base + ix[2] * m.stride;
+  }
+  void prefetchRows(uint32_t h) const {
+    const uint16_t* t[3];
+    rowsOf(h, t);
+    for (const uint16_t* row : t) __builtin_prefetch(row);  // a row is one line up to 3 bands
+  }
+};
+// How many hits ahead of the one multiplied in litListedAvx512 prefetches rows: 4, 8 and 16
+// measured alike; none, or the corner indices prefetched again 16 hits ahead, slower.
+constexpr uint32_t kRowsAhead = 8;
+
+// M += Σ y gᵀ over hits h0 … h0 + n − 1 of the lists, for R = n2 ≤ 9 (3·n2 ≤ 32 columns: V
+// vectors of 16 floats; rows of 32 halves), straight from the classification's lists: each hit's
+// rows are found as it is multiplied in (their corner indices were prefetched as it was
+// classified), and the rows of the hit kRowsAhead further on are prefetched. Its light g is
+// computed in registers, and the R × V sums over the hits stay in registers. The same operations
+// per element in the same order as litLightsF16c then addProducts (a multiply, two fused
+// multiply-adds and the multiply by ρ/π, then one fused multiply-add per hit into sums from zero,
+// added to c at the end), so the same bits. Rho = false leaves out the multiply by ρ/π, where
+// every hit's is 1 (x · 1 is x): the same bits again. (A first pass that wrote each hit's row
+// pointers into a record, the rows prefetched there, then this loop over the records, spent
+// about a third more time on the lit hits: session 25, docs/bake.md.)
 PRT_AVX512_BEGIN
 template <int R, bool Rho>
-__attribute__((target("avx512f"))) void litProductsAvx512(const LitRecord* rec, const uint32_t* yOff, const float* y,
-                                                      uint32_t n, double* c) {
+__attribute__((target("avx512f"))) void litListedAvx512(const LitHits& in, uint32_t h0, uint32_t n, double* c) {
   constexpr int V = (3 * R + 15) / 16, cols = 3 * R;
   constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;  // explicit: never contracted into FMAs
-  // ρ's channels in the lanes of vector v (lane i is channel (16v + i) % 3).
   const __m512i order[2] = {_mm512_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0),
                             _mm512_setr_epi32(1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1)};
   __m512 s[R][V];
@@ -575,20 +621,23 @@ __attribute__((target("avx512f"))) void litProductsAvx512(const LitRecord* rec, 
   for (int a = 0; a < R; ++a)
 #pragma GCC unroll 2
     for (int v = 0; v < V; ++v) s[a][v] = _mm512_setzero_ps();
-  for (uint32_t h = 0; h < n; ++h) {
-    const LitRecord& r = rec[h];
-    const __m512 rho = _mm512_castps128_ps512(_mm_loadu_ps(r.rho));
-    const __m512 w0 = _mm512_set1_ps(1.0f - r.b1 - r.b2), w1 = _mm512_set1_ps(r.b1), w2 = _mm512_set1_ps(r.b2);
+  for (uint32_t h = h0; h < h0 + n; ++h) {
+    if (h + kRowsAhead < in.count) in.prefetchRows(h + kRowsAhead);
+    const uint16_t* t[3];
+    in.rowsOf(h, t);
+    const float b1 = in.b1[h], b2 = in.b2[h];
+    const __m512 w0 = _mm512_set1_ps(1.0f - b1 - b2), w1 = _mm512_set1_ps(b1), w2 = _mm512_set1_ps(b2);
+    const __m512 rho = Rho ? _mm512_castps128_ps512(_mm_loadu_ps(in.rho + 4 * size_t(h))) : _mm512_setzero_ps();
     __m512 g[V];
 #pragma GCC unroll 2
     for (int v = 0; v < V; ++v) {
-      const __m512 f0 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(r.t[0]) + v));
-      const __m512 f1 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(r.t[1]) + v));
-      const __m512 f2 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(r.t[2]) + v));
+      const __m512 f0 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(t[0]) + v));
+      const __m512 f1 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(t[1]) + v));
+      const __m512 f2 = _mm512_cvtph_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(t[2]) + v));
       const __m512 sum = _mm512_fmadd_ps(w2, f2, _mm512_fmadd_ps(w1, f1, _mm512_mul_round_ps(w0, f0, kRound)));
       g[v] = Rho ? _mm512_mul_round_ps(_mm512_permutexvar_ps(order[v], rho), sum, kRound) : sum;
     }
-    const float* yh = y + yOff[h];
+    const float* yh = in.y + (in.yOff[h] & ~kBackBit);
 #pragma GCC unroll 16
     for (int a = 0; a < R; ++a) {
       const __m512 ya = _mm512_set1_ps(yh[size_t(a) * 8]);
@@ -667,18 +716,11 @@ struct Tracer {
   std::vector<uint32_t> meshFlags;  // 32-bit: classifyAvx512 gathers them
   // Per Scene::meshes entry with lower-order transfer: where a lit hit's rows are (its corners:
   // cornerIndices).
-  struct LitMesh {
-    const uint16_t* rows = nullptr;     // the front sides' rows (HalfRows), stride halves apart
-    const uint16_t* backRows = nullptr;  // the back sides' (the front's where only one side is baked)
-    size_t stride = 0;
-    // One colour (AlbedoLookup::uniform): its rows hold ρ/π · t and its hits' records carry
-    // ρ/π = 1; else ρ/π is looked up per hit.
-    bool uniform = false;
-  };
   std::vector<LitMesh> litMeshes;
   // Per Scene::meshes entry: its triangles' corners, 3 per triangle, where it sends light; else null.
   // An array of their own, which classifyAvx512 reads.
   std::vector<const uint32_t*> cornerIndices;
+  bool allLitUniform = true;  // every instance in litMeshes has one colour: no ρ/π is looked up
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
 
   void intersect8(RayPacket8* p, size_t n) const { inEmbree.time([&] { rays.intersect8(p, n); }); }
@@ -842,13 +884,60 @@ struct Tracer {
     return true;
   }
 
-  // M += Σ y gᵀ over a group's lit hits, g = ρ/π · t(h). A first pass reads each hit's corners
-  // (prefetched as its stream was classified) into a record and prefetches their rows; a second,
-  // chunk by chunk, computes g from the rows, which have arrived by then, and multiplies it in.
+  // ρ/π of each of a group's lit hits into rows.rho: looked up (eight at a time where AVX-512 is)
+  // on textured or vertex-coloured instances, 1 on an instance of one colour (its rows hold ρ/π · t
+  // already). Returns how many were looked up.
+  uint32_t lookUpAlbedo(StreamRows& rows, uint32_t hits) const {
+    StreamRows::Lookups& a = rows.albedo;
+    uint32_t n = 0;
+    for (uint32_t h = 0; h < hits; ++h) {
+      const uint32_t mesh = rows.hitMesh[h];
+      static constexpr float kInTheRows[4] = {1.0f, 1.0f, 1.0f, 0.0f};  // ρ/π, then a zero
+      std::memcpy(&rows.rho[4 * size_t(h)], kInTheRows, sizeof kInTheRows);
+      if (litMeshes[mesh].uniform) continue;
+      a.hit[n] = h, a.mesh[n] = mesh, a.tri[n] = rows.hitTri[h], a.b1[n] = rows.hitU[h], a.b2[n] = rows.hitV[h];
+      ++n;
+    }
+    albedo.atMany(a.mesh.data(), a.tri.data(), a.b1.data(), a.b2.data(), n, a.rgb.data());
+    for (uint32_t k = 0; k < n; ++k) {
+      const glm::vec3 rho = a.rgb[k] * float(1.0 / M_PI);
+      float* r = &rows.rho[4 * size_t(a.hit[k])];
+      r[0] = rho.r, r[1] = rho.g, r[2] = rho.b, r[3] = 0.0f;
+    }
+    return n;
+  }
+
+  // M += Σ y gᵀ over a group's lit hits, g = ρ/π · t(h), chunk by chunk (kChunk hits summed in
+  // float, then added to M). With AVX-512 up to 3 bands (rows of 32 halves: HalfRows pads
+  // 3·n2 ≤ 27 to one line), one pass over the classification's lists (litListedAvx512). Else a
+  // first pass reads each hit's corners into a record and prefetches their rows, and a second
+  // computes g from the rows, which have arrived by then, and multiplies it in.
   void sumLit(StreamRows& rows, uint32_t hits, double* indirect) const {
     const int n2 = rows.n2, ldg = padded(3 * n2);
-    StreamRows::Lookups& a = rows.albedo;  // the hits whose colour is looked up
-    uint32_t nAlbedo = 0;
+    if (useAvx512Kernels() && n2 <= 9) {
+      // Without a hit on a textured or vertex-coloured instance, every ρ/π is 1 and goes unread.
+      const uint32_t looked = allLitUniform ? 0 : lookUpAlbedo(rows, hits);
+      const LitHits in{rows.hitMesh.data(), rows.hitTri.data(), rows.hitYOff.data(), rows.hitU.data(),
+                       rows.hitV.data(),    rows.rho.data(),    litMeshes.data(),     cornerIndices.data(),
+                       rows.ys.data(),      hits};
+      for (uint32_t h = 0; h < std::min(hits, kRowsAhead); ++h) in.prefetchRows(h);
+      for (uint32_t h0 = 0; h0 < hits; h0 += kChunk) {
+        const uint32_t k = std::min<uint32_t>(kChunk, hits - h0);
+        auto products = [&]<bool Rho>() {
+          switch (n2) {
+            case 1: return litListedAvx512<1, Rho>(in, h0, k, indirect);
+            case 4: return litListedAvx512<4, Rho>(in, h0, k, indirect);
+            default: return litListedAvx512<9, Rho>(in, h0, k, indirect);
+          }
+        };
+        if (looked)
+          products.template operator()<true>();
+        else
+          products.template operator()<false>();
+      }
+      return;
+    }
+    lookUpAlbedo(rows, hits);
     for (uint32_t h = 0; h < hits; ++h) {
       const uint32_t mesh = rows.hitMesh[h], tri = rows.hitTri[h], yOff = rows.hitYOff[h];
       const LitMesh& m = litMeshes[mesh];
@@ -865,44 +954,14 @@ struct Tracer {
       r.b1 = rows.hitU[h];
       r.b2 = rows.hitV[h];
       rows.hitYOff[h] = yOff & ~kBackBit;  // read: from here the products' offsets
-      if (m.uniform) {
-        static constexpr float kInTheRows[4] = {1.0f, 1.0f, 1.0f, 0.0f};  // ρ/π, then a zero
-        std::memcpy(r.rho, kInTheRows, sizeof r.rho);
-        continue;
-      }
-      a.hit[nAlbedo] = h, a.mesh[nAlbedo] = mesh, a.tri[nAlbedo] = tri, a.b1[nAlbedo] = r.b1, a.b2[nAlbedo] = r.b2;
-      ++nAlbedo;
-    }
-    // The hits on textured or vertex-coloured instances, eight at a time where AVX-512 is.
-    albedo.atMany(a.mesh.data(), a.tri.data(), a.b1.data(), a.b2.data(), nAlbedo, a.rgb.data());
-    for (uint32_t k = 0; k < nAlbedo; ++k) {
-      const glm::vec3 rho = a.rgb[k] * float(1.0 / M_PI);
-      LitRecord& r = rows.lit[a.hit[k]];
-      r.rho[0] = rho.r, r.rho[1] = rho.g, r.rho[2] = rho.b, r.rho[3] = 0.0f;
     }
     for (uint32_t h0 = 0; h0 < hits; h0 += kChunk) {
       const uint32_t k = std::min<uint32_t>(kChunk, hits - h0);
-      if (useAvx512Kernels() && n2 <= 9) {  // rows of 32 halves: HalfRows pads 3·n2 ≤ 27 to one line
-        const LitRecord* rec = rows.lit.data() + h0;
-        const uint32_t* yo = rows.hitYOff.data() + h0;
-        auto products = [&]<bool Rho>() {
-          switch (n2) {
-            case 1: return litProductsAvx512<1, Rho>(rec, yo, rows.ys.data(), k, indirect);
-            case 4: return litProductsAvx512<4, Rho>(rec, yo, rows.ys.data(), k, indirect);
-            default: return litProductsAvx512<9, Rho>(rec, yo, rows.ys.data(), k, indirect);
-          }
-        };
-        // Without a hit on a textured or vertex-coloured instance, every record's ρ/π is 1.
-        if (nAlbedo)
-          products.template operator()<true>();
-        else
-          products.template operator()<false>();
-        continue;
-      }
+      const float* rho = rows.rho.data() + 4 * size_t(h0);
       if (useVectorKernels())
-        litLightsF16c(rows.lit.data() + h0, k, rows.gHit.data(), ldg);
+        litLightsF16c(rows.lit.data() + h0, rho, k, rows.gHit.data(), ldg);
       else
-        litLightsPortable(rows.lit.data() + h0, k, rows.gHit.data(), ldg);
+        litLightsPortable(rows.lit.data() + h0, rho, k, rows.gHit.data(), ldg);
       addProducts(rows.ys.data(), rows.hitYOff.data() + h0, rows.gHit.data(), ldg, int(k), n2, 3 * n2, indirect, 3 * n2);
     }
   }
@@ -1707,12 +1766,13 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
     tracer.cornerIndices.assign(scene.meshes.size(), nullptr);
     for (size_t k = 0; k < lowerHalf.size(); ++k) {
       if (lowerHalf[k].empty()) continue;
-      Tracer::LitMesh& m = tracer.litMeshes[k];
+      LitMesh& m = tracer.litMeshes[k];
       tracer.cornerIndices[k] = scene.meshes[k].indices.data();
       m.stride = lowerHalf[k].stride;
       m.rows = lowerHalf[k].row(0);
       m.backRows = tracer.twoSided[k] ? lowerHalf[k].row(scene.meshes[k].vertexCount()) : m.rows;
       m.uniform = albedo.uniform[k];
+      tracer.allLitUniform = tracer.allLitUniform && m.uniform;
     }
     setMeshFlags(tracer);
     const ProbeBaker baker(tracer, grid, settings);
