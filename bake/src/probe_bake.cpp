@@ -432,8 +432,8 @@ struct LitMesh {
   const uint16_t* rows = nullptr;     // the front sides' rows (HalfRows), stride halves apart
   const uint16_t* backRows = nullptr;  // the back sides' (the front's where only one side is baked)
   size_t stride = 0;
-  // One colour (AlbedoLookup::uniform): its rows hold ρ/π · t and its hits' records carry
-  // ρ/π = 1; else ρ/π is looked up per hit.
+  // One colour (AlbedoLookup::uniform): its rows hold ρ/π · t and its hits' ρ/π is 1
+  // (StreamRows::rho); else ρ/π is looked up per hit.
   bool uniform = false;
 };
 
@@ -608,12 +608,13 @@ constexpr uint32_t kRowsAhead = 8;
 // added to c at the end), so the same bits. Rho = false leaves out the multiply by ρ/π, where
 // every hit's is 1 (x · 1 is x): the same bits again. (A first pass that wrote each hit's row
 // pointers into a record, the rows prefetched there, then this loop over the records, spent
-// about a third more time on the lit hits: session 25, docs/bake.md.)
+// about a quarter more time on the lit hits: session 25, docs/bake.md.)
 PRT_AVX512_BEGIN
 template <int R, bool Rho>
 __attribute__((target("avx512f"))) void litListedAvx512(const LitHits& in, uint32_t h0, uint32_t n, double* c) {
   constexpr int V = (3 * R + 15) / 16, cols = 3 * R;
   constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;  // explicit: never contracted into FMAs
+  // ρ's channels in the lanes of vector v (lane i is channel (16v + i) % 3).
   const __m512i order[2] = {_mm512_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0),
                             _mm512_setr_epi32(1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1)};
   __m512 s[R][V];
