@@ -437,19 +437,11 @@ struct LitMesh {
   bool uniform = false;
 };
 
-// A lit hit's inputs to g besides ρ/π (StreamRows::rho): its corners' rows and its barycentrics
-// b1, b2 (b0 = 1 − b1 − b2).
-struct LitRecord {
-  const uint16_t* t[3];
-  float b1, b2;
-};
-
 // Streams traced before their lit hits are summed (a group): the corners of every lit hit are
 // prefetched as its stream is classified, and read after the group's last stream is traced;
-// their rows are prefetched then, a few hits ahead (AVX-512: litListedAvx512) or a whole pass
-// over the group's hits ahead (Tracer::sumLit). A lit hit's data lies at random places in arrays
-// larger than the caches: read at once, each hit waited for two misses in a row (its corners,
-// then their rows).
+// their rows are prefetched then, a few hits ahead of the one whose light is computed
+// (Tracer::sumLit). A lit hit's data lies at random places in arrays larger than the caches: read
+// at once, each hit waited for two misses in a row (its corners, then their rows).
 constexpr int kGroupStreams = 4;
 constexpr int kGroup = kStream * kGroupStreams;
 // Lit hits whose light g is computed, then multiplied in, at a time (g stays in the L1 cache).
@@ -464,14 +456,12 @@ constexpr uint32_t kBackBit = 1u << 31;
 // upper triangle for one stream (n2(n2+1)/2 pairs of 8 lanes); per ray that hit a lit surface,
 // where (its instance, triangle and barycentrics, and the offset of its ray's SH values in ys,
 // with kBackBit on a back side: written eight lanes at a time, so with 8 entries to spare) and
-// what its light reads (LitRecord, and its ρ/π); and the light of a chunk of them (ρ/π · t(h),
-// padded(3·n2) floats: n2 RGB triples).
+// its ρ/π; and the light of a chunk of them (ρ/π · t(h), padded(3·n2) floats: n2 RGB triples).
 struct StreamRows {
   int n2 = 0;
   std::vector<float> ys, directSums, gHit;
   std::vector<uint32_t> hitMesh, hitTri, hitYOff;
   std::vector<float> hitU, hitV;
-  std::vector<LitRecord> lit;
   std::vector<float> rho;  // per lit hit, ρ/π and a zero (Tracer::lookUpAlbedo)
   // The group's lit hits whose colour is looked up (AlbedoLookup::atMany): which hit, its
   // instance, triangle and barycentrics, and the colour.
@@ -485,7 +475,6 @@ struct StreamRows {
       n2 = bands * bands;
       for (auto* v : {&hitMesh, &hitTri, &hitYOff}) v->resize(kGroup + 8);
       for (auto* v : {&hitU, &hitV}) v->resize(kGroup + 8);
-      lit.resize(kGroup);
       rho.resize(4 * size_t(kGroup));
       for (auto* v : {&albedo.hit, &albedo.mesh, &albedo.tri}) v->resize(kGroup);
       for (auto* v : {&albedo.b1, &albedo.b2}) v->resize(kGroup);
@@ -521,60 +510,11 @@ struct ProbeAccum {
   std::array<uint32_t, 6> count{};
 };
 
-// The light a lit hit sends, g = ρ/π · (b0 t0 + b1 t1 + b2 t2), from its corners' transfer rows
-// as halves (HalfRows: one 64-byte line a corner at 3 bands, where the floats took two: the
-// reads of the rows are most of what a lit hit costs). g's `lanes` floats (3·n2 padded to
-// whole 8-float vectors; the rows' padding is zero, so g's is too). The weighted sum is
-// b2 t2 + (b1 t1 + b0 t0) in two fused multiply-adds, then one multiply by ρ/π, which is 1 for
-// an instance of one colour (its rows hold ρ/π · t already: Tracer::LitMesh). Without F16C the
-// same operations lane by lane (std::fma; lane i is RGB channel i % 3), so both give the same bits.
-void litLightPortable(const uint16_t* t0, const uint16_t* t1, const uint16_t* t2, float b0, float b1, float b2,
-                      const glm::vec3& rho, int lanes, float* g) {
-  for (int i = 0; i < lanes; ++i) {
-    const float s = std::fma(b2, floatFromHalf(t2[i]), std::fma(b1, floatFromHalf(t1[i]), b0 * floatFromHalf(t0[i])));
-    g[i] = rho[i % 3] * s;
-  }
-}
-
-// litLightPortable of n records, each into a row of ldg floats (3·n2 padded to whole vectors);
-// record h's ρ/π at rho[4h].
-void litLightsPortable(const LitRecord* rec, const float* rho, uint32_t n, float* g, int ldg) {
-  for (uint32_t h = 0; h < n; ++h) {
-    const LitRecord& r = rec[h];
-    const float* rh = rho + 4 * size_t(h);
-    litLightPortable(r.t[0], r.t[1], r.t[2], 1.0f - r.b1 - r.b2, r.b1, r.b2, glm::vec3(rh[0], rh[1], rh[2]), ldg,
-                     g + size_t(h) * ldg);
-  }
-}
-
-// The same with F16C, as one call.
-__attribute__((target("avx2,f16c,fma"))) void litLightsF16c(const LitRecord* rec, const float* rhos, uint32_t n,
-                                                           float* g, int ldg) {
-  // ρ's channels in the lanes of vectors k % 3 = 0, 1, 2 (lane i of vector k is channel (8k + i) % 3).
-  const __m256i order[3] = {_mm256_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1), _mm256_setr_epi32(2, 0, 1, 2, 0, 1, 2, 0),
-                            _mm256_setr_epi32(1, 2, 0, 1, 2, 0, 1, 2)};
-  for (uint32_t h = 0; h < n; ++h) {
-    const LitRecord& r = rec[h];
-    const __m256 rho = _mm256_castps128_ps256(_mm_loadu_ps(rhos + 4 * size_t(h)));
-    const __m256 rp[3] = {_mm256_permutevar8x32_ps(rho, order[0]), _mm256_permutevar8x32_ps(rho, order[1]),
-                          _mm256_permutevar8x32_ps(rho, order[2])};
-    const __m256 w0 = _mm256_set1_ps(1.0f - r.b1 - r.b2), w1 = _mm256_set1_ps(r.b1), w2 = _mm256_set1_ps(r.b2);
-    float* out = g + size_t(h) * ldg;
-    for (int k = 0; k < ldg / 8; ++k) {
-      const __m256 f0 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[0]) + k));
-      const __m256 f1 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[1]) + k));
-      const __m256 f2 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(r.t[2]) + k));
-      const __m256 sum = _mm256_fmadd_ps(w2, f2, _mm256_fmadd_ps(w1, f1, _mm256_mul_ps(w0, f0)));
-      _mm256_storeu_ps(out + 8 * k, _mm256_mul_ps(rp[k % 3], sum));
-    }
-  }
-}
-
 // A group's lit hits as the classification listed them (StreamRows), and where their rows are.
 struct LitHits {
   const uint32_t *mesh, *tri, *yOff;  // yOff with kBackBit on a back side
   const float *b1, *b2;
-  const float* rho;  // 4 floats a hit (ρ/π, then a zero: StreamRows::rho), read only where one was looked up
+  const float* rho;  // 4 floats a hit (ρ/π, then a zero: StreamRows::rho; with AVX-512 read only where one was looked up)
   const LitMesh* meshes;
   const uint32_t* const* corners;
   const float* y;
@@ -591,12 +531,68 @@ struct LitHits {
   void prefetchRows(uint32_t h) const {
     const uint16_t* t[3];
     rowsOf(h, t);
-    for (const uint16_t* row : t) __builtin_prefetch(row);  // a row is one line up to 3 bands
+    const size_t bytes = meshes[mesh[h]].stride * sizeof(uint16_t);  // one line up to 3 bands
+    for (const uint16_t* row : t)
+      for (size_t o = 0; o < bytes; o += 64) __builtin_prefetch(reinterpret_cast<const char*>(row) + o);
   }
 };
-// How many hits ahead of the one multiplied in litListedAvx512 prefetches rows: 4, 8 and 16
-// measured alike; none, or the corner indices prefetched again 16 hits ahead, slower.
+// How many hits ahead of the one whose light is computed the rows are prefetched: with AVX-512,
+// 4, 8 and 16 measured alike; none, or the corner indices prefetched again 16 hits ahead, slower.
 constexpr uint32_t kRowsAhead = 8;
+
+// The light a lit hit sends, g = ρ/π · (b0 t0 + b1 t1 + b2 t2), from its corners' transfer rows
+// as halves (HalfRows: one 64-byte line a corner at 3 bands, where the floats took two: the
+// reads of the rows are most of what a lit hit costs). g's `lanes` floats (3·n2 padded to
+// whole 8-float vectors; the rows' padding is zero, so g's is too). The weighted sum is
+// b2 t2 + (b1 t1 + b0 t0) in two fused multiply-adds, then one multiply by ρ/π, which is 1 for
+// an instance of one colour (its rows hold ρ/π · t already: Tracer::LitMesh). Without F16C the
+// same operations lane by lane (std::fma; lane i is RGB channel i % 3), so both give the same bits.
+void litLightPortable(const uint16_t* t0, const uint16_t* t1, const uint16_t* t2, float b0, float b1, float b2,
+                      const glm::vec3& rho, int lanes, float* g) {
+  for (int i = 0; i < lanes; ++i) {
+    const float s = std::fma(b2, floatFromHalf(t2[i]), std::fma(b1, floatFromHalf(t1[i]), b0 * floatFromHalf(t0[i])));
+    g[i] = rho[i % 3] * s;
+  }
+}
+
+// litLightPortable of hits h0 … h0 + n − 1 of the lists, each into a row of ldg floats (3·n2
+// padded to whole vectors).
+void litLightsPortable(const LitHits& in, uint32_t h0, uint32_t n, float* g, int ldg) {
+  for (uint32_t h = h0; h < h0 + n; ++h) {
+    const uint16_t* t[3];
+    in.rowsOf(h, t);
+    const float b1 = in.b1[h], b2 = in.b2[h], *rho = in.rho + 4 * size_t(h);
+    litLightPortable(t[0], t[1], t[2], 1.0f - b1 - b2, b1, b2, glm::vec3(rho[0], rho[1], rho[2]), ldg,
+                     g + size_t(h - h0) * ldg);
+  }
+}
+
+// The same with F16C, as one call, the rows of the hit kRowsAhead further on prefetched.
+__attribute__((target("avx2,f16c,fma"))) void litLightsF16c(const LitHits& in, uint32_t h0, uint32_t n, float* g,
+                                                           int ldg) {
+  // ρ's channels in the lanes of vectors k % 3 = 0, 1, 2 (lane i of vector k is channel (8k + i) % 3).
+  const __m256i order[3] = {_mm256_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1), _mm256_setr_epi32(2, 0, 1, 2, 0, 1, 2, 0),
+                            _mm256_setr_epi32(1, 2, 0, 1, 2, 0, 1, 2)};
+  for (uint32_t h = h0; h < h0 + n; ++h) {
+    if (h + kRowsAhead < in.count) in.prefetchRows(h + kRowsAhead);
+    const uint16_t* t[3];
+    in.rowsOf(h, t);
+    const float b1 = in.b1[h], b2 = in.b2[h];
+    const __m256 rho = _mm256_castps128_ps256(_mm_loadu_ps(in.rho + 4 * size_t(h)));
+    const __m256 rp[3] = {_mm256_permutevar8x32_ps(rho, order[0]), _mm256_permutevar8x32_ps(rho, order[1]),
+                          _mm256_permutevar8x32_ps(rho, order[2])};
+    const __m256 w0 = _mm256_set1_ps(1.0f - b1 - b2), w1 = _mm256_set1_ps(b1), w2 = _mm256_set1_ps(b2);
+    float* out = g + size_t(h - h0) * ldg;
+    for (int k = 0; k < ldg / 8; ++k) {
+      const __m256 f0 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t[0]) + k));
+      const __m256 f1 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t[1]) + k));
+      const __m256 f2 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t[2]) + k));
+      const __m256 sum = _mm256_fmadd_ps(w2, f2, _mm256_fmadd_ps(w1, f1, _mm256_mul_ps(w0, f0)));
+      _mm256_storeu_ps(out + 8 * k, _mm256_mul_ps(rp[k % 3], sum));
+    }
+  }
+}
+
 
 // M += Σ y gᵀ over hits h0 … h0 + n − 1 of the lists, for R = n2 ≤ 9 (3·n2 ≤ 32 columns: V
 // vectors of 16 floats; rows of 32 halves), straight from the classification's lists: each hit's
@@ -909,21 +905,23 @@ struct Tracer {
   }
 
   // M += Σ y gᵀ over a group's lit hits, g = ρ/π · t(h), chunk by chunk (kChunk hits summed in
-  // float, then added to M). With AVX-512 up to 3 bands (rows of 32 halves: HalfRows pads
-  // 3·n2 ≤ 27 to one line), one pass over the classification's lists (litListedAvx512). Else a
-  // first pass reads each hit's corners into a record and prefetches their rows, and a second
-  // computes g from the rows, which have arrived by then, and multiplies it in.
+  // float, then added to M), reading the hits from the classification's lists and prefetching
+  // their rows a few hits ahead. With AVX-512 up to 3 bands (rows of 32 halves: HalfRows pads
+  // 3·n2 ≤ 27 to one line), g and its products in registers (litListedAvx512); else g of a chunk
+  // into rows.gHit, then its products (addProducts).
   void sumLit(StreamRows& rows, uint32_t hits, double* indirect) const {
     const int n2 = rows.n2, ldg = padded(3 * n2);
-    if (useAvx512Kernels() && n2 <= 9) {
-      // Without a hit on a textured or vertex-coloured instance, every ρ/π is 1 and goes unread.
-      const uint32_t looked = allLitUniform ? 0 : lookUpAlbedo(rows, hits);
-      const LitHits in{rows.hitMesh.data(), rows.hitTri.data(), rows.hitYOff.data(), rows.hitU.data(),
-                       rows.hitV.data(),    rows.rho.data(),    litMeshes.data(),     cornerIndices.data(),
-                       rows.ys.data(),      hits};
-      for (uint32_t h = 0; h < std::min(hits, kRowsAhead); ++h) in.prefetchRows(h);
-      for (uint32_t h0 = 0; h0 < hits; h0 += kChunk) {
-        const uint32_t k = std::min<uint32_t>(kChunk, hits - h0);
+    const bool avx512 = useAvx512Kernels() && n2 <= 9;
+    // With AVX-512, without a hit on a textured or vertex-coloured instance, every ρ/π is 1 and
+    // goes unread; the other paths multiply by it.
+    const uint32_t looked = avx512 && allLitUniform ? 0 : lookUpAlbedo(rows, hits);
+    const LitHits in{rows.hitMesh.data(), rows.hitTri.data(), rows.hitYOff.data(), rows.hitU.data(),
+                     rows.hitV.data(),    rows.rho.data(),    litMeshes.data(),     cornerIndices.data(),
+                     rows.ys.data(),      hits};
+    for (uint32_t h = 0; h < std::min(hits, kRowsAhead); ++h) in.prefetchRows(h);
+    for (uint32_t h0 = 0; h0 < hits; h0 += kChunk) {
+      const uint32_t k = std::min<uint32_t>(kChunk, hits - h0);
+      if (avx512) {
         auto products = [&]<bool Rho>() {
           switch (n2) {
             case 1: return litListedAvx512<1, Rho>(in, h0, k, indirect);
@@ -935,35 +933,15 @@ struct Tracer {
           products.template operator()<true>();
         else
           products.template operator()<false>();
+        continue;
       }
-      return;
-    }
-    lookUpAlbedo(rows, hits);
-    for (uint32_t h = 0; h < hits; ++h) {
-      const uint32_t mesh = rows.hitMesh[h], tri = rows.hitTri[h], yOff = rows.hitYOff[h];
-      const LitMesh& m = litMeshes[mesh];
-      const uint32_t* ix = cornerIndices[mesh] + 3 * size_t(tri);
-      const uint16_t* t = (yOff & kBackBit) ? m.backRows : m.rows;
-      LitRecord& r = rows.lit[h];
-      r.t[0] = t + ix[0] * m.stride;
-      r.t[1] = t + ix[1] * m.stride;
-      r.t[2] = t + ix[2] * m.stride;
-      for (int c = 0; c < 3; ++c) __builtin_prefetch(r.t[c]);  // a row's first line; up to 3 bands its only one
-      const size_t rowBytes = m.stride * sizeof(uint16_t);
-      for (int c = 0; rowBytes > 64 && c < 3; ++c)
-        for (size_t o = 64; o < rowBytes; o += 64) __builtin_prefetch(reinterpret_cast<const char*>(r.t[c]) + o);
-      r.b1 = rows.hitU[h];
-      r.b2 = rows.hitV[h];
-      rows.hitYOff[h] = yOff & ~kBackBit;  // read: from here the products' offsets
-    }
-    for (uint32_t h0 = 0; h0 < hits; h0 += kChunk) {
-      const uint32_t k = std::min<uint32_t>(kChunk, hits - h0);
-      const float* rho = rows.rho.data() + 4 * size_t(h0);
       if (useVectorKernels())
-        litLightsF16c(rows.lit.data() + h0, rho, k, rows.gHit.data(), ldg);
+        litLightsF16c(in, h0, k, rows.gHit.data(), ldg);
       else
-        litLightsPortable(rows.lit.data() + h0, rho, k, rows.gHit.data(), ldg);
-      addProducts(rows.ys.data(), rows.hitYOff.data() + h0, rows.gHit.data(), ldg, int(k), n2, 3 * n2, indirect, 3 * n2);
+        litLightsPortable(in, h0, k, rows.gHit.data(), ldg);
+      uint32_t* yOff = rows.hitYOff.data() + h0;  // read: from here the products' offsets
+      for (uint32_t h = 0; h < k; ++h) yOff[h] &= ~kBackBit;
+      addProducts(rows.ys.data(), yOff, rows.gHit.data(), ldg, int(k), n2, 3 * n2, indirect, 3 * n2);
     }
   }
 };
