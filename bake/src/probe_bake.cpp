@@ -682,6 +682,27 @@ struct StreamTally {
   float nearest;
 };
 
+// For each 8-bit mask, the indices of its set lanes in order (the rest 0): the permutation that
+// packs a packet's chosen lanes to its front, as AVX-512's compress does.
+struct PackingTable {
+  alignas(32) uint32_t lanes[256][8];
+  constexpr PackingTable() : lanes{} {
+    for (uint32_t m = 0; m < 256; ++m)
+      for (uint32_t l = 0, k = 0; l < 8; ++l)
+        if (m & (1u << l)) lanes[m][k++] = l;
+  }
+};
+constexpr PackingTable kPacking{};
+
+// The per-ray classification of Tracer::trace (the full set of rays) for `packets` whole packets
+// with AVX2: what a packet hit, its counts and its lit-hit entries eight lanes at once; its
+// moments lane by lane, as the portable loop adds them (so the same bits). The lit hits' corners
+// are left to Tracer::trace to prefetch.
+__attribute__((target("avx2"))) void classifyAvx2(const RayPacket8* batch, uint32_t packets,
+                                                  const uint32_t* meshFlags, uint32_t yBase, uint32_t n2, double cap,
+                                                  StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes,
+                                                  ProbeAccum& acc, StreamTally& t);
+
 // The per-ray classification of Tracer::trace (the full set of rays) for `packets` whole packets,
 // eight lanes at once with AVX-512: the same counts, lit-hit entries in the same order, the same
 // escaped lanes, and the same moments (each face and lane's sums in the same order, the
@@ -781,6 +802,15 @@ struct Tracer {
           classifyAvx512(batch, p0 / 8, meshFlags.data(), cornerIndices.data(), inGroup * uint32_t(n2), uint32_t(n2),
                          cap, rows, nLit, escapedLanes, acc, t);
           litPrefetched = nLit;
+          backs += t.backs;
+          backsTwoSided += t.backsTwoSided;
+          escapes += t.escapes;
+          nearest = std::min(nearest, t.nearest);
+        } else if (vector) {  // the same with AVX2
+          StreamTally t{};
+          p0 = count / 8 * 8;
+          classifyAvx2(batch, p0 / 8, meshFlags.data(), inGroup * uint32_t(n2), uint32_t(n2), cap, rows, nLit,
+                       escapedLanes, acc, t);
           backs += t.backs;
           backsTwoSided += t.backsTwoSided;
           escapes += t.escapes;
@@ -945,6 +975,74 @@ struct Tracer {
     }
   }
 };
+
+// A lane mask's sign bits, lane l at bit l.
+__attribute__((target("avx2"), always_inline)) inline uint32_t laneBits(__m256i m) {
+  return uint32_t(_mm256_movemask_ps(_mm256_castsi256_ps(m)));
+}
+// v's lanes in the order `pack` gives (kPacking), stored at `to` (8 lanes: room to spare).
+__attribute__((target("avx2"), always_inline)) inline void packLanes(void* to, __m256i v, __m256i pack) {
+  _mm256_storeu_si256(static_cast<__m256i*>(to), _mm256_permutevar8x32_epi32(v, pack));
+}
+__attribute__((target("avx2"))) void classifyAvx2(const RayPacket8* batch, uint32_t packets,
+                                                  const uint32_t* meshFlags, uint32_t yBase, uint32_t n2, double cap,
+                                                  StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes,
+                                                  ProbeAccum& acc, StreamTally& t) {
+  const __m256i ones = _mm256_set1_epi32(-1), zero = _mm256_setzero_si256();
+  const __m256i invalid = _mm256_set1_epi32(int(Ray::kInvalid)), lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i twoSidedBit = _mm256_set1_epi32(Tracer::kTwoSided), litBit = _mm256_set1_epi32(Tracer::kLit);
+  const __m256i backBit = _mm256_set1_epi32(int(kBackBit));
+  __m256 nearest = _mm256_set1_ps(std::numeric_limits<float>::infinity());
+  uint32_t n = nLit, backs = 0, backsTwoSided = 0, escapes = 0;
+  for (uint32_t p = 0; p < packets; ++p) {
+    const RayPacket8& r = batch[p];
+    const __m256i mesh = _mm256_load_si256(reinterpret_cast<const __m256i*>(r.mesh));
+    const __m256i hit = _mm256_xor_si256(_mm256_cmpeq_epi32(mesh, invalid), ones);
+    const __m256i flags =
+        _mm256_mask_i32gather_epi32(zero, reinterpret_cast<const int*>(meshFlags), mesh, hit, 4);
+    // Ray::backface: ng · d > 0, as glm::dot: (x·x' + y·y') + z·z', each rounded (no FMA here).
+    const __m256 dot = _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(_mm256_load_ps(r.ngX), _mm256_load_ps(r.dirX)),
+                      _mm256_mul_ps(_mm256_load_ps(r.ngY), _mm256_load_ps(r.dirY))),
+        _mm256_mul_ps(_mm256_load_ps(r.ngZ), _mm256_load_ps(r.dirZ)));
+    const __m256i backside = _mm256_castps_si256(_mm256_cmp_ps(dot, _mm256_setzero_ps(), _CMP_GT_OQ));
+    const __m256i oneSided = _mm256_cmpeq_epi32(_mm256_and_si256(flags, twoSidedBit), zero);
+    const __m256i back = _mm256_and_si256(backside, oneSided);
+    const __m256i litMesh = _mm256_xor_si256(_mm256_cmpeq_epi32(_mm256_and_si256(flags, litBit), zero), ones);
+    const uint32_t hitBits = laneBits(hit), backBits = laneBits(back), backsideBits = laneBits(backside);
+    backs += uint32_t(__builtin_popcount(backBits));
+    backsTwoSided += uint32_t(__builtin_popcount(backsideBits & ~backBits));
+    escapes += uint32_t(__builtin_popcount(~hitBits & 0xffu));
+    nearest = _mm256_min_ps(nearest, _mm256_load_ps(r.tfar));
+    // The lit hits, packed in lane order.
+    const uint32_t take = hitBits & ~backBits & laneBits(litMesh);
+    const __m256i pack = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPacking.lanes[take]));
+    const __m256i offsets = _mm256_add_epi32(_mm256_set1_epi32(int(yBase + 8 * p * n2)), lanes);
+    const __m256i yOff = _mm256_or_si256(offsets, _mm256_and_si256(backside, backBit));
+    packLanes(rows.hitMesh.data() + n, mesh, pack);
+    packLanes(rows.hitTri.data() + n, _mm256_load_si256(reinterpret_cast<const __m256i*>(r.tri)), pack);
+    packLanes(rows.hitU.data() + n, _mm256_castps_si256(_mm256_load_ps(r.u)), pack);
+    packLanes(rows.hitV.data() + n, _mm256_castps_si256(_mm256_load_ps(r.v)), pack);
+    packLanes(rows.hitYOff.data() + n, yOff, pack);
+    n += uint32_t(__builtin_popcount(take));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(escapedLanes + 8 * p), _mm256_xor_si256(hit, ones));
+    // The moments lane by lane, as the portable loop.
+    alignas(32) int32_t faces[8];
+    alignas(32) float axis[8];
+    packetFaces(r, faces, axis);
+    for (int l = 0; l < 8; ++l) {
+      const int face = faces[l];
+      const double d = std::min(double(r.tfar[l]) * double(axis[l]), cap);
+      acc.sumD[size_t(8 * face + l)] += d;
+      acc.sumD2[size_t(8 * face + l)] += d * d;
+      ++acc.count[size_t(face)];
+    }
+  }
+  alignas(32) float lanesNearest[8];
+  _mm256_store_ps(lanesNearest, nearest);
+  t = {backs, backsTwoSided, escapes, *std::min_element(lanesNearest, lanesNearest + 8)};
+  nLit = n;
+}
 
 PRT_AVX512_BEGIN
 // What a packet's eight lanes hit, as masks: a hit, on a back side (Ray::backface: ng · d > 0,
