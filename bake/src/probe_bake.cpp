@@ -682,6 +682,16 @@ struct StreamTally {
   float nearest;
 };
 
+// A ray's depth along its face's axis, capped, into the moments of its face and lane. The depth
+// along the axis, not the ray's length: a wall perpendicular to the axis then has one depth for
+// every ray of the face (docs/probes.md, "Visibility").
+inline void addMoment(ProbeAccum& acc, int face, int lane, float tfar, float axis, double cap) {
+  const double d = std::min(double(tfar) * double(axis), cap);
+  acc.sumD[size_t(8 * face + lane)] += d;
+  acc.sumD2[size_t(8 * face + lane)] += d * d;
+  ++acc.count[size_t(face)];
+}
+
 // For each 8-bit mask, the indices of its set lanes in order (the rest 0): the permutation that
 // packs a packet's chosen lanes to its front, as AVX-512's compress does.
 struct PackingTable {
@@ -731,7 +741,7 @@ struct Tracer {
   // Per Scene::meshes entry (at least one entry): kTwoSided, and kLit where its hits send light
   // (it has lower-order transfer).
   static constexpr uint8_t kTwoSided = 1, kLit = 2;
-  std::vector<uint32_t> meshFlags;  // 32-bit: classifyAvx512 gathers them
+  std::vector<uint32_t> meshFlags;  // 32-bit: the vector classifications gather them
   // Per Scene::meshes entry with lower-order transfer: where a lit hit's rows are (its corners:
   // cornerIndices).
   std::vector<LitMesh> litMeshes;
@@ -791,38 +801,32 @@ struct Tracer {
       if (full && !vector) std::fill(rows.directSums.begin(), rows.directSums.end(), 0.0f);
       uint32_t p0 = 0;  // the packets before p0 are classified
       uint32_t litPrefetched = litBefore;  // the lit hits before it have their corners fetched
+      auto addTally = [&](const StreamTally& t) {  // of the whole packets, counted by a kernel
+        p0 = count / 8 * 8;
+        backs += t.backs;
+        backsTwoSided += t.backsTwoSided;
+        escapes += t.escapes;
+        nearest = std::min(nearest, t.nearest);
+      };
       if (full) {
         for (uint32_t q = 0; q < count; q += 8) {
           const RayPacket8& r = batch[q >> 3];
           sh::evaluate8(bands, r.dirX, r.dirY, r.dirZ, groupYs + size_t(q) * n2);
         }
-        if (useAvx512Kernels()) {  // the whole packets; a last, partial one lane by lane below
-          StreamTally t{};
-          p0 = count / 8 * 8;
-          classifyAvx512(batch, p0 / 8, meshFlags.data(), cornerIndices.data(), inGroup * uint32_t(n2), uint32_t(n2),
-                         cap, rows, nLit, escapedLanes, acc, t);
+        // The whole packets with AVX-512 or AVX2; a last, partial one lane by lane below.
+        const uint32_t packets = count / 8, yBase = inGroup * uint32_t(n2);
+        StreamTally t{};
+        if (useAvx512Kernels()) {
+          classifyAvx512(batch, packets, meshFlags.data(), cornerIndices.data(), yBase, uint32_t(n2), cap, rows, nLit,
+                         escapedLanes, acc, t);
           litPrefetched = nLit;
-          backs += t.backs;
-          backsTwoSided += t.backsTwoSided;
-          escapes += t.escapes;
-          nearest = std::min(nearest, t.nearest);
-        } else if (vector) {  // the same with AVX2
-          StreamTally t{};
-          p0 = count / 8 * 8;
-          classifyAvx2(batch, p0 / 8, meshFlags.data(), inGroup * uint32_t(n2), uint32_t(n2), cap, rows, nLit,
-                       escapedLanes, acc, t);
-          backs += t.backs;
-          backsTwoSided += t.backsTwoSided;
-          escapes += t.escapes;
-          nearest = std::min(nearest, t.nearest);
+          addTally(t);
+        } else if (vector) {
+          classifyAvx2(batch, packets, meshFlags.data(), yBase, uint32_t(n2), cap, rows, nLit, escapedLanes, acc, t);
+          addTally(t);
         }
       } else if (useAvx512Kernels()) {  // the inside test: the whole packets' counts
-        p0 = count / 8 * 8;
-        const StreamTally t = tallyAvx512(batch, p0 / 8, meshFlags.data());
-        backs += t.backs;
-        backsTwoSided += t.backsTwoSided;
-        escapes += t.escapes;
-        nearest = std::min(nearest, t.nearest);
+        addTally(tallyAvx512(batch, count / 8, meshFlags.data()));
       }
       for (; p0 < count; p0 += 8) {
         const RayPacket8& r = batch[p0 >> 3];
@@ -849,13 +853,7 @@ struct Tracer {
           rows.hitYOff[nLit] = ((inGroup + p0) * uint32_t(n2) + uint32_t(l)) | (backside ? kBackBit : 0u);
           nLit += hit && !back && (flags & kLit);
           escaped[l] = -int32_t(!hit);  // lanes past the count stay 0 (zeroed below)
-          // Depth along the face's axis, not the ray's length: a wall perpendicular to the axis
-          // then has one depth for every ray of the face (docs/probes.md, "Visibility").
-          const int face = faces[l];
-          const double d = std::min(double(tfar) * double(axis[l]), cap);
-          acc.sumD[size_t(8 * face + l)] += d;
-          acc.sumD2[size_t(8 * face + l)] += d * d;
-          ++acc.count[size_t(face)];
+          addMoment(acc, faces[l], l, tfar, axis[l], cap);
         }
         if (!full) continue;
         for (int l = lanes; l < 8; ++l) escaped[l] = 0;
@@ -1030,13 +1028,7 @@ __attribute__((target("avx2"))) void classifyAvx2(const RayPacket8* batch, uint3
     alignas(32) int32_t faces[8];
     alignas(32) float axis[8];
     packetFaces(r, faces, axis);
-    for (int l = 0; l < 8; ++l) {
-      const int face = faces[l];
-      const double d = std::min(double(r.tfar[l]) * double(axis[l]), cap);
-      acc.sumD[size_t(8 * face + l)] += d;
-      acc.sumD2[size_t(8 * face + l)] += d * d;
-      ++acc.count[size_t(face)];
-    }
+    for (int l = 0; l < 8; ++l) addMoment(acc, faces[l], l, r.tfar[l], axis[l], cap);
   }
   alignas(32) float lanesNearest[8];
   _mm256_store_ps(lanesNearest, nearest);
