@@ -528,12 +528,17 @@ struct LitHits {
     t[1] = base + ix[1] * m.stride;
     t[2] = base + ix[2] * m.stride;
   }
-  void prefetchRows(uint32_t h) const {
+  // Always inlined: GCC (12) finds a function that does nothing but prefetch free of side effects
+  // and deletes its calls (as it may a pure function's whose result is unused), which left the
+  // kernels below without their row prefetches until session 26.
+  [[gnu::always_inline]] void prefetchRows(uint32_t h) const {
     const uint16_t* t[3];
     rowsOf(h, t);
     const size_t bytes = meshes[mesh[h]].stride * sizeof(uint16_t);  // one line up to 3 bands
-    for (const uint16_t* row : t)
-      for (size_t o = 0; o < bytes; o += 64) __builtin_prefetch(reinterpret_cast<const char*>(row) + o);
+    for (const uint16_t* row : t) {
+      __builtin_prefetch(row);
+      for (size_t o = 64; o < bytes; o += 64) __builtin_prefetch(reinterpret_cast<const char*>(row) + o);
+    }
   }
 };
 // How many hits ahead of the one whose light is computed the rows are prefetched: with AVX-512,
