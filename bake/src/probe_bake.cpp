@@ -534,11 +534,12 @@ struct LitHits {
   [[gnu::always_inline]] void prefetchRows(uint32_t h) const {
     const uint16_t* t[3];
     rowsOf(h, t);
+    __builtin_prefetch(t[0]);
+    __builtin_prefetch(t[1]);
+    __builtin_prefetch(t[2]);
     const size_t bytes = meshes[mesh[h]].stride * sizeof(uint16_t);  // one line up to 3 bands
-    for (const uint16_t* row : t) {
-      __builtin_prefetch(row);
-      for (size_t o = 64; o < bytes; o += 64) __builtin_prefetch(reinterpret_cast<const char*>(row) + o);
-    }
+    for (size_t o = 64; o < bytes; o += 64)
+      for (const uint16_t* row : t) __builtin_prefetch(reinterpret_cast<const char*>(row) + o);
   }
 };
 // How many hits ahead of the one whose light is computed the rows are prefetched: with AVX-512,
