@@ -127,7 +127,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   app.add_option("--json", jsonPath, "Also write the results to this file");
+  std::string kernels = "auto";
+  bench::addKernelsOption(app, kernels);
   if (std::optional<int> status = bench::parseBenchOptions(app, "prt_bench_bake", argc, argv)) return *status;
+  kernels = bench::applyKernels(kernels);
   try {
     Scene scene = loadScene(scenePath);
     while (minVertices > 0 && bakedVertices(scene) < minVertices)
@@ -234,6 +237,7 @@ int main(int argc, char** argv) {
     j["vertices"] = V;
     j["triangles"] = ceiling.triangles();
     j["samples"] = settings.samples;
+    j["kernels"] = kernels;
     j["threads"] = settings.threads;
     j["threads_used"] = used;
     j["rounds"] = rounds;

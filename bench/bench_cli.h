@@ -6,6 +6,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "../bake/src/half.h"  // forceAvx2Kernels, forcePortableKernels (as the tests switch them)
+
 namespace prt::bench {
 
 /// Parses the benchmark's options. nullopt: run; otherwise the status to exit with (--help: 0;
@@ -18,6 +20,21 @@ inline std::optional<int> parseBenchOptions(CLI::App& app, const std::string& na
     return app.exit(e) == 0 ? 0 : 2;
   }
   return std::nullopt;
+}
+
+/// --kernels: which of the bake's kernel paths run. auto: the best this CPU has; avx2 or portable
+/// measure, on a CPU with AVX-512, the paths of CPUs without it (the same bits on every path).
+inline void addKernelsOption(CLI::App& app, std::string& kernels) {
+  app.add_option("--kernels", kernels, "Bake kernels: auto (the best this CPU has), avx2 or portable")
+      ->check(CLI::IsMember({"auto", "avx2", "portable"}))
+      ->capture_default_str();
+}
+
+/// Switches the kernels as --kernels asks; returns the path that runs (avx512, avx2 or portable).
+inline std::string applyKernels(const std::string& kernels) {
+  bake::forceAvx2Kernels() = kernels == "avx2";
+  bake::forcePortableKernels() = kernels == "portable";
+  return bake::useAvx512Kernels() ? "avx512" : bake::useVectorKernels() ? "avx2" : "portable";
 }
 
 }  // namespace prt::bench

@@ -117,7 +117,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   app.add_option("--json", jsonPath, "Also write the results to this file");
+  std::string kernels = "auto";
+  bench::addKernelsOption(app, kernels);
   if (std::optional<int> status = bench::parseBenchOptions(app, "prt_bench_probes", argc, argv)) return *status;
+  kernels = bench::applyKernels(kernels);
   try {
     settings.dims = glm::ivec3(dims);
     settings.bounces = surface.bounces;
@@ -317,6 +320,7 @@ int main(int argc, char** argv) {
     j["dims"] = dims;
     j["bands"] = settings.bands;
     j["samples"] = settings.samples;
+    j["kernels"] = kernels;
     j["bounces"] = surface.bounces;
     j["surface_bake_seconds"] = lit.stats.seconds;
     j["lattice_points"] = stats.probes;

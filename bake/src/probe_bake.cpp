@@ -574,9 +574,13 @@ void litLightsPortable(const LitHits& in, uint32_t h0, uint32_t n, float* g, int
   }
 }
 
-// The same with F16C, as one call, the rows of the hit kRowsAhead further on prefetched.
+// The same with F16C, as one call, the rows of the hit kRowsAhead further on prefetched. K is
+// ldg / 8 where it is known at compile time (1, 2, 4 and 6: one to four bands), so that the loop
+// over a row's vectors unrolls and ρ's permutation for each is a register; 0 reads it from ldg.
+template <int K>
 __attribute__((target("avx2,f16c,fma"))) void litLightsF16c(const LitHits& in, uint32_t h0, uint32_t n, float* g,
                                                            int ldg) {
+  const int vectors = K ? K : ldg / 8;
   // ρ's channels in the lanes of vectors k % 3 = 0, 1, 2 (lane i of vector k is channel (8k + i) % 3).
   const __m256i order[3] = {_mm256_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1), _mm256_setr_epi32(2, 0, 1, 2, 0, 1, 2, 0),
                             _mm256_setr_epi32(1, 2, 0, 1, 2, 0, 1, 2)};
@@ -590,7 +594,8 @@ __attribute__((target("avx2,f16c,fma"))) void litLightsF16c(const LitHits& in, u
                           _mm256_permutevar8x32_ps(rho, order[2])};
     const __m256 w0 = _mm256_set1_ps(1.0f - b1 - b2), w1 = _mm256_set1_ps(b1), w2 = _mm256_set1_ps(b2);
     float* out = g + size_t(h - h0) * ldg;
-    for (int k = 0; k < ldg / 8; ++k) {
+#pragma GCC unroll 8
+    for (int k = 0; k < vectors; ++k) {
       const __m256 f0 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t[0]) + k));
       const __m256 f1 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t[1]) + k));
       const __m256 f2 = _mm256_cvtph_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(t[2]) + k));
@@ -971,7 +976,13 @@ struct Tracer {
         continue;
       }
       if (useVectorKernels())
-        litLightsF16c(in, h0, k, rows.gHit.data(), ldg);
+        switch (ldg / 8) {
+          case 1: litLightsF16c<1>(in, h0, k, rows.gHit.data(), ldg); break;
+          case 2: litLightsF16c<2>(in, h0, k, rows.gHit.data(), ldg); break;
+          case 4: litLightsF16c<4>(in, h0, k, rows.gHit.data(), ldg); break;
+          case 6: litLightsF16c<6>(in, h0, k, rows.gHit.data(), ldg); break;
+          default: litLightsF16c<0>(in, h0, k, rows.gHit.data(), ldg);
+        }
       else
         litLightsPortable(in, h0, k, rows.gHit.data(), ldg);
       uint32_t* yOff = rows.hitYOff.data() + h0;  // read: from here the products' offsets
