@@ -265,10 +265,12 @@ template <int R, int B>
 __attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(const float* y, const uint32_t* yOff,
                                                                              const float* v, int ldv, int n, int a0,
                                                                              int j0, int cols, double* c, int ldc) {
-  // The unroll pragmas let the sums live in registers only: unrolled later, GCC keeps the array
-  // in memory too and stores every sum on every ray (a store-port bound, twice the FMAs' time).
+  // The unroll pragmas (at least R and B) let the sums live in registers only: unrolled later,
+  // GCC keeps the array in memory too and stores every sum on every ray (a store-port bound,
+  // twice the FMAs' time). Until session 26 the rows' pragmas said 4, and the 3-band block of all
+  // nine rows (the last 8 columns) kept its sums in memory.
   __m256 s[R][B];
-#pragma GCC unroll 4
+#pragma GCC unroll 16
   for (int r = 0; r < R; ++r)
 #pragma GCC unroll 4
     for (int b = 0; b < B; ++b) s[r][b] = _mm256_setzero_ps();
@@ -277,14 +279,14 @@ __attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(
     __m256 w[B];
 #pragma GCC unroll 4
     for (int b = 0; b < B; ++b) w[b] = _mm256_loadu_ps(vk + 8 * b);
-#pragma GCC unroll 4
+#pragma GCC unroll 16
     for (int r = 0; r < R; ++r) {
       const __m256 ya = _mm256_broadcast_ss(y + yOff[k] + size_t(a0 + r) * 8);
 #pragma GCC unroll 4
       for (int b = 0; b < B; ++b) s[r][b] = _mm256_fmadd_ps(ya, w[b], s[r][b]);
     }
   }
-#pragma GCC unroll 4
+#pragma GCC unroll 16
   for (int r = 0; r < R; ++r) {
     double* crow = c + size_t(a0 + r) * ldc;
 #pragma GCC unroll 4
