@@ -1,4 +1,4 @@
-# The bake's gather kernels still prefetch once built (ctest -R KernelsKeepTheirPrefetches).
+# The bake's gather kernels still prefetch once built (ctest -R BuildKernels.KeepTheirPrefetches).
 #
 # A prefetch changes no result, so no other test sees one go missing. GCC 12 deleted the calls of
 # two helpers that did nothing but prefetch (it found them free of side effects), which left the

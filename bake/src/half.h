@@ -99,6 +99,16 @@ inline bool useAvx512Kernels() {
 #define PRT_AVX512_END
 #endif
 
+/// Prefetches the `bytes` from p, a row of HalfRows (one 64-byte line up to 3 bands, so the first
+/// straight and the others only beyond). Always inlined, as every helper that does nothing but
+/// prefetch must be: GCC 12 finds such a function free of side effects and deletes its calls
+/// (docs/bake.md, "Probe bake: the prefetches that were not there"; tests/check_prefetches.cmake).
+[[gnu::always_inline]] inline void prefetchLines(const void* p, size_t bytes) {
+  const char* c = static_cast<const char*>(p);
+  __builtin_prefetch(c);
+  for (size_t o = 64; o < bytes; o += 64) __builtin_prefetch(c + o);
+}
+
 /// RGB SH transfer rows (3·n2 floats each) as halves, each row padded with zeros to whole 64-byte
 /// lines (one line at 3 bands instead of two): for gathers that read rows at random, where the
 /// lines read are the cost.

@@ -530,18 +530,15 @@ struct LitHits {
     t[1] = base + ix[1] * m.stride;
     t[2] = base + ix[2] * m.stride;
   }
-  // Always inlined: GCC (12) finds a function that does nothing but prefetch free of side effects
-  // and deletes its calls (as it may a pure function's whose result is unused), which left the
-  // kernels below without their row prefetches until session 26.
+  // Always inlined, as prefetchLines says (until session 26 GCC deleted its calls, and the
+  // kernels below prefetched no rows).
   [[gnu::always_inline]] void prefetchRows(uint32_t h) const {
     const uint16_t* t[3];
     rowsOf(h, t);
-    __builtin_prefetch(t[0]);
-    __builtin_prefetch(t[1]);
-    __builtin_prefetch(t[2]);
-    const size_t bytes = meshes[mesh[h]].stride * sizeof(uint16_t);  // one line up to 3 bands
-    for (size_t o = 64; o < bytes; o += 64)
-      for (const uint16_t* row : t) __builtin_prefetch(reinterpret_cast<const char*>(row) + o);
+    const size_t bytes = meshes[mesh[h]].stride * sizeof(uint16_t);
+    prefetchLines(t[0], bytes);  // not a loop over t: GCC would keep t on the stack for it
+    prefetchLines(t[1], bytes);
+    prefetchLines(t[2], bytes);
   }
 };
 // How many hits ahead of the one whose light is computed the rows are prefetched: with AVX-512,

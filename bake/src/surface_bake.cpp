@@ -266,17 +266,12 @@ inline RecordWeights weightsOf(const SurfaceBake& b, const AlbedoLookup& albedo,
   return w;
 }
 
-// Always inlined: GCC (12) finds a function that does nothing but prefetch free of side effects
-// and deletes its calls (LitHits::prefetchRows in probe_bake.cpp says more).
+// Always inlined, as prefetchLines (half.h) says.
 [[gnu::always_inline]] inline void prefetchAhead(const SurfaceBake& b, const HitRecord* hits, uint32_t h, uint32_t end) {
   if (h + kAheadCorners < end) __builtin_prefetch(&b.corners[hits[h + kAheadCorners].tri]);
   if (h + kAheadRows < end) {
     const TriCorners& c = b.corners[hits[h + kAheadRows].tri];
-    for (uint32_t k = 0; k < 3; ++k) {
-      const char* p = reinterpret_cast<const char*>(b.half.row(c.v[k]));
-      __builtin_prefetch(p);
-      for (size_t o = 64; o < b.half.stride * sizeof(uint16_t); o += 64) __builtin_prefetch(p + o);
-    }
+    for (uint32_t k = 0; k < 3; ++k) prefetchLines(b.half.row(c.v[k]), b.half.stride * sizeof(uint16_t));
   }
 }
 
