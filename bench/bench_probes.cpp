@@ -21,7 +21,10 @@
 // the same round (`bake_vs_median_best_mode`: each round's fastest mode is the largest of ~15
 // noisy timings, above what any mode typically does); memory is the first round's. The share not tracing is measured in the bake itself
 // (the time its threads spend inside Embree's calls) and, as a cross-check, estimated from
-// prt's tracing rate (`_by_rate`).
+// prt's tracing rate (`_by_rate`). The lit hits' gather (their corners' transfer, the probe
+// bake's counterpart of the surface bake's bounces, done per ray) is timed in the bake too: its
+// share, and the bake without it against the ceiling (`bake_without_gather_*`), the comparison
+// prt_bench_bake makes for the surface bake's direct pass with its bounces apart.
 #include <malloc.h>
 #include <unistd.h>
 
@@ -236,6 +239,7 @@ int main(int argc, char** argv) {
     // within a round. The result must be the same grid every time.
     std::vector<double> bakeSeconds{stats.seconds}, directSeconds{directStats.seconds};
     std::vector<double> traceSeconds{stats.traceSeconds};  // inside Embree's calls, all threads
+    std::vector<double> gatherSeconds{stats.gatherSeconds};  // inside the lit hits' gather, all threads
     std::vector<double> directTrace{directStats.traceSeconds};
     for (int round = 1; round < repeat; ++round) {
       measureTracing();
@@ -247,6 +251,7 @@ int main(int argc, char** argv) {
       (void)bake::bakeProbes(scene, none, settings, &directAgain);
       bakeSeconds.push_back(again.seconds);
       traceSeconds.push_back(again.traceSeconds);
+      gatherSeconds.push_back(again.gatherSeconds);
       directSeconds.push_back(directAgain.seconds);
       directTrace.push_back(directAgain.traceSeconds);
     }
@@ -270,11 +275,19 @@ int main(int argc, char** argv) {
     };
     std::vector<double> vsCeiling[2], notTracingByRate[2], notTracing;  // notTracing: measured, per round
     std::vector<double> directVsCeiling, directNotTracing;  // wall clock: the same bake with no lit surfaces
+    // The bake without its gather (its wall time less the gather's thread time over the threads),
+    // as prt_bench_bake compares the surface bake's direct pass, its bounces apart; wall clock.
+    std::vector<double> gatherShare, withoutGatherVsCeiling, withoutGatherNotTracing;
     for (int round = 0; round < repeat; ++round) {
-      const double seconds = directSeconds[size_t(round)];
-      directVsCeiling.push_back(ceilingSeconds(size_t(round), bench::Timing::Wall) / seconds);  // the same rays
-      directNotTracing.push_back(1.0 - directTrace[size_t(round)] / (used * seconds));
-      notTracing.push_back(1.0 - traceSeconds[size_t(round)] / (used * bakeSeconds[size_t(round)]));
+      const size_t r = size_t(round);
+      const double seconds = directSeconds[r];
+      directVsCeiling.push_back(ceilingSeconds(r, bench::Timing::Wall) / seconds);  // the same rays
+      directNotTracing.push_back(1.0 - directTrace[r] / (used * seconds));
+      notTracing.push_back(1.0 - traceSeconds[r] / (used * bakeSeconds[r]));
+      gatherShare.push_back(gatherSeconds[r] / (used * bakeSeconds[r]));
+      const double without = bakeSeconds[r] - gatherSeconds[r] / used;
+      withoutGatherVsCeiling.push_back(ceilingSeconds(r, bench::Timing::Wall) / without);
+      withoutGatherNotTracing.push_back(1.0 - traceSeconds[r] / (used * without));
     }
     for (int t = 0; t < 2; ++t)
       for (int round = 0; round < repeat; ++round) {
@@ -387,6 +400,15 @@ int main(int argc, char** argv) {
       c["not_tracing_share_by_rate_range"] = range(notTracingByRate[1]);
       j["cpu"] = c;
     }
+    // The lit hits' gather (ProbeStats::gatherSeconds): its share of the bake, and the bake
+    // without it against the ceiling, as prt_bench_bake reports the surface bake's direct pass
+    // with its bounces apart.
+    j["gather_thread_seconds_each"] = gatherSeconds;
+    j["gather_share_of_bake_range"] = range(gatherShare);
+    j["gather_share_of_bake_median"] = bench::median(gatherShare);
+    j["bake_without_gather_vs_ceiling_range"] = range(withoutGatherVsCeiling);
+    j["bake_without_gather_vs_ceiling_median"] = bench::median(withoutGatherVsCeiling);
+    j["bake_without_gather_not_tracing_share_range"] = range(withoutGatherNotTracing);
     j["direct_only_bake_seconds"] = directStats.seconds;
     j["indirect_time_share"] = 1.0 - directStats.seconds / stats.seconds;
     j["direct_only_vs_ceiling_range"] = range(directVsCeiling);

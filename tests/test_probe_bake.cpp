@@ -224,6 +224,30 @@ TEST(ProbeBake, TracedRecordsAccountForEveryRay) {
   for (const bake::Ray& r : testRays) EXPECT_NEAR(glm::length(r.dir), 1.0f, 1e-5f);
 }
 
+// ProbeStats::gatherSeconds times the lit hits' gather alone (prt_bench_probes reports the bake
+// with and without it): none where no surface sends light, some where the probe's rays hit lit
+// walls, and never more than the threads' time beside the tracing.
+TEST(ProbeBake, GatherIsTimedApart) {
+  Scene s = test::makeScene({test::makeCavity(M_PI / 3, 24, 48)}, 0.5f);
+  bake::BakeSettings bs;
+  bs.samples = 64;
+  bs.bounces = 1;
+  bs.keepLowerOrder = true;
+  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
+  ASSERT_EQ(t.perMeshLowerOrder.size(), s.meshes.size());
+  bake::ProbeSettings ps = oneProbeAt(glm::dvec3(0.0), 0.05);
+  ps.samples = 1 << 16;  // enough lit hits for the clock to see
+  ps.bounces = 1;
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+  bake::ProbeStats lit, dark;
+  (void)bake::bakeProbes(s, t.perMeshLowerOrder, ps, &lit);
+  (void)bake::bakeProbes(s, std::vector<std::vector<glm::vec3>>(s.meshes.size()), ps, &dark);
+  EXPECT_GT(lit.gatherSeconds, 0.0);
+  EXPECT_EQ(dark.gatherSeconds, 0.0) << "no lit surface: no gather";
+  EXPECT_GT(lit.traceSeconds, 0.0);
+  EXPECT_LE(lit.gatherSeconds + lit.traceSeconds, lit.seconds * 1.01 + 1e-3);
+}
+
 TEST(ProbeBake, SameSeedSameGridAnyThreadCount) {
   Scene s = test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f);
   bake::ProbeSettings ps;

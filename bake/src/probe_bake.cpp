@@ -761,6 +761,7 @@ struct Tracer {
   std::vector<const uint32_t*> cornerIndices;
   bool allLitUniform = true;  // every instance in litMeshes has one colour: no ρ/π is looked up
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
+  mutable TraceClock inGather;  // and inside the lit hits' gather, sumLit (ProbeStats::gatherSeconds)
 
   void intersect8(RayPacket8* p, size_t n) const { inEmbree.time([&] { rays.intersect8(p, n); }); }
   void occluded(Ray* r, size_t n) const { inEmbree.time([&] { rays.occluded(r, n); }); }
@@ -910,7 +911,7 @@ struct Tracer {
         }
       // The indirect part of the group's lit hits, once its last stream is traced: M += Σ y gᵀ.
       if (inGroup + count == uint32_t(kGroup) || first + count == n) {
-        sumLit(rows, nLit, acc.indirect.data());
+        if (nLit) inGather.time([&] { sumLit(rows, nLit, acc.indirect.data()); });
         nLit = 0;
       }
     }
@@ -1905,6 +1906,7 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
                       })
                       .rays;
     stats.traceSeconds = tracer.inEmbree.seconds();
+    stats.gatherSeconds = tracer.inGather.seconds();
     // What each point traced beyond its test (ProbeBaker::bake): a free point its full set; any
     // other its candidates' tests until one was free (moved: then its full set from there).
     const uint32_t samples = uint32_t(settings.samples);

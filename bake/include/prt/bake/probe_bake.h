@@ -84,6 +84,11 @@ struct ProbeStats {
   // Inside Embree's calls, all threads of this process together (so up to threads × seconds):
   // what of the bake is tracing, measured in the bake itself (prt_bench_probes).
   double traceSeconds = 0.0;
+  // Inside the lit hits' gather (the light of the lit surfaces a probe's rays hit: their
+  // corners' transfer interpolated, times the ray's SH values), all threads together: the probe
+  // bake's counterpart of the surface bake's bounces, which it does per ray instead of as stages
+  // of its own (prt_bench_probes reports the bake with and without it).
+  double gatherSeconds = 0.0;
 };
 
 /// Checkpoint stage of the probe bake: lattice points in chunks of kProbeChunk, in lattice
