@@ -224,16 +224,22 @@ TEST(ProbeBake, TracedRecordsAccountForEveryRay) {
   for (const bake::Ray& r : testRays) EXPECT_NEAR(glm::length(r.dir), 1.0f, 1e-5f);
 }
 
-// ProbeStats::gatherSeconds times the lit hits' gather alone (prt_bench_probes reports the bake
-// with and without it): none where no surface sends light, some where the probe's rays hit lit
-// walls, and never more than the threads' time beside the tracing.
-TEST(ProbeBake, GatherIsTimedApart) {
-  Scene s = test::makeScene({test::makeCavity(M_PI / 3, 24, 48)}, 0.5f);
+// A quick surface bake of s (64 samples, one bounce) that keeps the lower orders: walls that
+// send light to the probes.
+bake::SurfaceTransfer litWalls(const Scene& s) {
   bake::BakeSettings bs;
   bs.samples = 64;
   bs.bounces = 1;
   bs.keepLowerOrder = true;
-  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
+  return bake::bakeSurface(s, bs);
+}
+
+// ProbeStats::gatherSeconds times the lit hits' gather alone (prt_bench_probes reports the bake
+// with and without it): none where no surface sends light, some where the probe's rays hit lit
+// walls, and never more than the threads' time beside the tracing.
+TEST(ProbeBake, GatherIsTimedApart) {
+  const Scene s = test::makeScene({test::makeCavity(M_PI / 3, 24, 48)}, 0.5f);
+  const bake::SurfaceTransfer t = litWalls(s);
   ASSERT_EQ(t.perMeshLowerOrder.size(), s.meshes.size());
   bake::ProbeSettings ps = oneProbeAt(glm::dvec3(0.0), 0.05);
   ps.samples = 1 << 16;  // enough lit hits for the clock to see
@@ -273,12 +279,8 @@ TEST(ProbeBake, SameSeedSameGridAnyThreadCount) {
 // The same with lit surfaces (the indirect part, summed one stream late, docs/bake.md "Speed")
 // and several streams per probe, the last one partial (600 = 2 × 256 + 88).
 TEST(ProbeBake, SameSeedSameGridAnyThreadCountWithLitSurfaces) {
-  Scene s = test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f);
-  bake::BakeSettings bs;
-  bs.samples = 64;
-  bs.bounces = 1;
-  bs.keepLowerOrder = true;
-  const bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
+  const Scene s = test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f);
+  const bake::SurfaceTransfer t = litWalls(s);
   bake::ProbeSettings ps;
   ps.dims = glm::ivec3(3);
   ps.samples = 600;
