@@ -5,7 +5,7 @@
 //
 //   prt_bench_bake [--scene scenes/cornell_open.gltf] [--min-vertices 100000] [--samples 256]
 //                  [--bounces 2] [--threads 0] [--ceiling-fraction 0.04] [--rounds 3]
-//                  [--json out.json]
+//                  [--kernels auto|avx2|portable] [--json out.json]
 //
 // The scene is refined (each triangle split into 4, repeatedly) until it has at least
 // --min-vertices baked vertices (0: as it is). The ceiling (embree_ceiling.h: its own BVH,

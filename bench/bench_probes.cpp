@@ -5,7 +5,8 @@
 //
 //   prt_bench_probes [--scene scenes/cornell_open.gltf] [--dims 32] [--samples 1024]
 //                    [--bounces 2] [--surface-samples 256] [--threads 0]
-//                    [--ceiling-fraction 0.03] [--repeat 2] [--json out.json]
+//                    [--ceiling-fraction 0.03] [--repeat 2] [--kernels auto|avx2|portable]
+//                    [--json out.json]
 //
 // --dims N gives an N³ lattice over the scene's bounds. The surface bake (bands 3, --bounces,
 // --surface-samples) supplies the transfer a probe ray sees where it hits a surface; it is timed
@@ -116,7 +117,7 @@ int main(int argc, char** argv) {
                  "Share of the full sets the ceiling traces (of the tests, up to as many rays)")
       ->check(CLI::Range(1e-6, 1.0))
       ->capture_default_str();
-  app.add_option("--repeat", repeat, "Rounds; every timing is the fastest")
+  app.add_option("--repeat", repeat, "Rounds; ratios are taken within each (the JSON gives their range and median)")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   app.add_option("--json", jsonPath, "Also write the results to this file");
