@@ -32,8 +32,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "albedo_lookup.h"
-#include "half.h"
+#include "half_rows.h"
+#include "prt/bake/kernels.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
@@ -59,11 +59,6 @@ constexpr int kStream = 256;
 constexpr size_t kChunk = 64;
 
 }  // namespace
-
-bool bakesBackSide(const Scene& scene, const MeshInstance& m) {
-  return !m.receiverOnly && m.material >= 0 && size_t(m.material) < scene.materials.size() &&
-         scene.materials[size_t(m.material)].doubleSided;
-}
 
 namespace {
 
@@ -348,7 +343,7 @@ __attribute__((target("avx2,f16c"))) void gatherChunkF16c(SurfaceBake& b, const 
 }
 
 ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk& c) {
-  if (!useVectorKernels()) {
+  if (activeKernels() == Kernels::Portable) {
     gatherChunkPortable(b, albedo, c);
     return {true, 0};
   }
