@@ -349,7 +349,7 @@ void expectKernelPathsAgree(const Scene& s, int bands) {
 }
 
 // The kernels' paths (AVX-512 where the CPU has it, AVX2 + F16C, the portable ones lane by lane)
-// give the same bits: the bounces' gather of the previous order (half.h), the probes' ray
+// give the same bits: the bounces' gather of the previous order (half_rows.h), the probes' ray
 // directions, SH values, inside tests, classification and moments, M⁰, lit hits and products of
 // a stream's rays.
 TEST(ProbeBake, HalfPathsGiveTheSameBits) {

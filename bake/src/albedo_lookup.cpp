@@ -1,4 +1,4 @@
-// AlbedoLookup (albedo_lookup.h): the per-instance tables, and atMany's AVX-512 kernel, which
+// AlbedoLookup (prt/bake/albedo_lookup.h): the per-instance tables, and atMany's AVX-512 kernel, which
 // gives albedoAt's bits (probes/scene/src/material.cpp) eight hits at a time.
 //
 // The bits: albedoAt rounds every float and double operation on its own (the scalar code is

@@ -136,7 +136,7 @@ struct SurfaceBake {
   // t⁰, colourless: values floats (the direct part the files keep apart from the total).
   std::vector<float> direct;
   std::vector<glm::vec3> total, lowerOrder, prev, cur;
-  HalfRows half;                   // prev as halves, during a bounce (half.h)
+  HalfRows half;                   // prev as halves, during a bounce (half_rows.h)
   std::vector<TriCorners> corners;  // per triangle, during the bounces
   uint64_t hitCount = 0;
 
@@ -261,7 +261,7 @@ inline RecordWeights weightsOf(const SurfaceBake& b, const AlbedoLookup& albedo,
   return w;
 }
 
-// Always inlined, as prefetchLines (half.h) says.
+// Always inlined, as prefetchLines (half_rows.h) says.
 [[gnu::always_inline]] inline void prefetchAhead(const SurfaceBake& b, const HitRecord* hits, uint32_t h, uint32_t end) {
   if (h + kAheadCorners < end) __builtin_prefetch(&b.corners[hits[h + kAheadCorners].tri]);
   if (h + kAheadRows < end) {
