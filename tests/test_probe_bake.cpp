@@ -14,6 +14,7 @@
 
 #include <tbb/global_control.h>
 
+#include "prt/bake/kernels.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
@@ -24,7 +25,6 @@
 #include "prt/sh.h"
 #include "probe_brute_force.h"
 #include "test_scenes.h"
-#include "../bake/src/half.h"  // forcePortableKernels
 
 namespace prt {
 namespace {
@@ -317,16 +317,14 @@ void expectKernelPathsAgree(const Scene& s, int bands) {
   ps.bounces = 2;
   std::vector<bake::SurfaceTransfer> surfaces;
   std::vector<ProbeGrid> grids;
-  enum class Path { Avx512, Avx2, Portable };
-  std::vector<Path> paths{Path::Avx2, Path::Portable};
-  if (bake::useAvx512Kernels()) paths.insert(paths.begin(), Path::Avx512);
+  std::vector<bake::Kernels> paths{bake::Kernels::Avx2, bake::Kernels::Portable};
+  if (bake::bestKernels() == bake::Kernels::Avx512) paths.insert(paths.begin(), bake::Kernels::Avx512);
   {
     struct Restore {
-      ~Restore() { bake::forcePortableKernels() = bake::forceAvx2Kernels() = false; }  // however the bakes end
+      ~Restore() { bake::setKernels(bake::Kernels::Auto); }  // however the bakes end
     } restore;
-    for (Path path : paths) {
-      bake::forcePortableKernels() = path == Path::Portable;
-      bake::forceAvx2Kernels() = path == Path::Avx2;
+    for (bake::Kernels path : paths) {
+      bake::setKernels(path);
       surfaces.push_back(bake::bakeSurface(s, bs));
       grids.push_back(bake::bakeProbes(s, surfaces.back().perMeshLowerOrder, ps));
     }
@@ -351,11 +349,11 @@ void expectKernelPathsAgree(const Scene& s, int bands) {
 }
 
 // The kernels' paths (AVX-512 where the CPU has it, AVX2 + F16C, the portable ones lane by lane)
-// give the same bits: the bounces' gather of the previous order (half.h), the probes' ray
+// give the same bits: the bounces' gather of the previous order (half_rows.h), the probes' ray
 // directions, SH values, inside tests, classification and moments, M⁰, lit hits and products of
 // a stream's rays.
 TEST(ProbeBake, HalfPathsGiveTheSameBits) {
-  if (!bake::useVectorKernels()) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
+  if (bake::bestKernels() == bake::Kernels::Portable) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
   // The cavity in one colour (its ρ/π in its rows: the AVX-512 products without ρ/π), and the
   // same with a vertex-coloured slab inside (ρ/π looked up per hit: groups of lit hits of both
   // kinds, the products with ρ/π, which is 1 for the cavity's hits).

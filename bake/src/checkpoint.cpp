@@ -4,7 +4,7 @@
 // fsync; on resume, everything after the last commit whose records all check out is cut off
 // (ftruncate) before appending again.
 #include "prt/bake/checkpoint.h"
-#include "prt/bake/surface_bake.h"
+#include "prt/bake/surface_layout.h"  // bakesBackSide
 
 #include <fcntl.h>
 #include <sys/stat.h>

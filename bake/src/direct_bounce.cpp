@@ -10,7 +10,6 @@
 
 #include <tbb/parallel_for.h>
 
-#include "albedo_lookup.h"
 #include "prt/bake/direct_light.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/error.h"

@@ -32,8 +32,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "albedo_lookup.h"
-#include "half.h"
+#include "half_rows.h"
+#include "prt/bake/kernels.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
@@ -59,11 +59,6 @@ constexpr int kStream = 256;
 constexpr size_t kChunk = 64;
 
 }  // namespace
-
-bool bakesBackSide(const Scene& scene, const MeshInstance& m) {
-  return !m.receiverOnly && m.material >= 0 && size_t(m.material) < scene.materials.size() &&
-         scene.materials[size_t(m.material)].doubleSided;
-}
 
 namespace {
 
@@ -141,7 +136,7 @@ struct SurfaceBake {
   // t⁰, colourless: values floats (the direct part the files keep apart from the total).
   std::vector<float> direct;
   std::vector<glm::vec3> total, lowerOrder, prev, cur;
-  HalfRows half;                   // prev as halves, during a bounce (half.h)
+  HalfRows half;                   // prev as halves, during a bounce (half_rows.h)
   std::vector<TriCorners> corners;  // per triangle, during the bounces
   uint64_t hitCount = 0;
 
@@ -266,7 +261,7 @@ inline RecordWeights weightsOf(const SurfaceBake& b, const AlbedoLookup& albedo,
   return w;
 }
 
-// Always inlined, as prefetchLines (half.h) says.
+// Always inlined, as prefetchLines (half_rows.h) says.
 [[gnu::always_inline]] inline void prefetchAhead(const SurfaceBake& b, const HitRecord* hits, uint32_t h, uint32_t end) {
   if (h + kAheadCorners < end) __builtin_prefetch(&b.corners[hits[h + kAheadCorners].tri]);
   if (h + kAheadRows < end) {
@@ -348,7 +343,7 @@ __attribute__((target("avx2,f16c"))) void gatherChunkF16c(SurfaceBake& b, const 
 }
 
 ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk& c) {
-  if (!useVectorKernels()) {
+  if (activeKernels() == Kernels::Portable) {
     gatherChunkPortable(b, albedo, c);
     return {true, 0};
   }
