@@ -85,7 +85,9 @@ TEST(BakePipeline, ProbeBakeInterruptedThenResumedWritesTheSameBits) {
     resumed.checkpoint.resume = true;
     const BakeReport r = runPipeline(resumed);
     EXPECT_TRUE(r.surface.resumed);
-    if (stage == kProbeStageFirst) EXPECT_GT(r.probes.restored, 0u);
+    if (stage == kProbeStageFirst) {
+      EXPECT_GT(r.probes.restored, 0u);
+    }
     EXPECT_TRUE(test::fileBytes(resumed.outputs.scene) == glb) << "the .glb differs";
     EXPECT_TRUE(test::fileBytes(resumed.outputs.probes) == vdb) << "the .vdb differs";
     EXPECT_FALSE(fs::exists(resumed.outputs.scene + ".prt-checkpoint"));
