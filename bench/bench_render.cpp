@@ -549,10 +549,8 @@ int main(int argc, char** argv) {
       return 0;
     }
     j["receiver_closeup"] = receiverCloseup(renderer, bakedOnly, scene, width, height, frames);
-    if (!framesOnly) {
-      j.update(lightUpdates(context, scene, view));
-      j["frame_lighting"] = frameLighting(renderer, scene, view, frames);
-    }
+    if (!framesOnly) j.update(lightUpdates(context, scene, view));
+    if (!framesOnly) j["frame_lighting"] = frameLighting(renderer, scene, view, frames);
     const std::string text = j.dump(2);
     std::printf("%s\n", text.c_str());
     if (!jsonPath.empty()) std::ofstream(jsonPath) << text << "\n";
