@@ -75,7 +75,7 @@ double median(std::vector<double> v) {
 }
 
 // Splits every triangle into 4 (midpoints shared through an edge map), interpolating normals and
-// transfer: the refined mesh a denser bake would give.
+// transfer (its direct part too): the refined mesh a denser bake would give.
 void refine(MeshInstance& m, int bands) {
   const size_t n2 = size_t(bands) * size_t(bands);
   std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
@@ -87,6 +87,9 @@ void refine(MeshInstance& m, int bands) {
     m.positions.push_back(0.5f * (m.positions[a] + m.positions[b]));
     m.normals.push_back(glm::normalize(m.normals[a] + m.normals[b]));
     for (size_t k = 0; k < n2; ++k) m.transfer.push_back(0.5f * (m.transfer[a * n2 + k] + m.transfer[b * n2 + k]));
+    if (m.hasDirectTransfer())
+      for (size_t k = 0; k < n2; ++k)
+        m.transferDirect.push_back(0.5f * (m.transferDirect[a * n2 + k] + m.transferDirect[b * n2 + k]));
     mid.emplace(key, i);
     return i;
   };
