@@ -12,215 +12,14 @@
 #include "direct_shading.h"
 #include "gl_functions.h"
 #include "probe_shading.h"
+#include "shader_sources.h"
+#include "shader_variants.h"
 #include "prt/animation.h"
 #include "prt/error.h"
 
 namespace prt::render {
 
 namespace {
-
-// The vertex shader computes e = transfer · light. Two ways to reach a vertex's 3n² transfer
-// floats, chosen by band count (measured on llvmpipe, 100k triangles at 256×256, 3 bands:
-// attributes ≈ 15 ms a frame, SSBO ≈ 40 ms; llvmpipe fetches attributes in bulk but gathers
-// SSBO loads lane by lane):
-// - n <= kMaxAttributeBands: vertex attributes. 3n² <= 48 floats = 12 vec4 attributes, which
-//   with position, texcoord and colour fits the 16 attributes every GL 4.5 offers. The flat
-//   float sequence (coefficient i, channel c at 3i + c) is read as vec4 chunks; chunk k starts
-//   at channel (4k) mod 3, so chunks k ≡ 0, 1, 2 (mod 3) hold (r g b r), (g b r g), (b r g b)
-//   and three accumulators sorted by k mod 3 give the channels at the end. The light comes in
-//   the same flat layout, zero-padded, so padding contributes nothing.
-// - larger n: an SSBO holding the instance's transfer vertex-major ((v·n² + i)·3 + c) indexed
-//   by gl_VertexID (glDrawElements without a base vertex makes it the index value); up to
-//   192 floats per vertex, beyond any attribute budget.
-// A double-sided instance with back-side transfer (the TWO_SIDED variant) also computes the
-// back side's e from a second SSBO (binding 1, same layout, indexed by gl_VertexID) with the
-// same light, whatever the path of the front; the fragment shader picks the side it is seen
-// from by gl_FrontFacing (the loader winds every instance counter-clockwise in world space).
-// The DIRECT variant (direct lights apart, docs/render.md) subtracts t⁰ · directSh, t⁰ the
-// colourless direct part read from an SSBO (binding 2, back side binding 3; n² floats per vertex,
-// gl_VertexID), adds the direct lights' gathered bounce (Frame::directBounce; binding 4, back
-// side binding 5, RGB per vertex, zero when the bounce goes through directSh), and passes the world position and normal (attribute 15) to the fragment shader,
-// which adds the direct lights per pixel.
-constexpr int kMaxAttributeBands = 4;
-constexpr GLuint kTransmissionUnit = 6;  // uTransmissionTexture (probe_shading.h)
-constexpr GLuint kNormalAttribute = 15;
-constexpr GLuint kFirstTransferAttribute = 3;
-
-int attributeChunks(int bands) { return (3 * bands * bands + 3) / 4; }
-
-std::string vertexShader(int bands) {
-  std::string s = R"(#version 450 core
-layout(location = 0) in vec3 aPosition;
-layout(location = 1) in vec2 aTexcoord;
-layout(location = 2) in vec4 aColor;
-uniform mat4 uViewProj;
-out vec3 vTransferLight;
-#ifdef TWO_SIDED
-out vec3 vTransferLightBack;
-layout(std430, binding = 1) readonly buffer TransferBack { float transferBack[]; };
-#endif
-)";
-  s += kAlbedoOutputsGlsl;
-  s += cat("const int kCoeffsAll = ", bands * bands, ";\n");
-  s += cat(R"(#ifdef DIRECT
-layout(location = )", kNormalAttribute, R"() in vec3 aNormal;
-layout(std430, binding = 2) readonly buffer TransferDirect { float transferDirect[]; };
-layout(std430, binding = 4) readonly buffer DirectBounce { float directBounce[]; };  // RGB per vertex
-#ifdef TWO_SIDED
-layout(std430, binding = 3) readonly buffer TransferDirectBack { float transferDirectBack[]; };
-layout(std430, binding = 5) readonly buffer DirectBounceBack { float directBounceBack[]; };
-#endif
-uniform vec3 uDirectSh[kCoeffsAll];  // the direct lights' SH, through the bounced part only
-out vec3 vWorld;
-out vec3 vWorldPixel;
-out vec3 vNormal;
-#endif
-)");
-  if (bands <= kMaxAttributeBands) {
-    const int chunks = attributeChunks(bands);
-    for (int k = 0; k < chunks; ++k)
-      s += cat("layout(location = ", kFirstTransferAttribute + k, ") in vec4 aTransfer", k, ";\n");
-    s += cat("uniform vec4 uLightFlat[", chunks, "];\n");
-    s += "void main() {\n  vec4 a[3] = vec4[3](vec4(0.0), vec4(0.0), vec4(0.0));\n";
-    for (int k = 0; k < chunks; ++k)
-      s += cat("  a[", k % 3, "] += aTransfer", k, " * uLightFlat[", k, "];\n");
-    s += "  vTransferLight = vec3(a[0].x + a[0].w + a[1].z + a[2].y,\n"
-         "                        a[0].y + a[1].x + a[1].w + a[2].z,\n"
-         "                        a[0].z + a[1].y + a[2].x + a[2].w);\n";
-    s += R"(#ifdef TWO_SIDED
-  uint baseBack = uint(gl_VertexID) * uint(kCoeffsAll * 3);
-  vec3 eb = vec3(0.0);
-  for (int f = 0; f < kCoeffsAll * 3; ++f) eb[f % 3] += transferBack[baseBack + uint(f)] * uLightFlat[f >> 2][f & 3];
-  vTransferLightBack = eb;
-#endif
-)";
-  } else {
-    s += cat("const int kCoeffs = ", bands * bands, ";\n");
-    s += R"(layout(std430, binding = 0) readonly buffer Transfer { float transfer[]; };
-uniform vec3 uLight[kCoeffs];
-void main() {
-  uint base = uint(gl_VertexID) * uint(kCoeffs * 3);
-  vec3 e = vec3(0.0);
-  for (int i = 0; i < kCoeffs; ++i) {
-    uint k = base + uint(i * 3);
-    e += vec3(transfer[k], transfer[k + 1u], transfer[k + 2u]) * uLight[i];
-  }
-  vTransferLight = e;
-#ifdef TWO_SIDED
-  vec3 eb = vec3(0.0);
-  for (int i = 0; i < kCoeffs; ++i) {
-    uint k = base + uint(i * 3);
-    eb += vec3(transferBack[k], transferBack[k + 1u], transferBack[k + 2u]) * uLight[i];
-  }
-  vTransferLightBack = eb;
-#endif
-)";
-  }
-  s += R"(#ifdef DIRECT
-  uint baseDirect = uint(gl_VertexID) * uint(kCoeffsAll);
-  vec3 d0 = vec3(0.0);
-  for (int i = 0; i < kCoeffsAll; ++i) d0 += transferDirect[baseDirect + uint(i)] * uDirectSh[i];
-  uint baseBounce = uint(gl_VertexID) * 3u;
-  vTransferLight += vec3(directBounce[baseBounce], directBounce[baseBounce + 1u], directBounce[baseBounce + 2u]) - d0;
-#ifdef TWO_SIDED
-  vec3 d0b = vec3(0.0);
-  for (int i = 0; i < kCoeffsAll; ++i) d0b += transferDirectBack[baseDirect + uint(i)] * uDirectSh[i];
-  vTransferLightBack += vec3(directBounceBack[baseBounce], directBounceBack[baseBounce + 1u],
-                             directBounceBack[baseBounce + 2u]) - d0b;
-#endif
-  vWorld = aPosition;
-  vWorldPixel = aPosition;
-  vNormal = aNormal;
-#endif
-)";
-  s += kAlbedoPassGlsl;
-  s += R"(  gl_Position = uViewProj * vec4(aPosition, 1.0);
-}
-)";
-  return s;
-}
-
-// Albedo per pixel: baseColorFactor × texture(texcoord) × COLOR_0 (kAlbedoInputsGlsl); the
-// alpha is the opacity (coverage(): MASK cutouts discarded, BLEND and transmission blended).
-// TWO_SIDED: the back side's irradiance where the back of the triangle is seen.
-std::string bakedFragmentShader() {
-  return cat(R"(#version 450 core
-centroid in vec3 vTransferLight;
-#ifdef TWO_SIDED
-centroid in vec3 vTransferLightBack;
-#endif
-#ifdef DIRECT
-centroid in vec3 vWorld;
-centroid in vec3 vNormal;
-)", directLightingGlsl(), R"(#endif
-)", kAlbedoInputsGlsl, R"(out vec4 fragColor;
-void main() {
-#ifdef DIRECT
-  vec3 dxW, dyW;
-  pixelFootprint(dxW, dyW);
-#endif
-  float a = coverage();
-#ifdef TWO_SIDED
-  vec3 e = gl_FrontFacing ? vTransferLight : vTransferLightBack;
-#else
-  vec3 e = vTransferLight;
-#endif
-#ifdef DIRECT
-  vec3 n = normalize(vNormal);
-#ifdef TWO_SIDED
-  n = gl_FrontFacing ? n : -n;
-#endif
-  e += directIrradiance(vWorld, n, dxW, dyW);
-#endif
-  fragColor = vec4(albedo() * e * 0.31830988618379067, a);
-}
-)");
-}
-
-// The raster floor (Shading::Flat): positions only, one colour.
-constexpr const char* kFlatVertexShader = R"(#version 450 core
-layout(location = 0) in vec3 aPosition;
-uniform mat4 uViewProj;
-uniform mat4 uModel;
-void main() { gl_Position = uViewProj * (uModel * vec4(aPosition, 1.0)); }
-)";
-constexpr const char* kFlatFragmentShader = R"(#version 450 core
-out vec4 fragColor;
-void main() { fragColor = vec4(0.5, 0.5, 0.5, 1.0); }
-)";
-// Shadow maps: depth only.
-constexpr const char* kDepthFragmentShader = R"(#version 450 core
-void main() {}
-)";
-
-// Shadow maps of instances that let light through (MASK, BLEND, transmission): a MASK cutout is
-// discarded (coverage()), and a fragment of opacity a < 1 blocks with probability a, a hash of
-// its position in the map against a (the bake's model: a ray stops with probability equal to
-// the opacity, ray_scene.cpp), which the filter turns into a partial shadow.
-std::string cutoutDepthVertexShader() {
-  return cat(R"(#version 450 core
-layout(location = 0) in vec3 aPosition;
-layout(location = 1) in vec2 aTexcoord;
-layout(location = 2) in vec4 aColor;
-uniform mat4 uViewProj;
-uniform mat4 uModel;
-)", kAlbedoOutputsGlsl, R"(void main() {
-)", kAlbedoPassGlsl, R"(  gl_Position = uViewProj * (uModel * vec4(aPosition, 1.0));
-}
-)");
-}
-std::string cutoutDepthFragmentShader() {
-  return cat("#version 450 core\n", kAlbedoInputsGlsl, R"(float hash(vec2 p) {  // in [0, 1), per texel
-  p = fract(p * vec2(0.1031, 0.1030));
-  p += dot(p, p.yx + 33.33);
-  return fract((p.x + p.y) * p.x);
-}
-void main() {
-  float a = coverage();
-  if (a < 1.0 && a <= hash(gl_FragCoord.xy)) discard;
-}
-)");
-}
 
 double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -723,7 +522,7 @@ const Renderer::Impl::Program& Renderer::Impl::cutoutDepthProgram(int variant) {
 const Renderer::Impl::Program& Renderer::Impl::bakedProgram(int variant) {
   Program& p = programs[size_t(variant)];
   if (!p.id)
-    p = link(withMaterialDefines(vertexShader(bands), variant), withMaterialDefines(bakedFragmentShader(), variant),
+    p = link(withMaterialDefines(bakedVertexShader(bands), variant), withMaterialDefines(bakedFragmentShader(), variant),
              "baked");
   return p;
 }
@@ -876,72 +675,6 @@ void Renderer::Impl::ensureFramebuffer(int width, int height, int samples) {
   fboSamples = samples;
 }
 
-// The background: a full-screen triangle at the far depth, drawn after the opaque instances
-// (before the blended ones) with GL_EQUAL so that only pixels no opaque instance covered run
-// it. Each pixel's centre ray (the same as the orbit and glTF cameras' rays, docs/render.md)
-// looks up RigBackground::radiance.
-constexpr const char* kBackgroundVertexGlsl = R"(#version 450 core
-void main() {
-  vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0);
-  gl_Position = vec4(p, 0.0, 1.0);  // depth 0: the cleared far depth (reversed depth)
-}
-)";
-
-std::string backgroundFragmentGlsl() {
-  return cat(R"(#version 450 core
-const int kMaxMaps = )", kMaxBackgroundMaps, R"(;
-const int kMaxCaps = )", kMaxBackgroundCaps, R"(;
-layout(binding = 4) uniform sampler2D uMaps[kMaxMaps];
-uniform mat3 uCamera;            // camera to world rotation
-uniform vec2 uTan;               // tan of half the horizontal and vertical fields of view
-uniform int uOrtho;              // 1: every ray looks down the camera's -Z
-uniform vec2 uViewport;
-uniform int uMapCount;
-uniform mat3 uWorldToMap[kMaxMaps];
-uniform vec3 uMapScale[kMaxMaps];
-uniform int uCapCount;
-uniform vec4 uCaps[kMaxCaps];         // direction, cos radius
-uniform vec4 uCapRadiance[kMaxCaps];
-uniform vec3 uUniformRadiance;
-out vec4 fragColor;
-const float kPi = 3.14159265358979;
-// atan(y, x) to about float's precision: GLSL's atan and acos are polynomial approximations
-// (Mesa's acos is off by up to ~1e-4 rad, a visible fraction of a texel in a large map).
-// Cephes' atanf: |t| <= tan(π/8) by atan t = π/4 + atan((t − 1)/(t + 1)), then an odd
-// polynomial; the octant from the signs and which of |x|, |y| is larger.
-float atan2Accurate(float y, float x) {
-  float ax = abs(x), ay = abs(y);
-  float t = min(ax, ay) / max(max(ax, ay), 1e-30);
-  bool reduce = t > 0.41421356;
-  float r = reduce ? (t - 1.0) / (t + 1.0) : t;
-  float z = r * r;
-  float a = (((8.05374449538e-2 * z - 1.38776856032e-1) * z + 1.99777106478e-1) * z - 3.33329491539e-1) * z * r + r;
-  a += reduce ? 0.78539816339 : 0.0;
-  a = ay > ax ? 1.57079632679 - a : a;
-  a = x < 0.0 ? kPi - a : a;
-  return y < 0.0 ? -a : a;
-}
-void main() {
-  vec2 ndc = gl_FragCoord.xy / uViewport * 2.0 - 1.0;
-  vec3 dir = uOrtho != 0 ? vec3(0.0, 0.0, -1.0) : vec3(ndc * uTan, -1.0);
-  vec3 d = normalize(uCamera * dir);
-  vec3 L = uUniformRadiance;
-  for (int i = 0; i < kMaxMaps; ++i) {
-    if (i >= uMapCount) break;
-    vec3 m = uWorldToMap[i] * d;
-    // equirectUv (prt/light.h); θ as atan2(√(x² + z²), y), which keeps its precision at the poles.
-    vec2 uv = vec2(0.5 + atan2Accurate(m.z, m.x) / (2.0 * kPi), atan2Accurate(length(m.xz), m.y) / kPi);
-    L += uMapScale[i] * textureLod(uMaps[i], uv, 0.0).rgb;
-  }
-  for (int i = 0; i < kMaxCaps; ++i) {
-    if (i >= uCapCount) break;
-    if (dot(d, uCaps[i].xyz) >= uCaps[i].w) L += uCapRadiance[i].rgb;
-  }
-  fragColor = vec4(L, 1.0);
-}
-)");
-}
-
 GLuint Renderer::Impl::environmentTexture(const std::shared_ptr<const ImageRgb>& image) {
   auto it = envTextures.find(image.get());
   if (it != envTextures.end()) return it->second.second;
@@ -969,7 +702,7 @@ void checkBackgroundSize(const std::string& what, size_t maps, size_t caps) {
 void Renderer::Impl::drawBackground(const RigBackground& b, const CameraView& camera, int width, int height) {
   checkBackgroundSize("background", b.maps.size(), b.caps.size());
   if (!background.id) {
-    const Program p = link(kBackgroundVertexGlsl, backgroundFragmentGlsl(), "background");
+    const Program p = link(backgroundVertexShader(), backgroundFragmentShader(), "background");
     background.id = p.id;
     auto loc = [&](const char* name) { return gl.GetUniformLocation(background.id, name); };
     background.camera = loc("uCamera");
@@ -1173,8 +906,8 @@ Renderer::Renderer(GlContext& context, const Scene& scene) : impl_(std::make_uni
   impl_->bands = scene.transferBands;
   context.makeCurrent();
   try {
-    impl_->flatProgram = impl_->link(kFlatVertexShader, kFlatFragmentShader, "flat");
-    impl_->depthProgram = impl_->link(kFlatVertexShader, kDepthFragmentShader, "shadow map");
+    impl_->flatProgram = impl_->link(flatVertexShader(), flatFragmentShader(), "flat");
+    impl_->depthProgram = impl_->link(flatVertexShader(), depthFragmentShader(), "shadow map");
     impl_->upload(scene);
   } catch (...) {
     impl_->release();
