@@ -8,6 +8,7 @@
 #include <functional>
 #include <random>
 
+#include "prt/math.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/bake/surface_bake.h"
@@ -42,7 +43,7 @@ TEST(BakeSampling, CosineHemisphereInvertsAndHasItsPdf) {
   // E[cos θ] under pdf cos θ/π is ∫cos² θ/π dω = 2/3. Standard error of 20000 samples of a
   // variable with deviation ≈ 0.24 is 0.0017: 0.01 is a 6-sigma bound.
   EXPECT_NEAR(meanCos / n, 2.0 / 3.0, 0.01);
-  EXPECT_FLOAT_EQ(bake::cosineHemispherePdf(1.0f), 1.0f / bake::kPi);
+  EXPECT_FLOAT_EQ(bake::cosineHemispherePdf(1.0f), 1.0f / prt::kPiF);
   EXPECT_EQ(bake::cosineHemispherePdf(-0.5f), 0.0f);
 }
 
@@ -57,7 +58,7 @@ TEST(BakeSampling, UniformSphereInvertsAndHasItsPdf) {
     ASSERT_NEAR(back.x, u.x, 1e-4f);
     ASSERT_NEAR(back.y, u.y, 1e-4f);
   }
-  EXPECT_FLOAT_EQ(bake::uniformSpherePdf() * 4.0f * bake::kPi, 1.0f);
+  EXPECT_FLOAT_EQ(bake::uniformSpherePdf() * 4.0f * prt::kPiF, 1.0f);
 }
 
 TEST(BakeSampling, SobolPrefixesAreStratified) {
@@ -150,7 +151,7 @@ TEST(BakeSurface, UnoccludedPlaneMatchesClosedForm) {
 }
 
 TEST(BakeSurface, UnshadowedIsExactClosedForm) {
-  Scene s = test::makeScene({test::makeCavity(M_PI / 3, 8, 16)}, 0.5f);
+  Scene s = test::makeScene({test::makeCavity(prt::kPi / 3, 8, 16)}, 0.5f);
   BakeSettings set;
   set.shadowed = false;
   bake::SurfaceTransfer t = bake::bakeSurface(s, set);
@@ -187,7 +188,7 @@ class BakeCavity : public ::testing::TestWithParam<CavityCase> {};
 
 TEST_P(BakeCavity, MatchesGeometricSeries) {
   const CavityCase c = GetParam();
-  const double alpha = M_PI / 3.0, f = (1.0 - std::cos(alpha)) / 2.0;
+  const double alpha = prt::kPi / 3.0, f = (1.0 - std::cos(alpha)) / 2.0;
   Scene s = test::makeScene({test::makeCavity(alpha, 48, 96)}, 1.0f);
   s.materials[0].baseColorFactor = glm::vec4(c.rho, 1.0f);
   BakeSettings set;
@@ -228,7 +229,7 @@ INSTANTIATE_TEST_SUITE_P(Bounces, BakeCavity,
 // ---- Determinism: the same seed gives the same bits for any thread count.
 
 TEST(BakeSurface, SameSeedSameResultAnyThreadCount) {
-  Scene s = test::makeScene({test::makeCavity(M_PI / 3, 16, 32), test::makePlane({0, -1.5f, 0}, 3.0f, 8)}, 0.7f);
+  Scene s = test::makeScene({test::makeCavity(prt::kPi / 3, 16, 32), test::makePlane({0, -1.5f, 0}, 3.0f, 8)}, 0.7f);
   BakeSettings set;
   set.samples = 128;
   set.bounces = 2;
@@ -260,7 +261,7 @@ TEST(BakeSurface, ReceiversAreNotBakedAndCastNoShadow) {
   bake::SurfaceTransfer t = bake::bakeSurface(s, set);
   EXPECT_TRUE(t.perMesh[1].empty());
   // The receiver plane above does not shadow: t_0 = π y_0 exactly (every ray escapes).
-  EXPECT_NEAR(t.perMesh[0][0].r, float(M_PI * 0.28209479), 1e-5f);
+  EXPECT_NEAR(t.perMesh[0][0].r, float(prt::kPi * 0.28209479), 1e-5f);
 }
 
 TEST(BakeSurface, RejectsBadSettings) {

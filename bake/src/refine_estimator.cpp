@@ -54,7 +54,7 @@ Estimator::Estimator(const RayScene& rays, int bands, uint32_t samples, uint64_t
   reference_ = 0.0;
   for (int l = 0; l < bands_; ++l) {
     const double a = sh::clampedCosineFactor(l);
-    reference_ += a * a * (2 * l + 1) / (4.0 * M_PI);
+    reference_ += a * a * (2 * l + 1) / (4.0 * kPi);
   }
   reference_ = std::sqrt(reference_);
 }
@@ -99,10 +99,10 @@ double Estimator::score(const Estimates& est, const uint32_t* pts, int n) const 
   const double ns = samples_;
   double err2 = 0.0, var = 0.0;
   for (int i = 0; i < n2_; ++i) {
-    const double mean = M_PI * sum[i] / ns;
+    const double mean = kPi * sum[i] / ns;
     const double e = (overBlocked ? eu[i] - mean : mean) - seen * eu[i];
     err2 += e * e;
-    var += std::max(0.0, (M_PI * M_PI * sum2[i] / ns - mean * mean) / ns);
+    var += std::max(0.0, (kPi * kPi * sum2[i] / ns - mean * mean) / ns);
   }
   return (std::sqrt(err2) - kNoiseSigmas * std::sqrt(var)) / reference_;
 }

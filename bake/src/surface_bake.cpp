@@ -37,6 +37,7 @@
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/sh.h"
 #include "stage_runner.h"
 #include "surface_layout.h"
@@ -211,7 +212,7 @@ struct DirectPass {
           }
         }
       }
-      const double w = M_PI / N;
+      const double w = kPi / N;
       for (int i = 0; i < n2; ++i) b.direct[v * n2 + i] = float(acc[i] * w);
       if (ch) ch->begin.push_back(uint32_t(hits.size()));
     }

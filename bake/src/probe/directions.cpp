@@ -28,7 +28,7 @@ __attribute__((target("avx2"))) void sphereDirectionsAvx2(const uint32_t* bx, co
                                                           float* dx, float* dy, float* dz) {
   const __m256 one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f), zero = _mm256_setzero_ps();
   const __m256 half = _mm256_set1_ps(0.5f), unit = _mm256_set1_ps(0x1p-24f);
-  const __m256 angle = _mm256_set1_ps(0x1p-22f * 0.5f * kPi);
+  const __m256 angle = _mm256_set1_ps(0x1p-22f * 0.5f * kPiF);
   const __m256 s1 = _mm256_set1_ps(kSinS1), s2 = _mm256_set1_ps(kSinS2), s3 = _mm256_set1_ps(kSinS3);
   const __m256 c1 = _mm256_set1_ps(kCosC1), c2 = _mm256_set1_ps(kCosC2), c3 = _mm256_set1_ps(kCosC3);
   const __m256 sign = _mm256_set1_ps(-0.0f);
@@ -74,7 +74,7 @@ __attribute__((target("avx512f,avx512dq"))) void sphereDirectionsAvx512(const ui
 #define SUB(a, b) _mm512_sub_round_ps(a, b, kRound)
   const __m512 one = _mm512_set1_ps(1.0f), two = _mm512_set1_ps(2.0f), zero = _mm512_setzero_ps();
   const __m512 half = _mm512_set1_ps(0.5f), unit = _mm512_set1_ps(0x1p-24f);
-  const __m512 angle = _mm512_set1_ps(0x1p-22f * 0.5f * kPi);
+  const __m512 angle = _mm512_set1_ps(0x1p-22f * 0.5f * kPiF);
   const __m512 s1 = _mm512_set1_ps(kSinS1), s2 = _mm512_set1_ps(kSinS2), s3 = _mm512_set1_ps(kSinS3);
   const __m512 c1 = _mm512_set1_ps(kCosC1), c2 = _mm512_set1_ps(kCosC2), c3 = _mm512_set1_ps(kCosC3);
   const __m512i sign = _mm512_set1_epi32(int(0x80000000u));

@@ -7,6 +7,7 @@
 
 #include <immintrin.h>
 
+#include "prt/math.h"
 #include "tracer.h"
 
 namespace prt::bake::probe {
@@ -180,7 +181,7 @@ uint32_t Tracer::lookUpAlbedo(StreamRows& rows, uint32_t hits) const {
   }
   albedo.atMany(a.mesh.data(), a.tri.data(), a.b1.data(), a.b2.data(), n, a.rgb.data());
   for (uint32_t k = 0; k < n; ++k) {
-    const glm::vec3 rho = a.rgb[k] * float(1.0 / M_PI);
+    const glm::vec3 rho = a.rgb[k] * float(1.0 / kPi);
     float* r = &rows.rho[4 * size_t(a.hit[k])];
     r[0] = rho.r, r[1] = rho.g, r[2] = rho.b, r[3] = 0.0f;
   }

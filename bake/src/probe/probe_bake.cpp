@@ -19,6 +19,7 @@
 #include "../stage_runner.h"
 #include "placement.h"
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/huge_pages.h"
 #include "tracer.h"
 
@@ -133,7 +134,7 @@ struct ProbeBaker {
         slot.moments[f] = glm::vec2(float(d / n), float(d2 / n));
       }
     slot.skyVisibility = acc.rays ? float(double(acc.escaped) / acc.rays) : 0.0f;
-    const double w = 4.0 * M_PI / settings.samples;
+    const double w = 4.0 * kPi / settings.samples;
     const size_t n2 = size_t(acc.n2);
     for (size_t k = 0; k < n2 * n2; ++k) {
       const glm::dvec3 v = w * (glm::dvec3(acc.direct[k]) + glm::dvec3(acc.indirect[3 * k], acc.indirect[3 * k + 1],

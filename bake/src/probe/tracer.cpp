@@ -9,6 +9,7 @@
 #include "prt/bake/interrupt.h"
 #include "prt/bake/surface_layout.h"
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/sh.h"
 
 namespace prt::bake::probe {
@@ -62,7 +63,7 @@ void addLitRows(Tracer& tracer, const std::vector<std::vector<glm::vec3>>& lower
     PRT_CHECK_EQ(lowerOrder[k].size(), rows * size_t(n2));
     // ρ/π of an instance of one colour (AlbedoLookup::at's, as a lit hit's) folded into its
     // rows: a lit hit's light is then the rows' weighted sum alone (LitMesh).
-    const glm::vec3 rhoPi = albedo.uniform[k] ? albedo.constant[k] * float(1.0 / M_PI) : glm::vec3(1.0f);
+    const glm::vec3 rhoPi = albedo.uniform[k] ? albedo.constant[k] * float(1.0 / kPi) : glm::vec3(1.0f);
     lowerHalf[k].assign(lowerOrder[k], rows, n2, rhoPi);
   }
   tracer.litMeshes.resize(scene.meshes.size());
