@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The one set-up script of prt, for a fresh Debian 12 machine:
 #
-#   sudo bash tools/setup.sh demo   # install, build, bake and relight the default scene
-#   sudo bash tools/setup.sh test   # install, build, run the test suite (CI runs this)
+#   bash tools/setup.sh demo   # install, build, bake and relight the default scene
+#   bash tools/setup.sh test   # install, build, run the test suite (CI runs this)
 #
 # 1. installs the Debian packages prt needs (skipped when all are installed already);
 # 2. configures and builds Release with Ninja into build/;
