@@ -411,13 +411,8 @@ nlohmann::json frameLighting(render::Renderer& renderer, const Scene& scene, con
     bake::FrameLight light = lighting.at(std::max(i, 0));
     render::Frame f;
     f.camera = view;
-    f.light = std::move(light.rig.sh);
-    f.directLight = std::move(light.rig.directSh);
-    f.direct = std::move(light.rig.direct);
-    if (light.vertexLight) {
-      f.directBounce = &light.vertexLight->front;
-      f.directBounceBack = &light.vertexLight->back;
-    }
+    const bake::DirectIrradiance* v = light.vertexLight;
+    f.setLight(std::move(light.rig), v ? &v->front : nullptr, v ? &v->back : nullptr);
     timedRender(renderer, f, i >= 0 ? &timing : nullptr);
     if (i >= 0) updateMs.push_back(1e3 * light.seconds);
   }

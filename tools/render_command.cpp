@@ -446,13 +446,8 @@ render::Frame renderFrame(const RenderArgs& a, const RenderSize& size, const ren
                           bake::FrameLight& light, double time, const RigBackground* background) {
   render::Frame frame;
   frame.camera = camera;
-  frame.light = std::move(light.rig.sh);
-  frame.directLight = std::move(light.rig.directSh);
-  frame.direct = std::move(light.rig.direct);
-  if (light.vertexLight) {
-    frame.directBounce = &light.vertexLight->front;
-    frame.directBounceBack = &light.vertexLight->back;
-  }
+  const bake::DirectIrradiance* v = light.vertexLight;
+  frame.setLight(std::move(light.rig), v ? &v->front : nullptr, v ? &v->back : nullptr);
   frame.shadows.mapSize = a.shadowMapSize;
   frame.time = time;
   frame.probeLookup = a.probeLookup;
