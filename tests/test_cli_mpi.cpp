@@ -269,6 +269,7 @@ TEST(CliShards, MergeNamesAMissingShard) {
   EXPECT_EQ(m.status, 1);
   EXPECT_EQ(test::lineCount(m.err), 1) << m.err;
   EXPECT_NE(m.err.find(ckpt + ".shard-1-of-2.done: no such shard"), std::string::npos) << m.err;
+  EXPECT_NE(m.err.find("run prt bake --shard 1/2 first"), std::string::npos) << m.err;  // the tool's hint
   EXPECT_TRUE(fs::exists(ckpt + ".shard-0-of-2.done"));  // nothing merged, nothing lost
   RunResult bad = test::runPrt(test::plus(common, {"--shard", "2/2"}));
   EXPECT_EQ(bad.status, 2) << bad.err;

@@ -29,8 +29,17 @@ void addMerge(CLI::App& cmd, MergeArgs& a) {
   cmd.add_flag("-q,--quiet", a.quiet, "No summary");
 }
 
+// mergeShards's stats; a missing shard's message says which `prt bake --shard` to run.
+bake::MergeStats merge(const MergeArgs& a) {
+  try {
+    return bake::mergeShards(a.checkpoint, a.shards);
+  } catch (const bake::ShardMissing& e) {
+    throw Error(cat(e.what(), ": run prt bake --shard ", e.index, "/", e.count, " first"));
+  }
+}
+
 int runMerge(const MergeArgs& a) {
-  const bake::MergeStats st = bake::mergeShards(a.checkpoint, a.shards);
+  const bake::MergeStats st = merge(a);
   if (a.quiet) return 0;
   std::string stages;
   for (uint32_t id : st.stages) stages += (stages.empty() ? "" : ", ") + stageName(id);

@@ -402,7 +402,7 @@ Fingerprint openShards(const std::string& path, int count, std::vector<ShardLog>
       if (err != ENOENT) throw Error(cat(sh.path, ": ", std::strerror(err)));
       if (std::filesystem::exists(shardCheckpointPath(path, i, count), ec))
         throw Error(cat(sh.path, ": shard not finished (its checkpoint is there: run it again to finish its share)"));
-      throw Error(cat(sh.path, ": no such shard (run prt bake --shard ", i, "/", count, " first)"));
+      throw ShardMissing(cat(sh.path, ": no such shard (shard ", i, "/", count, " has not been baked)"), i, count);
     }
     uint64_t first = 0;
     const Fingerprint f = readHeader(sh.fd, sh.path, first);

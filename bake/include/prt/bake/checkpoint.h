@@ -51,6 +51,13 @@ public:
   using Error::Error;
 };
 
+/// Thrown by mergeShards when shard `index` of `count` left no finished log (it was never run).
+class ShardMissing : public Error {
+public:
+  ShardMissing(const std::string& what, int index, int count) : Error(what), index(index), count(count) {}
+  int index, count;
+};
+
 struct CheckpointOptions {
   std::string path;
   /// Seconds between periodic saves (at most one interval of work is lost to kill -9 or a
