@@ -1,13 +1,12 @@
-// glTF 2.0 writing (writeBakedScene, writeLitScene): edits on the input model, read again,
-// then one packed buffer and an atomic .glb. One of the two files that see tinygltf (through
-// gltf_model.h).
+// glTF 2.0 writing: writeBakedScene, and the edits it shares with writeLitScene
+// (gltf_write_lit.cpp, through gltf_write.h) on the input model read again. The file itself:
+// gltf_write_file.cpp.
 #include "prt/scene.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
-#include <filesystem>
 #include <limits>
 #include <map>
 #include <set>
@@ -16,8 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bake_record_json.h"
-#include "gltf_model.h"
-#include "prt/atomic_file.h"
+#include "gltf_write.h"
 #include "prt/error.h"
 
 namespace prt {
@@ -26,7 +24,6 @@ using namespace gltf;
 
 namespace {
 
-namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
 tinygltf::Value toValue(const Json& j) {
@@ -57,39 +54,8 @@ tinygltf::Value toValue(const Json& j) {
   }
 }
 
-/// tinygltf image writer callback that writes nothing: the writers embed every image as a
-/// buffer view first, and an image they could not read keeps its URI as it was.
-bool keepImageUri(const std::string*, const std::string*, const tinygltf::Image*, bool,
-                  std::string*, void*) {
-  return false;
-}
-
 // ---------------------------------------------------------------------------------------------
-// Writing: edits on the reloaded input model, then one packed buffer and an atomic .glb
-
-/// Appends `bytes` as a new buffer view of `buffer` (4-byte aligned, as float data needs).
-int appendBufferView(tinygltf::Model& m, int buffer, const void* bytes, size_t size, int target) {
-  std::vector<unsigned char>& data = m.buffers[size_t(buffer)].data;
-  data.resize((data.size() + 3) / 4 * 4, 0);
-  tinygltf::BufferView view;
-  view.buffer = buffer;
-  view.byteOffset = data.size();
-  view.byteLength = size;
-  view.target = target;
-  const auto* p = static_cast<const unsigned char*>(bytes);
-  data.insert(data.end(), p, p + size);
-  m.bufferViews.push_back(view);
-  return static_cast<int>(m.bufferViews.size() - 1);
-}
-
-/// The buffer new data goes to before packing; created on first use.
-int stagingBuffer(tinygltf::Model& m, int& staging) {
-  if (staging < 0) {
-    m.buffers.emplace_back();
-    staging = static_cast<int>(m.buffers.size() - 1);
-  }
-  return staging;
-}
+// Writing: edits on the reloaded input model
 
 /// A float accessor of `count` elements of `type` (TINYGLTF_TYPE_VEC3, _SCALAR) over `bytes`.
 int addFloatAccessor(tinygltf::Model& m, int& staging, const void* bytes, size_t size, size_t count, int type,
@@ -102,12 +68,6 @@ int addFloatAccessor(tinygltf::Model& m, int& staging, const void* bytes, size_t
   a.count = count;
   m.accessors.push_back(a);
   return static_cast<int>(m.accessors.size() - 1);
-}
-
-int addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec3>& values,
-                    const std::string& name) {
-  return addFloatAccessor(m, staging, values.data(), values.size() * sizeof(glm::vec3), values.size(),
-                          TINYGLTF_TYPE_VEC3, name);
 }
 
 int addScalarAccessor(tinygltf::Model& m, int& staging, const std::vector<float>& values, const std::string& name) {
@@ -195,10 +155,6 @@ void giveEachNodeItsOwnMesh(tinygltf::Model& m, const Scene& scene) {
     m.meshes.push_back(m.meshes[size_t(inst.mesh)]);
     node.mesh = static_cast<int>(m.meshes.size() - 1);
   }
-}
-
-tinygltf::Primitive& primitiveOf(tinygltf::Model& m, const MeshInstance& inst) {
-  return m.meshes[size_t(m.nodes[size_t(inst.node)].mesh)].primitives[size_t(inst.primitive)];
 }
 
 /// A new accessor whose element i is element from[i] of accessor `index`, byte for byte (any
@@ -446,150 +402,6 @@ void storeRecord(const Scene& scene, tinygltf::Model& m, const BakeRecord* recor
   m.asset.extras.Get<tinygltf::Value::Object>()["prt"] = toValue(json);
 }
 
-std::string sniffMimeType(const std::vector<unsigned char>& b) {
-  auto starts = [&](const char* magic, size_t n, size_t at = 0) {
-    return b.size() >= at + n && std::memcmp(b.data() + at, magic, n) == 0;
-  };
-  if (starts("\x89PNG", 4)) return "image/png";
-  if (starts("\xFF\xD8\xFF", 3)) return "image/jpeg";
-  if (starts("RIFF", 4) && starts("WEBP", 4, 8)) return "image/webp";
-  if (starts("\xABKTX 20\xBB", 8)) return "image/ktx2";
-  return "";
-}
-
-/// Moves every image held by URI (file or data:) into a buffer view, with its original
-/// encoded bytes: nothing is re-encoded, and the .glb is self-contained.
-void embedImages(tinygltf::Model& m, int& staging) {
-  for (tinygltf::Image& image : m.images) {
-    if (image.bufferView >= 0 || image.image.empty()) continue;  // unreadable ones keep their URI
-    std::string mime = sniffMimeType(image.image);
-    if (mime.empty()) mime = image.mimeType;
-    if (mime.empty()) continue;
-    image.bufferView = appendBufferView(m, stagingBuffer(m, staging), image.image.data(), image.image.size(), 0);
-    image.mimeType = mime;
-    image.uri.clear();
-    image.image.clear();
-  }
-}
-
-/// True when every extension used is known not to refer to accessors or buffer views, so
-/// unreferenced ones can be dropped without breaking an index hidden in an extension.
-bool onlyKnownExtensions(const tinygltf::Model& m) {
-  for (const std::string& e : m.extensionsUsed) {
-    bool known = e.rfind("KHR_materials_", 0) == 0 || e == kLights || e == kTextureTransform ||
-                 e == "KHR_mesh_quantization" || e == "KHR_texture_basisu" || e == "EXT_texture_webp";
-    if (!known) return false;
-  }
-  return true;
-}
-
-/// Marks the accessors that core glTF objects refer to.
-std::vector<char> usedAccessors(const tinygltf::Model& m) {
-  std::vector<char> used(m.accessors.size(), 0);
-  auto mark = [&](int a) { if (a >= 0 && size_t(a) < used.size()) used[size_t(a)] = 1; };
-  for (const tinygltf::Mesh& mesh : m.meshes) {
-    for (const tinygltf::Primitive& prim : mesh.primitives) {
-      for (const auto& [name, a] : prim.attributes) mark(a);
-      mark(prim.indices);
-      for (const auto& target : prim.targets)
-        for (const auto& [name, a] : target) mark(a);
-    }
-  }
-  for (const tinygltf::Skin& skin : m.skins) mark(skin.inverseBindMatrices);
-  for (const tinygltf::Animation& anim : m.animations)
-    for (const tinygltf::AnimationSampler& s : anim.samplers) { mark(s.input); mark(s.output); }
-  return used;
-}
-
-void remapAccessors(tinygltf::Model& m, const std::vector<char>& keep) {
-  std::vector<int> to(m.accessors.size(), -1);
-  std::vector<tinygltf::Accessor> kept;
-  for (size_t i = 0; i < m.accessors.size(); ++i) {
-    if (!keep[i]) continue;
-    to[i] = static_cast<int>(kept.size());
-    kept.push_back(std::move(m.accessors[i]));
-  }
-  m.accessors = std::move(kept);
-  auto map = [&](int& a) { if (a >= 0 && size_t(a) < to.size()) a = to[size_t(a)]; };
-  for (tinygltf::Mesh& mesh : m.meshes) {
-    for (tinygltf::Primitive& prim : mesh.primitives) {
-      for (auto& [name, a] : prim.attributes) map(a);
-      map(prim.indices);
-      for (auto& target : prim.targets)
-        for (auto& [name, a] : target) map(a);
-    }
-  }
-  for (tinygltf::Skin& skin : m.skins) map(skin.inverseBindMatrices);
-  for (tinygltf::Animation& anim : m.animations)
-    for (tinygltf::AnimationSampler& s : anim.samplers) { map(s.input); map(s.output); }
-}
-
-/// GLB holds one binary buffer: copies every kept buffer view into a new buffer 0, dropping
-/// views (and, with only known extensions, accessors) that nothing refers to any more —
-/// a lit scene then no longer carries the transfer it was made from.
-void packIntoOneBuffer(const Gltf& g, tinygltf::Model& m) {
-  bool prune = onlyKnownExtensions(m);
-  if (prune) remapAccessors(m, usedAccessors(m));
-  std::vector<char> keepView(m.bufferViews.size(), prune ? 0 : 1);
-  auto mark = [&](int v) { if (v >= 0 && size_t(v) < keepView.size()) keepView[size_t(v)] = 1; };
-  for (const tinygltf::Accessor& a : m.accessors) {
-    mark(a.bufferView);
-    if (a.sparse.isSparse) { mark(a.sparse.indices.bufferView); mark(a.sparse.values.bufferView); }
-  }
-  for (const tinygltf::Image& image : m.images) mark(image.bufferView);
-
-  tinygltf::Buffer packed;
-  std::vector<int> to(m.bufferViews.size(), -1);
-  std::vector<tinygltf::BufferView> views;
-  for (size_t i = 0; i < m.bufferViews.size(); ++i) {
-    if (!keepView[i]) continue;
-    tinygltf::BufferView view = m.bufferViews[i];
-    if (view.buffer < 0 || size_t(view.buffer) >= m.buffers.size())
-      fail(g, cat("buffer view ", i, " uses buffer ", view.buffer, ", which does not exist"));
-    const std::vector<unsigned char>& src = m.buffers[size_t(view.buffer)].data;
-    if (view.byteOffset > src.size() || view.byteLength > src.size() - view.byteOffset)
-      fail(g, cat("buffer view ", i, " runs past the end of buffer ", view.buffer));
-    // 4-byte alignment keeps every accessor's offset a multiple of its component size.
-    packed.data.resize((packed.data.size() + 3) / 4 * 4, 0);
-    size_t offset = packed.data.size();
-    packed.data.insert(packed.data.end(), src.begin() + std::ptrdiff_t(view.byteOffset),
-                       src.begin() + std::ptrdiff_t(view.byteOffset + view.byteLength));
-    view.buffer = 0;
-    view.byteOffset = offset;
-    to[i] = static_cast<int>(views.size());
-    views.push_back(std::move(view));
-  }
-  auto map = [&](int& v) { if (v >= 0 && size_t(v) < to.size()) v = to[size_t(v)]; };
-  for (tinygltf::Accessor& a : m.accessors) {
-    map(a.bufferView);
-    if (a.sparse.isSparse) { map(a.sparse.indices.bufferView); map(a.sparse.values.bufferView); }
-  }
-  for (tinygltf::Image& image : m.images) map(image.bufferView);
-  m.bufferViews = std::move(views);
-  m.buffers.assign(1, std::move(packed));
-}
-
-void addExtensionUsed(tinygltf::Model& m, const std::string& name) {
-  if (std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), name) == m.extensionsUsed.end())
-    m.extensionsUsed.push_back(name);
-}
-
-void writeGlb(const Gltf& g, tinygltf::Model& m, int& staging, const std::string& outPath) {
-  m.asset.generator = "prt";
-  embedImages(m, staging);
-  packIntoOneBuffer(g, m);
-  AtomicFile file(outPath);
-  tinygltf::TinyGLTF writer;
-  writer.SetImageWriter(&keepImageUri, nullptr);
-  bool ok = writer.WriteGltfSceneToFile(&m, file.tempPath(), /*embedImages=*/true, /*embedBuffers=*/true,
-                                        /*prettyPrint=*/false, /*writeBinary=*/true);
-  // tinygltf does not check its stream writes; a truncated file shows in its size.
-  std::error_code ec;
-  uintmax_t size = fs::file_size(file.tempPath(), ec);
-  if (!ok || ec || size < 12) throw Error(cat(outPath, ": cannot write the .glb file"));
-  file.commit();
-}
-
 /// glTF requires min/max on POSITION accessors; inputs that lack them get them here, so the
 /// output validates whatever the input did.
 void addPositionBounds(Gltf& g, const std::set<int>& meshes) {
@@ -615,8 +427,49 @@ void addPositionBounds(Gltf& g, const std::set<int>& meshes) {
   }
 }
 
-/// Loads the input again and makes it ready to carry per-instance vertex data.
-Gltf reloadForWriting(const std::string& inputPath, const Scene& scene, int& staging) {
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// The steps gltf_write.h shares with gltf_write_lit.cpp and gltf_write_file.cpp
+
+int gltf::appendBufferView(tinygltf::Model& m, int buffer, const void* bytes, size_t size, int target) {
+  std::vector<unsigned char>& data = m.buffers[size_t(buffer)].data;
+  data.resize((data.size() + 3) / 4 * 4, 0);
+  tinygltf::BufferView view;
+  view.buffer = buffer;
+  view.byteOffset = data.size();
+  view.byteLength = size;
+  view.target = target;
+  const auto* p = static_cast<const unsigned char*>(bytes);
+  data.insert(data.end(), p, p + size);
+  m.bufferViews.push_back(view);
+  return static_cast<int>(m.bufferViews.size() - 1);
+}
+
+int gltf::stagingBuffer(tinygltf::Model& m, int& staging) {
+  if (staging < 0) {
+    m.buffers.emplace_back();
+    staging = static_cast<int>(m.buffers.size() - 1);
+  }
+  return staging;
+}
+
+int gltf::addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec3>& values,
+                          const std::string& name) {
+  return addFloatAccessor(m, staging, values.data(), values.size() * sizeof(glm::vec3), values.size(),
+                          TINYGLTF_TYPE_VEC3, name);
+}
+
+tinygltf::Primitive& gltf::primitiveOf(tinygltf::Model& m, const MeshInstance& inst) {
+  return m.meshes[size_t(m.nodes[size_t(inst.node)].mesh)].primitives[size_t(inst.primitive)];
+}
+
+void gltf::addExtensionUsed(tinygltf::Model& m, const std::string& name) {
+  if (std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), name) == m.extensionsUsed.end())
+    m.extensionsUsed.push_back(name);
+}
+
+Gltf gltf::reloadForWriting(const std::string& inputPath, const Scene& scene, int& staging) {
   Gltf g = readGltf(inputPath, nullptr, scene.allowExternalUris);
   checkMatchesScene(g, scene);
   const std::set<int> meshes = usedMeshes(scene);
@@ -629,73 +482,6 @@ Gltf reloadForWriting(const std::string& inputPath, const Scene& scene, int& sta
   return g;
 }
 
-/// Every material becomes unlit white, so a viewer shows COLOR_0 (the radiance) unchanged.
-void makeMaterialsUnlitWhite(tinygltf::Model& m) {
-  auto unlitWhite = [](const std::string& name, bool doubleSided) {
-    tinygltf::Material mat;
-    mat.name = name;
-    mat.doubleSided = doubleSided;
-    mat.pbrMetallicRoughness.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
-    mat.pbrMetallicRoughness.metallicFactor = 0.0;  // the fallback the unlit spec suggests
-    mat.pbrMetallicRoughness.roughnessFactor = 0.9;
-    mat.extensions[kUnlit] = tinygltf::Value(tinygltf::Value::Object{});
-    return mat;
-  };
-  for (tinygltf::Material& mat : m.materials) mat = unlitWhite(mat.name, mat.doubleSided);
-  int fallback = -1;  // for primitives on the glTF default material, which is lit
-  for (tinygltf::Mesh& mesh : m.meshes) {
-    for (tinygltf::Primitive& prim : mesh.primitives) {
-      if (prim.material >= 0) continue;
-      if (fallback < 0) {
-        m.materials.push_back(unlitWhite("prt unlit", false));
-        fallback = static_cast<int>(m.materials.size() - 1);
-      }
-      prim.material = fallback;
-    }
-  }
-  m.textures.clear();
-  m.images.clear();
-  m.samplers.clear();
-  // Material and texture extensions have nothing left to apply to.
-  auto gone = [](const std::string& e) {
-    return (e.rfind("KHR_materials_", 0) == 0 && e != kUnlit) || e == kTextureTransform ||
-           e == "KHR_texture_basisu" || e == "EXT_texture_webp";
-  };
-  std::erase_if(m.extensionsUsed, gone);
-  std::erase_if(m.extensionsRequired, gone);
-  addExtensionUsed(m, kUnlit);
-}
-
-/// Removes meshes without primitives (glTF requires at least one) and the nodes' references.
-void removeEmptyMeshes(tinygltf::Model& m) {
-  std::vector<int> to(m.meshes.size(), -1);
-  std::vector<tinygltf::Mesh> kept;
-  for (size_t i = 0; i < m.meshes.size(); ++i) {
-    if (m.meshes[i].primitives.empty()) continue;
-    to[i] = static_cast<int>(kept.size());
-    kept.push_back(std::move(m.meshes[i]));
-  }
-  m.meshes = std::move(kept);
-  for (tinygltf::Node& n : m.nodes)
-    if (n.mesh >= 0) n.mesh = size_t(n.mesh) < to.size() ? to[size_t(n.mesh)] : -1;
-}
-
-/// Removes the primitives of instances without radiance; a node left without primitives
-/// loses its mesh.
-void removeUnlitInstances(tinygltf::Model& m, const Scene& scene,
-                          const std::vector<std::vector<glm::vec3>>& radiance) {
-  std::map<int, std::set<int>> drop;  // node -> primitives
-  for (size_t k = 0; k < scene.meshes.size(); ++k)
-    if (radiance[k].empty()) drop[scene.meshes[k].node].insert(scene.meshes[k].primitive);
-  for (const auto& [node, prims] : drop) {
-    auto& list = m.meshes[size_t(m.nodes[size_t(node)].mesh)].primitives;
-    for (auto it = prims.rbegin(); it != prims.rend(); ++it) list.erase(list.begin() + *it);
-  }
-  removeEmptyMeshes(m);
-}
-
-}  // namespace
-
 void writeBakedScene(const std::string& inputPath, const Scene& scene, const BakeRecord* record,
                      const std::string& outPath) {
   int staging = -1;
@@ -703,31 +489,7 @@ void writeBakedScene(const std::string& inputPath, const Scene& scene, const Bak
   addTransferAttributes(g.model, staging, scene);
   markOptionReceivers(g.model, scene);
   storeRecord(scene, g.model, record, outPath);
-  writeGlb(g, g.model, staging, outPath);
-}
-
-void writeLitScene(const std::string& inputPath, const Scene& scene,
-                   const std::vector<std::vector<glm::vec3>>& radiance, const std::string& outPath,
-                   const std::vector<std::vector<glm::vec3>>* backRadiance) {
-  PRT_CHECK_EQ(radiance.size(), scene.meshes.size());
-  int staging = -1;
-  // reloadForWriting drops the _PRT_SH_* attributes: a lit file is for looking at, and the
-  // transfer would make it bands² × 12 bytes per vertex larger. packIntoOneBuffer then leaves
-  // their data out.
-  Gltf g = reloadForWriting(inputPath, scene, staging);
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    if (radiance[k].empty()) continue;
-    PRT_CHECK_EQ(radiance[k].size(), scene.meshes[k].vertexCount());
-    primitiveOf(g.model, scene.meshes[k]).attributes["COLOR_0"] =
-        addVec3Accessor(g.model, staging, radiance[k], "radiance");
-    if (!backRadiance || (*backRadiance)[k].empty()) continue;
-    PRT_CHECK_EQ((*backRadiance)[k].size(), scene.meshes[k].vertexCount());
-    primitiveOf(g.model, scene.meshes[k]).attributes[kBackRadiance] =
-        addVec3Accessor(g.model, staging, (*backRadiance)[k], "back radiance");
-  }
-  removeUnlitInstances(g.model, scene, radiance);
-  makeMaterialsUnlitWhite(g.model);
-  writeGlb(g, g.model, staging, outPath);
+  writeSceneFile(g, g.model, staging, outPath);
 }
 
 }  // namespace prt
