@@ -1,7 +1,8 @@
 // The files writeBakedScene and writeLitScene write are valid glTF, on the points where the
 // Khronos glTF Validator once found errors (CliGltfValidator, tests/cli_gltf_validator.sh,
 // runs the validator itself on prt's outputs): a camera's zfar is positive or absent, COLOR_0
-// stays in 0..1 while _RADIANCE keeps the exact radiance, and a .gltf output is glTF JSON.
+// stays in 0..1 while _RADIANCE keeps the exact radiance, accessor bounds are the data's, and a
+// .gltf output is glTF JSON.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -148,6 +149,32 @@ TEST(SceneWriteValid, GltfOutputIsJsonWithItsBufferInline) {
   EXPECT_EQ(std::memcmp(back.meshes[0].transfer.data(), s.meshes[0].transfer.data(),
                         s.meshes[0].transfer.size() * sizeof(glm::vec3)),
             0);
+}
+
+// Declared bounds that are not the data's (as Draco-decoded files carry: the values before
+// quantisation, the indices before reordering) are written as the data's.
+TEST(SceneWriteValid, AccessorBoundsAreTheData) {
+  const test::TempDir d;
+  test::GltfFile f;
+  const MeshInstance plane = test::makePlane({0, 0, 0}, 2.0f, 2);  // x, z in -1..1; indices 0..8
+  const int mesh = f.mesh(plane);
+  const Json& prim = f.j["meshes"][size_t(mesh)]["primitives"][0];
+  Json& position = f.j["accessors"][prim["attributes"]["POSITION"].get<size_t>()];
+  position["min"] = {-1.0078, 0.0, -1.0};
+  position["max"] = {1.0, 0.5, 1.0};
+  f.j["accessors"][prim["indices"].get<size_t>()]["max"] = {11};
+  f.j["accessors"][prim["indices"].get<size_t>()]["min"] = {0};
+  f.node({{"name", "Plane"}, {"mesh", mesh}}, true);
+  const std::string input = f.write("bounds", d.path()), out = d.file("baked.glb");
+  writeBakedScene(input, loadScene(input), nullptr, out);
+  const Glb glb(out);
+  const Json& written = glb.primitive("Plane");
+  const Json& p = glb.j["accessors"][written["attributes"]["POSITION"].get<size_t>()];
+  EXPECT_EQ(p["min"], Json({-1.0, 0.0, -1.0}));
+  EXPECT_EQ(p["max"], Json({1.0, 0.0, 1.0}));
+  const Json& indices = glb.j["accessors"][written["indices"].get<size_t>()];
+  EXPECT_EQ(indices["min"], Json({0}));
+  EXPECT_EQ(indices["max"], Json({8}));
 }
 
 // The .glb framing: the header's length is the file's, both chunks 4-byte multiples, the BIN

@@ -156,6 +156,40 @@ void packIntoOneBuffer(const Gltf& g, tinygltf::Model& m) {
   m.buffers.assign(1, std::move(packed));
 }
 
+/// glTF wants an accessor's min and max to be its values' exact bounds. Data decoded from Draco
+/// keeps the bounds the file gave before (of the values before quantisation, of the indices
+/// before Draco reordered the vertices): each declared bound of a float or plain integer
+/// accessor that is not its data's (floats compared as floats) is replaced by the data's.
+/// Normalised, sparse and unreadable accessors keep theirs.
+void exactBounds(const Gltf& g, tinygltf::Model& m) {
+  for (size_t i = 0; i < m.accessors.size(); ++i) {
+    tinygltf::Accessor& a = m.accessors[i];
+    const bool isFloat = a.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT;
+    if ((!isFloat && a.normalized) || a.sparse.isSparse || a.count == 0) continue;
+    if (a.minValues.empty() && a.maxValues.empty()) continue;
+    AccessorData d;
+    try {
+      d = openAccessor(g, int(i), cat("accessor ", i));
+    } catch (const Error&) {
+      continue;  // data the writer does not read (nothing of the scene uses it) keeps its bounds
+    }
+    std::vector<double> lo(size_t(d.components), std::numeric_limits<double>::infinity());
+    std::vector<double> hi(size_t(d.components), -std::numeric_limits<double>::infinity());
+    for (size_t v = 0; v < d.count; ++v)
+      for (int c = 0; c < d.components; ++c) {
+        lo[size_t(c)] = std::min(lo[size_t(c)], d.get(v, c));
+        hi[size_t(c)] = std::max(hi[size_t(c)], d.get(v, c));
+      }
+    auto exact = [&](std::vector<double>& declared, const std::vector<double>& actual) {
+      if (declared.size() != actual.size()) return;  // left as it is (the reader checks components)
+      for (size_t c = 0; c < actual.size(); ++c)
+        if (isFloat ? float(declared[c]) != float(actual[c]) : declared[c] != actual[c]) declared[c] = actual[c];
+    };
+    exact(a.minValues, lo);
+    exact(a.maxValues, hi);
+  }
+}
+
 /// tinygltf writes a perspective camera's zfar even when it is 0, which tinygltf and
 /// prt::Camera read as an infinite projection; glTF wants zfar positive, or absent for an
 /// infinite projection. Leaves it out where it is not positive.
@@ -229,6 +263,7 @@ void gltf::writeSceneFile(const Gltf& g, tinygltf::Model& m, int& staging, const
   m.asset.generator = "prt";
   embedImages(m, staging);
   packIntoOneBuffer(g, m);
+  exactBounds(g, m);
   const bool binary = !endsInGltf(outPath);
   Json doc = serializedDocument(m, binary);
   leaveOutInfiniteZfar(doc);
