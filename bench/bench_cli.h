@@ -6,7 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "../bake/src/half.h"  // forceAvx2Kernels, forcePortableKernels (as the tests switch them)
+#include "prt/bake/kernels.h"
 
 namespace prt::bench {
 
@@ -32,9 +32,10 @@ inline void addKernelsOption(CLI::App& app, std::string& kernels) {
 
 /// Switches the kernels as --kernels asks; returns the path that runs (avx512, avx2 or portable).
 inline std::string applyKernels(const std::string& kernels) {
-  bake::forceAvx2Kernels() = kernels == "avx2";
-  bake::forcePortableKernels() = kernels == "portable";
-  return bake::useAvx512Kernels() ? "avx512" : bake::useVectorKernels() ? "avx2" : "portable";
+  bake::setKernels(kernels == "avx2"       ? bake::Kernels::Avx2
+                   : kernels == "portable" ? bake::Kernels::Portable
+                                           : bake::Kernels::Auto);
+  return bake::kernelsName(bake::activeKernels());
 }
 
 }  // namespace prt::bench

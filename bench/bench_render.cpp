@@ -15,7 +15,9 @@
 // per-vertex lookup, flat, baked instances only; the order rotates from frame to frame) and
 // compared frame by frame, wall and process CPU time
 // (CLOCK_PROCESS_CPUTIME_ID: llvmpipe's and TBB's threads included), so that the load of a
-// shared machine falls on all kinds alike. --frames-only 1 skips the light-update part.
+// shared machine falls on all kinds alike. --frames-only 1 skips the light-update part, which
+// ends with `prt render`'s own light update (frame_lighting: the rig, shadow rays and the gather
+// over the bake's rays, bake::FrameLighting).
 // The `sun` part (sunShadows) times the same frame with a sun lit per pixel with its shadow maps
 // against the frame with the sun through SH (docs/render.md, "Direct lights and their shadows");
 // --sun-only 1 stops after it.
@@ -37,11 +39,13 @@
 #include <nlohmann/json.hpp>
 
 #include "bench_cli.h"
+#include "prt/bake/frame_lighting.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
 #include "prt/huge_pages.h"
 #include "prt/light.h"
+#include "prt/light_rig.h"
 #include "prt/probe_grid.h"
 #include "prt/relight.h"
 #include "prt/render/gl_context.h"
@@ -71,7 +75,7 @@ double median(std::vector<double> v) {
 }
 
 // Splits every triangle into 4 (midpoints shared through an edge map), interpolating normals and
-// transfer: the refined mesh a denser bake would give.
+// transfer (its direct part too): the refined mesh a denser bake would give.
 void refine(MeshInstance& m, int bands) {
   const size_t n2 = size_t(bands) * size_t(bands);
   std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
@@ -83,6 +87,9 @@ void refine(MeshInstance& m, int bands) {
     m.positions.push_back(0.5f * (m.positions[a] + m.positions[b]));
     m.normals.push_back(glm::normalize(m.normals[a] + m.normals[b]));
     for (size_t k = 0; k < n2; ++k) m.transfer.push_back(0.5f * (m.transfer[a * n2 + k] + m.transfer[b * n2 + k]));
+    if (m.hasDirectTransfer())
+      for (size_t k = 0; k < n2; ++k)
+        m.transferDirect.push_back(0.5f * (m.transferDirect[a * n2 + k] + m.transferDirect[b * n2 + k]));
     mid.emplace(key, i);
     return i;
   };
@@ -376,6 +383,48 @@ nlohmann::json lightUpdates(render::GlContext& context, const Scene& scene, cons
   return j;
 }
 
+// The light update of `prt render` (bake::FrameLighting): the bundled environment map turning
+// 360° over the frames and a sun, so that every frame evaluates the rig and gathers its direct
+// lights' bounces and the sky detail over the bake's rays again (traced once, at the first
+// frame: trace_s), then draws. light_update_ms is the frame's light without the renderer's part.
+nlohmann::json frameLighting(render::Renderer& renderer, const Scene& scene, const render::CameraView& view,
+                             int frames) {
+  LightRig rig;
+  RigLight env;
+  env.type = RigLight::Type::Environment;
+  env.file = PRT_SOURCE_DIR "/scenes/env/royal_esplanade_128.hdr";
+  env.rotation = Track::ramp(0.0, 0.0, frames, 360.0);
+  RigLight sun;
+  sun.type = RigLight::Type::Sun;
+  sun.colorIsIrradiance = true;
+  sun.direction = Track::constant(glm::normalize(glm::dvec3(0.3, 0.8, 0.5)));
+  sun.color = Track::constant(glm::dvec3(6.0, 5.6, 5.0));
+  rig.lights = {env, sun};
+  rig.validate();
+  rig.prepare(renderer.bands());
+  bake::FrameLightingSettings settings;
+  settings.shadowSamples = 4;  // prt render's shadow rays for the light that bounces
+  bake::FrameLighting lighting(scene, rig, settings);
+  Timing timing;
+  std::vector<double> updateMs;
+  for (int i = -1; i < frames; ++i) {
+    bake::FrameLight light = lighting.at(std::max(i, 0));
+    render::Frame f;
+    f.camera = view;
+    const bake::DirectIrradiance* v = light.vertexLight;
+    f.setLight(std::move(light.rig), v ? &v->front : nullptr, v ? &v->back : nullptr);
+    timedRender(renderer, f, i >= 0 ? &timing : nullptr);
+    if (i >= 0) updateMs.push_back(1e3 * light.seconds);
+  }
+  const bake::FrameLightingStats& st = lighting.stats();
+  return {{"gather_samples", settings.gatherSamples},
+          {"gather_rays", st.gatherRays},
+          {"trace_s", st.traceSeconds},
+          {"updates", st.updates},
+          {"light_update_ms", median(updateMs)},
+          {"frame", timing.json()}};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -420,6 +469,7 @@ int main(int argc, char** argv) {
       bake::SurfaceTransfer t = bake::bakeSurface(scene, bs);
       scene.transferBands = t.bands;
       bake::storeTransfer(scene, t.perMesh, t.perMeshDirect);  // with the direct part (sun frames)
+      scene.bakeRecord = bake::bakeRecord(bs, "cornell_open.gltf", "bench");  // bounces for the gather
       bake::ProbeSettings ps;
       ps.dims = glm::ivec3(probeDims);
       ps.samples = 256;
@@ -498,6 +548,7 @@ int main(int argc, char** argv) {
     }
     j["receiver_closeup"] = receiverCloseup(renderer, bakedOnly, scene, width, height, frames);
     if (!framesOnly) j.update(lightUpdates(context, scene, view));
+    if (!framesOnly) j["frame_lighting"] = frameLighting(renderer, scene, view, frames);
     const std::string text = j.dump(2);
     std::printf("%s\n", text.c_str());
     if (!jsonPath.empty()) std::ofstream(jsonPath) << text << "\n";

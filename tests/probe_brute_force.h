@@ -8,6 +8,7 @@
 
 #include <glm/glm.hpp>
 
+#include "prt/math.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/scene.h"
@@ -45,10 +46,10 @@ inline glm::dvec3 bruteIrradiance(const bake::RayScene& rays, const Scene& s,
                        r.v * lower[r.mesh][ix[2] * n2 + i];
         e += ti * sky.c[size_t(i)];
       }
-      sum += glm::dvec3(rho / float(M_PI) * e);
+      sum += glm::dvec3(rho / float(prt::kPi) * e);
     }
   }
-  return M_PI * sum / double(N);
+  return prt::kPi * sum / double(N);
 }
 
 }  // namespace prt::test

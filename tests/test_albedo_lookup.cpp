@@ -1,4 +1,4 @@
-// AlbedoLookup::atMany (bake/src/albedo_lookup.cpp): the base colour of many hits at once, eight
+// AlbedoLookup::atMany (prt/bake/albedo_lookup.h): the base colour of many hits at once, eight
 // at a time with AVX-512, must give albedoAt's bits for every hit: textures of 8-bit texels in
 // every wrap mode (sizes down to 1 × 1, coordinates far outside [0, 1], non-finite ones), float
 // texels (looked up one by one), vertex colours with and without a texture, factors, instances
@@ -11,9 +11,9 @@
 #include <random>
 #include <vector>
 
-#include "../bake/src/albedo_lookup.h"
-#include "../bake/src/surface_layout.h"  // VaryingColours, makeLayout, HitRecord
-#include "../bake/src/half.h"  // useAvx512Kernels, forceAvx2Kernels
+#include "prt/bake/albedo_lookup.h"  // AlbedoLookup, VaryingColours
+#include "prt/bake/kernels.h"
+#include "prt/bake/surface_layout.h"  // makeLayout, HitRecord
 #include "prt/scene.h"
 
 namespace prt {
@@ -102,7 +102,7 @@ Scene randomScene(std::mt19937& rng) {
 }
 
 TEST(AlbedoLookup, ManyAtOnceGiveAtsBits) {
-  if (!bake::useAvx512Kernels()) GTEST_SKIP() << "no AVX-512 on this CPU: atMany looks each hit up with at()";
+  if (bake::activeKernels() != bake::Kernels::Avx512) GTEST_SKIP() << "no AVX-512 on this CPU: atMany looks each hit up with at()";
   std::mt19937 rng(7);
   const Scene s = randomScene(rng);
 

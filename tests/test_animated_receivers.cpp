@@ -19,6 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "prt/math.h"
 #include "gltf_file.h"
 #include "harness.h"
 #include "prt/bake/probe_bake.h"
@@ -219,8 +220,8 @@ sh::ShRgb testLight() {
 // y_6 = 0.315392 (3z² − 1), y_8 = 0.546274 (x² − y²); the others vanish) and the clamped-cosine
 // factors π, 2π/3, π/4: no prt code involved.
 glm::dvec3 upIrradiance(const sh::ShRgb& l) {
-  return M_PI * 0.282095 * glm::dvec3(l.c[0]) + 2 * M_PI / 3 * 0.488603 * glm::dvec3(l.c[1]) +
-         M_PI / 4 * (-0.315392 * glm::dvec3(l.c[6]) - 0.546274 * glm::dvec3(l.c[8]));
+  return prt::kPi * 0.282095 * glm::dvec3(l.c[0]) + 2 * prt::kPi / 3 * 0.488603 * glm::dvec3(l.c[1]) +
+         prt::kPi / 4 * (-0.315392 * glm::dvec3(l.c[6]) - 0.546274 * glm::dvec3(l.c[8]));
 }
 
 // Relative tolerance against the probe oracle: as test_render.cpp's kReceiverTolerance (the

@@ -15,6 +15,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
 
+#include "prt/math.h"
 #include "gltf_file.h"
 #include "prt/error.h"
 #include "prt/scene.h"
@@ -115,7 +116,7 @@ TEST(AnimationFile, ParentAnimationComposesWithTheChild) {
   GltfFile f;
   const int parent = f.node({{"name", "Parent"}, {"translation", {0, 1, 0}}}, true);
   const int child = f.node({{"name", "Child"}, {"mesh", 0}, {"translation", {1, 0, 0}},
-                            {"rotation", {0, std::sin(M_PI / 4), 0, std::cos(M_PI / 4)}},
+                            {"rotation", {0, std::sin(prt::kPi / 4), 0, std::cos(prt::kPi / 4)}},
                             {"extras", {{"prt", {{"receiver", true}}}}}},
                            false);
   f.j["nodes"][parent]["children"] = Json::array({child});

@@ -8,6 +8,7 @@
 #include <functional>
 #include <random>
 
+#include "prt/math.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/bake/surface_bake.h"
@@ -42,7 +43,7 @@ TEST(BakeSampling, CosineHemisphereInvertsAndHasItsPdf) {
   // E[cos θ] under pdf cos θ/π is ∫cos² θ/π dω = 2/3. Standard error of 20000 samples of a
   // variable with deviation ≈ 0.24 is 0.0017: 0.01 is a 6-sigma bound.
   EXPECT_NEAR(meanCos / n, 2.0 / 3.0, 0.01);
-  EXPECT_FLOAT_EQ(bake::cosineHemispherePdf(1.0f), 1.0f / bake::kPi);
+  EXPECT_FLOAT_EQ(bake::cosineHemispherePdf(1.0f), 1.0f / prt::kPiF);
   EXPECT_EQ(bake::cosineHemispherePdf(-0.5f), 0.0f);
 }
 
@@ -57,7 +58,7 @@ TEST(BakeSampling, UniformSphereInvertsAndHasItsPdf) {
     ASSERT_NEAR(back.x, u.x, 1e-4f);
     ASSERT_NEAR(back.y, u.y, 1e-4f);
   }
-  EXPECT_FLOAT_EQ(bake::uniformSpherePdf() * 4.0f * bake::kPi, 1.0f);
+  EXPECT_FLOAT_EQ(bake::uniformSpherePdf() * 4.0f * prt::kPiF, 1.0f);
 }
 
 TEST(BakeSampling, SobolPrefixesAreStratified) {
@@ -150,7 +151,7 @@ TEST(BakeSurface, UnoccludedPlaneMatchesClosedForm) {
 }
 
 TEST(BakeSurface, UnshadowedIsExactClosedForm) {
-  Scene s = test::makeScene({test::makeCavity(M_PI / 3, 8, 16)}, 0.5f);
+  Scene s = test::makeScene({test::makeCavity(prt::kPi / 3, 8, 16)}, 0.5f);
   BakeSettings set;
   set.shadowed = false;
   bake::SurfaceTransfer t = bake::bakeSurface(s, set);
@@ -187,7 +188,7 @@ class BakeCavity : public ::testing::TestWithParam<CavityCase> {};
 
 TEST_P(BakeCavity, MatchesGeometricSeries) {
   const CavityCase c = GetParam();
-  const double alpha = M_PI / 3.0, f = (1.0 - std::cos(alpha)) / 2.0;
+  const double alpha = prt::kPi / 3.0, f = (1.0 - std::cos(alpha)) / 2.0;
   Scene s = test::makeScene({test::makeCavity(alpha, 48, 96)}, 1.0f);
   s.materials[0].baseColorFactor = glm::vec4(c.rho, 1.0f);
   BakeSettings set;
@@ -228,7 +229,7 @@ INSTANTIATE_TEST_SUITE_P(Bounces, BakeCavity,
 // ---- Determinism: the same seed gives the same bits for any thread count.
 
 TEST(BakeSurface, SameSeedSameResultAnyThreadCount) {
-  Scene s = test::makeScene({test::makeCavity(M_PI / 3, 16, 32), test::makePlane({0, -1.5f, 0}, 3.0f, 8)}, 0.7f);
+  Scene s = test::makeScene({test::makeCavity(prt::kPi / 3, 16, 32), test::makePlane({0, -1.5f, 0}, 3.0f, 8)}, 0.7f);
   BakeSettings set;
   set.samples = 128;
   set.bounces = 2;
@@ -260,7 +261,7 @@ TEST(BakeSurface, ReceiversAreNotBakedAndCastNoShadow) {
   bake::SurfaceTransfer t = bake::bakeSurface(s, set);
   EXPECT_TRUE(t.perMesh[1].empty());
   // The receiver plane above does not shadow: t_0 = π y_0 exactly (every ray escapes).
-  EXPECT_NEAR(t.perMesh[0][0].r, float(M_PI * 0.28209479), 1e-5f);
+  EXPECT_NEAR(t.perMesh[0][0].r, float(prt::kPi * 0.28209479), 1e-5f);
 }
 
 TEST(BakeSurface, RejectsBadSettings) {
@@ -278,14 +279,21 @@ TEST(BakeSurface, RejectsBadSettings) {
 }  // namespace
 }  // namespace prt
 
-// The bounces' halves (bake/src/half.h) must round as F16C does, on every CPU: every half
+// The bounces' halves (prt/bake/half.h) must round as F16C does, on every CPU: every half
 // converts back exactly, and floats of every binade (normal, subnormal, overflow, ties) round
 // to the same half as vcvtps2ph with round-to-nearest-even.
+#include <cpuid.h>
 #include <immintrin.h>
 
-#include "../bake/src/half.h"
+#include "prt/bake/half.h"
 
 namespace {
+// F16C: CPUID leaf 1, ECX bit 29 (clang 14, the sanitizer build, does not know
+// __builtin_cpu_supports("f16c")).
+bool cpuHasF16c() {
+  unsigned a = 0, b = 0, c = 0, d = 0;
+  return __get_cpuid(1, &a, &b, &c, &d) && (c & bit_F16C) != 0;
+}
 __attribute__((target("f16c"))) uint16_t f16cFromFloat(float f) {
   return uint16_t(_mm_extract_epi16(_mm_cvtps_ph(_mm_set1_ps(f), 0), 0));
 }
@@ -293,7 +301,7 @@ __attribute__((target("f16c"))) float f16cToFloat(uint16_t h) { return _mm_cvtss
 }  // namespace
 
 TEST(BakeHalf, PortableConversionsMatchF16c) {
-  if (!prt::bake::cpuHasF16c()) GTEST_SKIP() << "no F16C on this CPU";
+  if (!cpuHasF16c()) GTEST_SKIP() << "no F16C on this CPU";
   for (uint32_t h = 0; h < 0x10000u; ++h) {
     if ((h & 0x7c00u) == 0x7c00u && (h & 0x3ffu)) continue;  // NaNs: payloads may differ
     ASSERT_EQ(std::bit_cast<uint32_t>(prt::bake::floatFromHalf(uint16_t(h))),

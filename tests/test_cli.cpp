@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "prt/math.h"
 #include "cli_expect.h"
 #include "gltf_file.h"
 #include "harness.h"
@@ -172,7 +173,7 @@ TEST(Cli, SunOverPlaneIsLitExactlyThroughTheDirectPart) {
   };
   const std::vector<double> exact = radiance(csv), band = radiance(csvSh);
   ASSERT_EQ(exact.size(), 1089u);
-  const double expected = 0.8 / M_PI * 2.0 * std::cos(glm::radians(30.0));
+  const double expected = 0.8 / prt::kPi * 2.0 * std::cos(glm::radians(30.0));
   for (double g : exact) ASSERT_NEAR(g, expected, 1e-5 * expected);
   const std::vector<std::vector<glm::vec3>> lib =
       relightVertices(s, projectSun(3, azimuthElevationDirection(20.0, 60.0), glm::radians(0.265), glm::dvec3(2.0)));
@@ -262,7 +263,7 @@ TEST(Cli, SkyDetailLightsALowBrightRingExactlyOnAverage) {
   writeExr(exr, map);
   double exact = 0.0;
   for (int y = 0; y < 128; ++y) {
-    const double cosTheta = std::cos(M_PI * (y + 0.5) / 128.0);  // row y's centre; +Y is up
+    const double cosTheta = std::cos(prt::kPi * (y + 0.5) / 128.0);  // row y's centre; +Y is up
     if (cosTheta > 0.0) exact += 256.0 * double(map.at(0, y).g) * cosTheta * equirectPixelSolidAngle(y, 256, 128);
   }
   const std::string baked = d.file("plane.baked.glb");
@@ -285,7 +286,7 @@ TEST(Cli, SkyDetailLightsALowBrightRingExactlyOnAverage) {
       ++n;
     }
     EXPECT_EQ(n, 1089);
-    return std::make_pair(sum / std::max(n, 1) / (0.8 / M_PI * exact), r.err);
+    return std::make_pair(sum / std::max(n, 1) / (0.8 / prt::kPi * exact), r.err);
   };
   const auto [detail, summary] = meanOf({"--bounce-samples", "4096"});
   const auto [byDefault, unused0] = meanOf({});

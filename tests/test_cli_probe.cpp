@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "prt/math.h"
 #include "harness.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
@@ -521,7 +522,7 @@ TEST_F(CliProbe, BakeInfoAndPointsQuery) {
     double e = std::stod(line.substr(line.rfind(',') + 1));
     // The probes' direct part integrates y_j y_i with 1024 Sobol directions (~1e-3); the
     // 3-band irradiance of a constant sky is exact. 1% bounds it.
-    EXPECT_NEAR(e, M_PI, 0.01 * M_PI) << line;
+    EXPECT_NEAR(e, prt::kPi, 0.01 * prt::kPi) << line;
     ++rows;
   }
   EXPECT_EQ(rows, 2);

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "prt/math.h"
 #include "prt/bake/direct_light.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
@@ -36,12 +37,12 @@ double capQuadrature(const DirectLight& l, int n, F g) {
   const glm::dvec3 d = l.direction;
   const glm::dvec3 a = std::fabs(d.y) < 0.9 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
   const glm::dvec3 t = glm::normalize(glm::cross(a, d)), b = glm::cross(d, t);
-  const double oneMinusCos = 1.0 - std::cos(l.radius), cell = 2.0 * M_PI * oneMinusCos / (double(n) * n);
+  const double oneMinusCos = 1.0 - std::cos(l.radius), cell = 2.0 * prt::kPi * oneMinusCos / (double(n) * n);
   double sum = 0.0;
   for (int i = 0; i < n; ++i) {
     const double c = 1.0 - (i + 0.5) / n * oneMinusCos, s = std::sqrt(1.0 - c * c);
     for (int j = 0; j < n; ++j) {
-      const double phi = 2.0 * M_PI * (j + 0.5) / n;
+      const double phi = 2.0 * prt::kPi * (j + 0.5) / n;
       sum += g(c * d + s * std::cos(phi) * t + s * std::sin(phi) * b);
     }
   }
@@ -58,7 +59,7 @@ TEST(LightDirect, CosineFactorMatchesQuadratureAcrossTheHorizon) {
       const DirectLight l = sunAt(zenith, 0.0, r, glm::dvec3(1.0));
       const glm::dvec3 n(0, 1, 0);
       const double exact = capQuadrature(l, 1000, [&](const glm::dvec3& w) { return std::max(glm::dot(n, w), 0.0); }) /
-                           (M_PI * std::sin(l.radius) * std::sin(l.radius));
+                           (prt::kPi * std::sin(l.radius) * std::sin(l.radius));
       EXPECT_NEAR(directCosineFactor(l, n), exact, 2e-4) << "radius " << r << ", zenith " << zenith;
     }
   // A delta: the plain cosine.
@@ -89,7 +90,7 @@ TEST(BakeDirectLight, PlaneUnderASunIsExact) {
       const auto lit = relightVerticesSplit(s, sh::ShRgb(3), shSun, d.front);
       for (size_t v = 0; v < s.meshes[0].vertexCount(); ++v)
         for (int c = 0; c < 3; ++c) {
-          const double expected = rho / M_PI * e[c] * factor;
+          const double expected = rho / prt::kPi * e[c] * factor;
           ASSERT_NEAR(d.front[0][v][c], e[c] * factor, 1e-5 * e[c]) << "zenith " << zenith << " radius " << radius;
           ASSERT_NEAR(lit[0][v][c], expected, 1e-5 * e[c]) << "zenith " << zenith << " radius " << radius;
         }
@@ -115,7 +116,7 @@ TEST(BakeDirectLight, PenumbraAcrossAStraightEdgeMatchesQuadrature) {
   bake::ShadowSettings ss;
   ss.samples = 1024;
   bake::DirectIrradiance d = bake::shadowedDirectIrradiance(s, {disk}, ss);
-  const double L = 1.0 / (M_PI * std::sin(disk.radius) * std::sin(disk.radius));
+  const double L = 1.0 / (prt::kPi * std::sin(disk.radius) * std::sin(disk.radius));
   double worst = 0.0, meanError = 0.0;
   int penumbra = 0, checked = 0;
   for (size_t v = 0; v < s.meshes[0].vertexCount(); ++v) {
@@ -161,7 +162,7 @@ TEST(BakeDirectLight, SameBitsForAnyThreadCount) {
 // direct part in every channel, bit for bit; with bounces the total exceeds it by what the
 // bounces add (the cavity's walls light each other).
 TEST(BakeDirectLight, SurfaceDirectPartIsTheFirstBounce) {
-  Scene s = test::makeScene({test::makeCavity(M_PI / 3.0, 12, 24)}, 0.8f);
+  Scene s = test::makeScene({test::makeCavity(prt::kPi / 3.0, 12, 24)}, 0.8f);
   bake::BakeSettings bs;
   bs.samples = 128;
   bs.bounces = 0;
@@ -185,7 +186,7 @@ TEST(BakeDirectLight, SurfaceDirectPartIsTheFirstBounce) {
 // the hit records' 16-bit barycentrics (1e-4 of the total), while a wrong albedo, seed, side or
 // bounce count is off by percents. With fewer rays it is the same estimator with more noise.
 TEST(BakeDirectBounce, GatherWithTheBakesRaysIsTheBakesBouncedTransfer) {
-  Scene s = test::makeScene({test::makeCavity(M_PI / 2.5, 12, 24), test::makeSlab({-0.3f, -0.9f, -0.3f}, {0.3f, -0.7f, 0.3f})},
+  Scene s = test::makeScene({test::makeCavity(prt::kPi / 2.5, 12, 24), test::makeSlab({-0.3f, -0.9f, -0.3f}, {0.3f, -0.7f, 0.3f})},
                             0.7f);
   for (Material& m : s.materials) {
     m.doubleSided = true;
@@ -267,7 +268,7 @@ TEST(BakeDirectBounce, GatherWithTheBakesRaysIsTheBakesBouncedTransfer) {
 // c_1y = 0.4886 π sin²α), whatever the bounces; M⁰ is stored as its upper triangle, and
 // relightProbes(l, d) = M·(l + d) − M⁰·d, checked against the matrices themselves.
 TEST(ProbeDirect, CavityCentreDirectPartIsTheOpening) {
-  const double alpha = M_PI / 3.0;
+  const double alpha = prt::kPi / 3.0;
   Scene s = test::makeScene({test::makeCavity(alpha, 48, 96)}, 0.5f);
   bake::BakeSettings bs;
   bs.samples = 256;
@@ -289,8 +290,8 @@ TEST(ProbeDirect, CavityCentreDirectPartIsTheOpening) {
   // M⁰ · l: relight with everything as "direct" light, minus the full relight, negated.
   const std::vector<glm::vec3> all = relightProbes(g, sky);            // M l
   const std::vector<glm::vec3> bounced = relightProbes(g, none, sky);  // (M − M⁰) l
-  const double omega = 2.0 * M_PI * (1.0 - std::cos(alpha));
-  const double c00 = 0.28209479 * omega, c1y = 0.48860251 * M_PI * std::sin(alpha) * std::sin(alpha);
+  const double omega = 2.0 * prt::kPi * (1.0 - std::cos(alpha));
+  const double c00 = 0.28209479 * omega, c1y = 0.48860251 * prt::kPi * std::sin(alpha) * std::sin(alpha);
   // 4096 Sobol directions: the opening's share to ~0.3% (ProbeCavity); 1.5% as there.
   EXPECT_NEAR(all[0].g - bounced[0].g, c00, 0.015 * c00);
   EXPECT_NEAR(all[1].g - bounced[1].g, c1y, 0.015 * c1y);
@@ -346,7 +347,7 @@ TEST(BakeSkyDetail, OpenPlaneGetsTheSkyBeyondTheBandLimit) {
   sky.caps.push_back({capDir, std::cos(capRadius), capL});
   sh::ShRgb l = projectUniform(3, glm::dvec3(1.0));
   l += projectDiskRadiance(3, capDir, capRadius, capL);
-  const glm::dvec3 exact = glm::dvec3(M_PI) + capL * (M_PI * std::pow(std::sin(capRadius), 2) * capDir.y);
+  const glm::dvec3 exact = glm::dvec3(prt::kPi) + capL * (prt::kPi * std::pow(std::sin(capRadius), 2) * capDir.y);
   bake::BounceSettings b;
   b.samples = 4096;
   b.bounces = bs.bounces;
@@ -394,8 +395,8 @@ TEST(BakeSkyDetail, OpenPlaneGetsTheSkyBeyondTheBandLimit) {
     const bake::DirectIrradiance flat = rays.skyDetail(turned, lm);
     double worstMap = 0.0;
     for (const glm::vec3& d : flat.front[0]) worstMap = std::max(worstMap, double(glm::length(d)));
-    std::printf("[ measured ] detail of a band-1 map, turned: worst %.3g (E about %.3g)\n", worstMap, 2.0 * M_PI);
-    EXPECT_LT(worstMap, 5e-3 * 2.0 * M_PI);
+    std::printf("[ measured ] detail of a band-1 map, turned: worst %.3g (E about %.3g)\n", worstMap, 2.0 * prt::kPi);
+    EXPECT_LT(worstMap, 5e-3 * 2.0 * prt::kPi);
   }
 
   RigBackground uniform;

@@ -20,6 +20,7 @@
 #include <stb_image.h>
 #include <stb_image_write.h>
 
+#include "prt/math.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
 #include "prt/image.h"
@@ -36,7 +37,7 @@ namespace fs = std::filesystem;
 using prt::ExrCompression;
 using prt::ImageRgb;
 
-constexpr double kPi = 3.14159265358979323846;
+using prt::kPi;
 
 // Float output: coefficients and pixels are stored as float, so comparisons against double
 // references allow a few float ulps (2^-24 ≈ 6e-8) relative to the magnitudes involved.

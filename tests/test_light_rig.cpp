@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include "prt/math.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
 #include "prt/image.h"
@@ -33,7 +34,7 @@ using prt::LightRig;
 using prt::RigLight;
 using prt::Track;
 
-constexpr double kPi = 3.14159265358979323846;
+using prt::kPi;
 
 std::string sourceFile(const std::string& rel) { return std::string(PRT_SOURCE_DIR) + "/" + rel; }
 const std::string kEsplanade = sourceFile("scenes/env/royal_esplanade_128.hdr");

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "prt/math.h"
 #include "gltf_file.h"
 #include "harness.h"
 #include "png_file.h"
@@ -39,7 +40,7 @@ using Json = nlohmann::json;
 /// origin's foot to (x, z) (Howell's catalogue, B-3).
 double cornerViewFactor(double x, double z, double h) {
   const double a = x / h, b = z / h, sa = std::sqrt(1.0 + a * a), sb = std::sqrt(1.0 + b * b);
-  return (a / sa * std::atan(b / sa) + b / sb * std::atan(a / sb)) / (2.0 * M_PI);
+  return (a / sa * std::atan(b / sa) + b / sb * std::atan(a / sb)) / (2.0 * prt::kPi);
 }
 
 /// Solid angle of that rectangle from the origin.
@@ -128,7 +129,7 @@ Json checkerMask() {
 
 /// Floor vertex v's sky fraction from its direct transfer: t_00 = π y_00 · (unoccluded cosine share).
 double openFraction(const bake::SurfaceTransfer& t, size_t mesh, size_t v, int bands) {
-  return t.perMesh[mesh][v * size_t(bands * bands)].r / (M_PI * 0.28209479177387814);
+  return t.perMesh[mesh][v * size_t(bands * bands)].r / (prt::kPi * 0.28209479177387814);
 }
 
 bake::BakeSettings directOnly(int samples) {
@@ -265,8 +266,8 @@ TEST(BakeCutout, ProbeSeesTheSkyThroughTheChecker) {
   const ProbeGrid g = bake::bakeProbes(s, {}, ps);
   ASSERT_EQ(g.probeCount(), 1u);
   EXPECT_EQ(g.validity[0], 1.0f);
-  const double want = 1.0 - overCells(cornerSolidAngle, at.x, at.z, 0.5, false) / (4.0 * M_PI);
-  ASSERT_LT(1.0 - overCells(cornerSolidAngle, at.x, at.z, 0.5, true) / (4.0 * M_PI), want - 0.15);
+  const double want = 1.0 - overCells(cornerSolidAngle, at.x, at.z, 0.5, false) / (4.0 * prt::kPi);
+  ASSERT_LT(1.0 - overCells(cornerSolidAngle, at.x, at.z, 0.5, true) / (4.0 * prt::kPi), want - 0.15);
   std::printf("probe M_00 %.4f, closed form %.4f\n", g.transfer[0], want);
   EXPECT_NEAR(g.transfer[0], want, 0.015);
 }
@@ -489,7 +490,7 @@ TEST(BakeCutout, PacketsOfEightFindTheHitsOfSingleRays) {
     size_t hits = 0, partial = 0;
     for (size_t i = 0; i < kRays; ++i) {
       const glm::vec3 o(2.0f * uniform() - 1.0f, i % 2 ? 0.25f : kHeight + 0.25f, 2.0f * uniform() - 1.0f);
-      const float z = 2.0f * uniform() - 1.0f, phi = 2.0f * float(M_PI) * uniform();
+      const float z = 2.0f * uniform() - 1.0f, phi = 2.0f * float(prt::kPi) * uniform();
       const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
       const glm::vec3 d(r * std::cos(phi), z, r * std::sin(phi));
       single[i].start(o, d, 0.0f, std::numeric_limits<float>::infinity());

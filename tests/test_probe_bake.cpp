@@ -14,6 +14,8 @@
 
 #include <tbb/global_control.h>
 
+#include "prt/math.h"
+#include "prt/bake/kernels.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
@@ -24,7 +26,6 @@
 #include "prt/sh.h"
 #include "probe_brute_force.h"
 #include "test_scenes.h"
-#include "../bake/src/half.h"  // forcePortableKernels
 
 namespace prt {
 namespace {
@@ -71,7 +72,7 @@ class ProbeCavity : public ::testing::TestWithParam<int> {};
 
 TEST_P(ProbeCavity, CentreMatchesClosedForm) {
   const int K = GetParam();
-  const double alpha = M_PI / 3.0, rho = 0.5, f = (1.0 - std::cos(alpha)) / 2.0;
+  const double alpha = prt::kPi / 3.0, rho = 0.5, f = (1.0 - std::cos(alpha)) / 2.0;
   Scene s = test::makeScene({test::makeCavity(alpha, 48, 96)}, float(rho));
   bake::BakeSettings bs;
   bs.samples = 512;
@@ -89,9 +90,9 @@ TEST_P(ProbeCavity, CentreMatchesClosedForm) {
 
   double wall = 0.0, term = rho * f;
   for (int j = 0; j < K; ++j, term *= rho * (1.0 - f)) wall += term;
-  const double omega = 2.0 * M_PI * (1.0 - std::cos(alpha));
-  const double c00 = 0.28209479 * (omega + (4.0 * M_PI - omega) * wall);
-  const double c1y = 0.48860251 * M_PI * std::sin(alpha) * std::sin(alpha) * (1.0 - wall);
+  const double omega = 2.0 * prt::kPi * (1.0 - std::cos(alpha));
+  const double c00 = 0.28209479 * (omega + (4.0 * prt::kPi - omega) * wall);
+  const double c1y = 0.48860251 * prt::kPi * std::sin(alpha) * std::sin(alpha) * (1.0 - wall);
   // 4096 Sobol sphere directions estimate the opening's share to ~0.3%; the walls' radiance
   // comes from the bake (mean error < 0.1%, see BakeCavity) and faceting (~0.1%): 1.5% of the
   // value bounds both, while a wrong factor of π or a bounce too many is ≥ 10% here.
@@ -238,7 +239,7 @@ bake::SurfaceTransfer litWalls(const Scene& s) {
 // with and without it): none where no surface sends light, some where the probe's rays hit lit
 // walls, and never more than the threads' time beside the tracing.
 TEST(ProbeBake, GatherIsTimedApart) {
-  const Scene s = test::makeScene({test::makeCavity(M_PI / 3, 24, 48)}, 0.5f);
+  const Scene s = test::makeScene({test::makeCavity(prt::kPi / 3, 24, 48)}, 0.5f);
   const bake::SurfaceTransfer t = litWalls(s);
   ASSERT_EQ(t.perMeshLowerOrder.size(), s.meshes.size());
   bake::ProbeSettings ps = oneProbeAt(glm::dvec3(0.0), 0.05);
@@ -255,7 +256,7 @@ TEST(ProbeBake, GatherIsTimedApart) {
 }
 
 TEST(ProbeBake, SameSeedSameGridAnyThreadCount) {
-  Scene s = test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f);
+  Scene s = test::makeScene({test::makeCavity(prt::kPi / 3, 12, 24)}, 0.5f);
   bake::ProbeSettings ps;
   ps.dims = glm::ivec3(4);
   ps.samples = 64;
@@ -279,7 +280,7 @@ TEST(ProbeBake, SameSeedSameGridAnyThreadCount) {
 // The same with lit surfaces (the indirect part, summed one stream late, docs/bake.md "Speed")
 // and several streams per probe, the last one partial (600 = 2 × 256 + 88).
 TEST(ProbeBake, SameSeedSameGridAnyThreadCountWithLitSurfaces) {
-  const Scene s = test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f);
+  const Scene s = test::makeScene({test::makeCavity(prt::kPi / 3, 12, 24)}, 0.5f);
   const bake::SurfaceTransfer t = litWalls(s);
   bake::ProbeSettings ps;
   ps.dims = glm::ivec3(3);
@@ -317,16 +318,14 @@ void expectKernelPathsAgree(const Scene& s, int bands) {
   ps.bounces = 2;
   std::vector<bake::SurfaceTransfer> surfaces;
   std::vector<ProbeGrid> grids;
-  enum class Path { Avx512, Avx2, Portable };
-  std::vector<Path> paths{Path::Avx2, Path::Portable};
-  if (bake::useAvx512Kernels()) paths.insert(paths.begin(), Path::Avx512);
+  std::vector<bake::Kernels> paths{bake::Kernels::Avx2, bake::Kernels::Portable};
+  if (bake::bestKernels() == bake::Kernels::Avx512) paths.insert(paths.begin(), bake::Kernels::Avx512);
   {
     struct Restore {
-      ~Restore() { bake::forcePortableKernels() = bake::forceAvx2Kernels() = false; }  // however the bakes end
+      ~Restore() { bake::setKernels(bake::Kernels::Auto); }  // however the bakes end
     } restore;
-    for (Path path : paths) {
-      bake::forcePortableKernels() = path == Path::Portable;
-      bake::forceAvx2Kernels() = path == Path::Avx2;
+    for (bake::Kernels path : paths) {
+      bake::setKernels(path);
       surfaces.push_back(bake::bakeSurface(s, bs));
       grids.push_back(bake::bakeProbes(s, surfaces.back().perMeshLowerOrder, ps));
     }
@@ -351,19 +350,19 @@ void expectKernelPathsAgree(const Scene& s, int bands) {
 }
 
 // The kernels' paths (AVX-512 where the CPU has it, AVX2 + F16C, the portable ones lane by lane)
-// give the same bits: the bounces' gather of the previous order (half.h), the probes' ray
+// give the same bits: the bounces' gather of the previous order (half_rows.h), the probes' ray
 // directions, SH values, inside tests, classification and moments, M⁰, lit hits and products of
 // a stream's rays.
 TEST(ProbeBake, HalfPathsGiveTheSameBits) {
-  if (!bake::useVectorKernels()) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
+  if (bake::bestKernels() == bake::Kernels::Portable) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
   // The cavity in one colour (its ρ/π in its rows: the AVX-512 products without ρ/π), and the
   // same with a vertex-coloured slab inside (ρ/π looked up per hit: groups of lit hits of both
   // kinds, the products with ρ/π, which is 1 for the cavity's hits).
-  std::vector<Scene> scenes{test::makeScene({test::makeCavity(M_PI / 3, 12, 24)}, 0.5f)};
+  std::vector<Scene> scenes{test::makeScene({test::makeCavity(prt::kPi / 3, 12, 24)}, 0.5f)};
   MeshInstance slab = test::makeSlab({0.25f, -0.6f, -0.2f}, {0.55f, -0.3f, 0.2f}, 0.1f);
   for (size_t v = 0; v < slab.positions.size(); ++v)
     slab.colors.push_back(glm::vec4(0.3f + 0.2f * float(v % 3), 0.5f, 0.9f - 0.1f * float(v % 5), 1.0f));
-  scenes.push_back(test::makeScene({test::makeCavity(M_PI / 3, 12, 24), slab}, 0.5f));
+  scenes.push_back(test::makeScene({test::makeCavity(prt::kPi / 3, 12, 24), slab}, 0.5f));
   // 3 bands (the AVX-512 products' 9 rows), 2 (4 rows) and 4 (AVX2 only); 300 rays: whole
   // packets of 8 and a partial one.
   for (const Scene& s : scenes)
@@ -375,7 +374,7 @@ TEST(ProbeBake, HalfPathsGiveTheSameBits) {
 // and ρ/π · (t_lower(h) · l) where it hits a front face, by plain random sampling (not the
 // bake's Sobol sequence, not its code path).
 TEST(ProbeBake, InterpolatedIrradianceMatchesBruteForce) {
-  const double alpha = M_PI / 3.0;
+  const double alpha = prt::kPi / 3.0;
   Scene s = test::makeScene({test::makeCavity(alpha, 32, 64)}, 0.6f);
   bake::BakeSettings bs;
   bs.samples = 256;
@@ -391,7 +390,7 @@ TEST(ProbeBake, InterpolatedIrradianceMatchesBruteForce) {
 
   // A band-limited sky brighter towards +Y and +X, so orientation matters.
   sh::ShRgb sky(3);
-  sky.c[0] = glm::vec3(2.0f * std::sqrt(float(M_PI)));
+  sky.c[0] = glm::vec3(2.0f * std::sqrt(float(prt::kPi)));
   sky.c[1] = glm::vec3(1.2f, 1.0f, 0.8f);
   sky.c[3] = glm::vec3(0.5f);
   std::vector<glm::vec3> relit = relightProbes(g, sky);
@@ -450,7 +449,7 @@ struct TwoRooms {
     ps.samples = 4096;
     ps.bounces = 1;
     grid = bake::bakeProbes(scene, surface.perMeshLowerOrder, ps);
-    sky.c[0] = glm::vec3(2.0f * std::sqrt(float(M_PI)));  // uniform radiance 1
+    sky.c[0] = glm::vec3(2.0f * std::sqrt(float(prt::kPi)));  // uniform radiance 1
     relit = relightProbes(grid, sky);
   }
   bool bright(size_t p) const { return grid.position(p).x < double(wallX); }

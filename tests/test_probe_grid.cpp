@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "prt/math.h"
 #include "harness.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
@@ -180,11 +181,11 @@ TEST(ProbeGridInterpolate, EmptySceneGivesTheLightEverywhere) {
   }
   // A uniform white sky of radiance 1 (l_0 = 2√π) gives E = π at any normal.
   sh::ShRgb sky(3);
-  sky.c[0] = glm::vec3(float(2.0 * std::sqrt(M_PI)));
+  sky.c[0] = glm::vec3(float(2.0 * std::sqrt(prt::kPi)));
   const std::vector<glm::vec3> relitSky = relightProbes(g, sky);
   const glm::vec3 n = randomDir(rng);
   const glm::vec3 e = sh::irradiance(interpolateRadiance(g, relitSky, randomPointInside(g, rng), &n), n);
-  for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(e[ch], float(M_PI), 1e-5f);
+  for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(e[ch], float(prt::kPi), 1e-5f);
 }
 
 TEST(ProbeGridInterpolate, TrilinearReproducesLinearField) {
@@ -260,7 +261,7 @@ ProbeGrid bakedWallGrid() {
     std::array<glm::dvec3, 6> acc{};  // sum d, sum d², count
     for (int k = 0; k < n; ++k) {
       const double z = 1.0 - (2.0 * k + 1.0) / n, rho = std::sqrt(1.0 - z * z);
-      const double phi = k * M_PI * (3.0 - std::sqrt(5.0));
+      const double phi = k * prt::kPi * (3.0 - std::sqrt(5.0));
       const glm::vec3 w(float(rho * std::cos(phi)), float(rho * std::sin(phi)), float(z));
       const int f = faceOf(w);
       float t = std::numeric_limits<float>::infinity();
@@ -639,7 +640,7 @@ print('bands', meta['bands'], 'dims', *meta['dims'], 'seed', meta['seed'])
   EXPECT_EQ(wy, 1.0);
   EXPECT_EQ(wz, 2.0);
   // Empty scene: irradiance at +Y under a uniform sky of radiance 1 is π (float32 rounding).
-  EXPECT_NEAR(irradiance, M_PI, 1e-5);
+  EXPECT_NEAR(irradiance, prt::kPi, 1e-5);
   EXPECT_EQ(active, 24);  // one active count shared by every grid: the same topology
   EXPECT_EQ(grids, 81 + 8);
   EXPECT_NE(r.out.find("bands 3 dims 4 3 2 seed 0"), std::string::npos) << r.out;

@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 
+#include "prt/math.h"
 #include "gltf_file.h"
 #include "harness.h"
 #include "prt/bake/refine.h"
@@ -50,7 +51,7 @@ double skyIrradianceAt(const MeshInstance& m, const std::vector<glm::vec3>& tran
     if (u < -1e-9 || v < -1e-9 || u + v > 1 + 1e-9) continue;
     const double e = (1 - u - v) * transfer[m.indices[3 * t] * n2].r + u * transfer[m.indices[3 * t + 1] * n2].r +
                      v * transfer[m.indices[3 * t + 2] * n2].r;
-    return e * std::sqrt(4.0 * M_PI);
+    return e * std::sqrt(4.0 * prt::kPi);
   }
   ADD_FAILURE() << "(" << x << ", " << z << ") is on no triangle";
   return 0.0;
@@ -83,8 +84,8 @@ std::pair<double, double> irradianceError(const Baked& b, const Baked& fine) {
       const double x = -0.98 + 1.96 * i / 40.0, z = -0.98 + 1.96 * j / 40.0;
       const double e = skyIrradianceAt(b.scene.meshes[0], b.transfer.perMesh[0], 3, x, z);
       const double ef = skyIrradianceAt(fine.scene.meshes[0], fine.transfer.perMesh[0], 3, x, z);
-      worst = std::max(worst, std::abs(e - ef) / M_PI);
-      sum += std::abs(e - ef) / M_PI;
+      worst = std::max(worst, std::abs(e - ef) / prt::kPi);
+      sum += std::abs(e - ef) / prt::kPi;
       ++n;
     }
   return {worst, sum / n};
@@ -95,7 +96,7 @@ MeshInstance coarseSphere(int segments, int rings) {
   MeshInstance m;
   for (int r = 0; r <= rings; ++r)
     for (int s = 0; s < segments; ++s) {
-      const double theta = M_PI * r / rings, phi = 2 * M_PI * s / segments;
+      const double theta = prt::kPi * r / rings, phi = 2 * prt::kPi * s / segments;
       const glm::vec3 p(float(std::sin(theta) * std::cos(phi)), float(std::cos(theta)),
                         float(std::sin(theta) * std::sin(phi)));
       m.positions.push_back(p);
@@ -173,8 +174,8 @@ TEST(BakeRefine, DoubleSidedFloorIsRefinedForItsBackSide) {
     for (int j = 0; j <= 40; ++j) {
       const double x = -0.98 + 1.96 * i / 40.0, z = -0.98 + 1.96 * j / 40.0;
       const double ef = skyIrradianceAt(fine.scene.meshes[0], fb, 3, x, z);
-      rawWorst = std::max(rawWorst, std::abs(skyIrradianceAt(raw.scene.meshes[0], rb, 3, x, z) - ef) / M_PI);
-      worst = std::max(worst, std::abs(skyIrradianceAt(refined.scene.meshes[0], cb, 3, x, z) - ef) / M_PI);
+      rawWorst = std::max(rawWorst, std::abs(skyIrradianceAt(raw.scene.meshes[0], rb, 3, x, z) - ef) / prt::kPi);
+      worst = std::max(worst, std::abs(skyIrradianceAt(refined.scene.meshes[0], cb, 3, x, z) - ef) / prt::kPi);
     }
   const double bound = 1.62 * r.tolerance + 2 * 0.03;
   EXPECT_GT(rawWorst, bound);

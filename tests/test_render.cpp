@@ -15,6 +15,7 @@
 
 #include <unistd.h>
 
+#include "prt/math.h"
 #include "harness.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
@@ -506,7 +507,7 @@ TEST(RenderShading, TexturedQuadAlbedoPerPixel) {
   m.texcoords = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};  // glTF: v = 0 at the top of the image
   m.indices = {0, 1, 2, 0, 2, 3};
   m.material = 0;
-  m.transfer.assign(4, glm::vec3(float(M_PI / 0.2820947917738781)));
+  m.transfer.assign(4, glm::vec3(float(prt::kPi / 0.2820947917738781)));
   s.meshes.push_back(m);
   s.transferBands = 1;
   updateBounds(s);
@@ -616,9 +617,9 @@ TEST(RenderShading, DoubleSidedPlaneLitFromBelowShowsEachSidesHemisphere) {
     for (int i = 0; i < ny; ++i) {
       const double cy = -1.0 + (i + 0.5) * 2.0 / ny, r = std::sqrt(1.0 - cy * cy);
       for (int k = 0; k < nphi; ++k) {
-        const double phi = (k + 0.5) * 2.0 * M_PI / nphi;
+        const double phi = (k + 0.5) * 2.0 * prt::kPi / nphi;
         sh::evaluate(bs.bands, glm::vec3(float(r * std::cos(phi)), float(cy), float(r * std::sin(phi))), y);
-        const double w = (cy > 0.0 ? 1.0 : 0.25) * (2.0 / ny) * (2.0 * M_PI / nphi);
+        const double w = (cy > 0.0 ? 1.0 : 0.25) * (2.0 / ny) * (2.0 * prt::kPi / nphi);
         for (int j = 0; j < bs.bands * bs.bands; ++j) sky.c[size_t(j)] += glm::vec3(float(w * y[j]));
       }
     }
@@ -877,7 +878,7 @@ MeshInstance sphere(const glm::vec3& centre, float radius, int segments, int rin
   add({0, 1, 0});
   for (int r = 1; r < rings; ++r)
     for (int s = 0; s < segments; ++s) {
-      const double th = M_PI * r / rings, ph = 2.0 * M_PI * s / segments;
+      const double th = prt::kPi * r / rings, ph = 2.0 * prt::kPi * s / segments;
       add(glm::vec3(float(std::sin(th) * std::cos(ph)), float(std::cos(th)), float(-std::sin(th) * std::sin(ph))));
     }
   add({0, -1, 0});
@@ -1028,7 +1029,7 @@ glm::dvec3 closedFormIrradiance(const sh::ShRgb& l, const glm::dvec3& n) {
   const double basis[9] = {0.282095, 0.488603 * y, 0.488603 * z, 0.488603 * x, 1.092548 * x * y,
                            1.092548 * y * z, 0.315392 * (3 * z * z - 1), 1.092548 * x * z,
                            0.546274 * (x * x - y * y)};
-  const double a[9] = {M_PI, 2 * M_PI / 3, 2 * M_PI / 3, 2 * M_PI / 3, M_PI / 4, M_PI / 4, M_PI / 4, M_PI / 4, M_PI / 4};
+  const double a[9] = {prt::kPi, 2 * prt::kPi / 3, 2 * prt::kPi / 3, 2 * prt::kPi / 3, prt::kPi / 4, prt::kPi / 4, prt::kPi / 4, prt::kPi / 4, prt::kPi / 4};
   glm::dvec3 e(0.0);
   for (int i = 0; i < 9; ++i) e += a[i] * basis[i] * glm::dvec3(l.c[size_t(i)]);
   return e;

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <functional>
 
+#include "prt/math.h"
 #include "prt/light_rig.h"
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
@@ -60,7 +61,7 @@ Scene sceneOf(std::vector<MeshInstance> meshes, std::vector<Material> materials)
 // Light l_00 = π: a quad of transfer t_00 = 1 shows exactly its albedo.
 sh::ShRgb light() {
   sh::ShRgb l(2);
-  l.c[0] = glm::vec3(float(M_PI));
+  l.c[0] = glm::vec3(float(prt::kPi));
   return l;
 }
 

@@ -20,7 +20,7 @@
 #include "prt/render/renderer.h"
 #include "prt/scene.h"
 
-#include "direct_shading.h"  // render/src: planShadows
+#include "shadow_pass.h"  // render/src: planShadows
 
 namespace prt::render {
 namespace {

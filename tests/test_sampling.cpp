@@ -13,12 +13,13 @@
 #include <random>
 #include <vector>
 
+#include "prt/math.h"
 #include "prt/bake/sampling.h"
 
 namespace prt {
 namespace {
 
-constexpr double kPiD = 3.14159265358979323846;
+constexpr double kPiD = prt::kPi;
 
 // ---- Statistics: the χ² tail probability.
 
@@ -333,7 +334,7 @@ TEST(BakeSampling, UniformSphereFromBitsIsTheSameMap) {
       const glm::vec3 d = bake::uniformSphereFromBits(bx, by);
       // The map in double (sampleUniformSphere's float φ = 2π·u alone is off by up to 4.8e-7).
       const double z = 1.0 - 2.0 * double(bx) * 0x1p-24, r = std::sqrt(std::max(0.0, 1.0 - z * z));
-      const double phi = 2.0 * M_PI * double(by) * 0x1p-24;
+      const double phi = 2.0 * prt::kPi * double(by) * 0x1p-24;
       const glm::dvec3 e(r * std::cos(phi), r * std::sin(phi), z);
       worst = std::max(worst, float(glm::length(glm::dvec3(d) - e)));
     }
@@ -353,7 +354,7 @@ TEST(BakeSampling, ConcentricDiskIsTheSameMap) {
       glm::dvec2 e(0.0);
       if (ox != 0.0 || oy != 0.0) {
         const bool wide = std::fabs(ox) > std::fabs(oy);
-        const double r = wide ? ox : oy, t = wide ? M_PI / 4 * (oy / ox) : M_PI / 2 - M_PI / 4 * (ox / oy);
+        const double r = wide ? ox : oy, t = wide ? prt::kPi / 4 * (oy / ox) : prt::kPi / 2 - prt::kPi / 4 * (ox / oy);
         e = r * glm::dvec2(std::cos(t), std::sin(t));
       }
       worst = std::max(worst, float(glm::length(glm::dvec2(p) - e)));

@@ -17,6 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "prt/math.h"
 #include "harness.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
@@ -71,7 +72,7 @@ struct Doc {
 };
 
 /// The test scene: a hemisphere-like cavity (self-shadowing, so transfer varies over it).
-MeshInstance testMesh() { return test::makeCavity(M_PI / 3, 10, 20); }
+MeshInstance testMesh() { return test::makeCavity(prt::kPi / 3, 10, 20); }
 
 std::vector<float> flat(const std::vector<glm::vec3>& v) {
   std::vector<float> out;

@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include "prt/math.h"
 #include "prt/scene.h"
 
 namespace prt::test {
@@ -39,9 +40,9 @@ inline MeshInstance makeCavity(double opening, int rings, int segments) {
   MeshInstance m;
   m.name = "cavity";
   for (int r = 0; r < rings; ++r) {
-    double theta = opening + (M_PI - opening) * double(r) / rings;
+    double theta = opening + (prt::kPi - opening) * double(r) / rings;
     for (int s = 0; s < segments; ++s) {
-      double phi = 2.0 * M_PI * s / segments;
+      double phi = 2.0 * prt::kPi * s / segments;
       glm::vec3 p(float(std::sin(theta) * std::cos(phi)), float(std::cos(theta)), float(std::sin(theta) * std::sin(phi)));
       m.positions.push_back(p);
       m.normals.push_back(-p);

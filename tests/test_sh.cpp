@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "prt/math.h"
 #include "prt/error.h"
 #include "prt/sh.h"
 
@@ -70,7 +71,7 @@ void frame(const glm::dvec3& n, glm::dvec3& t1, glm::dvec3& t2) {
 // Fibonacci-sphere directions: near-uniform, deterministic; spacing ≈ √(4π/count) radians.
 std::vector<glm::vec3> sphereDirs(int count) {
   std::vector<glm::vec3> out;
-  const double golden = M_PI * (3.0 - std::sqrt(5.0));
+  const double golden = prt::kPi * (3.0 - std::sqrt(5.0));
   for (int i = 0; i < count; ++i) {
     double z = 1.0 - (i + 0.5) * 2.0 / count;
     double r = std::sqrt(1.0 - z * z);
@@ -117,7 +118,7 @@ TEST(ShBasis, OrthonormalByMidpointRule) {
   constexpr int kNz = 4000, kNphi = 32;
   constexpr double kTol = 5e-5;
   std::vector<double> gram(kAllCoeffs * kAllCoeffs, 0.0);
-  const double h = 2.0 / kNz, dPhi = 2.0 * M_PI / kNphi;
+  const double h = 2.0 / kNz, dPhi = 2.0 * prt::kPi / kNphi;
   double y[kAllCoeffs];
   for (int a = 0; a < kNz; ++a) {
     const double z = -1.0 + (a + 0.5) * h;
@@ -192,14 +193,14 @@ TEST(ShBasis, EightLanesGiveEachDirectionsBits) {
 
 TEST(ShClampedCosine, KnownValues) {
   constexpr double kTol = 1e-12;  // closed forms in double
-  EXPECT_NEAR(clampedCosineFactor(0), M_PI, kTol);
-  EXPECT_NEAR(clampedCosineFactor(1), 2.0 * M_PI / 3.0, kTol);
-  EXPECT_NEAR(clampedCosineFactor(2), M_PI / 4.0, kTol);
+  EXPECT_NEAR(clampedCosineFactor(0), prt::kPi, kTol);
+  EXPECT_NEAR(clampedCosineFactor(1), 2.0 * prt::kPi / 3.0, kTol);
+  EXPECT_NEAR(clampedCosineFactor(2), prt::kPi / 4.0, kTol);
   EXPECT_NEAR(clampedCosineFactor(3), 0.0, kTol);
   EXPECT_NEAR(clampedCosineFactor(5), 0.0, kTol);
   EXPECT_NEAR(clampedCosineFactor(7), 0.0, kTol);
-  EXPECT_NEAR(clampedCosineFactor(4), -M_PI / 24.0, kTol);
-  EXPECT_NEAR(clampedCosineFactor(6), M_PI / 64.0, kTol);
+  EXPECT_NEAR(clampedCosineFactor(4), -prt::kPi / 24.0, kTol);
+  EXPECT_NEAR(clampedCosineFactor(6), prt::kPi / 64.0, kTol);
 }
 
 // Â_l = 2π ∫₀¹ P_l(t) t dt by the midpoint rule: the integrand is a polynomial of degree
@@ -214,7 +215,7 @@ TEST(ShClampedCosine, MatchesNumericalIntegral) {
       double t = (k + 0.5) / kN;
       s += legendre(l, t) * t;
     }
-    EXPECT_NEAR(clampedCosineFactor(l), 2.0 * M_PI * s / kN, kTol) << "l=" << l;
+    EXPECT_NEAR(clampedCosineFactor(l), 2.0 * prt::kPi * s / kN, kTol) << "l=" << l;
   }
 }
 
@@ -245,12 +246,12 @@ TEST(ShIrradiance, UniformRadianceGivesPi) {
   std::mt19937 rng(3);
   for (int bands : {1, 3, kAll}) {
     ShRgb c(bands);
-    c.c[0] = glm::vec3(float(2.0 * std::sqrt(M_PI)));
+    c.c[0] = glm::vec3(float(2.0 * std::sqrt(prt::kPi)));
     for (int k = 0; k < 20; ++k) {
       const glm::vec3 n(randomDir(rng));
       EXPECT_NEAR(reconstruct(c, n).x, 1.0f, 1e-5f);
       const glm::vec3 e = irradiance(c, n);
-      for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(e[ch], M_PI, 1e-5);
+      for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(e[ch], prt::kPi, 1e-5);
     }
   }
 }
@@ -275,12 +276,12 @@ TEST(ShIrradiance, MatchesDirectIntegration) {
         const double t = (a + 0.5) / kNt;
         const double r = std::sqrt(1.0 - t * t);
         for (int b = 0; b < kNphi; ++b) {
-          const double phi = (b + 0.5) * 2.0 * M_PI / kNphi;
+          const double phi = (b + 0.5) * 2.0 * prt::kPi / kNphi;
           const glm::dvec3 w = r * std::cos(phi) * t1 + r * std::sin(phi) * t2 + t * n;
           e += reconstructD(c, w) * t;
         }
       }
-      e *= (1.0 / kNt) * (2.0 * M_PI / kNphi);
+      e *= (1.0 / kNt) * (2.0 * prt::kPi / kNphi);
       const glm::vec3 got = irradiance(c, glm::vec3(n));
       for (int ch = 0; ch < 3; ++ch)
         EXPECT_NEAR(got[ch], e[ch], kTol) << "bands=" << bands << " channel " << ch;
@@ -407,7 +408,7 @@ TEST(ShRotation, RotationYSendsLightFromXToMinusZ) {
   std::vector<float> y = evaluate(kAll, glm::vec3(1, 0, 0));
   for (int i = 0; i < kAllCoeffs; ++i) lobe.c[i] = glm::vec3(y[i]);
   const float peak = reconstruct(lobe, glm::vec3(1, 0, 0)).x;  // Σ (2l+1)/4π = 64/4π
-  EXPECT_NEAR(peak, 64.0 / (4.0 * M_PI), 1e-4);
+  EXPECT_NEAR(peak, 64.0 / (4.0 * prt::kPi), 1e-4);
 
   const ShRgb turned = rot.apply(lobe);
   EXPECT_NEAR(reconstruct(turned, glm::vec3(0, 0, -1)).x, peak, 1e-4);
@@ -424,7 +425,7 @@ TEST(ShRotation, RotationYSendsLightFromXToMinusZ) {
       best = d;
     }
   }
-  EXPECT_GT(glm::dot(best, glm::vec3(0, 0, -1)), std::cos(2.0 * M_PI / 180.0));
+  EXPECT_GT(glm::dot(best, glm::vec3(0, 0, -1)), std::cos(2.0 * prt::kPi / 180.0));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -446,8 +447,8 @@ TEST(ShWindow, Factors) {
   EXPECT_NEAR(windowFactor(Window::Hann, 4, 8), 0.5, kTol);
   EXPECT_NEAR(windowFactor(Window::Hann, 2, 8), (1.0 + std::sqrt(0.5)) / 2.0, kTol);
   EXPECT_NEAR(windowFactor(Window::Lanczos, 0, 8), 1.0, kTol);
-  EXPECT_NEAR(windowFactor(Window::Lanczos, 4, 8), 2.0 / M_PI, kTol);
-  EXPECT_NEAR(windowFactor(Window::Lanczos, 2, 8), std::sqrt(0.5) / (M_PI / 4.0), kTol);
+  EXPECT_NEAR(windowFactor(Window::Lanczos, 4, 8), 2.0 / prt::kPi, kTol);
+  EXPECT_NEAR(windowFactor(Window::Lanczos, 2, 8), std::sqrt(0.5) / (prt::kPi / 4.0), kTol);
 }
 
 TEST(ShWindow, ParseAndName) {

@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "prt/math.h"
 #include "prt/error.h"
 #include "prt/image.h"
 #include "prt/light.h"
@@ -24,7 +25,7 @@ namespace {
 using prt::ImageRgb;
 using prt::test::errorOf;
 
-constexpr double kPi = 3.14159265358979323846;
+using prt::kPi;
 constexpr double kDeg = kPi / 180.0;
 
 double luminance(const glm::dvec3& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }

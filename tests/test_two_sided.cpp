@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "prt/math.h"
 #include "gltf_file.h"
 #include "harness.h"
 #include "prt/bake/memory_estimate.h"
@@ -31,11 +32,11 @@ sh::ShRgb stepSky(int bands, double up, double down) {
   const int n2 = bands * bands, ny = 400, nphi = 400;
   std::vector<double> c(size_t(n2), 0.0);
   float y[sh::kMaxBands * sh::kMaxBands];
-  const double dOmega = (2.0 / ny) * (2.0 * M_PI / nphi);
+  const double dOmega = (2.0 / ny) * (2.0 * prt::kPi / nphi);
   for (int i = 0; i < ny; ++i) {
     const double cy = -1.0 + (i + 0.5) * 2.0 / ny, r = std::sqrt(1.0 - cy * cy);
     for (int k = 0; k < nphi; ++k) {
-      const double phi = (k + 0.5) * 2.0 * M_PI / nphi;
+      const double phi = (k + 0.5) * 2.0 * prt::kPi / nphi;
       sh::evaluate(bands, glm::vec3(float(r * std::cos(phi)), float(cy), float(r * std::sin(phi))), y);
       const double L = cy > 0.0 ? up : down;
       for (int j = 0; j < n2; ++j) c[size_t(j)] += L * y[j] * dOmega;
@@ -57,7 +58,7 @@ double squareFormFactor(double a, double h) {
       const double x = -a + (i + 0.5) * d, z = -a + (k + 0.5) * d, q = x * x + z * z + h * h;
       sum += h * h / (q * q);
     }
-  return sum * d * d / M_PI;
+  return sum * d * d / prt::kPi;
 }
 
 // The solid angle of that square: 4 atan(a² / (h √(2a² + h²))).
@@ -108,9 +109,9 @@ TEST(BakeTwoSided, IsolatedPlaneBothSidesMatchTheClosedForm) {
       const glm::vec3* back = &t.perMesh[0][(V + v) * 9];
       expectUnoccluded(front, {0, 1, 0}, 3, 1e-2f, "front");
       expectUnoccluded(back, {0, -1, 0}, 3, 1e-2f, "back");
-      EXPECT_NEAR(back[0].g, M_PI * kY00, 1e-5);  // uniform sky L: E = π L
-      EXPECT_NEAR(sh::dot(front, sky.c.data(), 9).g, M_PI * 1.0, 1e-2);
-      EXPECT_NEAR(sh::dot(back, sky.c.data(), 9).g, M_PI * 0.25, 1e-2);
+      EXPECT_NEAR(back[0].g, prt::kPi * kY00, 1e-5);  // uniform sky L: E = π L
+      EXPECT_NEAR(sh::dot(front, sky.c.data(), 9).g, prt::kPi * 1.0, 1e-2);
+      EXPECT_NEAR(sh::dot(back, sky.c.data(), 9).g, prt::kPi * 0.25, 1e-2);
     }
   }
 }
@@ -141,8 +142,8 @@ TEST(BakeTwoSided, RayHittingTheBackOfADoubleSidedFaceGathersItsLight) {
     const bake::SurfaceTransfer t = bake::bakeSurface(r.scene, bs);
     ASSERT_EQ(t.perMesh[0].size(), 9u * 9);  // A is one-sided: front only
     // E = t_00 · l_00 with l_00 = 4π y_00 for a sky of radiance 1.
-    const double e = t.perMesh[0][r.centre * 9].g * 4.0 * M_PI * kY00;
-    const double expected = two ? M_PI * (1.0 - F) + UnderRoof::kRho * M_PI * F : M_PI * (1.0 - F);
+    const double e = t.perMesh[0][r.centre * 9].g * 4.0 * prt::kPi * kY00;
+    const double expected = two ? prt::kPi * (1.0 - F) + UnderRoof::kRho * prt::kPi * F : prt::kPi * (1.0 - F);
     std::printf("[ measured ] %s roof: E %.5f, closed form %.5f (F %.5f)\n", two ? "double-sided" : "one-sided", e,
                 expected, F);
     EXPECT_NEAR(e, expected, 0.01 * expected);
@@ -228,7 +229,7 @@ TEST(ProbeBakeTwoSided, ProbeSeesTheBackOfADoubleSidedRoof) {
     ASSERT_EQ(g.probeCount(), 1u);
     ASSERT_EQ(g.validity[0], 1.0f);
     const std::vector<glm::vec3> c = relightProbes(g, stepSky(3, 1.0, 1.0));
-    const double expected = kY00 * ((4.0 * M_PI - omega) + UnderRoof::kRho * omega);
+    const double expected = kY00 * ((4.0 * prt::kPi - omega) + UnderRoof::kRho * omega);
     std::printf("[ measured ] probe c00 %.5f, closed form %.5f (Ω %.4f)\n", c[0].g, expected, omega);
     EXPECT_NEAR(c[0].g, expected, 0.01 * expected);
   }

@@ -3,12 +3,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
-#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <iomanip>
 #include <limits>
 #include <optional>
@@ -16,15 +13,10 @@
 
 #include "cli_checks.h"
 #include "number_list.h"
-#include "prt/atomic_file.h"
-#include "prt/bake/checkpoint.h"
-#include "prt/bake/memory_estimate.h"
-#include "prt/bake/probe_bake.h"
-#include "prt/bake/ranks.h"
+#include "prt/bake/interrupt.h"
+#include "prt/bake/pipeline.h"
 #include "prt/error.h"
-#include "prt/probe_grid.h"
 #include "prt/progress.h"
-#include "prt/version.h"
 #include "scene_warnings.h"
 
 namespace prt::tools {
@@ -72,56 +64,177 @@ private:
   std::vector<struct sigaction> old_;
 };
 
-// What must match for a checkpoint to be resumed: the scene's content and every setting that
-// changes the output bits (not --threads, not -q).
-bake::Fingerprint bakeFingerprint(const Scene& scene, const BakeArgs& a, const bake::BakeSettings& s,
-                                  const bake::RefineSettings& r, const bake::ProbeSettings* ps) {
-  bake::Fingerprint fp;
-  fp.add("prt", kVersion);
-  bake::addSceneFingerprint(fp, scene);
-  bake::addRefineFingerprint(fp, r, s);
-  fp.add("bands", std::to_string(s.bands));
-  fp.add("samples", std::to_string(s.samples));
-  fp.add("bounces", std::to_string(s.bounces));
-  fp.add("seed", std::to_string(s.seed));
-  fp.add("direct part", "kept apart");  // records of prts before the transfer split lack it
-  fp.add("probes", ps ? "yes" : "no");
-  if (ps) {
-    bake::addProbeFingerprint(fp, *ps);
-    fp.add("probe half", a.probeHalf ? "yes" : "no");  // the .vdb written from the same results
-  }
-  return fp;
-}
-
-// The test suite interrupts bakes at chosen points with PRT_TEST_INTERRUPT_AFTER=N (an
-// interrupt once N chunks have finished in this run), as a user's Ctrl-C would.
-// The memory guard's refusal in this command's terms: the options that would make the bake fit.
-void guardMemory(const bake::MemoryEstimate& e, const std::optional<bake::MemoryLimit>& limit, const Scene& scene,
-                 const bake::BakeSettings& s, const bake::ProbeSettings* probes) {
-  if (!limit) return;
-  bake::MemoryAdviceNames flags;
-  flags.samples = "--samples";
-  flags.probeSpacing = "--probe-spacing";
-  flags.probeDims = "--probe-dims";
-  flags.bands = "--bands";
-  flags.raiseLimit = "raise --max-memory";
-  flags.givenLimit = "--max-memory";
-  bake::checkMemory(e, *limit, scene, s, probes, flags);
-}
-
 // PRT_TEST_INTERRUPT_AFTER=N: interrupt after N chunks of this run; =S:N after N chunks of
-// the stage whose checkpoint id is S (under MPI a rank's chunks per stage vary, ranks.h).
-void testInterruptAfter(bake::CheckpointOptions& co) {
+// the stage whose checkpoint id is S (under MPI a rank's chunks per stage vary, ranks.h). The
+// test suite interrupts bakes at chosen points with it, as a user's Ctrl-C would.
+void testInterruptAfter(bake::JobCheckpoint& c) {
   const char* v = std::getenv("PRT_TEST_INTERRUPT_AFTER");
   if (!v) return;
   char* end = nullptr;
-  co.interruptAfterChunks = std::strtoull(v, &end, 10);
+  c.interruptAfterChunks = std::strtoull(v, &end, 10);
   if (*end == ':') {
-    co.interruptInStage = uint32_t(co.interruptAfterChunks);
-    co.interruptAfterChunks = std::strtoull(end + 1, nullptr, 10);
+    c.interruptInStage = uint32_t(c.interruptAfterChunks);
+    c.interruptAfterChunks = std::strtoull(end + 1, nullptr, 10);
   }
 }
 
+// The probe grid of --probes: --probe-dims 16,16,16 unless a spacing or counts are given.
+bake::ProbeSettings probeSettings(const BakeArgs& a) {
+  bake::ProbeSettings ps;
+  ps.samples = a.probeSamples;
+  ps.spacing = a.probeSpacing;
+  ps.region = a.probeRegion;
+  ps.maxHeight = a.probeHeight;
+  if (!a.probeDims.empty()) ps.dims = glm::ivec3(a.probeDims[0], a.probeDims[1], a.probeDims[2]);
+  if (a.probeSpacing == 0.0 && a.probeDims.empty()) ps.dims = glm::ivec3(16);
+  if (!a.probeBounds.empty()) {
+    ps.boundsMin = glm::dvec3(a.probeBounds[0], a.probeBounds[1], a.probeBounds[2]);
+    ps.boundsMax = glm::dvec3(a.probeBounds[3], a.probeBounds[4], a.probeBounds[5]);
+  }
+  return ps;
+}
+
+// The bake the options describe; the memory guard's refusal names these options.
+bake::BakeJob bakeJob(const BakeArgs& a) {
+  bake::BakeJob job;
+  job.scenePath = a.scene;
+  job.load = a.load;
+  job.settings = a.settings;
+  job.settings.shadowed = !a.unshadowed;
+  job.settings.progress = !a.quiet && Progress::terminalDefault();
+  job.refine = a.refine;
+  if (a.noRefine) job.refine.tolerance = 0.0;
+  if (!a.probes.empty()) job.probes = probeSettings(a);
+  job.outputs = {a.output, a.probes, a.probeHalf};
+  job.checkpoint.path = a.checkpoint;
+  job.checkpoint.intervalSeconds = a.checkpointInterval;
+  job.checkpoint.resume = a.resume;
+  testInterruptAfter(job.checkpoint);
+  job.maxMemory = a.maxMemory;
+  job.shardIndex = a.shardIndex;
+  job.shardCount = a.shardCount;
+  job.memoryNames.samples = "--samples";
+  job.memoryNames.probeSpacing = "--probe-spacing";
+  job.memoryNames.probeDims = "--probe-dims";
+  job.memoryNames.bands = "--bands";
+  job.memoryNames.raiseLimit = "raise --max-memory";
+  job.memoryNames.givenLimit = "--max-memory";
+  return job;
+}
+
+// The pipeline's refusals whose remedy is an option of prt bake, said in its options; anything
+// else as it is.
+[[noreturn]] void rethrowInOptions() {
+  using Reason = bake::BakeRefused::Reason;
+  try {
+    throw;
+  } catch (const bake::BakeRefused& e) {
+    switch (e.reason()) {
+      case Reason::MpiNotBuilt:
+        throw Error("started as one of several MPI ranks, but this prt was built without MPI (install "
+                    "libopenmpi-dev and build again, or use --shard)");
+      case Reason::ShardUnderMpi: throw UsageError("--shard: not under mpirun (MPI ranks share every stage themselves)");
+      case Reason::CheckpointFound:
+        throw Error(cat(e.path(), ": a checkpoint of an interrupted bake exists; add --resume to continue it, "
+                                  "or delete it to start over"));
+      case Reason::ShardsMerged:
+        throw Error(cat(e.path(), ": every stage is merged; write the outputs with the same prt bake command and "
+                                  "--resume instead of --shard"));
+    }
+    throw;
+  } catch (const bake::InterruptedAndSaved& e) {
+    throw Interrupted(cat(e.what(), "; rerun with --resume to continue"));
+  } catch (const ExternalUriRefused& e) {
+    throw Error(cat(e.what(), " (--allow-external-uris)"));
+  }
+}
+
+// A shard's share of a stage, saved now or before: what to run next.
+void printShard(const BakeArgs& a, const bake::BakeReport& r) {
+  if (a.quiet) return;
+  if (r.outcome == bake::BakeReport::Outcome::ShardAlreadyDone)
+    std::fprintf(stderr, "prt bake: shard %d/%d: its share is done already (%s.done); run prt merge %s --shards %d\n",
+                 a.shardIndex, a.shardCount, r.shardFile.c_str(), r.checkpointPath.c_str(), a.shardCount);
+  else
+    std::fprintf(stderr, "prt bake: %s -> %s.done; once all %d shards are done: prt merge %s --shards %d, then run "
+                         "the shards again (or, after the last stage, prt bake --resume without --shard)\n",
+                 r.shardStage.c_str(), r.shardFile.c_str(), a.shardCount, r.checkpointPath.c_str(), a.shardCount);
+}
+
+// The summary's first lines: what was baked, rays, time and memory.
+void printBake(const BakeArgs& a, const bake::BakeReport& r) {
+  const bake::BakeStats& st = r.surface;
+  const bake::BakeSettings& s = r.settings;
+  size_t receivers = 0;
+  for (const MeshInstance& m : r.scene.meshes) receivers += m.receiverOnly;
+  std::ostringstream stages;
+  if (r.refined.seconds > 0) stages << "refine " << std::fixed << std::setprecision(2) << r.refined.seconds << " s, ";
+  for (const bake::StageStats& stage : st.stages) stages << stage.name << " " << std::fixed
+                                                         << std::setprecision(2) << stage.seconds << " s, ";
+  double directSeconds = 0;
+  for (const auto& stage : st.stages)
+    if (stage.name == "direct") directSeconds = stage.seconds;
+  std::fprintf(stderr,
+               "prt bake: %s -> %s\n  %s vertices%s in %zu instances (%zu receivers skipped), %d bands, "
+               "%d samples, %d bounces%s\n  %s rays (%s rays/s in the direct pass), %s hit records%s\n"
+               "  time: %s write %.2f s; total %.2f s\n  memory: estimated %s, peak %s (estimated by phase: %s)\n",
+               a.scene.c_str(), a.output.c_str(), formatCount(double(st.vertices)).c_str(),
+               st.backVertices ? cat(" (", formatCount(double(st.backVertices)), " of them two-sided)").c_str() : "",
+               r.scene.meshes.size() - receivers, receivers, s.bands, s.samples, s.shadowed ? s.bounces : 0,
+               s.shadowed ? "" : " (unshadowed)", formatCount(double(st.rays)).c_str(),
+               formatCount(directSeconds > 0 ? double(st.rays) / directSeconds : 0.0).c_str(),
+               formatCount(double(st.hitRecords)).c_str(), st.resumed ? "; resumed from the checkpoint" : "",
+               stages.str().c_str(), r.writeSeconds, r.refined.seconds + st.seconds + r.writeSeconds,
+               formatBytes(r.memory.total).c_str(), formatBytes(peakMemoryBytes()).c_str(), r.memory.phases().c_str());
+}
+
+// The refinement's line, the receivers' and the ranks'.
+void printRefinementAndRanks(const bake::BakeReport& r) {
+  const bake::RefineStats& refined = r.refined;
+  if (r.refine.tolerance > 0.0)
+    std::fprintf(stderr,
+                 "  refinement: %s -> %s vertices, %s -> %s triangles in %d rounds (tolerance %g, budget %s%s), "
+                 "residual %.3f; %s points, %s rays in %.2f s\n",
+                 formatCount(double(refined.verticesBefore)).c_str(), formatCount(double(refined.verticesAfter)).c_str(),
+                 formatCount(double(refined.trianglesBefore)).c_str(),
+                 formatCount(double(refined.trianglesAfter)).c_str(), refined.rounds, r.refine.tolerance,
+                 formatCount(double(refined.budget)).c_str(), refined.budgetReached ? ", reached" : "",
+                 refined.residual, formatCount(double(refined.points)).c_str(),
+                 formatCount(double(refined.rays)).c_str(), refined.seconds);
+  for (const std::string& line : describeReceivers(r.scene, "--receiver")) std::fprintf(stderr, "  receiver %s\n", line.c_str());
+  if (r.mpi)
+    std::fprintf(stderr, "  ranks: %d (MPI%s); rank 0 received %s from the others in %llu exchanges\n", r.ranks,
+                 r.transportChoice.empty() ? "" : cat(": ", r.transportChoice).c_str(),
+                 formatBytes(r.bytesReceived).c_str(), static_cast<unsigned long long>(r.gathers));
+}
+
+// The probe grid's lines: what was placed and baked, and per valid probe.
+void printProbes(const BakeArgs& a, const bake::BakeReport& r) {
+  const bake::ProbeStats& ps = r.probes;
+  const std::string restored =
+      ps.restored ? cat("; ", formatCount(double(ps.restored)), " restored from the checkpoint") : "";
+  const std::string outside =
+      ps.outside ? cat(", ", formatCount(double(ps.outside)),
+                       ps.insideOnly ? " outside the closed level" : " in open air far from surfaces",
+                       ps.aboveLevel ? cat(" or over the level (", formatCount(double(ps.aboveLevel)), " more than ",
+                                           a.probeHeight, " above the ground under open sky)")
+                                     : std::string(),
+                       " (not baked; --probe-region everywhere bakes them)")
+                 : "";
+  std::fprintf(stderr,
+               "  probes: %s lattice points, %s active (%s valid), %s inside geometry, %s moved out%s; %s rays in "
+               "%.2f s (%s probes/s, %s rays/s)%s -> %s\n",
+               formatCount(double(ps.probes)).c_str(), formatCount(double(ps.active)).c_str(),
+               formatCount(double(ps.valid)).c_str(), formatCount(double(ps.invalid)).c_str(),
+               formatCount(double(ps.moved)).c_str(), outside.c_str(), formatCount(double(ps.rays)).c_str(), ps.seconds,
+               formatCount(double(ps.probes - ps.restored) / std::max(ps.seconds, 1e-9)).c_str(),
+               formatCount(ps.rays / std::max(ps.seconds, 1e-9)).c_str(), restored.c_str(), a.probes.c_str());
+  // Per valid probe: what a level's probe budget is planned in.
+  const double valid = double(std::max<uint64_t>(ps.valid, 1));
+  std::fprintf(stderr, "  per valid probe: %s on disk, %.0f µs of bake (%s in the file, %.2f s)\n",
+               formatBytes(uintmax_t(double(r.probeBytes) / valid)).c_str(), 1e6 * ps.seconds / valid,
+               formatBytes(r.probeBytes).c_str(), ps.seconds);
+}
 // The probe options of prt bake: each needs --probes (never silently ignored), --probe-dims and
 // --probe-spacing exclude each other, and malformed values are one-line usage errors. Returns
 // --probes.
@@ -258,274 +371,29 @@ void addBake(CLI::App& bake, BakeArgs& a) {
 }
 
 int runBake(const BakeArgs& a) {
-  // The ranks of this bake (docs/scale.md): MPI's under mpirun, a shard's, or one process.
-  std::unique_ptr<bake::Ranks> mpi;
-  if (bake::launcherRank() >= 0) {
-    if (!bake::mpiBuilt())
-      throw Error("started as one of several MPI ranks, but this prt was built without MPI (install libopenmpi-dev "
-                  "and build again, or use --shard)");
-    if (a.shardCount > 0) throw UsageError("--shard: not under mpirun (MPI ranks share every stage themselves)");
-    mpi = bake::startMpi();
-  }
-  std::unique_ptr<bake::Ranks> shard = a.shardCount > 0 ? bake::shardRanks(a.shardIndex, a.shardCount) : nullptr;
-  const bake::RanksScope ranksScope(mpi ? mpi.get() : shard.get());
-  bake::Ranks& ranks = bake::ranks();
-  const bool writer = ranks.rank() == 0 && !shard;  // the one process that writes the outputs
-
-  bake::BakeSettings s = a.settings;
-  s.shadowed = !a.unshadowed;
-  s.progress = !a.quiet && Progress::terminalDefault() && ranks.rank() == 0;
-  bake::validate(s);
-  std::optional<AtomicFile> probe;
-  if (writer) probe.emplace(a.output);  // fail on an unwritable output before hours of work
-  std::optional<AtomicFile> probeFile;
-  bake::ProbeSettings ps;
-  if (!a.probes.empty()) {
-    if (writer) probeFile.emplace(a.probes);
-    ps.bands = s.bands;
-    ps.samples = a.probeSamples;
-    ps.bounces = s.shadowed ? s.bounces : 0;
-    ps.seed = s.seed;
-    ps.progress = s.progress;
-    ps.threads = s.threads;
-    ps.spacing = a.probeSpacing;
-    ps.region = a.probeRegion;
-    ps.maxHeight = a.probeHeight;
-    if (!a.probeDims.empty()) ps.dims = glm::ivec3(a.probeDims[0], a.probeDims[1], a.probeDims[2]);
-    if (a.probeSpacing == 0.0 && a.probeDims.empty()) ps.dims = glm::ivec3(16);
-    if (!a.probeBounds.empty()) {
-      ps.boundsMin = glm::dvec3(a.probeBounds[0], a.probeBounds[1], a.probeBounds[2]);
-      ps.boundsMax = glm::dvec3(a.probeBounds[3], a.probeBounds[4], a.probeBounds[5]);
-    }
-    bake::validate(ps);
-    s.keepLowerOrder = true;
-  }
-
-  const bake::ProbeSettings* psp = a.probes.empty() ? nullptr : &ps;
-
-  SignalScope signals(mpi != nullptr);
-  Scene scene;
-  try {
-    scene = loadScene(a.scene, a.load);
-  } catch (const ExternalUriRefused& e) {
-    throw Error(cat(e.what(), " (--allow-external-uris)"));
-  }
-  if (a.allowDegenerate && !a.quiet)
-    std::fprintf(stderr, "prt: warning: --allow-degenerate is deprecated and does nothing: every command drops "
-                         "zero-area triangles with a warning\n");
-  printWarnings(scene, a.quiet);
-  bake::RefineSettings refine = a.refine;
-  if (a.noRefine || !s.shadowed) refine.tolerance = 0.0;
-  if (refine.tolerance > 0.0) s.refineVertices = bake::refineBudget(refine, scene);
-
-  // Memory guard: first without the hit records (before the BVH is built) and with the
-  // refinement's budget, then with the bound the bake measures on a pilot of its own rays on
-  // the refined scene (BakeControl::checkMemory).
-  // The probe stage's bound counts every lattice point as baked; where that bound is what does
-  // not fit, the placement's own rays (about 64 a point, on the scene before refinement, whose
-  // surfaces refinement keeps) count the points the bake keeps, and that count is checked.
-  std::optional<bake::MemoryLimit> limit = bake::memoryLimit(a.maxMemory);
-  bake::MemoryEstimate estimate = bake::estimateBakeMemory(scene, s, psp, 0.0);
-  std::optional<bake::ProbePlacement> placement;
-  const bool probesLargest =
-      estimate.probePeak >= std::max({estimate.surfacePeak, estimate.writePeak, estimate.refinePeak});
-  if (limit && psp && estimate.total > limit->bytes && probesLargest) {
-    placement = bake::placeProbes(scene, *psp);
-    estimate = bake::estimateBakeMemory(scene, s, psp, 0.0, &*placement);
-  }
-  guardMemory(estimate, limit, scene, s, psp);
-
-  std::optional<bake::Checkpoint> checkpoint;
-  const std::string checkpointPath = a.checkpoint.empty() ? a.output + ".prt-checkpoint" : a.checkpoint;
-  std::error_code ec;
-  if (s.shadowed) {
-    bake::CheckpointOptions co;
-    co.path = checkpointPath;
-    co.intervalSeconds = a.checkpointInterval;
-    co.resume = a.resume;
-    testInterruptAfter(co);
-    bake::Fingerprint fp = bakeFingerprint(scene, a, s, refine, psp);
-    if (mpi) {
-      // One file per rank, each holding the chunks its rank computed; they resume together.
-      co.path = cat(checkpointPath, ".rank-", ranks.rank(), "-of-", ranks.size());
-      co.missingIsFresh = true;  // a rank that never saved
-      fp.add("ranks", std::to_string(ranks.size()));
-    }
-    if (shard) {
-      // A shard reads the merged stages at the checkpoint's path and saves its share apart;
-      // run again (preempted, or as a retry) it goes on from its own file.
-      co.path = bake::shardCheckpointPath(checkpointPath, a.shardIndex, a.shardCount);
-      if (std::filesystem::exists(co.path + ".done", ec)) {
-        if (!a.quiet)
-          std::fprintf(stderr, "prt bake: shard %d/%d: its share is done already (%s.done); run prt merge %s --shards %d\n",
-                       a.shardIndex, a.shardCount, co.path.c_str(), checkpointPath.c_str(), a.shardCount);
-        return 0;
-      }
-      co.resume = std::filesystem::exists(co.path, ec);
-      if (std::filesystem::exists(checkpointPath, ec)) co.basePath = checkpointPath;
-    }
-    try {
-      checkpoint.emplace(co, fp);
-    } catch (const bake::CheckpointExists&) {
-      throw Error(cat(co.path, ": a checkpoint of an interrupted bake exists; add --resume to continue it, "
-                               "or delete it to start over"));
-    }
-    if (mpi && a.resume && ranks.sum(checkpoint->exists() ? 1 : 0) == 0)
-      throw Error(cat(checkpointPath, ".rank-*-of-", ranks.size(), ": no checkpoint to resume (a bake writes one per "
-                                      "rank when interrupted, or every checkpoint interval); start the bake afresh"));
-  }
-  bake::BakeControl control;
-  control.checkpoint = checkpoint ? &*checkpoint : nullptr;
-  // With probes, the direct pass's BVH is kept for the probe stage (one build, not two); it is
-  // built after refinement, which changes the meshes, and freed once the probes are traced.
-  std::optional<bake::SharedRayScene> sharedRays;
-  if (!a.probes.empty()) control.rays = &sharedRays.emplace(scene);
-  // The refinement phase is over when the bake checks again, but the estimate it reports
-  // still bounds the whole run's peak: it keeps that phase.
-  const uint64_t refinePeak = estimate.refinePeak;
-  control.checkMemory = [&](double share) {
-    estimate = bake::estimateBakeMemory(scene, s, psp, share, placement ? &*placement : nullptr);
-    guardMemory(estimate, limit, scene, s, psp);
-    estimate.keepRefinePhase(refinePeak);
+  // Signals (installed once the pipeline knows whether this process is an MPI rank) save the
+  // checkpoint and stop the bake; warnings are printed before the work.
+  std::optional<SignalScope> signals;
+  bake::BakeJob job = bakeJob(a);
+  job.started = [&](bool mpiRank) { signals.emplace(mpiRank); };
+  job.loaded = [&](const Scene& scene) {
+    if (a.allowDegenerate && !a.quiet)
+      std::fprintf(stderr, "prt: warning: --allow-degenerate is deprecated and does nothing: every command drops "
+                           "zero-area triangles with a warning\n");
+    printWarnings(scene, a.quiet);
   };
-  // Runs a stage; an interruption names the checkpoint and how far the bake got.
-  auto runStage = [&](auto&& run) {
-    try {
-      return run();
-    } catch (const Interrupted&) {
-      if (!checkpoint) throw;
-      if (mpi)  // one line for all ranks (main prints rank 0's when every rank stops)
-        throw Interrupted(cat("interrupted: checkpoints saved to ", checkpointPath, ".rank-*-of-", ranks.size(),
-                              " (rank ", ranks.rank(), ": ", checkpoint->progressText(),
-                              "); rerun with --resume to continue"));
-      throw Interrupted(cat("interrupted: checkpoint saved to ", checkpoint->path(), " (",
-                            checkpoint->progressText(), "); rerun with --resume to continue"));
-    }
-  };
-  // Refinement is deterministic: a resumed bake refines again, to the same meshes, before it
-  // restores the stages that follow (the checkpoint's fingerprint holds its settings).
-  bake::RefineStats refined;
-  bake::SurfaceTransfer result;
-  std::string sceneName = std::filesystem::path(a.scene).filename().string();
-  bake::ProbeStats probeStats;
-  uintmax_t probeBytes = 0;
+  bake::BakeReport report;
   try {
-    refined = runStage([&] { return bake::refineScene(scene, refine, s, checkpoint ? &*checkpoint : nullptr); });
-    s.refineVertices = 0;  // the scene holds them now
-    result = runStage([&] { return bake::bakeSurface(scene, s, control); });
-    if (!a.probes.empty()) {
-      if (result.perMeshLowerOrder.empty()) result.perMeshLowerOrder.assign(scene.meshes.size(), {});
-      ProbeGrid grid = runStage([&] {
-        return bake::bakeProbes(scene, result.perMeshLowerOrder, ps, &probeStats, checkpoint ? &*checkpoint : nullptr,
-                                control.rays);  // which it releases once traced
-      });
-      grid.info.scene = sceneName;
-      if (writer) {
-        writeProbeGrid(grid, a.probes, a.probeHalf);
-        probeBytes = std::filesystem::file_size(a.probes);
-      }
-    }
-  } catch (const bake::ShardDone& done) {
-    // This shard's share of a stage is saved: mark its file finished for prt merge.
-    const std::string file = checkpoint->path();
-    std::filesystem::rename(file, file + ".done");
-    if (!a.quiet)
-      std::fprintf(stderr, "prt bake: %s -> %s.done; once all %d shards are done: prt merge %s --shards %d, then run "
-                           "the shards again (or, after the last stage, prt bake --resume without --shard)\n",
-                   done.what(), file.c_str(), a.shardCount, checkpointPath.c_str(), a.shardCount);
-    return 0;
+    report = bake::runPipeline(job);
+  } catch (...) {
+    rethrowInOptions();
   }
-  if (shard)
-    throw Error(cat(checkpointPath, ": every stage is merged; write the outputs with the same prt bake command and "
-                                    "--resume instead of --shard"));
-  if (!writer) {
-    // Rank 0 writes; the checkpoints go once the outputs are in place.
-    ranks.barrier();
-    if (checkpoint) checkpoint->remove();
-    return 0;
-  }
-  bake::storeTransfer(scene, std::move(result.perMesh), std::move(result.perMeshDirect));
-  scene.transferBands = s.bands;
-  auto tWrite = std::chrono::steady_clock::now();
-  BakeRecord record = bake::bakeRecord(s, sceneName, kVersion);
-  if (refine.tolerance > 0.0)
-    record.refinement = {refine.tolerance, refined.budget,      std::min(refine.samples, s.samples),
-                         refined.verticesBefore, refined.verticesAfter, refined.residual};
-  record.backTransfer = std::any_of(scene.meshes.begin(), scene.meshes.end(),
-                                    [](const MeshInstance& m) { return m.hasBackTransfer(); });
-  record.directTransfer = std::any_of(scene.meshes.begin(), scene.meshes.end(),
-                                      [](const MeshInstance& m) { return m.hasDirectTransfer(); });
-  writeBakedScene(a.scene, scene, &record, a.output);
-  double writeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tWrite).count();
-  // The outputs are in place: the checkpoint has served (every rank's, after the barrier).
-  ranks.barrier();
-  if (checkpoint) checkpoint->remove();
-
-  if (a.quiet) return 0;
-  const bake::BakeStats& st = result.stats;
-  size_t receivers = 0;
-  for (const MeshInstance& m : scene.meshes) receivers += m.receiverOnly;
-  std::ostringstream stages;
-  if (refined.seconds > 0) stages << "refine " << std::fixed << std::setprecision(2) << refined.seconds << " s, ";
-  for (const bake::StageStats& stage : st.stages) stages << stage.name << " " << std::fixed
-                                                         << std::setprecision(2) << stage.seconds << " s, ";
-  double directSeconds = 0;
-  for (const auto& stage : st.stages)
-    if (stage.name == "direct") directSeconds = stage.seconds;
-  std::fprintf(stderr,
-               "prt bake: %s -> %s\n  %s vertices%s in %zu instances (%zu receivers skipped), %d bands, "
-               "%d samples, %d bounces%s\n  %s rays (%s rays/s in the direct pass), %s hit records%s\n"
-               "  time: %s write %.2f s; total %.2f s\n  memory: estimated %s, peak %s (estimated by phase: %s)\n",
-               a.scene.c_str(), a.output.c_str(), formatCount(double(st.vertices)).c_str(),
-               st.backVertices ? cat(" (", formatCount(double(st.backVertices)), " of them two-sided)").c_str() : "",
-               scene.meshes.size() - receivers, receivers, s.bands, s.samples, s.shadowed ? s.bounces : 0,
-               s.shadowed ? "" : " (unshadowed)", formatCount(double(st.rays)).c_str(),
-               formatCount(directSeconds > 0 ? double(st.rays) / directSeconds : 0.0).c_str(),
-               formatCount(double(st.hitRecords)).c_str(), st.resumed ? "; resumed from the checkpoint" : "",
-               stages.str().c_str(), writeSeconds, refined.seconds + st.seconds + writeSeconds, formatBytes(estimate.total).c_str(),
-               formatBytes(peakMemoryBytes()).c_str(), estimate.phases().c_str());
-  if (refine.tolerance > 0.0)
-    std::fprintf(stderr,
-                 "  refinement: %s -> %s vertices, %s -> %s triangles in %d rounds (tolerance %g, budget %s%s), "
-                 "residual %.3f; %s points, %s rays in %.2f s\n",
-                 formatCount(double(refined.verticesBefore)).c_str(), formatCount(double(refined.verticesAfter)).c_str(),
-                 formatCount(double(refined.trianglesBefore)).c_str(),
-                 formatCount(double(refined.trianglesAfter)).c_str(), refined.rounds, refine.tolerance,
-                 formatCount(double(refined.budget)).c_str(), refined.budgetReached ? ", reached" : "",
-                 refined.residual, formatCount(double(refined.points)).c_str(),
-                 formatCount(double(refined.rays)).c_str(), refined.seconds);
-  for (const std::string& line : describeReceivers(scene, "--receiver")) std::fprintf(stderr, "  receiver %s\n", line.c_str());
-  if (mpi)
-    std::fprintf(stderr, "  ranks: %d (MPI%s); rank 0 received %s from the others in %llu exchanges\n", ranks.size(),
-                 ranks.transportChoice().empty() ? "" : cat(": ", ranks.transportChoice()).c_str(),
-                 formatBytes(ranks.bytesReceived()).c_str(), static_cast<unsigned long long>(ranks.gathers()));
-  if (a.probes.empty()) return 0;
-  const std::string restored =
-      probeStats.restored ? cat("; ", formatCount(double(probeStats.restored)), " restored from the checkpoint") : "";
-  const std::string outside =
-      probeStats.outside
-          ? cat(", ", formatCount(double(probeStats.outside)),
-                probeStats.insideOnly ? " outside the closed level" : " in open air far from surfaces",
-                probeStats.aboveLevel ? cat(" or over the level (", formatCount(double(probeStats.aboveLevel)),
-                                            " more than ", a.probeHeight, " above the ground under open sky)")
-                                      : std::string(),
-                " (not baked; --probe-region everywhere bakes them)")
-          : "";
-  std::fprintf(stderr,
-               "  probes: %s lattice points, %s active (%s valid), %s inside geometry, %s moved out%s; %s rays in "
-               "%.2f s (%s probes/s, %s rays/s)%s -> %s\n",
-               formatCount(double(probeStats.probes)).c_str(), formatCount(double(probeStats.active)).c_str(),
-               formatCount(double(probeStats.valid)).c_str(), formatCount(double(probeStats.invalid)).c_str(),
-               formatCount(double(probeStats.moved)).c_str(), outside.c_str(),
-               formatCount(double(probeStats.rays)).c_str(), probeStats.seconds,
-               formatCount(double(probeStats.probes - probeStats.restored) / std::max(probeStats.seconds, 1e-9)).c_str(),
-               formatCount(probeStats.rays / std::max(probeStats.seconds, 1e-9)).c_str(), restored.c_str(),
-               a.probes.c_str());
-  // Per valid probe: what a level's probe budget is planned in.
-  const double valid = double(std::max<uint64_t>(probeStats.valid, 1));
-  std::fprintf(stderr, "  per valid probe: %s on disk, %.0f µs of bake (%s in the file, %.2f s)\n",
-               formatBytes(uintmax_t(double(probeBytes) / valid)).c_str(), 1e6 * probeStats.seconds / valid,
-               formatBytes(probeBytes).c_str(), probeStats.seconds);
+  using Outcome = bake::BakeReport::Outcome;
+  if (report.outcome == Outcome::ShardSaved || report.outcome == Outcome::ShardAlreadyDone) printShard(a, report);
+  if (report.outcome != Outcome::Written || a.quiet) return 0;
+  printBake(a, report);
+  printRefinementAndRanks(report);
+  if (!a.probes.empty()) printProbes(a, report);
   return 0;
 }
 

@@ -122,6 +122,25 @@ void addLightOptions(CLI::App& app, LightOptions& o, bool animated, bool envPosi
   for (CLI::Option* opt : {env, sunDir, sunAzimuth, sunElevation, sunIrradiance, sunRadius}) rig->excludes(opt);
 }
 
+void addGatherOptions(CLI::App& app, GatherOptions& o) {
+  app.add_option("--bounce-samples", o.bounceSamples,
+                 "Rays per baked vertex (the bake's own first rays, traced once) that gather the direct lights' bounced "
+                 "light and the sky's light beyond the SH band limit; 0: both through the SH transfer instead")
+      ->check(CLI::Range(0, 16777216))
+      ->capture_default_str();
+  app.add_flag("--no-sky-detail", o.noSkyDetail,
+               "Light the sky (maps, residuals, uniform skies) through the SH transfer alone, without its light "
+               "beyond the band limit gathered over those rays");
+}
+
+bake::FrameLightingSettings frameLightingSettings(const LightOptions& light, const GatherOptions& gather) {
+  bake::FrameLightingSettings s;
+  s.directLights = !light.noDirect;
+  s.gatherSamples = gather.bounceSamples;
+  s.skyDetail = !gather.noSkyDetail;
+  return s;
+}
+
 LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame) {
   LightRig rig;
   if (!o.rig.empty()) {
@@ -183,11 +202,7 @@ LightRig buildStillRig(const LightOptions& o) {
 sh::ShRgb buildLight(const LightOptions& o, int bands) { return buildStillRig(o).evaluate(o.frame, bands); }
 
 RigLighting lightingAt(const LightRig& rig, const LightOptions& o, double frame, int bands) {
-  if (!o.noDirect) return rig.evaluateLighting(frame, bands);
-  RigLighting l;
-  l.sh = rig.evaluate(frame, bands);
-  l.directSh = sh::ShRgb(bands);
-  return l;
+  return bake::rigLighting(rig, frame, bands, !o.noDirect);
 }
 
 RigLighting buildLighting(const LightOptions& o, int bands) { return lightingAt(buildStillRig(o), o, o.frame, bands); }

@@ -12,6 +12,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "prt/bake/frame_lighting.h"
 #include "prt/light_rig.h"
 #include "prt/sh.h"
 
@@ -36,12 +37,26 @@ struct LightOptions {
   bool noExtractSun = false;              // --no-extract-sun: environment maps whole through SH
 };
 
+/// The gather over the bake's own rays that `prt render` and `prt relight` light baked
+/// vertices with (prt/bake/frame_lighting.h): the direct lights' bounces and the sky's detail.
+struct GatherOptions {
+  int bounceSamples = 256;   // rays per baked vertex; 0: both through the SH transfer
+  bool noSkyDetail = false;  // the sky's light beyond the SH band limit left out (the transfer alone)
+};
+
 /// Adds --rig, --env, --env-rotate, --env-axis, --env-intensity, --sun-dir, --sun-azimuth,
 /// --sun-elevation, --sun-irradiance, --sun-radius, --window; with `animated` (prt render)
 /// START:END ranges and --env-rotate-end, otherwise --frame; with `envPositional` (prt light) the
 /// map may also be given as the positional argument `env`. CLI11 checks what it can state:
 /// --rig excludes the shortcuts, the --env-* options need --env, --sun-dir excludes the angles.
 void addLightOptions(CLI::App& app, LightOptions& o, bool animated = false, bool envPositional = false);
+
+/// Adds --bounce-samples and --no-sky-detail.
+void addGatherOptions(CLI::App& app, GatherOptions& o);
+
+/// The frame lighting of these options; the command sets where direct lights are lit and
+/// their shadow rays.
+bake::FrameLightingSettings frameLightingSettings(const LightOptions& light, const GatherOptions& gather);
 
 /// The lighting as a validated rig. START:END ranges become keys at firstFrame and lastFrame.
 /// Throws UsageError on options that do not go together or do not parse, prt::Error (one line

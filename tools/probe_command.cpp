@@ -14,7 +14,7 @@
 #include "cli_checks.h"
 #include "csv_fields.h"
 #include "prt/atomic_file.h"
-#include "prt/bake/direct_light.h"
+#include "prt/bake/frame_lighting.h"
 #include "prt/error.h"
 #include "prt/probe_grid.h"
 #include "prt/relight.h"
@@ -34,17 +34,17 @@ struct ProbeQuery {
   const ProbeGrid& grid;
   const std::vector<glm::vec3>& relit;
   const sh::ShRgb& light;
-  const bake::RayScene* rays = nullptr;  // the baked scene, traced once per command
+  const bake::PointShadows* shadowRays = nullptr;  // the baked scene, built once per command
   const std::vector<DirectLight>* direct = nullptr;
   bake::ShadowSettings shadows;
   sh::ShRgb radiance(const glm::vec3& x, const glm::vec3* n, ProbeCover& cover) const {
     return receiverRadiance(grid, relit, light, x, n, &cover);
   }
-  bool traced() const { return rays && direct && !direct->empty(); }
+  bool traced() const { return shadowRays && direct && !direct->empty(); }
   /// Σ_k E_k c_k(n) s_k(x) at each point (zero without traced direct lights).
   std::vector<glm::vec3> directIrradiance(const std::vector<glm::vec3>& x, const std::vector<glm::vec3>& n) const {
     if (!traced()) return std::vector<glm::vec3>(x.size(), glm::vec3(0.0f));
-    return bake::shadowedDirectIrradianceAt(*rays, x, n, *direct, shadows);
+    return shadowRays->irradiance(x, n, *direct, shadows);
   }
 };
 
@@ -83,7 +83,7 @@ void probeAt(const ProbeArgs& a, const ProbeQuery& q) {
     nlohmann::json lights = nlohmann::json::array();
     for (const DirectLight& l : *q.direct) {
       const glm::vec3 d(l.direction);
-      const glm::vec3 e = bake::shadowedDirectIrradianceAt(*q.rays, {x}, {d}, {l}, q.shadows)[0];
+      const glm::vec3 e = q.shadowRays->irradiance({x}, {d}, {l}, q.shadows)[0];
       const double full = std::max({l.irradiance.r, l.irradiance.g, l.irradiance.b});
       const double share = full > 0.0 ? std::max({double(e.r), double(e.g), double(e.b)}) / full : 0.0;
       lights.push_back({{"direction", {d.x, d.y, d.z}},
@@ -232,9 +232,9 @@ int runProbe(const ProbeArgs& a) {
   const sh::ShRgb light = sh::resize(split ? lighting.sh : rig.evaluate(a.light.frame, grid.bands), grid.bands);
   const std::vector<glm::vec3> relit =
       split ? relightProbes(grid, light, sh::resize(lighting.directSh, grid.bands)) : relightProbes(grid, light);
-  std::optional<bake::RayScene> rays;
-  if (split) rays.emplace(*scene);
-  ProbeQuery q{grid, relit, light, split ? &*rays : nullptr, split ? &lighting.direct : nullptr, {}};
+  std::optional<bake::PointShadows> shadowRays;
+  if (split) shadowRays.emplace(*scene);
+  ProbeQuery q{grid, relit, light, split ? &*shadowRays : nullptr, split ? &lighting.direct : nullptr, {}};
   q.shadows.samples = a.shadowSamples;
   q.shadows.threads = a.threads;
   if (!a.at.empty())

@@ -5,7 +5,7 @@
 #include <fstream>
 
 #include "prt/atomic_file.h"
-#include "prt/bake/direct_light.h"
+#include "prt/bake/frame_lighting.h"
 #include "prt/error.h"
 #include "prt/relight.h"
 #include "prt/scene.h"
@@ -43,6 +43,63 @@ void writeCsv(const std::string& path, const Scene& scene, const std::vector<std
   file.commit();
 }
 
+// The lit vertices: the transfer's light, plus the vertex light where there is one.
+struct Radiance {
+  std::vector<std::vector<glm::vec3>> front, back;
+};
+
+Radiance relight(const Scene& scene, const bake::FrameLight& light) {
+  const RigLighting& l = light.rig;
+  if (!light.vertexLight)  // directSh is zero then: every light is in sh
+    return {relightVertices(scene, l.sh), relightBackVertices(scene, l.sh)};
+  return {relightVerticesSplit(scene, l.sh, l.directSh, light.vertexLight->front, false),
+          relightVerticesSplit(scene, l.sh, l.directSh, light.vertexLight->back, true)};
+}
+
+// The summary's lines on the direct lights, the sky detail and the bounces.
+void printLighting(const RelightArgs& a, const Scene& scene, const LightRig& rig, const bake::FrameLight& light,
+                   const bake::FrameLighting& lighting) {
+  const bake::FrameLightingStats& st = lighting.stats();
+  const size_t lights = light.rig.direct.size();
+  if (lights) {
+    std::fprintf(stderr, "  direct lights (exact, with shadows and their bounces):\n");
+    for (const std::string& line : describeDirectLights(light.rig, rig)) std::fprintf(stderr, "    %s\n", line.c_str());
+    std::fprintf(stderr, "  shadow rays   %llu (%d per light and vertex) in %.2f s\n", (unsigned long long)st.shadowRays,
+                 a.shadowSamples, st.shadowSeconds);
+  }
+  if (lighting.skyDetail())
+    std::fprintf(stderr, "  sky detail    the light beyond %d bands over the same rays\n", scene.transferBands);
+  const int bounces = scene.bakeRecord.value_or(BakeRecord{}).bounces;
+  if (light.vertexLight && (lights || lighting.skyDetail())) {
+    if (lighting.gathers())
+      std::fprintf(stderr, "  gather rays   %llu (%d per vertex, %d bounces as baked) in %.2f s\n",
+                   (unsigned long long)st.gatherRays, a.gather.bounceSamples, bounces,
+                   st.traceSeconds + st.gatherSeconds);
+    else
+      std::fprintf(stderr, "  %s\n", bounces > 0 ? "bounces       through the SH transfer (--bounce-samples 0)"
+                                                 : "bounces       none (baked without bounces)");
+  }
+  if (!lights && a.light.noDirect)
+    std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
+}
+
+void printSummary(const RelightArgs& a, const Scene& scene, const Radiance& r) {
+  size_t vertices = 0, backSides = 0;
+  glm::vec3 sum(0.0f);
+  for (const auto& side : r.front)
+    for (const glm::vec3& c : side) {
+      sum += c;
+      ++vertices;
+    }
+  for (const auto& side : r.back) backSides += side.size();
+  glm::vec3 mean = vertices ? sum / float(vertices) : glm::vec3(0);
+  std::string rigText = a.light.rig.empty() ? std::string() : cat(", lit by ", a.light.rig, " at frame ", a.light.frame);
+  const std::string sides = backSides ? cat(" (", backSides, " of them two-sided)") : std::string();
+  std::fprintf(stderr, "prt relight: %s -> %s%s%s\n  %zu vertices%s, %d bands%s, mean exitant radiance (%.4g, %.4g, %.4g)\n",
+               a.baked.c_str(), a.output.c_str(), a.csv.empty() ? "" : " + ", a.csv.c_str(), vertices, sides.c_str(),
+               scene.transferBands, rigText.c_str(), mean.r, mean.g, mean.b);
+}
+
 }  // namespace
 
 void addRelight(CLI::App& cmd, RelightArgs& a) {
@@ -57,14 +114,7 @@ void addRelight(CLI::App& cmd, RelightArgs& a) {
                  "Shadow rays per direct light (sun, small disk) and vertex, stratified over its disk")
       ->check(CLI::Range(1, 65536))
       ->capture_default_str();
-  cmd.add_option("--bounce-samples", a.bounceSamples,
-                 "Rays per vertex (the bake's own first rays) that gather the direct lights' bounced light and "
-                 "the sky's light beyond the SH band limit; 0: both through the SH transfer instead")
-      ->check(CLI::Range(0, 16777216))
-      ->capture_default_str();
-  cmd.add_flag("--no-sky-detail", a.noSkyDetail,
-               "Light the sky (maps, residuals, uniform skies) through the SH transfer alone, without its light "
-               "beyond the band limit gathered over those rays");
+  addGatherOptions(cmd, a.gather);
   cmd.add_option("--threads", a.threads, "Threads for the shadow and bounce rays (0 = all cores)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
@@ -80,99 +130,26 @@ int runRelight(const RelightArgs& a) {
       std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& m) { return !m.transfer.empty(); });
   if (!anyTransfer) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
   const LightRig rig = buildStillRig(a.light);
-  RigLighting lighting = lightingAt(rig, a.light, a.light.frame, scene.transferBands);
-  std::vector<std::vector<glm::vec3>> radiance, back;
-  bake::DirectIrradiance direct;
-  std::string bounceLine, skyLine;
-  if (!lighting.direct.empty() && !hasDirectTransfer(scene)) {
-    // A bake from before the split: the suns go through the whole transfer, as they did then.
-    if (!a.quiet)
-      std::fprintf(stderr, "prt relight: warning: %s has no direct part (baked by an older prt): its %zu direct "
-                           "light(s) are lit through SH, without exact shadows; bake again for them\n",
-                   a.baked.c_str(), lighting.direct.size());
-    lighting.sh += lighting.directSh;
-    lighting.directSh = sh::ShRgb(scene.transferBands);
-    lighting.direct.clear();
-  }
-  const BakeRecord record = scene.bakeRecord.value_or(BakeRecord{});
-  // The bake's own rays, traced again: they gather the direct lights' bounces and the sky's
-  // detail beyond the band limit (docs/lights.md, "Sky detail"). Not with --no-direct-lights
-  // (every light through SH, the behaviour before the split) nor for bakes without the direct
-  // part (relightVerticesSplit needs it).
-  const bool gather = a.bounceSamples > 0 && !a.light.noDirect && hasDirectTransfer(scene);
-  const bool skyDetail = gather && !a.noSkyDetail;
-  if (lighting.direct.empty() && !skyDetail) {  // directSh is zero then: every light is in sh
-    radiance = relightVertices(scene, lighting.sh);
-    back = relightBackVertices(scene, lighting.sh);
-  } else {
-    bake::ShadowSettings shadows;
-    shadows.samples = a.shadowSamples;
-    shadows.threads = a.threads;
-    direct = bake::shadowedDirectIrradiance(scene, lighting.direct, shadows);
-    sh::ShRgb directSh = lighting.directSh;
-    if (gather && (skyDetail || record.bounces > 0)) {
-      // Their bounces gathered over the bake's rays instead of through (t − t⁰) · directSh,
-      // and the sky's detail Δ added to the direct light (it bounces with it).
-      bake::BounceSettings bs;
-      bs.samples = a.bounceSamples;
-      bs.bounces = record.bounces;
-      bs.seed = record.seed;
-      bs.threads = a.threads;
-      const bake::DirectBounce rays(scene, bs);
-      double seconds = rays.traceSeconds();
-      if (skyDetail) {
-        const bake::DirectIrradiance delta = rays.skyDetail(rig.shRadiance(a.light.frame), lighting.sh);
-        bake::addIrradiance(direct, delta);
-        seconds += delta.seconds;
-        skyLine = cat("sky detail    the light beyond ", scene.transferBands, " bands over the same rays");
-      }
-      if (record.bounces > 0) {
-        const bake::DirectIrradiance bounced = rays.bounce(direct);
-        bake::addIrradiance(direct, bounced);
-        seconds += bounced.seconds;
-      }
-      char text[32];
-      std::snprintf(text, sizeof text, "%.2f", seconds);
-      bounceLine = cat("gather rays   ", rays.rays(), " (", a.bounceSamples, " per vertex, ", record.bounces,
-                       " bounces as baked) in ", text, " s");
-      directSh = sh::ShRgb(scene.transferBands);
-    } else {
-      bounceLine = record.bounces > 0 ? "bounces       through the SH transfer (--bounce-samples 0)"
-                                      : "bounces       none (baked without bounces)";
-    }
-    radiance = relightVerticesSplit(scene, lighting.sh, directSh, direct.front, false);
-    back = relightVerticesSplit(scene, lighting.sh, directSh, direct.back, true);
-  }
+  // The direct lights exactly at the vertices, with their bounces and the sky's detail
+  // gathered over the bake's own rays (not with --no-direct-lights, nor for bakes without the
+  // direct part).
+  bake::FrameLightingSettings settings = frameLightingSettings(a.light, a.gather);
+  settings.directAtVertices = true;
+  settings.shadowSamples = a.shadowSamples;
+  settings.threads = a.threads;
+  bake::FrameLighting lighting(scene, rig, settings);
+  const bake::FrameLight light = lighting.at(a.light.frame);
+  if (light.foldedLights && !a.quiet)
+    std::fprintf(stderr, "prt relight: warning: %s has no direct part (baked by an older prt): its %zu direct "
+                         "light(s) are lit through SH, without exact shadows; bake again for them\n",
+                 a.baked.c_str(), light.foldedLights);
+  const Radiance radiance = relight(scene, light);
   if (!a.csv.empty()) AtomicFile csvProbe(a.csv);
-  writeLitScene(a.baked, scene, radiance, a.output, &back);
-  if (!a.csv.empty()) writeCsv(a.csv, scene, radiance, back);
+  writeLitScene(a.baked, scene, radiance.front, a.output, &radiance.back);
+  if (!a.csv.empty()) writeCsv(a.csv, scene, radiance.front, radiance.back);
   if (a.quiet) return 0;
-  size_t vertices = 0;
-  glm::vec3 sum(0.0f);
-  size_t backSides = 0;
-  for (const auto& r : radiance)
-    for (const glm::vec3& c : r) {
-      sum += c;
-      ++vertices;
-    }
-  for (const auto& r : back) backSides += r.size();
-  glm::vec3 mean = vertices ? sum / float(vertices) : glm::vec3(0);
-  std::string rigText = a.light.rig.empty() ? std::string() : cat(", lit by ", a.light.rig, " at frame ", a.light.frame);
-  const std::string sides = backSides ? cat(" (", backSides, " of them two-sided)") : std::string();
-  std::fprintf(stderr, "prt relight: %s -> %s%s%s\n  %zu vertices%s, %d bands%s, mean exitant radiance (%.4g, %.4g, %.4g)\n",
-               a.baked.c_str(), a.output.c_str(), a.csv.empty() ? "" : " + ", a.csv.c_str(), vertices, sides.c_str(),
-               scene.transferBands, rigText.c_str(), mean.r, mean.g, mean.b);
-  if (!lighting.direct.empty()) {
-    std::fprintf(stderr, "  direct lights (exact, with shadows and their bounces):\n");
-    for (const std::string& line : describeDirectLights(lighting, rig)) std::fprintf(stderr, "    %s\n", line.c_str());
-    std::fprintf(stderr, "  shadow rays   %llu (%d per light and vertex) in %.2f s\n", (unsigned long long)direct.rays,
-                 a.shadowSamples, direct.seconds);
-  }
-  if (!skyLine.empty()) std::fprintf(stderr, "  %s\n", skyLine.c_str());
-  if (!bounceLine.empty() && (!lighting.direct.empty() || !skyLine.empty())) std::fprintf(stderr, "  %s\n", bounceLine.c_str());
-  if (lighting.direct.empty() && a.light.noDirect) {
-    std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
-  }
+  printSummary(a, scene, radiance);
+  printLighting(a, scene, rig, light, lighting);
   return 0;
 }
 

@@ -14,8 +14,7 @@ struct RelightArgs {
   std::string baked, output, csv;
   LightOptions light;
   int shadowSamples = 64;  // shadow rays per direct light and vertex
-  int bounceSamples = 256; // gather rays per vertex for the direct lights' bounces; 0: through SH
-  bool noSkyDetail = false; // the sky's light beyond the SH band limit left out (the transfer alone)
+  GatherOptions gather;
   int threads = 0;
   bool quiet = false;
 };

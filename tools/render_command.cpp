@@ -30,7 +30,7 @@
 #include "frame_outputs.h"
 #include "light_options.h"
 #include "prt/atomic_file.h"
-#include "prt/bake/direct_light.h"
+#include "prt/bake/frame_lighting.h"
 #include "prt/error.h"
 #include "prt/image.h"
 #include "prt/light_rig.h"
@@ -299,22 +299,8 @@ double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-}  // namespace
-
-void addRender(CLI::App& r, RenderArgs& a) {
-  r.add_option("baked", a.baked, "Baked scene (.glb from prt bake)")->required();
-  r.add_option("-o,--output", a.output,
-               "Frame path (.exr) with a frame field %d or %0Nd, e.g. out/frame_%04d.exr (a plain name for one "
-               "frame); its folder is created")
-      ->capture_default_str();
-  r.add_option_function<std::string>(
-       "--frames", [&a](const std::string& v) { a.frames = parseFrames(v); },
-       "Frame range A-B (inclusive) or A; default 0-0, or the --rig's keyframe range (up to 100000 frames)")
-      ->default_str("0-0");
-  r.add_option_function<std::string>(
-       "--size", [&a](const std::string& v) { std::tie(a.width, a.height) = parseSize(v); },
-       "Image size WxH (each 1..16384, at most 8192x8192 pixels)")
-      ->default_str(cat(a.width, "x", a.height));
+// --camera and the orbit camera's options: any --orbit-* option selects the orbit.
+void addCameraOptions(CLI::App& r, RenderArgs& a) {
   CLI::Option* camera =
       r.add_option("--camera", a.camera, "glTF camera name (default: the first camera, else the orbit camera)");
   const std::vector<CLI::Option*> orbit = {
@@ -342,6 +328,257 @@ void addRender(CLI::App& r, RenderArgs& a) {
       if (a.orbitOption.empty()) a.orbitOption = name;
     });
   }
+}
+
+// The frame as rendered: supersampled frames are averaged down before they are written.
+struct RenderSize {
+  int64_t width = 0, height = 0;
+};
+
+RenderSize renderSize(const RenderArgs& a) {
+  const RenderSize size{int64_t(a.width) * a.supersample, int64_t(a.height) * a.supersample};
+  if (size.width > kMaxSide || size.height > kMaxSide || size.width * size.height > kMaxPixels)
+    throw UsageError(cat("--supersample ", a.supersample, " with --size ", a.width, "x", a.height, ": renders ",
+                         size.width, "x", size.height, ", more than the ", kMaxSide, " a side and 8192x8192 pixels allowed"));
+  return size;
+}
+
+// The lighting and the frames it lights, first (a bad rig or map fails before any GL work). A
+// rig file's keyframe range is the default frame range; the shortcuts' START:END need the range
+// to place their keys.
+struct FrameLights {
+  LightRig rig;
+  FrameRange frames;
+};
+
+FrameLights frameLights(const RenderArgs& a) {
+  std::optional<LightRig> rig;
+  if (!a.light.rig.empty()) rig = buildRig(a.light, 0, 0);
+  const FrameRange frames = a.frames || !rig || !rig->animated() ? a.frames.value_or(FrameRange{})
+                                                                   : rigFrames(*rig, a.light.rig);
+  if (!rig) rig = buildRig(a.light, int(frames.first), int(frames.last));
+  if (a.background == Background::Sky) {
+    size_t maps = 0, caps = 0;
+    for (const RigLight& l : rig->lights) {
+      maps += l.type == RigLight::Type::Environment;
+      caps += l.type == RigLight::Type::Sun || l.type == RigLight::Type::Disk;
+    }
+    render::checkBackgroundSize(cat("--background sky: ", a.light.rig.empty() ? "the lights" : a.light.rig), maps, caps);
+  }
+  return {std::move(*rig), frames};
+}
+
+// Where the frames go: the -o pattern, and the video and contact sheet if asked for.
+struct Outputs {
+  FramePattern pattern;
+  std::unique_ptr<VideoEncoder> video;
+  std::optional<ContactSheet> sheet;
+  double writeMs = 0.0, encodeMs = 0.0;  // summed over the frames
+};
+
+// Checks every output before any work (ffmpeg missing fails now).
+Outputs checkOutputs(const RenderArgs& a, const FrameRange& frames) {
+  Outputs out{FramePattern(a.output)};
+  checkOutput(out.pattern, frames);
+  if (!a.mp4.empty()) {
+    out.video = std::make_unique<VideoEncoder>(a.mp4);
+    checkFolderFor(cat("--mp4 ", a.mp4), a.mp4);
+  }
+  if (!a.contactSheet.empty()) {
+    const ContactSheet::Layout sheet = ContactSheet::layout(a.width, a.height, frames.count(), a.sheetColumns, a.sheetTile);
+    if (sheet.width > kMaxSide || sheet.height > kMaxSide || sheet.width * sheet.height > kMaxPixels)
+      throw UsageError(cat("--contact-sheet ", a.contactSheet, ": ", frames.count(), " frames make a ", sheet.width, "x",
+                      sheet.height, " sheet, over ", kMaxSide, " pixels a side or ", kMaxPixels,
+                      " in all; lower --sheet-tile or render fewer frames"));
+    checkFolderFor(cat("--contact-sheet ", a.contactSheet), a.contactSheet);
+  }
+  return out;
+}
+
+// Every check that can be made before rendering has passed: the output folders are made now, so
+// that a run refused earlier leaves nothing behind.
+void startOutputs(const RenderArgs& a, const FrameRange& frames, double fps, Outputs& out) {
+  createFolderFor(cat("-o ", out.pattern.text()), out.pattern.path(frames.first));
+  if (out.video) createFolderFor(cat("--mp4 ", a.mp4), a.mp4);
+  if (!a.contactSheet.empty()) createFolderFor(cat("--contact-sheet ", a.contactSheet), a.contactSheet);
+  if (!a.contactSheet.empty()) out.sheet.emplace(a.width, a.height, int(frames.count()), a.sheetColumns, a.sheetTile);
+  if (out.video) out.video->start(a.width, a.height, fps);
+}
+
+// Direct lights (suns, small disks) are lit per pixel with shadow maps: at most
+// kMaxDirectLights per frame. The set of lights is the same in every frame (their types and
+// radii decide), so the first frame tells.
+void checkDirectLights(const RenderArgs& a, const RigLighting& first) {
+  if (first.direct.size() > size_t(render::kMaxDirectLights))
+    throw Error(cat(a.light.rig.empty() ? std::string("the lights") : a.light.rig, ": ", first.direct.size(),
+                    " direct lights (suns and disks up to ", kMaxDirectRadiusDegrees, " deg), at most ",
+                    render::kMaxDirectLights, " are lit per pixel; use --no-direct-lights to light them through SH"));
+}
+
+// The costs of the frames, ms, summed over them (prepare: once).
+struct RenderTimes {
+  double prepare = 0.0, light = 0.0, draw = 0.0, readback = 0.0;
+};
+
+// The writer's job for frame f: its EXR, PNG, contact-sheet tile and video frame.
+std::function<void()> writeJob(const RenderArgs& a, Outputs& out, int64_t f, std::shared_ptr<const ImageRgb> image,
+                               double lightMs, const render::FrameStats& stats) {
+  return [&a, &out, f, image, lightMs, stats] {
+    auto t1 = std::chrono::steady_clock::now();
+    const std::string path = out.pattern.path(f);
+    writeExr(path, *image, a.exrCompression);
+    if (a.png) writePng(std::filesystem::path(path).replace_extension(".png").string(), *image, float(a.exposure));
+    if (out.sheet) out.sheet->add(*image);
+    const double frameWriteMs = msSince(t1);
+    auto t2 = std::chrono::steady_clock::now();
+    if (out.video) out.video->addFrame(*image, float(a.exposure));
+    out.encodeMs += msSince(t2);
+    out.writeMs += frameWriteMs;
+    if (!a.quiet)
+      std::fprintf(stderr, "frame %lld -> %s: light %.3f ms, draw %.1f ms, readback %.1f ms, write %.1f ms\n",
+                   static_cast<long long>(f), path.c_str(), lightMs, stats.drawMs, stats.readbackMs, frameWriteMs);
+  };
+}
+
+// Frame f's frame: the camera, the light of the frame (the gathered vertex light valid until
+// the next frame's), the options' shadows, lookup and samples, the background if asked for.
+render::Frame renderFrame(const RenderArgs& a, const RenderSize& size, const render::CameraView& camera,
+                          bake::FrameLight& light, double time, const RigBackground* background) {
+  render::Frame frame;
+  frame.camera = camera;
+  const bake::DirectIrradiance* v = light.vertexLight;
+  frame.setLight(std::move(light.rig), v ? &v->front : nullptr, v ? &v->back : nullptr);
+  frame.shadows.mapSize = a.shadowMapSize;
+  frame.time = time;
+  frame.probeLookup = a.probeLookup;
+  frame.samples = a.msaa;
+  frame.background = background;
+  frame.width = int(size.width);
+  frame.height = int(size.height);
+  return frame;
+}
+
+// Renders the frames; frame f is written on the writer's thread while frame f + 1 renders (two
+// frames queued at most). Warnings the renderer finds while rendering (direct lights an older
+// bake cannot split) are printed once each.
+RenderTimes renderFrames(const RenderArgs& a, const FrameLights& lights, const RenderSize& size, double fps,
+                         const render::CameraView& camera, render::Renderer& renderer, bake::FrameLighting& lighting,
+                         Outputs& out) {
+  RenderTimes t;
+  size_t warningsShown = renderer.warnings().size();
+  FrameWriter writer(2);
+  for (int64_t f = lights.frames.first; f <= lights.frames.last; ++f) {
+    bake::FrameLight light = lighting.at(double(f));
+    RigBackground background;
+    if (a.background == Background::Sky) background = lights.rig.background(double(f));
+    const render::Frame frame = renderFrame(a, size, camera, light, double(f) / fps,
+                                            a.background == Background::Sky ? &background : nullptr);
+    auto image = std::make_shared<const ImageRgb>(a.supersample > 1 ? downsampleBox(renderer.render(frame), a.supersample)
+                                                                     : renderer.render(frame));
+    const std::vector<std::string> now = renderer.warnings();
+    for (; warningsShown < now.size(); ++warningsShown)
+      if (!a.quiet) std::fprintf(stderr, "prt: warning: %s\n", now[warningsShown].c_str());
+    // The light update: the rig's SH, the gathered vertex light when the lights changed, and,
+    // with probes, relighting and uploading the grid.
+    const render::FrameStats stats = renderer.lastFrame();
+    const double frameLightMs = light.seconds * 1e3 + stats.lightMs;
+    t.light += frameLightMs;
+    t.draw += stats.drawMs;
+    t.readback += stats.readbackMs;
+    writer.push(writeJob(a, out, f, image, frameLightMs, stats));
+  }
+  writer.finish();
+  return t;
+}
+
+// The summary's first paragraph: the frames, the camera, the costs.
+void printFrames(const RenderArgs& a, const FrameLights& lights, const RenderSize& size, const Outputs& out,
+                 const RenderTimes& t, const std::string& device, const ChosenCamera& camera,
+                 const render::FrameStats& last, int bands) {
+  const int64_t n = lights.frames.count();
+  const double perFrame = 1.0 / double(n);
+  std::fprintf(stderr,
+               "prt render: %lld frame%s %dx%d written (%s .. %s)%s on %s\n"
+               "  camera: %s\n"
+               "  %.2f ms/frame draw + %.2f ms/frame readback, %.3f ms per light update (%zu lights, %d bands, "
+               "window %s; maps projected once in %.1f ms), %.2f ms/frame writing; background %s, %d sample%s per pixel%s\n",
+               static_cast<long long>(n), n == 1 ? "" : "s", a.width, a.height,
+               out.pattern.path(lights.frames.first).c_str(), out.pattern.path(lights.frames.last).c_str(),
+               a.png ? " + PNG" : "", device.c_str(), camera.description.c_str(), t.draw * perFrame,
+               t.readback * perFrame, t.light * perFrame, lights.rig.lights.size(), bands,
+               sh::windowName(lights.rig.window), t.prepare, out.writeMs * perFrame,
+               a.background == Background::Sky ? "sky" : "black", last.samples, last.samples == 1 ? "" : "s",
+               a.supersample > 1 ? cat(", supersampled ", a.supersample, "x", a.supersample, " (rendered ", size.width,
+                                       "x", size.height, ", averaged down)").c_str()
+                                 : "");
+}
+
+// The summary's lines on the direct lights, their bounces and the sky detail.
+void printLighting(const RenderArgs& a, const FrameLights& lights, const RigLighting& first,
+                   const bake::FrameLighting& lighting, const render::FrameStats& last, int bands) {
+  const bake::FrameLightingStats& st = lighting.stats();
+  const double updates = std::max(st.updates, 1);
+  if (!first.direct.empty()) {
+    std::string bounceText = "through the transfer";
+    if (lighting.gathers()) {
+      char text[256];
+      std::snprintf(text, sizeof text,
+                    "on baked surfaces gathered with %d rays per vertex (traced once in %.2f s), redone for %d of the "
+                    "frames (%.1f ms each: shadow rays %.1f, gather %.1f)%s",
+                    a.gather.bounceSamples, st.traceSeconds, st.updates, 1e3 * st.updateSeconds / updates,
+                    1e3 * st.shadowSeconds / updates, 1e3 * st.gatherSeconds / updates,
+                    last.directReceivers ? ", on receivers through the probes" : "");
+      bounceText = text;
+    }
+    const std::string how =
+        last.directBaked || last.directReceivers
+            ? cat("per pixel, exactly, with PCSS shadow maps of ", last.shadowMapSize, "x", last.shadowMapSize, ", ",
+                  last.cascades, " cascade", last.cascades == 1 ? "" : "s", " per light, ",
+                  last.directBaked ? "on baked surfaces" : "", last.directBaked && last.directReceivers ? " and " : "",
+                  last.directReceivers ? "on receivers" : "", "; their bounces ", bounceText)
+            : std::string("through SH (no direct part in the bake)");
+    std::fprintf(stderr, "  direct lights (frame %lld; %s):\n", static_cast<long long>(lights.frames.first), how.c_str());
+    for (const std::string& line : describeDirectLights(first, lights.rig)) std::fprintf(stderr, "    %s\n", line.c_str());
+  } else if (a.light.noDirect) {
+    std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
+  }
+  if (lighting.skyDetail())
+    std::fprintf(stderr,
+                 "  sky detail: the sky's light beyond %d bands on baked surfaces, gathered over the same %d rays per "
+                 "vertex%s (docs/lights.md, \"Sky detail\"), redone for %d of the frames (%.1f ms each)\n",
+                 bands, a.gather.bounceSamples, first.direct.empty() ? "" : " as the bounces", st.updates,
+                 1e3 * st.updateSeconds / updates);
+}
+
+// The summary's last lines: the video, the contact sheet, the total.
+void printOutputs(const RenderArgs& a, const Outputs& out, int64_t n, double fps, double totalMs) {
+  const double perFrame = 1.0 / double(n);
+  if (out.video)
+    std::fprintf(stderr, "  video %s: %lld frames at %g fps, %.2f ms/frame encoding (%s)\n", a.mp4.c_str(),
+                 static_cast<long long>(n), fps, out.encodeMs * perFrame, out.video->ffmpeg().c_str());
+  if (out.sheet)
+    std::fprintf(stderr, "  contact sheet %s: %d columns of %dx%d tiles (1/%d)\n", a.contactSheet.c_str(),
+                 out.sheet->columns(), out.sheet->tileWidth(), out.sheet->tileHeight(), out.sheet->factor());
+  std::fprintf(stderr, "  total %.2f s (%.1f ms/frame)\n", totalMs / 1000.0, totalMs * perFrame);
+}
+
+}  // namespace
+
+void addRender(CLI::App& r, RenderArgs& a) {
+  r.add_option("baked", a.baked, "Baked scene (.glb from prt bake)")->required();
+  r.add_option("-o,--output", a.output,
+               "Frame path (.exr) with a frame field %d or %0Nd, e.g. out/frame_%04d.exr (a plain name for one "
+               "frame); its folder is created")
+      ->capture_default_str();
+  r.add_option_function<std::string>(
+       "--frames", [&a](const std::string& v) { a.frames = parseFrames(v); },
+       "Frame range A-B (inclusive) or A; default 0-0, or the --rig's keyframe range (up to 100000 frames)")
+      ->default_str("0-0");
+  r.add_option_function<std::string>(
+       "--size", [&a](const std::string& v) { std::tie(a.width, a.height) = parseSize(v); },
+       "Image size WxH (each 1..16384, at most 8192x8192 pixels)")
+      ->default_str(cat(a.width, "x", a.height));
+  addCameraOptions(r, a);
   r.add_option("--gl", a.gl, "OpenGL back end")
       ->transform(choice<render::GlBackend>({{"osmesa", render::GlBackend::OSMesa}, {"egl", render::GlBackend::Egl}}))
       ->default_str("osmesa");
@@ -393,14 +630,7 @@ void addRender(CLI::App& r, RenderArgs& a) {
                "per pixel with PCSS-filtered shadow maps (docs/render.md)")
       ->check(CLI::Range(16, 8192))
       ->capture_default_str();
-  r.add_option("--bounce-samples", a.bounceSamples,
-               "Rays per baked vertex (the bake's own first rays, traced once) that gather the direct lights' bounced "
-               "light and the sky's light beyond the SH band limit; 0: both through the SH transfer instead")
-      ->check(CLI::Range(0, 16777216))
-      ->capture_default_str();
-  r.add_flag("--no-sky-detail", a.noSkyDetail,
-             "Light the sky (maps, residuals, uniform skies) through the SH transfer alone, without its light beyond "
-             "the band limit gathered over those rays");
+  addGatherOptions(r, a.gather);
   r.add_option("--contact-sheet", a.contactSheet, "Also write a PNG grid of all frames, downscaled");
   r.add_option("--sheet-columns", a.sheetColumns, "Contact sheet columns (0 = about square)")
       ->check(CLI::Range(0, std::numeric_limits<int>::max()).description(">= 0"))
@@ -413,262 +643,53 @@ void addRender(CLI::App& r, RenderArgs& a) {
 
 int runRender(const RenderArgs& a) {
   const auto tStart = std::chrono::steady_clock::now();
-  const int width = a.width, height = a.height;
-  // The frame as rendered: supersampled frames are averaged down before they are written.
-  const int64_t renderWidth = int64_t(width) * a.supersample, renderHeight = int64_t(height) * a.supersample;
-  if (renderWidth > kMaxSide || renderHeight > kMaxSide || renderWidth * renderHeight > kMaxPixels)
-    throw UsageError(cat("--supersample ", a.supersample, " with --size ", width, "x", height, ": renders ", renderWidth,
-                         "x", renderHeight, ", more than the ", kMaxSide, " a side and 8192x8192 pixels allowed"));
-  const render::OrbitCamera orbit = orbitCamera(a);
-  const bool skyBackground = a.background == Background::Sky;
-
-  // Lighting first (a bad rig or map fails before any GL work). A rig file's keyframe range is
-  // the default frame range; the shortcuts' START:END need the range to place their keys.
-  std::optional<LightRig> rig;
-  if (!a.light.rig.empty()) rig = buildRig(a.light, 0, 0);
-  const FrameRange frames = a.frames || !rig || !rig->animated() ? a.frames.value_or(FrameRange{})
-                                                                   : rigFrames(*rig, a.light.rig);
-  if (!rig) rig = buildRig(a.light, int(frames.first), int(frames.last));
-  if (skyBackground) {
-    size_t maps = 0, caps = 0;
-    for (const RigLight& l : rig->lights) {
-      maps += l.type == RigLight::Type::Environment;
-      caps += l.type == RigLight::Type::Sun || l.type == RigLight::Type::Disk;
-    }
-    render::checkBackgroundSize(cat("--background sky: ", a.light.rig.empty() ? "the lights" : a.light.rig), maps, caps);
-  }
-
-  const FramePattern output(a.output);
-  checkOutput(output, frames);
-  std::unique_ptr<VideoEncoder> video;
-  if (!a.mp4.empty()) {
-    video = std::make_unique<VideoEncoder>(a.mp4);  // ffmpeg missing: fail now
-    checkFolderFor(cat("--mp4 ", a.mp4), a.mp4);
-  }
-  if (!a.contactSheet.empty()) {
-    const ContactSheet::Layout sheet = ContactSheet::layout(width, height, frames.count(), a.sheetColumns, a.sheetTile);
-    if (sheet.width > kMaxSide || sheet.height > kMaxSide || sheet.width * sheet.height > kMaxPixels)
-      throw UsageError(cat("--contact-sheet ", a.contactSheet, ": ", frames.count(), " frames make a ", sheet.width, "x",
-                      sheet.height, " sheet, over ", kMaxSide, " pixels a side or ", kMaxPixels,
-                      " in all; lower --sheet-tile or render fewer frames"));
-    checkFolderFor(cat("--contact-sheet ", a.contactSheet), a.contactSheet);
-  }
-  const double fps = a.fps ? *a.fps : rig->fps.value_or(kDefaultFps);
-  // Direct lights (suns, small disks) are lit per pixel with shadow maps: at most
-  // kMaxDirectLights per frame. The set of lights is the same in every frame (their types and
-  // radii decide), so the first frame tells.
-  auto lightingAtFrame = [&](double frame, int bands) { return lightingAt(*rig, a.light, frame, bands); };
+  const RenderSize size = renderSize(a);
+  FrameLights lights = frameLights(a);
+  Outputs out = checkOutputs(a, lights.frames);
+  const double fps = a.fps ? *a.fps : lights.rig.fps.value_or(kDefaultFps);
 
   Scene scene = loadScene(a.baked);
   if (scene.transferBands == 0) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
   const int bands = scene.transferBands;
-  const ChosenCamera camera = chooseCamera(a, orbit, scene, double(width) / height);
-
+  const ChosenCamera camera = chooseCamera(a, orbitCamera(a), scene, double(a.width) / a.height);
   ProbeGrid probes;
   std::vector<std::string> warnings = scene.warnings;  // as every command that reads a scene prints them
   if (!a.probes.empty()) {
     probes = readProbeGrid(a.probes);
     for (const std::string& w : checkProbesMatch(probes, scene, a)) warnings.push_back(w);
   }
-  render::GlContext context(a.gl, int(renderWidth), int(renderHeight));
+  render::GlContext context(a.gl, int(size.width), int(size.height));
   if (a.msaa > context.maxSamples())
     throw Error(cat("--msaa ", a.msaa, ": ", context.renderer(), " allows at most ", context.maxSamples(), " samples"));
   render::Renderer renderer(context, scene);
   if (!a.probes.empty()) renderer.setProbes(probes);
   for (const std::string& w : renderer.warnings()) warnings.push_back(w);
-  const RigLighting firstLighting = lightingAtFrame(double(frames.first), bands);
-  if (firstLighting.direct.size() > size_t(render::kMaxDirectLights))
-    throw Error(cat(a.light.rig.empty() ? std::string("the lights") : a.light.rig, ": ", firstLighting.direct.size(),
-                    " direct lights (suns and disks up to ", kMaxDirectRadiusDegrees, " deg), at most ",
-                    render::kMaxDirectLights, " are lit per pixel; use --no-direct-lights to light them through SH"));
+  const RigLighting first = lightingAt(lights.rig, a.light, double(lights.frames.first), bands);
+  checkDirectLights(a, first);
   if (!a.quiet)
     for (const std::string& w : warnings) std::fprintf(stderr, "prt: warning: %s\n", w.c_str());
-  size_t warningsShown = renderer.warnings().size();
-  const int64_t n = frames.count();
-  // Every check that can be made before rendering has passed: the output folders are made now,
-  // so that a run refused earlier leaves nothing behind.
-  createFolderFor(cat("-o ", output.text()), output.path(frames.first));
-  if (video) createFolderFor(cat("--mp4 ", a.mp4), a.mp4);
-  if (!a.contactSheet.empty()) createFolderFor(cat("--contact-sheet ", a.contactSheet), a.contactSheet);
-  std::optional<ContactSheet> sheet;
-  if (!a.contactSheet.empty()) sheet.emplace(width, height, int(n), a.sheetColumns, a.sheetTile);
-  if (video) video->start(width, height, fps);
+  startOutputs(a, lights.frames, fps, out);
 
-  // Maps are projected once, here; a frame then costs a rotation and the analytic lights.
+  // Maps are projected once, here; a frame then costs a rotation and the analytic lights. The
+  // direct lights' bounces on baked surfaces, from their shadowed light at the vertices, and the
+  // sky's detail beyond the band limit (it bounces with them) are gathered over the bake's own
+  // rays (docs/lights.md, "Sky detail"), redone only when the direct lights or the sky change.
   const auto tPrepare = std::chrono::steady_clock::now();
-  rig->prepare(bands);
+  lights.rig.prepare(bands);
   const double prepareMs = msSince(tPrepare);
-  double lightMs = 0.0, drawMs = 0.0, readbackMs = 0.0, writeMs = 0.0, encodeMs = 0.0;
-  // Gathered over the bake's own rays (traced once, here; docs/lights.md, "Sky detail"):
-  // the direct lights' bounces on baked surfaces, from their shadowed light at the vertices, and
-  // the sky's detail beyond the band limit (it bounces with them); redone only when the direct
-  // lights or the sky change.
-  const BakeRecord record = scene.bakeRecord.value_or(BakeRecord{});
-  const bool gatherable = a.bounceSamples > 0 && !a.light.noDirect && hasDirectTransfer(scene);
-  const bool skyDetail = gatherable && !a.noSkyDetail;
-  const bool directBounces = gatherable && !firstLighting.direct.empty() && record.bounces > 0;
-  std::unique_ptr<bake::DirectBounce> gather;
-  std::unique_ptr<bake::RayScene> shadowRays;  // the static scene, for the bounce's shadow rays
-  if (skyDetail || directBounces) {
-    bake::BounceSettings bs;
-    bs.samples = a.bounceSamples;
-    bs.bounces = record.bounces;
-    bs.seed = record.seed;
-    gather = std::make_unique<bake::DirectBounce>(scene, bs);
-    if (directBounces) shadowRays = std::make_unique<bake::RayScene>(scene);
-  }
-  bake::DirectIrradiance bounced;
-  std::vector<DirectLight> bouncedFor;
-  sh::ShRgb skyFor;
-  double bounceMs = 0.0, bounceShadowMs = 0.0, bounceGatherMs = 0.0;
-  int bounceUpdates = 0;
-  auto sameLights = [](const std::vector<DirectLight>& x, const std::vector<DirectLight>& y) {
-    return x.size() == y.size() && std::equal(x.begin(), x.end(), y.begin(), [](const DirectLight& p, const DirectLight& q) {
-             return p.direction == q.direction && p.radius == q.radius && p.irradiance == q.irradiance;
-           });
-  };
-  // Frame f is written while frame f + 1 renders (two frames queued at most).
-  FrameWriter writer(2);
-  for (int64_t f = frames.first; f <= frames.last; ++f) {
-    auto t0 = std::chrono::steady_clock::now();
-    RigLighting lighting = lightingAtFrame(double(f), bands);
-    const double rigMs = msSince(t0);
-    render::Frame frame;
-    frame.camera = camera.view;
-    frame.light = std::move(lighting.sh);
-    frame.directLight = std::move(lighting.directSh);
-    frame.direct = std::move(lighting.direct);
-    double frameBounceMs = 0.0;
-    if (gather) {
-      const bool skyChanged = skyDetail && (bounceUpdates == 0 || frame.light.c != skyFor.c);
-      if (bounceUpdates == 0 || skyChanged || !sameLights(frame.direct, bouncedFor)) {
-        const auto tb = std::chrono::steady_clock::now();
-        bake::ShadowSettings ss;
-        ss.samples = kBounceShadowSamples;
-        // E⁰: the direct lights' shadowed light (lit per pixel; here only what they bounce) and
-        // the sky's detail Δ (added per vertex, and bounced).
-        bake::DirectIrradiance lit = directBounces ? bake::shadowedDirectIrradiance(scene, *shadowRays, frame.direct, ss)
-                                                   : bake::shadowedDirectIrradiance(scene, {}, ss);  // dark
-        bounceShadowMs += lit.seconds * 1e3;
-        bake::DirectIrradiance delta;
-        if (skyDetail) {
-          delta = gather->skyDetail(rig->shRadiance(double(f)), frame.light);
-          bake::addIrradiance(lit, delta);
-          bounceGatherMs += delta.seconds * 1e3;
-        }
-        bounced = gather->bounce(lit);
-        bounceGatherMs += bounced.seconds * 1e3;
-        if (skyDetail) bake::addIrradiance(bounced, delta);
-        bouncedFor = frame.direct;
-        skyFor = frame.light;
-        frameBounceMs = msSince(tb);
-        bounceMs += frameBounceMs;
-        ++bounceUpdates;
-      }
-      frame.directBounce = &bounced.front;
-      frame.directBounceBack = &bounced.back;
-    }
-    frame.shadows.mapSize = a.shadowMapSize;
-    frame.time = double(f) / fps;
-    frame.probeLookup = a.probeLookup;
-    frame.samples = a.msaa;
-    RigBackground background;
-    if (skyBackground) {
-      background = rig->background(double(f));
-      frame.background = &background;
-    }
-    frame.width = int(renderWidth);
-    frame.height = int(renderHeight);
-    auto image = std::make_shared<const ImageRgb>(a.supersample > 1 ? downsampleBox(renderer.render(frame), a.supersample)
-                                                                     : renderer.render(frame));
-    // Warnings the renderer finds while rendering (direct lights an older bake cannot split),
-    // each printed once.
-    const std::vector<std::string> now = renderer.warnings();
-    for (; warningsShown < now.size(); ++warningsShown)
-      if (!a.quiet) std::fprintf(stderr, "prt: warning: %s\n", now[warningsShown].c_str());
-    // The light update: the rig's SH, the direct lights' gathered bounce when they changed, and,
-    // with probes, relighting and uploading the grid.
-    const double frameLightMs = rigMs + frameBounceMs + renderer.lastFrame().lightMs;
-    const render::FrameStats stats = renderer.lastFrame();
-    lightMs += frameLightMs;
-    drawMs += stats.drawMs;
-    readbackMs += stats.readbackMs;
-    writer.push([&, f, image, frameLightMs, stats] {
-      auto t1 = std::chrono::steady_clock::now();
-      const std::string path = output.path(f);
-      writeExr(path, *image, a.exrCompression);
-      if (a.png) writePng(std::filesystem::path(path).replace_extension(".png").string(), *image, float(a.exposure));
-      if (sheet) sheet->add(*image);
-      const double frameWriteMs = msSince(t1);
-      auto t2 = std::chrono::steady_clock::now();
-      if (video) video->addFrame(*image, float(a.exposure));
-      encodeMs += msSince(t2);
-      writeMs += frameWriteMs;
-      if (!a.quiet)
-        std::fprintf(stderr, "frame %lld -> %s: light %.3f ms, draw %.1f ms, readback %.1f ms, write %.1f ms\n",
-                     static_cast<long long>(f), path.c_str(), frameLightMs, stats.drawMs, stats.readbackMs,
-                     frameWriteMs);
-    });
-  }
-  writer.finish();
+  bake::FrameLightingSettings gather = frameLightingSettings(a.light, a.gather);
+  gather.shadowSamples = kBounceShadowSamples;
+  bake::FrameLighting lighting(scene, lights.rig, gather);
+  RenderTimes times = renderFrames(a, lights, size, fps, camera.view, renderer, lighting, out);
+  times.prepare = prepareMs;
   auto tEnd = std::chrono::steady_clock::now();
-  if (video) video->finish();
-  encodeMs += msSince(tEnd);
-  if (sheet) sheet->write(a.contactSheet, float(a.exposure));
+  if (out.video) out.video->finish();
+  out.encodeMs += msSince(tEnd);
+  if (out.sheet) out.sheet->write(a.contactSheet, float(a.exposure));
   if (a.quiet) return 0;
-  const double perFrame = 1.0 / double(n);
-  std::fprintf(stderr,
-               "prt render: %lld frame%s %dx%d written (%s .. %s)%s on %s\n"
-               "  camera: %s\n"
-               "  %.2f ms/frame draw + %.2f ms/frame readback, %.3f ms per light update (%zu lights, %d bands, "
-               "window %s; maps projected once in %.1f ms), %.2f ms/frame writing; background %s, %d sample%s per pixel%s\n",
-               static_cast<long long>(n), n == 1 ? "" : "s", width, height, output.path(frames.first).c_str(),
-               output.path(frames.last).c_str(), a.png ? " + PNG" : "", context.description().c_str(),
-               camera.description.c_str(), drawMs * perFrame, readbackMs * perFrame, lightMs * perFrame,
-               rig->lights.size(), bands, sh::windowName(rig->window), prepareMs, writeMs * perFrame,
-               skyBackground ? "sky" : "black", renderer.lastFrame().samples, renderer.lastFrame().samples == 1 ? "" : "s",
-               a.supersample > 1 ? cat(", supersampled ", a.supersample, "x", a.supersample, " (rendered ", renderWidth, "x",
-                                       renderHeight, ", averaged down)").c_str()
-                                 : "");
-  const render::FrameStats& last = renderer.lastFrame();
-  if (!firstLighting.direct.empty()) {
-    std::string bounceText = "through the transfer";
-    if (gather) {
-      char text[256];
-      std::snprintf(text, sizeof text,
-                    "on baked surfaces gathered with %d rays per vertex (traced once in %.2f s), redone for %d of the "
-                    "frames (%.1f ms each: shadow rays %.1f, gather %.1f)%s",
-                    a.bounceSamples, gather->traceSeconds(), bounceUpdates, bounceUpdates ? bounceMs / bounceUpdates : 0.0,
-                    bounceUpdates ? bounceShadowMs / bounceUpdates : 0.0, bounceUpdates ? bounceGatherMs / bounceUpdates : 0.0,
-                    last.directReceivers ? ", on receivers through the probes" : "");
-      bounceText = text;
-    }
-    const std::string how =
-        last.directBaked || last.directReceivers
-            ? cat("per pixel, exactly, with PCSS shadow maps of ", last.shadowMapSize, "x", last.shadowMapSize, ", ",
-                  last.cascades, " cascade", last.cascades == 1 ? "" : "s", " per light, ",
-                  last.directBaked ? "on baked surfaces" : "", last.directBaked && last.directReceivers ? " and " : "",
-                  last.directReceivers ? "on receivers" : "", "; their bounces ", bounceText)
-            : std::string("through SH (no direct part in the bake)");
-    std::fprintf(stderr, "  direct lights (frame %lld; %s):\n", static_cast<long long>(frames.first), how.c_str());
-    for (const std::string& line : describeDirectLights(firstLighting, *rig))
-      std::fprintf(stderr, "    %s\n", line.c_str());
-  } else if (a.light.noDirect) {
-    std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
-  }
-  if (skyDetail)
-    std::fprintf(stderr,
-                 "  sky detail: the sky's light beyond %d bands on baked surfaces, gathered over the same %d rays per "
-                 "vertex%s (docs/lights.md, \"Sky detail\"), redone for %d of the frames (%.1f ms each)\n",
-                 bands, a.bounceSamples, firstLighting.direct.empty() ? "" : " as the bounces", bounceUpdates,
-                 bounceUpdates ? bounceMs / bounceUpdates : 0.0);
-  if (video)
-    std::fprintf(stderr, "  video %s: %lld frames at %g fps, %.2f ms/frame encoding (%s)\n", a.mp4.c_str(),
-                 static_cast<long long>(n), fps, encodeMs * perFrame, video->ffmpeg().c_str());
-  if (sheet)
-    std::fprintf(stderr, "  contact sheet %s: %d columns of %dx%d tiles (1/%d)\n", a.contactSheet.c_str(),
-                 sheet->columns(), sheet->tileWidth(), sheet->tileHeight(), sheet->factor());
-  std::fprintf(stderr, "  total %.2f s (%.1f ms/frame)\n", msSince(tStart) / 1000.0, msSince(tStart) * perFrame);
+  printFrames(a, lights, size, out, times, context.description(), camera, renderer.lastFrame(), bands);
+  printLighting(a, lights, first, lighting, renderer.lastFrame(), bands);
+  printOutputs(a, out, lights.frames.count(), fps, msSince(tStart));
   return 0;
 }
 

@@ -40,8 +40,7 @@ struct RenderArgs {
   int msaa = 1;  // samples per pixel
   int supersample = 1;  // rendered supersample x supersample pixels per output pixel, averaged down
   int shadowMapSize = 1024;  // texels a side of each direct light's shadow map (and cascade)
-  int bounceSamples = 256;   // gather rays per vertex for the direct lights' bounces; 0: through SH
-  bool noSkyDetail = false;  // the sky's light beyond the SH band limit left out (the transfer alone)
+  GatherOptions gather;      // the bake's rays gathering the direct lights' bounces and the sky detail
   std::string mp4, contactSheet;
   int sheetColumns = 0, sheetTile = 192;
   double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitFov = 45.0, orbitDistance = 0.0;  // distance 0: fit

@@ -1,19 +1,20 @@
 #!/usr/bin/env bash
 # The one set-up script of prt, for a fresh Debian 12 machine:
 #
-#   sudo bash tools/setup.sh demo   # install, build, bake and relight the default scene
-#   sudo bash tools/setup.sh test   # install, build, run the test suite (CI runs this)
+#   bash tools/setup.sh demo   # install, build, bake and relight the default scene
+#   bash tools/setup.sh test   # install, build, run the test suite (CI runs this)
 #
 # 1. installs the Debian packages prt needs (skipped when all are installed already), and
 #    the Khronos glTF Validator (npm, pinned) into node_modules/ for the tests;
 # 2. configures and builds Release with Ninja into build/;
 # 3. demo: bakes scenes/cornell_open.gltf (surface + probes), relights it and renders frames
 #    into out/;
-#    test: runs ctest in build/; then builds the suite with AddressSanitizer +
+#    test: checks the code's shape (tools/check_shape.sh: function and file lengths); runs
+#    ctest in build/; then builds the suite with AddressSanitizer +
 #    UndefinedBehaviorSanitizer (clang) in build-asan/ and runs ctest there; then builds the
 #    libFuzzer targets in the same build-asan/ and runs each for PRT_FUZZ_SECONDS (default 20) on a
 #    temporary copy of its seed corpus. Exits non-zero if any phase fails.
-#    PRT_TEST_PHASES (default "release asan fuzz") picks phases.
+#    PRT_TEST_PHASES (default "shape release asan fuzz") picks phases.
 # Run as root, or as a user with sudo (used for apt-get only). Under sudo, the build and the
 # outputs belong to the user who ran sudo when that user owns the checkout.
 set -euo pipefail
@@ -27,6 +28,7 @@ PACKAGES=(
   libopenmpi-dev openmpi-bin
   nodejs npm
   clang-14 libclang-rt-14-dev llvm-14
+  universal-ctags
 )
 
 usage() {
@@ -35,7 +37,8 @@ usage: bash tools/setup.sh demo|test
 
   demo   install dependencies, build, then bake scenes/cornell_open.gltf and relight it
          with scenes/env/royal_esplanade_128.hdr into out/
-  test   install dependencies, build, run the test suite (ctest); then the same suite
+  test   install dependencies, build, check function and file lengths (tools/check_shape.sh),
+         run the test suite (ctest); then the same suite
          built with ASan + UBSan (build-asan/), then each fuzz target for 20 s (also in build-asan/);
          exit non-zero if any phase fails
 
@@ -145,7 +148,7 @@ case "$mode" in
       "out/contact_sheet.png  all frames on one page"
     ;;
   test)
-    phases=${PRT_TEST_PHASES:-release asan fuzz}
+    phases=${PRT_TEST_PHASES:-shape release asan fuzz}
     fuzz_seconds=${PRT_FUZZ_SECONDS:-20}
     status=0
     phase_times=()
@@ -156,6 +159,7 @@ case "$mode" in
       phase_times+=("$name $((SECONDS - start)) s$([ "$rc" -eq 0 ] || echo " (FAILED, status $rc)")")
       [ "$rc" -eq 0 ] || [ "$status" -ne 0 ] || status=$rc
     }
+    shape_check() { run bash tools/check_shape.sh; }
     release_tests() { (cd build && run ctest --output-on-failure -j2); }
     # Sanitizers: clang, every target instrumented; options in tests/CMakeLists.txt.
     # Built without MPI (the MPI tests skip there): Open MPI under ASan is untested, and the
@@ -176,6 +180,7 @@ case "$mode" in
     phase_times+=("release build $build_seconds s")
     for phase in $phases; do
       case "$phase" in
+        shape) say "checking function and file lengths (tools/check_shape.sh)"; timed "shape check" shape_check ;;
         release) say "running the tests (ctest, Release)"; timed "release tests" release_tests ;;
         asan)
           say "building with AddressSanitizer + UndefinedBehaviorSanitizer in build-asan/"
@@ -187,7 +192,7 @@ case "$mode" in
           timed "fuzz build" fuzz_build
           say "fuzzing each loader for $fuzz_seconds s"
           timed "fuzz runs" fuzz_runs ;;
-        *) die "PRT_TEST_PHASES: unknown phase '$phase' (release, asan, fuzz)" ;;
+        *) die "PRT_TEST_PHASES: unknown phase '$phase' (shape, release, asan, fuzz)" ;;
       esac
     done
     say "phase times:"

@@ -4,7 +4,7 @@
 // fsync; on resume, everything after the last commit whose records all check out is cut off
 // (ftruncate) before appending again.
 #include "prt/bake/checkpoint.h"
-#include "prt/bake/surface_bake.h"
+#include "prt/bake/surface_layout.h"  // bakesBackSide
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -360,29 +360,40 @@ std::string shardCheckpointPath(const std::string& path, int index, int count) {
   return cat(path, ".shard-", index, "-of-", count);
 }
 
-MergeStats mergeShards(const std::string& path, int count) {
-  if (count < 1) throw Error(cat("shards ", count, ": must be 1 or more"));
-  struct Shard {
-    std::string path;
-    int fd = -1;
-    std::vector<RecordInfo> records;
-  };
-  std::vector<Shard> shards(static_cast<size_t>(count));
-  struct Closer {
-    std::vector<Shard>& s;
-    int* merged;
-    ~Closer() {
-      for (Shard& x : s)
-        if (x.fd >= 0) ::close(x.fd);
-      if (*merged >= 0) ::close(*merged);
-    }
-  };
+namespace {
+
+// One finished shard's checkpoint: its committed records.
+struct ShardLog {
+  std::string path;
   int fd = -1;
-  const Closer closer{shards, &fd};
+  std::vector<RecordInfo> records;
+};
+
+// The checkpoint the shards merge into: its committed records, where it ends and its commits.
+struct MergedLog {
+  int fd = -1;
+  uint64_t end = 0, commits = 0;
+  std::vector<RecordInfo> have;
+};
+
+// Closes every file the merge opened, however it ends.
+struct MergeFiles {
+  std::vector<ShardLog> shards;
+  MergedLog merged;
+  ~MergeFiles() {
+    for (ShardLog& s : shards)
+      if (s.fd >= 0) ::close(s.fd);
+    if (merged.fd >= 0) ::close(merged.fd);
+  }
+};
+
+// Opens the finished shards ("PATH.shard-I-of-N.done") and reads their committed records; their
+// fingerprints must agree. Returns it.
+Fingerprint openShards(const std::string& path, int count, std::vector<ShardLog>& shards) {
   Fingerprint fp;
-  std::string fpFrom;
+  shards.resize(static_cast<size_t>(count));
   for (int i = 0; i < count; ++i) {
-    Shard& sh = shards[size_t(i)];
+    ShardLog& sh = shards[size_t(i)];
     sh.path = shardCheckpointPath(path, i, count) + ".done";
     sh.fd = ::open(sh.path.c_str(), O_RDONLY | O_CLOEXEC);
     if (sh.fd < 0) {
@@ -395,45 +406,51 @@ MergeStats mergeShards(const std::string& path, int count) {
     }
     uint64_t first = 0;
     const Fingerprint f = readHeader(sh.fd, sh.path, first);
-    if (i == 0) {
+    if (i == 0)
       fp = f;
-      fpFrom = sh.path;
-    } else {
+    else
       checkFingerprint(fp, f, sh.path);
-    }
     sh.records = scanRecords(sh.fd, first, fileSizeOf(sh.fd, sh.path)).committed;
   }
-  // The merged checkpoint: opened (and checked) or created with the shards' fingerprint.
-  std::vector<RecordInfo> have;
-  uint64_t end = 0, commits = 0;
+  return fp;
+}
+
+// The merged checkpoint: opened (and checked, a torn tail cut off) or created with the shards'
+// fingerprint.
+void openMerged(const std::string& path, const Fingerprint& fp, MergedLog& m) {
   std::error_code ec;
   if (std::filesystem::exists(path, ec)) {
-    fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
-    if (fd < 0) throw Error(cat(path, ": cannot open checkpoint: ", sysError()));
+    m.fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
+    if (m.fd < 0) throw Error(cat(path, ": cannot open checkpoint: ", sysError()));
     uint64_t first = 0;
-    checkFingerprint(fp, readHeader(fd, path, first), path);
-    Scan scan = scanRecords(fd, first, fileSizeOf(fd, path));
-    if (scan.end < fileSizeOf(fd, path) && ::ftruncate(fd, off_t(scan.end)) != 0)
+    checkFingerprint(fp, readHeader(m.fd, path, first), path);
+    Scan scan = scanRecords(m.fd, first, fileSizeOf(m.fd, path));
+    if (scan.end < fileSizeOf(m.fd, path) && ::ftruncate(m.fd, off_t(scan.end)) != 0)
       throw Error(cat(path, ": cannot truncate checkpoint: ", sysError()));
-    have = std::move(scan.committed);
-    end = scan.end;
-    commits = scan.commits;
+    m.have = std::move(scan.committed);
+    m.end = scan.end;
+    m.commits = scan.commits;
   } else {
     writeFileAtomic(path, headerBytes(fp));
-    fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
-    if (fd < 0) throw Error(cat(path, ": cannot open checkpoint: ", sysError()));
-    end = uint64_t(::lseek(fd, 0, SEEK_END));
+    m.fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
+    if (m.fd < 0) throw Error(cat(path, ": cannot open checkpoint: ", sysError()));
+    m.end = uint64_t(::lseek(m.fd, 0, SEEK_END));
   }
+}
+
+// Appends the shards' state records of stages the merged checkpoint has none of and their chunk
+// records it lacks, then a commit, and syncs.
+MergeStats appendMissing(const std::string& path, const std::vector<ShardLog>& shards, MergedLog& m) {
   std::set<std::pair<uint32_t, uint64_t>> chunks;  // (stage, chunk) present
   std::set<uint32_t> states;
-  for (const RecordInfo& r : have) {
+  for (const RecordInfo& r : m.have) {
     if (r.type == kChunk) chunks.insert({r.stage, r.chunk});
     if (r.type == kState) states.insert(r.stage);
   }
   MergeStats stats;
   std::set<uint32_t> merged;
-  FdWriter w(fd, end, path);
-  for (const Shard& sh : shards)
+  FdWriter w(m.fd, m.end, path);
+  for (const ShardLog& sh : shards)
     for (const RecordInfo& r : sh.records) {
       const bool fresh = r.type == kChunk ? chunks.insert({r.stage, r.chunk}).second
                                           : r.type == kState && states.insert(r.stage).second;
@@ -447,11 +464,23 @@ MergeStats mergeShards(const std::string& path, int count) {
         ++stats.stateRecords;
       }
     }
-  appendRecord(w, kCommit, 0, commits, nullptr);
+  appendRecord(w, kCommit, 0, m.commits, nullptr);
   w.flush();
-  if (::fsync(fd) != 0) throw Error(cat(path, ": cannot sync checkpoint: ", sysError()));
+  if (::fsync(m.fd) != 0) throw Error(cat(path, ": cannot sync checkpoint: ", sysError()));
   stats.stages.assign(merged.begin(), merged.end());
-  for (const Shard& sh : shards) std::filesystem::remove(sh.path, ec);
+  return stats;
+}
+
+}  // namespace
+
+MergeStats mergeShards(const std::string& path, int count) {
+  if (count < 1) throw Error(cat("shards ", count, ": must be 1 or more"));
+  MergeFiles files;
+  const Fingerprint fp = openShards(path, count, files.shards);
+  openMerged(path, fp, files.merged);
+  const MergeStats stats = appendMissing(path, files.shards, files.merged);
+  std::error_code ec;
+  for (const ShardLog& sh : files.shards) std::filesystem::remove(sh.path, ec);
   return stats;
 }
 

@@ -10,7 +10,6 @@
 
 #include <tbb/parallel_for.h>
 
-#include "albedo_lookup.h"
 #include "prt/bake/direct_light.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/error.h"
@@ -47,7 +46,7 @@ constexpr size_t kChunk = 64;  // vertices per task and per block of hit records
 // 0.9% / 3.0%).
 std::shared_ptr<const ImageRgb> prefiltered(const std::shared_ptr<const ImageRgb>& map, uint32_t K) {
   const int w = map->width, h = map->height;
-  const double target = 0.5 * std::sqrt(2.0 * kPi * double(K));
+  const double target = 0.5 * std::sqrt(2.0 * kPiF * double(K));
   int f = std::max(1, int(std::floor(double(w) / target)));
   while (f > 1 && (w % f != 0 || h % f != 0)) --f;
   if (f == 1) return map;
@@ -200,7 +199,7 @@ DirectIrradiance DirectBounce::skyDetail(const RigBackground& skyIn, const sh::S
         for (int i = 0; i < n2 && i < int(sh.c.size()); ++i) band += y[i] * glm::dvec3(sh.c[size_t(i)]);
         sum += sky.radiance(d) - band;
       }
-      delta[v] = glm::vec3(sum * (kPi / double(K)));
+      delta[v] = glm::vec3(sum * (kPiF / double(K)));
     }
   });
   DirectIrradiance out;

@@ -50,7 +50,7 @@ struct CapSampler {
     if (delta) return frame.n;
     const double cosT = 1.0 - double(sobol0(j, s0)) * oneMinusCos;
     const double sinT = std::sqrt(std::max(0.0, 1.0 - cosT * cosT));
-    const double phi = 2.0 * kPi * double(sobol1(j, s1));
+    const double phi = 2.0 * kPiF * double(sobol1(j, s1));
     return glm::normalize(frame.toWorld(glm::vec3(float(sinT * std::cos(phi)), float(sinT * std::sin(phi)), float(cosT))));
   }
 };

@@ -1,22 +1,8 @@
 // Adaptive refinement of the baked meshes (refine.h, docs/bake.md "Refinement").
 //
-// What is measured. Per point x with normal N the direct pass's estimator (vertex_rays.h, the
-// bake's ray origins and cosine-weighted Sobol directions) gives the blocked transfer
-//   b_i(x) = t^unocc_i − t⁰_i ≈ (π/n) Σ_s (1 − V_s) y_i(ω_s),
-// with per coefficient the sample variance of the mean, s²_i = (π² Σ_s (1−V_s) y_i² / n − b_i²) / n.
-// Measuring b rather than t⁰ leaves out the unoccluded part, whose interpolation across a
-// triangle is the normals' (the mesh as its author shaded it), and makes an unoccluded point
-// exactly zero with zero variance: noise cannot split a surface that sees the whole sky.
-// Every point uses the same scramble (common random numbers), so neighbouring points with one
-// normal see the same directions and their differences carry little noise.
-//
-// The error of an edge (a, b) with midpoint m is e = b(m) − (b(a) + b(b))/2, with
-// σ² = Σ_i s²_i(m) + (s²_i(a) + s²_i(b))/4 (as if independent: a bound for correlated
-// estimates); of a triangle with centroid c, e = b(c) − (b(a) + b(b) + b(c'))/3, σ² = s²(c) +
-// Σ s²(corners)/9. The score is (|e| − kNoiseSigmas·σ) / R, R = |t^unocc| = (Σ_l Â_l² (2l+1)/4π)^½
-// (the same for every normal): the worst irradiance error over lights of unit norm, relative
-// to the best unoccluded irradiance over them. Scores above the tolerance are split, largest
-// first, until the budget is spent.
+// What is measured, and how a candidate (an edge's midpoint, a triangle's centroid) is scored:
+// refine_estimator.cpp. Scores above the tolerance are split, largest first, until the budget
+// is spent.
 //
 // How edges are split: longest-edge bisection with conforming closure (Rivara 1984): marking an
 // edge marks the longest edge of every triangle beside it, recursively; then every triangle
@@ -32,7 +18,6 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -46,7 +31,7 @@
 #include "prt/bake/interrupt.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/error.h"
-#include "prt/sh.h"
+#include "refine_estimator.h"
 #include "stage_runner.h"
 #include "vertex_rays.h"
 
@@ -57,12 +42,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using Blend = MeshInstance::FileBlend;
 
-// How many standard errors of Monte Carlo noise an error must exceed before it counts.
-constexpr double kNoiseSigmas = 2.0;
-// The scramble of every refinement point (common random numbers), a "vertex index" no bake uses
-// for anything else.
-constexpr size_t kRefineStream = 0x7265666eu;
-constexpr int kStream = 256;
+using refinement::Estimates;
+using refinement::Estimator;
+using refinement::Point;
+
 // Points (or candidates) an MPI rank takes at a time: a block holds both sides of a two-sided
 // instance's points, which sit side by side (split point by point, one rank had every front
 // side and the other every back side: on cornell_open one rank took 20% longer).
@@ -95,165 +78,6 @@ Blend mergeBlends(std::initializer_list<std::pair<const Blend*, float>> parts) {
   }
   return out;
 }
-
-// Where a point's estimate is taken.
-struct Point {
-  glm::vec3 position, normal, pull;
-};
-
-// What the rays of each point found: its normal and, per direction, whether it was blocked.
-struct Estimates {
-  static constexpr uint32_t kNone = ~uint32_t(0);
-  size_t words = 0;  // 64-bit words of blocked bits per point
-  std::vector<glm::vec3> normal;
-  std::vector<uint64_t> blocked;
-  std::vector<uint32_t> back;  // per point: the slot of its back side (double-sided instances), or kNone
-  uint32_t add() {
-    normal.emplace_back(0.0f);
-    blocked.resize(blocked.size() + words, 0);
-    back.push_back(kNone);
-    return uint32_t(normal.size() - 1);
-  }
-  bool bit(uint32_t point, uint32_t s) const { return (blocked[point * words + s / 64] >> (s % 64)) & 1u; }
-};
-
-struct Estimator {
-  const RayScene& rays;
-  int bands, n2;
-  uint32_t samples;
-  uint64_t seed;
-  float extent, tnear;
-  std::vector<glm::vec3> local;  // direction s about +Z, as VertexSampler makes it for every point
-  double reference;              // |t^unocc|
-
-  Estimator(const RayScene& r, int bands_, uint32_t samples_, uint64_t seed_, float extent_)
-      : rays(r), bands(bands_), n2(bands_ * bands_), samples(samples_), seed(seed_), extent(extent_),
-        tnear(tnearFor(extent_)), local(samples_) {
-    const VertexSampler up(glm::vec3(0.0f), glm::vec3(0, 0, 1), seed, kRefineStream, tnear);
-    Ray ray;
-    for (uint32_t j = 0; j < samples; ++j) {
-      up.make(j, ray);
-      local[j] = ray.dir;
-    }
-    reference = 0.0;
-    for (int l = 0; l < bands; ++l) {
-      const double a = sh::clampedCosineFactor(l);
-      reference += a * a * (2 * l + 1) / (4.0 * M_PI);
-    }
-    reference = std::sqrt(reference);
-  }
-
-  // Traces point p into slot `slot` of `out` (thread-safe for distinct slots).
-  void trace(const Point& p, Estimates& out, uint32_t slot) const {
-    const VertexSampler sampler(liftedOrigin(p.position, p.normal, p.pull, extent), p.normal, seed, kRefineStream,
-                                tnear);
-    out.normal[slot] = p.normal;
-    uint64_t* bits = &out.blocked[slot * out.words];
-    alignas(64) Ray batch[kStream];
-    for (uint32_t first = 0; first < samples; first += kStream) {
-      const uint32_t count = std::min<uint32_t>(kStream, samples - first);
-      for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
-      rays.occluded(batch, count);
-      for (uint32_t j = 0; j < count; ++j)
-        if (batch[j].occludedHit()) bits[(first + j) / 64] |= uint64_t(1) << ((first + j) % 64);
-    }
-  }
-
-  // The score of a candidate: point 0 (a midpoint or centroid) against the mean of points
-  // 1..n-1 (the corners that interpolate there). Direction s of every point is the same sample
-  // about its own normal, so per direction the paired difference of the visible light
-  //   D_i,s = π [U_0,s y_i(ω_0,s) − Σ_c U_c,s y_i(ω_c,s) / (n−1)]     (U = unblocked)
-  // has mean e_i, the interpolation error of the direct transfer t⁰, and its sample variance
-  // gives e's standard error with the correlation of the shared directions included. The sum
-  // runs over the directions some point sees, or (fewer to evaluate where most are seen) over
-  // the blocked ones: e = e_unoccluded − (the same sum over B = 1 − U), e_unoccluded the
-  // closed form. What is scored is e − v̄ e_unoccluded, v̄ the points' mean visible share:
-  // the error visibility adds to the normals' own interpolation (the mesh as its author
-  // shaded it), zero on a surface that sees the whole sky or none of it, whatever its
-  // curvature, and zero where the points' visibility agrees on a flat surface.
-  double score(const Estimates& est, const uint32_t* pts, int n) const {
-    const double w = 1.0 / (n - 1);
-    bool same = true;
-    for (int c = 1; c < n; ++c) same = same && est.normal[pts[c]] == est.normal[pts[0]];
-    Frame frame[4];
-    double eu[sh::kMaxBands * sh::kMaxBands] = {};  // closed-form interpolation error of t_unoccluded
-    float y[sh::kMaxBands * sh::kMaxBands];
-    for (int c = 0; c < n; ++c) {
-      frame[c] = Frame::fromNormal(est.normal[pts[c]]);
-      if (same) continue;
-      sh::evaluate(bands, est.normal[pts[c]], y);
-      for (int l = 0; l < bands; ++l)
-        for (int m = -l; m <= l; ++m)
-          eu[sh::index(l, m)] += (c == 0 ? 1.0 : -w) * sh::clampedCosineFactor(l) * y[sh::index(l, m)];
-    }
-    // Visible shares, and which set of directions is the smaller one to sum over.
-    uint64_t unionBlocked = 0, unionSeen = 0;
-    double seen = 0.0;
-    for (int c = 0; c < n; ++c) {
-      uint64_t b = 0;
-      for (size_t word = 0; word < est.words; ++word) b += uint64_t(std::popcount(est.blocked[pts[c] * est.words + word]));
-      seen += double(samples - b) / samples;
-    }
-    seen /= n;
-    const uint64_t tail = samples % 64 ? (uint64_t(1) << (samples % 64)) - 1 : ~uint64_t(0);
-    for (size_t word = 0; word < est.words; ++word) {
-      const uint64_t valid = word + 1 == est.words ? tail : ~uint64_t(0);
-      uint64_t any = 0, none = 0;
-      for (int c = 0; c < n; ++c) {
-        any |= est.blocked[pts[c] * est.words + word];
-        none |= ~est.blocked[pts[c] * est.words + word] & valid;
-      }
-      unionBlocked += uint64_t(std::popcount(any));
-      unionSeen += uint64_t(std::popcount(none));
-    }
-    const bool overBlocked = unionBlocked <= unionSeen;  // sum over B, e = e_u − Σ
-    double sum[sh::kMaxBands * sh::kMaxBands] = {}, sum2[sh::kMaxBands * sh::kMaxBands] = {};
-    double d[sh::kMaxBands * sh::kMaxBands];
-    for (size_t word = 0; word < est.words; ++word) {
-      const uint64_t valid = word + 1 == est.words ? tail : ~uint64_t(0);
-      uint64_t bits[4], any = 0, all = valid;
-      for (int c = 0; c < n; ++c) {
-        bits[c] = overBlocked ? est.blocked[pts[c] * est.words + word] : ~est.blocked[pts[c] * est.words + word] & valid;
-        any |= bits[c];
-        all &= bits[c];
-      }
-      if (same) any &= ~all;  // one direction for all points, in the set for all: no difference
-      while (any) {
-        const int s = int(word * 64) + std::countr_zero(any);
-        const uint64_t bit = uint64_t(1) << (s % 64);
-        any &= any - 1;
-        if (same) {
-          double k = bits[0] & bit ? 1.0 : 0.0;
-          for (int c = 1; c < n; ++c) k -= bits[c] & bit ? w : 0.0;
-          if (k == 0.0) continue;
-          sh::evaluate(bands, frame[0].toWorld(local[size_t(s)]), y);
-          for (int i = 0; i < n2; ++i) d[i] = k * y[i];
-        } else {
-          std::fill_n(d, n2, 0.0);
-          for (int c = 0; c < n; ++c) {
-            if (!(bits[c] & bit)) continue;
-            sh::evaluate(bands, frame[c].toWorld(local[size_t(s)]), y);
-            const double k = c == 0 ? 1.0 : -w;
-            for (int i = 0; i < n2; ++i) d[i] += k * y[i];
-          }
-        }
-        for (int i = 0; i < n2; ++i) {
-          sum[i] += d[i];
-          sum2[i] += d[i] * d[i];
-        }
-      }
-    }
-    const double ns = samples;
-    double err2 = 0.0, var = 0.0;
-    for (int i = 0; i < n2; ++i) {
-      const double mean = M_PI * sum[i] / ns;
-      const double e = (overBlocked ? eu[i] - mean : mean) - seen * eu[i];
-      err2 += e * e;
-      var += std::max(0.0, (M_PI * M_PI * sum2[i] / ns - mean * mean) / ns);
-    }
-    return (std::sqrt(err2) - kNoiseSigmas * std::sqrt(var)) / reference;
-  }
-};
 
 // One baked instance while it is refined.
 struct Work {
@@ -446,6 +270,371 @@ void splitTriangle(Work& w, PositionIds& ids, const std::unordered_set<uint64_t>
   splitTriangle(w, ids, marked, made, old, {mid, b, c}, out);
 }
 
+// A candidate waiting for its score: an edge (a, b) or a triangle (its corners), the position
+// edge splitting for it marks, and the slot of its midpoint or centroid.
+struct Pending {
+  uint32_t work;
+  bool edge;
+  uint64_t posEdge;
+  std::array<uint32_t, 3> v;  // edge: a, b; triangle: corners
+  uint32_t slot;
+};
+
+size_t blocksOf(size_t n) { return (n + kShareBlock - 1) / kShareBlock; }
+// The end of block b of n items.
+size_t blockEnd(uint64_t b, size_t n) { return std::min(n, (b + 1) * kShareBlock); }
+
+// One refinement: the baked instances being refined, every point estimated so far and the
+// points waiting for their rays. run() repeats candidates → estimates → scores → splits.
+class Refiner {
+public:
+  Refiner(Scene& scene, const RefineSettings& refine, const BakeSettings& bake, Checkpoint* checkpoint,
+          RefineStats& stats)
+      : scene_(scene), refine_(refine), checkpoint_(checkpoint), stats_(stats), threadLimit_(bake.threads),
+        rays_(scene), extent_(rays_.sceneExtent()),
+        minEdge2_(std::pow(2.0 * kMinEdgeShare * double(extent_), 2.0)),  // children >= kMinEdgeShare
+        estimator_(rays_, bake.bands, uint32_t(std::min(refine.samples, bake.samples)), bake.seed, extent_),
+        spread_(ranks()), shared_(spread_.exchanges()), left_(stats.budget) {
+    est_.words = (estimator_.samples() + 63) / 64;
+  }
+
+  void run() {
+    addInstances();
+    evaluate();
+    for (int round = 0;; ++round) {
+      const std::vector<Pending> pending = collectCandidates();
+      evaluate();
+      scoreNew(pending);
+      std::vector<Candidate> candidates = overTolerance(pending);
+      if (candidates.empty() || left_ == 0 || round >= kMaxRefineRounds) {
+        stats_.budgetReached = !candidates.empty() && left_ == 0;
+        break;
+      }
+      std::vector<std::unordered_set<uint64_t>> marked(works_.size());
+      if (!markEdges(candidates, marked)) break;
+      ++stats_.rounds;
+      for (uint32_t wi = 0; wi < works_.size(); ++wi)
+        if (!marked[wi].empty()) splitInstance(works_[wi], marked[wi]);
+    }
+    writeFileBlends();
+  }
+
+private:
+  // A new point to estimate, on both sides for a double-sided instance (the back: normal −n,
+  // lifted along −n, as the bake's virtual vertices are); returns its front slot.
+  uint32_t addPoint(bool twoSided, const Point& p) {
+    const uint32_t slot = est_.add();
+    todo_.push_back(p);
+    todoSlot_.push_back(slot);
+    if (twoSided) {
+      const uint32_t b = est_.add();
+      est_.back[slot] = b;
+      todo_.push_back({p.position, -p.normal, p.pull});
+      todoSlot_.push_back(b);
+    }
+    return slot;
+  }
+
+  // The baked instances and their vertices, with their bake ray origins (vertex_rays.h).
+  void addInstances() {
+    for (size_t k = 0; k < scene_.meshes.size(); ++k) {
+      MeshInstance& m = scene_.meshes[k];
+      if (m.receiverOnly) continue;
+      Work w;
+      w.instance = k;
+      w.m = &m;
+      w.twoSided = bakesBackSide(scene_, m);
+      w.originalVertices = m.vertexCount();
+      w.sourceNormals = m.normals;
+      w.source.resize(m.vertexCount());
+      std::vector<glm::vec3> pull(m.vertexCount(), glm::vec3(0.0f));
+      accumulatePull(m.positions, m.indices, pull.data());
+      for (uint32_t v = 0; v < m.vertexCount(); ++v) {
+        w.source[v].vertex[0] = v;
+        w.posId.push_back(ids_.of(m.positions[v]));
+        w.vertexEstimate.push_back(addPoint(w.twoSided, {m.positions[v], m.normals[v], pull[v]}));
+      }
+      works_.push_back(std::move(w));
+    }
+  }
+
+  // Traces the points waiting. MPI ranks (ranks.h) trace every rank's share of the points, in
+  // blocks of kShareBlock (taken from a shared counter on one host, block b on rank b mod N
+  // elsewhere), and trade the blocked bits; shards, which run apart, each refine the whole scene.
+  void evaluate() {
+    if (!shared_) {
+      tbb::parallel_for(size_t(0), todo_.size(), [&](size_t i) {
+        if (!interruptRequested()) estimator_.trace(todo_[i], est_, todoSlot_[i]);
+      });
+    } else {
+      std::vector<uint8_t> here(blocksOf(todo_.size()), 0);
+      forRankShare(spread_.chunkCounter(refineCounterSlot(pass_++)), here.size(), [&](uint64_t b) {
+        for (size_t i = b * kShareBlock; i < blockEnd(b, todo_.size()); ++i) estimator_.trace(todo_[i], est_, todoSlot_[i]);
+        here[b] = 1;
+      });
+      stopIfInterrupted(checkpoint_);
+      exchangeBits(here);
+    }
+    stats_.points += todo_.size();
+    stats_.rays += uint64_t(todo_.size()) * estimator_.samples();
+    todo_.clear();
+    todoSlot_.clear();
+    stopIfInterrupted(checkpoint_);
+  }
+
+  // Sends the blocked bits of the blocks traced `here` (per block: u64 block, then each point's
+  // bits) and takes the other ranks' blocks.
+  void exchangeBits(const std::vector<uint8_t>& here) {
+    const size_t bytes = est_.words * sizeof(uint64_t);
+    std::string mine;
+    for (uint64_t b = 0; b < here.size(); ++b) {
+      if (!here[b]) continue;
+      mine.append(reinterpret_cast<const char*>(&b), sizeof b);
+      for (size_t i = b * kShareBlock; i < blockEnd(b, todo_.size()); ++i)
+        mine.append(reinterpret_cast<const char*>(&est_.blocked[todoSlot_[i] * est_.words]), bytes);
+    }
+    const std::vector<std::string> all = spread_.gather(std::move(mine), true);
+    for (size_t from = 0; from < all.size(); ++from) {
+      if (int(from) == spread_.rank()) continue;
+      for (size_t at = 0; at < all[from].size();) {
+        uint64_t b = 0;
+        PRT_CHECK_LE(at + sizeof b, all[from].size());
+        std::memcpy(&b, all[from].data() + at, sizeof b);
+        at += sizeof b;
+        PRT_CHECK_LT(b, here.size());
+        for (size_t i = b * kShareBlock; i < blockEnd(b, todo_.size()); ++i) {
+          PRT_CHECK_LE(at + bytes, all[from].size());
+          std::memcpy(&est_.blocked[todoSlot_[i] * est_.words], all[from].data() + at, bytes);
+          est_.normal[todoSlot_[i]] = todo_[i].normal;
+          at += bytes;
+        }
+      }
+    }
+  }
+
+  // The candidates of the current meshes; new midpoints and centroids wait for their rays.
+  std::vector<Pending> collectCandidates() {
+    std::vector<Pending> pending;
+    for (uint32_t wi = 0; wi < works_.size(); ++wi) {
+      Work& w = works_[wi];
+      buildAdjacency(w);
+      std::unordered_set<uint64_t> seen;
+      std::set<std::array<uint32_t, 3>> seenTriangles;
+      for (uint32_t t = 0; t < w.m->triangleCount(); ++t) {
+        addEdgeCandidates(wi, t, seen, pending);
+        addCentroidCandidate(wi, t, seenTriangles, pending);
+      }
+    }
+    return pending;
+  }
+
+  // The edges of triangle t not seen yet and long enough to split.
+  void addEdgeCandidates(uint32_t wi, uint32_t t, std::unordered_set<uint64_t>& seen, std::vector<Pending>& pending) {
+    Work& w = works_[wi];
+    const MeshInstance& m = *w.m;
+    const uint32_t* ix = &m.indices[3 * size_t(t)];
+    for (int j = 0; j < 3; ++j) {
+      const uint32_t a = ix[j], b = ix[(j + 1) % 3];
+      const uint64_t ie = edgeKey(a, b);
+      if (length2(m, a, b) < minEdge2_ || !seen.insert(ie).second) continue;
+      auto [it, fresh] = w.edgeEstimate.emplace(ie, 0);
+      if (fresh) it->second = addPoint(w.twoSided, midpointOf(w, a, b));
+      pending.push_back({wi, true, posEdgeOf(w, a, b), {a, b, 0}, it->second});
+    }
+  }
+
+  // The midpoint of edge (a, b), pulled towards the vertices opposite the edge, as a vertex
+  // there would be.
+  static Point midpointOf(const Work& w, uint32_t a, uint32_t b) {
+    const MeshInstance& m = *w.m;
+    glm::vec3 mid = (m.positions[a] + m.positions[b]) * 0.5f, pull(0.0f);
+    const auto [first, last] = w.trianglesOf(posEdgeOf(w, a, b));
+    for (const uint32_t* u = first; u != last; ++u) {
+      const uint32_t* jx = &m.indices[3 * size_t(*u)];
+      for (int c = 0; c < 3; ++c) {
+        if (w.posId[jx[c]] == w.posId[a] || w.posId[jx[c]] == w.posId[b]) continue;
+        const glm::vec3 d = m.positions[jx[c]] - mid;
+        if (glm::length(d) > 0.0f) pull += glm::normalize(d);
+      }
+    }
+    const Blend s = mergeBlends({{&w.source[a], 0.5f}, {&w.source[b], 0.5f}});
+    return {mid, blendNormal(w, s, m.normals[a]), pull};
+  }
+
+  // The centroid of triangle t, when its longest edge may be split and it is not a repeat.
+  void addCentroidCandidate(uint32_t wi, uint32_t t, std::set<std::array<uint32_t, 3>>& seenTriangles,
+                            std::vector<Pending>& pending) {
+    Work& w = works_[wi];
+    const MeshInstance& m = *w.m;
+    const uint32_t* ix = &m.indices[3 * size_t(t)];
+    const uint64_t le = w.longest[t];
+    std::array<uint32_t, 3> corners{ix[0], ix[1], ix[2]};
+    double l = 0.0;
+    for (int j = 0; j < 3; ++j) l = std::max(l, length2(m, ix[j], ix[(j + 1) % 3]));
+    if (l < minEdge2_) return;
+    std::array<uint32_t, 3> sorted = corners;
+    std::sort(sorted.begin(), sorted.end());
+    if (!seenTriangles.insert(sorted).second) return;  // a repeated triangle
+    auto [it, fresh] = w.centroidEstimate.emplace(sorted, 0);
+    if (fresh) {
+      const float third = 1.0f / 3.0f;
+      const Blend s = mergeBlends({{&w.source[ix[0]], third}, {&w.source[ix[1]], third}, {&w.source[ix[2]], third}});
+      const glm::vec3 c = (m.positions[ix[0]] + m.positions[ix[1]] + m.positions[ix[2]]) / 3.0f;
+      it->second = addPoint(w.twoSided, {c, blendNormal(w, s, m.normals[ix[0]]), glm::vec3(0.0f)});
+    }
+    pending.push_back({wi, false, le, corners, it->second});
+  }
+
+  // Scores the new candidates (a candidate keeps its points, so its score, while it lasts).
+  // MPI ranks score their share too (blocks of candidates, as the points) and trade scores.
+  void scoreNew(const std::vector<Pending>& pending) {
+    scoreOf_.resize(est_.normal.size(), std::nan(""));
+    if (!shared_) {
+      tbb::parallel_for(size_t(0), pending.size(), [&](size_t i) { scoreOne(pending[i]); });
+      return;
+    }
+    std::vector<uint8_t> scoredHere(pending.size(), 0);
+    forRankShare(spread_.chunkCounter(refineCounterSlot(pass_++)), blocksOf(pending.size()), [&](uint64_t b) {
+      for (size_t i = b * kShareBlock; i < blockEnd(b, pending.size()); ++i) scoredHere[i] = scoreOne(pending[i]);
+    });
+    std::string mine;
+    for (size_t i = 0; i < pending.size(); ++i) {
+      if (!scoredHere[i]) continue;
+      const uint32_t slot = pending[i].slot;
+      mine.append(reinterpret_cast<const char*>(&slot), sizeof slot);
+      mine.append(reinterpret_cast<const char*>(&scoreOf_[slot]), sizeof(double));
+    }
+    for (const std::string& from : spread_.gather(std::move(mine), true))
+      for (size_t at = 0; at + 12 <= from.size(); at += 12) {
+        uint32_t slot = 0;
+        std::memcpy(&slot, from.data() + at, 4);
+        PRT_CHECK_LT(slot, scoreOf_.size());
+        std::memcpy(&scoreOf_[slot], from.data() + at + 4, 8);
+      }
+  }
+
+  // Scores candidate p unless it has its score; a double-sided instance's worse side counts.
+  // Returns whether it scored.
+  bool scoreOne(const Pending& p) {
+    if (!std::isnan(scoreOf_[p.slot])) return false;
+    const Work& w = works_[p.work];
+    uint32_t pts[4] = {p.slot, 0, 0, 0};
+    const int corners = p.edge ? 2 : 3;
+    for (int c = 0; c < corners; ++c) pts[c + 1] = w.vertexEstimate[p.v[size_t(c)]];
+    double score = estimator_.score(est_, pts, corners + 1);
+    if (est_.back[p.slot] != Estimates::kNone) {
+      uint32_t back[4];
+      for (int c = 0; c <= corners; ++c) back[c] = est_.back[pts[c]];
+      score = std::max(score, estimator_.score(est_, back, corners + 1));
+    }
+    scoreOf_[p.slot] = score;
+    return true;
+  }
+
+  // The candidates above the tolerance; records the largest score as the residual.
+  std::vector<Candidate> overTolerance(const std::vector<Pending>& pending) {
+    std::vector<Candidate> candidates;
+    double residual = 0.0;
+    for (size_t i = 0; i < pending.size(); ++i) {
+      const double score = scoreOf_[pending[i].slot];
+      residual = std::max(residual, score);
+      if (score > refine_.tolerance) candidates.push_back({score, pending[i].work, pending[i].posEdge, uint64_t(i)});
+    }
+    stats_.residual = residual;
+    return candidates;
+  }
+
+  // Marks the candidates' edges with their closure, largest scores first, while the budget
+  // lasts. Returns whether any vertex will be added.
+  bool markEdges(std::vector<Candidate>& candidates, std::vector<std::unordered_set<uint64_t>>& marked) {
+    std::sort(candidates.begin(), candidates.end(), [](const Candidate& x, const Candidate& y) {
+      return x.score != y.score ? x.score > y.score : x.order < y.order;
+    });
+    bool any = false;
+    for (const Candidate& c : candidates) {
+      std::vector<uint64_t> undo;
+      const uint64_t cost = markWithClosure(works_[c.work], c.posEdge, marked[c.work], undo);
+      if (cost > left_) {
+        for (uint64_t e : undo) marked[c.work].erase(e);
+        stats_.budgetReached = true;
+        break;
+      }
+      left_ -= cost;
+      any = any || cost > 0;
+    }
+    return any;
+  }
+
+  // Splits the marked edges of one instance.
+  void splitInstance(Work& w, const std::unordered_set<uint64_t>& marked) {
+    MeshInstance& m = *w.m;
+    const uint32_t old = uint32_t(m.vertexCount());
+    std::unordered_map<uint64_t, uint32_t> made;
+    std::vector<uint32_t> indices;
+    indices.reserve(m.indices.size() * 2);
+    for (size_t t = 0; t < m.triangleCount(); ++t)
+      splitTriangle(w, ids_, marked, made, old, {m.indices[3 * t], m.indices[3 * t + 1], m.indices[3 * t + 2]}, indices);
+    m.indices = std::move(indices);
+    // The split edges' midpoints are vertices now; their halves are new edges.
+    for (const auto& [key, v] : made) w.edgeEstimate.erase(key);
+  }
+
+  // The refined instances: what they interpolate, in file vertices.
+  void writeFileBlends() {
+    stats_.trianglesAfter = 0;
+    for (Work& w : works_) {
+      MeshInstance& m = *w.m;
+      stats_.verticesAfter += w.added;
+      stats_.trianglesAfter += m.triangleCount();
+      if (w.added == 0) continue;
+      std::vector<Blend> file(m.vertexCount());
+      for (size_t v = 0; v < file.size(); ++v) {
+        Blend b = w.source[v];
+        if (!m.fileVertex.empty())
+          for (int j = 0; j < 3; ++j) b.vertex[j] = b.weight[j] != 0.0f ? m.fileVertex[b.vertex[j]] : 0;
+        file[v] = mergeBlends({{&b, 1.0f}});
+      }
+      m.fileBlend = std::move(file);
+      m.fileVertex.clear();
+      m.transfer.clear();
+    }
+  }
+
+  Scene& scene_;
+  const RefineSettings& refine_;
+  Checkpoint* checkpoint_;
+  RefineStats& stats_;
+  const ThreadLimit threadLimit_;
+  const RayScene rays_;
+  const float extent_;
+  const double minEdge2_;
+  const Estimator estimator_;
+  Estimates est_;
+  std::vector<double> scoreOf_;  // per point that is a candidate's midpoint or centroid; NaN: not yet
+  PositionIds ids_;
+  std::vector<Work> works_;
+  std::vector<Point> todo_;  // points waiting for their rays, and their slots
+  std::vector<uint32_t> todoSlot_;
+  Ranks& spread_;
+  const bool shared_;
+  uint32_t pass_ = 0;  // the ranks' shared loops so far (refineCounterSlot)
+  uint64_t left_;      // vertices the budget still allows
+};
+
+// The instances' sizes before refinement, and the budget.
+RefineStats initialStats(const Scene& scene, const RefineSettings& refine) {
+  RefineStats stats;
+  for (const MeshInstance& m : scene.meshes) {
+    if (m.receiverOnly) continue;
+    stats.verticesBefore += m.vertexCount();
+    stats.trianglesBefore += m.triangleCount();
+  }
+  stats.verticesAfter = stats.verticesBefore;
+  stats.trianglesAfter = stats.trianglesBefore;
+  stats.budget = refineBudget(refine, scene);
+  return stats;
+}
+
 }  // namespace
 
 uint64_t refineBudget(const RefineSettings& refine, const Scene& scene) {
@@ -477,289 +666,9 @@ RefineStats refineScene(Scene& scene, const RefineSettings& refine, const BakeSe
   validate(refine);
   validate(bake);
   const auto t0 = Clock::now();
-  RefineStats stats;
-  std::vector<Work> works;
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    const MeshInstance& m = scene.meshes[k];
-    if (m.receiverOnly) continue;
-    stats.verticesBefore += m.vertexCount();
-    stats.trianglesBefore += m.triangleCount();
-  }
-  stats.verticesAfter = stats.verticesBefore;
-  stats.trianglesAfter = stats.trianglesBefore;
-  stats.budget = refineBudget(refine, scene);
+  RefineStats stats = initialStats(scene, refine);
   if (refine.tolerance <= 0.0 || !bake.shadowed || stats.trianglesBefore == 0) return stats;
-
-  const ThreadLimit threadLimit(bake.threads);
-  const RayScene rays(scene);
-  const float extent = rays.sceneExtent();
-  const double minEdge2 = std::pow(2.0 * kMinEdgeShare * double(extent), 2.0);  // children >= kMinEdgeShare
-  const Estimator estimator(rays, bake.bands, uint32_t(std::min(refine.samples, bake.samples)), bake.seed, extent);
-  Estimates est;
-  est.words = (estimator.samples + 63) / 64;
-  std::vector<double> scoreOf;  // per point that is a candidate's midpoint or centroid; NaN: not yet
-  PositionIds ids;
-
-  // The vertices, with their bake ray origins (vertex_rays.h).
-  std::vector<Point> todo;
-  std::vector<uint32_t> todoSlot;
-  // A new point to estimate, on both sides for a double-sided instance (the back: normal −n,
-  // lifted along −n, as the bake's virtual vertices are); returns its front slot.
-  auto addPoint = [&](bool twoSided, const Point& p) {
-    const uint32_t slot = est.add();
-    todo.push_back(p);
-    todoSlot.push_back(slot);
-    if (twoSided) {
-      const uint32_t b = est.add();
-      est.back[slot] = b;
-      todo.push_back({p.position, -p.normal, p.pull});
-      todoSlot.push_back(b);
-    }
-    return slot;
-  };
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    MeshInstance& m = scene.meshes[k];
-    if (m.receiverOnly) continue;
-    Work w;
-    w.instance = k;
-    w.m = &m;
-    w.twoSided = bakesBackSide(scene, m);
-    w.originalVertices = m.vertexCount();
-    w.sourceNormals = m.normals;
-    w.source.resize(m.vertexCount());
-    std::vector<glm::vec3> pull(m.vertexCount(), glm::vec3(0.0f));
-    accumulatePull(m.positions, m.indices, pull.data());
-    for (uint32_t v = 0; v < m.vertexCount(); ++v) {
-      w.source[v].vertex[0] = v;
-      w.posId.push_back(ids.of(m.positions[v]));
-      w.vertexEstimate.push_back(addPoint(w.twoSided, {m.positions[v], m.normals[v], pull[v]}));
-    }
-    works.push_back(std::move(w));
-  }
-
-  // MPI ranks (ranks.h) trace every rank's share of the points, in blocks of kShareBlock
-  // (taken from a shared counter on one host, block b on rank b mod N elsewhere), and trade
-  // the blocked bits; shards, which run apart, each refine the whole scene.
-  Ranks& spread = ranks();
-  const bool shared = spread.exchanges();
-  uint32_t pass = 0;  // the ranks' shared loops so far (refineCounterSlot)
-  auto blocksOf = [](size_t n) { return (n + kShareBlock - 1) / kShareBlock; };
-  auto evaluate = [&]() {
-    if (!shared) {
-      tbb::parallel_for(size_t(0), todo.size(), [&](size_t i) {
-        if (!interruptRequested()) estimator.trace(todo[i], est, todoSlot[i]);
-      });
-    } else {
-      std::vector<uint8_t> here(blocksOf(todo.size()), 0);
-      forRankShare(spread.chunkCounter(refineCounterSlot(pass++)), here.size(), [&](uint64_t b) {
-        for (size_t i = b * kShareBlock; i < std::min(todo.size(), (b + 1) * kShareBlock); ++i)
-          estimator.trace(todo[i], est, todoSlot[i]);
-        here[b] = 1;
-      });
-      stopIfInterrupted(checkpoint);
-      // Per block traced here: u64 block, then each point's bits.
-      const size_t bytes = est.words * sizeof(uint64_t);
-      std::string mine;
-      for (uint64_t b = 0; b < here.size(); ++b) {
-        if (!here[b]) continue;
-        mine.append(reinterpret_cast<const char*>(&b), sizeof b);
-        for (size_t i = b * kShareBlock; i < std::min(todo.size(), (b + 1) * kShareBlock); ++i)
-          mine.append(reinterpret_cast<const char*>(&est.blocked[todoSlot[i] * est.words]), bytes);
-      }
-      const std::vector<std::string> all = spread.gather(std::move(mine), true);
-      for (size_t from = 0; from < all.size(); ++from) {
-        if (int(from) == spread.rank()) continue;
-        for (size_t at = 0; at < all[from].size();) {
-          uint64_t b = 0;
-          PRT_CHECK_LE(at + sizeof b, all[from].size());
-          std::memcpy(&b, all[from].data() + at, sizeof b);
-          at += sizeof b;
-          PRT_CHECK_LT(b, here.size());
-          for (size_t i = b * kShareBlock; i < std::min(todo.size(), (b + 1) * kShareBlock); ++i) {
-            PRT_CHECK_LE(at + bytes, all[from].size());
-            std::memcpy(&est.blocked[todoSlot[i] * est.words], all[from].data() + at, bytes);
-            est.normal[todoSlot[i]] = todo[i].normal;
-            at += bytes;
-          }
-        }
-      }
-    }
-    stats.points += todo.size();
-    stats.rays += uint64_t(todo.size()) * estimator.samples;
-    todo.clear();
-    todoSlot.clear();
-    stopIfInterrupted(checkpoint);
-  };
-  evaluate();
-
-  uint64_t left = stats.budget;
-  for (int round = 0;; ++round) {
-    // Candidates of the current meshes: estimate the new ones, score them all.
-    std::vector<Candidate> candidates;
-    struct Pending {
-      uint32_t work;
-      bool edge;
-      uint64_t posEdge;
-      std::array<uint32_t, 3> v;  // edge: a, b; triangle: corners
-      uint32_t slot;
-    };
-    std::vector<Pending> pending;
-    for (uint32_t wi = 0; wi < works.size(); ++wi) {
-      Work& w = works[wi];
-      const MeshInstance& m = *w.m;
-      buildAdjacency(w);
-      std::unordered_set<uint64_t> seen;
-      std::set<std::array<uint32_t, 3>> seenTriangles;
-      for (uint32_t t = 0; t < m.triangleCount(); ++t) {
-        const uint32_t* ix = &m.indices[3 * size_t(t)];
-        for (int j = 0; j < 3; ++j) {
-          const uint32_t a = ix[j], b = ix[(j + 1) % 3];
-          const uint64_t ie = edgeKey(a, b);
-          if (length2(m, a, b) < minEdge2 || !seen.insert(ie).second) continue;
-          auto [it, fresh] = w.edgeEstimate.emplace(ie, 0);
-          if (fresh) {
-            // Pulled towards the vertices opposite the edge, as a vertex there would be.
-            glm::vec3 mid = (m.positions[a] + m.positions[b]) * 0.5f, pull(0.0f);
-            const auto [first, last] = w.trianglesOf(posEdgeOf(w, a, b));
-            for (const uint32_t* u = first; u != last; ++u) {
-              const uint32_t* jx = &m.indices[3 * size_t(*u)];
-              for (int c = 0; c < 3; ++c) {
-                if (w.posId[jx[c]] == w.posId[a] || w.posId[jx[c]] == w.posId[b]) continue;
-                const glm::vec3 d = m.positions[jx[c]] - mid;
-                if (glm::length(d) > 0.0f) pull += glm::normalize(d);
-              }
-            }
-            const Blend s = mergeBlends({{&w.source[a], 0.5f}, {&w.source[b], 0.5f}});
-            it->second = addPoint(w.twoSided, {mid, blendNormal(w, s, m.normals[a]), pull});
-          }
-          pending.push_back({wi, true, posEdgeOf(w, a, b), {a, b, 0}, it->second});
-        }
-        // The centroid, when the triangle's longest edge may be split.
-        const uint64_t le = w.longest[t];
-        std::array<uint32_t, 3> corners{ix[0], ix[1], ix[2]};
-        double l = 0.0;
-        for (int j = 0; j < 3; ++j) l = std::max(l, length2(m, ix[j], ix[(j + 1) % 3]));
-        if (l < minEdge2) continue;
-        std::array<uint32_t, 3> sorted = corners;
-        std::sort(sorted.begin(), sorted.end());
-        if (!seenTriangles.insert(sorted).second) continue;  // a repeated triangle
-        auto [it, fresh] = w.centroidEstimate.emplace(sorted, 0);
-        if (fresh) {
-          const float third = 1.0f / 3.0f;
-          const Blend s = mergeBlends({{&w.source[ix[0]], third}, {&w.source[ix[1]], third}, {&w.source[ix[2]], third}});
-          const glm::vec3 c = (m.positions[ix[0]] + m.positions[ix[1]] + m.positions[ix[2]]) / 3.0f;
-          it->second = addPoint(w.twoSided, {c, blendNormal(w, s, m.normals[ix[0]]), glm::vec3(0.0f)});
-        }
-        pending.push_back({wi, false, le, corners, it->second});
-      }
-    }
-    evaluate();
-    // Scores of the new candidates (a candidate keeps its points, so its score, while it lasts).
-    scoreOf.resize(est.normal.size(), std::nan(""));
-    std::vector<uint8_t> scoredHere(shared ? pending.size() : 0, 0);
-    auto scoreOne = [&](size_t i) {
-      const Pending& p = pending[i];
-      if (!std::isnan(scoreOf[p.slot])) return;
-      const Work& w = works[p.work];
-      uint32_t pts[4] = {p.slot, 0, 0, 0};
-      const int corners = p.edge ? 2 : 3;
-      for (int c = 0; c < corners; ++c) pts[c + 1] = w.vertexEstimate[p.v[size_t(c)]];
-      double score = estimator.score(est, pts, corners + 1);
-      if (est.back[p.slot] != Estimates::kNone) {  // a double-sided instance: the worse side counts
-        uint32_t back[4];
-        for (int c = 0; c <= corners; ++c) back[c] = est.back[pts[c]];
-        score = std::max(score, estimator.score(est, back, corners + 1));
-      }
-      scoreOf[p.slot] = score;
-      if (shared) scoredHere[i] = 1;
-    };
-    if (!shared) {
-      tbb::parallel_for(size_t(0), pending.size(), scoreOne);
-    } else {
-      forRankShare(spread.chunkCounter(refineCounterSlot(pass++)), blocksOf(pending.size()), [&](uint64_t b) {
-        for (size_t i = b * kShareBlock; i < std::min(pending.size(), (b + 1) * kShareBlock); ++i) scoreOne(i);
-      });
-    }
-    if (shared) {  // MPI ranks score their share too (blocks of candidates, as the points) and trade scores
-      std::string mine;
-      for (size_t i = 0; i < pending.size(); ++i) {
-        if (!scoredHere[i]) continue;
-        const uint32_t slot = pending[i].slot;
-        mine.append(reinterpret_cast<const char*>(&slot), sizeof slot);
-        mine.append(reinterpret_cast<const char*>(&scoreOf[slot]), sizeof(double));
-      }
-      for (const std::string& from : spread.gather(std::move(mine), true))
-        for (size_t at = 0; at + 12 <= from.size(); at += 12) {
-          uint32_t slot = 0;
-          std::memcpy(&slot, from.data() + at, 4);
-          PRT_CHECK_LT(slot, scoreOf.size());
-          std::memcpy(&scoreOf[slot], from.data() + at + 4, 8);
-        }
-    }
-    double residual = 0.0;
-    for (size_t i = 0; i < pending.size(); ++i) {
-      const double score = scoreOf[pending[i].slot];
-      residual = std::max(residual, score);
-      if (score > refine.tolerance) candidates.push_back({score, pending[i].work, pending[i].posEdge, uint64_t(i)});
-    }
-    stats.residual = residual;
-    if (candidates.empty() || left == 0 || round >= kMaxRefineRounds) {
-      stats.budgetReached = !candidates.empty() && left == 0;
-      break;
-    }
-    std::sort(candidates.begin(), candidates.end(), [](const Candidate& x, const Candidate& y) {
-      return x.score != y.score ? x.score > y.score : x.order < y.order;
-    });
-    std::vector<std::unordered_set<uint64_t>> marked(works.size());
-    bool any = false;
-    for (const Candidate& c : candidates) {
-      std::vector<uint64_t> undo;
-      const uint64_t cost = markWithClosure(works[c.work], c.posEdge, marked[c.work], undo);
-      if (cost > left) {
-        for (uint64_t e : undo) marked[c.work].erase(e);
-        stats.budgetReached = true;
-        break;
-      }
-      left -= cost;
-      any = any || cost > 0;
-    }
-    if (!any) break;
-    ++stats.rounds;
-    for (uint32_t wi = 0; wi < works.size(); ++wi) {
-      if (marked[wi].empty()) continue;
-      Work& w = works[wi];
-      MeshInstance& m = *w.m;
-      const uint32_t old = uint32_t(m.vertexCount());
-      std::unordered_map<uint64_t, uint32_t> made;
-      std::vector<uint32_t> indices;
-      indices.reserve(m.indices.size() * 2);
-      for (size_t t = 0; t < m.triangleCount(); ++t)
-        splitTriangle(w, ids, marked[wi], made, old, {m.indices[3 * t], m.indices[3 * t + 1], m.indices[3 * t + 2]},
-                      indices);
-      m.indices = std::move(indices);
-      // The split edges' midpoints are vertices now; their halves are new edges.
-      for (const auto& [key, v] : made) w.edgeEstimate.erase(key);
-    }
-  }
-
-  // The refined instances: what they interpolate, in file vertices.
-  stats.trianglesAfter = 0;
-  for (Work& w : works) {
-    MeshInstance& m = *w.m;
-    stats.verticesAfter += w.added;
-    stats.trianglesAfter += m.triangleCount();
-    if (w.added == 0) continue;
-    std::vector<Blend> file(m.vertexCount());
-    for (size_t v = 0; v < file.size(); ++v) {
-      Blend b = w.source[v];
-      if (!m.fileVertex.empty())
-        for (int j = 0; j < 3; ++j) b.vertex[j] = b.weight[j] != 0.0f ? m.fileVertex[b.vertex[j]] : 0;
-      file[v] = mergeBlends({{&b, 1.0f}});
-    }
-    m.fileBlend = std::move(file);
-    m.fileVertex.clear();
-    m.transfer.clear();
-  }
+  Refiner(scene, refine, bake, checkpoint, stats).run();
   stats.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return stats;
 }

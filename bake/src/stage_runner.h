@@ -25,7 +25,7 @@
 
 #include "prt/bake/checkpoint.h"
 #include "prt/bake/ranks.h"
-#include "prt/bake/surface_bake.h"
+#include "prt/bake/stats.h"
 
 namespace prt {
 class Progress;

@@ -32,11 +32,12 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "albedo_lookup.h"
-#include "half.h"
+#include "half_rows.h"
+#include "prt/bake/kernels.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/sh.h"
 #include "stage_runner.h"
 #include "surface_layout.h"
@@ -59,11 +60,6 @@ constexpr int kStream = 256;
 constexpr size_t kChunk = 64;
 
 }  // namespace
-
-bool bakesBackSide(const Scene& scene, const MeshInstance& m) {
-  return !m.receiverOnly && m.material >= 0 && size_t(m.material) < scene.materials.size() &&
-         scene.materials[size_t(m.material)].doubleSided;
-}
 
 namespace {
 
@@ -141,7 +137,7 @@ struct SurfaceBake {
   // t⁰, colourless: values floats (the direct part the files keep apart from the total).
   std::vector<float> direct;
   std::vector<glm::vec3> total, lowerOrder, prev, cur;
-  HalfRows half;                   // prev as halves, during a bounce (half.h)
+  HalfRows half;                   // prev as halves, during a bounce (half_rows.h)
   std::vector<TriCorners> corners;  // per triangle, during the bounces
   uint64_t hitCount = 0;
 
@@ -216,7 +212,7 @@ struct DirectPass {
           }
         }
       }
-      const double w = M_PI / N;
+      const double w = kPi / N;
       for (int i = 0; i < n2; ++i) b.direct[v * n2 + i] = float(acc[i] * w);
       if (ch) ch->begin.push_back(uint32_t(hits.size()));
     }
@@ -266,7 +262,7 @@ inline RecordWeights weightsOf(const SurfaceBake& b, const AlbedoLookup& albedo,
   return w;
 }
 
-// Always inlined, as prefetchLines (half.h) says.
+// Always inlined, as prefetchLines (half_rows.h) says.
 [[gnu::always_inline]] inline void prefetchAhead(const SurfaceBake& b, const HitRecord* hits, uint32_t h, uint32_t end) {
   if (h + kAheadCorners < end) __builtin_prefetch(&b.corners[hits[h + kAheadCorners].tri]);
   if (h + kAheadRows < end) {
@@ -348,7 +344,7 @@ __attribute__((target("avx2,f16c"))) void gatherChunkF16c(SurfaceBake& b, const 
 }
 
 ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk& c) {
-  if (!useVectorKernels()) {
+  if (activeKernels() == Kernels::Portable) {
     gatherChunkPortable(b, albedo, c);
     return {true, 0};
   }

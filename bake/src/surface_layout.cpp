@@ -1,10 +1,14 @@
 #include "surface_layout.h"
 
-#include "prt/bake/surface_bake.h"
 #include "prt/error.h"
 #include "vertex_rays.h"
 
 namespace prt::bake {
+
+bool bakesBackSide(const Scene& scene, const MeshInstance& m) {
+  return !m.receiverOnly && m.material >= 0 && size_t(m.material) < scene.materials.size() &&
+         scene.materials[size_t(m.material)].doubleSided;
+}
 
 Layout makeLayout(const Scene& scene) {
   Layout lay;

@@ -25,6 +25,8 @@
 #include "prt/error.h"
 #include "prt/math.h"
 #include "prt/sh.h"
+#include "render_shaders.h"
+#include "shader_sources.h"
 
 namespace prt::render {
 
@@ -47,7 +49,8 @@ double minSpacing(const ProbeGrid& grid) {
 }
 
 // ============================================================================================
-// BEGIN probeWeights port. Mirrors prt::probeWeights (probes/grid/src/probe_grid.cpp) step by step;
+// The probeWeights port (shaders/probe_weights.glsl, between BEGIN probeWeights port and END
+// probeWeights port). Mirrors prt::probeWeights (probes/grid/src/probe_grid.cpp) step by step;
 // the C++ works in double, this in float, and without branches: a corner without a valid probe
 // reads the null probe 0 (all texels zero) and gets weight 0 instead of being skipped, so every
 // pixel runs the same straight-line code (llvmpipe shades 8 pixels per SIMD instruction and
@@ -57,88 +60,16 @@ double minSpacing(const ProbeGrid& grid) {
 // domain, or no valid probe in the cell); the caller divides once by the sum. probe[c] is the
 // corner's probe + 1 (0: none). leakWeight() is the per-probe factor max(w_v · w_b, kMinWeight):
 // the part that changes when the visibility test changes. Its per-probe inputs come from
-// probeStaticTexels() below.
-constexpr const char* kProbeWeightsHeadGlsl = R"(
-const float kBoundaryTolerance = 1e-4;
-const float kDomainMargin = 0.5;  // the domain: the lattice's box grown by half a cell
-const float kFadeSpacings = 1.0;  // beyond it, the probes fade into the light over one cell
-const float kMinWeight = 1e-6;
-const float kTrilinearFloor = 1e-3;
-
-// prt::ProbeGrid::find, plus one: 0 where the lattice point has no probe or lies outside.
-int findProbe(ivec3 q) {
-  bool inside = all(greaterThanEqual(q, ivec3(0))) && all(lessThan(q, uDims));
-  ivec3 c = clamp(q, ivec3(0), uDims - 1);
-  int p = texelFetch(uLattice, (c.z * uDims.y + c.y) * uDims.x + c.x).r;
-  return inside ? p : 0;
-}
-
-// Chebyshev visibility (cubed) on one axis: m = (μ, σ²) of face 2a + (d_a < 0), the mean and
-// floored variance of the depth along axis a; the receiver's depth is |d_a|.
-float axisVisibility(vec2 m, float depth) {
-  float cheb = m.y / (m.y + (depth - m.x) * (depth - m.x));
-  return depth <= m.x ? 1.0 : cheb * cheb * cheb;
-}
-
-// Visibility times the soft back-face weight, floored: d = x − P, r = |d|. All three axes must
-// pass. The faces of x and y come in one texel per sign pair (probeStaticTexels), z's in one.
-float leakWeight(int p, vec3 d, float r, vec3 n) {
-  vec4 xy = texelFetch(uProbeStatic, p * kStaticTexels + 1 + (d.x < 0.0 ? 1 : 0) + (d.y < 0.0 ? 2 : 0));
-  vec4 z = texelFetch(uProbeStatic, p * kStaticTexels + 5);
-  float wv = axisVisibility(xy.xy, abs(d.x)) * axisVisibility(xy.zw, abs(d.y)) *
-             axisVisibility(d.z < 0.0 ? z.zw : z.xy, abs(d.z));
-  float h = (dot(-d / max(r, 1e-30), n) + 1.0) * 0.5;
-  float wb = r > uNearZero ? h * h + 0.2 : 1.0;
-  return max(wv * wb, kMinWeight);
-}
-
-float probeWeights(vec3 x, vec3 n, out int probe[8], out float weight[8], out float fade) {
-  vec3 u = (x - uOrigin) / uSpacing;
-  vec3 hi = vec3(uDims - 1);
-  const float margin = kDomainMargin + kFadeSpacings + kBoundaryTolerance;
-  bool inside = all(greaterThan(u, vec3(-margin))) &&
-                all(lessThan(u, hi + margin));  // false for NaN too
-  vec3 over3 = max(vec3(-kDomainMargin) - u, u - (hi + kDomainMargin));
-  float over = max(max(max(over3.x, over3.y), over3.z), 0.0);
-  fade = clamp((over - kBoundaryTolerance) / kFadeSpacings, 0.0, 1.0);
-  vec3 v = clamp(u, vec3(0.0), hi);
-  ivec3 base = min(ivec3(floor(v)), max(uDims - 2, ivec3(0)));
-  vec3 t = v - vec3(base);
-  vec3 lerp[8];
-  vec4 pv[8];  // (position, validity), validity 0 for no or an invalid probe
-  bool anyTrilinear = false;
-)";
-// Loop bodies over the cell's corners c = 0..7, emitted once per corner with C replaced by the
-// corner's number (the loops of the C++ unrolled: llvmpipe keeps arrays indexed by constants in
-// registers, but spills arrays indexed by a loop variable to memory, lane by lane).
-constexpr const char* kCornerSetupGlsl = R"(  {  // corner C
-    ivec3 off = ivec3(C & 1, (C >> 1) & 1, (C >> 2) & 1);
-    int p = findProbe(base + off);
-    pv[C] = texelFetch(uProbeStatic, p * kStaticTexels);
-    bool valid = pv[C].w > 0.0;  // invalid probes are never read
-    probe[C] = valid ? p : 0;
-    pv[C].w = valid ? pv[C].w : 0.0;
-    lerp[C] = vec3(off.x != 0 ? t.x : 1.0 - t.x, off.y != 0 ? t.y : 1.0 - t.y, off.z != 0 ? t.z : 1.0 - t.z);
-    anyTrilinear = anyTrilinear || (valid && lerp[C].x * lerp[C].y * lerp[C].z > 0.0);
-  }
-)";
-constexpr const char* kCornerWeightGlsl = R"(  {  // corner C
-    vec3 f = anyTrilinear ? lerp[C] : max(lerp[C], vec3(kTrilinearFloor));
-    vec3 d = x - pv[C].xyz;
-    weight[C] = f.x * f.y * f.z * pv[C].w * leakWeight(probe[C], d, length(d), n);
-    sum += weight[C];
-  }
-)";
-constexpr const char* kProbeWeightsTailGlsl = R"(  return inside ? sum : 0.0;
-}
-)";
-// END probeWeights port.
+// probeStaticTexels() below. Its loops over the cell's corners c = 0..7 are emitted once per
+// corner from shaders/probe_corner_*.glsl with C replaced by the corner's number (the loops of
+// the C++ unrolled: llvmpipe keeps arrays indexed by constants in registers, but spills arrays
+// indexed by a loop variable to memory, lane by lane).
 // ============================================================================================
 
-std::string perCorner(const char* body) {
+std::string perCorner(std::string_view body) {
   std::string out;
   for (int c = 0; c < 8; ++c) {
-    std::string b = body;
+    std::string b(body);
     for (size_t at = b.find('C'); at != std::string::npos; at = b.find('C', at + 1))
       if ((at == 0 || !std::isalnum((unsigned char)b[at - 1])) && !std::isalnum((unsigned char)b[at + 1]))
         b.replace(at, 1, std::to_string(c));
@@ -148,8 +79,8 @@ std::string perCorner(const char* body) {
 }
 
 std::string probeWeightsGlsl() {
-  return std::string(kProbeWeightsHeadGlsl) + perCorner(kCornerSetupGlsl) + "  float sum = 0.0;\n" +
-         perCorner(kCornerWeightGlsl) + kProbeWeightsTailGlsl;
+  return fillShader(shaders::kProbeWeights, {{"CORNER_SETUP", perCorner(shaders::kProbeCornerSetup)},
+                                             {"CORNER_WEIGHTS", perCorner(shaders::kProbeCornerWeight)}});
 }
 
 // Normalisation K_l^m of the real SH basis (as in probes/sh/src/sh.cpp): sqrt((2l+1)/(4π) ·
@@ -198,20 +129,6 @@ std::string irradianceBasisGlsl(int bands) {
 
 }  // namespace
 
-std::string withMaterialDefines(const std::string& source, int variant) {
-  const size_t eol = source.find('\n') + 1;
-  std::string defines;
-  if (variant & kVariantTexture) defines += "#define HAS_TEXTURE 1\n";
-  if (variant & kVariantColor) defines += "#define HAS_COLOR 1\n";
-  if (variant & kVariantMask) defines += "#define HAS_MASK 1\n";
-  if (variant & kVariantBlend) defines += "#define HAS_BLEND 1\n";
-  if (variant & kVariantTwoSided) defines += "#define TWO_SIDED 1\n";
-  if (variant & kVariantDirect) defines += "#define DIRECT 1\n";
-  if (variant & kVariantTransmission) defines += "#define HAS_TRANSMISSION_TEXTURE 1\n";
-  if (variant & (kVariantTexture | kVariantTransmission)) defines += "#define HAS_TEXCOORD 1\n";
-  return source.substr(0, eol) + defines + source.substr(eol);
-}
-
 std::vector<int> irradianceCoefficients(int bands) {
   std::vector<int> out;
   for (int j = 0; j < bands * bands; ++j)
@@ -227,19 +144,7 @@ namespace {
 std::string probeLookupGlsl(int bands) {
   PRT_CHECK(bands >= 1 && bands <= sh::kMaxBands);
   const int texels = radianceTexels(bands);
-  std::string s = cat(R"(layout(binding = 1) uniform isamplerBuffer uLattice;       // lattice point -> probe + 1, 0 none
-layout(binding = 2) uniform samplerBuffer uProbeStatic;    // kStaticTexels per probe, probe 0 null
-layout(binding = 3) uniform samplerBuffer uProbeRadiance;  // c_p packed: packRadiance()
-uniform vec3 uOrigin;
-uniform vec3 uSpacing;
-uniform ivec3 uDims;
-uniform float uNearZero;
-const int kStaticTexels = )", kProbeStaticTexels, R"(;
-const int kTexels = )", texels, R"(;
-// The light itself, packed as the probes are: incident radiance where no probe applies.
-uniform vec4 uLightPacked[kTexels];
-)");
-  s += probeWeightsGlsl();
+  std::string s;
   // Per corner, the weighted packed texels are summed (T_i += w · texel_i) and divided by Σ w once.
   s += "\nvoid incidentRadiance(vec3 x, vec3 n, out vec4 T[kTexels]) {\n";
   s += "  int probe[8];\n  float w[8];\n  float fade;\n  float sum = probeWeights(x, n, probe, w, fade);\n";
@@ -247,12 +152,15 @@ uniform vec4 uLightPacked[kTexels];
   std::string corner = "  {  // corner C\n    int base = probe[C] * kTexels;\n";
   for (int i = 0; i < texels; ++i) corner += cat("    T[", i, "] += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
   corner += "  }\n";
-  s += perCorner(corner.c_str());
+  s += perCorner(corner);
   // Beyond the domain (fade > 0) the probes' answer blends into the light: receiverRadiance.
   for (int i = 0; i < texels; ++i)
     s += cat("  T[", i, "] = sum > 0.0 ? mix(T[", i, "] / sum, uLightPacked[", i, "], fade) : uLightPacked[", i, "];\n");
   s += "}\n";
-  return s;
+  return fillShader(shaders::kProbeLookup, {{"STATIC_TEXELS", cat(kProbeStaticTexels)},
+                                            {"TEXELS", cat(texels)},
+                                            {"PROBE_WEIGHTS", probeWeightsGlsl()},
+                                            {"INCIDENT_RADIANCE", s}});
 }
 
 // irradiance(T, n): the basis applied to packed radiance, n unit.
@@ -277,48 +185,23 @@ std::string irradianceGlsl(int bands) {
 
 std::string receiverVertexShader(int bands, ProbeLookup lookup) {
   const bool perVertex = lookup == ProbeLookup::PerVertex;
-  std::string s = cat(R"(#version 450 core
-layout(location = 0) in vec3 aPosition;
-layout(location = 1) in vec2 aTexcoord;
-layout(location = 2) in vec4 aColor;
-layout(location = 3) in vec3 aNormal;
-uniform mat4 uViewProj;
-uniform mat4 uModel;
-uniform mat3 uNormalMatrix;
-out vec3 vWorld;
-out vec3 vWorldPixel;  // vWorld for the footprint's derivatives (direct_shading.cpp); unread without direct lights
-out vec3 vNormal;
-)", kAlbedoOutputsGlsl);
-  if (perVertex) s += probeLookupGlsl(bands) + "out vec4 vRadiance[kTexels];\n";
-  s += cat(R"(void main() {
-  vec4 world = uModel * vec4(aPosition, 1.0);
-  vWorld = world.xyz;
-  vWorldPixel = world.xyz;
-  vNormal = normalize(uNormalMatrix * aNormal);  // unit world normals per vertex, interpolated
-)", kAlbedoPassGlsl);
-  if (perVertex) s += "  vec4 T[kTexels];\n  incidentRadiance(vWorld, vNormal, T);\n  vRadiance = T;\n";
-  return s + "  gl_Position = uViewProj * world;\n}\n";
+  return fillShader(
+      shaders::kReceiverVertex,
+      {{"LOOKUP_DECLARATIONS", perVertex ? probeLookupGlsl(bands) + "out vec4 vRadiance[kTexels];\n" : ""},
+       {"LOOKUP", perVertex ? "  vec4 T[kTexels];\n  incidentRadiance(vWorld, vNormal, T);\n  vRadiance = T;\n" : ""}});
 }
 
 std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
   const bool perVertex = lookup == ProbeLookup::PerVertex;
-  std::string s = cat("#version 450 core\ncentroid in vec3 vWorld;\ncentroid in vec3 vNormal;\n", kAlbedoInputsGlsl);
-  if (perVertex)
-    s += cat("const int kTexels = ", radianceTexels(bands), ";\ncentroid in vec4 vRadiance[kTexels];\n");
-  else
-    s += probeLookupGlsl(bands);
-  s += irradianceGlsl(bands);
-  // DIRECT: the direct lights' own light per pixel, with their shadows (direct_shading.cpp).
-  s += "#ifdef DIRECT\n" + directLightingGlsl() + "#endif\n";
-  s += "out vec4 fragColor;\nvoid main() {\n";
-  s += "#ifdef DIRECT\n  vec3 dxW, dyW;\n  pixelFootprint(dxW, dyW);\n#endif\n";
-  s += "  float a = coverage();\n  vec3 n = normalize(vNormal);\n";
-  if (perVertex)
-    s += "  vec3 e = irradiance(vRadiance, n);\n";
-  else
-    s += "  vec4 T[kTexels];\n  incidentRadiance(vWorld, n, T);\n  vec3 e = irradiance(T, n);\n";
-  s += "#ifdef DIRECT\n  e += directIrradiance(vWorld, n, dxW, dyW);\n#endif\n";
-  return s + "  fragColor = vec4(albedo() * e * 0.31830988618379067, a);\n}\n";
+  return fillShader(
+      shaders::kReceiverFragment,
+      {{"LOOKUP_DECLARATIONS", perVertex ? cat("const int kTexels = ", radianceTexels(bands),
+                                               ";\ncentroid in vec4 vRadiance[kTexels];\n")
+                                         : probeLookupGlsl(bands)},
+       {"IRRADIANCE", irradianceGlsl(bands)},
+       {"DIRECT_LIGHTING", directLightingGlsl()},
+       {"RADIANCE", perVertex ? "  vec3 e = irradiance(vRadiance, n);\n"
+                              : "  vec4 T[kTexels];\n  incidentRadiance(vWorld, n, T);\n  vec3 e = irradiance(T, n);\n"}});
 }
 
 int radianceTexels(int bands) { return int(3 * irradianceCoefficients(bands).size() + 3) / 4; }

@@ -1,6 +1,42 @@
 #include "prt/error.h"
 
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <utility>
+#include <vector>
+
 namespace prt {
+
+namespace {
+// The live CheckContext scopes of this thread, outermost first.
+thread_local std::vector<const std::function<std::string()>*> checkContexts;
+}  // namespace
+
+CheckContext::CheckContext(std::function<std::string()> describe) : describe_(std::move(describe)) {
+  checkContexts.push_back(&describe_);
+}
+
+CheckContext::~CheckContext() { checkContexts.pop_back(); }
+
+namespace detail {
+void checkFailed(const char* file, int line, const std::string& what) {
+  std::fprintf(stderr, "prt: internal error at %s:%d: %s\n", file, line, what.c_str());
+  // Taken off the thread first: a check that fails inside a description ends without context.
+  const std::vector<const std::function<std::string()>*> contexts = std::move(checkContexts);
+  checkContexts.clear();
+  for (const std::function<std::string()>* describe : contexts) {
+    std::string context;
+    try {
+      context = (*describe)();
+    } catch (const std::exception& e) {
+      context = cat("(its description failed: ", e.what(), ")");
+    }
+    std::fprintf(stderr, "prt:   while: %s\n", context.c_str());
+  }
+  std::abort();
+}
+}  // namespace detail
 
 std::string printable(const std::string& s, size_t maxBytes) {
   std::string out;

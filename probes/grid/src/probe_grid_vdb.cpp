@@ -1,10 +1,11 @@
-// The probe grid as an OpenVDB file: the only translation unit of prt that includes OpenVDB
-// (its headers cost ~30 s to compile). Only standard grid types (float, vec3s) and standard
-// metadata, so vdb_print, vdb_view, pyopenvdb, Houdini and Blender read the file as it is.
-// Layout: docs/probes.md.
+// Reading the probe grid's OpenVDB file (readProbeGrid) and describing it (describeProbeFile,
+// `prt info`). One of the two translation units of prt that include OpenVDB (its headers cost
+// ~30 s to compile); the writer is probe_grid_vdb_write.cpp, the format (versions, grid names,
+// metadata keys) is probe_file.h, and vdb_layout.cpp checks a file's structure before OpenVDB
+// reads it. Only standard grid types (float, vec3s) and standard metadata, so vdb_print,
+// vdb_view, pyopenvdb, Houdini and Blender read the file as it is. Layout: docs/probes.md.
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include <mutex>
 #include <sstream>
 #include <tuple>
+#include <type_traits>
 
 #include <openvdb/io/DelayedLoadMetadata.h>
 #include <openvdb/io/Stream.h>
@@ -20,97 +22,28 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "prt/atomic_file.h"
 #include "prt/error.h"
-#include "prt/math.h"
 #include "prt/probe_grid.h"
 #include "prt/progress.h"
+#include "probe_file.h"
 #include "vdb_layout.h"
 
 namespace prt {
 
-namespace {
-
-namespace fs = std::filesystem;
 namespace vdb = openvdb;
 
-// 2: the moment grids hold depths along the face's axis. Version 1 held ray lengths, which the
-// interpolation of version 2 would misread (it would let light through walls), so 1 is refused.
-// 3: adds the direct part M⁰ (direct_JJ_II, j <= i). Version 2 files are read, without it.
-constexpr int kFormatVersion = 3;
-// OpenVDB's file magic: the first 8 bytes of every .vdb file (an int64, little endian).
-constexpr int64_t kVdbMagic = 0x56444220;
-
-constexpr const char* kShConvention =
-    "real orthonormal SH, index l(l+1)+m, no Condon-Shortley phase, polar axis +Z, "
-    "glTF frame (+Y up, right-handed), directions point towards the light";
-constexpr const char* kUnits = "incident radiance SH = transfer · light SH; radiance";
-constexpr const char* kLayout =
-    "transfer_JJ_II vec3s: RGB of M_ji (c_j = sum_i M_ji l_i); direct_JJ_II float, JJ <= II: M0_ji = M0_ij, "
-    "the direct (bounce 0, first-hit visibility) part of M, colourless and symmetric; validity float (1 valid, 0 inside "
-    "geometry); offset vec3s: world offset of the probe from its lattice point; sky_visibility "
-    "float; irradiance_preview vec3s: irradiance at a +Y normal under a uniform sky of radiance "
-    "1; moments_mean_pos/neg vec3s: for the rays of the +X,+Y,+Z / -X,-Y,-Z cube faces, mean "
-    "depth of the first hit along the face's axis (|t*dir_axis|, misses 2*max spacing); "
-    "moments_sq_pos/neg vec3s: mean squared depth; index (i,j,k) is at world "
-    "origin + spacing*(i,j,k)";
-
-// The four moment grids: which faces each holds, and whether it is the mean or the mean square.
-struct MomentGrid {
-  const char* name;
-  int sign;       // 0: +X,+Y,+Z; 1: -X,-Y,-Z (Face = 2·axis + sign)
-  int component;  // 0: mean distance, 1: mean squared distance
-  const char* description;
-};
-constexpr MomentGrid kMomentGrids[] = {
-    {"moments_mean_pos", 0, 0, "mean depth of the first hit along the face axis, faces +X,+Y,+Z"},
-    {"moments_mean_neg", 1, 0, "mean depth of the first hit along the face axis, faces -X,-Y,-Z"},
-    {"moments_sq_pos", 0, 1, "mean squared depth of the first hit along the face axis, faces +X,+Y,+Z"},
-    {"moments_sq_neg", 1, 1, "mean squared depth of the first hit along the face axis, faces -X,-Y,-Z"},
-};
-
-void initOpenVdb() {
+void probe_file::initOpenVdb() {
   static std::once_flag once;
   std::call_once(once, [] { vdb::initialize(); });
 }
 
-std::string transferName(int j, int i) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "transfer_%02d_%02d", j, i);
-  return buf;
-}
+namespace {
 
-std::string directName(int j, int i) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "direct_%02d_%02d", j, i);
-  return buf;
-}
+namespace fs = std::filesystem;
+using namespace probe_file;
 
-vdb::math::Transform::Ptr makeTransform(const glm::dvec3& origin, const glm::dvec3& spacing) {
-  const vdb::Vec3d t(origin.x, origin.y, origin.z);
-  vdb::math::MapBase::Ptr map;
-  // VDB voxel centres sit at integer index coordinates, so index (i, j, k) lands on
-  // origin + spacing ⊙ (i, j, k): a probe is a voxel centre.
-  if (spacing.x == spacing.y && spacing.y == spacing.z)
-    map = std::make_shared<vdb::math::UniformScaleTranslateMap>(spacing.x, t);
-  else
-    map = std::make_shared<vdb::math::ScaleTranslateMap>(vdb::Vec3d(spacing.x, spacing.y, spacing.z), t);
-  return std::make_shared<vdb::math::Transform>(map);
-}
-
-template <class GridT>
-typename GridT::Ptr makeGrid(const std::string& name, const vdb::math::Transform::Ptr& xform,
-                             const std::string& description, bool half) {
-  typename GridT::Ptr g = GridT::create();
-  g->setName(name);
-  g->setTransform(xform);
-  g->setCreator("prt");
-  g->setSaveFloatAsHalf(half);
-  g->insertMeta("description", vdb::StringMetadata(description));
-  return g;
-}
-
-vdb::Vec3s toVdb(const glm::vec3& v) { return vdb::Vec3s(v.x, v.y, v.z); }
+// OpenVDB's file magic: the first 8 bytes of every .vdb file (an int64, little endian).
+constexpr int64_t kVdbMagic = 0x56444220;
 
 // ---- Reading
 
@@ -286,23 +219,44 @@ void readProbes(const std::string& path, const GridT& g, const std::vector<glm::
   }
 }
 
-ProbeGrid toProbeGrid(const std::string& path, const LoadedFile& file) {
-  const MetaReader meta(path, *file.meta);
-  const int64_t version = meta.integer("prt_format_version");
-  if (version == 1)
-    throw Error(cat(path, ": prt_format_version 1 is no longer read: its moment grids hold ray lengths, "
-                    "version 2 holds depths along the face axis; bake the probes again"));
-  if (version != kFormatVersion && version != 2)
-    throw Error(cat(path, ": prt_format_version ", version, " is not supported (this prt reads 2 and ",
-                    kFormatVersion, ")"));
-  ProbeGrid grid;
-  const int64_t bands = meta.integer("bands");
-  if (bands < 1 || bands > sh::kMaxBands)
-    throw Error(cat(path, ": bands = ", bands, ", expected 1..", sh::kMaxBands));
-  grid.bands = int(bands);
-  grid.dims = meta.vec3i("dims");
-  grid.origin = meta.vec3d("origin");
-  grid.spacing = meta.vec3d("spacing");
+// ---- Metadata, through kMetaKeys (probe_file.h)
+
+int64_t readVersion(const std::string& path, const MetaReader& meta) {
+  const int64_t version = meta.integer(kVersionKey);
+  if (version == kVersionWithRayLengths)
+    throw Error(cat(path, ": ", kVersionKey, " ", version, " is no longer read: its moment grids hold ray lengths, "
+                    "version ", kVersionWithoutDirect, " holds depths along the face axis; bake the probes again"));
+  if (version != kFormatVersion && version != kVersionWithoutDirect)
+    throw Error(cat(path, ": ", kVersionKey, " ", version, " is not supported (this prt reads ", kVersionWithoutDirect,
+                    " and ", kFormatVersion, ")"));
+  return version;
+}
+
+// Reads key `k` into its field of `grid` (the version and Fixed keys are not read here).
+void readKey(const std::string& path, const MetaReader& meta, const MetaKey& k, ProbeGrid& grid) {
+  withField(grid, k, [&](auto& v) {
+    using V = std::decay_t<decltype(v)>;
+    if constexpr (std::is_same_v<V, int>) {
+      const int64_t x = meta.integer(k.key);
+      if (x < k.lo || x > k.hi) throw Error(cat(path, ": ", k.key, " = ", x, ", expected ", k.lo, "..", k.hi));
+      v = int(x);
+    } else if constexpr (std::is_same_v<V, glm::ivec3>) {
+      v = meta.vec3i(k.key);
+    } else if constexpr (std::is_same_v<V, glm::dvec3>) {
+      v = meta.vec3d(k.key);
+    } else if constexpr (std::is_same_v<V, std::string>) {
+      v = meta.string(k.key);
+    } else if constexpr (std::is_same_v<V, uint64_t>) {
+      const std::string s = meta.string(k.key);
+      char* end = nullptr;
+      v = std::strtoull(s.c_str(), &end, 10);
+      if (s.empty() || *end != '\0') throw Error(cat(path, ": metadata '", k.key, "' = '", s, "' is not an integer"));
+    }
+  });
+}
+
+// The lattice the metadata gives, checked before any grid is read.
+void checkLattice(const std::string& path, const ProbeGrid& grid) {
   for (int a = 0; a < 3; ++a) {
     if (grid.dims[a] < 1)
       throw Error(cat(path, ": dims (", grid.dims.x, ", ", grid.dims.y, ", ", grid.dims.z, ") must be >= 1"));
@@ -315,54 +269,72 @@ ProbeGrid toProbeGrid(const std::string& path, const LoadedFile& file) {
   if (lattice > double(INT32_MAX))
     throw Error(cat(path, ": dims (", grid.dims.x, ", ", grid.dims.y, ", ", grid.dims.z,
                     ") exceed 2^31 lattice points"));
-  if (meta.has("bounces")) grid.info.bounces = int(meta.integer("bounces"));
-  if (meta.has("samples")) grid.info.samples = int(meta.integer("samples"));
-  if (meta.has("scene")) grid.info.scene = meta.string("scene");
-  if (meta.has("probe_region")) grid.info.region = meta.string("probe_region");
-  if (meta.has("seed")) {
-    const std::string s = meta.string("seed");
-    char* end = nullptr;
-    grid.info.seed = std::strtoull(s.c_str(), &end, 10);
-    if (s.empty() || *end != '\0') throw Error(cat(path, ": metadata 'seed' = '", s, "' is not an integer"));
-  }
+}
 
+// The metadata in the order of kMetaKeys: the version first, then the required keys, whose
+// lattice is checked before anything else is read, then the optional ones. Returns the version.
+int64_t readMetadata(const std::string& path, const vdb::MetaMap& map, ProbeGrid& grid) {
+  const MetaReader meta(path, map);
+  const int64_t version = readVersion(path, meta);
+  for (const MetaKey& k : kMetaKeys)
+    if (k.use == MetaUse::Required && !std::holds_alternative<FormatVersion>(k.field)) readKey(path, meta, k, grid);
+  checkLattice(path, grid);
+  for (const MetaKey& k : kMetaKeys)
+    if ((k.use == MetaUse::Optional || k.use == MetaUse::OmittedIfEmpty) && meta.has(k.key))
+      readKey(path, meta, k, grid);
+  return version;
+}
+
+// ---- Grids
+
+size_t gridsNamed(const LoadedFile& file, const char* prefix) {
+  size_t count = 0;
+  for (const auto& [name, g] : file.byName)
+    if (name.rfind(prefix, 0) == 0) ++count;
+  return count;
+}
+
+// The n⁴ transfer grids, (j, i) row by row. Extra transfer grids mean the file was written
+// with more bands than its metadata says.
+std::vector<vdb::Vec3SGrid::Ptr> transferGrids(const std::string& path, const LoadedFile& file, const ProbeGrid& grid) {
   const int n2 = grid.coeffs();
   std::vector<vdb::Vec3SGrid::Ptr> transfer(size_t(n2) * size_t(n2));
   for (int j = 0; j < n2; ++j)
     for (int i = 0; i < n2; ++i)
       transfer[size_t(j) * n2 + i] = requireGrid<vdb::Vec3SGrid>(path, file, transferName(j, i), "vec3s");
-  // Extra transfer grids mean the file was written with more bands than its metadata says.
-  size_t transferGrids = 0;
-  for (const auto& [name, g] : file.byName)
-    if (name.rfind("transfer_", 0) == 0) ++transferGrids;
-  if (transferGrids != transfer.size())
-    throw Error(cat(path, ": bands = ", bands, " needs ", transfer.size(), " transfer grids, the file holds ",
-                    transferGrids));
-  // Version 3: the upper triangle of M⁰, in ProbeGrid::direct's order.
-  std::vector<vdb::FloatGrid::Ptr> direct;
-  if (version >= 3) {
-    for (int j = 0; j < n2; ++j)
-      for (int i = j; i < n2; ++i) direct.push_back(requireGrid<vdb::FloatGrid>(path, file, directName(j, i), "float"));
-    size_t directGrids = 0;
-    for (const auto& [name, g] : file.byName)
-      if (name.rfind("direct_", 0) == 0) ++directGrids;
-    if (directGrids != direct.size())
-      throw Error(cat(path, ": bands = ", bands, " needs ", direct.size(), " direct grids, the file holds ",
-                      directGrids));
-  }
+  const size_t found = gridsNamed(file, kTransferPrefix);
+  if (found != transfer.size())
+    throw Error(cat(path, ": bands = ", grid.bands, " needs ", transfer.size(), " transfer grids, the file holds ",
+                    found));
+  return transfer;
+}
 
-  const vdb::FloatGrid::Ptr validity = requireGrid<vdb::FloatGrid>(path, file, "validity", "float");
-  const vdb::math::Transform& xform = validity->transform();
-  if (!xform.isLinear()) throw Error(cat(path, ": grid 'validity' has a non-linear transform"));
+// Version 3: the upper triangle of M⁰, in ProbeGrid::direct's order.
+std::vector<vdb::FloatGrid::Ptr> directGrids(const std::string& path, const LoadedFile& file, const ProbeGrid& grid) {
+  const int n2 = grid.coeffs();
+  std::vector<vdb::FloatGrid::Ptr> direct;
+  for (int j = 0; j < n2; ++j)
+    for (int i = j; i < n2; ++i) direct.push_back(requireGrid<vdb::FloatGrid>(path, file, directName(j, i), "float"));
+  const size_t found = gridsNamed(file, kDirectPrefix);
+  if (found != direct.size())
+    throw Error(cat(path, ": bands = ", grid.bands, " needs ", direct.size(), " direct grids, the file holds ", found));
+  return direct;
+}
+
+// The probes: the active voxels of the validity grid, sorted, within dims. Its transform must
+// be the metadata's origin and spacing.
+void readCoords(const std::string& path, const vdb::FloatGrid& validity, ProbeGrid& grid) {
+  const vdb::math::Transform& xform = validity.transform();
+  if (!xform.isLinear()) throw Error(cat(path, ": grid '", kValidityGrid, "' has a non-linear transform"));
   const vdb::Vec3d o = xform.indexToWorld(vdb::Vec3d(0.0));
   const vdb::Vec3d step = xform.indexToWorld(vdb::Vec3d(1.0)) - o;
   for (int a = 0; a < 3; ++a)
     if (!near(o[a], grid.origin[a]) || !near(step[a], grid.spacing[a]))
       throw Error(cat(path, ": the grids' transform does not match metadata origin/spacing"));
 
-  for (auto it = validity->cbeginValueOn(); it; ++it) {
+  for (auto it = validity.cbeginValueOn(); it; ++it) {
     if (!it.isVoxelValue())
-      throw Error(cat(path, ": grid 'validity' holds an active tile, expected single probes"));
+      throw Error(cat(path, ": grid '", kValidityGrid, "' holds an active tile, expected single probes"));
     const vdb::Coord c = it.getCoord();
     grid.coord.emplace_back(c.x(), c.y(), c.z());
   }
@@ -373,37 +345,46 @@ ProbeGrid toProbeGrid(const std::string& path, const LoadedFile& file) {
     if (c.x < 0 || c.y < 0 || c.z < 0 || c.x >= grid.dims.x || c.y >= grid.dims.y || c.z >= grid.dims.z)
       throw Error(cat(path, ": probe (", c.x, ", ", c.y, ", ", c.z, ") lies outside dims (", grid.dims.x,
                       ", ", grid.dims.y, ", ", grid.dims.z, ")"));
+}
+
+// Validity, offset, sky visibility and the moments of every probe.
+void readProbeValues(const std::string& path, const LoadedFile& file, const vdb::FloatGrid& validity,
+                     ProbeGrid& grid) {
   const size_t count = grid.coord.size();
-
   grid.validity.resize(count);
-  readProbes(path, *validity, grid.coord, [&](size_t p, float v) { grid.validity[p] = v; });
+  readProbes(path, validity, grid.coord, [&](size_t p, float v) { grid.validity[p] = v; });
 
-  const auto offset = requireGrid<vdb::Vec3SGrid>(path, file, "offset", "vec3s");
-  checkLike(path, *offset, *validity);
+  const auto offset = requireGrid<vdb::Vec3SGrid>(path, file, kOffsetGrid, "vec3s");
+  checkLike(path, *offset, validity);
   grid.offset.resize(count);
   readProbes(path, *offset, grid.coord,
              [&](size_t p, const vdb::Vec3s& v) { grid.offset[p] = glm::vec3(v[0], v[1], v[2]); });
 
-  const auto sky = requireGrid<vdb::FloatGrid>(path, file, "sky_visibility", "float");
-  checkLike(path, *sky, *validity);
+  const auto sky = requireGrid<vdb::FloatGrid>(path, file, kSkyGrid, "float");
+  checkLike(path, *sky, validity);
   grid.skyVisibility.resize(count);
   readProbes(path, *sky, grid.coord, [&](size_t p, float v) { grid.skyVisibility[p] = v; });
 
   grid.moments.resize(count);
   for (const MomentGrid& mg : kMomentGrids) {
     const auto g = requireGrid<vdb::Vec3SGrid>(path, file, mg.name, "vec3s");
-    checkLike(path, *g, *validity);
+    checkLike(path, *g, validity);
     readProbes(path, *g, grid.coord, [&](size_t p, const vdb::Vec3s& v) {
       for (int axis = 0; axis < 3; ++axis)
         grid.moments[p][size_t(2 * axis + mg.sign)][mg.component] = v[axis];
     });
   }
+}
 
-  // Transfer grids one per task: each writes its own (j, i) slot of every probe.
-  for (const vdb::Vec3SGrid::Ptr& g : transfer) checkLike(path, *g, *validity);
+// The transfer and direct matrices of every probe, one grid per task: each writes its own
+// (j, i) slot of every probe. A prt::Error thrown by a task (a probe missing from a grid)
+// reaches the caller through TBB.
+void readMatrices(const std::string& path, const std::vector<vdb::Vec3SGrid::Ptr>& transfer,
+                  const std::vector<vdb::FloatGrid::Ptr>& direct, const vdb::FloatGrid& validity, ProbeGrid& grid) {
+  const size_t count = grid.coord.size();
+  for (const vdb::Vec3SGrid::Ptr& g : transfer) checkLike(path, *g, validity);
   const size_t stride = grid.transferStride();
   grid.transfer.resize(count * stride);
-  // A prt::Error thrown by a task (a probe missing from a grid) reaches the caller through TBB.
   tbb::parallel_for(tbb::blocked_range<size_t>(0, transfer.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t k = r.begin(); k < r.end(); ++k)
       readProbes(path, *transfer[k], grid.coord, [&](size_t p, const vdb::Vec3s& v) {
@@ -413,223 +394,32 @@ ProbeGrid toProbeGrid(const std::string& path, const LoadedFile& file) {
         dst[2] = v[2];
       });
   });
-  for (const vdb::FloatGrid::Ptr& g : direct) checkLike(path, *g, *validity);
+  for (const vdb::FloatGrid::Ptr& g : direct) checkLike(path, *g, validity);
   const size_t dstride = grid.directStride();
   grid.direct.resize(direct.empty() ? 0 : count * dstride);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, direct.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t k = r.begin(); k < r.end(); ++k)
       readProbes(path, *direct[k], grid.coord, [&](size_t p, float v) { grid.direct[p * dstride + k] = v; });
   });
+}
 
+ProbeGrid toProbeGrid(const std::string& path, const LoadedFile& file) {
+  ProbeGrid grid;
+  const int64_t version = readMetadata(path, *file.meta, grid);
+  const std::vector<vdb::Vec3SGrid::Ptr> transfer = transferGrids(path, file, grid);
+  const std::vector<vdb::FloatGrid::Ptr> direct =
+      version >= kFormatVersion ? directGrids(path, file, grid) : std::vector<vdb::FloatGrid::Ptr>();
+  const vdb::FloatGrid::Ptr validity = requireGrid<vdb::FloatGrid>(path, file, kValidityGrid, "float");
+  readCoords(path, *validity, grid);
+  readProbeValues(path, file, *validity, grid);
+  readMatrices(path, transfer, direct, *validity, grid);
   grid.buildIndex();
   return grid;
 }
 
 std::string vec3Text(const glm::dvec3& v) { return cat("(", v.x, ", ", v.y, ", ", v.z, ")"); }
 
-// OpenVDB stamps every file it writes with a random UUID (36 ASCII characters after the
-// 21-byte header start: magic, file version, library version, grid-offsets flag), so two
-// writes of the same grids differ. Readers only compare UUIDs to tell files apart, so one
-// derived from the rest of the file serves as well and makes the bytes a function of the
-// grids alone (the same seed gives the same file, whatever the thread count).
-constexpr size_t kUuidOffset = 21, kUuidLength = 36;
-
-void stampContentUuid(const std::string& tempPath, const std::string& path) {
-  std::fstream f(tempPath, std::ios::in | std::ios::out | std::ios::binary);
-  // Hashed in pieces: a grid of a few GB must not be held in memory twice over.
-  std::vector<char> buf(size_t(1) << 20);
-  f.read(buf.data(), std::streamsize(kUuidOffset + kUuidLength));
-  auto isUuid = [&] {
-    if (!f || f.gcount() != std::streamsize(kUuidOffset + kUuidLength)) return false;
-    for (size_t i = 0; i < kUuidLength; ++i) {
-      const char c = buf[kUuidOffset + i];
-      const bool dash = i == 8 || i == 13 || i == 18 || i == 23;
-      const bool hex = (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F');
-      if (dash ? c != '-' : !hex) return false;
-    }
-    return true;
-  };
-  if (!isUuid()) throw Error(cat(path, ": cannot write VDB file (unexpected header layout)"));
-  // Two FNV-1a 64-bit hashes (different offset bases) of everything but the UUID.
-  uint64_t h[2] = {0xcbf29ce484222325ull, 0x84222325cbf29ce4ull};
-  auto hash = [&](const char* p, size_t n) {
-    for (size_t i = 0; i < n; ++i)
-      for (uint64_t& x : h) x = (x ^ static_cast<unsigned char>(p[i])) * 0x100000001b3ull;
-  };
-  hash(buf.data(), kUuidOffset);
-  while (f.read(buf.data(), std::streamsize(buf.size())) || f.gcount() > 0) hash(buf.data(), size_t(f.gcount()));
-  if (f.bad()) throw Error(cat(path, ": cannot write VDB file (reading it back failed)"));
-  char uuid[kUuidLength + 1];
-  std::snprintf(uuid, sizeof uuid, "%08x-%04x-%04x-%04x-%012llx", unsigned(h[0] >> 32), unsigned(h[0] >> 16 & 0xffff),
-                unsigned(h[0] & 0xffff), unsigned(h[1] >> 48), static_cast<unsigned long long>(h[1] & 0xffffffffffffull));
-  f.clear();
-  f.seekp(std::streamoff(kUuidOffset));
-  f.write(uuid, std::streamsize(kUuidLength));
-  if (!f.flush()) throw Error(cat(path, ": cannot write VDB file"));
-}
-
 }  // namespace
-
-void writeProbeGrid(const ProbeGrid& grid, const std::string& path, bool half) {
-  const size_t count = grid.probeCount();
-  PRT_CHECK(grid.bands >= 1 && grid.bands <= sh::kMaxBands);
-  PRT_CHECK(grid.dims.x >= 1 && grid.dims.y >= 1 && grid.dims.z >= 1);
-  PRT_CHECK(grid.spacing.x > 0.0 && grid.spacing.y > 0.0 && grid.spacing.z > 0.0);
-  PRT_CHECK_EQ(grid.transfer.size(), count * grid.transferStride());
-  // Without a direct part (a grid made by hand, or read from version 2) the file is version 2.
-  PRT_CHECK(grid.direct.empty() || grid.direct.size() == count * grid.directStride());
-  PRT_CHECK_EQ(grid.validity.size(), count);
-  PRT_CHECK_EQ(grid.offset.size(), count);
-  PRT_CHECK_EQ(grid.skyVisibility.size(), count);
-  PRT_CHECK_EQ(grid.moments.size(), count);
-  for (const glm::ivec3& c : grid.coord)
-    PRT_CHECK(c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x < grid.dims.x && c.y < grid.dims.y &&
-              c.z < grid.dims.z);
-  initOpenVdb();
-
-  const vdb::math::Transform::Ptr xform = makeTransform(grid.origin, grid.spacing);
-  const int n2 = grid.coeffs();
-  const size_t stride = grid.transferStride();
-  auto at = [&](size_t p) { return vdb::Coord(grid.coord[p].x, grid.coord[p].y, grid.coord[p].z); };
-
-  // Every grid gets a value at every active probe (setValue activates it even when it equals
-  // the background), so all grids share the validity grid's active topology.
-  std::vector<vdb::Vec3SGrid::Ptr> transfer(size_t(n2) * size_t(n2));
-  tbb::parallel_for(
-      tbb::blocked_range<size_t>(0, transfer.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t k = r.begin(); k < r.end(); ++k) {
-          const int j = int(k) / n2, i = int(k) % n2;
-          auto g = makeGrid<vdb::Vec3SGrid>(
-              transferName(j, i), xform,
-              cat("RGB transfer M_ji, j = ", j, ", i = ", i, ": incident radiance SH c_j = sum_i M_ji l_i"),
-              half);
-          g->setVectorType(vdb::VEC_INVARIANT);  // colours: not turned by the transform
-          auto acc = g->getAccessor();
-          for (size_t p = 0; p < count; ++p) {
-            const float* m = grid.transfer.data() + p * stride + k * 3;
-            acc.setValue(at(p), vdb::Vec3s(m[0], m[1], m[2]));
-          }
-          transfer[k] = g;
-        }
-      });
-  const size_t dstride = grid.directStride();
-  std::vector<vdb::FloatGrid::Ptr> direct(grid.hasDirect() ? dstride : 0);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, direct.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t k = r.begin(); k < r.end(); ++k) {
-      int j = 0, first = 0;  // k is (j, i) of the upper triangle, row by row
-      while (first + (n2 - j) <= int(k)) first += n2 - j++;
-      const int i = j + (int(k) - first);
-      auto g = makeGrid<vdb::FloatGrid>(
-          directName(j, i), xform,
-          cat("direct part M0_ji = M0_ij, j = ", j, ", i = ", i, ": bounce-0 transfer (first-hit visibility), colourless"),
-          half);
-      auto acc = g->getAccessor();
-      for (size_t p = 0; p < count; ++p) acc.setValue(at(p), grid.direct[p * dstride + k]);
-      direct[k] = g;
-    }
-  });
-
-  auto validity = makeGrid<vdb::FloatGrid>("validity", xform,
-                                           "1 = valid probe, 0 = inside geometry (never interpolated)", half);
-  auto sky = makeGrid<vdb::FloatGrid>("sky_visibility", xform,
-                                      "fraction of directions that escape to the sky (preview)", half);
-  // Fog volume: values in [0, 1], 0 outside, which viewers (Blender, vdb_render) show as density.
-  sky->setGridClass(vdb::GRID_FOG_VOLUME);
-  auto irradiance = makeGrid<vdb::Vec3SGrid>(
-      "irradiance_preview", xform,
-      "RGB irradiance at a +Y normal under a uniform sky of radiance 1 (preview)", half);
-  irradiance->setVectorType(vdb::VEC_INVARIANT);
-  // Offsets and moments stay 32-bit even with `half`: σ² = E[d²] − E[d]² cancels
-  // catastrophically with 11-bit mantissas, and offsets are positions. They are 15 of the
-  // 3n⁴ + 20 floats of a probe.
-  auto offset =
-      makeGrid<vdb::Vec3SGrid>("offset", xform, "world offset of the probe from its lattice point", false);
-  offset->setVectorType(vdb::VEC_CONTRAVARIANT_RELATIVE);  // a displacement
-  offset->setIsInWorldSpace(true);
-  std::vector<vdb::Vec3SGrid::Ptr> moments;
-  for (const MomentGrid& mg : kMomentGrids) {
-    auto g = makeGrid<vdb::Vec3SGrid>(mg.name, xform, cat(mg.description, " (world units)"), false);
-    g->setVectorType(vdb::VEC_INVARIANT);  // three scalars per voxel, not a vector
-    moments.push_back(g);
-  }
-
-  // Irradiance preview, derived from the transfer: a uniform sky of radiance 1 has only
-  // l_0 = 2√π, so c_j = M_j0 · 2√π, and E(+Y) = Σ_j Â_l(j) c_j y_j(+Y).
-  std::vector<float> yUp(static_cast<size_t>(n2));
-  sh::evaluate(grid.bands, glm::vec3(0.0f, 1.0f, 0.0f), yUp.data());
-  std::vector<float> upFactor(static_cast<size_t>(n2));
-  for (int j = 0; j < n2; ++j)
-    upFactor[size_t(j)] =
-        float(sh::clampedCosineFactor(sh::bandOf(j)) * 2.0 * std::sqrt(kPi)) * yUp[size_t(j)];
-
-  {
-    auto va = validity->getAccessor();
-    auto sa = sky->getAccessor();
-    auto ia = irradiance->getAccessor();
-    auto oa = offset->getAccessor();
-    for (size_t p = 0; p < count; ++p) {
-      const vdb::Coord c = at(p);
-      va.setValue(c, grid.validity[p]);
-      sa.setValue(c, grid.skyVisibility[p]);
-      oa.setValue(c, toVdb(grid.offset[p]));
-      glm::vec3 e(0.0f);
-      for (int j = 0; j < n2; ++j) {
-        const float* m = grid.transfer.data() + p * stride + size_t(j) * n2 * 3;  // M_j0
-        e += upFactor[size_t(j)] * glm::vec3(m[0], m[1], m[2]);
-      }
-      ia.setValue(c, toVdb(e));
-      for (size_t k = 0; k < moments.size(); ++k) {
-        const MomentGrid& mg = kMomentGrids[k];
-        vdb::Vec3s v;
-        for (int axis = 0; axis < 3; ++axis)
-          v[axis] = grid.moments[p][size_t(2 * axis + mg.sign)][mg.component];
-        moments[k]->tree().setValue(c, v);
-      }
-    }
-  }
-
-  PRT_CHECK_EQ(validity->activeVoxelCount(), vdb::Index64(count));  // no duplicate coordinates
-
-  vdb::GridPtrVec grids(transfer.begin(), transfer.end());
-  grids.insert(grids.end(), direct.begin(), direct.end());
-  grids.push_back(validity);
-  grids.push_back(offset);
-  grids.push_back(sky);
-  grids.push_back(irradiance);
-  grids.insert(grids.end(), moments.begin(), moments.end());
-
-  vdb::MetaMap meta;
-  meta.insertMeta("prt_format_version", vdb::Int32Metadata(grid.hasDirect() ? kFormatVersion : 2));
-  meta.insertMeta("bands", vdb::Int32Metadata(grid.bands));
-  meta.insertMeta("sh_convention", vdb::StringMetadata(kShConvention));
-  meta.insertMeta("units", vdb::StringMetadata(kUnits));
-  meta.insertMeta("bounces", vdb::Int32Metadata(grid.info.bounces));
-  meta.insertMeta("samples", vdb::Int32Metadata(grid.info.samples));
-  // A string: the seed is a uint64 and metadata has no unsigned 64-bit type.
-  meta.insertMeta("seed", vdb::StringMetadata(std::to_string(grid.info.seed)));
-  meta.insertMeta("scene", vdb::StringMetadata(grid.info.scene));
-  if (!grid.info.region.empty()) meta.insertMeta("probe_region", vdb::StringMetadata(grid.info.region));
-  meta.insertMeta("dims", vdb::Vec3IMetadata(vdb::Vec3i(grid.dims.x, grid.dims.y, grid.dims.z)));
-  meta.insertMeta("origin", vdb::Vec3DMetadata(vdb::Vec3d(grid.origin.x, grid.origin.y, grid.origin.z)));
-  meta.insertMeta("spacing", vdb::Vec3DMetadata(vdb::Vec3d(grid.spacing.x, grid.spacing.y, grid.spacing.z)));
-  meta.insertMeta("grid_layout", vdb::StringMetadata(kLayout));
-  meta.insertMeta("creator", vdb::StringMetadata("prt"));
-
-  AtomicFile out(path);
-  try {
-    vdb::io::File file(out.tempPath());
-    // Blosc: about as small as ZIP for this data and ~8x faster to write (platform notes).
-    file.setCompression(
-        vdb::io::COMPRESS_ACTIVE_MASK |
-        (vdb::io::Archive::hasBloscCompression() ? vdb::io::COMPRESS_BLOSC : vdb::io::COMPRESS_ZIP));
-    file.write(grids, meta);
-    file.close();
-  } catch (const std::exception& e) {
-    throw Error(cat(path, ": cannot write VDB file (", e.what(), ")"));
-  }
-  stampContentUuid(out.tempPath(), path);
-  out.commit();
-}
 
 ProbeGrid readProbeGrid(const std::string& path) {
   const LoadedFile file = loadFile(path);
@@ -651,11 +441,11 @@ std::string describeProbeFile(const std::string& path) {
   for (const auto& [name, g] : file.byName) {  // std::map: sorted like VDB's own listing
     memory += g->memUsage();
     half |= g->saveFloatAsHalf();
-    if (name.rfind("transfer_", 0) == 0) {
+    if (name.rfind(kTransferPrefix, 0) == 0) {
       if (firstTransfer.empty()) firstTransfer = name;
       lastTransfer = name;
       ++transferGrids;
-    } else if (name.rfind("direct_", 0) == 0) {
+    } else if (name.rfind(kDirectPrefix, 0) == 0) {
       ++directGrids;
     } else {
       others.push_back(cat(name, " (", g->valueType() == "vec3s" ? "Vec3f" : g->valueType(), ")"));
@@ -664,7 +454,7 @@ std::string describeProbeFile(const std::string& path) {
 
   std::ostringstream os;
   os << path << "\n";
-  os << "  format        prt probe grid v" << (grid.hasDirect() ? kFormatVersion : 2) << " (OpenVDB, "
+  os << "  format        prt probe grid v" << formatVersion(grid) << " (OpenVDB, "
      << (half ? "16-bit transfer" : "32-bit floats") << ")\n";
   os << "  bands         " << grid.bands << " (" << grid.coeffs() << " SH coefficients, "
      << grid.coeffs() * grid.coeffs() << " RGB transfer entries per probe)\n";
@@ -683,7 +473,7 @@ std::string describeProbeFile(const std::string& path) {
   os << "  grids         " << file.byName.size() << ": " << firstTransfer << " .. " << lastTransfer << " ("
      << transferGrids << " Vec3f grids)";
   if (directGrids)
-    os << ", direct_00_00 .. " << directName(grid.coeffs() - 1, grid.coeffs() - 1) << " (" << directGrids
+    os << ", " << directName(0, 0) << " .. " << directName(grid.coeffs() - 1, grid.coeffs() - 1) << " (" << directGrids
        << " float grids: the direct part)";
   else
     os << ", no direct part (baked before prt kept it apart: suns are lit through the whole transfer)";

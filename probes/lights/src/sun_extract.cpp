@@ -264,12 +264,201 @@ void checkInput(const ImageRgb& image, const SunExtractOptions& o) {
     throw Error(cat("sun extraction: margin of ", o.marginPixels, " pixels is outside [0, 64]"));
 }
 
+
+// The steps of extractSun, in order.
+
+// Step 1, the peak: the brightest pixel (the first one in row order on a tie).
+struct Peak {
+  size_t id = 0;
+  double luminance = -1.0;
+};
+
+Peak findPeak(const ImageRgb& image) {
+  Peak peak;
+  for (size_t i = 0; i < image.pixels.size(); ++i) {
+    const double l = luminance(image.pixels[i]);
+    if (l > peak.luminance) {
+      peak.luminance = l;
+      peak.id = i;
+    }
+  }
+  return peak;
+}
+
+// The region to in-paint: the core found by region growth, then its margin.
+struct Region {
+  std::vector<uint8_t> marks;  // Mark per pixel
+  std::vector<size_t> pixels;  // the core first, then the margin layer by layer
+  size_t corePixels = 0;
+  double threshold = 0.0;  // the luminance threshold the core was grown with
+};
+
+// Step 2, region growth: pixels above a threshold, connected to the peak, within maxRadius of
+// it. The threshold starts at peakFraction · peak and doubles while the region is not compact,
+// up to peak / minContrast (a core standing out of a broad glow is still a source; a smooth sky
+// is not compact at any threshold a sun would pass). False if no threshold gives a compact core.
+bool growCore(const ImageRgb& image, const Grid& grid, const Peak& peak, const SunExtractOptions& options,
+              Region& region) {
+  const glm::dvec3 peakDir = grid.direction(grid.xOf(peak.id), grid.yOf(peak.id));
+  region.marks.assign(image.pixels.size(), kNone);
+  const double cosMax = std::cos(options.maxRadius);
+  const double highest = peak.luminance / options.minContrast;
+  region.threshold = options.peakFraction * peak.luminance;
+  bool compact = growRegion(image, grid, peak.id, peakDir, cosMax, region.threshold, region.marks, region.pixels);
+  while (!compact && region.threshold * 2.0 <= highest) {
+    region.threshold *= 2.0;
+    compact = growRegion(image, grid, peak.id, peakDir, cosMax, region.threshold, region.marks, region.pixels);
+  }
+  region.corePixels = region.pixels.size();
+  return compact;
+}
+
+// Step 3, dilation: the margin, marginPixels steps of 8-neighbour dilation.
+void addMargin(const Grid& grid, int marginPixels, Region& region) {
+  std::vector<size_t>& pixels = region.pixels;
+  size_t layerBegin = 0;
+  for (int step = 0; step < marginPixels; ++step) {
+    const size_t layerEnd = pixels.size();
+    for (size_t i = layerBegin; i < layerEnd; ++i)
+      grid.forNeighbours8(grid.xOf(pixels[i]), grid.yOf(pixels[i]), [&](int nx, int ny) {
+        const size_t n = grid.id(nx, ny);
+        if (region.marks[n] != kNone) return;
+        region.marks[n] = kRegion;
+        pixels.push_back(n);
+      });
+    layerBegin = layerEnd;
+  }
+}
+
+// The pixels around the region and the map's values there.
+struct Ring {
+  std::vector<size_t> pixels;
+  glm::dvec3 min{std::numeric_limits<double>::max()}, max{std::numeric_limits<double>::lowest()};
+  glm::dvec3 mean{0.0};
+  double skyLevel = 0.0;  // the median luminance
+};
+
+// Step 4, the boundary level: the pixels outside the region that the Laplacian couples to it;
+// their median luminance is the sky level around the source. Empty when nothing is left around
+// the region.
+Ring boundaryRing(const ImageRgb& image, const Grid& grid, Region& region) {
+  Ring ring;
+  for (size_t id : region.pixels)
+    grid.forLaplaceNeighbours(grid.xOf(id), grid.yOf(id), [&](int nx, int ny, double) {
+      const size_t n = grid.id(nx, ny);
+      if (region.marks[n] != kNone) return;
+      region.marks[n] = kBoundary;
+      ring.pixels.push_back(n);
+    });
+  if (ring.pixels.empty()) return ring;
+  std::vector<double> ringLuminance;
+  ringLuminance.reserve(ring.pixels.size());
+  for (size_t id : ring.pixels) {
+    const glm::dvec3 c(image.pixels[id]);
+    ringLuminance.push_back(luminance(c));
+    ring.min = glm::min(ring.min, c);
+    ring.max = glm::max(ring.max, c);
+  }
+  std::nth_element(ringLuminance.begin(), ringLuminance.begin() + ringLuminance.size() / 2, ringLuminance.end());
+  ring.skyLevel = ringLuminance[ringLuminance.size() / 2];
+  for (size_t id : ring.pixels) ring.mean += glm::dvec3(image.pixels[id]);
+  ring.mean /= double(ring.pixels.size());
+  return ring;
+}
+
+// The system of Note 3 over the region's pixels (`region` sorted: the unknowns in row order),
+// factored, with its right-hand side per channel.
+Laplace laplaceSystem(const ImageRgb& image, const Grid& grid, const std::vector<size_t>& region,
+                      std::array<std::vector<double>, 3>& rhs) {
+  std::unordered_map<size_t, int> index;
+  index.reserve(region.size() * 2);
+  for (size_t i = 0; i < region.size(); ++i) index.emplace(region[i], static_cast<int>(i));
+  Laplace lap;
+  const size_t n = region.size();
+  lap.diag.assign(n, 0.0);
+  lap.edges.resize(n);
+  lap.edgeCount.assign(n, 0);
+  lap.lower.assign(n, 0.0);
+  for (auto& v : rhs) v.assign(n, 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    grid.forLaplaceNeighbours(grid.xOf(region[i]), grid.yOf(region[i]), [&](int nx, int ny, double wgt) {
+      const size_t pixel = grid.id(nx, ny);
+      const auto it = index.find(pixel);
+      const int j = it == index.end() ? -1 : it->second;
+      lap.edges[i][static_cast<size_t>(lap.edgeCount[i]++)] = {j, wgt};
+      lap.diag[i] += wgt;
+      if (j >= 0 && static_cast<size_t>(j) + 1 == i && ny == grid.yOf(region[i])) lap.lower[i] = wgt;
+      if (j < 0)
+        for (int c = 0; c < 3; ++c) rhs[c][i] += wgt * double(image.pixels[pixel][c]);
+    });
+  }
+  lap.factor();
+  return lap;
+}
+
+// What the in-painting took out of the map: ∫ e dω per channel and ∫ e ω dω in luminance.
+struct Excess {
+  glm::dvec3 power{0.0}, moment{0.0};
+};
+
+// Step 5, in-paint (Note 3): the region's pixels of `residual` become min(map, background).
+// The excess map − residual is never negative, and the two add up to the map pixel by pixel
+// (the float rounding of the background is taken by the excess, computed from the stored
+// residual). The clamp to the boundary's range is what the maximum principle gives the exact
+// solution; it guards the solver's last digits. Sorts `region`.
+Excess inpaint(const ImageRgb& image, const Grid& grid, std::vector<size_t>& region, const Ring& ring,
+               ImageRgb& residual) {
+  std::sort(region.begin(), region.end());
+  std::array<std::vector<double>, 3> rhs;
+  const Laplace lap = laplaceSystem(image, grid, region, rhs);
+  std::vector<double> background[3];
+  for (int c = 0; c < 3; ++c) background[c] = solveChannel(lap, rhs[c], ring.mean[c]);
+  Excess e;
+  for (size_t i = 0; i < region.size(); ++i) {
+    const size_t id = region[i];
+    const int x = grid.xOf(id), y = grid.yOf(id);
+    const glm::dvec3 map(image.pixels[id]);
+    glm::dvec3 b(background[0][i], background[1][i], background[2][i]);
+    b = glm::clamp(b, ring.min, ring.max);
+    const glm::vec3 kept(glm::min(map, b));
+    residual.pixels[id] = kept;
+    const glm::dvec3 excess = map - glm::dvec3(kept);
+    e.power += excess * grid.solidAngle(y);
+    e.moment += luminance(excess) * grid.moment(x, y);
+  }
+  return e;
+}
+
+// Step 6, the cap fit. Note 4: the excess e has power P = ∫ e dω and first moment M = ∫ e ω dω;
+// its direction is d = M / |M| (the power-weighted centroid, in luminance), and a surface
+// facing d receives E = ∫ e (d·ω) dω = |M| (every ω of the region is within maxRadius + the
+// margin of d, so d·ω > 0). A uniform cap of radius r and radiance L has P = 2π L (1 − cos r)
+// and E = π L sin² r, so E / P = (1 + cos r) / 2 and
+//   sin²(r/2) = (1 − cos r) / 2 = 1 − E / P.
+// The cap of that radius with L = P / (2π(1 − cos r)) has the excess's power and its vector
+// irradiance E·d exactly (SH bands 0 and 1), and its mean 1 − d·ω (about half the mean
+// squared angle to d), so its penumbrae have the width the excess's spread gives. The
+// radius is one number, from luminance; per channel the cap keeps the power (which keeps the
+// conservation exact) and E_c = P_c (1 + cos r) / 2.
+ExtractedSun fitCap(const Excess& e, double share, size_t pixels) {
+  ExtractedSun sun;
+  const double momentLength = glm::length(e.moment);
+  sun.direction = e.moment / momentLength;
+  const double oneMinusRatio = std::max(0.0, 1.0 - momentLength / luminance(e.power));
+  sun.radius = 2.0 * std::asin(std::min(1.0, std::sqrt(oneMinusRatio)));
+  if (sun.radius < kPointSunRadians) sun.radius = 0.0;
+  sun.power = e.power;
+  sun.irradiance = e.power * (1.0 + std::cos(sun.radius)) / 2.0;
+  sun.powerShare = share;
+  sun.pixels = pixels;
+  return sun;
+}
+
 }  // namespace
 
 SunExtraction extractSun(const ImageRgb& equirect, const SunExtractOptions& options) {
   checkInput(equirect, options);
-  const int w = equirect.width, h = equirect.height;
-  const Grid grid(w, h);
+  const Grid grid(equirect.width, equirect.height);
 
   SunExtraction out;
   out.residual = equirect;
@@ -281,175 +470,45 @@ SunExtraction extractSun(const ImageRgb& equirect, const SunExtractOptions& opti
     return out;
   }
 
-  // The brightest pixel (the first one in row order on a tie).
-  size_t peakId = 0;
-  double peak = -1.0;
-  for (size_t i = 0; i < equirect.pixels.size(); ++i) {
-    const double l = luminance(equirect.pixels[i]);
-    if (l > peak) {
-      peak = l;
-      peakId = i;
-    }
-  }
-  const glm::dvec3 peakDir = grid.direction(grid.xOf(peakId), grid.yOf(peakId));
-
-  // The region: pixels above a threshold, connected to the peak, within maxRadius of it. The
-  // threshold starts at peakFraction · peak and doubles while the region is not compact, up to
-  // peak / minContrast (a core standing out of a broad glow is still a source; a smooth sky
-  // is not compact at any threshold a sun would pass).
-  std::vector<uint8_t> marks(equirect.pixels.size(), kNone);
-  std::vector<size_t> region;
-  const double cosMax = std::cos(options.maxRadius);
-  const double highest = peak / options.minContrast;
-  double threshold = options.peakFraction * peak;
-  bool compact = growRegion(equirect, grid, peakId, peakDir, cosMax, threshold, marks, region);
-  while (!compact && threshold * 2.0 <= highest) {
-    threshold *= 2.0;
-    compact = growRegion(equirect, grid, peakId, peakDir, cosMax, threshold, marks, region);
-  }
-  if (!compact) {
-    out.reason = cat("no sun: the pixels brighter than ", threshold / peak, " of the brightest (",
-                     peak, ") reach beyond ", degrees(options.maxRadius),
+  const Peak peak = findPeak(equirect);
+  Region region;
+  if (!growCore(equirect, grid, peak, options, region)) {
+    out.reason = cat("no sun: the pixels brighter than ", region.threshold / peak.luminance, " of the brightest (",
+                     peak.luminance, ") reach beyond ", degrees(options.maxRadius),
                      " degrees of it: no compact source");
     return out;
   }
-  const size_t corePixels = region.size();
-
-  // Margin: marginPixels steps of 8-neighbour dilation.
-  size_t layerBegin = 0;
-  for (int step = 0; step < options.marginPixels; ++step) {
-    const size_t layerEnd = region.size();
-    for (size_t i = layerBegin; i < layerEnd; ++i)
-      grid.forNeighbours8(grid.xOf(region[i]), grid.yOf(region[i]), [&](int nx, int ny) {
-        const size_t n = grid.id(nx, ny);
-        if (marks[n] != kNone) return;
-        marks[n] = kRegion;
-        region.push_back(n);
-      });
-    layerBegin = layerEnd;
-  }
-
-  // The boundary: pixels outside the region that the Laplacian couples to it; their median
-  // luminance is the sky level around the source.
-  std::vector<size_t> boundary;
-  for (size_t id : region)
-    grid.forLaplaceNeighbours(grid.xOf(id), grid.yOf(id), [&](int nx, int ny, double) {
-      const size_t n = grid.id(nx, ny);
-      if (marks[n] != kNone) return;
-      marks[n] = kBoundary;
-      boundary.push_back(n);
-    });
-  if (boundary.empty()) {
+  addMargin(grid, options.marginPixels, region);
+  const Ring ring = boundaryRing(equirect, grid, region);
+  if (ring.pixels.empty()) {
     out.reason = "no sun: the region with its margin covers the whole map, nothing is left around it";
     return out;
   }
-  std::vector<double> ringLuminance;
-  ringLuminance.reserve(boundary.size());
-  glm::dvec3 ringMin(std::numeric_limits<double>::max()), ringMax(std::numeric_limits<double>::lowest());
-  for (size_t id : boundary) {
-    const glm::dvec3 c(equirect.pixels[id]);
-    ringLuminance.push_back(luminance(c));
-    ringMin = glm::min(ringMin, c);
-    ringMax = glm::max(ringMax, c);
-  }
-  std::nth_element(ringLuminance.begin(), ringLuminance.begin() + ringLuminance.size() / 2, ringLuminance.end());
-  const double skyLevel = ringLuminance[ringLuminance.size() / 2];
-  if (peak < options.minContrast * skyLevel) {
-    out.reason = cat("no sun: the brightest pixel (", peak, ") is only ", peak / skyLevel,
-                     " times the sky around its region (", skyLevel, "), below ", options.minContrast);
+  if (peak.luminance < options.minContrast * ring.skyLevel) {
+    out.reason = cat("no sun: the brightest pixel (", peak.luminance, ") is only ", peak.luminance / ring.skyLevel,
+                     " times the sky around its region (", ring.skyLevel, "), below ", options.minContrast);
     return out;
   }
 
-  // In-paint (Note 3), the unknowns in row order.
-  std::sort(region.begin(), region.end());
-  std::unordered_map<size_t, int> index;
-  index.reserve(region.size() * 2);
-  for (size_t i = 0; i < region.size(); ++i) index.emplace(region[i], static_cast<int>(i));
-  Laplace lap;
-  const size_t n = region.size();
-  lap.diag.assign(n, 0.0);
-  lap.edges.resize(n);
-  lap.edgeCount.assign(n, 0);
-  lap.lower.assign(n, 0.0);
-  std::vector<double> rhs[3];
-  for (auto& v : rhs) v.assign(n, 0.0);
-  for (size_t i = 0; i < n; ++i) {
-    grid.forLaplaceNeighbours(grid.xOf(region[i]), grid.yOf(region[i]), [&](int nx, int ny, double wgt) {
-      const size_t pixel = grid.id(nx, ny);
-      const auto it = index.find(pixel);
-      const int j = it == index.end() ? -1 : it->second;
-      lap.edges[i][static_cast<size_t>(lap.edgeCount[i]++)] = {j, wgt};
-      lap.diag[i] += wgt;
-      if (j >= 0 && static_cast<size_t>(j) + 1 == i && ny == grid.yOf(region[i])) lap.lower[i] = wgt;
-      if (j < 0)
-        for (int c = 0; c < 3; ++c) rhs[c][i] += wgt * double(equirect.pixels[pixel][c]);
-    });
-  }
-  lap.factor();
-  glm::dvec3 ringMean(0.0);
-  for (size_t id : boundary) ringMean += glm::dvec3(equirect.pixels[id]);
-  ringMean /= double(boundary.size());
-
-  glm::dvec3 power(0.0), moment(0.0);
-  {
-    std::vector<double> background[3];
-    for (int c = 0; c < 3; ++c) background[c] = solveChannel(lap, rhs[c], ringMean[c]);
-    // Residual = min(map, background): the excess map − residual is never negative, and the
-    // two add up to the map pixel by pixel (the float rounding of the background is taken by
-    // the excess, computed from the stored residual). The clamp to the boundary's range is
-    // what the maximum principle gives the exact solution; it guards the solver's last digits.
-    for (size_t i = 0; i < n; ++i) {
-      const size_t id = region[i];
-      const int x = grid.xOf(id), y = grid.yOf(id);
-      const glm::dvec3 map(equirect.pixels[id]);
-      glm::dvec3 b(background[0][i], background[1][i], background[2][i]);
-      b = glm::clamp(b, ringMin, ringMax);
-      const glm::vec3 residual(glm::min(map, b));
-      out.residual.pixels[id] = residual;
-      const glm::dvec3 excess = map - glm::dvec3(residual);
-      power += excess * grid.solidAngle(y);
-      moment += luminance(excess) * grid.moment(x, y);
-    }
-  }
-
-  const double sunLuminance = luminance(power);
+  const Excess excess = inpaint(equirect, grid, region.pixels, ring, out.residual);
+  const double sunLuminance = luminance(excess.power);
   const double share = sunLuminance / mapLuminance;
   if (!(sunLuminance > 0.0) || share < options.minPowerShare) {
     out.residual = equirect;
-    out.reason = cat("no sun: the compact source around the brightest pixel (", peak, "; ", corePixels,
-                     " pixels above ", threshold / peak, " of it) carries ", 100.0 * share,
-                     "% of the map's power, below ", 100.0 * options.minPowerShare, "%");
+    out.reason = cat("no sun: the compact source around the brightest pixel (", peak.luminance, "; ",
+                     region.corePixels, " pixels above ", region.threshold / peak.luminance, " of it) carries ",
+                     100.0 * share, "% of the map's power, below ", 100.0 * options.minPowerShare, "%");
     return out;
   }
 
-  // Note 4: the cap. The excess e has power P = ∫ e dω and first moment M = ∫ e ω dω; its
-  // direction is d = M / |M| (the power-weighted centroid, in luminance), and a surface facing d
-  // receives E = ∫ e (d·ω) dω = |M| (every ω of the region is within maxRadius + the margin of
-  // d, so d·ω > 0). A uniform cap of radius r and radiance L has P = 2π L (1 − cos r) and
-  // E = π L sin² r, so E / P = (1 + cos r) / 2 and
-  //   sin²(r/2) = (1 − cos r) / 2 = 1 − E / P.
-  // The cap of that radius with L = P / (2π(1 − cos r)) has the excess's power and its vector
-  // irradiance E·d exactly (SH bands 0 and 1), and its mean 1 − d·ω (about half the mean
-  // squared angle to d), so its penumbrae have the width the excess's spread gives. The
-  // radius is one number, from luminance; per channel the cap keeps the power (which keeps the
-  // conservation exact) and E_c = P_c (1 + cos r) / 2.
-  ExtractedSun sun;
-  const double momentLength = glm::length(moment);
-  sun.direction = moment / momentLength;
-  const double oneMinusRatio = std::max(0.0, 1.0 - momentLength / sunLuminance);
-  sun.radius = 2.0 * std::asin(std::min(1.0, std::sqrt(oneMinusRatio)));
-  if (sun.radius < kPointSunRadians) sun.radius = 0.0;
-  sun.power = power;
-  sun.irradiance = power * (1.0 + std::cos(sun.radius)) / 2.0;
-  sun.powerShare = share;
-  sun.pixels = n;
+  const ExtractedSun sun = fitCap(excess, share, region.pixels.size());
   out.residualPower = mapPower(out.residual, grid);
   const double elevation = degrees(std::asin(std::clamp(sun.direction.y, -1.0, 1.0)));
   const double azimuth = degrees(std::atan2(sun.direction.x, sun.direction.z));
   out.reason = cat("sun at elevation ", elevation, " degrees, azimuth ", azimuth, " degrees, radius ",
-                   degrees(sun.radius), " degrees, ", 100.0 * share, "% of the map's power; ",
-                   corePixels, " pixels above ", threshold / peak, " of the peak (", peak, "), ", n,
-                   " with the margin, sky around it ", skyLevel);
+                   degrees(sun.radius), " degrees, ", 100.0 * share, "% of the map's power; ", region.corePixels,
+                   " pixels above ", region.threshold / peak.luminance, " of the peak (", peak.luminance, "), ",
+                   region.pixels.size(), " with the margin, sky around it ", ring.skyLevel);
   out.sun = sun;
   return out;
 }

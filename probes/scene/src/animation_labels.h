@@ -1,5 +1,5 @@
-// Names of animation parts for messages, shared by the reader's warnings (gltf_read.cpp) and
-// describeReceivers (animation.cpp).
+// Names of animation parts for messages, shared by the reader's messages
+// (gltf_animation_read.cpp) and describeReceivers (animation.cpp).
 #pragma once
 
 #include <string>

@@ -1,6 +1,7 @@
 // The parsed glTF document and the pieces of the reader that the writers use too. The only
-// header that includes tinygltf: gltf_read.cpp and gltf_write.cpp, which include it, are the
-// only files of prt that see tinygltf.
+// header that includes tinygltf: the reader's files (gltf_read.cpp and the parts gltf_reader.h
+// lists) and the writers' (gltf_write.cpp, gltf_write_lit.cpp, gltf_glb.cpp), which include
+// it, are the only files of prt that see tinygltf.
 #pragma once
 
 #include <algorithm>
@@ -122,7 +123,7 @@ std::vector<uint32_t> toTriangleList(const Gltf& g, int mode, const std::vector<
                                      const std::string& where);
 
 /// The normals of a primitive without NORMAL once its vertices are split for flat normals
-/// (gltf_read.cpp): per vertex, the normalised area-weighted sum of its triangles' normals,
+/// (gltf_primitives.cpp): per vertex, the normalised area-weighted sum of its triangles' normals,
 /// which are one orientation after the split; (0, 1, 0) where no triangle uses the vertex.
 /// The reader and the writer both compute them with this, so a baked file holds the normals
 /// the bake used.

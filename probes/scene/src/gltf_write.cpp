@@ -1,6 +1,6 @@
 // glTF 2.0 writing: writeBakedScene, and the edits it shares with writeLitScene
-// (gltf_write_lit.cpp, through gltf_write.h) on the input model read again. The file itself:
-// gltf_write_file.cpp.
+// (gltf_write_lit.cpp, through gltf_write.h) on the input model read again. The file itself,
+// .glb or .gltf: gltf_glb.cpp.
 #include "prt/scene.h"
 
 #include <algorithm>
@@ -430,29 +430,7 @@ void addPositionBounds(Gltf& g, const std::set<int>& meshes) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-// The steps gltf_write.h shares with gltf_write_lit.cpp and gltf_write_file.cpp
-
-int gltf::appendBufferView(tinygltf::Model& m, int buffer, const void* bytes, size_t size, int target) {
-  std::vector<unsigned char>& data = m.buffers[size_t(buffer)].data;
-  data.resize((data.size() + 3) / 4 * 4, 0);
-  tinygltf::BufferView view;
-  view.buffer = buffer;
-  view.byteOffset = data.size();
-  view.byteLength = size;
-  view.target = target;
-  const auto* p = static_cast<const unsigned char*>(bytes);
-  data.insert(data.end(), p, p + size);
-  m.bufferViews.push_back(view);
-  return static_cast<int>(m.bufferViews.size() - 1);
-}
-
-int gltf::stagingBuffer(tinygltf::Model& m, int& staging) {
-  if (staging < 0) {
-    m.buffers.emplace_back();
-    staging = static_cast<int>(m.buffers.size() - 1);
-  }
-  return staging;
-}
+// The steps gltf_write.h shares with gltf_write_lit.cpp
 
 int gltf::addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec3>& values,
                           const std::string& name) {

@@ -1,7 +1,8 @@
 // The steps both glTF writers take: the input read again and made ready for per-instance
 // vertex data, accessors added (gltf_write.cpp), and the edited model written as a file that
-// the Khronos glTF Validator accepts (gltf_write_file.cpp). writeBakedScene (gltf_write.cpp)
-// and writeLitScene (gltf_write_lit.cpp) are these steps around their own edits.
+// the Khronos glTF Validator accepts (gltf_glb.h). writeBakedScene (gltf_write.cpp) and
+// writeLitScene (gltf_write_lit.cpp) are these steps around their own edits. Private to
+// prt::scene.
 #pragma once
 
 #include <string>
@@ -9,6 +10,7 @@
 
 #include <glm/glm.hpp>
 
+#include "gltf_glb.h"
 #include "gltf_model.h"
 #include "prt/scene.h"
 
@@ -23,21 +25,9 @@ Gltf reloadForWriting(const std::string& inputPath, const Scene& scene, int& sta
 /// The primitive of the reloaded model that instance `inst` is (its node's own mesh).
 tinygltf::Primitive& primitiveOf(tinygltf::Model& m, const MeshInstance& inst);
 
-/// Appends `bytes` as a new buffer view of `buffer` (4-byte aligned, as float data needs).
-int appendBufferView(tinygltf::Model& m, int buffer, const void* bytes, size_t size, int target);
-
-/// The buffer new data goes to before packing (`staging`); created on first use.
-int stagingBuffer(tinygltf::Model& m, int& staging);
-
 /// A float VEC3 accessor over `values`, stored in the staging buffer.
 int addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec3>& values, const std::string& name);
 
 void addExtensionUsed(tinygltf::Model& m, const std::string& name);
-
-/// Writes the model atomically, images embedded and every buffer packed into one: a .glb, or,
-/// where `outPath` ends in .gltf, glTF JSON with the buffer as a data: URI. A perspective
-/// camera's zfar of 0 (an infinite projection, as tinygltf and prt::Camera say it) is left out,
-/// as glTF says it.
-void writeSceneFile(const Gltf& g, tinygltf::Model& m, int& staging, const std::string& outPath);
 
 }  // namespace prt::gltf

@@ -7,9 +7,10 @@
 
 #include <glm/glm.hpp>
 
+#include "prt/math.h"
+
 namespace prt::bake {
 
-constexpr float kPi = 3.14159265358979323846f;
 
 /// SplitMix64: a 64-bit mixer, for per-vertex seeds that do not depend on thread scheduling.
 inline uint64_t splitMix64(uint64_t x) {
@@ -85,7 +86,7 @@ inline glm::vec2 sampleConcentricDisk(const glm::vec2& u) {
   // swap its sine and cosine.
   const bool wide = std::fabs(o.x) > std::fabs(o.y);
   const float r = wide ? o.x : o.y;
-  const float a = (kPi / 4.0f) * (wide ? o.y / o.x : o.x / o.y);
+  const float a = (kPiF / 4.0f) * (wide ? o.y / o.x : o.x / o.y);
   float s, c;
   sinCosQuarter(a, s, c);
   return wide ? glm::vec2(r * c, r * s) : glm::vec2(r * s, r * c);
@@ -93,20 +94,20 @@ inline glm::vec2 sampleConcentricDisk(const glm::vec2& u) {
 inline glm::vec2 invertConcentricDisk(const glm::vec2& p) {
   float r = std::sqrt(p.x * p.x + p.y * p.y);
   float phi = std::atan2(p.y, p.x);
-  if (phi < -kPi / 4.0f) phi += 2.0f * kPi;  // phi in [-π/4, 7π/4)
+  if (phi < -kPiF / 4.0f) phi += 2.0f * kPiF;  // phi in [-π/4, 7π/4)
   float a, b;
-  if (phi < kPi / 4.0f) {  // right wedge: r = a, theta = π/4 · b/a
+  if (phi < kPiF / 4.0f) {  // right wedge: r = a, theta = π/4 · b/a
     a = r;
-    b = phi * a / (kPi / 4.0f);
-  } else if (phi < 3.0f * kPi / 4.0f) {  // top: r = b, theta = π/2 - π/4 · a/b
+    b = phi * a / (kPiF / 4.0f);
+  } else if (phi < 3.0f * kPiF / 4.0f) {  // top: r = b, theta = π/2 - π/4 · a/b
     b = r;
-    a = (kPi / 2.0f - phi) * b / (kPi / 4.0f);
-  } else if (phi < 5.0f * kPi / 4.0f) {  // left: r = -a = |a|
+    a = (kPiF / 2.0f - phi) * b / (kPiF / 4.0f);
+  } else if (phi < 5.0f * kPiF / 4.0f) {  // left: r = -a = |a|
     a = -r;
-    b = (phi - kPi) * a / (kPi / 4.0f);
+    b = (phi - kPiF) * a / (kPiF / 4.0f);
   } else {  // bottom: r = -b
     b = -r;
-    a = (kPi / 2.0f - (phi - kPi)) * b / (kPi / 4.0f);
+    a = (kPiF / 2.0f - (phi - kPiF)) * b / (kPiF / 4.0f);
   }
   return (glm::vec2(a, b) + 1.0f) * 0.5f;
 }
@@ -117,17 +118,17 @@ inline glm::vec3 sampleCosineHemisphere(const glm::vec2& u) {
   float z = std::sqrt(std::max(0.0f, 1.0f - d.x * d.x - d.y * d.y));
   return {d.x, d.y, z};
 }
-inline float cosineHemispherePdf(float cosTheta) { return cosTheta > 0.0f ? cosTheta / kPi : 0.0f; }
+inline float cosineHemispherePdf(float cosTheta) { return cosTheta > 0.0f ? cosTheta / kPiF : 0.0f; }
 inline glm::vec2 invertCosineHemisphere(const glm::vec3& w) { return invertConcentricDisk({w.x, w.y}); }
 
 /// Uniform direction on the sphere, pdf 1 / (4π).
 inline glm::vec3 sampleUniformSphere(const glm::vec2& u) {
   float z = 1.0f - 2.0f * u.x;
   float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-  float phi = 2.0f * kPi * u.y;
+  float phi = 2.0f * kPiF * u.y;
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
-inline float uniformSpherePdf() { return 1.0f / (4.0f * kPi); }
+inline float uniformSpherePdf() { return 1.0f / (4.0f * kPiF); }
 
 /// sampleUniformSphere of the point (bx · 2⁻²⁴, by · 2⁻²⁴), bx, by < 2²⁴ (sobol0Bits,
 /// sobol1Bits), within 2e-7 of it: φ = 2π · by · 2⁻²⁴ is split exactly, in integers, into its
@@ -137,7 +138,7 @@ inline glm::vec3 uniformSphereFromBits(uint32_t bx, uint32_t by) {
   const float z = 1.0f - 2.0f * (float(bx) * 0x1p-24f);
   const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
   const uint32_t q = (by + (1u << 21)) >> 22;  // the nearest quarter turn, 0 … 4
-  const float a = float(int32_t(by) - int32_t(q << 22)) * (0x1p-22f * 0.5f * kPi);
+  const float a = float(int32_t(by) - int32_t(q << 22)) * (0x1p-22f * 0.5f * kPiF);
   float s, c;
   sinCosQuarter(a, s, c);
   const uint32_t k = q & 3u;  // rotate (cos a, sin a) by k quarter turns
@@ -147,8 +148,8 @@ inline glm::vec3 uniformSphereFromBits(uint32_t bx, uint32_t by) {
 }
 inline glm::vec2 invertUniformSphere(const glm::vec3& w) {
   float phi = std::atan2(w.y, w.x);
-  if (phi < 0.0f) phi += 2.0f * kPi;
-  return {(1.0f - w.z) * 0.5f, phi / (2.0f * kPi)};
+  if (phi < 0.0f) phi += 2.0f * kPiF;
+  return {(1.0f - w.z) * 0.5f, phi / (2.0f * kPiF)};
 }
 
 /// Orthonormal frame about a unit normal (Duff et al. 2017, branchless).

@@ -11,6 +11,8 @@
 
 #include "prt/bake/checkpoint.h"
 #include "prt/bake/ray_scene.h"
+#include "prt/bake/stats.h"
+#include "prt/bake/surface_layout.h"
 #include "prt/bake_record.h"
 #include "prt/scene.h"
 
@@ -41,29 +43,6 @@ constexpr int kMaxBounces = 64;
 
 /// Throws prt::Error if a setting is out of range; the message names the field.
 void validate(const BakeSettings& s);
-
-struct StageStats {
-  std::string name;       // "direct", "bounce 1", ...
-  double seconds = 0.0;
-  uint64_t rays = 0;
-  // The direct pass: time inside Embree's calls, all threads of this process together (so up to
-  // threads × seconds), measured in the bake (prt_bench_bake's share not tracing).
-  double traceSeconds = 0.0;
-};
-
-struct BakeStats {
-  uint64_t vertices = 0;
-  uint64_t backVertices = 0;  // back sides baked (vertices of double-sided instances)
-  uint64_t rays = 0;        // cast by this run (a resumed bake casts only what was left)
-  bool resumed = false;     // continued from a checkpoint
-  uint64_t hitRecords = 0;  // rays that hit a front face or a double-sided back (kept for the bounces)
-  double seconds = 0.0;
-  std::vector<StageStats> stages;
-};
-
-/// True when the instance's back side is baked too: a baked (non-receiver) instance of a
-/// double-sided material. Its transfer then has 2 × vertexCount entries per coefficient set.
-bool bakesBackSide(const Scene& scene, const MeshInstance& m);
 
 struct SurfaceTransfer {
   int bands = 0;

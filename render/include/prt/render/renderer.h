@@ -135,6 +135,17 @@ struct Frame {
   /// centroid of its covered samples on an edge) and the written pixel is the mean of its
   /// samples: pixels that one surface covers entirely are unchanged.
   int samples = 1;
+
+  /// Takes a rig's light of the frame: `light`, `directLight` and `direct` from `rig` (moved),
+  /// and the gathered vertex light (`directBounce`, `directBounceBack`; null for none).
+  void setLight(RigLighting&& rig, const std::vector<std::vector<glm::vec3>>* bounce = nullptr,
+                const std::vector<std::vector<glm::vec3>>* bounceBack = nullptr) {
+    light = std::move(rig.sh);
+    directLight = std::move(rig.directSh);
+    direct = std::move(rig.direct);
+    directBounce = bounce;
+    directBounceBack = bounceBack;
+  }
 };
 
 inline constexpr int kMaxBackgroundMaps = 8;

@@ -1,8 +1,12 @@
-// From an edited model to the file on disk (gltf::writeSceneFile): images embedded, what nothing
-// refers to left out, one packed buffer, then a .glb (or .gltf) that the Khronos glTF Validator
-// accepts, written atomically.
+// The container the writers' edited model goes into (gltf_glb.h): images embedded with their
+// original encoded bytes, every buffer view still referred to packed into one buffer, accessor
+// bounds made exact, and the file written atomically as a .glb (or as .gltf JSON with a data:
+// URI) that the Khronos glTF Validator accepts.
+#include "gltf_glb.h"
+
 #include <algorithm>
 #include <cctype>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -13,18 +17,37 @@
 
 #include <nlohmann/json.hpp>
 
-#include "gltf_write.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
 
-namespace prt {
-
-using namespace gltf;
-
-namespace {
+namespace prt::gltf {
 
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
+
+int appendBufferView(tinygltf::Model& m, int buffer, const void* bytes, size_t size, int target) {
+  std::vector<unsigned char>& data = m.buffers[size_t(buffer)].data;
+  data.resize((data.size() + 3) / 4 * 4, 0);
+  tinygltf::BufferView view;
+  view.buffer = buffer;
+  view.byteOffset = data.size();
+  view.byteLength = size;
+  view.target = target;
+  const auto* p = static_cast<const unsigned char*>(bytes);
+  data.insert(data.end(), p, p + size);
+  m.bufferViews.push_back(view);
+  return static_cast<int>(m.bufferViews.size() - 1);
+}
+
+int stagingBuffer(tinygltf::Model& m, int& staging) {
+  if (staging < 0) {
+    m.buffers.emplace_back();
+    staging = static_cast<int>(m.buffers.size() - 1);
+  }
+  return staging;
+}
+
+namespace {
 
 /// tinygltf image writer callback that writes nothing: the writers embed every image as a
 /// buffer view first, and an image they could not read keeps its URI as it was.
@@ -259,7 +282,7 @@ bool endsInGltf(const std::string& path) {
 
 }  // namespace
 
-void gltf::writeSceneFile(const Gltf& g, tinygltf::Model& m, int& staging, const std::string& outPath) {
+void writeSceneFile(const Gltf& g, tinygltf::Model& m, int& staging, const std::string& outPath) {
   m.asset.generator = "prt";
   embedImages(m, staging);
   packIntoOneBuffer(g, m);
@@ -278,4 +301,4 @@ void gltf::writeSceneFile(const Gltf& g, tinygltf::Model& m, int& staging, const
   file.commit();
 }
 
-}  // namespace prt
+}  // namespace prt::gltf

@@ -1,14 +1,14 @@
 """Cycles' per-vertex reference of a glTF scene: exitant radiance at every vertex, baked by
-Cycles to a float colour attribute, for tools/vertex_validation.sh (docs/validation.md).
+Cycles to a float colour attribute, for tools/validation/real_maps_validation.sh (docs/validation.md).
 
 Run inside Blender 3.4, not with python3:
 
-    blender -b --factory-startup --python tools/cycles_vertex_reference.py -- \
+    blender -b --factory-startup --python tools/validation/cycles_vertex_reference.py -- \
         --scene ROOM.gltf --env MAP.hdr --bounces 8 --samples 512 --seeds 1,2 -o OUT.csv
 
 Scene, materials (Lambertian Diffuse BSDF with the glTF baseColorFactor), world (the map,
 "Closest" interpolation, `--env-rotate` as prt's) and Cycles settings (no clamping, denoising,
-adaptive sampling; diffuse bounces = total bounces = K) are those of tools/cycles_reference.py,
+adaptive sampling; diffuse bounces = total bounces = K) are those of tools/validation/cycles_reference.py,
 whose functions this script uses.
 
 The bake: `bpy.ops.object.bake(type='DIFFUSE', pass_filter={'DIRECT', 'INDIRECT', 'COLOR'},

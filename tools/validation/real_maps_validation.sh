@@ -2,25 +2,25 @@
 # prt against Blender Cycles under real HDR maps, per vertex and per frame (docs/validation.md,
 # "Real maps, per vertex and per frame"; issue 12).
 #
-#   tools/real_maps_validation.sh [OUTDIR] [MAP...]
-#       OUTDIR default build/real_validation; MAPs default ../shared/hdri/royal_esplanade_1k.hdr
-#       and ../shared/hdri/venice_sunset_1k.hdr (any equirectangular .hdr/.exr path; nothing is
-#       copied into the repository)
+#   tools/validation/real_maps_validation.sh OUTDIR MAP [MAP...]
+#       OUTDIR: where everything is written (e.g. build/real_validation); MAP: equirectangular
+#       .hdr/.exr maps (e.g. Poly Haven's royal_esplanade_1k.hdr and venice_sunset_1k.hdr; nothing
+#       is copied into the repository). Relative paths are taken from the current folder.
 #
-# The scene is the Cornell-style room of tools/validation_room.py (2 x 2 x 2 m, a 0.8 m skylight,
+# The scene is the Cornell-style room of tools/validation/validation_room.py (2 x 2 x 2 m, a 0.8 m skylight,
 # the front side open, vertices 0.1 m apart), written into OUTDIR. For every map:
-#   Cycles (Blender 3.4): tools/cycles_vertex_reference.py bakes the exitant radiance at every
+#   Cycles (Blender 3.4): tools/validation/cycles_vertex_reference.py bakes the exitant radiance at every
 #     vertex (8 diffuse bounces, VSAMPLES samples for each of 2 seeds; CSAMPLES for the
 #     controls), and
-#     tools/cycles_reference.py renders the camera outside the open side (8 bounces, FSAMPLES, SIZE,
+#     tools/validation/cycles_reference.py renders the camera outside the open side (8 bounces, FSAMPLES, SIZE,
 #     a box pixel filter one pixel wide: each pixel the mean over its square);
 #   prt: `prt bake --bounces 8` at 3 bands, `prt relight --csv` and `prt render` (at SIZE, whose
 #     shadows are filtered over each pixel's square; at SUPERSAMPLE > 1 rendered that many times
 #     larger and averaged down by the comparison: the same mean over each pixel's square), "before"
 #     (--no-direct-lights, and with the map's sun extraction off where prt has that option) and
 #     "after" (default options);
-#   tools/vertex_compare.py (per vertex: median, p95 of the relative error, Cycles' noise) and
-#     tools/cycles_compare.py (per face and tile, eroded away from edges; RMS over regions).
+#   tools/validation/vertex_compare.py (per vertex: median, p95 of the relative error, Cycles' noise) and
+#     tools/validation/cycles_compare.py (per face and tile, eroded away from edges; RMS over regions).
 # Controls: the uniform white sky (band 0: prt exact; checks units rho E / pi) at 8 and at 0
 # bounces (the bounce count), and the lobes sky (bands 0-4) at 6 bands (orientation; exact) and
 # at 3 bands.
@@ -32,12 +32,16 @@
 # BAKE_SAMPLES (default 4096), BLENDER, PRT, THREADS, NO_SUN_OPTION (the prt option that turns
 # the map's sun extraction off; default: found in `prt relight --help`, else none).
 set -euo pipefail
-cd "$(dirname "$0")/.."
 
-OUT=${1:-build/real_validation}
-shift || true
-MAPS=("$@")
-[ ${#MAPS[@]} -gt 0 ] || MAPS=(../shared/hdri/royal_esplanade_1k.hdr ../shared/hdri/venice_sunset_1k.hdr)
+if [ $# -lt 2 ]; then
+  echo "usage: tools/validation/real_maps_validation.sh OUTDIR MAP [MAP...]   (docs/validation.md)" >&2
+  exit 2
+fi
+OUT=$(realpath -m -- "$1")
+shift
+MAPS=()
+for m in "$@"; do MAPS+=("$(realpath -m -- "$m")"); done
+cd "$(dirname "$0")/../.."
 VSAMPLES=${VSAMPLES:-1024}
 CSAMPLES=${CSAMPLES:-128}
 FSAMPLES=${FSAMPLES:-1024}
@@ -58,8 +62,8 @@ for m in "${MAPS[@]}"; do [ -f "$m" ] || { echo "real_maps_validation.sh: $m: no
 NO_SUN_OPTION=${NO_SUN_OPTION-$("$PRT" relight --help | grep -oE -- '--no-[a-z-]*(sun|extract)[a-z-]*' | head -1 || true)}
 mkdir -p "$OUT"
 SCENE="$OUT/room.gltf"
-"$PY" tools/validation_room.py "$OUT" >/dev/null
-"$PY" tools/cycles_compare.py lobes "$OUT/lobes_256.exr"
+"$PY" tools/validation/validation_room.py "$OUT" >/dev/null
+"$PY" tools/validation/cycles_compare.py lobes "$OUT/lobes_256.exr"
 
 # matches FILE.json KEY=VALUE...: the Cycles result's settings are these.
 matches() {
@@ -79,7 +83,7 @@ cycles_vertex() {
   local csv="$OUT/cyc_v_$1.csv" k=${4:-$BOUNCES}
   if matches "$csv" env="$2" samples="$3" bounces="$k"; then echo "reusing $csv"; return; fi
   rm -f "$csv" "$csv.json"
-  "$BLENDER" -b --factory-startup --python tools/cycles_vertex_reference.py -- --scene "$SCENE" --env "$2" \
+  "$BLENDER" -b --factory-startup --python tools/validation/cycles_vertex_reference.py -- --scene "$SCENE" --env "$2" \
     --bounces "$k" --samples "$3" --seeds 1,2 --threads "$THREADS" -o "$csv" | grep -E '^(cycles_|Error)' || true
   [ -f "$csv" ] || { echo "real_maps_validation.sh: Cycles bake $csv failed" >&2; exit 1; }
 }
@@ -89,7 +93,7 @@ cycles_frame() {
   local exr="$OUT/cycles_$1.exr"
   if matches "$exr" env="$2" samples="$FSAMPLES" bounces="$BOUNCES" size="[${SIZE/x/, }]" pixel_filter=box; then echo "reusing $exr"; return; fi
   rm -f "$exr" "$exr.json"
-  "$BLENDER" -b --factory-startup --python tools/cycles_reference.py -- --scene "$SCENE" --env "$2" \
+  "$BLENDER" -b --factory-startup --python tools/validation/cycles_reference.py -- --scene "$SCENE" --env "$2" \
     --bounces "$BOUNCES" --samples "$FSAMPLES" --size "$SIZE" --camera Camera --pixel-filter box --threads "$THREADS" -o "$exr" \
     | grep -E '^(cycles_|Error)' || true
   [ -f "$exr" ] || { echo "real_maps_validation.sh: Cycles render $exr failed" >&2; exit 1; }
@@ -110,11 +114,11 @@ case_() {
   [ "$k" != "$spec" ] || k=$BOUNCES
   local glb; glb=$(bake "$bands" "$k")
   "$PRT" relight "$glb" --env "$map" "$@" -o "$OUT/prt_$name.glb" --csv "$OUT/prt_$name.csv" -q
-  "$PY" tools/vertex_compare.py "$OUT/cyc_v_$ref.csv" "$OUT/prt_$name.csv" --name "$name: Cycles $ref vs prt $bands bands $*" \
+  "$PY" tools/validation/vertex_compare.py "$OUT/cyc_v_$ref.csv" "$OUT/prt_$name.csv" --name "$name: Cycles $ref vs prt $bands bands $*" \
     --json "$OUT/vertex_$name.json"
   if [ -f "$OUT/cycles_$ref.exr" ]; then
     "$PRT" render "$glb" --env "$map" "$@" --size "$PRT_SIZE" --camera Camera --exr-compression none -q -o "$OUT/prt_$name.exr"
-    "$PY" tools/cycles_compare.py compare "$OUT/cycles_$ref.exr" "$OUT/prt_$name.exr" --min-pixels 30 \
+    "$PY" tools/validation/cycles_compare.py compare "$OUT/cycles_$ref.exr" "$OUT/prt_$name.exr" --min-pixels 30 \
       --name "frame $name: Cycles $ref vs prt $bands bands $*" || true
   fi
   echo
@@ -148,5 +152,5 @@ rows=()
 for n in "${names[@]}"; do
   [ -f "$OUT/prt_${n}_after.exr" ] && rows+=("$OUT/cycles_$n.exr,$OUT/prt_${n}_before.exr,$OUT/prt_${n}_after.exr")
 done
-[ ${#rows[@]} -eq 0 ] || "$PY" tools/cycles_compare.py sheet "$OUT/validation_real_maps.png" --exposure 1.0 "${rows[@]}"
+[ ${#rows[@]} -eq 0 ] || "$PY" tools/validation/cycles_compare.py sheet "$OUT/validation_real_maps.png" --exposure 1.0 "${rows[@]}"
 echo "real_maps_validation.sh: done (reports only)"

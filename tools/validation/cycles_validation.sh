@@ -1,15 +1,16 @@
 #!/usr/bin/env bash
 # End-to-end check of prt's radiance against Blender Cycles (docs/validation.md).
 #
-#   tools/cycles_validation.sh [OUTDIR]        (default build/validation)
+#   tools/validation/cycles_validation.sh [OUTDIR]   (default build/validation in the repository;
+#                                                     a relative OUTDIR is taken from the current folder)
 #
 # Needs build/tools/prt (bash tools/setup.sh demo, or any build) and Blender 3.4
 # (`apt-get install blender`: a validation tool, not a dependency of the build or the tests).
 # For each case Cycles renders scenes/cornell_open.gltf without its receiver
-# (tools/cycles_reference.py) and prt bakes and renders the same camera; the two linear EXRs are
+# (tools/validation/cycles_reference.py) and prt bakes and renders the same camera; the two linear EXRs are
 # compared region by region (object faces from Cycles' object-index and normal passes, and a
 # 4x3 grid of image tiles; every mask eroded by 2 pixels away from edges) by
-# tools/cycles_compare.py (python3, standard library only).
+# tools/validation/cycles_compare.py (python3, standard library only).
 #
 # Skies: white_sky_64.hdr (uniform, band 0 only) and a generated "lobes" sky (one positive
 # polynomial lobe of degree 4 per colour channel, towards +X, +Z and -X: exactly bands 0-4, so
@@ -26,9 +27,9 @@
 # --samples, default 4096), SIZE (default 160x90), TOL (default 0.03), BLENDER, PRT, THREADS.
 # Existing Cycles renders in OUTDIR are reused when their .json matches (delete them to redo).
 set -euo pipefail
-cd "$(dirname "$0")/.."
-
-OUT=${1:-build/validation}
+[ $# -le 1 ] || { echo "usage: tools/validation/cycles_validation.sh [OUTDIR]" >&2; exit 2; }
+OUT=$(realpath -m -- "${1:-$(dirname "$0")/../../build/validation}")
+cd "$(dirname "$0")/../.."
 SAMPLES=${SAMPLES:-1024}
 BAKE_SAMPLES=${BAKE_SAMPLES:-4096}
 SIZE=${SIZE:-160x90}
@@ -47,7 +48,7 @@ command -v "$BLENDER" >/dev/null || { echo "cycles_validation.sh: $BLENDER not f
 [ -x "$PRT" ] || { echo "cycles_validation.sh: $PRT not found (build prt first)" >&2; exit 1; }
 mkdir -p "$OUT"
 
-COMPARE_PY=$(cat tools/cycles_compare.py)  # compare | sheet | lobes (standard library only)
+COMPARE_PY=$(cat tools/validation/cycles_compare.py)  # compare | sheet | lobes (standard library only)
 
 # cycles NAME ENV ROTATE [BOUNCES]: Cycles reference of the scene, reused if its settings match.
 cycles() {
@@ -57,7 +58,7 @@ sys.exit(0 if (m['env'],m['env_rotate_deg'],m['samples'],m['bounces'],m['size'])
     echo "reusing $exr"
   else
     rm -f "$exr" "$exr.json"
-    nice "$BLENDER" -b --factory-startup --python tools/cycles_reference.py -- --scene "$SCENE" \
+    nice "$BLENDER" -b --factory-startup --python tools/validation/cycles_reference.py -- --scene "$SCENE" \
       --remove Receiver --env "$2" --env-rotate "$3" --bounces "$k" --samples "$SAMPLES" \
       --size "$SIZE" --camera "$CAMERA" --threads "$THREADS" -o "$exr" | grep -E '^(cycles_reference|Error)' || true
     [ -f "$exr" ] || { echo "cycles_validation.sh: Cycles render $exr failed" >&2; exit 1; }

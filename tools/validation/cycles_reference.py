@@ -2,7 +2,7 @@
 
 Run inside Blender 3.4 (Debian package `blender`), not with python3:
 
-    blender -b --factory-startup --python tools/cycles_reference.py -- \
+    blender -b --factory-startup --python tools/validation/cycles_reference.py -- \
         --scene scenes/cornell_open.gltf --remove Receiver \
         --env scenes/env/white_sky_64.hdr --bounces 2 --samples 1024 \
         --size 160x90 --camera Camera -o out/cycles.exr
@@ -26,7 +26,7 @@ so it gets -DEG.
 Output: an uncompressed 32-bit multilayer EXR with the passes Combined (linear radiance: no
 view transform applies to multilayer EXR; "Standard" and exposure 0 are set anyway), Normal
 (world normals, Blender axes) and IndexOB (object pass index), and OUTPUT.json with the
-object indices and the settings used. tools/cycles_validation.sh reads both.
+object indices and the settings used. tools/validation/cycles_validation.sh reads both.
 """
 
 import argparse

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Per-vertex comparison of prt relight's radiance with Cycles' (docs/validation.md, "Per vertex").
 
-    python3 tools/vertex_compare.py CYCLES.csv PRT.csv [--name S] [--floor F] [--json OUT.json]
+    python3 tools/validation/vertex_compare.py CYCLES.csv PRT.csv [--name S] [--floor F] [--json OUT.json]
 
-CYCLES.csv: tools/cycles_vertex_reference.py (one colour per seed); PRT.csv: `prt relight --csv`
+CYCLES.csv: tools/validation/cycles_vertex_reference.py (one colour per seed); PRT.csv: `prt relight --csv`
 (docs/formats.md). Standard library only.
 
 Matching: a Cycles vertex and a prt row match when their positions agree to 0.1 mm and their

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes the Cornell-style room of issue 12's validation (docs/validation.md, "Per vertex"):
 
-    python3 tools/validation_room.py OUTDIR        # writes OUTDIR/room.gltf and OUTDIR/room.bin
+    python3 tools/validation/validation_room.py OUTDIR        # writes OUTDIR/room.gltf and OUTDIR/room.bin
 
 A 2 x 2 x 2 m room (floor y = 0, ceiling y = 2, walls at x = +-1 and z = -1) with a 0.8 m square
 skylight in the ceiling and the front side (z = +1) open, the two Cornell boxes of
@@ -15,7 +15,7 @@ input, not a bundled scene.
 import os
 import sys
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scenes"))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scenes"))
 import make_scenes as ms  # noqa: E402
 
 CELL = 0.1

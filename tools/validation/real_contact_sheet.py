@@ -1,11 +1,12 @@
 #!/usr/bin/python3
 """Bakes, relights and renders every real scene of a folder, and joins the frames in a sheet.
 
-    /usr/bin/python3 tools/real_contact_sheet.py REAL_DIR HDRI OUT_DIR [--samples N]
+    /usr/bin/python3 tools/validation/real_contact_sheet.py REAL_DIR HDRI OUT_DIR [--samples N]
 
-REAL_DIR holds the scenes of ../shared/real (a developer's checkout has it; tests never read
-it). Each scene goes through prt bake --probes, prt relight, prt render and prt info with
-default options but --samples (speed), then is rendered under HDRI with --background sky.
+REAL_DIR holds the real scenes of SCENES below, each in its own folder (zdm2/zdm2.glb, ...;
+not in the repository, and tests never read it). Each scene goes through prt bake --probes,
+prt relight, prt render and prt info with default options but --samples (speed), then is
+rendered under HDRI with --background sky.
 Cameras: an object, an open scene or a sealed map (no distant light inside) gets the default
 orbit (its framing box, prt render), a closed map with openings a camera inside it, at the valid probe of the baked grid that sees least sky among
 the most open ones (largest mean hit depth), looking along the level. Writes OUT_DIR/NAME.png,
@@ -20,7 +21,7 @@ import time
 import numpy as np
 import pyopenvdb as vdb
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 PRT = os.path.join(ROOT, "build", "tools", "prt")
 
 # name, file, closed map (camera inside), probe spacing (scene units), exposure

@@ -1,0 +1,103 @@
+// The light of a frame on a baked scene, as `prt render` and `prt relight` light it
+// (docs/lights.md): the rig's SH light with its direct lights (suns, small disks) apart, and what
+// the bake's own rays gather at the baked vertices, traced once per object: the direct lights'
+// bounces ("Their bounces") and the sky's light beyond the SH band limit ("Sky detail"). A frame
+// whose direct lights and sky are those of the frame gathered last reuses that gather.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "prt/bake/direct_light.h"
+#include "prt/bake/ray_scene.h"
+#include "prt/light_rig.h"
+#include "prt/scene.h"
+
+namespace prt::bake {
+
+struct FrameLightingSettings {
+  /// False: every light through the SH transfer (no direct light apart, nothing gathered).
+  bool directLights = true;
+  /// Rays per baked vertex (the bake's first ones) that gather the direct lights' bounces and
+  /// the sky detail; 0: both through the SH transfer.
+  int gatherSamples = 256;
+  /// False: the sky through the SH transfer alone, without its light beyond the band limit.
+  bool skyDetail = true;
+  /// True: the direct lights' shadowed light is part of FrameLight::vertexLight (a relit
+  /// .glb). False: it is lit elsewhere (per pixel, by the renderer), and only what it sends on
+  /// is gathered here.
+  bool directAtVertices = false;
+  /// Shadow rays per direct light and vertex for the light at the vertices, or for the light
+  /// whose bounces are gathered.
+  int shadowSamples = 64;
+  int threads = 0;  // 0 = all cores
+};
+
+struct FrameLight {
+  /// The rig at the frame on the scene's bands: `sh` lit through the transfer, `direct` apart.
+  /// With directAtVertices and the bounces gathered, `directSh` is zero (nothing of the direct
+  /// lights goes through the transfer); in a bake without the direct part (an older prt's) the
+  /// direct lights are moved into `sh` (foldedLights).
+  RigLighting rig;
+  /// Per instance and side (DirectIrradiance's layout), irradiance added at the baked vertices;
+  /// null when nothing is. directAtVertices: E⁰ + Δ + E_b (the direct lights' shadowed light, the
+  /// sky detail, their bounces); else E_b + Δ. Valid until the next at().
+  const DirectIrradiance* vertexLight = nullptr;
+  size_t foldedLights = 0;
+  bool updated = false;  // vertexLight was gathered for this frame (not reused)
+  double seconds = 0.0;  // this frame's light: the rig, shadow rays and gather (not the trace)
+};
+
+struct FrameLightingStats {
+  uint64_t gatherRays = 0;  // traced once, from every baked vertex
+  double traceSeconds = 0.0;
+  int updates = 0;          // frames whose vertex light was gathered
+  uint64_t shadowRays = 0;  // over all updates
+  double updateSeconds = 0.0, shadowSeconds = 0.0, gatherSeconds = 0.0;  // over all updates
+};
+
+/// The light of each frame of a rig on a baked scene. Which gathers it makes is decided at the
+/// first at() (the set of direct lights is the same in every frame: their types and radii
+/// decide); the bake's rays are traced then.
+class FrameLighting {
+public:
+  /// `scene` (baked) and `rig` (prepared for the scene's bands, or not) must outlive this.
+  FrameLighting(const Scene& scene, const LightRig& rig, const FrameLightingSettings& settings);
+  ~FrameLighting();
+  FrameLighting(const FrameLighting&) = delete;
+  FrameLighting& operator=(const FrameLighting&) = delete;
+
+  /// The light at `frame`.
+  FrameLight at(double frame);
+
+  /// Whether the bake's rays gather (a bounce or the sky detail), and whether the sky detail is
+  /// among it; false until the first at().
+  bool gathers() const;
+  bool skyDetail() const;
+  const FrameLightingStats& stats() const;
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The rig's lighting at `frame` on `bands` bands with its direct lights apart
+/// (LightRig::evaluateLighting), or with `directLights` false everything in `sh`.
+RigLighting rigLighting(const LightRig& rig, double frame, int bands, bool directLights);
+
+/// Direct lights' shadowed irradiance at arbitrary points of a baked scene whose rays are built
+/// once (shadowedDirectIrradianceAt), for a command that asks many times.
+class PointShadows {
+public:
+  explicit PointShadows(const Scene& scene) : rays_(scene) {}
+  std::vector<glm::vec3> irradiance(const std::vector<glm::vec3>& points, const std::vector<glm::vec3>& normals,
+                                    const std::vector<DirectLight>& lights, const ShadowSettings& settings) const;
+
+private:
+  RayScene rays_;
+};
+
+}  // namespace prt::bake

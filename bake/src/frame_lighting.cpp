@@ -1,0 +1,170 @@
+// The light of a frame on a baked scene (prt/bake/frame_lighting.h).
+#include "prt/bake/frame_lighting.h"
+
+#include <algorithm>
+#include <chrono>
+#include <optional>
+
+#include "prt/bake_record.h"
+#include "prt/relight.h"
+
+namespace prt::bake {
+
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+bool sameLights(const std::vector<DirectLight>& x, const std::vector<DirectLight>& y) {
+  return x.size() == y.size() && std::equal(x.begin(), x.end(), y.begin(), [](const DirectLight& p, const DirectLight& q) {
+           return p.direction == q.direction && p.radius == q.radius && p.irradiance == q.irradiance;
+         });
+}
+
+// A bake from before the transfer's direct part: its direct lights go through the whole
+// transfer, as they did then. Returns how many.
+size_t foldIntoSh(RigLighting& l, int bands) {
+  const size_t n = l.direct.size();
+  if (n == 0) return 0;
+  l.sh += l.directSh;
+  l.directSh = sh::ShRgb(bands);
+  l.direct.clear();
+  return n;
+}
+
+}  // namespace
+
+RigLighting rigLighting(const LightRig& rig, double frame, int bands, bool directLights) {
+  if (directLights) return rig.evaluateLighting(frame, bands);
+  RigLighting l;
+  l.sh = rig.evaluate(frame, bands);
+  l.directSh = sh::ShRgb(bands);
+  return l;
+}
+
+std::vector<glm::vec3> PointShadows::irradiance(const std::vector<glm::vec3>& points,
+                                                const std::vector<glm::vec3>& normals,
+                                                const std::vector<DirectLight>& lights,
+                                                const ShadowSettings& settings) const {
+  return shadowedDirectIrradianceAt(rays_, points, normals, lights, settings);
+}
+
+struct FrameLighting::Impl {
+  const Scene& scene;
+  const LightRig& rig;
+  FrameLightingSettings settings;
+  BakeRecord record;
+  bool decided = false;
+  bool sky = false;          // the sky detail is gathered
+  bool traceDirect = false;  // the direct lights' shadow rays are traced
+  std::unique_ptr<DirectBounce> gather;
+  std::optional<RayScene> rays;  // the static scene, for the direct lights' shadow rays
+  double setupSeconds = 0.0;
+  // The last gather and what it was for.
+  DirectIrradiance light;
+  std::vector<DirectLight> lightFor;
+  sh::ShRgb skyFor;
+  FrameLightingStats stats;
+
+  Impl(const Scene& s, const LightRig& r, const FrameLightingSettings& fs)
+      : scene(s), rig(r), settings(fs), record(s.bakeRecord.value_or(BakeRecord{})) {}
+
+  // Which gathers the frames need, from the first frame's lights: the bake's rays gather where
+  // the bake kept the direct part, the sky detail unless it is off, and the direct lights'
+  // bounces where there are lights and the bake has bounces. Traces the rays.
+  void decide(const RigLighting& first) {
+    decided = true;
+    const auto t0 = std::chrono::steady_clock::now();
+    const bool gatherable = settings.gatherSamples > 0 && settings.directLights && hasDirectTransfer(scene);
+    sky = gatherable && settings.skyDetail;
+    const bool directBounces = gatherable && !first.direct.empty() && record.bounces > 0;
+    traceDirect = settings.directAtVertices ? !first.direct.empty() : directBounces;
+    if (traceDirect) rays.emplace(scene);
+    if (sky || directBounces) {
+      BounceSettings bs;
+      bs.samples = settings.gatherSamples;
+      bs.bounces = record.bounces;
+      bs.seed = record.seed;
+      bs.threads = settings.threads;
+      gather = std::make_unique<DirectBounce>(scene, bs);
+      stats.gatherRays = gather->rays();
+      stats.traceSeconds = gather->traceSeconds();
+    }
+    setupSeconds += secondsSince(t0);
+  }
+
+  bool needsVertexLight(const RigLighting& l) const {
+    return settings.directAtVertices ? !l.direct.empty() || sky : gather != nullptr;
+  }
+  bool stale(const RigLighting& l) const {
+    return stats.updates == 0 || (sky && l.sh.c != skyFor.c) || !sameLights(l.direct, lightFor);
+  }
+
+  // E⁰, the direct lights' shadowed light (at the vertices, or only what they bounce: dark
+  // when nothing of it bounces), plus the sky's detail Δ (added per vertex, and bounced), then
+  // their bounces E_b; per pixel the renderer lights E⁰ itself.
+  void update(double frame, const RigLighting& l) {
+    const auto t0 = std::chrono::steady_clock::now();
+    ShadowSettings ss;
+    ss.samples = settings.shadowSamples;
+    ss.threads = settings.threads;
+    DirectIrradiance lit = traceDirect ? shadowedDirectIrradiance(scene, *rays, l.direct, ss)
+                                       : shadowedDirectIrradiance(scene, {}, ss);
+    stats.shadowSeconds += lit.seconds;
+    stats.shadowRays += lit.rays;
+    DirectIrradiance delta;
+    if (sky) {
+      delta = gather->skyDetail(rig.shRadiance(frame), l.sh);
+      addIrradiance(lit, delta);
+      stats.gatherSeconds += delta.seconds;
+    }
+    if (settings.directAtVertices) {
+      if (gather && record.bounces > 0) {
+        const DirectIrradiance bounced = gather->bounce(lit);
+        addIrradiance(lit, bounced);
+        stats.gatherSeconds += bounced.seconds;
+      }
+      light = std::move(lit);
+    } else {
+      light = gather->bounce(lit);
+      stats.gatherSeconds += light.seconds;
+      if (sky) addIrradiance(light, delta);
+    }
+    lightFor = l.direct;
+    skyFor = l.sh;
+    stats.updateSeconds += secondsSince(t0);
+    ++stats.updates;
+  }
+};
+
+FrameLighting::FrameLighting(const Scene& scene, const LightRig& rig, const FrameLightingSettings& settings)
+    : impl_(std::make_unique<Impl>(scene, rig, settings)) {}
+
+FrameLighting::~FrameLighting() = default;
+
+FrameLight FrameLighting::at(double frame) {
+  Impl& m = *impl_;
+  const auto t0 = std::chrono::steady_clock::now();
+  const double setup0 = m.setupSeconds;
+  const int bands = m.scene.transferBands;
+  FrameLight out;
+  out.rig = rigLighting(m.rig, frame, bands, m.settings.directLights);
+  if (m.settings.directAtVertices && !hasDirectTransfer(m.scene)) out.foldedLights = foldIntoSh(out.rig, bands);
+  if (!m.decided) m.decide(out.rig);
+  if (m.needsVertexLight(out.rig)) {
+    out.updated = m.stale(out.rig);
+    if (out.updated) m.update(frame, out.rig);
+    out.vertexLight = &m.light;
+  }
+  // The bounces gathered here do not also go through the transfer's (t − t⁰) · directSh.
+  if (m.settings.directAtVertices && m.gather) out.rig.directSh = sh::ShRgb(bands);
+  out.seconds = secondsSince(t0) - (m.setupSeconds - setup0);
+  return out;
+}
+
+bool FrameLighting::gathers() const { return impl_->gather != nullptr; }
+bool FrameLighting::skyDetail() const { return impl_->sky; }
+const FrameLightingStats& FrameLighting::stats() const { return impl_->stats; }
+
+}  // namespace prt::bake

@@ -1,0 +1,27 @@
+// The variants of the baked and receiver shaders (private header of render/): one bit per
+// feature a material or a frame may need, compiled in by #defines after the #version line, so
+// that a shader runs no branch and interpolates no varying for a feature it lacks.
+#pragma once
+
+#include <string>
+
+namespace prt::render {
+
+/// Material variant of a shader: bit kVariantTexture (base colour texture sampled), bit
+/// kVariantColor (COLOR_0 present), bit kVariantMask (alphaMode MASK: cutouts discarded), bit
+/// kVariantBlend (alphaMode BLEND: the alpha is the fragment's opacity), bit kVariantTwoSided (a
+/// baked double-sided instance with back-side transfer: each fragment is shaded with the side
+/// it is seen from), bit kVariantDirect (direct lights lit per pixel with shadow maps:
+/// direct_shading.h), bit kVariantTransmission (KHR_materials_transmission's texture sampled:
+/// the opacity is 1 − factor × its R).
+constexpr int kVariantTexture = 1, kVariantColor = 2, kVariantMask = 4, kVariantBlend = 8, kVariantTwoSided = 16,
+              kVariantDirect = 32, kVariantTransmission = 64, kVariants = 128;
+/// The bits a shadow caster's material needs (the cutout depth programs).
+constexpr int kVariantMaterialBits = kVariantTexture | kVariantColor | kVariantMask | kVariantBlend | kVariantTransmission;
+
+/// `source` (starting with its #version line) with HAS_TEXTURE / HAS_COLOR / HAS_MASK /
+/// HAS_BLEND / TWO_SIDED / DIRECT / HAS_TRANSMISSION_TEXTURE (and HAS_TEXCOORD where a texture
+/// is sampled) defined after that line as `variant` says.
+std::string withMaterialDefines(const std::string& source, int variant);
+
+}  // namespace prt::render

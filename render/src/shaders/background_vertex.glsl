@@ -1,0 +1,6 @@
+// The background's full-screen triangle, at the cleared far depth (background_pass.cpp).
+#version 450 core
+void main() {
+  vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0);
+  gl_Position = vec4(p, 0.0, 1.0);  // depth 0: the cleared far depth (reversed depth)
+}

@@ -1,0 +1,3 @@
+// Shadow maps of opaque casters: depth only.
+#version 450 core
+void main() {}
