@@ -1,5 +1,6 @@
 // A tiny glTF writer for tests: JSON with one base64 data: buffer, nodes, meshes, cameras and
-// animations built in code, written to a temporary .gltf that loadScene reads like any file.
+// animations built in code, written to a temporary .gltf that loadScene reads like any file;
+// and a .glb reader that reads what prt wrote without prt's reader.
 #pragma once
 
 #include <unistd.h>
@@ -98,6 +99,38 @@ struct GltfFile {
     const std::filesystem::path p = dir / cat("prt_anim_", ::getpid(), "_", name, ".gltf");
     std::ofstream(p) << j.dump();
     return p.string();
+  }
+};
+
+// A .glb read by hand (JSON chunk, BIN chunk): the test checks the file, not prt's reader.
+struct Glb {
+  using Json = nlohmann::json;
+  Json j;
+  std::string bin;
+  explicit Glb(const std::string& path) {
+    const std::string bytes = test::fileBytes(path);
+    uint32_t jsonLength = 0, binLength = 0;
+    std::memcpy(&jsonLength, bytes.data() + 12, 4);
+    j = Json::parse(bytes.substr(20, jsonLength));
+    std::memcpy(&binLength, bytes.data() + 20 + jsonLength, 4);
+    bin = bytes.substr(28 + jsonLength, binLength);
+  }
+  // Float or UNSIGNED_INT values of accessor `a`, `n` per element.
+  template <typename T>
+  std::vector<T> values(int a, int n) const {
+    const Json& acc = j["accessors"][size_t(a)];
+    const Json& view = j["bufferViews"][acc["bufferView"].get<size_t>()];
+    const size_t stride = view.value("byteStride", size_t(n) * sizeof(T));
+    const size_t offset = view.value("byteOffset", size_t(0)) + acc.value("byteOffset", size_t(0));
+    std::vector<T> out(acc["count"].get<size_t>() * size_t(n));
+    for (size_t i = 0; i < acc["count"].get<size_t>(); ++i)
+      std::memcpy(&out[i * size_t(n)], bin.data() + offset + i * stride, size_t(n) * sizeof(T));
+    return out;
+  }
+  const Json& primitive(const std::string& node) const {
+    for (const Json& n : j["nodes"])
+      if (n.value("name", "") == node) return j["meshes"][n["mesh"].get<size_t>()]["primitives"][0];
+    throw Error("no node " + node);
   }
 };
 

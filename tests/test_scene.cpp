@@ -789,7 +789,7 @@ TEST_F(SceneWrite, TexturedSceneKeepsItsImageAndAlbedo) {
   }
 }
 
-TEST_F(SceneWrite, LitSceneHasColorsUnlitMaterialsAndNoTransfer) {
+TEST_F(SceneWrite, LitSceneHasRadianceColorsUnlitMaterialsAndNoTransfer) {
   std::string input = writeInstancedScene(dir_);
   prt::Scene scene = prt::loadScene(input);
   fillTransfer(scene, 3);
@@ -800,7 +800,7 @@ TEST_F(SceneWrite, LitSceneHasColorsUnlitMaterialsAndNoTransfer) {
   std::vector<std::vector<glm::vec3>> radiance(bakedScene.meshes.size());
   for (size_t k = 0; k < radiance.size(); ++k)
     for (size_t v = 0; v < bakedScene.meshes[k].vertexCount(); ++v)
-      radiance[k].push_back(glm::vec3(float(k), float(v), 2.5f));  // unclamped on purpose
+      radiance[k].push_back(glm::vec3(float(k), float(v), 2.5f));  // above 1 on purpose
   radiance[1].clear();  // node B is left out
   prt::writeLitScene(baked.string(), bakedScene, radiance, lit.string());
 
@@ -809,17 +809,19 @@ TEST_F(SceneWrite, LitSceneHasColorsUnlitMaterialsAndNoTransfer) {
   ASSERT_EQ(shown.meshes.size(), 2u);
   EXPECT_EQ(shown.meshes[0].node, bakedScene.meshes[0].node);
   EXPECT_EQ(shown.meshes[1].node, bakedScene.meshes[2].node);
+  // COLOR_0, what a viewer shows, is the radiance clamped to 0..1 (_RADIANCE, the exact values:
+  // test_scene_write_valid.cpp).
   for (size_t k : {0u, 1u}) {
     const prt::MeshInstance& m = shown.meshes[k];
     const auto& expected = radiance[k == 0 ? 0 : 2];
     ASSERT_EQ(m.colors.size(), expected.size());
     for (size_t v = 0; v < expected.size(); ++v) {
-      expectNear(glm::vec3(m.colors[v]), expected[v]);
+      expectNear(glm::vec3(m.colors[v]), glm::clamp(expected[v], 0.0f, 1.0f));
       EXPECT_EQ(m.colors[v].a, 1.0f);
     }
     ASSERT_GE(m.material, 0);
     EXPECT_TRUE(shown.materials[size_t(m.material)].unlit);
-    expectNear(prt::albedoAtVertex(shown, m, 0), expected[0]);
+    expectNear(prt::albedoAtVertex(shown, m, 0), glm::clamp(expected[0], 0.0f, 1.0f));
   }
   Json doc = glbJson(lit);
   EXPECT_NE(std::find(doc["extensionsUsed"].begin(), doc["extensionsUsed"].end(), "KHR_materials_unlit"),
@@ -833,6 +835,7 @@ TEST_F(SceneWrite, LitSceneHasColorsUnlitMaterialsAndNoTransfer) {
   for (const Json& mesh : doc["meshes"])
     for (const Json& prim : mesh["primitives"]) {
       EXPECT_EQ(doc["accessors"][prim["attributes"]["COLOR_0"].get<int>()]["type"], "VEC3");
+      EXPECT_EQ(doc["accessors"][prim["attributes"]["_RADIANCE"].get<int>()]["type"], "VEC3");
       for (const auto& [name, index] : prim["attributes"].items()) EXPECT_EQ(name.rfind("_PRT_SH_", 0), std::string::npos);
     }
   // 9 transfer coefficients per vertex are gone from the binary chunk, not just unreferenced.

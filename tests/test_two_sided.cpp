@@ -302,8 +302,8 @@ TEST(SceneTwoSided, BackTransferRoundTripsThroughTheBakedFile) {
   EXPECT_FALSE(r.meshes[1].hasBackTransfer());
   EXPECT_TRUE(sameBits(r.meshes[1].transfer, s.meshes[1].transfer));
 
-  // The lit file: COLOR_0 the front's radiance, _PRT_COLOR_BACK the back's, on the
-  // double-sided primitive only.
+  // The lit file: _RADIANCE the front's radiance (COLOR_0 the same clamped to 0..1),
+  // _PRT_COLOR_BACK the back's, on the double-sided primitive only.
   const sh::ShRgb sky = stepSky(2, 1.0, 0.25);
   const std::vector<std::vector<glm::vec3>> frontLit = relightVertices(r, sky), backLit = relightBackVertices(r, sky);
   ASSERT_EQ(backLit[0].size(), V);
@@ -322,6 +322,7 @@ TEST(SceneTwoSided, BackTransferRoundTripsThroughTheBakedFile) {
   int withBack = 0;
   for (const auto& node : j["nodes"])  // the meshes the scene uses (mesh 0 is GltfFile's spare)
     for (const auto& prim : j["meshes"][node["mesh"].get<size_t>()]["primitives"]) {
+      EXPECT_TRUE(prim["attributes"].contains("_RADIANCE"));
       EXPECT_TRUE(prim["attributes"].contains("COLOR_0"));
       withBack += prim["attributes"].contains("_PRT_COLOR_BACK");
     }

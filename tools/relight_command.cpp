@@ -104,7 +104,10 @@ void printSummary(const RelightArgs& a, const Scene& scene, const Radiance& r) {
 
 void addRelight(CLI::App& cmd, RelightArgs& a) {
   cmd.add_option("baked", a.baked, "Baked scene (.glb from prt bake)")->required();
-  cmd.add_option("-o,--output", a.output, "Output lit scene (.glb, unlit vertex colours)")->required();
+  cmd.add_option("-o,--output", a.output,
+                 "Output lit scene (.glb, or .gltf): radiance as _RADIANCE, and clamped to 0..1 as COLOR_0 on unlit "
+                 "materials for viewers")
+      ->required();
   cmd.add_option("--csv", a.csv, "Also write per-vertex radiance as CSV");
   addLightOptions(cmd, a.light);
   cmd.add_option("--shadow-samples", a.shadowSamples,

@@ -1,4 +1,5 @@
-// `prt relight`: per-vertex exitant radiance of a baked scene under new light, as COLOR_0.
+// `prt relight`: per-vertex exitant radiance of a baked scene under new light, as _RADIANCE
+// (COLOR_0 holds it clamped to 0..1 for viewers).
 #pragma once
 
 #include <string>

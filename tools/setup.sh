@@ -4,7 +4,8 @@
 #   bash tools/setup.sh demo   # install, build, bake and relight the default scene
 #   bash tools/setup.sh test   # install, build, run the test suite (CI runs this)
 #
-# 1. installs the Debian packages prt needs (skipped when all are installed already);
+# 1. installs the Debian packages prt needs (skipped when all are installed already), and
+#    the Khronos glTF Validator (npm, pinned) into node_modules/ for the tests;
 # 2. configures and builds Release with Ninja into build/;
 # 3. demo: bakes scenes/cornell_open.gltf (surface + probes), relights it and renders frames
 #    into out/;
@@ -25,6 +26,7 @@ PACKAGES=(
   libtbb-dev libcli11-dev libosmesa6-dev libegl-dev libegl1-mesa-dev libgl1-mesa-dri
   libgtest-dev libdraco-dev libmeshoptimizer-dev libwebp-dev gltfpack
   libopenmpi-dev openmpi-bin
+  nodejs npm
   clang-14 libclang-rt-14-dev llvm-14
   universal-ctags
 )
@@ -40,8 +42,8 @@ usage: bash tools/setup.sh demo|test
          built with ASan + UBSan (build-asan/), then each fuzz target for 20 s (also in build-asan/);
          exit non-zero if any phase fails
 
-Installs Debian 12 packages with apt-get (as root, or through sudo) and builds Release
-with Ninja into build/.
+Installs Debian 12 packages with apt-get (as root, or through sudo) and the glTF Validator
+with npm into node_modules/, and builds Release with Ninja into build/.
 EOF
 }
 
@@ -95,6 +97,19 @@ if [ "$(id -u)" -eq 0 ] && [ -n "${SUDO_USER:-}" ] && [ "$SUDO_USER" != root ] &
 fi
 run() { "${as_user[@]}" "$@"; }
 
+# The Khronos glTF Validator, which the test CliGltfValidator runs on prt's outputs: pinned,
+# into the checkout's node_modules/ (git-ignored, the user's), where CMake and
+# tools/validation/gltf_validate.js find it.
+gltf_validator=2.0.0-dev.3.10
+installed=$(node -p "require('./node_modules/gltf-validator/package.json').version" 2>/dev/null || true)
+if [ "$installed" = "$gltf_validator" ]; then
+  say "gltf-validator $gltf_validator already in node_modules/"
+else
+  say "installing gltf-validator $gltf_validator with npm into node_modules/"
+  run npm install --prefix "$root" --no-save --no-audit --no-fund "gltf-validator@$gltf_validator" ||
+    die "npm could not install gltf-validator@$gltf_validator (the tests need it: CliGltfValidator)"
+fi
+
 # --- 2. Build ----------------------------------------------------------------------------
 if [ -f build/CMakeCache.txt ] && ! grep -q '^CMAKE_GENERATOR:INTERNAL=Ninja$' build/CMakeCache.txt; then
   die "build/ was configured with another generator than Ninja; remove it (rm -rf build) and rerun"
@@ -126,7 +141,7 @@ case "$mode" in
     say "done. Outputs in $root/out:"
     printf '    %s\n' \
       "out/cornell.baked.glb  the scene with per-vertex SH transfer (input of prt relight)" \
-      "out/cornell.lit.glb    per-vertex radiance as COLOR_0 (open in any glTF viewer)" \
+      "out/cornell.lit.glb    per-vertex radiance as _RADIANCE, clamped as COLOR_0 (open in any glTF viewer)" \
       "out/cornell.csv        the same per-vertex radiance as a table" \
       "out/cornell.probes.vdb the probe grid (OpenVDB: vdb_print, pyopenvdb, Blender)" \
       "out/frames/            relit frames, linear EXR and tone-mapped PNG" \

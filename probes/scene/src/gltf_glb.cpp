@@ -1,12 +1,21 @@
-// The .glb container (gltf_glb.h): images embedded with their original encoded bytes, every
-// buffer view still referred to packed into one buffer, and the file written atomically.
+// The container the writers' edited model goes into (gltf_glb.h): images embedded with their
+// original encoded bytes, every buffer view still referred to packed into one buffer, accessor
+// bounds made exact, and the file written atomically as a .glb (or as .gltf JSON with a data:
+// URI) that the Khronos glTF Validator accepts.
 #include "gltf_glb.h"
 
 #include <algorithm>
+#include <cctype>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "prt/atomic_file.h"
 #include "prt/error.h"
@@ -14,6 +23,7 @@
 namespace prt::gltf {
 
 namespace fs = std::filesystem;
+using Json = nlohmann::json;
 
 int appendBufferView(tinygltf::Model& m, int buffer, const void* bytes, size_t size, int target) {
   std::vector<unsigned char>& data = m.buffers[size_t(buffer)].data;
@@ -169,21 +179,125 @@ void packIntoOneBuffer(const Gltf& g, tinygltf::Model& m) {
   m.buffers.assign(1, std::move(packed));
 }
 
+/// glTF wants an accessor's min and max to be its values' exact bounds. Data decoded from Draco
+/// keeps the bounds the file gave before (of the values before quantisation, of the indices
+/// before Draco reordered the vertices): each declared bound of a float or plain integer
+/// accessor that is not its data's (floats compared as floats) is replaced by the data's.
+/// Normalised, sparse and unreadable accessors keep theirs.
+void exactBounds(const Gltf& g, tinygltf::Model& m) {
+  for (size_t i = 0; i < m.accessors.size(); ++i) {
+    tinygltf::Accessor& a = m.accessors[i];
+    const bool isFloat = a.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT;
+    if ((!isFloat && a.normalized) || a.sparse.isSparse || a.count == 0) continue;
+    if (a.minValues.empty() && a.maxValues.empty()) continue;
+    AccessorData d;
+    try {
+      d = openAccessor(g, int(i), cat("accessor ", i));
+    } catch (const Error&) {
+      continue;  // data the writer does not read (nothing of the scene uses it) keeps its bounds
+    }
+    std::vector<double> lo(size_t(d.components), std::numeric_limits<double>::infinity());
+    std::vector<double> hi(size_t(d.components), -std::numeric_limits<double>::infinity());
+    for (size_t v = 0; v < d.count; ++v)
+      for (int c = 0; c < d.components; ++c) {
+        lo[size_t(c)] = std::min(lo[size_t(c)], d.get(v, c));
+        hi[size_t(c)] = std::max(hi[size_t(c)], d.get(v, c));
+      }
+    auto exact = [&](std::vector<double>& declared, const std::vector<double>& actual) {
+      if (declared.size() != actual.size()) return;  // left as it is (the reader checks components)
+      for (size_t c = 0; c < actual.size(); ++c)
+        if (isFloat ? float(declared[c]) != float(actual[c]) : declared[c] != actual[c]) declared[c] = actual[c];
+    };
+    exact(a.minValues, lo);
+    exact(a.maxValues, hi);
+  }
+}
+
+/// tinygltf writes a perspective camera's zfar even when it is 0, which tinygltf and
+/// prt::Camera read as an infinite projection; glTF wants zfar positive, or absent for an
+/// infinite projection. Leaves it out where it is not positive.
+void leaveOutInfiniteZfar(Json& doc) {
+  auto cameras = doc.find("cameras");
+  if (cameras == doc.end() || !cameras->is_array()) return;
+  for (Json& camera : *cameras) {
+    auto perspective = camera.find("perspective");
+    if (perspective == camera.end() || !perspective->is_object()) continue;
+    auto zfar = perspective->find("zfar");
+    if (zfar != perspective->end() && zfar->is_number() && !(zfar->get<double>() > 0.0)) perspective->erase(zfar);
+  }
+}
+
+/// The model's glTF JSON as tinygltf serialises it. `binary`: without the bytes of buffer 0,
+/// which the caller writes as the GLB's BIN chunk (moved out of the model meanwhile, so that
+/// they are never copied); else with every buffer as a base64 data: URI.
+Json serializedDocument(tinygltf::Model& m, bool binary) {
+  std::vector<unsigned char> bin;
+  if (binary) std::swap(bin, m.buffers[0].data);
+  tinygltf::TinyGLTF writer;
+  writer.SetImageWriter(&keepImageUri, nullptr);
+  std::ostringstream json;
+  const bool ok = writer.WriteGltfSceneToStream(&m, json, /*prettyPrint=*/false, /*writeBinary=*/false);
+  if (binary) std::swap(bin, m.buffers[0].data);
+  PRT_CHECK(ok);  // writing to memory fails only for a model prt made wrong
+  Json doc = Json::parse(json.str());
+  if (binary) {
+    Json& buffer = doc.at("buffers").at(0);
+    buffer.erase("uri");
+    buffer["byteLength"] = m.buffers[0].data.size();
+  }
+  return doc;
+}
+
+void writeLittle32(std::ostream& out, uint32_t v) {
+  const unsigned char bytes[4] = {uint8_t(v), uint8_t(v >> 8), uint8_t(v >> 16), uint8_t(v >> 24)};
+  out.write(reinterpret_cast<const char*>(bytes), 4);
+}
+
+/// A GLB file (glTF 2.0, "GLB File Format Specification"): the 12-byte header, the JSON chunk
+/// padded with spaces and the BIN chunk padded with zeros, each to 4 bytes.
+void writeGlbChunks(std::ostream& out, std::string json, const std::vector<unsigned char>& bin) {
+  json.resize((json.size() + 3) / 4 * 4, ' ');
+  const size_t binPadded = (bin.size() + 3) / 4 * 4;
+  const uint64_t length = 12 + 8 + json.size() + (bin.empty() ? 0 : 8 + binPadded);
+  if (length > std::numeric_limits<uint32_t>::max())
+    throw Error(cat("the .glb would be ", length, " bytes; the format holds at most 4 GiB"));
+  out.write("glTF", 4);
+  writeLittle32(out, 2);
+  writeLittle32(out, uint32_t(length));
+  writeLittle32(out, uint32_t(json.size()));
+  out.write("JSON", 4);
+  out.write(json.data(), std::streamsize(json.size()));
+  if (bin.empty()) return;
+  writeLittle32(out, uint32_t(binPadded));
+  out.write("BIN\0", 4);
+  out.write(reinterpret_cast<const char*>(bin.data()), std::streamsize(bin.size()));
+  out.write("\0\0\0", std::streamsize(binPadded - bin.size()));
+}
+
+bool endsInGltf(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext == ".gltf";
+}
+
 }  // namespace
 
-void writeGlb(const Gltf& g, tinygltf::Model& m, int& staging, const std::string& outPath) {
+void writeSceneFile(const Gltf& g, tinygltf::Model& m, int& staging, const std::string& outPath) {
   m.asset.generator = "prt";
   embedImages(m, staging);
   packIntoOneBuffer(g, m);
+  exactBounds(g, m);
+  const bool binary = !endsInGltf(outPath);
+  Json doc = serializedDocument(m, binary);
+  leaveOutInfiniteZfar(doc);
   AtomicFile file(outPath);
-  tinygltf::TinyGLTF writer;
-  writer.SetImageWriter(&keepImageUri, nullptr);
-  bool ok = writer.WriteGltfSceneToFile(&m, file.tempPath(), /*embedImages=*/true, /*embedBuffers=*/true,
-                                        /*prettyPrint=*/false, /*writeBinary=*/true);
-  // tinygltf does not check its stream writes; a truncated file shows in its size.
-  std::error_code ec;
-  uintmax_t size = fs::file_size(file.tempPath(), ec);
-  if (!ok || ec || size < 12) throw Error(cat(outPath, ": cannot write the .glb file"));
+  std::ofstream out(file.tempPath(), std::ios::binary | std::ios::trunc);
+  if (binary)
+    writeGlbChunks(out, doc.dump(), m.buffers[0].data);
+  else
+    out << doc.dump();
+  out.close();
+  if (!out) throw Error(cat(outPath, ": cannot write the ", binary ? ".glb" : ".gltf", " file"));
   file.commit();
 }
 

@@ -1,7 +1,7 @@
 // The parsed glTF document and the pieces of the reader that the writers use too. The only
 // header that includes tinygltf: the reader's files (gltf_read.cpp and the parts gltf_reader.h
-// lists) and the writer's (gltf_write.cpp, gltf_glb.cpp), which include it, are the only files
-// of prt that see tinygltf.
+// lists) and the writers' (gltf_write.cpp, gltf_write_lit.cpp, gltf_glb.cpp), which include
+// it, are the only files of prt that see tinygltf.
 #pragma once
 
 #include <algorithm>
@@ -24,7 +24,7 @@ constexpr const char* kBackTransferPrefix = "_PRT_SH_BACK_";
 /// The direct part (bounce 0, colourless) of each set: _PRT_SH_DIRECT_00 .., _PRT_SH_BACK_DIRECT_00 ..
 constexpr const char* kDirectTransferPrefix = "_PRT_SH_DIRECT_";
 constexpr const char* kBackDirectTransferPrefix = "_PRT_SH_BACK_DIRECT_";
-/// The back side's radiance of a double-sided primitive in a lit scene (COLOR_0 is the front's).
+/// The back side's radiance of a double-sided primitive in a lit scene (_RADIANCE is the front's).
 constexpr const char* kBackRadiance = "_PRT_COLOR_BACK";
 constexpr const char* kUnlit = "KHR_materials_unlit";
 constexpr const char* kLights = "KHR_lights_punctual";

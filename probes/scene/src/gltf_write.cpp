@@ -1,11 +1,12 @@
-// glTF 2.0 writing (writeBakedScene, writeLitScene): edits on the input model, read again,
-// then one packed buffer and an atomic .glb (gltf_glb.cpp). With the reader's files and
-// gltf_glb.cpp, one of the files that see tinygltf (through gltf_model.h).
+// glTF 2.0 writing: writeBakedScene, and the edits it shares with writeLitScene
+// (gltf_write_lit.cpp, through gltf_write.h) on the input model read again. The file itself,
+// .glb or .gltf: gltf_glb.cpp.
 #include "prt/scene.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <set>
@@ -14,8 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bake_record_json.h"
-#include "gltf_glb.h"
-#include "gltf_model.h"
+#include "gltf_write.h"
 #include "prt/error.h"
 
 namespace prt {
@@ -55,7 +55,7 @@ tinygltf::Value toValue(const Json& j) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Writing: edits on the reloaded input model, then one packed buffer and an atomic .glb
+// Writing: edits on the reloaded input model
 
 /// A float accessor of `count` elements of `type` (TINYGLTF_TYPE_VEC3, _SCALAR) over `bytes`.
 int addFloatAccessor(tinygltf::Model& m, int& staging, const void* bytes, size_t size, size_t count, int type,
@@ -68,12 +68,6 @@ int addFloatAccessor(tinygltf::Model& m, int& staging, const void* bytes, size_t
   a.count = count;
   m.accessors.push_back(a);
   return static_cast<int>(m.accessors.size() - 1);
-}
-
-int addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec3>& values,
-                    const std::string& name) {
-  return addFloatAccessor(m, staging, values.data(), values.size() * sizeof(glm::vec3), values.size(),
-                          TINYGLTF_TYPE_VEC3, name);
 }
 
 int addScalarAccessor(tinygltf::Model& m, int& staging, const std::vector<float>& values, const std::string& name) {
@@ -161,10 +155,6 @@ void giveEachNodeItsOwnMesh(tinygltf::Model& m, const Scene& scene) {
     m.meshes.push_back(m.meshes[size_t(inst.mesh)]);
     node.mesh = static_cast<int>(m.meshes.size() - 1);
   }
-}
-
-tinygltf::Primitive& primitiveOf(tinygltf::Model& m, const MeshInstance& inst) {
-  return m.meshes[size_t(m.nodes[size_t(inst.node)].mesh)].primitives[size_t(inst.primitive)];
 }
 
 /// A new accessor whose element i is element from[i] of accessor `index`, byte for byte (any
@@ -412,11 +402,6 @@ void storeRecord(const Scene& scene, tinygltf::Model& m, const BakeRecord* recor
   m.asset.extras.Get<tinygltf::Value::Object>()["prt"] = toValue(json);
 }
 
-void addExtensionUsed(tinygltf::Model& m, const std::string& name) {
-  if (std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), name) == m.extensionsUsed.end())
-    m.extensionsUsed.push_back(name);
-}
-
 /// glTF requires min/max on POSITION accessors; inputs that lack them get them here, so the
 /// output validates whatever the input did.
 void addPositionBounds(Gltf& g, const std::set<int>& meshes) {
@@ -442,8 +427,27 @@ void addPositionBounds(Gltf& g, const std::set<int>& meshes) {
   }
 }
 
-/// Loads the input again and makes it ready to carry per-instance vertex data.
-Gltf reloadForWriting(const std::string& inputPath, const Scene& scene, int& staging) {
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// The steps gltf_write.h shares with gltf_write_lit.cpp
+
+int gltf::addVec3Accessor(tinygltf::Model& m, int& staging, const std::vector<glm::vec3>& values,
+                          const std::string& name) {
+  return addFloatAccessor(m, staging, values.data(), values.size() * sizeof(glm::vec3), values.size(),
+                          TINYGLTF_TYPE_VEC3, name);
+}
+
+tinygltf::Primitive& gltf::primitiveOf(tinygltf::Model& m, const MeshInstance& inst) {
+  return m.meshes[size_t(m.nodes[size_t(inst.node)].mesh)].primitives[size_t(inst.primitive)];
+}
+
+void gltf::addExtensionUsed(tinygltf::Model& m, const std::string& name) {
+  if (std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), name) == m.extensionsUsed.end())
+    m.extensionsUsed.push_back(name);
+}
+
+Gltf gltf::reloadForWriting(const std::string& inputPath, const Scene& scene, int& staging) {
   Gltf g = readGltf(inputPath, nullptr, scene.allowExternalUris);
   checkMatchesScene(g, scene);
   const std::set<int> meshes = usedMeshes(scene);
@@ -456,73 +460,6 @@ Gltf reloadForWriting(const std::string& inputPath, const Scene& scene, int& sta
   return g;
 }
 
-/// Every material becomes unlit white, so a viewer shows COLOR_0 (the radiance) unchanged.
-void makeMaterialsUnlitWhite(tinygltf::Model& m) {
-  auto unlitWhite = [](const std::string& name, bool doubleSided) {
-    tinygltf::Material mat;
-    mat.name = name;
-    mat.doubleSided = doubleSided;
-    mat.pbrMetallicRoughness.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
-    mat.pbrMetallicRoughness.metallicFactor = 0.0;  // the fallback the unlit spec suggests
-    mat.pbrMetallicRoughness.roughnessFactor = 0.9;
-    mat.extensions[kUnlit] = tinygltf::Value(tinygltf::Value::Object{});
-    return mat;
-  };
-  for (tinygltf::Material& mat : m.materials) mat = unlitWhite(mat.name, mat.doubleSided);
-  int fallback = -1;  // for primitives on the glTF default material, which is lit
-  for (tinygltf::Mesh& mesh : m.meshes) {
-    for (tinygltf::Primitive& prim : mesh.primitives) {
-      if (prim.material >= 0) continue;
-      if (fallback < 0) {
-        m.materials.push_back(unlitWhite("prt unlit", false));
-        fallback = static_cast<int>(m.materials.size() - 1);
-      }
-      prim.material = fallback;
-    }
-  }
-  m.textures.clear();
-  m.images.clear();
-  m.samplers.clear();
-  // Material and texture extensions have nothing left to apply to.
-  auto gone = [](const std::string& e) {
-    return (e.rfind("KHR_materials_", 0) == 0 && e != kUnlit) || e == kTextureTransform ||
-           e == "KHR_texture_basisu" || e == "EXT_texture_webp";
-  };
-  std::erase_if(m.extensionsUsed, gone);
-  std::erase_if(m.extensionsRequired, gone);
-  addExtensionUsed(m, kUnlit);
-}
-
-/// Removes meshes without primitives (glTF requires at least one) and the nodes' references.
-void removeEmptyMeshes(tinygltf::Model& m) {
-  std::vector<int> to(m.meshes.size(), -1);
-  std::vector<tinygltf::Mesh> kept;
-  for (size_t i = 0; i < m.meshes.size(); ++i) {
-    if (m.meshes[i].primitives.empty()) continue;
-    to[i] = static_cast<int>(kept.size());
-    kept.push_back(std::move(m.meshes[i]));
-  }
-  m.meshes = std::move(kept);
-  for (tinygltf::Node& n : m.nodes)
-    if (n.mesh >= 0) n.mesh = size_t(n.mesh) < to.size() ? to[size_t(n.mesh)] : -1;
-}
-
-/// Removes the primitives of instances without radiance; a node left without primitives
-/// loses its mesh.
-void removeUnlitInstances(tinygltf::Model& m, const Scene& scene,
-                          const std::vector<std::vector<glm::vec3>>& radiance) {
-  std::map<int, std::set<int>> drop;  // node -> primitives
-  for (size_t k = 0; k < scene.meshes.size(); ++k)
-    if (radiance[k].empty()) drop[scene.meshes[k].node].insert(scene.meshes[k].primitive);
-  for (const auto& [node, prims] : drop) {
-    auto& list = m.meshes[size_t(m.nodes[size_t(node)].mesh)].primitives;
-    for (auto it = prims.rbegin(); it != prims.rend(); ++it) list.erase(list.begin() + *it);
-  }
-  removeEmptyMeshes(m);
-}
-
-}  // namespace
-
 void writeBakedScene(const std::string& inputPath, const Scene& scene, const BakeRecord* record,
                      const std::string& outPath) {
   int staging = -1;
@@ -530,31 +467,7 @@ void writeBakedScene(const std::string& inputPath, const Scene& scene, const Bak
   addTransferAttributes(g.model, staging, scene);
   markOptionReceivers(g.model, scene);
   storeRecord(scene, g.model, record, outPath);
-  writeGlb(g, g.model, staging, outPath);
-}
-
-void writeLitScene(const std::string& inputPath, const Scene& scene,
-                   const std::vector<std::vector<glm::vec3>>& radiance, const std::string& outPath,
-                   const std::vector<std::vector<glm::vec3>>* backRadiance) {
-  PRT_CHECK_EQ(radiance.size(), scene.meshes.size());
-  int staging = -1;
-  // reloadForWriting drops the _PRT_SH_* attributes: a lit file is for looking at, and the
-  // transfer would make it bands² × 12 bytes per vertex larger. packIntoOneBuffer then leaves
-  // their data out.
-  Gltf g = reloadForWriting(inputPath, scene, staging);
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    if (radiance[k].empty()) continue;
-    PRT_CHECK_EQ(radiance[k].size(), scene.meshes[k].vertexCount());
-    primitiveOf(g.model, scene.meshes[k]).attributes["COLOR_0"] =
-        addVec3Accessor(g.model, staging, radiance[k], "radiance");
-    if (!backRadiance || (*backRadiance)[k].empty()) continue;
-    PRT_CHECK_EQ((*backRadiance)[k].size(), scene.meshes[k].vertexCount());
-    primitiveOf(g.model, scene.meshes[k]).attributes[kBackRadiance] =
-        addVec3Accessor(g.model, staging, (*backRadiance)[k], "back radiance");
-  }
-  removeUnlitInstances(g.model, scene, radiance);
-  makeMaterialsUnlitWhite(g.model);
-  writeGlb(g, g.model, staging, outPath);
+  writeSceneFile(g, g.model, staging, outPath);
 }
 
 }  // namespace prt

@@ -256,16 +256,21 @@ std::vector<char> passesLight(const Scene& scene);
 /// triangles, and `record` (if not null) stored in asset.extras.prt; its bands must be
 /// scene.transferBands when the scene holds transfer. Receivers named by
 /// LoadOptions::receiverNodes get extras {"prt": {"receiver": true}}, so the file keeps them
-/// receivers. Atomic (temp + rename).
+/// receivers. Atomic (temp + rename). Both writers write glTF JSON with the buffer as a data:
+/// URI where `outPath` ends in .gltf, a .glb otherwise; the files pass the Khronos glTF
+/// Validator without errors (a perspective camera's zfar of 0, infinite, is left out).
 void writeBakedScene(const std::string& inputPath, const Scene& scene, const BakeRecord* record,
                      const std::string& outPath);
 
-/// Writes the scene as .glb with per-vertex linear radiance as COLOR_0 (float VEC3,
-/// unclamped), materials replaced by KHR_materials_unlit white so viewers show it as is.
-/// radiance[k] holds instance k's vertex values (empty: the instance is left out).
+/// Writes the scene (.glb, or .gltf as writeBakedScene does) with per-vertex linear radiance
+/// as _RADIANCE (float VEC3, unclamped, the exact values) and as COLOR_0 (float VEC3, each
+/// channel clamped to 0..1 as glTF requires), materials replaced by KHR_materials_unlit white
+/// so that viewers show COLOR_0 as it is, and TEXCOORD_n and TANGENT left out (no textures
+/// remain). radiance[k] holds instance k's vertex values (empty: the instance is left out).
 /// backRadiance (if not null), per instance, the back side's values of a double-sided
-/// instance, written as _PRT_COLOR_BACK (VEC3 float; viewers ignore it and show COLOR_0 on
-/// both sides). Atomic.
+/// instance, written as _PRT_COLOR_BACK (VEC3 float, unclamped; viewers ignore it and show
+/// COLOR_0 on both sides). Lit files older than _RADIANCE hold the unclamped radiance in
+/// COLOR_0. Atomic.
 void writeLitScene(const std::string& inputPath, const Scene& scene,
                    const std::vector<std::vector<glm::vec3>>& radiance, const std::string& outPath,
                    const std::vector<std::vector<glm::vec3>>* backRadiance = nullptr);
