@@ -13,7 +13,8 @@ namespace prt::bench {
 /// Parses the benchmark's options. nullopt: run; otherwise the status to exit with (--help: 0;
 /// a bad command line: one line naming `name`, 2).
 inline std::optional<int> parseBenchOptions(CLI::App& app, const std::string& name, int argc, char** argv) {
-  app.failure_message([name](const CLI::App*, const CLI::Error& e) { return name + ": " + e.what() + " (see --help)\n"; });
+  app.failure_message(
+      [name](const CLI::App*, const CLI::Error& e) { return name + ": " + e.what() + " (see --help)\n"; });
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -20,7 +20,8 @@
 // and bakes; ratios are taken within a round and reported as the fastest bake's round and the
 // range, and their median; besides, against the mode whose median over the rounds is best, in
 // the same round (`bake_vs_median_best_mode`: each round's fastest mode is the largest of ~15
-// noisy timings, above what any mode typically does); memory is the first round's. The share not tracing is measured in the bake itself
+// noisy timings, above what any mode typically does); memory is the first round's. The share not tracing is measured in
+// the bake itself
 // (the time its threads spend inside Embree's calls) and, as a cross-check, estimated from
 // prt's tracing rate (`_by_rate`). The lit hits' gather (their corners' transfer, the probe
 // bake's counterpart of the surface bake's bounces, done per ray) is timed in the bake too: its
@@ -38,11 +39,11 @@
 #include <memory>
 #include <string>
 
-#include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "bench_cli.h"
 #include "cpu_clock.h"
@@ -180,8 +181,7 @@ int main(int argc, char** argv) {
       const auto t0 = Clock::now();
       tbb::parallel_for(tbb::blocked_range<size_t>(0, sets, 16), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i)
-          for (size_t q = i * streams; q < (i + 1) * streams; ++q)
-            rays.intersect8(&packets[packetOf[q]], countOf(q));
+          for (size_t q = i * streams; q < (i + 1) * streams; ++q) rays.intersect8(&packets[packetOf[q]], countOf(q));
       });
       rates[0].push_back(double(batch.size()) / std::chrono::duration<double>(Clock::now() - t0).count());
       rates[1].push_back(double(batch.size()) / (bench::processCpuSeconds() - cpu0));
@@ -221,7 +221,8 @@ int main(int argc, char** argv) {
     bake::probeRaySets(stats, total, tests, fulls);
     const uint64_t testRays = uint64_t(tests.size()) * 64, fullRays = uint64_t(fulls.size()) * perFull;
     if (testRays + fullRays != stats.rays)
-      throw Error(cat("the bake's rays (", stats.rays, ") are not its tests' and full sets' (", testRays, " + ", fullRays, ")"));
+      throw Error(cat("the bake's rays (", stats.rays, ") are not its tests' and full sets' (", testRays, " + ",
+                      fullRays, ")"));
     auto pick = [](const std::vector<bake::ProbeRaySet>& from, size_t step, std::vector<bake::ProbeRaySet>& into) {
       for (size_t run = 0; run * 16 < from.size(); run += step)
         for (size_t k = run * 16; k < std::min(from.size(), run * 16 + 16); ++k) into.push_back(from[k]);
@@ -239,7 +240,7 @@ int main(int argc, char** argv) {
     // from other processes on a shared machine does not decide the ratios, which are taken
     // within a round. The result must be the same grid every time.
     std::vector<double> bakeSeconds{stats.seconds}, directSeconds{directStats.seconds};
-    std::vector<double> traceSeconds{stats.traceSeconds};  // inside Embree's calls, all threads
+    std::vector<double> traceSeconds{stats.traceSeconds};    // inside Embree's calls, all threads
     std::vector<double> gatherSeconds{stats.gatherSeconds};  // inside the lit hits' gather, all threads
     std::vector<double> directTrace{directStats.traceSeconds};
     for (int round = 1; round < repeat; ++round) {
@@ -266,7 +267,9 @@ int main(int argc, char** argv) {
     // with warm caches and nothing between its calls, so this share comes out lower).
     const int used = tbb::this_task_arena::max_concurrency();
     // Seconds the bake's rays take at given rates of the two classes (rays/s).
-    auto secondsAt = [&](double testRate, double fullRate) { return double(testRays) / testRate + double(fullRays) / fullRate; };
+    auto secondsAt = [&](double testRate, double fullRate) {
+      return double(testRays) / testRate + double(fullRays) / fullRate;
+    };
     auto ceilingSeconds = [&](size_t round, bench::Timing t) {
       return secondsAt(bench::roundRate(ceilingTests, round, t), bench::roundRate(ceilingFull, round, t));
     };
@@ -294,8 +297,8 @@ int main(int argc, char** argv) {
       for (int round = 0; round < repeat; ++round) {
         const double seconds = (t == 0 ? bakeSeconds : bakeCpu)[size_t(round)];
         vsCeiling[t].push_back(ceilingSeconds(size_t(round), bench::Timing(t)) / seconds);
-        notTracingByRate[t].push_back(
-            1.0 - secondsAt(prtTestRates[t][size_t(round)], prtFullRates[t][size_t(round)]) / seconds);
+        notTracingByRate[t].push_back(1.0 - secondsAt(prtTestRates[t][size_t(round)], prtFullRates[t][size_t(round)]) /
+                                                seconds);
       }
     const size_t bestRound = size_t(std::min_element(bakeSeconds.begin(), bakeSeconds.end()) - bakeSeconds.begin());
     stats.seconds = bakeSeconds[bestRound];

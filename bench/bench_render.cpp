@@ -65,9 +65,7 @@ double processCpuMs() {
   return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
 }
 
-double msSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -123,11 +121,11 @@ sh::ShRgb sky(double degrees) {
 
 struct Timing {
   std::vector<double> light, draw, readback, total, cpu;  // per frame, ms
-  std::vector<double> faults;                              // minor page faults per frame
+  std::vector<double> faults;                             // minor page faults per frame
   double frameMs() const { return median(light) + median(draw) + median(readback); }
   nlohmann::json json() const {
     return {{"light_ms", median(light)}, {"draw_ms", median(draw)}, {"readback_ms", median(readback)},
-            {"frame_ms", frameMs()}, {"cpu_ms", median(cpu)}, {"page_faults", median(faults)}};
+            {"frame_ms", frameMs()},     {"cpu_ms", median(cpu)},   {"page_faults", median(faults)}};
   }
 };
 
@@ -204,8 +202,7 @@ ProbeGrid randomGrid(int n, int bands) {
 // - sun_through_sh: --no-direct-lights, the sun's SH through the whole transfer, no direct
 //   term: the frame before direct lights existed, the one "without sun shadows";
 // - flat: the raster floor.
-nlohmann::json sunShadows(render::Renderer& renderer, const Scene& scene, const render::CameraView& view,
-                          int frames) {
+nlohmann::json sunShadows(render::Renderer& renderer, const Scene& scene, const render::CameraView& view, int frames) {
   const int bands = renderer.bands();
   const double duration = animationDuration(scene);
   Timing shadowed, unshadowed, throughSh, flat;
@@ -235,9 +232,15 @@ nlohmann::json sunShadows(render::Renderer& renderer, const Scene& scene, const 
           if (i >= 0) shadowMs.push_back(renderer.lastFrame().shadowMs);
           last = renderer.lastFrame();
           break;
-        case 1: timedRender(renderer, noShadow, i >= 0 ? &unshadowed : nullptr); break;
-        case 2: timedRender(renderer, viaSh, i >= 0 ? &throughSh : nullptr); break;
-        default: timedRender(renderer, flatFrame, i >= 0 ? &flat : nullptr); break;
+        case 1:
+          timedRender(renderer, noShadow, i >= 0 ? &unshadowed : nullptr);
+          break;
+        case 2:
+          timedRender(renderer, viaSh, i >= 0 ? &throughSh : nullptr);
+          break;
+        default:
+          timedRender(renderer, flatFrame, i >= 0 ? &flat : nullptr);
+          break;
       }
     }
   }
@@ -290,10 +293,18 @@ nlohmann::json receiverCloseup(render::Renderer& renderer, render::Renderer& bak
   Timing full, vertex, baked, flat;
   for (int i = -2; i < frames; ++i)
     for (int k = 0; k < 4; ++k) switch ((k + std::max(i, 0)) % 4) {
-        case 0: timedRender(renderer, f, i >= 0 ? &full : nullptr); break;
-        case 1: timedRender(renderer, vertexFrame, i >= 0 ? &vertex : nullptr); break;
-        case 2: timedRender(bakedOnly, f, i >= 0 ? &baked : nullptr); break;
-        default: timedRender(renderer, flatFrame, i >= 0 ? &flat : nullptr); break;
+        case 0:
+          timedRender(renderer, f, i >= 0 ? &full : nullptr);
+          break;
+        case 1:
+          timedRender(renderer, vertexFrame, i >= 0 ? &vertex : nullptr);
+          break;
+        case 2:
+          timedRender(bakedOnly, f, i >= 0 ? &baked : nullptr);
+          break;
+        default:
+          timedRender(renderer, flatFrame, i >= 0 ? &flat : nullptr);
+          break;
       }
   const size_t pixels = differingPixels(renderer.render(f), bakedOnly.render(f));
   const double flatNs = median(flat.cpu) * 1e6 / (double(width) * height);
@@ -316,10 +327,11 @@ nlohmann::json receiverCloseup(render::Renderer& renderer, render::Renderer& bak
 nlohmann::json lightUpdates(render::GlContext& context, const Scene& scene, const render::CameraView& view) {
   // --- Light update, 1M baked vertices (the static path) ----------------------------------
   Scene dense = scene;
-  dense.meshes.erase(std::remove_if(dense.meshes.begin(), dense.meshes.end(),
-                                    [](const MeshInstance& m) { return m.receiverOnly; }),
-                     dense.meshes.end());
-  for (size_t k = 0; bakedVertices(dense) < 1000000; k = (k + 1) % dense.meshes.size()) refine(dense.meshes[k], dense.transferBands);
+  dense.meshes.erase(
+      std::remove_if(dense.meshes.begin(), dense.meshes.end(), [](const MeshInstance& m) { return m.receiverOnly; }),
+      dense.meshes.end());
+  for (size_t k = 0; bakedVertices(dense) < 1000000; k = (k + 1) % dense.meshes.size())
+    refine(dense.meshes[k], dense.transferBands);
   size_t denseTriangles = 0;
   for (const MeshInstance& m : dense.meshes) denseTriangles += m.triangleCount();
   std::vector<double> cpuRelight;
@@ -368,12 +380,10 @@ nlohmann::json lightUpdates(render::GlContext& context, const Scene& scene, cons
   }
 
   nlohmann::json j;
-  j["light_update_1M_vertices"] = {{"vertices", bakedVertices(dense)},
-                                   {"triangles", denseTriangles},
-                                   {"gl_light_ms", median(densePrt.light)},
-                                   {"gl_prt_frame_ms", densePrt.frameMs()},
-                                   {"gl_flat_frame_ms", denseFlat.frameMs()},
-                                   {"cpu_relight_vertices_ms", median(cpuRelight)}};
+  j["light_update_1M_vertices"] = {
+      {"vertices", bakedVertices(dense)},        {"triangles", denseTriangles},
+      {"gl_light_ms", median(densePrt.light)},   {"gl_prt_frame_ms", densePrt.frameMs()},
+      {"gl_flat_frame_ms", denseFlat.frameMs()}, {"cpu_relight_vertices_ms", median(cpuRelight)}};
   j["light_update_32cubed_probes"] = {{"probes", big.probeCount()},
                                       {"bands", big.bands},
                                       {"relight_ms", median(relightOnly)},
@@ -444,7 +454,8 @@ int main(int argc, char** argv) {
   CLI::Option* probes = app.add_option("--probes", probesPath, "Probe grid (.vdb) baked with --baked");
   baked->needs(probes);
   probes->needs(baked);
-  app.add_option("--samples", samples, "Hemisphere directions per vertex of the in-process bake")->capture_default_str();
+  app.add_option("--samples", samples, "Hemisphere directions per vertex of the in-process bake")
+      ->capture_default_str();
   app.add_option("--probe-dims", probeDims, "Probe lattice N³ of the in-process bake")
       ->check(CLI::Range(1, 512))
       ->capture_default_str();
@@ -468,7 +479,7 @@ int main(int argc, char** argv) {
       bs.keepLowerOrder = true;
       bake::SurfaceTransfer t = bake::bakeSurface(scene, bs);
       scene.transferBands = t.bands;
-      bake::storeTransfer(scene, t.perMesh, t.perMeshDirect);  // with the direct part (sun frames)
+      bake::storeTransfer(scene, t.perMesh, t.perMeshDirect);                 // with the direct part (sun frames)
       scene.bakeRecord = bake::bakeRecord(bs, "cornell_open.gltf", "bench");  // bounces for the gather
       bake::ProbeSettings ps;
       ps.dims = glm::ivec3(probeDims);
@@ -514,9 +525,15 @@ int main(int argc, char** argv) {
             timedRender(renderer, f, i >= 0 ? &prtTiming : nullptr);
             last = renderer.lastFrame();
             break;
-          case 1: timedRender(renderer, flatFrame, i >= 0 ? &flatTiming : nullptr); break;
-          case 2: timedRender(renderer, vertexFrame, i >= 0 ? &vertexTiming : nullptr); break;
-          default: timedRender(bakedOnly, f, i >= 0 ? &staticTiming : nullptr); break;
+          case 1:
+            timedRender(renderer, flatFrame, i >= 0 ? &flatTiming : nullptr);
+            break;
+          case 2:
+            timedRender(renderer, vertexFrame, i >= 0 ? &vertexTiming : nullptr);
+            break;
+          default:
+            timedRender(bakedOnly, f, i >= 0 ? &staticTiming : nullptr);
+            break;
         }
       }
       // Pixels where the receiver is seen: those the receiver changes (untimed frames).
@@ -526,11 +543,17 @@ int main(int argc, char** argv) {
 
     nlohmann::json j;
     j["device"] = context.description();
-    j["frame"] = {{"width", width}, {"height", height}, {"frames", frames}, {"triangles", last.triangles},
+    j["frame"] = {{"width", width},
+                  {"height", height},
+                  {"frames", frames},
+                  {"triangles", last.triangles},
                   {"receiver_triangles", last.receiverTriangles},
                   {"receiver_pixels", receiverPixels[receiverPixels.size() / 2]},
-                  {"probes", grid.probeCount()}, {"bands", grid.bands}, {"prt", prtTiming.json()},
-                  {"flat", flatTiming.json()}, {"prt_without_receivers", staticTiming.json()},
+                  {"probes", grid.probeCount()},
+                  {"bands", grid.bands},
+                  {"prt", prtTiming.json()},
+                  {"flat", flatTiming.json()},
+                  {"prt_without_receivers", staticTiming.json()},
                   {"ratio", medianRatio(prtTiming.total, flatTiming.total)},
                   {"cpu_ratio", medianRatio(prtTiming.cpu, flatTiming.cpu)},
                   {"baked_ratio", medianRatio(staticTiming.total, flatTiming.total)},

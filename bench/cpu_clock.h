@@ -29,7 +29,7 @@ inline double processCpuSeconds() {
 /// Samples (wall, process CPU) every 2 ms on a thread of its own, so that the CPU time of an
 /// interval known only by its wall-clock ends (a stage inside a bake) can be read afterwards.
 class CpuTimeline {
-public:
+ public:
   CpuTimeline() : thread_([this] { run(); }) {}
   ~CpuTimeline() {
     stop_ = true;
@@ -44,7 +44,7 @@ public:
     return cpuAt(b) - cpuAt(a);
   }
 
-private:
+ private:
   void sample() {
     const auto now = Clock::now();
     const double cpu = processCpuSeconds();
@@ -59,8 +59,9 @@ private:
   }
   double cpuAt(Clock::time_point t) {
     std::lock_guard<std::mutex> lock(mutex_);
-    auto it = std::lower_bound(samples_.begin(), samples_.end(), t,
-                               [](const std::pair<Clock::time_point, double>& s, Clock::time_point x) { return s.first < x; });
+    auto it = std::lower_bound(
+        samples_.begin(), samples_.end(), t,
+        [](const std::pair<Clock::time_point, double>& s, Clock::time_point x) { return s.first < x; });
     if (it == samples_.begin()) return it->second;
     if (it == samples_.end()) return samples_.back().second;
     const auto& [t1, c1] = *it;

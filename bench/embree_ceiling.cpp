@@ -168,8 +168,8 @@ EmbreeCeiling::EmbreeCeiling(const Scene& scene) : impl_(std::make_unique<Impl>(
   for (const MeshInstance& m : scene.meshes) {
     if (m.receiverOnly || m.triangleCount() == 0) continue;
     RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                           3 * sizeof(float), m.vertexCount()));
+    auto* vb = static_cast<float*>(
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.vertexCount()));
     for (size_t i = 0; i < m.vertexCount(); ++i) {
       std::memcpy(vb + 3 * i, &m.positions[i], 3 * sizeof(float));
       lo = glm::min(lo, m.positions[i]);
@@ -258,7 +258,7 @@ Ceiling EmbreeCeiling::measure(const std::vector<bake::Ray>& in, size_t group, s
                          rtcIntersect1(scene, &ctx, &aosHit[i]);
                        else
                          rtcOccluded1(scene, &ctx, &aosRay[i]);
-                     },
+                   },
                    aosHits, releaseAos});
 
   // ---- Packets of K: ceil(group / K) per group, the last one masked. Embree wants the valid
@@ -364,7 +364,7 @@ Ceiling EmbreeCeiling::measure(const std::vector<bake::Ray>& in, size_t group, s
                          const unsigned count = unsigned(std::min<size_t>(256, end - i));
                          RTCRayHitNp s;
                          s.ray = {&f[0][i], &f[1][i], &f[2][i], &f[3][i], &f[4][i], &f[5][i],
-                                  &f[6][i], &f[7][i], &f[8][i], &mask[i], &id[i], &rflags[i]};
+                                  &f[6][i], &f[7][i], &f[8][i], &mask[i], &id[i],   &rflags[i]};
                          if (closest) {
                            s.hit.Ng_x = &f[9][i], s.hit.Ng_y = &f[10][i], s.hit.Ng_z = &f[11][i];
                            s.hit.u = &f[12][i], s.hit.v = &fv[i];

@@ -58,7 +58,7 @@ void appendRounds(Ceiling& into, const Ceiling& more);
 double roundRate(const Ceiling& c, size_t r, Timing t);
 
 class EmbreeCeiling {
-public:
+ public:
   /// Builds a BVH of the scene's non-receiver instances on a device of its own, with the flags a
   /// watertight bake needs (robust traversal, high build quality). Partial occluders (cutouts,
   /// BLEND, transmission) are traced as opaque: the ceiling has no filter to call.
@@ -80,7 +80,7 @@ public:
   size_t triangles() const { return triangles_; }
   double buildSeconds() const { return buildSeconds_; }
 
-private:
+ private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
   float extent_ = 1.0f;

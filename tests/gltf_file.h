@@ -26,9 +26,14 @@ struct GltfFile {
   std::vector<unsigned char> bin;
 
   GltfFile() {
-    j = {{"asset", {{"version", "2.0"}}}, {"scene", 0}, {"scenes", Json::array({{{"nodes", Json::array()}}})},
-         {"nodes", Json::array()}, {"meshes", Json::array()}, {"accessors", Json::array()},
-         {"bufferViews", Json::array()}, {"animations", Json::array()}};
+    j = {{"asset", {{"version", "2.0"}}},
+         {"scene", 0},
+         {"scenes", Json::array({{{"nodes", Json::array()}}})},
+         {"nodes", Json::array()},
+         {"meshes", Json::array()},
+         {"accessors", Json::array()},
+         {"bufferViews", Json::array()},
+         {"animations", Json::array()}};
     // One triangle mesh (mesh 0) for the nodes to carry.
     const int pos = accessor({0, 0, 0, 1, 0, 0, 0, 1, 0}, "VEC3");
     j["meshes"].push_back({{"primitives", Json::array({{{"attributes", {{"POSITION", pos}}}}})}});
@@ -42,15 +47,17 @@ struct GltfFile {
     std::memcpy(bin.data() + offset, data.data(), data.size() * 4);
     const int width = std::string(type) == "SCALAR" ? 1 : std::string(type) == "VEC3" ? 3 : 4;
     j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * 4}});
-    j["accessors"].push_back({{"bufferView", j["bufferViews"].size() - 1}, {"componentType", componentType},
-                              {"count", data.size() / size_t(width)}, {"type", type}});
+    j["accessors"].push_back({{"bufferView", j["bufferViews"].size() - 1},
+                              {"componentType", componentType},
+                              {"count", data.size() / size_t(width)},
+                              {"type", type}});
     return int(j["accessors"].size() - 1);
   }
   int accessor(const std::vector<float>& data, const char* type) { return accessor<float>(data, type, 5126); }
   /// Adds an indexed triangle mesh (xyz per vertex; normals as many as positions) of material
   /// `material` (-1: the glTF default, white); returns its index.
-  int mesh(const std::vector<float>& positions, const std::vector<float>& normals,
-           const std::vector<uint32_t>& indices, int material = -1) {
+  int mesh(const std::vector<float>& positions, const std::vector<float>& normals, const std::vector<uint32_t>& indices,
+           int material = -1) {
     Json prim = {{"attributes", {{"POSITION", accessor(positions, "VEC3")}, {"NORMAL", accessor(normals, "VEC3")}}},
                  {"indices", accessor<uint32_t>(indices, "SCALAR", 5125)}};
     if (material >= 0) prim["material"] = material;
@@ -88,14 +95,16 @@ struct GltfFile {
       const int in = accessor(c.times, "SCALAR");
       const int out = accessor(c.values, c.path == "rotation" ? "VEC4" : "VEC3");
       a["samplers"].push_back({{"input", in}, {"output", out}, {"interpolation", c.interpolation}});
-      a["channels"].push_back({{"sampler", a["samplers"].size() - 1}, {"target", {{"node", c.node}, {"path", c.path}}}});
+      a["channels"].push_back(
+          {{"sampler", a["samplers"].size() - 1}, {"target", {{"node", c.node}, {"path", c.path}}}});
     }
     j["animations"].push_back(a);
   }
   /// Writes the file as `dir`/prt_anim_PID_NAME.gltf (default: the temporary folder).
-  std::string write(const std::string& name, const std::filesystem::path& dir = std::filesystem::temp_directory_path()) {
-    j["buffers"] = Json::array({{{"byteLength", bin.size()},
-                                 {"uri", "data:application/octet-stream;base64," + base64(bin)}}});
+  std::string write(const std::string& name,
+                    const std::filesystem::path& dir = std::filesystem::temp_directory_path()) {
+    j["buffers"] =
+        Json::array({{{"byteLength", bin.size()}, {"uri", "data:application/octet-stream;base64," + base64(bin)}}});
     const std::filesystem::path p = dir / cat("prt_anim_", ::getpid(), "_", name, ".gltf");
     std::ofstream(p) << j.dump();
     return p.string();

@@ -75,8 +75,7 @@ Process::Process(const std::string& exe, const std::vector<std::string>& args, c
     check(posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644),
           "addopen stderr");
   // Last, so that the capture paths above never depend on it.
-  if (!options.cwd.empty())
-    check(posix_spawn_file_actions_addchdir_np(&actions, options.cwd.c_str()), "addchdir");
+  if (!options.cwd.empty()) check(posix_spawn_file_actions_addchdir_np(&actions, options.cwd.c_str()), "addchdir");
 
   std::vector<std::string> argStrings{exe};
   argStrings.insert(argStrings.end(), args.begin(), args.end());
@@ -112,8 +111,7 @@ RunResult Process::wait() {
   RunResult r;
   if (pid_ > 0) {
     int status = 0;
-    while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-    }
+    while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {}
     pid_ = -1;
     r.status = WIFEXITED(status) ? WEXITSTATUS(status) : WIFSIGNALED(status) ? 128 + WTERMSIG(status) : -1;
   } else {

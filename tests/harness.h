@@ -47,7 +47,7 @@ struct RunResult {
 
 /// A started program that runs while the test watches it (a bake to interrupt, to kill -9).
 class Process {
-public:
+ public:
   /// Starts `exe` with `args` (argv[1]...); a program that cannot be started exits 127.
   Process(const std::string& exe, const std::vector<std::string>& args, const RunOptions& options = {});
   ~Process();  ///< a program still running is killed and reaped
@@ -59,7 +59,7 @@ public:
   /// Waits for the program to end and returns its status and output.
   RunResult wait();
 
-private:
+ private:
   pid_t pid_ = -1;
   std::filesystem::path captureDir_;
   std::chrono::steady_clock::time_point start_;
@@ -91,7 +91,7 @@ int lineCount(std::string_view text);
 /// running test's suite and name) and the process, so that tests run in parallel processes never
 /// share one. Removed when the object goes, unless the test failed: then kept for a look.
 class TempDir {
-public:
+ public:
   explicit TempDir(const std::string& name = "");
   ~TempDir();
   TempDir(const TempDir&) = delete;
@@ -105,7 +105,7 @@ public:
   /// The names in the folder, sorted.
   std::vector<std::string> entries() const;
 
-private:
+ private:
   std::filesystem::path path_;
 };
 

@@ -59,7 +59,8 @@ inline std::string encodePngRaw(int w, int h, int bitDepth, int colorType, const
   ihdr += char(bitDepth);
   ihdr += char(colorType);
   ihdr += std::string(3, '\0');  // deflate, adaptive filtering, no interlace
-  return std::string("\x89PNG\r\n\x1a\n", 8) + pngChunk("IHDR", ihdr) + chunks + pngChunk("IDAT", z) + pngChunk("IEND", "");
+  return std::string("\x89PNG\r\n\x1a\n", 8) + pngChunk("IHDR", ihdr) + chunks + pngChunk("IDAT", z) +
+         pngChunk("IEND", "");
 }
 
 /// An RGBA8 PNG.

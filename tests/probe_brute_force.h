@@ -8,9 +8,9 @@
 
 #include <glm/glm.hpp>
 
-#include "prt/math.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
+#include "prt/math.h"
 #include "prt/scene.h"
 #include "prt/sh.h"
 

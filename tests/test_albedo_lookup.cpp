@@ -55,12 +55,23 @@ MeshInstance randomMesh(std::mt19937& rng, int material, size_t vertices, size_t
   for (size_t v = 0; v < vertices && texcoords; ++v) {
     glm::vec2 c(uv(rng), uv(rng));
     switch (odd(rng)) {
-      case 0: c.x = 1e7f; break;
-      case 1: c.y = -3e9f; break;
-      case 2: c.x = std::numeric_limits<float>::quiet_NaN(); break;
-      case 3: c.y = std::numeric_limits<float>::infinity(); break;
-      case 4: c = glm::vec2(0.0f, 1.0f); break;
-      default: break;
+      case 0:
+        c.x = 1e7f;
+        break;
+      case 1:
+        c.y = -3e9f;
+        break;
+      case 2:
+        c.x = std::numeric_limits<float>::quiet_NaN();
+        break;
+      case 3:
+        c.y = std::numeric_limits<float>::infinity();
+        break;
+      case 4:
+        c = glm::vec2(0.0f, 1.0f);
+        break;
+      default:
+        break;
     }
     m.texcoords.push_back(c);
   }
@@ -76,9 +87,9 @@ Scene randomScene(std::mt19937& rng) {
   s.textures.push_back(randomTexture(rng, 7, 5, R, R, true, 2.2f));
   s.textures.push_back(randomTexture(rng, 1, 1, C, M, true, 1.0f));
   s.textures.push_back(randomTexture(rng, 16, 9, M, C, true, 2.4f));
-  s.textures.push_back(randomTexture(rng, 4, 4, R, R, false, 1.0f));  // float texels: one by one
+  s.textures.push_back(randomTexture(rng, 4, 4, R, R, false, 1.0f));     // float texels: one by one
   s.textures.push_back(randomTexture(rng, 3, 2, 12345, M, true, 1.8f));  // a mode glTF does not name: REPEAT
-  s.textures.push_back(Texture{});                                      // empty: sample() gives 1
+  s.textures.push_back(Texture{});                                       // empty: sample() gives 1
   for (int t = 0; t < int(s.textures.size()); ++t) {
     Material m;
     m.baseColorFactor = glm::vec4(0.3f + 0.1f * t, 0.9f, 0.55f, 1.0f);
@@ -93,16 +104,17 @@ Scene randomScene(std::mt19937& rng) {
     s.meshes.push_back(randomMesh(rng, t, 40, 60, true, false));
     s.meshes.push_back(randomMesh(rng, t, 30, 50, true, true));  // texture and vertex colours
   }
-  s.meshes.push_back(randomMesh(rng, 0, 20, 30, false, false));                // textured material, no coordinates
+  s.meshes.push_back(randomMesh(rng, 0, 20, 30, false, false));  // textured material, no coordinates
   s.meshes.push_back(randomMesh(rng, 0, 20, 30, false, true));
-  s.meshes.push_back(randomMesh(rng, -1, 20, 30, false, true));                // no material: colours alone
-  s.meshes.push_back(randomMesh(rng, int(s.textures.size()), 20, 30, true, true));  // factor × colours
+  s.meshes.push_back(randomMesh(rng, -1, 20, 30, false, true));                       // no material: colours alone
+  s.meshes.push_back(randomMesh(rng, int(s.textures.size()), 20, 30, true, true));    // factor × colours
   s.meshes.push_back(randomMesh(rng, int(s.textures.size()), 20, 30, false, false));  // uniform
   return s;
 }
 
 TEST(AlbedoLookup, ManyAtOnceGiveAtsBits) {
-  if (bake::activeKernels() != bake::Kernels::Avx512) GTEST_SKIP() << "no AVX-512 on this CPU: atMany looks each hit up with at()";
+  if (bake::activeKernels() != bake::Kernels::Avx512)
+    GTEST_SKIP() << "no AVX-512 on this CPU: atMany looks each hit up with at()";
   std::mt19937 rng(7);
   const Scene s = randomScene(rng);
 

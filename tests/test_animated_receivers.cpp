@@ -19,13 +19,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "prt/math.h"
 #include "gltf_file.h"
 #include "harness.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/image.h"
 #include "prt/light_rig.h"
+#include "prt/math.h"
 #include "prt/probe_grid.h"
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
@@ -56,21 +56,27 @@ glm::dvec3 cubeCentreAt(double t) { return kStart + std::clamp(t / 2.0, 0.0, 1.0
 /// Writes the scene into `dir`; `cubeExtras` go on the cube's node (null: none).
 std::string writeCubeScene(const fs::path& dir, const std::string& name, bool withFloor, Json cubeExtras = nullptr) {
   GltfFile f;
-  f.j["materials"] = Json::array({{{"pbrMetallicRoughness",
-                                    {{"baseColorFactor", {kCubeAlbedo.r, kCubeAlbedo.g, kCubeAlbedo.b, 1.0}},
-                                     {"metallicFactor", 0.0}}}}});
+  f.j["materials"] = Json::array(
+      {{{"pbrMetallicRoughness",
+         {{"baseColorFactor", {kCubeAlbedo.r, kCubeAlbedo.g, kCubeAlbedo.b, 1.0}}, {"metallicFactor", 0.0}}}}});
   if (withFloor) f.node({{"name", "Floor"}, {"mesh", f.mesh(test::makePlane({0, 0, 0}, 2.0f, 16))}}, true);
   Json cube = {{"name", "Cube"},
                {"mesh", f.mesh(test::makeSlab(glm::vec3(-kHalf), glm::vec3(kHalf)), 0)},
                {"translation", {kRest.x, kRest.y, kRest.z}}};
   if (!cubeExtras.is_null()) cube["extras"] = cubeExtras;
   const int node = f.node(cube, true);
-  f.animation("Slide", {{node, "translation", {0.0f, 2.0f},
-                         {float(kStart.x), float(kStart.y), float(kStart.z), float(kEnd.x), float(kEnd.y), float(kEnd.z)}}});
+  f.animation("Slide",
+              {{node,
+                "translation",
+                {0.0f, 2.0f},
+                {float(kStart.x), float(kStart.y), float(kStart.z), float(kEnd.x), float(kEnd.y), float(kEnd.z)}}});
   // Looking down −Y: the glTF camera's −Z turned by −90° about X (image up is −Z).
-  f.j["cameras"] = Json::array({{{"type", "orthographic"},
-                                 {"orthographic", {{"xmag", 1.25 * 4 / 3}, {"ymag", 1.25}, {"znear", 0.1}, {"zfar", 10.0}}}}});
-  f.node({{"name", "Top"}, {"camera", 0}, {"translation", {0.0, 3.0, 0.0}},
+  f.j["cameras"] =
+      Json::array({{{"type", "orthographic"},
+                    {"orthographic", {{"xmag", 1.25 * 4 / 3}, {"ymag", 1.25}, {"znear", 0.1}, {"zfar", 10.0}}}}});
+  f.node({{"name", "Top"},
+          {"camera", 0},
+          {"translation", {0.0, 3.0, 0.0}},
           {"rotation", {-std::sqrt(0.5), 0.0, 0.0, std::sqrt(0.5)}}},
          true);
   return f.write(name, dir);
@@ -102,8 +108,9 @@ TEST(SceneAnimatedReceivers, AnimatedNodeIsAReceiverWithItsReason) {
   const Scene marked = loadScene(writeCubeScene(dir, "marked", true, {{"prt", {{"receiver", true}}}}), named);
   EXPECT_EQ(instanceOf(marked, "Cube").receiverReason, ReceiverReason::Extras);
   EXPECT_EQ(instanceOf(marked, "Floor").receiverReason, ReceiverReason::Option);
-  EXPECT_EQ(describeReceivers(marked), (std::vector<std::string>{"node 0 'Floor': named in LoadOptions::receiverNodes",
-                                                                  "node 1 'Cube': extras.prt.receiver, animated (translation)"}));
+  EXPECT_EQ(describeReceivers(marked),
+            (std::vector<std::string>{"node 0 'Floor': named in LoadOptions::receiverNodes",
+                                      "node 1 'Cube': extras.prt.receiver, animated (translation)"}));
 }
 
 // Transfer of the floor's vertices under the cube's rest pose (|x|, |z| < half side).
@@ -174,8 +181,8 @@ glm::dvec3 probeOracle(const ProbeGrid& g, const std::vector<glm::vec3>& relit, 
 
 struct TopFace {
   int pixels = 0;
-  double maxError = 0.0;    // against the oracle, relative to the largest oracle value
-  glm::ivec2 centre{-1};    // the pixel nearest the face's centre
+  double maxError = 0.0;  // against the oracle, relative to the largest oracle value
+  glm::ivec2 centre{-1};  // the pixel nearest the face's centre
 };
 
 // Compares the pixels whose ray meets the top face at `time` at least 1.5 pixels inside its
@@ -209,7 +216,7 @@ TopFace compareTopFace(const ImageRgb& img, const render::CameraView& cam, doubl
 sh::ShRgb testLight() {
   sh::ShRgb l(3);
   l.c[0] = glm::vec3(2.0f, 1.8f, 1.5f);
-  l.c[1] = glm::vec3(0.9f, 0.7f, 0.5f);  // y
+  l.c[1] = glm::vec3(0.9f, 0.7f, 0.5f);   // y
   l.c[3] = glm::vec3(0.4f, -0.2f, 0.1f);  // x: zero at +Y
   l.c[6] = glm::vec3(-0.3f, 0.2f, 0.1f);
   l.c[8] = glm::vec3(0.2f, -0.1f, 0.3f);
@@ -236,8 +243,11 @@ TEST(RenderAnimatedReceivers, MovingCubeMatchesTheProbeOracleAndTheClosedForm) {
   const Scene s = loadScene(writeCubeScene(dir, "scene", false));
   ASSERT_TRUE(instanceOf(s, "Cube").receiverOnly);
   ASSERT_EQ(s.cameras.size(), 1u);
-  const bake::ProbeSettings ps{.samples = 1024, .bounces = 0, .dims = glm::ivec3(4, 3, 4),
-                               .boundsMin = glm::dvec3(-1.2, 0.0, -1.2), .boundsMax = glm::dvec3(1.2, 1.2, 1.2)};
+  const bake::ProbeSettings ps{.samples = 1024,
+                               .bounces = 0,
+                               .dims = glm::ivec3(4, 3, 4),
+                               .boundsMin = glm::dvec3(-1.2, 0.0, -1.2),
+                               .boundsMax = glm::dvec3(1.2, 1.2, 1.2)};
   const ProbeGrid grid = bake::bakeProbes(s, {}, ps);  // nothing to hit: the cube is a receiver
   const sh::ShRgb light = testLight();
   const std::vector<glm::vec3> relit = relightProbes(grid, light);
@@ -258,9 +268,8 @@ TEST(RenderAnimatedReceivers, MovingCubeMatchesTheProbeOracleAndTheClosedForm) {
     f.light = light;
     f.time = time;
     frames.push_back(r.render(f));
-    const TopFace oracle = compareTopFace(frames.back(), cam, time, [&](const glm::vec3& x) {
-      return probeOracle(grid, relit, light, x, up);
-    });
+    const TopFace oracle = compareTopFace(frames.back(), cam, time,
+                                          [&](const glm::vec3& x) { return probeOracle(grid, relit, light, x, up); });
     // Empty-scene probes: M = I within 1e-2 per element (ProbeBake.EmptySceneGivesIdentity).
     const TopFace exact = compareTopFace(frames.back(), cam, time, [&](const glm::vec3&) { return closedForm; });
     std::printf("  t = %.1f s: %d top-face pixels, probe oracle %.3g, closed form %.3g of the peak\n", time,
@@ -280,8 +289,8 @@ TEST(RenderAnimatedReceivers, MovingCubeMatchesTheProbeOracleAndTheClosedForm) {
 // The command line: prt bake names the receiver and leaves it out; prt render moves it with the
 // rig's fps (frame f at f / fps seconds) and lights it from the baked probe grid.
 
-using test::RunResult;
 using test::runPrt;
+using test::RunResult;
 
 TEST(RenderAnimatedReceivers, BakeAndRenderCommandsMoveTheCube) {
   const test::TempDir tmp("cli");
@@ -292,16 +301,16 @@ TEST(RenderAnimatedReceivers, BakeAndRenderCommandsMoveTheCube) {
       {"type": "uniform", "radiance": [0.4, 0.45, 0.5]},
       {"type": "sun", "direction": [0.3, 1, 0.2], "radius": 3, "irradiance": [2.0, 1.8, 1.5]}]})";
   const std::string baked = (dir / "b.glb").string(), probes = (dir / "p.vdb").string();
-  const RunResult bakeRun = runPrt({"bake", scene, "-o", baked, "--samples", "64", "--bounces", "1", "--probes", probes,
-                                    "--probe-dims", "4,3,4", "--probe-bounds", "-1.2,0.05,-1.2,1.2,1.2,1.2",
-                                    "--probe-samples", "256"});
+  const RunResult bakeRun =
+      runPrt({"bake", scene, "-o", baked, "--samples", "64", "--bounces", "1", "--probes", probes, "--probe-dims",
+              "4,3,4", "--probe-bounds", "-1.2,0.05,-1.2,1.2,1.2,1.2", "--probe-samples", "256"});
   ASSERT_EQ(bakeRun.status, 0) << bakeRun.err;
   EXPECT_NE(bakeRun.err.find("(1 receivers skipped)"), std::string::npos) << bakeRun.err;
   EXPECT_NE(bakeRun.err.find("receiver node 1 'Cube': animated (translation)"), std::string::npos) << bakeRun.err;
 
-  const RunResult renderRun = runPrt({"render", baked, "--rig", rig.string(), "--probes", probes, "--camera", "Top",
-                                      "--frames", "0-2", "--size", "64x48", "--exr-compression", "none", "-q", "-o",
-                                      (dir / "f_%d.exr").string()});
+  const RunResult renderRun =
+      runPrt({"render", baked, "--rig", rig.string(), "--probes", probes, "--camera", "Top", "--frames", "0-2",
+              "--size", "64x48", "--exr-compression", "none", "-q", "-o", (dir / "f_%d.exr").string()});
   ASSERT_EQ(renderRun.status, 0) << renderRun.err;
 
   // The oracle from the files the command read: the receiver survives the baked file.
@@ -322,7 +331,8 @@ TEST(RenderAnimatedReceivers, BakeAndRenderCommandsMoveTheCube) {
     ASSERT_EQ(lighting.direct.size(), 1u);
     ASSERT_TRUE(grid.hasDirect());
     const std::vector<glm::vec3> relit = relightProbes(grid, lighting.sh, lighting.directSh);
-    const glm::dvec3 direct = lighting.direct[0].irradiance * directCosineFactor(lighting.direct[0], glm::dvec3(0, 1, 0));
+    const glm::dvec3 direct =
+        lighting.direct[0].irradiance * directCosineFactor(lighting.direct[0], glm::dvec3(0, 1, 0));
     frames.push_back(loadHdrImage((dir / cat("f_", frame, ".exr")).string()));
     const TopFace got = compareTopFace(frames.back(), cam, time, [&](const glm::vec3& x) {
       return probeOracle(grid, relit, lighting.sh, x, glm::vec3(0, 1, 0)) + glm::dvec3(kCubeAlbedo) * kInvPi * direct;
@@ -354,7 +364,7 @@ TEST(RenderAnimatedReceivers, SceneOfReceiversOnlyRendersFromTheProbes) {
   ASSERT_EQ(bakeRun.status, 0) << bakeRun.err;
   for (const MeshInstance& m : loadScene(baked).meshes)
     ASSERT_TRUE(m.transfer.empty() && m.receiverOnly);  // nothing baked: the case under test
-  ASSERT_EQ(loadScene(baked).transferBands, 3);       // the bake record's bands (prt bake's default)
+  ASSERT_EQ(loadScene(baked).transferBands, 3);         // the bake record's bands (prt bake's default)
   const RunResult renderRun = runPrt({"render", baked, "--rig", rig.string(), "--probes", probes, "--camera", "Top",
                                       "--frames", "1", "--size", "64x48", "-q", "-o", (dir / "f.exr").string()});
   ASSERT_EQ(renderRun.status, 0) << renderRun.err;

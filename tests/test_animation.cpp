@@ -15,9 +15,9 @@
 #include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
 
-#include "prt/math.h"
 #include "gltf_file.h"
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/scene.h"
 
 namespace prt {
@@ -97,7 +97,8 @@ TEST(AnimationSample, CubicSplineIsTheSpecsHermite) {
                                 glm::dvec4(0, 3, 0, 0), glm::dvec4(4, 0, 0, 0), glm::dvec4(7, 7, 7, 0)});
   expectNear(sampleChannel(c, 1.0), glm::dvec4(2.25, -0.75, 0, 0), kExact, "s = 1/2");
   // s = ¼ (t = 0.5): h00 = 27/32, h10 = 9/64, h01 = 5/32, h11 = −3/64.
-  expectNear(sampleChannel(c, 0.5), glm::dvec4(2 * 9.0 / 64 + 4 * 5.0 / 32, -2 * 3 * 3.0 / 64, 0, 0), kExact, "s = 1/4");
+  expectNear(sampleChannel(c, 0.5), glm::dvec4(2 * 9.0 / 64 + 4 * 5.0 / 32, -2 * 3 * 3.0 / 64, 0, 0), kExact,
+             "s = 1/4");
   // Outside the range: the key values, not the tangents.
   expectNear(sampleChannel(c, -1.0), zero, 0.0, "before");
   expectNear(sampleChannel(c, 3.0), glm::dvec4(4, 0, 0, 0), 0.0, "after");
@@ -115,7 +116,9 @@ TEST(AnimationFile, ParentAnimationComposesWithTheChild) {
   // the mesh and is a receiver.
   GltfFile f;
   const int parent = f.node({{"name", "Parent"}, {"translation", {0, 1, 0}}}, true);
-  const int child = f.node({{"name", "Child"}, {"mesh", 0}, {"translation", {1, 0, 0}},
+  const int child = f.node({{"name", "Child"},
+                            {"mesh", 0},
+                            {"translation", {1, 0, 0}},
                             {"rotation", {0, std::sin(prt::kPi / 4), 0, std::cos(prt::kPi / 4)}},
                             {"extras", {{"prt", {{"receiver", true}}}}}},
                            false);
@@ -137,7 +140,8 @@ TEST(AnimationFile, ParentAnimationComposesWithTheChild) {
   EXPECT_TRUE(m.receiverOnly);
   EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
   EXPECT_EQ(describeReceivers(s),
-            std::vector<std::string>{"node 1 'Child': extras.prt.receiver, animated (scale, translation of node 0 'Parent')"});
+            std::vector<std::string>{
+                "node 1 'Child': extras.prt.receiver, animated (scale, translation of node 0 'Parent')"});
 
   // At t = 1.5: parent at (3, 1, 0); child scaled 2, turned 90° about Y (x -> -z), at +1 x.
   // Mesh vertex (1, 0, 0) -> scale (2, 0, 0) -> rotate (0, 0, -2) -> +(1, 0, 0) -> +(3, 1, 0).
@@ -217,50 +221,88 @@ TEST(AnimationFile, BadAnimationsAreOneClearLine) {
     std::string what;
   };
   const std::vector<Case> cases = {
-      {"decreasing", [](GltfFile& f) { f.animation("Bad", {{0, "translation", {0, 2, 1}, std::vector<float>(9, 0)}}); },
+      {"decreasing",
+       [](GltfFile& f) {
+         f.animation("Bad", {{0, "translation", {0, 2, 1}, std::vector<float>(9, 0)}});
+       },
        "key times not strictly increasing (key 2 at 1 s after 2 s)"},
-      {"repeated", [](GltfFile& f) { f.animation("Bad", {{0, "translation", {0, 1, 1}, std::vector<float>(9, 0)}}); },
+      {"repeated",
+       [](GltfFile& f) {
+         f.animation("Bad", {{0, "translation", {0, 1, 1}, std::vector<float>(9, 0)}});
+       },
        "not strictly increasing"},
-      {"nan-time", [&](GltfFile& f) { f.animation("Bad", {{0, "scale", {0, nan}, std::vector<float>(6, 1)}}); },
+      {"nan-time",
+       [&](GltfFile& f) {
+         f.animation("Bad", {{0, "scale", {0, nan}, std::vector<float>(6, 1)}});
+       },
        "input: key time 1 is not finite"},
-      {"nan-value", [&](GltfFile& f) { f.animation("Bad", {{0, "translation", {0, 1}, {0, 0, 0, 0, nan, 0}}}); },
+      {"nan-value",
+       [&](GltfFile& f) {
+         f.animation("Bad", {{0, "translation", {0, 1}, {0, 0, 0, 0, nan, 0}}});
+       },
        "output: value 1 is not finite"},
-      {"count", [](GltfFile& f) { f.animation("Bad", {{0, "translation", {0, 1, 2}, std::vector<float>(6, 0)}}); },
+      {"count",
+       [](GltfFile& f) {
+         f.animation("Bad", {{0, "translation", {0, 1, 2}, std::vector<float>(6, 0)}});
+       },
        "2 values, expected 3"},
-      {"cubic-count", [](GltfFile& f) {
+      {"cubic-count",
+       [](GltfFile& f) {
          f.animation("Bad", {{0, "translation", {0, 1}, std::vector<float>(6, 0), "CUBICSPLINE"}});
-       }, "2 values, expected 6"},
-      {"cubic-one-key", [](GltfFile& f) {
+       },
+       "2 values, expected 6"},
+      {"cubic-one-key",
+       [](GltfFile& f) {
          f.animation("Bad", {{0, "translation", {0}, std::vector<float>(9, 0), "CUBICSPLINE"}});
-       }, "CUBICSPLINE needs at least 2"},
-      {"interpolation", [](GltfFile& f) {
+       },
+       "CUBICSPLINE needs at least 2"},
+      {"interpolation",
+       [](GltfFile& f) {
          f.animation("Bad", {{0, "translation", {0, 1}, std::vector<float>(6, 0), "SMOOTH"}});
-       }, "unknown interpolation 'SMOOTH'"},
-      {"zero-quaternion", [](GltfFile& f) { f.animation("Bad", {{0, "rotation", {0, 1}, {0, 0, 0, 1, 0, 0, 0, 0}}}); },
+       },
+       "unknown interpolation 'SMOOTH'"},
+      {"zero-quaternion",
+       [](GltfFile& f) {
+         f.animation("Bad", {{0, "rotation", {0, 1}, {0, 0, 0, 1, 0, 0, 0, 0}}});
+       },
        "value 1 is a zero quaternion"},
-      {"vec2-translation", [](GltfFile& f) {
+      {"vec2-translation",
+       [](GltfFile& f) {
          f.animation("Bad", {{0, "translation", {0, 1}, std::vector<float>(6, 0)}});
          f.j["accessors"][f.j["animations"][0]["samplers"][0]["output"].get<int>()]["type"] = "VEC2";
          f.j["accessors"][f.j["animations"][0]["samplers"][0]["output"].get<int>()]["count"] = 3;
-       }, "translation values must be VEC3 float"},
-      {"vec-times", [](GltfFile& f) {
+       },
+       "translation values must be VEC3 float"},
+      {"vec-times",
+       [](GltfFile& f) {
          f.animation("Bad", {{0, "translation", {0, 1, 2}, std::vector<float>(3, 0)}});
          f.j["accessors"][f.j["animations"][0]["samplers"][0]["input"].get<int>()]["type"] = "VEC3";
          f.j["accessors"][f.j["animations"][0]["samplers"][0]["input"].get<int>()]["count"] = 1;
-       }, "key times must be SCALAR float"},
-      {"sampler", [](GltfFile& f) {
+       },
+       "key times must be SCALAR float"},
+      {"sampler",
+       [](GltfFile& f) {
          f.animation("Bad", {{0, "translation", {0, 1}, std::vector<float>(6, 0)}});
          f.j["animations"][0]["channels"][0]["sampler"] = 4;
-       }, "sampler 4 does not exist"},
-      {"node", [](GltfFile& f) { f.animation("Bad", {{7, "translation", {0, 1}, std::vector<float>(6, 0)}}); },
+       },
+       "sampler 4 does not exist"},
+      {"node",
+       [](GltfFile& f) {
+         f.animation("Bad", {{7, "translation", {0, 1}, std::vector<float>(6, 0)}});
+       },
        "target node 7 does not exist"},
-      {"path", [](GltfFile& f) {
+      {"path",
+       [](GltfFile& f) {
          f.animation("Bad", {{0, "translation", {0, 1}, std::vector<float>(6, 0)}});
          f.j["animations"][0]["channels"][0]["target"]["path"] = "position";
-       }, "unknown target path 'position'"},
-      {"twice", [](GltfFile& f) {
-         f.animation("Bad", {{0, "scale", {0, 1}, std::vector<float>(6, 1)}, {0, "scale", {0, 1}, std::vector<float>(6, 1)}});
-       }, "second channel of this animation targets the same node property"},
+       },
+       "unknown target path 'position'"},
+      {"twice",
+       [](GltfFile& f) {
+         f.animation("Bad",
+                     {{0, "scale", {0, 1}, std::vector<float>(6, 1)}, {0, "scale", {0, 1}, std::vector<float>(6, 1)}});
+       },
+       "second channel of this animation targets the same node property"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
@@ -273,7 +315,8 @@ TEST(AnimationFile, BadAnimationsAreOneClearLine) {
         loadScene(path);
         ADD_FAILURE() << "loaded";
       } catch (const Error& e) {
-        EXPECT_NE(std::string(e.what()).find("animation 0 'Bad' / channel 1 (node 0 'Target' scale)"), std::string::npos)
+        EXPECT_NE(std::string(e.what()).find("animation 0 'Bad' / channel 1 (node 0 'Target' scale)"),
+                  std::string::npos)
             << e.what();
         EXPECT_NE(std::string(e.what()).find(c.what), std::string::npos) << e.what();
       }

@@ -1,19 +1,19 @@
 // Surface bake against closed forms: the unoccluded plane, the open spherical cavity (every
 // bounce count, grey and coloured), determinism across thread counts, sampling triplets.
-#include <bit>
 #include <gtest/gtest.h>
+#include <bit>
 
 #include <cmath>
 #include <cstring>
 #include <functional>
 #include <random>
 
-#include "prt/math.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
 #include "prt/light.h"
+#include "prt/math.h"
 #include "prt/relight.h"
 #include "prt/sh.h"
 #include "test_scenes.h"
@@ -84,8 +84,10 @@ TEST(BakeSampling, Sobol1TableMatchesItsDefinition) {
       if (i & 1u) r ^= v;
     return float((r ^ scramble) >> 8) * 0x1p-24f;
   };
-  for (uint32_t i = 0; i < (1u << 16); ++i) ASSERT_EQ(bake::sobol1(i, i * 2654435761u), definition(i, i * 2654435761u)) << i;
-  for (uint64_t i = 0; i < (1ull << 32); i += 65521) ASSERT_EQ(bake::sobol1(uint32_t(i), 7u), definition(uint32_t(i), 7u)) << i;
+  for (uint32_t i = 0; i < (1u << 16); ++i)
+    ASSERT_EQ(bake::sobol1(i, i * 2654435761u), definition(i, i * 2654435761u)) << i;
+  for (uint64_t i = 0; i < (1ull << 32); i += 65521)
+    ASSERT_EQ(bake::sobol1(uint32_t(i), 7u), definition(uint32_t(i), 7u)) << i;
   EXPECT_EQ(bake::sobol1(0xffffffffu, 0u), definition(0xffffffffu, 0u));
 }
 
@@ -297,7 +299,9 @@ bool cpuHasF16c() {
 __attribute__((target("f16c"))) uint16_t f16cFromFloat(float f) {
   return uint16_t(_mm_extract_epi16(_mm_cvtps_ph(_mm_set1_ps(f), 0), 0));
 }
-__attribute__((target("f16c"))) float f16cToFloat(uint16_t h) { return _mm_cvtss_f32(_mm_cvtph_ps(_mm_set1_epi16(short(h)))); }
+__attribute__((target("f16c"))) float f16cToFloat(uint16_t h) {
+  return _mm_cvtss_f32(_mm_cvtph_ps(_mm_set1_epi16(short(h))));
+}
 }  // namespace
 
 TEST(BakeHalf, PortableConversionsMatchF16c) {

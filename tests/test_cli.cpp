@@ -14,7 +14,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "prt/math.h"
 #include "cli_expect.h"
 #include "gltf_file.h"
 #include "harness.h"
@@ -22,6 +21,7 @@
 #include "prt/image.h"
 #include "prt/light.h"
 #include "prt/light_rig.h"
+#include "prt/math.h"
 #include "prt/relight.h"
 #include "prt/scene.h"
 
@@ -30,8 +30,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::lineCount;
-using test::RunResult;
 using test::runPrt;
+using test::RunResult;
 using test::TempDir;
 
 std::string scene(const std::string& name) { return test::sourcePath("scenes/" + name); }
@@ -58,7 +58,8 @@ TEST(Cli, MissingSceneIsOneLineAndNoOutput) {
 
 TEST(Cli, MalformedSceneIsOneLineAndNoOutput) {
   TempDir d, inputs("inputs");
-  const std::string in = inputs.write("prt_cli_malformed.gltf", "{ \"asset\": { \"version\": \"2.0\" }, \"meshes\": [ {");
+  const std::string in =
+      inputs.write("prt_cli_malformed.gltf", "{ \"asset\": { \"version\": \"2.0\" }, \"meshes\": [ {");
   expectCleanFailure(runPrt({"bake", in, "-o", d.file("out.glb"), "-q"}), "prt_cli_malformed.gltf", d.path());
 }
 
@@ -67,15 +68,14 @@ TEST(Cli, NanGeometryIsOneLineAndNoOutput) {
   // One triangle whose first vertex is (NaN, 0, 0), in an embedded base64 buffer.
   const float pos[9] = {std::nanf(""), 0, 0, 1, 0, 0, 0, 0, 1};
   const std::string enc = test::base64(std::string_view(reinterpret_cast<const char*>(pos), sizeof pos));
-  nlohmann::json j = {
-      {"asset", {{"version", "2.0"}}},
-      {"scene", 0},
-      {"scenes", {{{"nodes", {0}}}}},
-      {"nodes", {{{"mesh", 0}}}},
-      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}}}}}}},
-      {"buffers", {{{"byteLength", 36}, {"uri", "data:application/octet-stream;base64," + enc}}}},
-      {"bufferViews", {{{"buffer", 0}, {"byteLength", 36}}}},
-      {"accessors", {{{"bufferView", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"}}}}};
+  nlohmann::json j = {{"asset", {{"version", "2.0"}}},
+                      {"scene", 0},
+                      {"scenes", {{{"nodes", {0}}}}},
+                      {"nodes", {{{"mesh", 0}}}},
+                      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}}}}}}},
+                      {"buffers", {{{"byteLength", 36}, {"uri", "data:application/octet-stream;base64," + enc}}}},
+                      {"bufferViews", {{{"buffer", 0}, {"byteLength", 36}}}},
+                      {"accessors", {{{"bufferView", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"}}}}};
   const std::string in = inputs.write("prt_cli_nan.gltf", j.dump());
   RunResult r = runPrt({"bake", in, "-o", d.file("out.glb"), "-q"});
   expectCleanFailure(r, "prt_cli_nan.gltf", d.path());
@@ -199,7 +199,8 @@ TEST(Cli, DoubleSidedPlaneIsBakedRelitAndDescribedOnBothSides) {
   RunResult b = runPrt({"bake", in, "-o", baked, "--samples", "64", "--bounces", "1"});
   ASSERT_EQ(b.status, 0) << b.err;
   EXPECT_NE(b.err.find("4 vertices (4 of them two-sided)"), std::string::npos) << b.err;
-  RunResult r = runPrt({"relight", baked, "--env", scene("env/white_sky_64.hdr"), "-o", d.file("lit.glb"), "--csv", csv});
+  RunResult r =
+      runPrt({"relight", baked, "--env", scene("env/white_sky_64.hdr"), "-o", d.file("lit.glb"), "--csv", csv});
   ASSERT_EQ(r.status, 0) << r.err;
   std::ifstream csvIn(csv);
   std::string line;
@@ -222,7 +223,8 @@ TEST(Cli, DoubleSidedPlaneIsBakedRelitAndDescribedOnBothSides) {
   EXPECT_EQ(back, 4);
   RunResult info = runPrt({"info", baked});
   EXPECT_EQ(info.status, 0) << info.err;
-  EXPECT_NE(info.out.find("two-sided   1 instances, 4 vertices with back-side transfer"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("two-sided   1 instances, 4 vertices with back-side transfer"), std::string::npos)
+      << info.out;
   EXPECT_NE(info.out.find(", both sides of double-sided surfaces"), std::string::npos) << info.out;
 }
 
@@ -291,8 +293,10 @@ TEST(Cli, SkyDetailLightsALowBrightRingExactlyOnAverage) {
   const auto [detail, summary] = meanOf({"--bounce-samples", "4096"});
   const auto [byDefault, unused0] = meanOf({});
   const auto [shOnly, unused1] = meanOf({"--no-sky-detail"});
-  std::printf("[ measured ] mean E / exact: %.4f with the sky detail over 4096 rays, %.4f over the default 256, %.4f "
-              "through SH alone\n", detail, byDefault, shOnly);
+  std::printf(
+      "[ measured ] mean E / exact: %.4f with the sky detail over 4096 rays, %.4f over the default 256, %.4f "
+      "through SH alone\n",
+      detail, byDefault, shOnly);
   EXPECT_NE(summary.find("sky detail"), std::string::npos) << summary;
   EXPECT_NEAR(detail, 1.0, 0.015);
   EXPECT_NEAR(byDefault, 1.0, 0.04);
@@ -319,10 +323,10 @@ TEST(Cli, LightOrientationAndRotation) {
     return c;
   };
   auto c0 = coeffs({});
-  EXPECT_GT(c0[3], 0.5 * c0[0]);          // y_3 ∝ x: light from +X
+  EXPECT_GT(c0[3], 0.5 * c0[0]);              // y_3 ∝ x: light from +X
   EXPECT_LT(std::fabs(c0[2]), 0.01 * c0[0]);  // nothing along z
   auto c90 = coeffs({"--env-rotate", "90"});
-  EXPECT_LT(c90[2], -0.5 * c90[0]);        // y_2 ∝ z: light now from −Z
+  EXPECT_LT(c90[2], -0.5 * c90[0]);  // y_2 ∝ z: light now from −Z
   EXPECT_LT(std::fabs(c90[3]), 0.01 * c90[0]);
   EXPECT_NEAR(c90[0], c0[0], 1e-4 * c0[0]);  // rotation keeps the DC term
 }
@@ -340,8 +344,8 @@ TEST(CliDeterminism, ThreadCountDoesNotChangeTheBytes) {
     name += std::to_string(threads);  // (not "t" + to_string: GCC 12 warns, -Wrestrict false positive)
     std::string glb = d.file(name + ".glb"), vdb = d.file(name + ".vdb");
     RunResult r = runPrt({"bake", scene("cornell_open.gltf"), "-o", glb, "--probes", vdb, "--probe-dims", "8,8,8",
-                          "--probe-samples", "64", "--samples", "32", "--bounces", "2", "--seed", "7", "-q", "--threads",
-                          std::to_string(threads)});
+                          "--probe-samples", "64", "--samples", "32", "--bounces", "2", "--seed", "7", "-q",
+                          "--threads", std::to_string(threads)});
     ASSERT_EQ(r.status, 0) << r.err;
     std::string bytes = test::fileBytes(glb), vdbBytes = test::fileBytes(vdb);
     ASSERT_GT(bytes.size(), 1000u);
@@ -400,8 +404,9 @@ TEST(CliHostileInput, CliRefusesCorruptInputsOfEveryCommand) {
   fs::create_directories(root.path() / "scene");
   fs::path out = root.path() / "out";
   fs::create_directories(out);
-  std::string deep = root.write("scene/deep.gltf", "{\"asset\":{\"version\":\"2.0\"},\"extras\":" +
-                                                       std::string(5000, '[') + std::string(5000, ']') + "}");
+  std::string deep =
+      root.write("scene/deep.gltf", "{\"asset\":{\"version\":\"2.0\"},\"extras\":" + std::string(5000, '[') +
+                                        std::string(5000, ']') + "}");
   std::string hdr = root.write("scene/many.hdr", "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 20000 +X 20000\n");
   std::string vdb = root.write("scene/cut.vdb", std::string(" BDV\0\0\0\0\xe0\0\0\0", 12));
   const std::pair<std::vector<std::string>, std::string> cases[] = {

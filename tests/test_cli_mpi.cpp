@@ -24,16 +24,26 @@ using test::RunResult;
 // default): MPI ranks share its points, shards each refine the whole scene, and all must agree.
 // `samples`: the bake's and refinement's directions (refinement's are at most the bake's).
 Args bakeArgs(const fs::path& dir, const std::string& name, const std::string& samples = "") {
-  return {"bake",       test::sourcePath("scenes/cornell_open.gltf"),
-          "-o",         (dir / (name + ".glb")).string(),
-          "--probes",   (dir / (name + ".vdb")).string(),
-          "--samples",  samples.empty() ? "32" : samples,
-          "--bands",    "2",
-          "--bounces",  "2",
-          "--probe-dims", "8,8,8",
-          "--probe-bounds", "-4,-1,-4,4,4,4",
-          "--probe-samples", "64",
-          "--refine-samples", samples.empty() ? "16" : samples,
+  return {"bake",
+          test::sourcePath("scenes/cornell_open.gltf"),
+          "-o",
+          (dir / (name + ".glb")).string(),
+          "--probes",
+          (dir / (name + ".vdb")).string(),
+          "--samples",
+          samples.empty() ? "32" : samples,
+          "--bands",
+          "2",
+          "--bounces",
+          "2",
+          "--probe-dims",
+          "8,8,8",
+          "--probe-bounds",
+          "-4,-1,-4,4,4,4",
+          "--probe-samples",
+          "64",
+          "--refine-samples",
+          samples.empty() ? "16" : samples,
           "-q"};
 }
 
@@ -70,7 +80,7 @@ std::vector<std::string> names(const fs::path& dir) {
 }
 
 class CliMpi : public ::testing::Test {
-protected:
+ protected:
   void SetUp() override {
     if (!haveMpi()) GTEST_SKIP() << "no mpirun, or prt built without MPI";
   }
@@ -134,7 +144,7 @@ void expectStoppedInBounce1(const RunResult& stopped, const fs::path& out) {
 // A reference bake by one process in dir, and the same bake's arguments for ranks writing to
 // dir/out (b.glb, b.vdb), for the resume tests.
 class CliMpiResume : public CliMpi {
-protected:
+ protected:
   void SetUp() override {
     CliMpi::SetUp();
     if (IsSkipped()) return;
@@ -178,8 +188,8 @@ TEST_F(CliMpiResume, OnceOneRankSavedEveryRankSavesAtTheStageEnd) {
   // direct chunks of its file.
   const RunResult stopped = stopRank1InBounce1(common, {"--checkpoint-interval", "0.001"});
   expectStoppedInBounce1(stopped, out);
-  EXPECT_EQ(names(out), (std::vector<std::string>{"b.glb.prt-checkpoint.rank-0-of-2",
-                                                   "b.glb.prt-checkpoint.rank-1-of-2"}));
+  EXPECT_EQ(names(out),
+            (std::vector<std::string>{"b.glb.prt-checkpoint.rank-0-of-2", "b.glb.prt-checkpoint.rank-1-of-2"}));
   expectResumedToTheReference(common, out, dir);
 }
 
@@ -213,7 +223,8 @@ TEST_F(CliMpi, AFailingRankStopsEveryRankWithOneLine) {
 // says so; a layer the user chose (OMPI_MCA_pml, which mpirun --mca pml sets) is left alone.
 TEST_F(CliMpi, OneHostGetsSharedMemoryUnlessALayerWasChosen) {
   const test::TempDir tmp;
-  Args quiet = {"bake", test::sourcePath("scenes/plane.gltf"), "-o", (tmp.path() / "p.glb").string(), "--samples", "16"};
+  Args quiet = {"bake", test::sourcePath("scenes/plane.gltf"), "-o", (tmp.path() / "p.glb").string(), "--samples",
+                "16"};
   const std::string said = "(MPI: Open MPI's ob1 over shared memory, chosen for one host)";
   RunResult chosen = mpirun(2, quiet, {.env = {{"OMPI_MCA_pml", std::nullopt}}});
   ASSERT_EQ(chosen.status, 0) << chosen.err;
@@ -270,7 +281,7 @@ TEST(CliShards, MergeNamesAMissingShard) {
   EXPECT_EQ(test::lineCount(m.err), 1) << m.err;
   EXPECT_NE(m.err.find(ckpt + ".shard-1-of-2.done: no such shard"), std::string::npos) << m.err;
   EXPECT_NE(m.err.find("run prt bake --shard 1/2 first"), std::string::npos) << m.err;  // the tool's hint
-  EXPECT_TRUE(fs::exists(ckpt + ".shard-0-of-2.done"));  // nothing merged, nothing lost
+  EXPECT_TRUE(fs::exists(ckpt + ".shard-0-of-2.done"));                                 // nothing merged, nothing lost
   RunResult bad = test::runPrt(test::plus(common, {"--shard", "2/2"}));
   EXPECT_EQ(bad.status, 2) << bad.err;
 }

@@ -18,19 +18,19 @@
 
 #include <nlohmann/json.hpp>
 
-#include "prt/math.h"
 #include "harness.h"
+#include "probe_brute_force.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
 #include "prt/light.h"
 #include "prt/light_rig.h"
+#include "prt/math.h"
 #include "prt/probe_grid.h"
 #include "prt/progress.h"
 #include "prt/scene.h"
 #include "prt/sh.h"
 #include "prt/version.h"
-#include "probe_brute_force.h"
 
 namespace prt {
 namespace {
@@ -60,14 +60,14 @@ std::vector<std::string> splitCsv(const std::string& line) {
 // lattice at the cell centres ±0.833. One bounce: the probes see the plane with its direct light
 // (K − 1 = 0 bounces), which is all the light it has, as the plane has nothing to bounce off.
 class CliProbe : public ::testing::Test {
-protected:
+ protected:
   static void SetUpTestSuite() {
     tmp_ = new test::TempDir("cli_probe");
     dir_ = tmp_->path();
-    bakeStatus_ = prt({"bake", sourceFile("scenes/plane.gltf"), "--samples", "256", "--bounces", "1", "--seed", "7",
-                       "--probe-dims", "6,6,6", "--probe-samples", "4096", "-q", "-o", file("p.glb"), "--probes",
-                       file("p.vdb")})
-                      .status;
+    bakeStatus_ =
+        prt({"bake", sourceFile("scenes/plane.gltf"), "--samples", "256", "--bounces", "1", "--seed", "7",
+             "--probe-dims", "6,6,6", "--probe-samples", "4096", "-q", "-o", file("p.glb"), "--probes", file("p.vdb")})
+            .status;
     lightStatus_ = prt({"light", env(), "--bands", "3", "-o", file("light.json")}).status;
   }
   static void TearDownTestSuite() {
@@ -181,8 +181,8 @@ TEST_F(CliProbe, PointsMatchIndependentMonteCarlo) {
   // Mean over the points: 4% (a lost π, the plane seen black or with a bounce too many moves
   // the mean by 20% or more: the plane fills up to half of the view at ρ = 0.8).
   EXPECT_LT(sumRel / double(pts.size()), 0.04);
-  std::printf("[ measured ] mean relative error %.4f, worst %.4f over %zu points\n", sumRel / double(pts.size()),
-              worst, pts.size());
+  std::printf("[ measured ] mean relative error %.4f, worst %.4f over %zu points\n", sumRel / double(pts.size()), worst,
+              pts.size());
 }
 
 // --at with --normal, --points and the library (readProbeGrid + relightProbes + receiverRadiance
@@ -254,7 +254,7 @@ TEST_F(CliProbe, SceneTracesTheSunAtEachPoint) {
     double direct;
   };
   for (const Case& c : {Case{{0.1f, 0.5f, 0.2f}, 2.0 * std::cos(glm::radians(30.0))}, Case{{0.1f, -0.5f, 0.2f}, 0.0}}) {
-    Args args = {"probe", file("p.vdb"), "--scene", file("p.glb"), "--at", cat(c.x.x, ",", c.x.y, ",", c.x.z),
+    Args args = {"probe",    file("p.vdb"), "--scene", file("p.glb"), "--at", cat(c.x.x, ",", c.x.y, ",", c.x.z),
                  "--normal", "0,1,0"};
     args.insert(args.end(), sun.begin(), sun.end());
     const RunResult r = prt(args);
@@ -327,8 +327,8 @@ TEST_F(CliProbe, VdbPrintListsTheBakedGrids) {
   if (!fs::exists(kVdbPrint)) GTEST_SKIP() << kVdbPrint << " not installed";
   const RunResult r = test::run(kVdbPrint, {"-l", "-m", file("p.vdb")});
   ASSERT_EQ(r.status, 0) << r.err;
-  std::vector<std::string> names = {"validity", "offset", "sky_visibility", "irradiance_preview", "moments_mean_pos",
-                                    "moments_mean_neg", "moments_sq_pos", "moments_sq_neg"};
+  std::vector<std::string> names = {"validity",         "offset",           "sky_visibility", "irradiance_preview",
+                                    "moments_mean_pos", "moments_mean_neg", "moments_sq_pos", "moments_sq_neg"};
   for (int j = 0; j < 9; ++j)
     for (int i = 0; i < 9; ++i) names.push_back(cat("transfer_0", j, "_0", i));
   for (const std::string& name : names) EXPECT_NE(r.out.find(name), std::string::npos) << name;
@@ -403,8 +403,20 @@ for j in range(9):
 // per-grid overhead of 89 grids dominates and half saves nothing (the 6³ file of this suite
 // was measured at 999 KB with --probe-half, 799 KB without).
 TEST_F(CliProbe, ProbeHalfIsSmallerAndWithinHalfPrecision) {
-  const Args bake = {"bake", sourceFile("scenes/plane.gltf"), "-o", file("16.glb"), "--samples", "16", "--probe-dims",
-                     "16,16,16", "--probe-samples", "64", "--probe-region", "everywhere", "-q", "--probes"};
+  const Args bake = {"bake",
+                     sourceFile("scenes/plane.gltf"),
+                     "-o",
+                     file("16.glb"),
+                     "--samples",
+                     "16",
+                     "--probe-dims",
+                     "16,16,16",
+                     "--probe-samples",
+                     "64",
+                     "--probe-region",
+                     "everywhere",
+                     "-q",
+                     "--probes"};
   ASSERT_EQ(prt(test::plus(bake, {file("f16.vdb")})).status, 0);
   ASSERT_EQ(prt(test::plus(bake, {file("h16.vdb"), "--probe-half"})).status, 0);
   // Measured 3.88 MB and 2.70 MB (0.70).
@@ -474,11 +486,11 @@ TEST_F(CliProbe, InfoNamesFileKindsAndDescribesScenes) {
   EXPECT_EQ(r.err, cat("prt: ", env(),
                        ": not a glTF scene (.gltf, .glb) or a probe grid (.vdb): the file is a Radiance HDR image\n"));
   for (const std::string& s :
-       {std::string("cornell_open.gltf: glTF scene"), std::string("camera 0    '"), std::string("perspective, yfov 0.9 rad"),
-        std::string("animation   'ReceiverPath', 1 channels, 3 s"), std::string("when loaded"),
-        std::string("baking it with the defaults"), cat("file        ", formatBytes(fs::file_size(file("p.glb")))),
-        std::string("once loaded by prt"), std::string("domain        (-1, -1, -1) .. (1, 1, 1)"),
-        std::string("transfer    3 bands"),
+       {std::string("cornell_open.gltf: glTF scene"), std::string("camera 0    '"),
+        std::string("perspective, yfov 0.9 rad"), std::string("animation   'ReceiverPath', 1 channels, 3 s"),
+        std::string("when loaded"), std::string("baking it with the defaults"),
+        cat("file        ", formatBytes(fs::file_size(file("p.glb")))), std::string("once loaded by prt"),
+        std::string("domain        (-1, -1, -1) .. (1, 1, 1)"), std::string("transfer    3 bands"),
         cat("bake        3 bands, 256 samples, 1 bounce, shadowed, seed 7, from plane.gltf, prt ", kVersion,
             "; refined 1089 -> 1089 vertices (tolerance 0.05, budget 10000, 128 samples, residual 0)\n")})
     EXPECT_NE(r.out.find(s), std::string::npos) << "missing '" << s << "' in:\n" << r.out;
@@ -502,14 +514,16 @@ TEST_F(CliProbe, InfoNamesFileKindsAndDescribesScenes) {
 TEST_F(CliProbe, BakeInfoAndPointsQuery) {
   test::TempDir d;
   std::string baked = d.file("p.glb"), vdb = d.file("p.vdb");
-  RunResult b = prt({"bake", sourceFile("scenes/plane.gltf"), "-o", baked, "--samples", "64", "--probes", vdb, "--probe-dims",
-                        "3,3,3", "--probe-bounds", "-0.5,0.2,-0.5,0.5,1.2,0.5", "--probe-samples", "1024", "-q"});
+  RunResult b =
+      prt({"bake", sourceFile("scenes/plane.gltf"), "-o", baked, "--samples", "64", "--probes", vdb, "--probe-dims",
+           "3,3,3", "--probe-bounds", "-0.5,0.2,-0.5,0.5,1.2,0.5", "--probe-samples", "1024", "-q"});
   ASSERT_EQ(b.status, 0) << b.err;
   RunResult info = prt({"info", vdb});
   ASSERT_EQ(info.status, 0) << info.err;
   EXPECT_NE(info.out.find("27 active"), std::string::npos) << info.out;
   const std::string in = d.write("in.csv", "x,y,z,nx,ny,nz\n0,0.5,0,0,1,0\n0.1,0.9,-0.2,0,1,0\n");
-  RunResult q = prt({"probe", vdb, "--env", sourceFile("scenes/env/white_sky_64.hdr"), "--points", in, "-o", d.file("out.csv")});
+  RunResult q =
+      prt({"probe", vdb, "--env", sourceFile("scenes/env/white_sky_64.hdr"), "--points", in, "-o", d.file("out.csv")});
   ASSERT_EQ(q.status, 0) << q.err;
   std::ifstream out(d.file("out.csv"));
   std::string line;

@@ -68,8 +68,10 @@ TEST(CliRefine, RefinedGlbIsClosedWithEveryAttributeInterpolated) {
   ASSERT_GT(n, 4u) << "the floor was not refined";
   for (const char* a : {"NORMAL", "TEXCOORD_0", "COLOR_0", "TANGENT", "_PRT_SH_00"})
     EXPECT_EQ(glb.j["accessors"][attrs[a].get<size_t>()]["count"].get<size_t>(), n) << a;
-  const std::vector<float> normal = glb.values<float>(attrs["NORMAL"], 3), uv = glb.values<float>(attrs["TEXCOORD_0"], 2),
-                           color = glb.values<float>(attrs["COLOR_0"], 4), tangent = glb.values<float>(attrs["TANGENT"], 4);
+  const std::vector<float> normal = glb.values<float>(attrs["NORMAL"], 3),
+                           uv = glb.values<float>(attrs["TEXCOORD_0"], 2),
+                           color = glb.values<float>(attrs["COLOR_0"], 4),
+                           tangent = glb.values<float>(attrs["TANGENT"], 4);
   for (size_t v = 0; v < n; ++v) {
     const float x = pos[3 * v], y = pos[3 * v + 1], z = pos[3 * v + 2];
     SCOPED_TRACE(cat("vertex ", v, " at (", x, ", ", z, ")"));
@@ -116,12 +118,13 @@ TEST(CliRefine, RefinedGlbIsClosedWithEveryAttributeInterpolated) {
   EXPECT_EQ(back.bakeRecord->refinement.verticesAfter, back.meshes[0].vertexCount() + back.meshes[1].vertexCount());
   const test::RunResult info = test::runPrt({"info", out});
   EXPECT_EQ(info.status, 0) << info.err;
-  EXPECT_NE(info.out.find(cat("; refined 8 -> ", back.bakeRecord->refinement.verticesAfter, " vertices (tolerance 0.05")),
-            std::string::npos)
+  EXPECT_NE(
+      info.out.find(cat("; refined 8 -> ", back.bakeRecord->refinement.verticesAfter, " vertices (tolerance 0.05")),
+      std::string::npos)
       << info.out;
-  const test::RunResult probe = test::runPrt({"bake", out, "-o", (dir.path() / "again.glb").string(), "--samples",
-                                              "64", "-q", "--probes", (dir.path() / "p.vdb").string(), "--probe-dims",
-                                              "2,2,2"});
+  const test::RunResult probe =
+      test::runPrt({"bake", out, "-o", (dir.path() / "again.glb").string(), "--samples", "64", "-q", "--probes",
+                    (dir.path() / "p.vdb").string(), "--probe-dims", "2,2,2"});
   EXPECT_EQ(probe.status, 0) << probe.err;  // a refined bake bakes again
 }
 
@@ -131,7 +134,8 @@ TEST(CliRefine, AnyThreadCountGivesTheSameBytes) {
   std::string bytes[2];
   for (int t = 1; t <= 2; ++t) {
     const std::string out = (dir.path() / cat("t", t, ".glb")).string();
-    ASSERT_EQ(test::runPrt({"bake", in, "-o", out, "--samples", "128", "--threads", std::to_string(t), "-q"}).status, 0);
+    ASSERT_EQ(test::runPrt({"bake", in, "-o", out, "--samples", "128", "--threads", std::to_string(t), "-q"}).status,
+              0);
     bytes[t - 1] = test::fileBytes(out);
   }
   EXPECT_EQ(bytes[0], bytes[1]);
@@ -150,10 +154,11 @@ TEST(CliRefine, OffAndOptionChecks) {
     EXPECT_EQ(s.bakeRecord->refinement.tolerance, 0.0);
   }
   const std::string out = (dir.path() / "x.glb").string();
-  for (const std::vector<std::string>& bad :
-       {std::vector<std::string>{"--refine-tolerance", "-1"}, {"--refine-tolerance", "nan"},
-        {"--no-refine", "--refine-budget", "5"}, {"--unshadowed", "--refine-tolerance", "0.1"},
-        {"--refine-samples", "0"}}) {
+  for (const std::vector<std::string>& bad : {std::vector<std::string>{"--refine-tolerance", "-1"},
+                                              {"--refine-tolerance", "nan"},
+                                              {"--no-refine", "--refine-budget", "5"},
+                                              {"--unshadowed", "--refine-tolerance", "0.1"},
+                                              {"--refine-samples", "0"}}) {
     std::vector<std::string> args = {"bake", in, "-o", out};
     args.insert(args.end(), bad.begin(), bad.end());
     const test::RunResult r = test::runPrt(args);

@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
+#include <stb_image.h>
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
-#include <stb_image.h>
 
 #include "cli_expect.h"
 #include "gltf_file.h"
@@ -113,8 +113,9 @@ TEST(CliRender, OrbitOptionsPlaceTheCameraEvenWhenTheFileHasOne) {
   const Args common = {"render", glb, "--env", whiteSky(), "--size", "64x48", "--frames", "0"};
 
   const Orbit o{glm::dvec3(0.3, 0.0, -0.2), 5.0, 30.0, 60.0, 30.0};
-  const RunResult r = prt(plus(common, {"--orbit-target", "0.3,0,-0.2", "--orbit-distance", "5", "--orbit-azimuth", "30",
-                                 "--orbit-elevation", "60", "--orbit-fov", "30", "-o", (out / "orbit.exr").string()}));
+  const RunResult r =
+      prt(plus(common, {"--orbit-target", "0.3,0,-0.2", "--orbit-distance", "5", "--orbit-azimuth", "30",
+                        "--orbit-elevation", "60", "--orbit-fov", "30", "-o", (out / "orbit.exr").string()}));
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("camera: orbit (target 0.3,0,-0.2, distance 5, azimuth 30, elevation 60, vertical fov 30"),
             std::string::npos)
@@ -138,8 +139,8 @@ TEST(CliRender, DefaultOrbitDistanceFramesTheBounds) {
   const std::string glb = bake(source("scenes/plane.gltf"), d, "plane");
   const fs::path out = d / "out";
   for (const char* size : {"64x48", "40x60"}) {  // wide: the vertical fov limits; tall: the horizontal one
-    const RunResult r = prt({"render", glb, "--env", whiteSky(), "--size", size, "--orbit-elevation", "35", "--orbit-fov",
-                              "50", "-o", (out / "f.exr").string()});
+    const RunResult r = prt({"render", glb, "--env", whiteSky(), "--size", size, "--orbit-elevation", "35",
+                             "--orbit-fov", "50", "-o", (out / "f.exr").string()});
     ASSERT_EQ(r.status, 0) << r.err;
     ImageRgb image = loadHdrImage((out / "f.exr").string());
     const double half = glm::radians(25.0), aspect = double(image.width) / image.height;
@@ -160,9 +161,25 @@ TEST(CliRender, BackgroundSkyShowsTheMapAlongEachRay) {
   const std::string glb = bake(source("scenes/plane.gltf"), d, "plane");
   const fs::path out = d / "out";
   const std::string map = source("scenes/env/royal_esplanade_128.hdr");
-  const Args common = {"render", glb, "--env", map, "--env-rotate", "30", "--env-intensity", "0.5", "--size", "80x60",
-                      "--orbit-azimuth", "20", "--orbit-elevation", "15", "--orbit-distance", "3", "--orbit-fov", "60",
-                      "-o"};
+  const Args common = {"render",
+                       glb,
+                       "--env",
+                       map,
+                       "--env-rotate",
+                       "30",
+                       "--env-intensity",
+                       "0.5",
+                       "--size",
+                       "80x60",
+                       "--orbit-azimuth",
+                       "20",
+                       "--orbit-elevation",
+                       "15",
+                       "--orbit-distance",
+                       "3",
+                       "--orbit-fov",
+                       "60",
+                       "-o"};
   const RunResult black = prt(plus(common, {(out / "black.exr").string()}));
   const RunResult sky = prt(plus(common, {(out / "sky.exr").string(), "--background", "sky"}));
   ASSERT_EQ(black.status, 0) << black.err;
@@ -209,8 +226,22 @@ TEST(CliRender, SupersampleWritesTheMeanOfTheLargerFrame) {
   const fs::path& d = tmp.path();
   const std::string glb = bake(planeWithCamera(d), d, "plane");
   const fs::path out = d / "out";
-  const Args common = {"render", glb, "--env", whiteSky(), "--sun-elevation", "30", "--sun-azimuth", "10",
-                      "--orbit-azimuth", "20", "--orbit-elevation", "35", "--orbit-distance", "3", "-q", "-o"};
+  const Args common = {"render",
+                       glb,
+                       "--env",
+                       whiteSky(),
+                       "--sun-elevation",
+                       "30",
+                       "--sun-azimuth",
+                       "10",
+                       "--orbit-azimuth",
+                       "20",
+                       "--orbit-elevation",
+                       "35",
+                       "--orbit-distance",
+                       "3",
+                       "-q",
+                       "-o"};
   const RunResult big = prt(plus(common, {(out / "big.exr").string(), "--size", "96x64"}));
   const RunResult ss = prt(plus(common, {(out / "ss.exr").string(), "--size", "24x16", "--supersample", "4"}));
   ASSERT_EQ(big.status, 0) << big.err;
@@ -262,8 +293,8 @@ TEST(CliRender, AFailedWriteStopsTheRunWithOneLine) {
   const std::string glb = bake(source("scenes/plane.gltf"), d, "plane");
   const fs::path out = d / "out";
   fs::create_directories(out / "f_02.exr");
-  const RunResult r = prt({"render", glb, "--env", whiteSky(), "--frames", "0-5", "--size", "48x32", "--png", "-q", "-o",
-                              (out / "f_%02d.exr").string()});
+  const RunResult r = prt({"render", glb, "--env", whiteSky(), "--frames", "0-5", "--size", "48x32", "--png", "-q",
+                           "-o", (out / "f_%02d.exr").string()});
   EXPECT_EQ(r.status, 1) << r.err;
   EXPECT_EQ(lines(r.err), 1) << r.err;
   EXPECT_NE(r.err.find("f_02.exr"), std::string::npos) << r.err;
@@ -304,7 +335,9 @@ TEST(CliRender, BadOptionsAreOneLineAndWriteNothing) {
       {{"-o", (out / "f_%d_%d.exr").string()}, "more than one '%'"},
       {{"-o", (out / "%d/f.exr").string()}, "the frame field must be in the file name"},
       {{"-o", glb + "/f.exr"}, "is not a folder", 1},
-      {{"--contact-sheet", glb + "/s.png", "-o", frames}, "--contact-sheet " + glb + "/s.png: '" + glb + "' is not a folder", 1},
+      {{"--contact-sheet", glb + "/s.png", "-o", frames},
+       "--contact-sheet " + glb + "/s.png: '" + glb + "' is not a folder",
+       1},
       {{"--camera", "Side", "--orbit-azimuth", "10", "-o", frames}, "--camera excludes --orbit-azimuth"},
       {{"--orbit-fov", "180", "-o", frames}, "--orbit-fov: 180 is not a finite number between 0 and 180"},
       {{"--orbit-elevation", "90", "-o", frames}, "--orbit-elevation: 90 is not a finite number within -89..89"},
@@ -345,8 +378,8 @@ TEST(CliRender, PlainNameForOneFrameAndFoldersAreCreated) {
   const fs::path out = d / "new" / "sub";
   const bool ffmpeg = test::onPath("ffmpeg");
   const RunResult r = prt(plus({"render", glb, "--env", whiteSky(), "--size", "8x8", "--frames", "7", "--png", "-o",
-                               (out / "still.exr").string(), "--contact-sheet", (d / "sheets" / "s.png").string()},
-                              ffmpeg ? Args{"--mp4", (d / "video" / "v.mp4").string()} : Args{}));
+                                (out / "still.exr").string(), "--contact-sheet", (d / "sheets" / "s.png").string()},
+                               ffmpeg ? Args{"--mp4", (d / "video" / "v.mp4").string()} : Args{}));
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(namesIn(out), (std::vector<std::string>{"still.exr", "still.png"}));
   EXPECT_EQ(namesIn(d / "sheets"), std::vector<std::string>{"s.png"});
@@ -426,8 +459,8 @@ TEST(CliRender, ProbesFromAnotherBakeWarnOrFail) {
   EXPECT_EQ(same.err.find("warning"), std::string::npos) << same.err;
   const RunResult other = render("cavity.vdb");
   EXPECT_EQ(other.status, 0) << other.err;
-  EXPECT_NE(other.err.find(cat("prt: warning: ", (d / "cavity.vdb").string(), " was baked from 'cavity.gltf' (seed 1), ",
-                               glb, " from 'plane.gltf' (seed 1)")),
+  EXPECT_NE(other.err.find(cat("prt: warning: ", (d / "cavity.vdb").string(),
+                               " was baked from 'cavity.gltf' (seed 1), ", glb, " from 'plane.gltf' (seed 1)")),
             std::string::npos)
       << other.err;
   const RunResult reseeded = render("reseeded.vdb");
@@ -467,8 +500,8 @@ TEST(CliRender, DegenerateTrianglesAreDroppedByEveryCommand) {
   const RunResult relit = prt({"relight", glb, "--env", whiteSky(), "-o", (d / "lit.glb").string()});
   EXPECT_EQ(relit.status, 0) << relit.err;
   EXPECT_TRUE(warnsOnce(relit.err)) << relit.err;
-  const RunResult rendered = prt({"render", glb, "--probes", vdb, "--env", whiteSky(), "--size", "16x8", "-o",
-                                  (d / "f.exr").string(), "--png"});
+  const RunResult rendered = prt(
+      {"render", glb, "--probes", vdb, "--env", whiteSky(), "--size", "16x8", "-o", (d / "f.exr").string(), "--png"});
   EXPECT_EQ(rendered.status, 0) << rendered.err;
   EXPECT_TRUE(warnsOnce(rendered.err)) << rendered.err;
   EXPECT_TRUE(fs::exists(d / "f.png"));
@@ -494,7 +527,8 @@ TEST(CliRender, ProbeLookupVertexChangesOnlyTheReceivers) {
            {"--probe-dims", "6,6,6", "--probe-samples", "64", "--probes", (d / "room.vdb").string()});
   auto render = [&](const std::string& name, const Args& probeArgs) {
     const fs::path out = d / (name + ".exr");
-    const RunResult r = prt(plus({"render", glb, "--env", whiteSky(), "--size", "96x72", "-q", "-o", out.string()}, probeArgs));
+    const RunResult r =
+        prt(plus({"render", glb, "--env", whiteSky(), "--size", "96x72", "-q", "-o", out.string()}, probeArgs));
     EXPECT_EQ(r.status, 0) << r.err;
     return loadHdrImage(out.string());
   };
@@ -523,7 +557,6 @@ TEST(CliRender, ProbeLookupVertexChangesOnlyTheReceivers) {
   EXPECT_EQ(staticChanged, 0);  // static surfaces are bit-identical
   EXPECT_LT(worst, 0.05f * peak);
 }
-
 
 // ---- Frames, back ends, light rigs, videos and contact sheets (docs/lights.md, docs/render.md)
 
@@ -567,7 +600,7 @@ TEST(CliRig, FullTurnRendersTheFirstFrameAgain) {
   const TempDir tmp("rig_turn");
   const fs::path& d = tmp.path();
   RunResult s = prt({"render", bakedCornell(), "--env", esplanade(), "--env-rotate", "0:360", "--env-axis", "1,2,-0.5",
-                    "--frames", "0-4", "--size", "64x36", "-o", (d / "s_%d.exr").string()});
+                     "--frames", "0-4", "--size", "64x36", "-o", (d / "s_%d.exr").string()});
   ASSERT_EQ(s.status, 0) << s.err;
   // The summary: frames written, per-frame and per-light-update cost, total.
   EXPECT_NE(s.err.find("5 frames 64x36 written"), std::string::npos) << s.err;
@@ -583,10 +616,12 @@ TEST(CliRig, FullTurnRendersTheFirstFrameAgain) {
   EXPECT_GT(half, 0.01 * peak2);  // half a turn does change the picture
 
   fs::path rig = d / "turn.json";
-  std::ofstream(rig) << R"({"version": 1, "lights": [{"type": "environment", "file": ")" << esplanade()
-                     << R"(", "axis": [1, 2, -0.5], "rotation": [{"frame": 0, "value": 0}, {"frame": 4, "value": 360}]}]})";
+  std::ofstream(rig)
+      << R"({"version": 1, "lights": [{"type": "environment", "file": ")" << esplanade()
+      << R"(", "axis": [1, 2, -0.5], "rotation": [{"frame": 0, "value": 0}, {"frame": 4, "value": 360}]}]})";
   // No --frames: the rig's keyframe range, 0-4.
-  RunResult r = prt({"render", bakedCornell(), "--rig", rig.string(), "--size", "64x36", "-o", (d / "r_%d.exr").string()});
+  RunResult r =
+      prt({"render", bakedCornell(), "--rig", rig.string(), "--size", "64x36", "-o", (d / "r_%d.exr").string()});
   ASSERT_EQ(r.status, 0) << r.err;
   for (int f = 0; f <= 4; ++f) {
     auto [df, pf] = frameDiff((d / cat("s_", f, ".exr")).string(), (d / cat("r_", f, ".exr")).string());
@@ -599,7 +634,8 @@ TEST(CliRig, LightAtAFrameEqualsTheShortcut) {
   const TempDir tmp("rig_light");
   const fs::path& d = tmp.path();
   fs::path rig = d / "turn.json";
-  std::ofstream(rig) << R"({"version": 1, "window": "hann", "lights": [{"type": "environment", "file": ")" << esplanade()
+  std::ofstream(rig) << R"({"version": 1, "window": "hann", "lights": [{"type": "environment", "file": ")"
+                     << esplanade()
                      << R"(", "axis": [1, 2, -0.5], "rotation": [{"frame": 0, "value": 0}, {"frame": 4, "value": 360}]},
                           {"type": "sun", "azimuth": 90, "elevation": [{"frame": 0, "value": 0}, {"frame": 2, "value": 90}]}]})";
   auto coeffs = [&](const Args& args) {
@@ -631,11 +667,12 @@ TEST(CliRig, BadRigMapCameraOrBackEndIsOneLineAndWritesNothing) {
   fs::path bad = d / "bad.json", missingMap = d / "missing_map.json";
   std::ofstream(bad) << R"({"version": 1, "lights": [{"type": "environment", "file": "x.hdr", "rotaton": 3}]})";
   std::ofstream(missingMap) << R"({"version": 1, "lights": [{"type": "environment", "file": "missing.hdr"}]})";
-  const Args render = {"render", bakedCornell(), "--size", "16x16", "--frames", "0-1", "-o", (out / "f_%d.exr").string()};
+  const Args render = {"render",   bakedCornell(), "--size", "16x16",
+                       "--frames", "0-1",          "-o",     (out / "f_%d.exr").string()};
   expectCleanFailure(prt(plus(render, {"--rig", "/nonexistent/rig.json"})), "/nonexistent/rig.json", out);
   expectCleanFailure(prt(plus(render, {"--rig", bad.string()})), "bad.json: lights[0].rotaton: unknown key", out);
-  expectCleanFailure(prt(plus(render, {"--rig", missingMap.string()})), "lights[0].file: " + (d / "missing.hdr").string(),
-                     out);
+  expectCleanFailure(prt(plus(render, {"--rig", missingMap.string()})),
+                     "lights[0].file: " + (d / "missing.hdr").string(), out);
   expectCleanFailure(prt(plus(render, {"--env", "/nonexistent/sky.hdr"})), "/nonexistent/sky.hdr", out);
   expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--camera", "nope"})), "no camera named 'nope'", out);
   expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--gl", "vulkan"})), "vulkan", out, 2);
@@ -647,10 +684,13 @@ TEST(CliRig, BadRigMapCameraOrBackEndIsOneLineAndWritesNothing) {
                                  {.env = {{"__EGL_VENDOR_LIBRARY_FILENAMES", "/nonexistent/vendor.json"}}});
   expectCleanFailure(noEgl, "EGL: no display", out);
   expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--env-rotate", "1:x"})), "--env-rotate 1:x", out, 2);
-  expectCleanFailure(prt(plus(render, {"--sun-elevation", "100"})), "--sun-elevation: elevation must be in [-90, 90]", out);
-  expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--env-axis", "0,0,0"})), "--env-axis: direction is zero", out);
+  expectCleanFailure(prt(plus(render, {"--sun-elevation", "100"})), "--sun-elevation: elevation must be in [-90, 90]",
+                     out);
+  expectCleanFailure(prt(plus(render, {"--env", esplanade(), "--env-axis", "0,0,0"})), "--env-axis: direction is zero",
+                     out);
   // Stills: --frame without a rig, and START:END without a frame range.
-  expectCleanFailure(prt({"light", "--env", esplanade(), "--frame", "2", "-o", (out / "l.json").string()}), "--frame", out, 2);
+  expectCleanFailure(prt({"light", "--env", esplanade(), "--frame", "2", "-o", (out / "l.json").string()}), "--frame",
+                     out, 2);
   expectCleanFailure(prt({"light", "--env", esplanade(), "--env-rotate", "0:90", "-o", (out / "l.json").string()}),
                      "START:END needs a frame range", out, 2);
 }
@@ -660,16 +700,18 @@ TEST(CliRender, Mp4ThroughFfmpeg) {
   const TempDir tmp("mp4");
   const fs::path& d = tmp.path();
   // An odd width: yuv420p needs even sizes, so ffmpeg pads to 34.
-  RunResult r = prt({"render", bakedCornell(), "--rig", scene("rigs/sun_day.json"), "--frames", "0-5", "--size", "33x24",
-                    "--fps", "12", "--exposure", "1", "-o", (d / "f_%d.exr").string(), "--mp4", (d / "day.mp4").string()});
+  RunResult r =
+      prt({"render", bakedCornell(), "--rig", scene("rigs/sun_day.json"), "--frames", "0-5", "--size", "33x24", "--fps",
+           "12", "--exposure", "1", "-o", (d / "f_%d.exr").string(), "--mp4", (d / "day.mp4").string()});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("video"), std::string::npos) << r.err;
   std::vector<std::string> expected = {"day.mp4"};
   for (int f = 0; f <= 5; ++f) expected.push_back(cat("f_", f, ".exr"));
   EXPECT_TRUE(dirHoldsOnly(d, expected));  // no temporary file left
-  const RunResult probe = test::run("ffprobe", {"-v", "error", "-select_streams", "v:0", "-count_frames", "-show_entries",
-                                                "stream=codec_name,pix_fmt,width,height,nb_read_frames,r_frame_rate",
-                                                "-of", "json", (d / "day.mp4").string()});
+  const RunResult probe =
+      test::run("ffprobe", {"-v", "error", "-select_streams", "v:0", "-count_frames", "-show_entries",
+                            "stream=codec_name,pix_fmt,width,height,nb_read_frames,r_frame_rate", "-of", "json",
+                            (d / "day.mp4").string()});
   ASSERT_EQ(probe.status, 0) << probe.err;
   nlohmann::json j = nlohmann::json::parse(probe.out);
   const nlohmann::json& s = j["streams"][0];
@@ -691,8 +733,7 @@ TEST(CliRender, Mp4WithoutFfmpegIsAClearErrorBeforeRendering) {
                                    {.env = {{"PATH", "/nonexistent"}}});
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(lineCount(r.err), 1) << r.err;
-  EXPECT_NE(r.err.find("--mp4 " + (out / "v.mp4").string() + ": ffmpeg not found on PATH"), std::string::npos)
-      << r.err;
+  EXPECT_NE(r.err.find("--mp4 " + (out / "v.mp4").string() + ": ffmpeg not found on PATH"), std::string::npos) << r.err;
   EXPECT_TRUE(dirHoldsOnly(out, {})) << "frames rendered before the error";
 }
 
@@ -701,8 +742,8 @@ TEST(CliRender, ContactSheetTilesAreTheDownscaledFrames) {
   const fs::path& d = tmp.path();
   const float exposure = 1.5f;
   RunResult r = prt({"render", bakedCornell(), "--rig", scene("rigs/colored_disks.json"), "--frames", "0-4", "--size",
-                    "40x30", "--exposure", "1.5", "--contact-sheet", (d / "sheet.png").string(), "--sheet-tile", "16",
-                    "--sheet-columns", "2", "-o", (d / "f_%d.exr").string()});
+                     "40x30", "--exposure", "1.5", "--contact-sheet", (d / "sheet.png").string(), "--sheet-tile", "16",
+                     "--sheet-columns", "2", "-o", (d / "f_%d.exr").string()});
   ASSERT_EQ(r.status, 0) << r.err;
   // 40x30 into tiles of at most 16: factor k = 3, tiles ceil(40/3) x ceil(30/3) = 14 x 10;
   // 2 columns, 3 rows, 2-pixel gaps: 30 x 34.
@@ -747,19 +788,18 @@ TEST(CliRender, FramesOnBothBackEndsAndCleanErrors) {
   std::string baked = (d / "c.glb").string();
   ASSERT_EQ(prt({"bake", scene("plane.gltf"), "-o", baked, "--samples", "16", "-q"}).status, 0);
   for (std::string gl : {"osmesa", "egl"}) {
-    RunResult r = prt({"render", baked, "--env", scene("env/white_sky_64.hdr"), "--frames", "0-1", "--size", "32x24", "--gl",
-                      gl, "--png", "-o", (d / (gl + "_%02d.exr")).string()});
+    RunResult r = prt({"render", baked, "--env", scene("env/white_sky_64.hdr"), "--frames", "0-1", "--size", "32x24",
+                       "--gl", gl, "--png", "-o", (d / (gl + "_%02d.exr")).string()});
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(fs::exists(d / (gl + "_00.exr")));
     EXPECT_TRUE(fs::exists(d / (gl + "_01.png")));
   }
-  RunResult bad = prt({"render", baked, "--env", scene("env/white_sky_64.hdr"), "--gl", "vulkan", "-o",
-                      (d / "x_%02d.exr").string()});
+  RunResult bad = prt(
+      {"render", baked, "--env", scene("env/white_sky_64.hdr"), "--gl", "vulkan", "-o", (d / "x_%02d.exr").string()});
   EXPECT_EQ(bad.status, 2);
   EXPECT_EQ(lineCount(bad.err), 1) << bad.err;
   EXPECT_FALSE(fs::exists(d / "x_00.exr"));
 }
-
 
 // A hostile rig (tests/test_hostile_input.cpp has each limit): one line, exit 1, nothing written.
 TEST(CliRig, HostileRigIsOneLineAndWritesNothing) {
@@ -769,9 +809,11 @@ TEST(CliRig, HostileRigIsOneLineAndWritesNothing) {
   fs::create_directories(out);
   fs::path deep = d / "deep.json", huge = d / "huge.json";
   std::ofstream(deep) << "{\"version\": 1, \"lights\": " << std::string(100, '[') << std::string(100, ']') << "}";
-  std::ofstream(huge) << R"({"version": 1, "lights": [{"type": "uniform", "radiance": [{"frame": 0, "value": 1}, {"frame": 2e9, "value": 2}]}]})";
-  expectCleanFailure(prt({"render", bakedCornell(), "--rig", deep.string(), "--size", "16x16", "-o", (out / "f_%d.exr").string()}),
-                     "deep.json: JSON nested deeper than 64 levels", out);
+  std::ofstream(huge)
+      << R"({"version": 1, "lights": [{"type": "uniform", "radiance": [{"frame": 0, "value": 1}, {"frame": 2e9, "value": 2}]}]})";
+  expectCleanFailure(
+      prt({"render", bakedCornell(), "--rig", deep.string(), "--size", "16x16", "-o", (out / "f_%d.exr").string()}),
+      "deep.json: JSON nested deeper than 64 levels", out);
   expectCleanFailure(prt({"light", "--rig", huge.string(), "-o", (out / "l.json").string()}),
                      "huge.json: lights[0].radiance[1].frame: frame 2e+09 is beyond ±1e+09", out);
 }
@@ -791,7 +833,8 @@ TEST(CliRealScene, DutchShipGoesThroughEveryCommand) {
                      "--probe-spacing", "2", "--probe-samples", "64", "-q"});
   ASSERT_EQ(r.status, 0) << r.err;
   const std::string csv = (d / "ship.csv").string();
-  r = prt({"relight", glb, "--env", whiteSky(), "--bounce-samples", "16", "-o", (d / "lit.glb").string(), "--csv", csv});
+  r = prt(
+      {"relight", glb, "--env", whiteSky(), "--bounce-samples", "16", "-o", (d / "lit.glb").string(), "--csv", csv});
   ASSERT_EQ(r.status, 0) << r.err;
   std::ifstream in(csv);
   std::string line;
@@ -811,7 +854,7 @@ TEST(CliRealScene, DutchShipGoesThroughEveryCommand) {
     }
     ++rows;
   }
-  EXPECT_GE(rows, 64544u);  // the file's vertices (double-sided ones may add their back side)
+  EXPECT_GE(rows, 64544u);                  // the file's vertices (double-sided ones may add their back side)
   EXPECT_GT(sum / double(3 * rows), 0.01);  // not black: measured 0.037 (dark wood, much of it in shade)
   r = prt({"render", glb, "--env", whiteSky(), "--bounce-samples", "16", "--probes", vdb, "--size", "96x64", "-o",
            (d / "f.exr").string()});
@@ -839,9 +882,11 @@ TEST(CliRender, SunIsLitPerPixelAndNamedInTheSummary) {
   const Args common = {"render", glb, "--sun-elevation", "40", "--sun-irradiance", "2", "--size", "64x48"};
   const RunResult r = prt(plus(common, {"-o", (out / "sun.exr").string()}));
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_NE(r.err.find("direct lights (frame 0; per pixel, exactly, with PCSS shadow maps of 1024x1024"), std::string::npos)
+  EXPECT_NE(r.err.find("direct lights (frame 0; per pixel, exactly, with PCSS shadow maps of 1024x1024"),
+            std::string::npos)
       << r.err;
-  EXPECT_NE(r.err.find("elevation 40.0°, azimuth 0.0°, radius 0.265°, irradiance (2, 2, 2)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("elevation 40.0°, azimuth 0.0°, radius 0.265°, irradiance (2, 2, 2)"), std::string::npos)
+      << r.err;
   const ImageRgb img = loadHdrImage((out / "sun.exr").string());
   const double want = 0.8 / 3.14159265358979 * 2.0 * std::sin(40.0 * 3.14159265358979 / 180.0);
   int covered = 0;

@@ -35,9 +35,7 @@ std::string slurp(const fs::path& p) { return test::fileBytes(p); }
 RunResult prtBake(const Args& args, const test::RunOptions& options = {}) { return test::runPrt(args, options); }
 
 // The test interrupt hook of `prt bake`: it stops as if interrupted after `chunks` chunks.
-test::RunOptions interruptAfter(int chunks) {
-  return {.env = {{"PRT_TEST_INTERRUPT_AFTER", std::to_string(chunks)}}};
-}
+test::RunOptions interruptAfter(int chunks) { return {.env = {{"PRT_TEST_INTERRUPT_AFTER", std::to_string(chunks)}}}; }
 
 int lines(const std::string& s) { return int(std::count(s.begin(), s.end(), '\n')); }
 
@@ -54,7 +52,8 @@ RunResult killAfterNextSave(const Args& args, const std::string& ckpt) {
   const uintmax_t before = fs::file_size(ckpt);
   Process child(test::prtExe(), args);
   // 20 s: a sanitizer build on a busy machine can take several seconds to its next save.
-  for (int i = 0; i < 2000 && fs::file_size(ckpt) <= before; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  for (int i = 0; i < 2000 && fs::file_size(ckpt) <= before; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_GT(fs::file_size(ckpt), before) << "the resumed bake saved nothing in 20 s";
   child.signal(SIGKILL);
   return child.wait();
@@ -106,8 +105,9 @@ TEST(CliResume, SignalThenKillNineThenResume) {
   const std::string ckpt = out + ".prt-checkpoint";
   // --no-refine: a resumed bake refines again before its first save (seconds on cornell_open at
   // one thread), and this test times saves; refined resumes are CliResume.RefinedBakeResumes...
-  std::vector<std::string> common = {"bake", scene, "-o", out, "--samples", "256", "--bands", "2", "--bounces", "1",
-                                     "-q", "--checkpoint-interval", "0.1", "--no-refine"};
+  std::vector<std::string> common = {"bake",    scene,        "-o",        out, "--samples", "256",
+                                     "--bands", "2",          "--bounces", "1", "-q",        "--checkpoint-interval",
+                                     "0.1",     "--no-refine"};
   std::vector<std::string> refArgs = common;
   refArgs[3] = ref;
   ASSERT_EQ(prtBake(refArgs).status, 0);
@@ -216,8 +216,22 @@ TEST(CliResume, MismatchingCheckpointIsRefused) {
 // cornell_open (12.5 k vertices: 196 chunks per surface pass) with a probe lattice over it.
 std::vector<std::string> probeBakeArgs(const std::string& glb, const std::string& vdb, int dims, int probeSamples) {
   const std::string d = std::to_string(dims);
-  return {"bake", scenePath("cornell_open.gltf"), "-o", glb, "--probes", vdb, "--samples", "16", "--bands", "2",
-          "--bounces", "1", "--probe-dims", d + "," + d + "," + d, "--probe-samples", std::to_string(probeSamples),
+  return {"bake",
+          scenePath("cornell_open.gltf"),
+          "-o",
+          glb,
+          "--probes",
+          vdb,
+          "--samples",
+          "16",
+          "--bands",
+          "2",
+          "--bounces",
+          "1",
+          "--probe-dims",
+          d + "," + d + "," + d,
+          "--probe-samples",
+          std::to_string(probeSamples),
           "-q"};
 }
 
@@ -371,16 +385,15 @@ TEST(CliMemory, EstimateBoundsThePeakOfAProbeBake) {
   const test::TempDir tmp("cli_memory_probes");
   const fs::path dir = tmp.path();
   RunResult r = prtBake({"bake", scenePath("cornell_open.gltf"), "-o", (dir / "b.glb").string(), "--probes",
-                        (dir / "b.vdb").string(), "--samples", "16", "--bounces", "1", "--bands", "4",
-                        "--probe-dims", "16,16,16", "--probe-samples", "4"});
+                         (dir / "b.vdb").string(), "--samples", "16", "--bounces", "1", "--bands", "4", "--probe-dims",
+                         "16,16,16", "--probe-samples", "4"});
   ASSERT_EQ(r.status, 0) << r.err;
   std::smatch m;
   ASSERT_TRUE(std::regex_search(r.err, m,
                                 std::regex("memory: estimated ([0-9.]+) MiB, peak ([0-9.]+) MiB \\(estimated by "
                                            "phase: surface ([0-9.]+) MiB, probes ([0-9.]+) MiB")))
       << r.err;
-  const double estimated = std::stod(m[1]), peak = std::stod(m[2]), surface = std::stod(m[3]),
-               probes = std::stod(m[4]);
+  const double estimated = std::stod(m[1]), peak = std::stod(m[2]), surface = std::stod(m[3]), probes = std::stod(m[4]);
   EXPECT_EQ(estimated, probes);  // the probe stage is the largest phase
   EXPECT_GT(probes, surface);
   if (test::kAddressSanitizer) GTEST_SKIP() << "peak under ASan is not the program's peak";
@@ -395,10 +408,24 @@ TEST(CliMemory, ASparseLatticeIsCountedByItsPlacement) {
   const test::TempDir tmp("cli_memory_sparse");
   const fs::path dir = tmp.path();
   auto args = [&](const std::string& name, const std::string& limit) {
-    return std::vector<std::string>{"bake", scenePath("cavity.gltf"), "-o", (dir / (name + ".glb")).string(),
-                                    "--probes", (dir / (name + ".vdb")).string(), "--samples", "16", "--bounces",
-                                    "1", "--probe-dims", "40,40,40", "--probe-bounds", "-8,-8,-8,8,8,8",
-                                    "--probe-samples", "16", "--max-memory", limit};
+    return std::vector<std::string>{"bake",
+                                    scenePath("cavity.gltf"),
+                                    "-o",
+                                    (dir / (name + ".glb")).string(),
+                                    "--probes",
+                                    (dir / (name + ".vdb")).string(),
+                                    "--samples",
+                                    "16",
+                                    "--bounces",
+                                    "1",
+                                    "--probe-dims",
+                                    "40,40,40",
+                                    "--probe-bounds",
+                                    "-8,-8,-8,8,8,8",
+                                    "--probe-samples",
+                                    "16",
+                                    "--max-memory",
+                                    limit};
   };
   const std::regex estimate("memory: estimated ([0-9.]+) MiB, peak ([0-9.]+) MiB");
   std::smatch m;

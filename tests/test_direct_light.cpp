@@ -6,16 +6,16 @@
 #include <cmath>
 #include <cstring>
 
-#include "prt/math.h"
+#include "harness.h"
 #include "prt/bake/direct_light.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/light.h"
 #include "prt/light_rig.h"
+#include "prt/math.h"
 #include "prt/probe_grid.h"
 #include "prt/relight.h"
 #include "prt/sh.h"
-#include "harness.h"
 #include "test_scenes.h"
 
 namespace prt {
@@ -141,13 +141,15 @@ TEST(BakeDirectLight, PenumbraAcrossAStraightEdgeMatchesQuadrature) {
 }
 
 TEST(BakeDirectLight, SameBitsForAnyThreadCount) {
-  Scene s = test::makeScene({test::makePlane({0, 0, 0}, 4.0f, 20), test::makeSlab({-1, 0.5f, -1}, {0.3f, 0.6f, 1})}, 0.5f);
+  Scene s =
+      test::makeScene({test::makePlane({0, 0, 0}, 4.0f, 20), test::makeSlab({-1, 0.5f, -1}, {0.3f, 0.6f, 1})}, 0.5f);
   bake::BakeSettings bs;
   bs.samples = 16;
   bs.bounces = 0;
   bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
   bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
-  const std::vector<DirectLight> lights = {sunAt(20.0, 10.0, 2.0, glm::dvec3(3.0)), sunAt(50.0, 200.0, 0.0, glm::dvec3(1.0))};
+  const std::vector<DirectLight> lights = {sunAt(20.0, 10.0, 2.0, glm::dvec3(3.0)),
+                                           sunAt(50.0, 200.0, 0.0, glm::dvec3(1.0))};
   bake::ShadowSettings one, two;
   one.threads = 1;
   two.threads = 2;
@@ -186,8 +188,8 @@ TEST(BakeDirectLight, SurfaceDirectPartIsTheFirstBounce) {
 // the hit records' 16-bit barycentrics (1e-4 of the total), while a wrong albedo, seed, side or
 // bounce count is off by percents. With fewer rays it is the same estimator with more noise.
 TEST(BakeDirectBounce, GatherWithTheBakesRaysIsTheBakesBouncedTransfer) {
-  Scene s = test::makeScene({test::makeCavity(prt::kPi / 2.5, 12, 24), test::makeSlab({-0.3f, -0.9f, -0.3f}, {0.3f, -0.7f, 0.3f})},
-                            0.7f);
+  Scene s = test::makeScene(
+      {test::makeCavity(prt::kPi / 2.5, 12, 24), test::makeSlab({-0.3f, -0.9f, -0.3f}, {0.3f, -0.7f, 0.3f})}, 0.7f);
   for (Material& m : s.materials) {
     m.doubleSided = true;
     m.baseColorFactor = glm::vec4(0.8f, 0.6f, 0.4f, 1.0f);
@@ -367,9 +369,10 @@ TEST(BakeSkyDetail, OpenPlaneGetsTheSkyBeyondTheBandLimit) {
   }
   withDetail /= double(m.vertexCount());
   shOnly /= double(m.vertexCount());
-  std::printf("[ measured ] mean E / exact over %zu vertices: through SH (%.4f, %.4f, %.4f), with the sky detail "
-              "(%.4f, %.4f, %.4f)\n",
-              m.vertexCount(), shOnly.r, shOnly.g, shOnly.b, withDetail.r, withDetail.g, withDetail.b);
+  std::printf(
+      "[ measured ] mean E / exact over %zu vertices: through SH (%.4f, %.4f, %.4f), with the sky detail "
+      "(%.4f, %.4f, %.4f)\n",
+      m.vertexCount(), shOnly.r, shOnly.g, shOnly.b, withDetail.r, withDetail.g, withDetail.b);
   EXPECT_GT(shOnly.r, 1.04);  // the band limit this corrects
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(withDetail[c], 1.0, 0.015) << "channel " << c;
 
@@ -459,7 +462,8 @@ TEST(RigDirect, SmallSourcesAreDirectAndTheSumIsUnchanged) {
   EXPECT_EQ(l.direct[0].irradiance, glm::dvec3(3.0, 2.0, 1.0));
   const sh::ShRgb sum = rig.evaluate(0.0, 3);
   for (int i = 0; i < 9; ++i)
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(l.sh.c[size_t(i)][c] + l.directSh.c[size_t(i)][c], sum.c[size_t(i)][c], 1e-5);
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(l.sh.c[size_t(i)][c] + l.directSh.c[size_t(i)][c], sum.c[size_t(i)][c], 1e-5);
 }
 
 }  // namespace
@@ -479,7 +483,8 @@ TEST(RigDirect, MapSunIsSplitOffAndTurnsWithTheMap) {
   for (int y = 0; y < map.height; ++y)
     for (int x = 0; x < map.width; ++x) {
       const glm::dvec3 d = equirectDirection((x + 0.5) / map.width, (y + 0.5) / map.height);
-      map.at(x, y) = glm::vec3(0.5f) + (glm::dot(d, sunDir) > std::cos(glm::radians(3.0)) ? glm::vec3(2000.0f) : glm::vec3(0.0f));
+      map.at(x, y) =
+          glm::vec3(0.5f) + (glm::dot(d, sunDir) > std::cos(glm::radians(3.0)) ? glm::vec3(2000.0f) : glm::vec3(0.0f));
     }
   LightRig rig;
   RigLight env;

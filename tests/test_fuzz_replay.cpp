@@ -79,7 +79,8 @@ TEST(FuzzRegressions, SeedsLoad) {
     EXPECT_NO_THROW(loadSceneFromMemory("fuzz.gltf", readFile(e.path().string()))) << e.path();
   for (const auto& e : fs::directory_iterator(corpus / "image"))
     EXPECT_NO_THROW(loadHdrImage(e.path().string())) << e.path();
-  for (const auto& e : fs::directory_iterator(corpus / "vdb")) EXPECT_NO_THROW(readProbeGrid(e.path().string())) << e.path();
+  for (const auto& e : fs::directory_iterator(corpus / "vdb"))
+    EXPECT_NO_THROW(readProbeGrid(e.path().string())) << e.path();
   for (const auto& e : fs::directory_iterator(corpus / "rig"))
     EXPECT_NO_THROW(parseLightRigFromMemory(readFile(e.path().string()), "seed.json", fuzz::rigOptions())) << e.path();
 }

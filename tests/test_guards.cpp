@@ -39,7 +39,8 @@ TEST(CoreCheck, DcheckIsEvaluatedOnlyWithoutNdebug) {
 TEST(CoreCheck, DcheckFiresInADebugBuild) {
   threadsafeDeathTests();
   EXPECT_EQ(prt::test::debugDcheckEvaluations(), 2);
-  EXPECT_DEATH(prt::test::debugDcheckFails(3, 4), "internal error at .*dcheck_debug.cpp:[0-9]+: CHECK\\(a == b\\) failed: 3 vs 4");
+  EXPECT_DEATH(prt::test::debugDcheckFails(3, 4),
+               "internal error at .*dcheck_debug.cpp:[0-9]+: CHECK\\(a == b\\) failed: 3 vs 4");
 }
 
 TEST(CoreCheck, DcheckIsCompiledOutWithNdebug) {
@@ -85,7 +86,9 @@ TEST(CoreCheck, ContextIsCalledOnlyWhenACheckFails) {
 TEST(CoreCheck, ContextEndsWithItsScope) {
   threadsafeDeathTests();
   const auto fail = [] {
-    { const prt::CheckContext gone([] { return std::string("finished step"); }); }
+    {
+      const prt::CheckContext gone([] { return std::string("finished step"); });
+    }
     PRT_CHECK(false);
   };
   // No "while:" line follows the check's own line.
@@ -115,7 +118,7 @@ RunResult checkShape(const TempDir& tree) {
 }
 
 class ToolsShapeGate : public ::testing::Test {
-protected:
+ protected:
   void SetUp() override {
     if (!prt::test::onPath("ctags")) GTEST_SKIP() << "universal-ctags is not installed (tools/setup.sh installs it)";
   }
@@ -131,8 +134,9 @@ TEST_F(ToolsShapeGate, AcceptsATreeWithinItsLimits) {
 TEST_F(ToolsShapeGate, RefusesALongFunctionNamingIt) {
   TempDir tree;
   writeCleanTree(tree);
-  tree.write("tools/long_command.cpp",
-             "struct Command {\n  int run(int x);\n};\nint Command::run(int x) { return x; }\n" + functionOf("runLong", 81));
+  tree.write(
+      "tools/long_command.cpp",
+      "struct Command {\n  int run(int x);\n};\nint Command::run(int x) { return x; }\n" + functionOf("runLong", 81));
   const RunResult r = checkShape(tree);
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("tools/long_command.cpp:"), std::string::npos) << r.err;
@@ -157,7 +161,8 @@ TEST_F(ToolsShapeGate, RefusesAnAllowListEntryThatIsNoLongerNeeded) {
   tree.write("tools/shape_allowlist.txt", "bake/src/stage.cpp stage\nrender/src/gone.cpp\n");
   const RunResult r = checkShape(tree);
   EXPECT_EQ(r.status, 1);
-  EXPECT_NE(r.err.find("bake/src/stage.cpp stage is 80 lines or fewer now (or gone): delete its line"), std::string::npos)
+  EXPECT_NE(r.err.find("bake/src/stage.cpp stage is 80 lines or fewer now (or gone): delete its line"),
+            std::string::npos)
       << r.err;
   EXPECT_NE(r.err.find("render/src/gone.cpp is within its limit now (or gone): delete its line"), std::string::npos)
       << r.err;

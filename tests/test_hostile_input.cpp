@@ -15,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "harness.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
 #include "prt/image.h"
@@ -22,7 +23,6 @@
 #include "prt/light_rig.h"
 #include "prt/probe_grid.h"
 #include "prt/scene.h"
-#include "harness.h"
 #include "test_util.h"
 
 namespace prt {
@@ -42,8 +42,8 @@ const std::vector<float> kTriangle = {0, 0, 0, 1, 0, 0, 0, 1, 0};
 /// One triangle (POSITION in buffer 0, bytes 0..35) on node 0 of scene 0; `bufferUri` is the
 /// buffer's URI (default: the bytes inline as a data: URI).
 Json triangleDoc(const std::string& bufferUri = "") {
-  std::string uri = bufferUri.empty() ? "data:application/octet-stream;base64," + base64(floatBytes(kTriangle))
-                                      : bufferUri;
+  std::string uri =
+      bufferUri.empty() ? "data:application/octet-stream;base64," + base64(floatBytes(kTriangle)) : bufferUri;
   return {{"asset", {{"version", "2.0"}}},
           {"scene", 0},
           {"scenes", {{{"nodes", {0}}}}},
@@ -56,16 +56,18 @@ Json triangleDoc(const std::string& bufferUri = "") {
 
 /// Adds `bytes` as a new buffer (data: URI) with one view and one accessor; returns the accessor.
 int addAccessor(Json& doc, const std::string& bytes, int componentType, size_t count, const char* type) {
-  doc["buffers"].push_back({{"byteLength", bytes.size()},
-                            {"uri", "data:application/octet-stream;base64," + base64(bytes)}});
+  doc["buffers"].push_back(
+      {{"byteLength", bytes.size()}, {"uri", "data:application/octet-stream;base64," + base64(bytes)}});
   doc["bufferViews"].push_back({{"buffer", doc["buffers"].size() - 1}, {"byteLength", bytes.size()}});
-  doc["accessors"].push_back(
-      {{"bufferView", doc["bufferViews"].size() - 1}, {"componentType", componentType}, {"count", count}, {"type", type}});
+  doc["accessors"].push_back({{"bufferView", doc["bufferViews"].size() - 1},
+                              {"componentType", componentType},
+                              {"count", count},
+                              {"type", type}});
   return int(doc["accessors"].size()) - 1;
 }
 
 class HostileInput : public ::testing::Test {
-protected:
+ protected:
   void SetUp() override {
     tmp_.emplace();
     root_ = tmp_->path();
@@ -108,7 +110,8 @@ void expectSceneError(const std::string& path, const std::vector<std::string>& p
 TEST_F(HostileInput, BufferUriOutsideTheFolderIsRefusedUnlessAllowed) {
   write("outside.bin", floatBytes(kTriangle), root_);
   std::string path = writeDoc("up.gltf", triangleDoc("../outside.bin"));
-  expectSceneError(path, {"buffer 0: uri '../outside.bin' points outside the scene folder", "refused unless external URIs are allowed"});
+  expectSceneError(path, {"buffer 0: uri '../outside.bin' points outside the scene folder",
+                          "refused unless external URIs are allowed"});
   LoadOptions allow;
   allow.allowExternalUris = true;
   EXPECT_EQ(loadScene(path, allow).meshes.size(), 1u);
@@ -265,7 +268,8 @@ TEST_F(HostileInput, NonFiniteVertexDataIsRefused) {
   for (int i = 0; i < 4; ++i) {
     std::vector<float> t(9, 0.5f);
     if (i == 3) t[7] = inf;  // vertex 2
-    doc["meshes"][0]["primitives"][0]["attributes"][cat("_PRT_SH_0", i)] = addAccessor(doc, floatBytes(t), 5126, 3, "VEC3");
+    doc["meshes"][0]["primitives"][0]["attributes"][cat("_PRT_SH_0", i)] =
+        addAccessor(doc, floatBytes(t), 5126, 3, "VEC3");
   }
   expectSceneError(writeDoc("transfer.gltf", doc), {"mesh 0 / primitive 0 / _PRT_SH_03: vertex 2 is not finite"});
 }
@@ -299,7 +303,8 @@ TEST_F(HostileInput, AbsurdTextureDimensionsAreRefusedFromTheHeader) {
   expectSceneError(writeDoc("many.gltf", texturedDoc(pngHeader(16384, 8192))),
                    {"texture 0 / image 0", "image 16384x8192 is too large"});
   // Beyond 2^30 bytes stb_image refuses the header itself.
-  expectSceneError(writeDoc("huge.gltf", texturedDoc(pngHeader(100000, 100000))), {"texture 0 / image 0: cannot decode"});
+  expectSceneError(writeDoc("huge.gltf", texturedDoc(pngHeader(100000, 100000))),
+                   {"texture 0 / image 0: cannot decode"});
 }
 
 TEST_F(HostileInput, TexturesOtherThanPngAndJpegAreRefused) {
@@ -380,13 +385,16 @@ TEST_F(HostileInput, RigLargerThanTheSizeLimitIsRefusedBeforeReading) {
 TEST_F(HostileInput, RigNestedDeeperThan64IsRefusedBeforeParsing) {
   auto nested = [](int depth) { return std::string(depth, '[') + std::string(depth, ']'); };
   // The rig object is level 1: 63 more levels are read (and refused for what they are)...
-  std::string e = messageOf([&] { parseLightRigFromMemory(rigJson(kUniform, ", \"description\": " + nested(63)), "rig.json"); });
+  std::string e =
+      messageOf([&] { parseLightRigFromMemory(rigJson(kUniform, ", \"description\": " + nested(63)), "rig.json"); });
   EXPECT_NE(e.find("rig.json: description: expected a string"), std::string::npos) << e;
   // ...64 are not, nor 100000 (which a recursive reader would not survive).
-  expectRigError(rigJson(kUniform, ",\n \"description\": " + nested(64)), {"rig.json: JSON nested deeper than 64 levels (line 2)"});
+  expectRigError(rigJson(kUniform, ",\n \"description\": " + nested(64)),
+                 {"rig.json: JSON nested deeper than 64 levels (line 2)"});
   expectRigError(rigJson(kUniform, ", \"description\": " + nested(100000)), {"JSON nested deeper than 64 levels"});
   // Brackets inside strings are text.
-  EXPECT_NO_THROW(parseLightRigFromMemory(rigJson(kUniform, ", \"description\": \"" + std::string(1000, '[') + "\""), "r"));
+  EXPECT_NO_THROW(
+      parseLightRigFromMemory(rigJson(kUniform, ", \"description\": \"" + std::string(1000, '[') + "\""), "r"));
 }
 
 TEST_F(HostileInput, RigNulBytesAndControlCharactersAreRefused) {
@@ -400,30 +408,37 @@ TEST_F(HostileInput, RigNulBytesAndControlCharactersAreRefused) {
   expectRigError(rigJson(R"({"type": "environment", "file": "sky.hdr\u0000.exr"})"),
                  {"lights[0].file: 'sky.hdr\\x00.exr': a path without control characters (or NUL) expected"}, withMap);
   expectRigError(rigJson(R"({"type": "environment", "file": "sky\n.hdr"})"), {"'sky\\x0a.hdr'"}, withMap);
-  expectRigError(rigJson(R"({"type": "uniform", "radiance": 1, "a\u0000b\nc": 2})"), {"lights[0].a\\x00b\\x0ac: unknown key"});
+  expectRigError(rigJson(R"({"type": "uniform", "radiance": 1, "a\u0000b\nc": 2})"),
+                 {"lights[0].a\\x00b\\x0ac: unknown key"});
   expectRigError(rigJson(R"({"type": "sun\r\n"})"), {"lights[0].type: 'sun\\x0d\\x0a' is not a light type"});
 }
 
 TEST_F(HostileInput, RigNumbersBeyondTheLimitsAreRefused) {
   EXPECT_NO_THROW(parseLightRigFromMemory(rigJson(R"({"type": "uniform", "radiance": 1e12})"), "r"));
   EXPECT_NO_THROW(parseLightRigFromMemory(rigJson(R"({"type": "sun", "azimuth": -1e12, "elevation": 3})"), "r"));
-  expectRigError(rigJson(R"({"type": "uniform", "radiance": [1, 2e12, 3]})"), {"lights[0].radiance: 2e+12 is beyond ±1e+12"});
-  expectRigError(rigJson(R"({"type": "sun", "azimuth": [{"frame": 0, "value": 1}, {"frame": 1, "value": -3e12}], "elevation": 3})"),
-                 {"lights[0].azimuth[1].value: -3e+12 is beyond ±1e+12"});
+  expectRigError(rigJson(R"({"type": "uniform", "radiance": [1, 2e12, 3]})"),
+                 {"lights[0].radiance: 2e+12 is beyond ±1e+12"});
+  expectRigError(
+      rigJson(
+          R"({"type": "sun", "azimuth": [{"frame": 0, "value": 1}, {"frame": 1, "value": -3e12}], "elevation": 3})"),
+      {"lights[0].azimuth[1].value: -3e+12 is beyond ±1e+12"});
   expectRigError(rigJson(R"({"type": "sun", "direction": [0, 5e13, 0]})"), {"lights[0].direction: 5e+13 is beyond"});
   // JSON has no NaN or infinity, and a number beyond double's range is not read as one.
   expectRigError(rigJson(R"({"type": "uniform", "radiance": NaN})"), {"rig.json: invalid JSON: "});
-  expectRigError(rigJson(R"({"type": "uniform", "radiance": -1e400})"), {"invalid JSON: number overflow parsing '-1e400'"});
+  expectRigError(rigJson(R"({"type": "uniform", "radiance": -1e400})"),
+                 {"invalid JSON: number overflow parsing '-1e400'"});
   // Frames: within ±1e9.
   EXPECT_NO_THROW(parseLightRigFromMemory(
       rigJson(R"({"type": "uniform", "radiance": [{"frame": -1e9, "value": 1}, {"frame": 1e9, "value": 2}]})"), "r"));
-  expectRigError(rigJson(R"({"type": "uniform", "radiance": [{"frame": 0, "value": 1}, {"frame": 1.5e9, "value": 2}]})"),
-                 {"lights[0].radiance[1].frame: frame 1.5e+09 is beyond ±1e+09"});
+  expectRigError(
+      rigJson(R"({"type": "uniform", "radiance": [{"frame": 0, "value": 1}, {"frame": 1.5e9, "value": 2}]})"),
+      {"lights[0].radiance[1].frame: frame 1.5e+09 is beyond ±1e+09"});
   // Frames per second: [0.001, 10000].
   for (const char* fps : {"0.001", "24", "10000"})
     EXPECT_NO_THROW(parseLightRigFromMemory(rigJson(kUniform, std::string(", \"fps\": ") + fps), "r")) << fps;
   for (const char* fps : {"0.0009", "10001", "-24", "0"})
-    expectRigError(rigJson(kUniform, std::string(", \"fps\": ") + fps), {"fps: must be in [0.001, 10000] frames per second"});
+    expectRigError(rigJson(kUniform, std::string(", \"fps\": ") + fps),
+                   {"fps: must be in [0.001, 10000] frames per second"});
   expectRigError(rigJson(kUniform, ", \"fps\": \"24\""), {"fps: expected a number, got \"24\""});
 }
 
@@ -441,26 +456,32 @@ TEST_F(HostileInput, RigCountsOfLightsAndKeysAreBounded) {
 }
 
 TEST_F(HostileInput, RigBadEnumsAreNamedAndLongStringsCut) {
-  expectRigError(rigJson(R"({"type": "Sun"})"), {"lights[0].type: 'Sun' is not a light type (environment, sun, disk or uniform)"});
+  expectRigError(rigJson(R"({"type": "Sun"})"),
+                 {"lights[0].type: 'Sun' is not a light type (environment, sun, disk or uniform)"});
   expectRigError(rigJson(kUniform, R"(, "window": "HANN")"), {"window: 'HANN': expected none, hann or lanczos"});
   expectRigError(rigJson(kUniform, R"(, "window": 3)"), {"window: expected \"none\", \"hann\" or \"lanczos\""});
-  expectRigError(rigJson(R"({"type": "uniform", "radiance": {"interpolation": "cubic", "keys": [{"frame": 0, "value": 1}]}})"),
-                 {"lights[0].radiance.interpolation: 'cubic': expected linear or step"});
-  expectRigError(rigJson(R"({"type": "uniform", "radiance": {"interpolation": 1, "keys": [{"frame": 0, "value": 1}]}})"),
-                 {"lights[0].radiance.interpolation: '1': expected linear or step"});
+  expectRigError(
+      rigJson(R"({"type": "uniform", "radiance": {"interpolation": "cubic", "keys": [{"frame": 0, "value": 1}]}})"),
+      {"lights[0].radiance.interpolation: 'cubic': expected linear or step"});
+  expectRigError(
+      rigJson(R"({"type": "uniform", "radiance": {"interpolation": 1, "keys": [{"frame": 0, "value": 1}]}})"),
+      {"lights[0].radiance.interpolation: '1': expected linear or step"});
   // A string from the file is quoted in at most 40 bytes (cut on a UTF-8 boundary, "...").
   const std::string x(100000, 'x');
   for (const std::string& json :
        {rigJson("{\"type\": \"" + x + "\"}"), rigJson(kUniform, ", \"window\": \"" + x + "\""),
         rigJson(R"({"type": "uniform", "radiance": 1, ")" + x + "\": 1}"), rigJson("{\"type\": \"" + x + "\x01\"}"),
         rigJson("{\"type\": 1" + std::string(100000, '0') + "}"),
-        rigJson(R"({"type": "uniform", "radiance": ")" + x + "\"}"), rigJson("{\"type\": \"" + std::string(30, 'x') + std::string(50, '\xc3') + "\"}")}) {
+        rigJson(R"({"type": "uniform", "radiance": ")" + x + "\"}"),
+        rigJson("{\"type\": \"" + std::string(30, 'x') + std::string(50, '\xc3') + "\"}")}) {
     std::string e = messageOf([&] { parseLightRigFromMemory(json, "rig.json"); });
     EXPECT_EQ(e.find('\n'), std::string::npos) << e;
     EXPECT_LT(e.size(), 250u) << e;  // the fixed text, and 40 bytes of the string
-    EXPECT_TRUE(e.find(std::string(30, 'x')) != std::string::npos || e.find(std::string(30, '0')) != std::string::npos) << e;
+    EXPECT_TRUE(e.find(std::string(30, 'x')) != std::string::npos || e.find(std::string(30, '0')) != std::string::npos)
+        << e;
   }
-  std::string e = messageOf([&] { parseLightRigFromMemory(rigJson("{\"type\": \"" + std::string(39, 'a') + "\xc3\xa9z\"}"), "r"); });
+  std::string e = messageOf(
+      [&] { parseLightRigFromMemory(rigJson("{\"type\": \"" + std::string(39, 'a') + "\xc3\xa9z\"}"), "r"); });
   EXPECT_NE(e.find("'" + std::string(39, 'a') + "\xc3\xa9...'"), std::string::npos) << e;
 }
 
@@ -472,7 +493,8 @@ TEST_F(HostileInput, RigMissingFilesFoldersAndDevicesAreRefused) {
   std::string rig = write("dev.json", rigJson(R"({"type": "environment", "file": "/dev/zero"})"));
   expectError([&] { loadLightRig(rig); }, rig, {"lights[0].file: /dev/zero: not a regular file"});
   rig = write("missing.json", rigJson(R"({"type": "environment", "file": "nothere.hdr"})"));
-  expectError([&] { loadLightRig(rig); }, rig, {"lights[0].file: " + (dir_ / "nothere.hdr").string() + ": no such file"});
+  expectError([&] { loadLightRig(rig); }, rig,
+              {"lights[0].file: " + (dir_ / "nothere.hdr").string() + ": no such file"});
 }
 
 TEST_F(HostileInput, RigFromMemoryReadsNoFileButMapsGivenInMemory) {
@@ -497,24 +519,26 @@ TEST_F(HostileInput, RigTinySunRadiusGivesThePointSunNotNaN) {
   sh::evaluate(8, d, y);
   for (double degrees : {5e-324, 1e-300, 1e-160, 1e-100, 1e-20, 1e-8}) {
     for (const char* type : {"sun", "disk"}) {
-      LightRig rig = parseLightRigFromMemory(
-          rigJson(cat(R"({"type": ")", type, R"(", "direction": [0.3, 0.9, -0.2], "radius": )", degrees,
-                      R"(, "irradiance": 1e12})")),
-          "rig.json");
+      LightRig rig =
+          parseLightRigFromMemory(rigJson(cat(R"({"type": ")", type, R"(", "direction": [0.3, 0.9, -0.2], "radius": )",
+                                              degrees, R"(, "irradiance": 1e12})")),
+                                  "rig.json");
       sh::ShRgb l = rig.evaluate(0, 8);
       for (int i = 0; i < 64; ++i)
         ASSERT_NEAR(l.c[i].x, E * y[i], 1e-6 * E) << type << " radius " << degrees << " coefficient " << i;
     }
   }
   // A disk of given radiance shrinks to nothing instead, until its radius is 0 in radians.
-  LightRig disk = parseLightRigFromMemory(rigJson(R"({"type": "disk", "direction": [0, 1, 0], "radius": 1e-300, "radiance": 1e12})"), "r");
+  LightRig disk = parseLightRigFromMemory(
+      rigJson(R"({"type": "disk", "direction": [0, 1, 0], "radius": 1e-300, "radiance": 1e12})"), "r");
   expectFiniteSh(disk, 0.0);
   EXPECT_EQ(disk.evaluate(0, 3).c[0], glm::vec3(0.0f));
   expectRigError(rigJson(R"({"type": "disk", "direction": [0, 1, 0], "radius": 1e-323, "radiance": 1})"),
                  {"lights[0].radius: disk radius 9.88131e-324 degrees is 0 in radians"});
   // Either side of the switch to the point sun (1e-6 rad) the two agree to 7 r² (Note 3).
   const double r = 1e-6;
-  sh::ShRgb below = projectSun(8, d, r * (1 - 1e-9), glm::dvec3(1.0)), above = projectSun(8, d, r * (1 + 1e-9), glm::dvec3(1.0));
+  sh::ShRgb below = projectSun(8, d, r * (1 - 1e-9), glm::dvec3(1.0)),
+            above = projectSun(8, d, r * (1 + 1e-9), glm::dvec3(1.0));
   for (int i = 0; i < 64; ++i) EXPECT_NEAR(below.c[i].x, above.c[i].x, 2e-7) << i;
 }
 
@@ -527,7 +551,8 @@ TEST_F(HostileInput, RigMapBrightnessIsBoundedSoItsShStaysFinite) {
   for (glm::vec3& p : hotter.pixels) p = glm::vec3(2e30f);
   bright.pixels[3] = glm::vec3(0.0f, 1e18f, 0.0f);
   o.maps = {{"hot.exr", hot}, {"hotter.exr", hotter}, {"bright.exr", bright}};
-  const std::string turning = R"({"type": "environment", "file": "hot.exr", "axis": [1, 2, 3], "rotation": [{"frame": 0, "value": 0}, {"frame": 9, "value": 1e6}]})";
+  const std::string turning =
+      R"({"type": "environment", "file": "hot.exr", "axis": [1, 2, 3], "rotation": [{"frame": 0, "value": 0}, {"frame": 9, "value": 1e6}]})";
   std::string lights = turning;
   for (size_t i = 1; i < RigLimits::kMaxLights; ++i) lights += "," + turning;
   LightRig rig = parseLightRigFromMemory(rigJson(lights), "rig.json", o);
@@ -539,13 +564,18 @@ TEST_F(HostileInput, RigMapBrightnessIsBoundedSoItsShStaysFinite) {
   o.maps["nan.exr"].pixels[5].y = std::nanf("");
   o.maps["inf.exr"] = hot;
   o.maps["inf.exr"].pixels[0].z = -INFINITY;
-  expectRigError(rigJson(R"({"type": "environment", "file": "nan.exr"})"), {"lights[0].file: a pixel is not a number (NaN)"}, o);
-  expectRigError(rigJson(R"({"type": "environment", "file": "inf.exr"})"), {"lights[0].file: brightest pixel inf is beyond 1e+30"}, o);
+  expectRigError(rigJson(R"({"type": "environment", "file": "nan.exr"})"),
+                 {"lights[0].file: a pixel is not a number (NaN)"}, o);
+  expectRigError(rigJson(R"({"type": "environment", "file": "inf.exr"})"),
+                 {"lights[0].file: brightest pixel inf is beyond 1e+30"}, o);
   expectRigError(rigJson(R"({"type": "environment", "file": "hot.exr", "intensity": [1, 1.5, 1]})"),
                  {"lights[0].intensity: intensity 1.5 times the map's brightest pixel 9.99e+29 is beyond 1e+30"}, o);
-  EXPECT_NO_THROW(parseLightRigFromMemory(rigJson(R"({"type": "environment", "file": "bright.exr", "intensity": 1e12})"), "r", o));
-  expectRigError(rigJson(R"({"type": "environment", "file": "bright.exr", "intensity": [{"frame": 0, "value": 1}, {"frame": 1, "value": [1, 1, 1e12]}, {"frame": 2, "value": 1e13}]})"),
-                 {"lights[0].intensity[2].value: 1e+13 is beyond ±1e+12"}, o);
+  EXPECT_NO_THROW(
+      parseLightRigFromMemory(rigJson(R"({"type": "environment", "file": "bright.exr", "intensity": 1e12})"), "r", o));
+  expectRigError(
+      rigJson(
+          R"({"type": "environment", "file": "bright.exr", "intensity": [{"frame": 0, "value": 1}, {"frame": 1, "value": [1, 1, 1e12]}, {"frame": 2, "value": 1e13}]})"),
+      {"lights[0].intensity[2].value: 1e+13 is beyond ±1e+12"}, o);
 }
 
 // Linear keys interpolate inside their range exactly: two keys at the largest sun radius below

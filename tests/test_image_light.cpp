@@ -20,13 +20,13 @@
 #include <stb_image.h>
 #include <stb_image_write.h>
 
-#include "prt/math.h"
+#include "harness.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
 #include "prt/image.h"
 #include "prt/light.h"
+#include "prt/math.h"
 #include "prt/sh.h"
-#include "harness.h"
 #include "test_util.h"
 
 namespace {
@@ -53,8 +53,7 @@ void writeBytes(const std::string& path, const std::string& bytes) {
 }
 
 // Every image error must start with the offending path, and say what is wrong.
-void expectErrorAbout(const std::string& path, const std::string& phrase,
-                      const std::function<void()>& f) {
+void expectErrorAbout(const std::string& path, const std::string& phrase, const std::function<void()>& f) {
   const std::string msg = errorOf(f);
   EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
   EXPECT_NE(msg.find(phrase), std::string::npos) << msg;
@@ -75,8 +74,7 @@ void put(std::string& s, T v) {
   s.append(reinterpret_cast<const char*>(&v), sizeof(v));  // little-endian, as is x86
 }
 
-void putAttribute(std::string& s, const std::string& name, const std::string& type,
-                  const std::string& value) {
+void putAttribute(std::string& s, const std::string& name, const std::string& type, const std::string& value) {
   s += name;
   s += '\0';
   s += type;
@@ -97,8 +95,7 @@ uint16_t toHalf(float f) {
 }
 
 // Channels must be given in alphabetical order, as OpenEXR stores them.
-std::string makeExr(int xMin, int yMin, int xMax, int yMax,
-                    const std::vector<ExrChannel>& channels) {
+std::string makeExr(int xMin, int yMin, int xMax, int yMax, const std::vector<ExrChannel>& channels) {
   std::string s;
   put<uint32_t>(s, 20000630u);  // magic 0x76 0x2f 0x31 0x01
   put<int32_t>(s, 2);           // version 2, single part scan lines
@@ -134,8 +131,10 @@ std::string makeExr(int xMin, int yMin, int xMax, int yMax,
     std::string data;
     for (const auto& c : channels)
       for (int x = xMin; x <= xMax; ++x) {
-        if (c.type == 1) put<uint16_t>(data, toHalf(c.value(x, y)));
-        else put<float>(data, c.value(x, y));
+        if (c.type == 1)
+          put<uint16_t>(data, toHalf(c.value(x, y)));
+        else
+          put<float>(data, c.value(x, y));
       }
     std::string line;
     put<int32_t>(line, y);
@@ -228,8 +227,7 @@ TEST(ImageExr, ReadsHalfChannelsWithOffsetDataWindow) {
   ASSERT_EQ(img.width, 4);
   ASSERT_EQ(img.height, 3);
   for (int y = 0; y < 3; ++y)
-    for (int x = 0; x < 4; ++x)
-      EXPECT_EQ(img.at(x, y), glm::vec3(r(x + 3, y - 2), g(x + 3, y - 2), b(x + 3, y - 2)));
+    for (int x = 0; x < 4; ++x) EXPECT_EQ(img.at(x, y), glm::vec3(r(x + 3, y - 2), g(x + 3, y - 2), b(x + 3, y - 2)));
 }
 
 TEST(ImageExr, ReadsLuminanceOnlyAsGrey) {
@@ -307,10 +305,8 @@ TEST(ImageErrors, GarbageAndEmptyFiles) {
   const std::string garbage = dir.file("garbage.exr"), empty = dir.file("empty.hdr");
   writeBytes(garbage, "this is not an image at all\n");
   writeBytes(empty, "");
-  expectErrorAbout(garbage, "not an OpenEXR or Radiance HDR image",
-                   [&] { prt::loadHdrImage(garbage); });
-  expectErrorAbout(empty, "not an OpenEXR or Radiance HDR image",
-                   [&] { prt::loadHdrImage(empty); });
+  expectErrorAbout(garbage, "not an OpenEXR or Radiance HDR image", [&] { prt::loadHdrImage(garbage); });
+  expectErrorAbout(empty, "not an OpenEXR or Radiance HDR image", [&] { prt::loadHdrImage(empty); });
 }
 
 TEST(ImageErrors, TruncatedExr) {
@@ -325,9 +321,10 @@ TEST(ImageErrors, TruncatedExr) {
     expectErrorAbout(path, "corrupt OpenEXR file", [&] { prt::loadHdrImage(path); });
   }
   // The same for an uncompressed file, whose scan lines are read as they are.
-  const std::string plain = makeExr(0, 0, 7, 7, {{"B", 2, [](int, int) { return 1.0f; }},
-                                                 {"G", 2, [](int, int) { return 1.0f; }},
-                                                 {"R", 2, [](int, int) { return 1.0f; }}});
+  const std::string plain = makeExr(0, 0, 7, 7,
+                                    {{"B", 2, [](int, int) { return 1.0f; }},
+                                     {"G", 2, [](int, int) { return 1.0f; }},
+                                     {"R", 2, [](int, int) { return 1.0f; }}});
   const std::string path = dir.file("cut_plain.exr");
   writeBytes(path, plain.substr(0, plain.size() - 50));
   expectErrorAbout(path, "corrupt OpenEXR file", [&] { prt::loadHdrImage(path); });
@@ -402,14 +399,12 @@ TEST(ImageErrors, EmptyImageIsNotWritten) {
 }
 
 // The sRGB encoding written out independently of prt, from IEC 61966-2-1.
-double srgbEncode(double v) {
-  return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
-}
+double srgbEncode(double v) { return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055; }
 
 TEST(ImagePng, WritesClampedSrgbBytes) {
   TempDir dir;
-  const std::vector<float> values = {0.0f,   0.001f, 0.01f, 0.18f, 0.5f, 0.9f, 1.0f,
-                                     2.0f, -0.3f,  std::numeric_limits<float>::quiet_NaN()};
+  const std::vector<float> values = {0.0f, 0.001f, 0.01f, 0.18f, 0.5f,
+                                     0.9f, 1.0f,   2.0f,  -0.3f, std::numeric_limits<float>::quiet_NaN()};
   ImageRgb img(static_cast<int>(values.size()), 2);
   for (int x = 0; x < img.width; ++x) {
     img.at(x, 0) = glm::vec3(values[x], values[x] * 0.5f, values[x] * 0.25f);
@@ -495,7 +490,10 @@ TEST(ImageSrgb8, EqualsRoundedTransferFunctionExactly) {
       const uint32_t mid = lo + (hi - lo) / 2;
       float m;
       std::memcpy(&m, &mid, 4);
-      if (reference(m) >= k) hi = mid; else lo = mid + 1;
+      if (reference(m) >= k)
+        hi = mid;
+      else
+        lo = mid + 1;
     }
     std::memcpy(&v, &lo, 4);
     ASSERT_EQ(reference(v), k);  // the bisection found the threshold: the codes step by one
@@ -601,8 +599,8 @@ double quadratureTol(int h, double c, double poleTerms) {
   return 2.0 * dTheta * dTheta / 24.0 * (std::abs(c) + poleTerms) + kFloatTol * (1 + std::abs(c));
 }
 
-void expectProjection(const std::function<glm::dvec3(const glm::dvec3&)>& f,
-                      const std::vector<glm::dvec3>& expected, int w, int h, int bands) {
+void expectProjection(const std::function<glm::dvec3(const glm::dvec3&)>& f, const std::vector<glm::dvec3>& expected,
+                      int w, int h, int bands) {
   const prt::sh::ShRgb c = prt::projectEnvironment(mapOf(w, h, f), bands);
   ASSERT_EQ(c.bands, bands);
   double yUp[64], yDown[64];
@@ -622,12 +620,10 @@ void expectProjection(const std::function<glm::dvec3(const glm::dvec3&)>& f,
 TEST(LightEnvironment, ConstantMap) {
   const double c0 = 2.0 * std::sqrt(kPi);
   const glm::dvec3 radiance(1.0, 2.0, 0.25);
-  expectProjection([](const glm::dvec3&) { return glm::dvec3(1.0); }, {glm::dvec3(c0)}, 64, 32,
-                   8);
+  expectProjection([](const glm::dvec3&) { return glm::dvec3(1.0); }, {glm::dvec3(c0)}, 64, 32, 8);
   expectProjection([&](const glm::dvec3&) { return radiance; }, {c0 * radiance}, 128, 64, 3);
   // The solid angles sum to 4π exactly, so c_0 is exact to rounding at any resolution.
-  const prt::sh::ShRgb c =
-      prt::projectEnvironment(mapOf(6, 3, [](auto&) { return glm::dvec3(1); }), 1);
+  const prt::sh::ShRgb c = prt::projectEnvironment(mapOf(6, 3, [](auto&) { return glm::dvec3(1); }), 1);
   EXPECT_NEAR(c.c[0].x, c0, kFloatTol * c0);
 }
 
@@ -662,8 +658,8 @@ TEST(LightEnvironment, QuadratureErrorIsTheExpectedSecondOrderTerm) {
   // solid angles, or a map flipped upside down, would give other errors.
   const double exact = 2.0 * std::sqrt(kPi) / 3.0;
   auto err = [&](int h) {
-    const prt::sh::ShRgb p = prt::projectEnvironment(
-        mapOf(2 * h, h, [](const glm::dvec3& d) { return glm::dvec3(d.y * d.y); }), 3);
+    const prt::sh::ShRgb p =
+        prt::projectEnvironment(mapOf(2 * h, h, [](const glm::dvec3& d) { return glm::dvec3(d.y * d.y); }), 3);
     return double(p.c[0].x) - exact;
   };
   for (int h : {16, 32, 64}) {
@@ -681,15 +677,13 @@ TEST(LightEnvironment, SinglePixelIsItsSolidAngleTimesValue) {
     const glm::dvec3 value(2.0, 3.0, 40.0);
     img.at(px, row) = glm::vec3(value);
     const prt::sh::ShRgb c = prt::projectEnvironment(img, bands);
-    const double omega =
-        (2.0 * kPi / w) * (std::cos(kPi * row / h) - std::cos(kPi * (row + 1) / h));
+    const double omega = (2.0 * kPi / w) * (std::cos(kPi * row / h) - std::cos(kPi * (row + 1) / h));
     double y[64];
     prt::sh::evaluate(bands, pixelCentre(px, row, w, h), y);
     for (int i = 0; i < c.size(); ++i)
       for (int ch = 0; ch < 3; ++ch) {
         const double want = omega * value[ch] * y[i];
-        EXPECT_NEAR(c.c[i][ch], want, kFloatTol * omega * value[ch])
-            << i << " " << px << "," << row;
+        EXPECT_NEAR(c.c[i][ch], want, kFloatTol * omega * value[ch]) << i << " " << px << "," << row;
       }
   }
 }
@@ -718,12 +712,11 @@ TEST(LightEnvironment, RoyalEsplanadeIrradianceIsPlausible) {
   // c_0 is the mean radiance times 2√π; the pixel-weighted mean must agree with it.
   glm::dvec3 weighted(0.0);
   for (int row = 0; row < img.height; ++row) {
-    const double omega = (2.0 * kPi / img.width) * (std::cos(kPi * row / img.height) -
-                                                     std::cos(kPi * (row + 1) / img.height));
+    const double omega =
+        (2.0 * kPi / img.width) * (std::cos(kPi * row / img.height) - std::cos(kPi * (row + 1) / img.height));
     for (int x = 0; x < img.width; ++x) weighted += omega * glm::dvec3(img.at(x, row));
   }
-  for (int ch = 0; ch < 3; ++ch)
-    EXPECT_NEAR(c.c[0][ch], weighted[ch] / (2.0 * std::sqrt(kPi)), 1e-5 * weighted[ch]);
+  for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(c.c[0][ch], weighted[ch] / (2.0 * std::sqrt(kPi)), 1e-5 * weighted[ch]);
   const glm::vec3 up = prt::sh::irradiance(c, {0, 1, 0}), down = prt::sh::irradiance(c, {0, -1, 0});
   EXPECT_GT(up.y, down.y);
   EXPECT_GT(down.y, 0.0f);
@@ -769,8 +762,7 @@ void gaussLegendre(int n, std::vector<double>& x, std::vector<double>& w) {
 std::vector<double> capIntegrals(int bands, const glm::dvec3& d, double r) {
   std::vector<double> gx, gw;
   gaussLegendre(16, gx, gw);
-  const glm::dvec3 t1 = glm::normalize(glm::cross(d, std::abs(d.x) < 0.9 ? glm::dvec3(1, 0, 0)
-                                                                         : glm::dvec3(0, 1, 0)));
+  const glm::dvec3 t1 = glm::normalize(glm::cross(d, std::abs(d.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
   const glm::dvec3 t2 = glm::cross(d, t1);
   const double lo = std::cos(r);
   const int nBeta = 32;
@@ -850,11 +842,9 @@ TEST(LightSun, IsTheDiskOfMatchingRadiance) {
   const glm::dvec3 d(0, 0, -1), e(5.0, 4.0, 3.0);
   for (double r : {0.01, 0.2, 1.2}) {
     const prt::sh::ShRgb sun = prt::projectSun(8, d, r, e);
-    const prt::sh::ShRgb disk =
-        prt::projectDiskRadiance(8, d, r, e / (kPi * std::sin(r) * std::sin(r)));
+    const prt::sh::ShRgb disk = prt::projectDiskRadiance(8, d, r, e / (kPi * std::sin(r) * std::sin(r)));
     for (int i = 0; i < sun.size(); ++i)
-      for (int ch = 0; ch < 3; ++ch)
-        EXPECT_NEAR(sun.c[i][ch], disk.c[i][ch], 1e-5 * e[ch]) << r << " " << i;
+      for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(sun.c[i][ch], disk.c[i][ch], 1e-5 * e[ch]) << r << " " << i;
   }
 }
 
@@ -874,8 +864,7 @@ TEST(LightSun, SmallRadiusTendsToTheDelta) {
       const int l = prt::sh::bandOf(i);
       for (int ch = 0; ch < 3; ++ch) {
         const double want = e[ch] * y[i];
-        const double tol = 2.0 * (0.25 + l * (l + 1) / 8.0) * r * r * std::abs(want) +
-                           kFloatTol * e[ch];
+        const double tol = 2.0 * (0.25 + l * (l + 1) / 8.0) * r * r * std::abs(want) + kFloatTol * e[ch];
         EXPECT_NEAR(c.c[i][ch], want, tol) << "r " << r << " i " << i;
       }
     }

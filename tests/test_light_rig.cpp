@@ -15,14 +15,14 @@
 
 #include <gtest/gtest.h>
 
-#include "prt/math.h"
+#include "harness.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
 #include "prt/image.h"
 #include "prt/light.h"
 #include "prt/light_rig.h"
+#include "prt/math.h"
 #include "prt/sh.h"
-#include "harness.h"
 #include "test_util.h"
 
 namespace {
@@ -50,7 +50,9 @@ std::string num(double v) {
 }
 
 // The rig parsed from JSON text (maps relative to `base`), named "rig.json" in messages.
-LightRig rigOf(const std::string& json, const std::string& base = ".") { return prt::parseLightRig(json, "rig.json", base); }
+LightRig rigOf(const std::string& json, const std::string& base = ".") {
+  return prt::parseLightRig(json, "rig.json", base);
+}
 
 double maxAbsDiff(const prt::sh::ShRgb& a, const prt::sh::ShRgb& b) {
   EXPECT_EQ(a.size(), b.size());
@@ -87,8 +89,8 @@ TEST(RigTrack, LinearIsExactAtKeysBetweenThemAndHeldOutside) {
   EXPECT_EQ(t.scalarAt(2.5), 1.25);  // fractional frames
   EXPECT_EQ(t.scalarAt(15.0), 0.0);
   EXPECT_EQ(t.scalarAt(17.5), -2.5);
-  EXPECT_EQ(t.scalarAt(-3.0), 0.0);   // before the first key: the first value
-  EXPECT_EQ(t.scalarAt(1e9), -5.0);   // after the last key: the last value
+  EXPECT_EQ(t.scalarAt(-3.0), 0.0);  // before the first key: the first value
+  EXPECT_EQ(t.scalarAt(1e9), -5.0);  // after the last key: the last value
 }
 
 TEST(RigTrack, StepHoldsTheLastKeyAtOrBeforeTheFrame) {
@@ -157,8 +159,9 @@ TEST(RigSun, AzimuthElevationEqualsTheSameSunAsAVector) {
   const glm::dvec3 d(std::cos(el) * std::sin(az), std::sin(el), std::cos(el) * std::cos(az));
   LightRig byAngles = rigOf(R"({"version": 1, "lights": [{"type": "sun", "azimuth": 30, "elevation": 40,
                                 "radius": 2, "irradiance": [3, 2, 1]}]})");
-  LightRig byVector = rigOf(prt::cat(R"({"version": 1, "lights": [{"type": "sun", "direction": [)", num(d.x * 7), ", ",
-                                     num(d.y * 7), ", ", num(d.z * 7), R"(], "radius": 2, "irradiance": [3, 2, 1]}]})"));
+  LightRig byVector =
+      rigOf(prt::cat(R"({"version": 1, "lights": [{"type": "sun", "direction": [)", num(d.x * 7), ", ", num(d.y * 7),
+                     ", ", num(d.z * 7), R"(], "radius": 2, "irradiance": [3, 2, 1]}]})"));
   prt::sh::ShRgb a = byAngles.evaluate(0, 8), b = byVector.evaluate(0, 8);
   // Both directions agree to ~1e-16; the coefficients are rounded to float (relative 6e-8).
   EXPECT_LT(maxAbsDiff(a, b), 1e-6 * maxAbs(a));
@@ -185,9 +188,10 @@ TEST(RigDisk, IrradianceOnItsAxisIsPiSin2RTimesRadiance) {
   // radii (computed independently by Simpson quadrature of Σ Â_l (2l+1)/4π ∫ P_l): 0.5% bounds it.
   const glm::dvec3 axis = glm::normalize(glm::dvec3(0.3, 0.8, -0.5));
   for (double r : {30.0, 45.0, 60.0, 80.0}) {
-    LightRig rig = rigOf(prt::cat(R"({"version": 1, "lights": [{"type": "disk", "direction": [)", num(axis.x), ", ",
-                                  num(axis.y), ", ", num(axis.z), R"(], "radius": [{"frame": 0, "value": 1}, {"frame": 10, "value": )",
-                                  1 + 2 * (r - 1), R"(}], "radiance": [2, 1, 0.5]}]})"));
+    LightRig rig =
+        rigOf(prt::cat(R"({"version": 1, "lights": [{"type": "disk", "direction": [)", num(axis.x), ", ", num(axis.y),
+                       ", ", num(axis.z), R"(], "radius": [{"frame": 0, "value": 1}, {"frame": 10, "value": )",
+                       1 + 2 * (r - 1), R"(}], "radiance": [2, 1, 0.5]}]})"));
     prt::sh::ShRgb l = rig.evaluate(5, 8);  // the radius is r halfway
     glm::vec3 e = prt::sh::irradiance(l, glm::vec3(axis));
     const double s2 = std::pow(std::sin(r * kPi / 180.0), 2);
@@ -216,9 +220,11 @@ TEST(RigDisk, IrradianceFormIsTheDiskOfMatchingRadiance) {
 
 TEST(RigLights, SeveralLightsSumLinearlyAndTheWindowAppliesToTheSum) {
   TempDir dir;
-  const std::string env = R"({"type": "environment", "file": ")" + kEsplanade +
-                          R"(", "axis": [1, 1, 0], "rotation": [{"frame": 0, "value": 0}, {"frame": 8, "value": 80}], "intensity": [1, 0.5, 2]})";
-  const std::string sun = R"({"type": "sun", "azimuth": 10, "elevation": [{"frame": 0, "value": 5}, {"frame": 8, "value": 85}], "radius": 1, "irradiance": 3})";
+  const std::string env =
+      R"({"type": "environment", "file": ")" + kEsplanade +
+      R"(", "axis": [1, 1, 0], "rotation": [{"frame": 0, "value": 0}, {"frame": 8, "value": 80}], "intensity": [1, 0.5, 2]})";
+  const std::string sun =
+      R"({"type": "sun", "azimuth": 10, "elevation": [{"frame": 0, "value": 5}, {"frame": 8, "value": 85}], "radius": 1, "irradiance": 3})";
   const std::string disk = R"({"type": "disk", "direction": [0, 0.2, 1], "radius": 25, "radiance": [0.5, 0.1, 0.1]})";
   const std::string sky = R"({"type": "uniform", "radiance": [0.1, 0.2, 0.3]})";
   auto rig = [](const std::vector<std::string>& lights, const std::string& window) {
@@ -287,19 +293,24 @@ TEST(RigEnvironment, RotatingTheShEqualsProjectingTheRotatedMap) {
   c[0] += glm::dvec3(3.0);
   TempDir dir;
   const std::string file = dir.file("band_limited.exr");
-  prt::writeExr(file, bandLimitedMap(512, 256, [](const glm::dvec3& d) { return d; }, c));
+  prt::writeExr(file, bandLimitedMap(
+                          512, 256, [](const glm::dvec3& d) { return d; }, c));
   const glm::dvec3 axis(1.0, 2.0, -0.5);
-  LightRig rig = rigOf(envJson("band_limited.exr", "[1, 2, -0.5]", R"([{"frame": 0, "value": 0}, {"frame": 10, "value": 100}])"),
-                       dir.file(""));
+  LightRig rig =
+      rigOf(envJson("band_limited.exr", "[1, 2, -0.5]", R"([{"frame": 0, "value": 0}, {"frame": 10, "value": 100}])"),
+            dir.file(""));
   const double angle = 75.0;  // frame 7.5
   const glm::dmat3 R = prt::sh::rotationAxis(axis, angle);
   prt::sh::ShRgb rotated = rig.evaluate(7.5, 4);
-  prt::sh::ShRgb brute = prt::projectEnvironment(
-      bandLimitedMap(512, 256, [&](const glm::dvec3& d) { return glm::transpose(R) * d; }, c), 4);
+  prt::sh::ShRgb brute =
+      prt::projectEnvironment(bandLimitedMap(
+                                  512, 256, [&](const glm::dvec3& d) { return glm::transpose(R) * d; }, c),
+                              4);
   EXPECT_LT(maxAbsDiff(rotated, brute), 2e-4);
   // The opposite turn is far off, so a sign error in the convention fails.
-  prt::sh::ShRgb wrongWay = prt::projectEnvironment(
-      bandLimitedMap(512, 256, [&](const glm::dvec3& d) { return R * d; }, c), 4);
+  prt::sh::ShRgb wrongWay = prt::projectEnvironment(bandLimitedMap(
+                                                        512, 256, [&](const glm::dvec3& d) { return R * d; }, c),
+                                                    4);
   EXPECT_GT(maxAbsDiff(rotated, wrongWay), 0.05);
 }
 
@@ -313,15 +324,15 @@ TEST(RigEnvironment, MapIsLoadedOnceAndProjectedOncePerBandCount) {
   EXPECT_EQ(maxAbsDiff(rig.evaluate(0, 3), before), 0.0);
   prt::sh::ShRgb five = rig.evaluate(0, 5);
   EXPECT_EQ(maxAbsDiff(prt::sh::resize(five, 3), before), 0.0);  // same projection, truncated
-  LightRig copy = rig;  // copies share the cache
+  LightRig copy = rig;                                           // copies share the cache
   EXPECT_EQ(maxAbsDiff(copy.evaluate(0, 5), five), 0.0);
 }
 
 TEST(RigEnvironment, MatchesTheRelightShortcutConvention) {
   // Rotation about +Y by θ is sh::rotationY(θ), the rotation of `prt relight --env-rotate θ`.
   LightRig rig = rigOf(envJson(kEsplanade, "[0, 1, 0]", "90", R"(, "intensity": 2)"));
-  prt::sh::ShRgb expected = prt::sh::Rotation(4, prt::sh::rotationY(90)).apply(
-      prt::projectEnvironment(prt::loadHdrImage(kEsplanade), 4));
+  prt::sh::ShRgb expected =
+      prt::sh::Rotation(4, prt::sh::rotationY(90)).apply(prt::projectEnvironment(prt::loadHdrImage(kEsplanade), 4));
   expected *= 2.0f;
   EXPECT_LT(maxAbsDiff(rig.evaluate(0, 4), expected), 1e-6 * maxAbs(expected));
 }
@@ -348,7 +359,8 @@ TEST(RigErrors, MissingAndMalformedFiles) {
   expectRigError("{\"version\": 1, \"lights\": []}", "lights: empty");
   expectRigError("{\"version\": 1}", "lights: missing");
   expectRigError("{\"version\": 1, \"window\": \"gauss\", \"lights\": []}", "window: 'gauss'");
-  expectRigError("{\"version\": 1, \"fps\": 0, \"lights\": []}", "fps: must be in [0.001, 10000] frames per second (got 0)");
+  expectRigError("{\"version\": 1, \"fps\": 0, \"lights\": []}",
+                 "fps: must be in [0.001, 10000] frames per second (got 0)");
 }
 
 TEST(RigErrors, UnknownKeysAndTypes) {
@@ -359,41 +371,49 @@ TEST(RigErrors, UnknownKeysAndTypes) {
                  "lights[0].zzzzzzzz: unknown key (expected one of: type, name, radiance)");
   expectRigError("{\"version\": 1, \"lights\": [{\"type\": \"spot\"}]}", "lights[0].type: 'spot' is not a light type");
   expectRigError("{\"version\": 1, \"lights\": [{\"radiance\": 1}]}", "lights[0].type: missing");
-  expectRigError("{\"version\": 1, \"lights\": [{\"type\": \"uniform\", \"radiance\": {\"keys\": [{\"frame\": 0, "
-                 "\"valeu\": 1}]}}]}",
-                 "lights[0].radiance.keys[0].valeu: unknown key (did you mean 'value'?)");
+  expectRigError(
+      "{\"version\": 1, \"lights\": [{\"type\": \"uniform\", \"radiance\": {\"keys\": [{\"frame\": 0, "
+      "\"valeu\": 1}]}}]}",
+      "lights[0].radiance.keys[0].valeu: unknown key (did you mean 'value'?)");
 }
 
 TEST(RigErrors, KeyframesAndValues) {
   expectRigError(R"({"version": 1, "lights": [{"type": "uniform", "radiance": 1},
       {"type": "sun", "direction": [0, 1, 0], "radius": {"keys": [{"frame": 0, "value": 1}, {"frame": 12, "value": 2}, {"frame": 10, "value": 3}]}}]})",
                  "rig.json: lights[1].radius.keys[2].frame: frames must increase (10 after 12)");
-  expectRigError(R"({"version": 1, "lights": [{"type": "uniform", "radiance": [{"frame": 3, "value": 1}, {"frame": 3, "value": 2}]}]})",
-                 "lights[0].radiance[1].frame: frames must increase");
-  expectRigError(R"({"version": 1, "lights": [{"type": "uniform", "radiance": -1}]})", "lights[0].radiance: must be >= 0");
+  expectRigError(
+      R"({"version": 1, "lights": [{"type": "uniform", "radiance": [{"frame": 3, "value": 1}, {"frame": 3, "value": 2}]}]})",
+      "lights[0].radiance[1].frame: frames must increase");
+  expectRigError(R"({"version": 1, "lights": [{"type": "uniform", "radiance": -1}]})",
+                 "lights[0].radiance: must be >= 0");
   expectRigError(R"({"version": 1, "lights": [{"type": "uniform", "radiance": [1, 2]}]})",
                  "lights[0].radiance: expected a number or [R, G, B]");
   expectRigError(R"({"version": 1, "lights": [{"type": "sun", "direction": [0, 1, 0], "radius": [1, 2, 3]}]})",
                  "lights[0].radius: expected a number");
   expectRigError(R"({"version": 1, "lights": [{"type": "sun", "direction": [0, 1, 0], "radius": 90}]})",
                  "lights[0].radius: sun radius must be in [0, 90)");
-  expectRigError(R"({"version": 1, "lights": [{"type": "sun", "azimuth": 0, "elevation": [{"frame": 0, "value": 10}, {"frame": 5, "value": 95}]}]})",
-                 "lights[0].elevation[1].value: elevation must be in [-90, 90]");
+  expectRigError(
+      R"({"version": 1, "lights": [{"type": "sun", "azimuth": 0, "elevation": [{"frame": 0, "value": 10}, {"frame": 5, "value": 95}]}]})",
+      "lights[0].elevation[1].value: elevation must be in [-90, 90]");
   expectRigError(R"({"version": 1, "lights": [{"type": "sun", "azimuth": 0}]})", "lights[0].elevation: missing");
   expectRigError(R"({"version": 1, "lights": [{"type": "sun", "direction": [0, 1, 0], "azimuth": 0, "elevation": 3}]})",
                  "lights[0]: give either \"direction\" or \"azimuth\" + \"elevation\", not both");
   expectRigError(R"({"version": 1, "lights": [{"type": "sun", "direction": [0, 0, 0]}]})",
                  "lights[0].direction: direction is zero");
-  expectRigError(R"({"version": 1, "lights": [{"type": "sun", "direction": [{"frame": 0, "value": [0, 1, 0]}, {"frame": 9, "value": [0, -2, 0]}]}]})",
-                 "lights[0].direction[1].value: opposite to the previous key");
+  expectRigError(
+      R"({"version": 1, "lights": [{"type": "sun", "direction": [{"frame": 0, "value": [0, 1, 0]}, {"frame": 9, "value": [0, -2, 0]}]}]})",
+      "lights[0].direction[1].value: opposite to the previous key");
   expectRigError(R"({"version": 1, "lights": [{"type": "disk", "direction": [0, 1, 0], "radiance": 1}]})",
                  "lights[0].radius: missing");
-  expectRigError(R"({"version": 1, "lights": [{"type": "disk", "direction": [0, 1, 0], "radius": 5, "radiance": 1, "irradiance": 1}]})",
-                 "not both");
-  expectRigError(R"({"version": 1, "lights": [{"type": "disk", "direction": [0, 1, 0], "radius": 120, "irradiance": 1}]})",
-                 "lights[0].radius: a disk given by irradiance needs a radius in (0, 90)");
-  expectRigError(R"({"version": 1, "lights": [{"type": "uniform", "radiance": {"interpolation": "cubic", "keys": [{"frame": 0, "value": 1}]}}]})",
-                 "lights[0].radiance.interpolation: 'cubic': expected linear or step");
+  expectRigError(
+      R"({"version": 1, "lights": [{"type": "disk", "direction": [0, 1, 0], "radius": 5, "radiance": 1, "irradiance": 1}]})",
+      "not both");
+  expectRigError(
+      R"({"version": 1, "lights": [{"type": "disk", "direction": [0, 1, 0], "radius": 120, "irradiance": 1}]})",
+      "lights[0].radius: a disk given by irradiance needs a radius in (0, 90)");
+  expectRigError(
+      R"({"version": 1, "lights": [{"type": "uniform", "radiance": {"interpolation": "cubic", "keys": [{"frame": 0, "value": 1}]}}]})",
+      "lights[0].radiance.interpolation: 'cubic': expected linear or step");
   expectRigError(R"({"version": 1, "lights": [{"type": "uniform", "radiance": {"keys": []}}]})",
                  "lights[0].radiance.keys: empty");
   expectRigError(R"({"version": 1, "lights": [{"type": "uniform", "radiance": [{"frame": "a", "value": 1}]}]})",

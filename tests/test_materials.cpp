@@ -13,7 +13,6 @@
 #include <utility>
 #include <vector>
 
-#include "prt/math.h"
 #include "gltf_file.h"
 #include "harness.h"
 #include "png_file.h"
@@ -22,6 +21,7 @@
 #include "prt/bake/sampling.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/scene.h"
 #include "prt/sh.h"
 #include "test_scenes.h"
@@ -81,8 +81,10 @@ int vec2Accessor(test::GltfFile& f, const std::vector<float>& data) {
   f.bin.resize(offset + data.size() * 4);
   std::memcpy(f.bin.data() + offset, data.data(), data.size() * 4);
   f.j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * 4}});
-  f.j["accessors"].push_back({{"bufferView", f.j["bufferViews"].size() - 1}, {"componentType", 5126},
-                              {"count", data.size() / 2}, {"type", "VEC2"}});
+  f.j["accessors"].push_back({{"bufferView", f.j["bufferViews"].size() - 1},
+                              {"componentType", 5126},
+                              {"count", data.size() / 2},
+                              {"type", "VEC2"}});
   return int(f.j["accessors"].size() - 1);
 }
 
@@ -95,7 +97,8 @@ void addOccluder(test::GltfFile& f, int material, float height = kHeight, float 
   const std::vector<float> normals = {0, -1, 0, 0, -1, 0, 0, -1, 0, 0, -1, 0};
   const std::vector<float> uv = {0, 0, u, 0, u, u, 0, u};
   Json prim = {{"attributes",
-                {{"POSITION", f.accessor(positions, "VEC3")}, {"NORMAL", f.accessor(normals, "VEC3")},
+                {{"POSITION", f.accessor(positions, "VEC3")},
+                 {"NORMAL", f.accessor(normals, "VEC3")},
                  {"TEXCOORD_0", vec2Accessor(f, uv)}}},
                {"indices", f.accessor<uint32_t>({0, 1, 2, 0, 2, 3}, "SCALAR", 5125)},
                {"material", material}};
@@ -111,7 +114,8 @@ void addFloor(test::GltfFile& f, int material = -1) {
 /// A 2×2 RGBA8 texture as image, sampler (REPEAT, or CLAMP_TO_EDGE) and texture 0: texels
 /// (0,0) and (1,1) get alpha a11, the other two a01; RGB `rgb`.
 void addTexture(test::GltfFile& f, uint8_t rgb, uint8_t a11, uint8_t a01, bool clamp = false) {
-  const std::string png = test::encodePng(2, 2, {rgb, rgb, rgb, a11, rgb, rgb, rgb, a01, rgb, rgb, rgb, a01, rgb, rgb, rgb, a11});
+  const std::string png =
+      test::encodePng(2, 2, {rgb, rgb, rgb, a11, rgb, rgb, rgb, a01, rgb, rgb, rgb, a01, rgb, rgb, rgb, a11});
   f.j["images"].push_back({{"uri", "data:image/png;base64," + test::base64(png)}});
   const int wrap = clamp ? 33071 : 10497;
   f.j["samplers"] = Json::array({{{"wrapS", wrap}, {"wrapT", wrap}}});
@@ -123,9 +127,7 @@ int addMaterial(test::GltfFile& f, Json material) {
   return int(f.j["materials"].size() - 1);
 }
 
-Json checkerMask() {
-  return {{"alphaMode", "MASK"}, {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}};
-}
+Json checkerMask() { return {{"alphaMode", "MASK"}, {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}; }
 
 /// Floor vertex v's sky fraction from its direct transfer: t_00 = π y_00 · (unoccluded cosine share).
 double openFraction(const bake::SurfaceTransfer& t, size_t mesh, size_t v, int bands) {
@@ -155,8 +157,9 @@ TEST(SceneMaterial, AlphaModesCutoffAndTransmissionAreRead) {
   mask["alphaCutoff"] = 0.3;
   addMaterial(f, mask);
   addMaterial(f, {{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.25}}}}});
-  addMaterial(f, {{"extensions", {{"KHR_materials_transmission",
-                                   {{"transmissionFactor", 0.5}, {"transmissionTexture", {{"index", 1}}}}}}}});
+  addMaterial(
+      f, {{"extensions",
+           {{"KHR_materials_transmission", {{"transmissionFactor", 0.5}, {"transmissionTexture", {{"index", 1}}}}}}}});
   f.j["extensionsUsed"] = Json::array({"KHR_materials_transmission"});
   f.j["extensionsRequired"] = Json::array({"KHR_materials_transmission"});
   for (int m = 0; m < 3; ++m) addOccluder(f, m);
@@ -241,7 +244,8 @@ TEST(BakeCutout, CheckerMaskLetsThroughItsOpenFraction) {
     EXPECT_NEAR(got, want, 0.025) << "vertex " << v << " at " << p.x << "," << p.z;
     meanError += (got - want) / double(floor.vertexCount());
     maxError = std::max(maxError, std::abs(got - want));
-    if (v == 12) std::printf("centre vertex: open fraction %.4f, closed form %.4f (solid square: %.4f)\n", got, want, 1.0 - whole);
+    if (v == 12)
+      std::printf("centre vertex: open fraction %.4f, closed form %.4f (solid square: %.4f)\n", got, want, 1.0 - whole);
   }
   std::printf("max error %.4f, mean error %.5f over %zu vertices\n", maxError, meanError, floor.vertexCount());
   EXPECT_LT(std::abs(meanError), 0.006);
@@ -312,8 +316,10 @@ TEST_P(BakePartialOccluder, LetsThroughOneMinusItsOpacity) {
 INSTANTIATE_TEST_SUITE_P(
     Panes, BakePartialOccluder,
     ::testing::Values(
-        PaneCase{"transmission", {{"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.5}}}}}}, 0.5},
-        PaneCase{"blend", {{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.5}}}}}, 0.5},
+        PaneCase{
+            "transmission", {{"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.5}}}}}}, 0.5},
+        PaneCase{
+            "blend", {{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.5}}}}}, 0.5},
         PaneCase{"both",
                  {{"alphaMode", "BLEND"},
                   {"pbrMetallicRoughness", {{"baseColorFactor", {0.2, 0.9, 0.4, 0.5}}}},
@@ -339,7 +345,8 @@ TEST(BakePartialOccluderBounce, FloorGathersOpacityTimesTheOpaqueBounce) {
     bs.keepLowerOrder = true;
     const bake::SurfaceTransfer t = bake::bakeSurface(loadScene(f.write("bounce", dir.path())), bs);
     std::vector<double> out;  // the floor's bounce-1 DC per vertex
-    for (size_t v = 0; v < t.perMesh[1].size() / 4; ++v) out.push_back(t.perMesh[1][4 * v].r - t.perMeshLowerOrder[1][4 * v].r);
+    for (size_t v = 0; v < t.perMesh[1].size() / 4; ++v)
+      out.push_back(t.perMesh[1][4 * v].r - t.perMeshLowerOrder[1][4 * v].r);
     return out;
   };
   const std::vector<double> opaque = bounce({{"pbrMetallicRoughness", {{"baseColorFactor", {1.0, 1.0, 1.0, 1.0}}}}});
@@ -369,8 +376,10 @@ TEST(BakeCutout, SameBitsForAnyThreadCount) {
   test::GltfFile f;
   addTexture(f, 200, 255, 0);
   addOccluder(f, addMaterial(f, checkerMask()));
-  addOccluder(f, addMaterial(f, {{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 0.5}}}}}),
-              0.5f * kHeight);
+  addOccluder(
+      f,
+      addMaterial(f, {{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 0.5}}}}}),
+      0.5f * kHeight);
   addFloor(f, addMaterial(f, {{"pbrMetallicRoughness", {{"baseColorFactor", {0.7, 0.7, 0.7, 1.0}}}}}));
   const Scene s = loadScene(f.write("threads", dir.path()));
   bake::BakeSettings bs;
@@ -427,10 +436,13 @@ TEST(BakeCutout, AlphaThatCutsNothingChangesNoBit) {
   const Json grey = {{"baseColorFactor", {0.6, 0.6, 0.6, 1.0}}};
   const Json greyTextured = {{"baseColorFactor", {0.6, 0.6, 0.6, 1.0}}, {"baseColorTexture", {{"index", 0}}}};
   const bake::SurfaceTransfer plain = bakeWith({{"pbrMetallicRoughness", grey}}, kNone);
-  Json clear = {{"pbrMetallicRoughness", {{"baseColorFactor", {0.6, 0.6, 0.6, 0.0}}, {"baseColorTexture", {{"index", 0}}}}}};
+  Json clear = {
+      {"pbrMetallicRoughness", {{"baseColorFactor", {0.6, 0.6, 0.6, 0.0}}, {"baseColorTexture", {{"index", 0}}}}}};
   const bake::SurfaceTransfer opaque = bakeWith(clear, kClear);
-  const bake::SurfaceTransfer solidMask = bakeWith({{"alphaMode", "MASK"}, {"alphaCutoff", 0.9}, {"pbrMetallicRoughness", grey}}, kNone);
-  const bake::SurfaceTransfer unreached = bakeWith({{"alphaMode", "MASK"}, {"pbrMetallicRoughness", greyTextured}}, kUnreached);
+  const bake::SurfaceTransfer solidMask =
+      bakeWith({{"alphaMode", "MASK"}, {"alphaCutoff", 0.9}, {"pbrMetallicRoughness", grey}}, kNone);
+  const bake::SurfaceTransfer unreached =
+      bakeWith({{"alphaMode", "MASK"}, {"pbrMetallicRoughness", greyTextured}}, kUnreached);
   for (size_t k = 0; k < 2; ++k) {
     EXPECT_TRUE(sameBits(plain.perMesh[k], opaque.perMesh[k])) << "instance " << k;
     EXPECT_TRUE(sameBits(plain.perMesh[k], solidMask.perMesh[k])) << "instance " << k;
@@ -451,7 +463,8 @@ TEST(SceneMaterial, PassesLightOnlyWhereAlphaCanCut) {
   const std::vector<std::pair<Json, bool>> cases = {
       {checkerMask(), true},
       {{{"alphaMode", "MASK"}, {"pbrMetallicRoughness", solidTexture}}, false},
-      {{{"alphaMode", "MASK"}, {"alphaCutoff", 0.6}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.5}}}}}, true},
+      {{{"alphaMode", "MASK"}, {"alphaCutoff", 0.6}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.5}}}}},
+       true},
       {{{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", solidTexture}}, false},
       {{{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.99}}}}}, true},
       {{{"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.1}}}}}}, true},
@@ -462,7 +475,6 @@ TEST(SceneMaterial, PassesLightOnlyWhereAlphaCanCut) {
   ASSERT_EQ(got.size(), cases.size());
   for (size_t k = 0; k < cases.size(); ++k) EXPECT_EQ(bool(got[k]), cases[k].second) << cases[k].first.dump();
 }
-
 
 // The probe bake traces packets of 8 (RayScene::intersect8): every ray must get the hit it gets
 // traced alone (RayScene::intersect of one ray), bit for bit, through a cutout (the checker
@@ -477,8 +489,8 @@ TEST(BakeCutout, PacketsOfEightFindTheHitsOfSingleRays) {
     test::GltfFile f;
     addTexture(f, 255, 255, 0);
     addOccluder(f, addMaterial(f, blend ? Json{{"alphaMode", "BLEND"},
-                                                {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.5}}}}}
-                                         : checkerMask()));
+                                               {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.5}}}}}
+                                        : checkerMask()));
     addFloor(f);
     const Scene s = loadScene(f.write(blend ? "blend" : "mask", dir.path()));
     const bake::RayScene rays(s);

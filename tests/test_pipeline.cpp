@@ -66,8 +66,9 @@ TEST(BakePipeline, ProbeBakeInterruptedThenResumedWritesTheSameBits) {
       runPipeline(job);
       ADD_FAILURE() << "not interrupted";
     } catch (const InterruptedAndSaved& e) {
-      EXPECT_NE(std::string(e.what()).find("interrupted: checkpoint saved to " + job.outputs.scene + ".prt-checkpoint ("),
-                std::string::npos)
+      EXPECT_NE(
+          std::string(e.what()).find("interrupted: checkpoint saved to " + job.outputs.scene + ".prt-checkpoint ("),
+          std::string::npos)
           << e.what();
     }
     clearInterrupt();

@@ -14,7 +14,7 @@
 
 #include <tbb/global_control.h>
 
-#include "prt/math.h"
+#include "probe_brute_force.h"
 #include "prt/bake/kernels.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/ray_scene.h"
@@ -22,9 +22,9 @@
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
 #include "prt/light.h"
+#include "prt/math.h"
 #include "prt/probe_grid.h"
 #include "prt/sh.h"
-#include "probe_brute_force.h"
 #include "test_scenes.h"
 
 namespace prt {
@@ -97,8 +97,8 @@ TEST_P(ProbeCavity, CentreMatchesClosedForm) {
   // comes from the bake (mean error < 0.1%, see BakeCavity) and faceting (~0.1%): 1.5% of the
   // value bounds both, while a wrong factor of π or a bounce too many is ≥ 10% here.
   // The figures of docs/probes.md ("Bounces").
-  std::printf("[ measured ] K=%d c00 %.5f (closed form %.5f), c1y %.5f (%.5f), L_wall(K-1) %.5f\n", K, c[0].g,
-              c00, c[1].g, c1y, wall);
+  std::printf("[ measured ] K=%d c00 %.5f (closed form %.5f), c1y %.5f (%.5f), L_wall(K-1) %.5f\n", K, c[0].g, c00,
+              c[1].g, c1y, wall);
   EXPECT_NEAR(c[0].g, c00, 0.015 * c00);
   EXPECT_NEAR(c[1].g, c1y, 0.015 * c1y);
   EXPECT_NEAR(c[3].g, 0.0, 0.01 * c00);  // symmetric about the y axis
@@ -208,14 +208,16 @@ TEST(ProbeBake, TracedRecordsAccountForEveryRay) {
   EXPECT_GE(stats.moved, 1u) << "the probe just inside the slab";
   EXPECT_GT(tests.size(), 5u) << "candidates tried in the box";
   EXPECT_LT(fulls.size(), stats.traced.size()) << "a probe deep in the box traces no full set";
-  const std::vector<bake::Ray> testRays = bake::probeTestRays(g, ps, tests), fullRays = bake::probeFullRays(g, ps, fulls);
+  const std::vector<bake::Ray> testRays = bake::probeTestRays(g, ps, tests),
+                               fullRays = bake::probeFullRays(g, ps, fulls);
   ASSERT_EQ(testRays.size(), tests.size() * 64);
   ASSERT_EQ(fullRays.size(), fulls.size() * 256);
   int checked = 0, movedChecked = 0;
   for (size_t k = 0; k < fulls.size(); ++k) {  // from the point, or where the probe moved to
     const int p = g.find(glm::ivec3(int(fulls[k].lattice), 0, 0));
     if (p < 0 || g.validity[size_t(p)] == 0.0f) continue;  // found inside after all: its offset is not kept
-    const glm::vec3 origin = glm::vec3(g.latticePosition(glm::ivec3(int(fulls[k].lattice), 0, 0))) + g.offset[size_t(p)];
+    const glm::vec3 origin =
+        glm::vec3(g.latticePosition(glm::ivec3(int(fulls[k].lattice), 0, 0))) + g.offset[size_t(p)];
     EXPECT_LT(glm::length(fullRays[k * 256].org - origin), 1e-5f) << "point " << fulls[k].lattice;
     ++checked;
     movedChecked += fulls[k].candidate >= 0;
@@ -340,7 +342,8 @@ void expectKernelPathsAgree(const Scene& s, int bands) {
                                surfaces[0].perMesh[k].size() * sizeof(glm::vec3)));
     }
     ASSERT_EQ(grids[0].transfer.size(), grids[p].transfer.size());
-    EXPECT_EQ(0, std::memcmp(grids[0].transfer.data(), grids[p].transfer.data(), grids[0].transfer.size() * sizeof(float)));
+    EXPECT_EQ(
+        0, std::memcmp(grids[0].transfer.data(), grids[p].transfer.data(), grids[0].transfer.size() * sizeof(float)));
     ASSERT_EQ(grids[0].direct.size(), grids[p].direct.size());
     EXPECT_EQ(0, std::memcmp(grids[0].direct.data(), grids[p].direct.data(), grids[0].direct.size() * sizeof(float)));
     EXPECT_EQ(grids[0].moments, grids[p].moments);
@@ -354,7 +357,8 @@ void expectKernelPathsAgree(const Scene& s, int bands) {
 // directions, SH values, inside tests, classification and moments, M⁰, lit hits and products of
 // a stream's rays.
 TEST(ProbeBake, HalfPathsGiveTheSameBits) {
-  if (bake::bestKernels() == bake::Kernels::Portable) GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
+  if (bake::bestKernels() == bake::Kernels::Portable)
+    GTEST_SKIP() << "no AVX2 + F16C on this CPU: only the portable path runs";
   // The cavity in one colour (its ρ/π in its rows: the AVX-512 products without ρ/π), and the
   // same with a vertex-coloured slab inside (ρ/π looked up per hit: groups of lit hits of both
   // kinds, the products with ρ/π, which is 1 for the cavity's hits).
@@ -490,14 +494,16 @@ TEST_P(ProbeThinWall, DarkRoomGetsNoLightThroughTheWall) {
   std::mt19937 rng(77);
   const double eBright =
       test::bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho, rooms.sky,
-                      glm::vec3(0.5f * wallX, 1.5f, 1.5f), glm::vec3(0.0f, 1.0f, 0.0f), 20000, rng).g;
+                            glm::vec3(0.5f * wallX, 1.5f, 1.5f), glm::vec3(0.0f, 1.0f, 0.0f), 20000, rng)
+          .g;
   ASSERT_GT(eBright, 1.0);
 
   const glm::vec3 into(1.0f, 0.0f, 0.0f), toward(-1.0f, 0.0f, 0.0f);
   const glm::vec3* normals[3] = {nullptr, &into, &toward};
-  std::printf("wall x = %.3f, %.2f spacing thick. Dark receivers: weight share of the bright probes, mean "
-              "(max); leaked E / E_bright, max\n",
-              double(wallX), thickness / TwoRooms::kSpacing);
+  std::printf(
+      "wall x = %.3f, %.2f spacing thick. Dark receivers: weight share of the bright probes, mean "
+      "(max); leaked E / E_bright, max\n",
+      double(wallX), thickness / TwoRooms::kSpacing);
   for (double depth : kDepths) {
     const float x = wallX + thickness + float(depth * TwoRooms::kSpacing);
     double meanShare[3] = {0, 0, 0}, maxShare[3] = {0, 0, 0}, maxE[3] = {0, 0, 0};
@@ -520,10 +526,11 @@ TEST_P(ProbeThinWall, DarkRoomGetsNoLightThroughTheWall) {
         ++n;
       }
     for (int k = 1; k < 3; ++k) EXPECT_LT(maxE[k], 0.01) << "depth " << depth << ", normal " << k;
-    std::printf("  depth %.2f: no normal %.2g (%.2g); normal into the room %.2g (%.2g), E %.2g; toward the wall "
-                "%.2g (%.2g), E %.2g\n",
-                depth, meanShare[0] / n, maxShare[0], meanShare[1] / n, maxShare[1], maxE[1], meanShare[2] / n,
-                maxShare[2], maxE[2]);
+    std::printf(
+        "  depth %.2f: no normal %.2g (%.2g); normal into the room %.2g (%.2g), E %.2g; toward the wall "
+        "%.2g (%.2g), E %.2g\n",
+        depth, meanShare[0] / n, maxShare[0], meanShare[1] / n, maxShare[1], maxE[1], meanShare[2] / n, maxShare[2],
+        maxE[2]);
   }
 }
 
@@ -550,8 +557,9 @@ TEST_P(ProbeThinWall, BrightRoomMatchesBruteForce) {
           // No weight on the dark room's probes (version 1 gave them up to 45% here).
           EXPECT_GT(rooms.brightShare(probeWeights(rooms.grid, p, &normals[k])), 0.999);
           const double eProbe = rooms.irradiance(p, normals[k]).g;
-          const double eBrute = test::bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder, TwoRooms::kRho,
-                                                rooms.sky, p, normals[k], 10000, rng).g;
+          const double eBrute = test::bruteIrradiance(rays, rooms.scene, rooms.surface.perMeshLowerOrder,
+                                                      TwoRooms::kRho, rooms.sky, p, normals[k], 10000, rng)
+                                    .g;
           const double rel = std::fabs(eProbe - eBrute) / eBrute;
           sum[k] += rel;
           worst[k] = std::max(worst[k], rel);
@@ -577,7 +585,7 @@ TEST_P(ProbeThinWall, BrightRoomMatchesBruteForce) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Walls, ProbeThinWall,
-                         ::testing::Values(std::pair{2.9f, 0.05f},    // 0.3 .. 0.4 of the cell [2.75, 3.25]
+                         ::testing::Values(std::pair{2.9f, 0.05f},     // 0.3 .. 0.4 of the cell [2.75, 3.25]
                                            std::pair{3.05f, 0.02f}));  // 0.6 .. 0.64 of it
 
 // ---- Where probes go (docs/probes.md, "Where probes go").
@@ -607,8 +615,8 @@ TEST(ProbeBakeRegion, AutoLeavesOutOpenAirFarFromSurfaces) {
   for (size_t p = 0; p < g.probeCount(); ++p) {
     if (g.validity[p] == 0.0f) continue;
     ++valid;
-    EXPECT_LE(boxDistance(g.position(p), lo, hi), 2.0 + std::sqrt(3.0) + 1e-9) << "probe at lattice " << g.coord[p].x
-                                                                            << "," << g.coord[p].y << "," << g.coord[p].z;
+    EXPECT_LE(boxDistance(g.position(p), lo, hi), 2.0 + std::sqrt(3.0) + 1e-9)
+        << "probe at lattice " << g.coord[p].x << "," << g.coord[p].y << "," << g.coord[p].z;
   }
   for (int z = 0; z < 16; ++z)
     for (int x = 0; x < 16; ++x) {
@@ -675,7 +683,8 @@ TEST(ProbeBakeRegion, InsideKeepsOnlySealedSpace) {
 }
 
 // A roofless court: a 12 m × 12 m floor and four 10 m walls, open to the sky, in a lattice of
-// 1 m spacing (lattice points at whole metres, y = 1 .. 9). Auto keeps what lies within 2 spacings of a surface, and the surrounded points
+// 1 m spacing (lattice points at whole metres, y = 1 .. 9). Auto keeps what lies within 2 spacings of a surface, and
+// the surrounded points
 // under open sky up to maxHeight (4 m) above the floor; the points of the court's middle higher
 // than that (and farther than 2 spacings and a neighbour from everything) are the void over the
 // level, left out. With a roof on the court, or maxHeight 0, they are all kept.

@@ -16,10 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "prt/math.h"
 #include "harness.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/probe_grid.h"
 #include "prt/sh.h"
 #include "test_util.h"
@@ -71,9 +71,7 @@ float weightOfColumn(const ProbeGrid& g, const ProbeWeights& w, int ix) {
 
 using test::TempDir;
 
-bool havePyopenvdb() {
-  return fs::exists(kPython) && test::run(kPython, {"-c", "import pyopenvdb"}).status == 0;
-}
+bool havePyopenvdb() { return fs::exists(kPython) && test::run(kPython, {"-c", "import pyopenvdb"}).status == 0; }
 
 void writeText(const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);
@@ -510,10 +508,9 @@ void expectSameGrid(const ProbeGrid& ref, const ProbeGrid& back, Tol tol) {
   EXPECT_EQ(back.info.scene, ref.info.scene);
   ASSERT_EQ(back.probeCount(), ref.probeCount());
   // Read back sorted by (x, y, z).
-  EXPECT_TRUE(
-      std::is_sorted(back.coord.begin(), back.coord.end(), [](const glm::ivec3& a, const glm::ivec3& b) {
-        return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z);
-      }));
+  EXPECT_TRUE(std::is_sorted(back.coord.begin(), back.coord.end(), [](const glm::ivec3& a, const glm::ivec3& b) {
+    return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z);
+  }));
   for (size_t q = 0; q < back.probeCount(); ++q) {
     const int p = ref.find(back.coord[q]);
     ASSERT_GE(p, 0);
@@ -550,8 +547,7 @@ TEST(ProbeGridVdb, RoundTripHalfWithinHalfPrecision) {
   writeProbeGrid(g, dir.file("f16.vdb"), true);
   // Half: 11 significant bits, relative rounding ≤ 2⁻¹¹; values below 2⁻¹⁴ are subnormal, with
   // absolute spacing 2⁻²⁴ (rounding ≤ 3e-8).
-  expectSameGrid(g, readProbeGrid(dir.file("f16.vdb")),
-                 [](float v) { return std::ldexp(std::abs(v), -11) + 1e-7f; });
+  expectSameGrid(g, readProbeGrid(dir.file("f16.vdb")), [](float v) { return std::ldexp(std::abs(v), -11) + 1e-7f; });
   EXPECT_LT(fs::file_size(dir.file("f16.vdb")), fs::file_size(dir.file("f32.vdb")));
 }
 
@@ -717,8 +713,8 @@ TEST(ProbeGridVdb, SizeFieldsAreCheckedBeforeOpenVdbTrustsThem) {
       {patched(8, u32(225)), "VDB file format version 225 is newer than this OpenVDB reads (224)"},
       {patched(20, std::string(1, '\0')), "a VDB stream without grid offsets"},
       {patched(offsets + 16, std::string(8, '\x7f')), "grid 'transfer_00_00', offsets"},
-      {patched(offsets + 8, i64(blockPos - 1)), cat("grid 'transfer_00_00', topology ends at byte ", blockPos,
-                                                    ", where the file says ", blockPos - 1)},
+      {patched(offsets + 8, i64(blockPos - 1)),
+       cat("grid 'transfer_00_00', topology ends at byte ", blockPos, ", where the file says ", blockPos - 1)},
       {patched(delayed, u32(0x10000000)), "268435456 leaf entries in a grid of"},
   };
   int n = 0;
@@ -801,13 +797,15 @@ vdb.write(out + '/bool.grid', [b])
   for (const auto& e : fs::directory_iterator(dir.path()))
     if (e.path().extension() == ".vdb") {
       ++files;
-      expectError([&] { readProbeGrid(e.path().string()); }, e.path().string(), "metadata 'prt_format_version' missing");
+      expectError([&] { readProbeGrid(e.path().string()); }, e.path().string(),
+                  "metadata 'prt_format_version' missing");
     }
   EXPECT_EQ(files, 10);
   // Bool trees (another leaf layout, whose blocks OpenVDB 10 reads as unchecked as any) are
   // refused by name, not handed to OpenVDB.
   const std::string boolGrid = dir.file("bool.grid");
-  expectError([&] { readProbeGrid(boolGrid); }, boolGrid, "grid 'bool' is a Tree_bool_5_4_3 grid, which prt does not read");
+  expectError([&] { readProbeGrid(boolGrid); }, boolGrid,
+              "grid 'bool' is a Tree_bool_5_4_3 grid, which prt does not read");
   // A frustum map names a second map: its name's length is checked as well.
   const std::string frustum = dir.file("frustum.vdb");
   std::string bytes = readFile(frustum);

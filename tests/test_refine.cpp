@@ -8,11 +8,11 @@
 #include <map>
 #include <set>
 
-#include "prt/math.h"
 #include "gltf_file.h"
 #include "harness.h"
 #include "prt/bake/refine.h"
 #include "prt/bake/surface_bake.h"
+#include "prt/math.h"
 #include "prt/scene.h"
 #include "test_scenes.h"
 

@@ -1,25 +1,25 @@
 // render/: headless contexts, and frames checked against a CPU evaluation of the same formula
 // at pixel centres (STYLE.md: renders are checked against the formula before any golden).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <optional>
 #include <random>
 
-#include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include <unistd.h>
 
-#include "prt/math.h"
 #include "harness.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/probe_grid.h"
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
@@ -78,8 +78,7 @@ Scene tiltedQuad(int bands) {
   m.name = "quad";
   m.positions = {{-1.0f, -0.8f, 0.3f}, {1.1f, -0.7f, -0.6f}, {1.0f, 0.9f, -0.2f}, {-1.2f, 0.8f, 0.5f}};
   m.normals.assign(4, glm::vec3(0, 0, 1));
-  m.colors = {{1.0f, 0.5f, 0.25f, 1.0f}, {0.2f, 1.0f, 0.6f, 1.0f}, {0.9f, 0.9f, 0.1f, 1.0f},
-              {0.4f, 0.3f, 1.0f, 1.0f}};
+  m.colors = {{1.0f, 0.5f, 0.25f, 1.0f}, {0.2f, 1.0f, 0.6f, 1.0f}, {0.9f, 0.9f, 0.1f, 1.0f}, {0.4f, 0.3f, 1.0f, 1.0f}};
   m.indices = {0, 1, 2, 0, 2, 3};
   m.material = 0;
   fillTransfer(m, bands, 7);
@@ -109,8 +108,8 @@ struct Hit {
   glm::dvec3 radiance{0.0};
   bool hit = false;
   bool receiver = false;
-  bool ambiguous = false;  // a receiver point where the probe weights jump (see nearJump)
-  glm::dvec3 normal{0.0};  // receivers: the unit normal at the hit
+  bool ambiguous = false;    // a receiver point where the probe weights jump (see nearJump)
+  glm::dvec3 normal{0.0};    // receivers: the unit normal at the hit
   glm::dvec3 position{0.0};  // receivers: the hit point
 };
 
@@ -170,8 +169,8 @@ MeshInstance placed(const Scene& s, const MeshInstance& m, double time) {
   return out;
 }
 
-Hit oracle(const Scene& s, const CameraView& c, const sh::ShRgb& light, int width, int height,
-           int px, int py, const ProbeLighting* probes = nullptr) {
+Hit oracle(const Scene& s, const CameraView& c, const sh::ShRgb& light, int width, int height, int px, int py,
+           const ProbeLighting* probes = nullptr) {
   const double aspect = double(width) / height;
   const double sx = 2.0 * (px + 0.5) / width - 1.0, sy = 1.0 - 2.0 * (py + 0.5) / height;
   glm::dvec3 origin, dir;
@@ -194,7 +193,7 @@ Hit oracle(const Scene& s, const CameraView& c, const sh::ShRgb& light, int widt
     for (size_t tri = 0; tri < m.triangleCount(); ++tri) {
       const uint32_t i0 = m.indices[3 * tri], i1 = m.indices[3 * tri + 1], i2 = m.indices[3 * tri + 2];
       const glm::dvec3 p0(m.positions[i0]), e1 = glm::dvec3(m.positions[i1]) - p0,
-          e2 = glm::dvec3(m.positions[i2]) - p0;
+                                            e2 = glm::dvec3(m.positions[i2]) - p0;
       // Möller-Trumbore; det > 0 means the ray sees the counter-clockwise (front) side.
       const glm::dvec3 pv = glm::cross(dir, e2);
       const double det = glm::dot(e1, pv);
@@ -215,9 +214,9 @@ Hit oracle(const Scene& s, const CameraView& c, const sh::ShRgb& light, int widt
         // A double-sided instance with back-side transfer shows the side the ray sees.
         const bool backSide = det < 0.0 && m.hasBackTransfer();
         if (!receiver)
-          e += b[k] * glm::dvec3(sh::dot(backSide ? m.backTransferOf(v[k], s.transferBands)
-                                                  : m.transferOf(v[k], s.transferBands),
-                                         light.c.data(), light.size()));
+          e += b[k] * glm::dvec3(sh::dot(
+                          backSide ? m.backTransferOf(v[k], s.transferBands) : m.transferOf(v[k], s.transferBands),
+                          light.c.data(), light.size()));
         if (receiver) normal += b[k] * glm::dvec3(m.normals[v[k]]);
         if (!m.colors.empty()) color += b[k] * glm::dvec3(m.colors[v[k]]);
         if (!m.texcoords.empty()) uv += float(b[k]) * m.texcoords[v[k]];
@@ -268,9 +267,9 @@ Hit oracle(const Scene& s, const CameraView& c, const sh::ShRgb& light, int widt
 struct Comparison {
   int compared = 0;
   int background = 0;
-  int receiver = 0;        // compared pixels showing a receiver
-  int ambiguous = 0;       // receiver pixels left out (nearJump)
-  double maxError = 0.0;   // relative to the image's largest oracle value
+  int receiver = 0;       // compared pixels showing a receiver
+  int ambiguous = 0;      // receiver pixels left out (nearJump)
+  double maxError = 0.0;  // relative to the image's largest oracle value
   double maxReceiverError = 0.0;
   double meanReceiverError = 0.0;
   double maxBackground = 0.0;
@@ -346,12 +345,8 @@ double maxDifference(const ImageRgb& a, const ImageRgb& b) {
 // positions snap to 1/256 pixel and texture weights are 8-bit fractions, so a value can be off
 // by its change across a pixel / 256 (≤ 5% of the range here → 2e-4) and a texture lookup by a
 // texel step / 512 (≈ 2e-3 with these texels).
-double shadingTolerance(const GlContext& c) {
-  return c.renderer().find("llvmpipe") != std::string::npos ? 1e-5 : 1e-3;
-}
-double textureTolerance(const GlContext& c) {
-  return c.renderer().find("llvmpipe") != std::string::npos ? 1e-5 : 4e-3;
-}
+double shadingTolerance(const GlContext& c) { return c.renderer().find("llvmpipe") != std::string::npos ? 1e-5 : 1e-3; }
+double textureTolerance(const GlContext& c) { return c.renderer().find("llvmpipe") != std::string::npos ? 1e-5 : 4e-3; }
 
 // ---------------------------------------------------------------------------------------------
 
@@ -428,9 +423,7 @@ TEST(RenderContext, EglFailureIsOneLine) {
   EXPECT_NE(child.out.find("[  PASSED  ] 1 test"), std::string::npos) << child.out;
 }
 
-TEST(RenderContext, RejectsBadFrameSize) {
-  EXPECT_THROW(GlContext(GlBackend::OSMesa, 0, 10), Error);
-}
+TEST(RenderContext, RejectsBadFrameSize) { EXPECT_THROW(GlContext(GlBackend::OSMesa, 0, 10), Error); }
 
 TEST(RenderShading, QuadMatchesCpuOracleOnBothBackends) {
   const Scene s = tiltedQuad(3);
@@ -464,8 +457,7 @@ TEST(RenderShading, EveryBandCountUsesEveryCoefficient) {
     first.c.front() = glm::vec3(3.0f, 2.0f, 1.0f);
     last.c.back() = glm::vec3(1.0f, 3.0f, 2.0f);
     for (const sh::ShRgb& light : {randomLight(bands, 5), first, last})
-      EXPECT_LT(compare(r.render(frontCamera(), light), s, frontCamera(), light).maxError,
-                shadingTolerance(ctx));
+      EXPECT_LT(compare(r.render(frontCamera(), light), s, frontCamera(), light).maxError, shadingTolerance(ctx));
   }
 }
 
@@ -475,8 +467,7 @@ TEST(RenderShading, LightOfFewerBandsIsZeroPadded) {
   GlContext ctx(GlBackend::OSMesa, kWidth, kHeight);
   Renderer r(ctx, s);
   const sh::ShRgb padded = sh::resize(light1, 3);
-  EXPECT_LT(compare(r.render(frontCamera(), light1), s, frontCamera(), padded).maxError,
-            shadingTolerance(ctx));
+  EXPECT_LT(compare(r.render(frontCamera(), light1), s, frontCamera(), padded).maxError, shadingTolerance(ctx));
 }
 
 // A 4×3 texture with distinct texels: red grows with x, green with y, blue alternates.
@@ -640,7 +631,8 @@ TEST(RenderShading, DoubleSidedPlaneLitFromBelowShowsEachSidesHemisphere) {
     const ImageRgb img = r.render(looking(fromY), sky);
     const double expected = 0.8 * (fromY > 0 ? 1.0 : 0.25);
     for (int dy = -4; dy <= 4; dy += 4)
-      for (int dx = -4; dx <= 4; dx += 4) EXPECT_NEAR(img.at(kWidth / 2 + dx, kHeight / 2 + dy).g, expected, 0.01 * expected);
+      for (int dx = -4; dx <= 4; dx += 4)
+        EXPECT_NEAR(img.at(kWidth / 2 + dx, kHeight / 2 + dy).g, expected, 0.01 * expected);
     // And every pixel matches the oracle, which shades the side the ray sees.
     const Comparison c = compare(img, s, looking(fromY), sky);
     EXPECT_GT(c.compared, 600);
@@ -702,8 +694,7 @@ TEST(RenderShading, ReceiversWithoutProbesSkippedWithWarning) {
   ASSERT_EQ(r.warnings().size(), 1u);
   EXPECT_NE(r.warnings()[0].find("mover"), std::string::npos);
   const sh::ShRgb light = randomLight(2, 1);
-  EXPECT_LT(compare(r.render(frontCamera(), light), s, frontCamera(), light).maxError,
-            shadingTolerance(ctx));
+  EXPECT_LT(compare(r.render(frontCamera(), light), s, frontCamera(), light).maxError, shadingTolerance(ctx));
 }
 
 TEST(RenderShading, SceneWithoutTransferIsAnError) {
@@ -1007,10 +998,10 @@ TEST(RenderReceivers, BakedGridMatchesOracleOnBothBackends) {
     const Comparison c = compare(frames.back(), room.scene, roomCamera(), light, &probes);
     std::printf("  %s: %d receiver pixels (%d near a weight jump, skipped), max error %.3g, mean %.3g\n",
                 glBackendName(b), c.receiver, c.ambiguous, c.maxReceiverError, c.meanReceiverError);
-    EXPECT_GT(c.receiver, 400);          // the ball fills a good part of the frame
+    EXPECT_GT(c.receiver, 400);  // the ball fills a good part of the frame
     EXPECT_LT(c.ambiguous, c.receiver / 10);
-    EXPECT_LT(c.maxReceiverError, ctx.renderer().find("llvmpipe") != std::string::npos
-                                      ? kReceiverTolerance : 10 * kReceiverTolerance);
+    EXPECT_LT(c.maxReceiverError,
+              ctx.renderer().find("llvmpipe") != std::string::npos ? kReceiverTolerance : 10 * kReceiverTolerance);
     EXPECT_LT(c.maxError, std::max(shadingTolerance(ctx), kReceiverTolerance));
   }
   // OSMesa and EGL: both within the tolerance of the oracle, so within twice it of each other
@@ -1026,10 +1017,17 @@ TEST(RenderReceivers, BakedGridMatchesOracleOnBothBackends) {
 // prt/sh.h and the clamped-cosine factors π, 2π/3, π/4 (no prt code involved).
 glm::dvec3 closedFormIrradiance(const sh::ShRgb& l, const glm::dvec3& n) {
   const double x = n.x, y = n.y, z = n.z;
-  const double basis[9] = {0.282095, 0.488603 * y, 0.488603 * z, 0.488603 * x, 1.092548 * x * y,
-                           1.092548 * y * z, 0.315392 * (3 * z * z - 1), 1.092548 * x * z,
+  const double basis[9] = {0.282095,
+                           0.488603 * y,
+                           0.488603 * z,
+                           0.488603 * x,
+                           1.092548 * x * y,
+                           1.092548 * y * z,
+                           0.315392 * (3 * z * z - 1),
+                           1.092548 * x * z,
                            0.546274 * (x * x - y * y)};
-  const double a[9] = {prt::kPi, 2 * prt::kPi / 3, 2 * prt::kPi / 3, 2 * prt::kPi / 3, prt::kPi / 4, prt::kPi / 4, prt::kPi / 4, prt::kPi / 4, prt::kPi / 4};
+  const double a[9] = {prt::kPi,     2 * prt::kPi / 3, 2 * prt::kPi / 3, 2 * prt::kPi / 3, prt::kPi / 4,
+                       prt::kPi / 4, prt::kPi / 4,     prt::kPi / 4,     prt::kPi / 4};
   glm::dvec3 e(0.0);
   for (int i = 0; i < 9; ++i) e += a[i] * basis[i] * glm::dvec3(l.c[size_t(i)]);
   return e;
@@ -1110,7 +1108,7 @@ TEST(RenderReceivers, BeyondTheDomainFadesIntoTheLight) {
   updateBounds(s);
   // The lattice covers x ≤ −0.25 only, its domain x ≤ 0.
   const ProbeGrid half = test::identityProbeGrid(3, glm::ivec3(3, 4, 4), glm::dvec3(-1.25, -1.0, -1.0),
-                                      glm::dvec3(0.5, 2.0 / 3.0, 2.0 / 3.0), 0.5f);
+                                                 glm::dvec3(0.5, 2.0 / 3.0, 2.0 / 3.0), 0.5f);
   const sh::ShRgb light = skyLight(3);
   const ProbeLighting pl = probeLighting(half, light);
   const CameraView cam = lookAt({0.0, 0.0, 3.0}, {0.0, 0.0, 0.0}, 40.0);
@@ -1227,7 +1225,8 @@ TEST(RenderReceivers, MaterialVariantsMatchOracle) {
     m.material = material;
     for (const glm::vec3& p : m.positions) {
       if (texcoords) m.texcoords.emplace_back(0.5f + 0.8f * p.x, 0.5f - 0.9f * p.y + 0.3f * p.z);
-      if (colors) m.colors.emplace_back(0.5f + 0.4f * std::sin(3.0f * p.x), 0.6f, 0.5f + 0.4f * std::cos(2.0f * p.y), 1.0f);
+      if (colors)
+        m.colors.emplace_back(0.5f + 0.4f * std::sin(3.0f * p.x), 0.6f, 0.5f + 0.4f * std::cos(2.0f * p.y), 1.0f);
     }
   };
   const glm::vec3 centres[4] = {{-0.5f, 0.4f, 0.0f}, {0.5f, 0.4f, 0.0f}, {-0.5f, -0.4f, 0.0f}, {0.5f, -0.4f, 0.0f}};
@@ -1284,9 +1283,9 @@ TEST(RenderReceivers, PerVertexLookupMatchesItsOracle) {
   const Comparison c = compare(perVertex, room.scene, roomCamera(), light, &probes);
   double peak = 0.0;
   for (const glm::vec3& p : perPixel.pixels) peak = std::max({peak, double(p.x), double(p.y), double(p.z)});
-  std::printf("  room: %d receiver pixels (%d skipped), max error %.3g, mean %.3g; per vertex vs per pixel: %.3g of the peak\n",
-              c.receiver, c.ambiguous, c.maxReceiverError, c.meanReceiverError,
-              maxDifference(perPixel, perVertex) / peak);
+  std::printf(
+      "  room: %d receiver pixels (%d skipped), max error %.3g, mean %.3g; per vertex vs per pixel: %.3g of the peak\n",
+      c.receiver, c.ambiguous, c.maxReceiverError, c.meanReceiverError, maxDifference(perPixel, perVertex) / peak);
   EXPECT_GT(c.receiver, 400);
   EXPECT_LT(c.ambiguous, c.receiver / 5);
   EXPECT_LT(c.maxReceiverError, kReceiverTolerance);
@@ -1379,8 +1378,8 @@ TEST(RenderReceivers, MovingReceiverFollowsItsAnimation) {
 
 // The command line: `prt render --probes --fps` on the demo scene written as a baked file, with a
 // probe grid file. Without --probes: one warning and the receiver is not drawn.
-using test::RunResult;
 using test::runPrt;
+using test::RunResult;
 
 TEST(CliRender, ProbesLightTheMovingReceiver) {
   const test::TempDir tmp("render_cmd");
@@ -1393,7 +1392,7 @@ TEST(CliRender, ProbesLightTheMovingReceiver) {
   ASSERT_EQ(file.animations.size(), 1u);  // the receiver's path survives the baked file
   ASSERT_GT(animationDuration(file), 2.0);
 
-  const std::vector<std::string> common = {"render", baked, "--env", test::sourcePath("scenes/env/white_sky_64.hdr"),
+  const std::vector<std::string> common = {"render", baked,  "--env", test::sourcePath("scenes/env/white_sky_64.hdr"),
                                            "--size", "64x36"};
   const RunResult none = runPrt(test::plus(common, {"--frames", "0-0", "-o", (dir / "n_%02d.exr").string()}));
   EXPECT_EQ(none.status, 0) << none.err;

@@ -9,8 +9,8 @@
 #include <cstdio>
 #include <functional>
 
-#include "prt/math.h"
 #include "prt/light_rig.h"
+#include "prt/math.h"
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
 #include "prt/scene.h"
@@ -115,14 +115,17 @@ TEST(RenderAlpha, MaskCutoutsShowTheBackground) {
   const Scene s = sceneOf({quad(-kHalf, kHalf, -3.0f, 0)}, {mask});
   const RigBackground bg = uniformBackground();
   int solid = 0, cut = 0;
-  expectPixels(s, bg, [&](double x, double y) {
-    if (!insideQuad(x, y, -kHalf, kHalf)) return glm::vec3(bg.uniform);
-    // Cell (i, j) in texture space; texel (i mod 2, j mod 2) is solid where i + j is even.
-    const int i = int(std::floor((x + kHalf) / (kHalf / 2))), j = int(std::floor((kHalf - y) / (kHalf / 2)));
-    const bool isSolid = (i + j) % 2 == 0;
-    (isSolid ? solid : cut)++;
-    return isSolid ? glm::vec3(mask.baseColorFactor) : glm::vec3(bg.uniform);
-  }, "mask");
+  expectPixels(
+      s, bg,
+      [&](double x, double y) {
+        if (!insideQuad(x, y, -kHalf, kHalf)) return glm::vec3(bg.uniform);
+        // Cell (i, j) in texture space; texel (i mod 2, j mod 2) is solid where i + j is even.
+        const int i = int(std::floor((x + kHalf) / (kHalf / 2))), j = int(std::floor((kHalf - y) / (kHalf / 2)));
+        const bool isSolid = (i + j) % 2 == 0;
+        (isSolid ? solid : cut)++;
+        return isSolid ? glm::vec3(mask.baseColorFactor) : glm::vec3(bg.uniform);
+      },
+      "mask");
   EXPECT_GT(solid, 500);
   EXPECT_GT(cut, 500);
 }
@@ -149,17 +152,22 @@ TEST_P(RenderAlphaBlend, IsBlendedOverWhatLiesBehind) {
   back.baseColorFactor = glm::vec4(0.1f, 0.8f, 0.3f, 1.0f);
   const Scene s = sceneOf({quad(-kHalf, kHalf, -3.0f, 0), quad(0.0f, 0.9375f, -3.5f, 1)}, {front, back});
   const RigBackground bg = uniformBackground();
-  expectPixels(s, bg, [&](double x, double y) {
-    const glm::vec3 behind = insideQuad(x, y, 0.0, 0.9375) ? glm::vec3(back.baseColorFactor) : glm::vec3(bg.uniform);
-    if (!insideQuad(x, y, -kHalf, kHalf)) return behind;
-    return c.opacity * glm::vec3(front.baseColorFactor) + (1.0f - c.opacity) * behind;
-  }, c.name);
+  expectPixels(
+      s, bg,
+      [&](double x, double y) {
+        const glm::vec3 behind =
+            insideQuad(x, y, 0.0, 0.9375) ? glm::vec3(back.baseColorFactor) : glm::vec3(bg.uniform);
+        if (!insideQuad(x, y, -kHalf, kHalf)) return behind;
+        return c.opacity * glm::vec3(front.baseColorFactor) + (1.0f - c.opacity) * behind;
+      },
+      c.name);
 }
 
 INSTANTIATE_TEST_SUITE_P(Materials, RenderAlphaBlend,
                          ::testing::Values(BlendCase{"blend", Material::AlphaMode::Blend, 0.3f, 0.0f, 0.3f},
                                            BlendCase{"transmission", Material::AlphaMode::Opaque, 0.3f, 0.25f, 0.75f},
-                                           BlendCase{"blend_transmission", Material::AlphaMode::Blend, 0.5f, 0.5f, 0.25f}),
+                                           BlendCase{"blend_transmission", Material::AlphaMode::Blend, 0.5f, 0.5f,
+                                                     0.25f}),
                          [](const ::testing::TestParamInfo<BlendCase>& c) { return std::string(c.param.name); });
 
 // KHR_materials_transmission with a texture: the transmission is factor × the texture's R
@@ -178,10 +186,13 @@ TEST(RenderAlpha, TransmissionTextureScalesTheTransmission) {
   r.texels = {glm::vec4(0.25f, 1.0f, 1.0f, 1.0f)};
   s.textures.push_back(r);
   const RigBackground bg = uniformBackground();
-  expectPixels(s, bg, [&](double x, double y) {
-    if (!insideQuad(x, y, -kHalf, kHalf)) return glm::vec3(bg.uniform);
-    return 0.8f * glm::vec3(glass.baseColorFactor) + 0.2f * glm::vec3(bg.uniform);
-  }, "transmission texture");
+  expectPixels(
+      s, bg,
+      [&](double x, double y) {
+        if (!insideQuad(x, y, -kHalf, kHalf)) return glm::vec3(bg.uniform);
+        return 0.8f * glm::vec3(glass.baseColorFactor) + 0.2f * glm::vec3(bg.uniform);
+      },
+      "transmission texture");
 }
 
 // Two blended layers drawn back to front whatever their order in the scene: the near quad
@@ -196,12 +207,15 @@ TEST(RenderAlpha, BlendedLayersAreDrawnBackToFront) {
   farM.alphaMode = Material::AlphaMode::Blend;
   const Scene s = sceneOf({quad(-kHalf, kHalf, -3.0f, 0), quad(0.0f, 0.9375f, -3.5f, 1)}, {nearM, farM});
   const RigBackground bg = uniformBackground();
-  expectPixels(s, bg, [&](double x, double y) {
-    glm::vec3 c(bg.uniform);
-    if (insideQuad(x, y, 0.0, 0.9375)) c = 0.6f * glm::vec3(farM.baseColorFactor) + 0.4f * c;
-    if (insideQuad(x, y, -kHalf, kHalf)) c = 0.4f * glm::vec3(nearM.baseColorFactor) + 0.6f * c;
-    return c;
-  }, "two layers");
+  expectPixels(
+      s, bg,
+      [&](double x, double y) {
+        glm::vec3 c(bg.uniform);
+        if (insideQuad(x, y, 0.0, 0.9375)) c = 0.6f * glm::vec3(farM.baseColorFactor) + 0.4f * c;
+        if (insideQuad(x, y, -kHalf, kHalf)) c = 0.4f * glm::vec3(nearM.baseColorFactor) + 0.6f * c;
+        return c;
+      },
+      "two layers");
 }
 
 }  // namespace

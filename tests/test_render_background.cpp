@@ -209,8 +209,9 @@ TEST(RenderBackground, TooManyMapsIsAnError) {
   Renderer r(ctx, s);
   Frame f;
   f.background = &bg;
-  EXPECT_EQ(test::errorOf([&] { r.render(f); }),
-            cat("background: ", kMaxBackgroundMaps + 1, " environment maps, at most ", kMaxBackgroundMaps, " can be drawn"));
+  EXPECT_EQ(
+      test::errorOf([&] { r.render(f); }),
+      cat("background: ", kMaxBackgroundMaps + 1, " environment maps, at most ", kMaxBackgroundMaps, " can be drawn"));
 }
 
 }  // namespace

@@ -99,9 +99,10 @@ TEST(RenderMsaa, PixelsAreTheMeanOfTheirSamples) {
           }
         }
       const double area = projectedArea(f.camera);
-      std::printf("%s, %d samples (%d given): %d interior pixels unchanged, %d edge pixels, total %.2f pixels of quad vs %.2f "
-                  "projected\n",
-                  glBackendName(backend), samples, n, interior, edge, total, area);
+      std::printf(
+          "%s, %d samples (%d given): %d interior pixels unchanged, %d edge pixels, total %.2f pixels of quad vs %.2f "
+          "projected\n",
+          glBackendName(backend), samples, n, interior, edge, total, area);
       EXPECT_EQ(wrong, 0);
       EXPECT_GT(interior, 1000);
       EXPECT_GT(edge, 40);
@@ -120,7 +121,8 @@ TEST(RenderMsaa, UnsupportedSampleCountsAreErrors) {
   f.light = sh::ShRgb(1);
   for (int samples : {0, 3, 2 * ctx.maxSamples()}) {
     f.samples = samples;
-    EXPECT_NE(test::errorOf([&] { r.render(f); }).find(cat("render: ", samples, " samples per pixel")), std::string::npos)
+    EXPECT_NE(test::errorOf([&] { r.render(f); }).find(cat("render: ", samples, " samples per pixel")),
+              std::string::npos)
         << samples;
   }
   f.samples = 1;

@@ -8,8 +8,8 @@
 #include <random>
 #include <vector>
 
-#include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/ray_scene.h"
@@ -67,12 +67,12 @@ MeshInstance box(const std::string& name, glm::vec3 lo, glm::vec3 hi) {
     m.normals.insert(m.normals.end(), f.normals.begin(), f.normals.end());
     for (uint32_t i : f.indices) m.indices.push_back(base + i);
   };
-  add(lo, {0, 0, s.z}, {0, s.y, 0});                    // -X
-  add({hi.x, lo.y, lo.z}, {0, s.y, 0}, {0, 0, s.z});    // +X
-  add(lo, {s.x, 0, 0}, {0, 0, s.z});                    // -Y
-  add({lo.x, hi.y, lo.z}, {0, 0, s.z}, {s.x, 0, 0});    // +Y
-  add(lo, {0, s.y, 0}, {s.x, 0, 0});                    // -Z
-  add({lo.x, lo.y, hi.z}, {s.x, 0, 0}, {0, s.y, 0});    // +Z
+  add(lo, {0, 0, s.z}, {0, s.y, 0});                  // -X
+  add({hi.x, lo.y, lo.z}, {0, s.y, 0}, {0, 0, s.z});  // +X
+  add(lo, {s.x, 0, 0}, {0, 0, s.z});                  // -Y
+  add({lo.x, hi.y, lo.z}, {0, 0, s.z}, {s.x, 0, 0});  // +Y
+  add(lo, {0, s.y, 0}, {s.x, 0, 0});                  // -Z
+  add({lo.x, lo.y, hi.z}, {s.x, 0, 0}, {0, s.y, 0});  // +Z
   return m;
 }
 
@@ -130,7 +130,8 @@ PixelRay pixelRay(const CameraView& c, int w, int h, int px, int py, double fx =
   const double aspect = double(w) / h;
   const double sx = 2.0 * (px + fx) / w - 1.0, sy = 1.0 - 2.0 * (py + fy) / h;
   const double t = std::tan(0.5 * c.yfov);
-  return {glm::dvec3(c.cameraToWorld[3]), glm::normalize(glm::dvec3(c.cameraToWorld * glm::dvec4(sx * t * aspect, sy * t, -1.0, 0.0)))};
+  return {glm::dvec3(c.cameraToWorld[3]),
+          glm::normalize(glm::dvec3(c.cameraToWorld * glm::dvec4(sx * t * aspect, sy * t, -1.0, 0.0)))};
 }
 
 struct Surface {
@@ -213,8 +214,8 @@ struct OraclePixel {
   bool terminator = false;  // some light's cap straddles the surface's horizon
 };
 
-std::vector<OraclePixel> oracleFrame(const Scene& scene, const bake::RayScene& rays, const CameraView& cam, int w, int h,
-                                     const sh::ShRgb& light, const sh::ShRgb& directSh,
+std::vector<OraclePixel> oracleFrame(const Scene& scene, const bake::RayScene& rays, const CameraView& cam, int w,
+                                     int h, const sh::ShRgb& light, const sh::ShRgb& directSh,
                                      const std::vector<DirectLight>& lights) {
   std::vector<OraclePixel> out(size_t(w) * h);
   const int bands = scene.transferBands, n2 = bands * bands;
@@ -240,7 +241,8 @@ std::vector<OraclePixel> oracleFrame(const Scene& scene, const bake::RayScene& r
       }
       for (const DirectLight& l : lights) {
         const double c = directCosineFactor(l, o.s.n);
-        o.terminator = o.terminator || std::abs(glm::dot(o.s.n, glm::normalize(l.direction))) < std::sin(l.radius) + 1e-3;
+        o.terminator =
+            o.terminator || std::abs(glm::dot(o.s.n, glm::normalize(l.direction))) < std::sin(l.radius) + 1e-3;
         const double share = c > 0.0 ? visibleShare(rays, o.s.x, o.s.n, l) : 1.0;
         o.share.push_back(share);
         o.direct.push_back(albedo * kInvPi * l.irradiance * (c * share));
@@ -420,7 +422,8 @@ TEST(RenderDirect, PlaneUnderSunIsRhoOverPiECosTheta) {
   for (const Case& c : cases) {
     const DirectLight l = sun(c.elevation, 20.0, c.radius, {3.0, 2.0, 1.0});
     Frame f;
-    f.camera = c.fromBelow ? lookAt({0.3, -2.0, 1.5}, {0.0, 0.0, 0.0}, 50.0) : lookAt({0.3, 2.0, 1.5}, {0.0, 0.0, 0.0}, 50.0);
+    f.camera =
+        c.fromBelow ? lookAt({0.3, -2.0, 1.5}, {0.0, 0.0, 0.0}, 50.0) : lookAt({0.3, 2.0, 1.5}, {0.0, 0.0, 0.0}, 50.0);
     f.light = sh::ShRgb(3);
     f.directLight = sh::ShRgb(3);
     f.direct = {l};
@@ -441,7 +444,8 @@ TEST(RenderDirect, PlaneUnderSunIsRhoOverPiECosTheta) {
     EXPECT_GT(covered, kW * kH / 3);
     EXPECT_EQ(r.lastFrame().directBaked, 1u);
     // Float shading of a closed form: 2e-5 of the facing value ρ/π E (measured below).
-    EXPECT_LE(worst, 2e-5 * glm::length(rho * kInvPi * l.irradiance)) << "want " << want.x << " " << want.y << " " << want.z;
+    EXPECT_LE(worst, 2e-5 * glm::length(rho * kInvPi * l.irradiance))
+        << "want " << want.x << " " << want.y << " " << want.z;
     if (c.elevation <= -c.radius - 1e-9 && !c.fromBelow) {
       EXPECT_EQ(want, glm::dvec3(0.0));
       EXPECT_EQ(worst, 0.0);  // below the horizon: exactly 0
@@ -456,7 +460,8 @@ TEST(RenderDirect, MatchesRayTracedOracleAwayFromShadowEdges) {
   const Scene s = slabScene(3);
   const CameraView cam = lookAt({0.6, 3.2, 3.0}, {0.0, 0.3, 0.0}, 50.0);
   // The sun's shadow falls towards −X and the camera, the disk's towards +X.
-  const std::vector<DirectLight> lights = {sun(35.0, 120.0, 0.265, {4.0, 3.5, 3.0}), sun(35.0, 250.0, 3.0, {1.0, 1.5, 2.0})};
+  const std::vector<DirectLight> lights = {sun(35.0, 120.0, 0.265, {4.0, 3.5, 3.0}),
+                                           sun(35.0, 250.0, 3.0, {1.0, 1.5, 2.0})};
   const Rendered rendered = renderWithOracle(s, cam, randomLight(3, 3, 1.0f), randomLight(3, 4, 0.5f), lights);
   const std::vector<OraclePixel>& o = rendered.oracle;
   const Check c = compareAwayFromEdges(rendered.image, o, kW, kH);
@@ -464,9 +469,10 @@ TEST(RenderDirect, MatchesRayTracedOracleAwayFromShadowEdges) {
   for (int py = 0; py < kH; ++py)
     for (int px = 0; px < kW; ++px)
       if (awayFromEdges(o, kW, kH, px, py) && o[size_t(py) * kW + px].share[0] == 0.0) ++shadowed;
-  std::printf("[ measured ] %d of %d covered pixels compared (%d in the penumbra band or at silhouettes, %d in the "
-              "sun's umbra), worst %.3g of the peak\n",
-              c.compared, c.covered, c.edge, shadowed, c.maxError);
+  std::printf(
+      "[ measured ] %d of %d covered pixels compared (%d in the penumbra band or at silhouettes, %d in the "
+      "sun's umbra), worst %.3g of the peak\n",
+      c.compared, c.covered, c.edge, shadowed, c.maxError);
   EXPECT_GT(shadowed, 100);  // the slab's shadow is in view and checked
   // Away from edges the shadow map's answer is exactly 0 or 1 and the rest is float shading of
   // the same interpolation (test_render.cpp measures 7e-7 for the SH part): 1e-4 of the peak.
@@ -515,8 +521,10 @@ TEST(RenderDirect, PenumbraFollowsTheDisk) {
     worst = std::max(worst, std::abs(f.got - f.square));
     ++n;
   }
-  std::printf("[ measured ] %d floor pixels in the penumbra: mean share error %.3f, worst %.3f (against the share at "
-              "pixel centres: mean %.3f)\n", n, sum / n, worst, sumCentre / n);
+  std::printf(
+      "[ measured ] %d floor pixels in the penumbra: mean share error %.3f, worst %.3f (against the share at "
+      "pixel centres: mean %.3f)\n",
+      n, sum / n, worst, sumCentre / n);
   ASSERT_GT(n, 50);
   // PCSS takes the occluder as one plane at the blockers' mean depth and filters 16 samples
   // turned per pixel (binomial noise ≤ 0.125 per pixel): measured mean 0.042, worst 0.16.
@@ -539,8 +547,10 @@ TEST(RenderDirect, PixelsAcrossAHardShadowEdgeGetTheShareOfTheirSquare) {
     sumCentre += std::abs(f.centre - f.square);
     ++n;
   }
-  std::printf("[ measured ] %d floor pixels across the edge: mean share error %.3f (the share at their centres: "
-              "%.3f)\n", n, sum / n, sumCentre / n);
+  std::printf(
+      "[ measured ] %d floor pixels across the edge: mean share error %.3f (the share at their centres: "
+      "%.3f)\n",
+      n, sum / n, sumCentre / n);
   ASSERT_GT(n, 40);
   // Sampling the centre alone is off by a quarter on average (a straight edge across a square);
   // 16 samples over the square less than a tenth.
@@ -578,8 +588,9 @@ TEST(RenderDirect, NoLightLeaksAlongAContactLine) {
       touching += footprintShare(s, rays, cam, kW, kH, px, py, 0, lights[0], 4) < 0.0;  // the square holds wall too
       worst = std::max(worst, double(rendered.image.at(px, py).x) / unshadowed);
     }
-  std::printf("[ measured ] %d floor pixels wholly in the wall's shadow (%d across the contact line): largest share %.3g\n",
-              umbra, touching, worst);
+  std::printf(
+      "[ measured ] %d floor pixels wholly in the wall's shadow (%d across the contact line): largest share %.3g\n",
+      umbra, touching, worst);
   ASSERT_GT(umbra, 200);
   ASSERT_GT(touching, 20);
   // Measured 0 (with the empty samples voting lit: 0.5 on the pixels across the line).
@@ -653,9 +664,10 @@ TEST(RenderDirect, ReceiverCastsAndReceivesSunShadows) {
         if (q.share[0] == 0.0 && directCosineFactor(lights[0], q.s.n) > 0.0) ++cubeInShadow;
       }
     }
-  std::printf("[ measured ] floor: %d pixels, %d in the cube's shadow, worst %.3g; cube: %d pixels, %d in the "
-              "wall's shadow, worst %.3g (of the peak)\n",
-              floorCompared, floorShadowedByCube, floorWorst, cubeCompared, cubeInShadow, cubeWorst);
+  std::printf(
+      "[ measured ] floor: %d pixels, %d in the cube's shadow, worst %.3g; cube: %d pixels, %d in the "
+      "wall's shadow, worst %.3g (of the peak)\n",
+      floorCompared, floorShadowedByCube, floorWorst, cubeCompared, cubeInShadow, cubeWorst);
   EXPECT_GT(floorShadowedByCube, 20);
   EXPECT_GT(cubeInShadow, 5);
   EXPECT_GT(cubeCompared, 40);
@@ -743,7 +755,8 @@ TEST(RenderDirect, GatheredBounceReplacesTheBounceThroughSh) {
       for (int px = 0; px < kW; ++px) {
         const glm::vec3 d = more.at(px, py) - base.at(px, py);
         if (d == glm::vec3(0.0f)) continue;  // background
-        const glm::vec3 grey = glm::vec3(0.8f) * x * float(kInvPi), warm = glm::vec3(0.9f, 0.6f, 0.4f) * x * float(kInvPi);
+        const glm::vec3 grey = glm::vec3(0.8f) * x * float(kInvPi),
+                        warm = glm::vec3(0.9f, 0.6f, 0.4f) * x * float(kInvPi);
         EXPECT_LT(std::min(glm::length(d - grey), glm::length(d - warm)), 2e-5f)
             << "pixel " << px << "," << py << ": " << d.x << " " << d.y << " " << d.z;
         ++n;
@@ -823,9 +836,10 @@ TEST(RenderDirect, MaskCutoutsCastTheShadowOfTheirSolidPart) {
       if (std::abs(atLid.x) > 0.6 || std::abs(atLid.z) > 0.6) continue;
       (q.share[0] == 1.0 ? throughHoles : underSolid)++;
     }
-  std::printf("[ measured ] %d pixels compared, worst %.3g of the peak; under the lid %d lit through its holes, %d "
-              "in the shadow of its solid cells\n",
-              c.compared, c.maxError, throughHoles, underSolid);
+  std::printf(
+      "[ measured ] %d pixels compared, worst %.3g of the peak; under the lid %d lit through its holes, %d "
+      "in the shadow of its solid cells\n",
+      c.compared, c.maxError, throughHoles, underSolid);
   EXPECT_GT(throughHoles, 30);
   EXPECT_GT(underSolid, 30);
   EXPECT_LE(c.maxError, 1e-4);
@@ -882,8 +896,9 @@ TEST(RenderDirect, BlendedLayerCastsThePartialShadowOfItsOpacity) {
       ++n;
     }
   ASSERT_GT(n, 0);
-  std::printf("[ measured ] %d floor pixels in the lid's shadow: mean share %.4f (oracle %.4f), per pixel %.3f .. %.3f\n",
-              n, sumRender / n, sumOracle / n, lo, hi);
+  std::printf(
+      "[ measured ] %d floor pixels in the lid's shadow: mean share %.4f (oracle %.4f), per pixel %.3f .. %.3f\n", n,
+      sumRender / n, sumOracle / n, lo, hi);
   EXPECT_GT(n, 300);
   EXPECT_NEAR(sumOracle / n, 0.5, 0.01);  // the oracle's coin: 256 rays a pixel
   EXPECT_NEAR(sumRender / n, 0.5, 0.03);
@@ -900,7 +915,8 @@ TEST(RenderDirect, BlendedLayerCastsThePartialShadowOfItsOpacity) {
 // cover what they must: points of the casters' box that the view sees land in their cascade's
 // map at least 4 texels inside its border.
 TEST(RenderDirect, ShadowMapTexelsStayPutWhileTheCameraMoves) {
-  const std::vector<DirectLight> lights = {sun(50.0, 30.0, 0.265, {1.0, 1.0, 1.0}), sun(70.0, 200.0, 2.0, {1.0, 1.0, 1.0})};
+  const std::vector<DirectLight> lights = {sun(50.0, 30.0, 0.265, {1.0, 1.0, 1.0}),
+                                           sun(70.0, 200.0, 2.0, {1.0, 1.0, 1.0})};
   const glm::dvec3 lo(-1.5, 0.0, -1.5), hi(1.5, 1.4, 1.5);
   const double aspect = 4.0 / 3.0;
   const int height = 720, mapSize = 1024;
@@ -949,9 +965,10 @@ TEST(RenderDirect, ShadowMapTexelsStayPutWhileTheCameraMoves) {
     }
     prev = plan;
   }
-  std::printf("[ measured ] %d of %d consecutive layer pairs kept their texel; worst offset %.3g of a texel from a "
-              "whole number; %d covered points, nearest %.1f texels from a map's border\n",
-              kept, pairs, worstFraction, covered, worstInset);
+  std::printf(
+      "[ measured ] %d of %d consecutive layer pairs kept their texel; worst offset %.3g of a texel from a "
+      "whole number; %d covered points, nearest %.1f texels from a map's border\n",
+      kept, pairs, worstFraction, covered, worstInset);
   ASSERT_GT(pairs, 0);
   EXPECT_GE(kept, pairs - 3);
   EXPECT_LE(worstFraction, 1e-6);

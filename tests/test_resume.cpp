@@ -16,13 +16,13 @@
 #include <sstream>
 #include <thread>
 
+#include "harness.h"
 #include "prt/bake/checkpoint.h"
 #include "prt/bake/memory_estimate.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
 #include "prt/probe_grid.h"
-#include "harness.h"
 #include "test_scenes.h"
 
 namespace prt {
@@ -158,7 +158,7 @@ TEST(BakeResume, InterruptedTwiceAndWithoutBouncesStillTheSameBits) {
     SCOPED_TRACE(bounces);
     const SurfaceTransfer ref = bakeSurface(scene, s);
     const test::TempDir tmp("twice");
-  const std::string path = tmp.file("a.ckpt");
+    const std::string path = tmp.file("a.ckpt");
     bakeUntilInterrupted(scene, s, path, false, 7, 1e-9);
     bakeUntilInterrupted(scene, s, path, true, 20, 0.0);  // the resumed bake interrupted again
     bakeUntilInterrupted(scene, s, path, true, 11, 1e-9);
@@ -519,7 +519,8 @@ TEST(BakeMemory, ParsesSizes) {
   EXPECT_EQ(parseByteSize("1.5GiB", "--max-memory"), uint64_t(3) << 29);
   EXPECT_EQ(parseByteSize("64k", "--max-memory"), uint64_t(64) << 10);
   EXPECT_EQ(parseByteSize("12345", "--max-memory"), uint64_t(12345));
-  for (const char* bad : {"", "G", "8X", "-1G", "0", "nan", "1e30T"}) EXPECT_THROW(parseByteSize(bad, "--max-memory"), Error) << bad;
+  for (const char* bad : {"", "G", "8X", "-1G", "0", "nan", "1e30T"})
+    EXPECT_THROW(parseByteSize(bad, "--max-memory"), Error) << bad;
 }
 
 TEST(BakeMemory, PilotBoundsTheHitRecordsAndTheRefusalSuggestsAWayOut) {

@@ -13,8 +13,8 @@
 #include <random>
 #include <vector>
 
-#include "prt/math.h"
 #include "prt/bake/sampling.h"
+#include "prt/math.h"
 
 namespace prt {
 namespace {
@@ -96,15 +96,16 @@ const Chart kSphere{-1.0, 1.0, 1.0,
                     // sample* return unit vectors to float precision (a few ulp of 1)
                     [](const glm::vec3& w) { return std::fabs(glm::length(w) - 1.0f) < 1e-5f; }};
 
-const Chart kDisk{0.0, 1.0, 0.5,
-                  [](double r2, double phi) {
-                    double r = std::sqrt(r2);
-                    return glm::dvec3(r * std::cos(phi), r * std::sin(phi), 0.0);
-                  },
-                  [](const glm::vec3& p) { return double(p.x) * p.x + double(p.y) * p.y; },
-                  [](const glm::vec3& p) {
-                    return p.z == 0.0f && double(p.x) * p.x + double(p.y) * p.y <= 1.0 + 1e-6;
-                  }};
+const Chart kDisk{
+    0.0,
+    1.0,
+    0.5,
+    [](double r2, double phi) {
+      double r = std::sqrt(r2);
+      return glm::dvec3(r * std::cos(phi), r * std::sin(phi), 0.0);
+    },
+    [](const glm::vec3& p) { return double(p.x) * p.x + double(p.y) * p.y; },
+    [](const glm::vec3& p) { return p.z == 0.0f && double(p.x) * p.x + double(p.y) * p.y <= 1.0 + 1e-6; }};
 
 // ---- The χ² goodness-of-fit test.
 
@@ -180,8 +181,8 @@ ChiSquareResult chiSquareTest(const Chart& chart, const std::function<glm::vec3(
       double x0 = chart.xMin + i * dx, phi0 = -kPiD + j * dphi;
       double mass = adaptiveSimpson(
           [&](double x) {
-            return adaptiveSimpson([&](double phi) { return pdf(glm::vec3(chart.point(x, phi))); }, phi0,
-                                   phi0 + dphi, 1e-13);
+            return adaptiveSimpson([&](double phi) { return pdf(glm::vec3(chart.point(x, phi))); }, phi0, phi0 + dphi,
+                                   1e-13);
           },
           x0, x0 + dx, 1e-12);
       mass *= chart.jacobian;
@@ -295,15 +296,16 @@ TEST(BakeSampling, ConcentricDiskFitsItsPdf) {
 
 TEST(BakeSampling, CosineHemisphereFitsItsPdf) {
   // Binned over the whole sphere: the lower half, where the pdf is zero, must get no sample.
-  ChiSquareResult r = chiSquareTest(kSphere, bake::sampleCosineHemisphere,
-                                    [](const glm::vec3& w) { return double(bake::cosineHemispherePdf(w.z)); }, 2);
+  ChiSquareResult r = chiSquareTest(
+      kSphere, bake::sampleCosineHemisphere, [](const glm::vec3& w) { return double(bake::cosineHemispherePdf(w.z)); },
+      2);
   expectFits(r);
   EXPECT_EQ(r.pooledCells, 0);
 }
 
 TEST(BakeSampling, UniformSphereFitsItsPdf) {
-  ChiSquareResult r = chiSquareTest(kSphere, bake::sampleUniformSphere,
-                                    [](const glm::vec3&) { return double(bake::uniformSpherePdf()); }, 3);
+  ChiSquareResult r = chiSquareTest(
+      kSphere, bake::sampleUniformSphere, [](const glm::vec3&) { return double(bake::uniformSpherePdf()); }, 3);
   expectFits(r);
   EXPECT_EQ(r.pooledCells, 0);
 }
@@ -315,8 +317,8 @@ glm::vec3 sphereFromBits(const glm::vec2& u) {
 }
 
 TEST(BakeSampling, UniformSphereFromBitsFitsItsPdf) {
-  ChiSquareResult r = chiSquareTest(kSphere, sphereFromBits,
-                                    [](const glm::vec3&) { return double(bake::uniformSpherePdf()); }, 3);
+  ChiSquareResult r = chiSquareTest(
+      kSphere, sphereFromBits, [](const glm::vec3&) { return double(bake::uniformSpherePdf()); }, 3);
   expectFits(r);
   EXPECT_EQ(r.pooledCells, 0);
 }
@@ -377,8 +379,8 @@ TEST(BakeSampling, ChiSquareRejectsAWrongExponent) {
   // The bake's cosine sampler against a cos^1.05 pdf, normalized, so only the shape is wrong:
   // by 0.05·(ln cos θ + 1/2) relative, 2.5% RMS, λ ≈ N·δ² ≈ 600. Measured p: 4e-36 here and
   // 6e-21 for the swapped pair below; 1e-10 is far below kAlpha and far above both.
-  ChiSquareResult r = chiSquareTest(kSphere, bake::sampleCosineHemisphere,
-                                    [](const glm::vec3& w) { return powerCosinePdf(w, 1.05); }, 5);
+  ChiSquareResult r = chiSquareTest(
+      kSphere, bake::sampleCosineHemisphere, [](const glm::vec3& w) { return powerCosinePdf(w, 1.05); }, 5);
   record(r);
   EXPECT_NEAR(r.pdfIntegral, 1.0, 1e-5);
   EXPECT_LT(r.pValue, 1e-10) << "χ² = " << r.statistic << " with " << r.dof << " degrees of freedom";

@@ -16,11 +16,11 @@
 #include <nlohmann/json.hpp>
 
 #include "harness.h"
+#include "png_file.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/bake_record.h"
 #include "prt/error.h"
 #include "prt/scene.h"
-#include "png_file.h"
 #include "test_util.h"
 
 namespace {
@@ -41,7 +41,7 @@ constexpr float kTol = 1e-5f;
 
 /// Builds a glTF document with one binary buffer.
 class GltfBuilder {
-public:
+ public:
   Json doc = {{"asset", {{"version", "2.0"}}}};
   std::string bin;
 
@@ -151,12 +151,10 @@ void expectNear(const glm::vec3& a, const glm::vec3& b, float tol = kTol) {
   EXPECT_NEAR(a.z, b.z, tol);
 }
 
-double srgbToLinearRef(double c) {
-  return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-}
+double srgbToLinearRef(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 
 class SceneTest : public ::testing::Test {
-protected:
+ protected:
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
     dir_ = fs::path(::testing::TempDir()) / (std::string("prt_scene_") + info->test_suite_name() + "_" + info->name());
@@ -192,8 +190,8 @@ TEST_F(SceneLoad, NestedTrsAndMatrixGiveWorldPositions) {
   int child = b.node({{"mesh", mesh}, {"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 1, 0, 0, 1}}});
   const double s = std::sqrt(0.5);
   // Parent: T(1,2,3) · R(90° about +Z) · S(2).
-  int parent = b.node({{"children", {child}}, {"translation", {1, 2, 3}}, {"rotation", {0, 0, s, s}},
-                       {"scale", {2, 2, 2}}});
+  int parent =
+      b.node({{"children", {child}}, {"translation", {1, 2, 3}}, {"rotation", {0, 0, s, s}}, {"scale", {2, 2, 2}}});
   b.scene({parent});
   prt::Scene scene = prt::loadScene(b.write(dir_ / "nested.gltf", /*binBeside=*/true));
   ASSERT_EQ(scene.meshes.size(), 1u);
@@ -367,7 +365,8 @@ TEST_F(SceneLoad, EightBitTexelsSampleTheBitsOfTheFloatOnes) {
   ASSERT_EQ(eight.texels8.size(), eight.texels.size());
   for (size_t i = 0; i < eight.texels.size(); ++i)
     for (int c = 0; c < 4; ++c)
-      EXPECT_EQ(eight.texels[i][c], eight.levels8[c < 3 ? 0 : 1][(eight.texels8[i] >> (8 * c)) & 255u]) << i << " " << c;
+      EXPECT_EQ(eight.texels[i][c], eight.levels8[c < 3 ? 0 : 1][(eight.texels8[i] >> (8 * c)) & 255u])
+          << i << " " << c;
   prt::Texture floats = eight;
   floats.texels8.clear();
   std::mt19937 rng(3);
@@ -377,7 +376,8 @@ TEST_F(SceneLoad, EightBitTexelsSampleTheBitsOfTheFloatOnes) {
     prt::Texture a = eight, b = floats;
     a.wrapS = a.wrapT = b.wrapS = b.wrapT = mode;
     for (int k = 0; k < 20000; ++k) {
-      const glm::vec2 uv = k < 16 ? glm::vec2(0.25f * float(k % 4) + 0.125f, 0.25f * float(k / 4)) : glm::vec2(u(rng), u(rng));
+      const glm::vec2 uv =
+          k < 16 ? glm::vec2(0.25f * float(k % 4) + 0.125f, 0.25f * float(k / 4)) : glm::vec2(u(rng), u(rng));
       differ += a.sample(uv) != b.sample(uv);
     }
   }
@@ -416,15 +416,20 @@ TEST_F(SceneLoad, DefaultMaterialIsWhite) {
 TEST_F(SceneLoad, CameraAndSpotLightInWorldSpace) {
   GltfBuilder b;
   int mesh = b.mesh(Json::array({trianglePrimitive(b)}));
-  b.doc["cameras"] = Json::array(
-      {{{"type", "perspective"}, {"name", "cam"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}, {"aspectRatio", 1.5}}}}});
+  b.doc["cameras"] = Json::array({{{"type", "perspective"},
+                                   {"name", "cam"},
+                                   {"perspective", {{"yfov", 0.5}, {"znear", 0.1}, {"aspectRatio", 1.5}}}}});
   b.doc["extensionsUsed"] = {"KHR_lights_punctual"};
-  b.doc["extensions"]["KHR_lights_punctual"]["lights"] = Json::array(
-      {{{"type", "spot"}, {"name", "lamp"}, {"color", {1, 0.5, 0.25}}, {"intensity", 10},
-        {"spot", {{"innerConeAngle", 0.2}, {"outerConeAngle", 0.6}}}}});
+  b.doc["extensions"]["KHR_lights_punctual"]["lights"] =
+      Json::array({{{"type", "spot"},
+                    {"name", "lamp"},
+                    {"color", {1, 0.5, 0.25}},
+                    {"intensity", 10},
+                    {"spot", {{"innerConeAngle", 0.2}, {"outerConeAngle", 0.6}}}}});
   const double s = std::sqrt(0.5);
   int cam = b.node({{"camera", 0}, {"translation", {0, 0, 5}}});
-  int light = b.node({{"translation", {0, 3, 0}}, {"rotation", {-s, 0, 0, s}},  // -90° about X
+  int light = b.node({{"translation", {0, 3, 0}},
+                      {"rotation", {-s, 0, 0, s}},  // -90° about X
                       {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
   b.scene({b.node({{"mesh", mesh}}), b.node({{"children", {cam, light}}, {"translation", {1, 0, 0}}})});
   prt::Scene scene = prt::loadScene(b.write(dir_ / "camlight.gltf"));
@@ -473,7 +478,7 @@ TEST_F(SceneLoad, ReceiversByNameIndexAndExtrasCoverSubtrees) {
   prt::LoadOptions options;
   options.receiverNodes = {"Group", std::to_string(floor)};
   prt::Scene marked = prt::loadScene(path, options);
-  EXPECT_TRUE(receiverOf(marked, ball));  // by name, inherited from Group
+  EXPECT_TRUE(receiverOf(marked, ball));   // by name, inherited from Group
   EXPECT_TRUE(receiverOf(marked, floor));  // by index
   EXPECT_TRUE(receiverOf(marked, toy));
   EXPECT_EQ(prt::describeReceivers(marked),
@@ -530,14 +535,14 @@ TEST_F(SceneTextureSample, BilinearWithWrapModes) {
     return t.sample({u, 0.5f}).r;
   };
   const int repeat = 10497, clamp = 33071, mirror = 33648;
-  EXPECT_FLOAT_EQ(at(0.25f, repeat), 0.0f);   // texel centres are exact
+  EXPECT_FLOAT_EQ(at(0.25f, repeat), 0.0f);  // texel centres are exact
   EXPECT_FLOAT_EQ(at(0.75f, repeat), 1.0f);
-  EXPECT_FLOAT_EQ(at(0.5f, repeat), 0.5f);    // halfway between the centres
-  EXPECT_FLOAT_EQ(at(0.0f, repeat), 0.5f);    // edge: blends with the texel across the seam
+  EXPECT_FLOAT_EQ(at(0.5f, repeat), 0.5f);  // halfway between the centres
+  EXPECT_FLOAT_EQ(at(0.0f, repeat), 0.5f);  // edge: blends with the texel across the seam
   EXPECT_FLOAT_EQ(at(0.0f, clamp), 0.0f);
-  EXPECT_FLOAT_EQ(at(0.0f, mirror), 0.0f);    // mirrored: the neighbour is itself
-  EXPECT_FLOAT_EQ(at(1.25f, repeat), 0.0f);   // one period on: texel 0 again
-  EXPECT_FLOAT_EQ(at(1.25f, mirror), 1.0f);   // mirrored period: texel 1
+  EXPECT_FLOAT_EQ(at(0.0f, mirror), 0.0f);   // mirrored: the neighbour is itself
+  EXPECT_FLOAT_EQ(at(1.25f, repeat), 0.0f);  // one period on: texel 0 again
+  EXPECT_FLOAT_EQ(at(1.25f, mirror), 1.0f);  // mirrored period: texel 1
   EXPECT_FLOAT_EQ(at(1.25f, clamp), 1.0f);
 }
 
@@ -545,9 +550,7 @@ TEST_F(SceneTextureSample, BilinearWithWrapModes) {
 
 using SceneErrors = SceneTest;
 
-TEST_F(SceneErrors, MissingFile) {
-  expectError((dir_ / "absent.gltf").string(), {"no such file"});
-}
+TEST_F(SceneErrors, MissingFile) { expectError((dir_ / "absent.gltf").string(), {"no such file"}); }
 
 TEST_F(SceneErrors, MalformedJson) {
   std::ofstream(dir_ / "broken.gltf") << "{ \"asset\": { \"version\": ";
@@ -801,7 +804,7 @@ TEST_F(SceneWrite, LitSceneHasRadianceColorsUnlitMaterialsAndNoTransfer) {
   for (size_t k = 0; k < radiance.size(); ++k)
     for (size_t v = 0; v < bakedScene.meshes[k].vertexCount(); ++v)
       radiance[k].push_back(glm::vec3(float(k), float(v), 2.5f));  // above 1 on purpose
-  radiance[1].clear();  // node B is left out
+  radiance[1].clear();                                             // node B is left out
   prt::writeLitScene(baked.string(), bakedScene, radiance, lit.string());
 
   prt::Scene shown = prt::loadScene(lit.string());
@@ -836,7 +839,8 @@ TEST_F(SceneWrite, LitSceneHasRadianceColorsUnlitMaterialsAndNoTransfer) {
     for (const Json& prim : mesh["primitives"]) {
       EXPECT_EQ(doc["accessors"][prim["attributes"]["COLOR_0"].get<int>()]["type"], "VEC3");
       EXPECT_EQ(doc["accessors"][prim["attributes"]["_RADIANCE"].get<int>()]["type"], "VEC3");
-      for (const auto& [name, index] : prim["attributes"].items()) EXPECT_EQ(name.rfind("_PRT_SH_", 0), std::string::npos);
+      for (const auto& [name, index] : prim["attributes"].items())
+        EXPECT_EQ(name.rfind("_PRT_SH_", 0), std::string::npos);
     }
   // 9 transfer coefficients per vertex are gone from the binary chunk, not just unreferenced.
   EXPECT_LT(glbBin(lit).size(), glbBin(baked).size() / 3);
@@ -1087,7 +1091,8 @@ TEST_F(SceneFlatNormals, CubeWithoutNormalsGetsFaceNormalsAndBakesAsWithThem) {
   // Every face corner's normal is its face's, pointing away from the centre.
   for (size_t t = 0; t < f.triangleCount(); ++t) {
     const uint32_t* i = &f.indices[3 * t];
-    const glm::vec3 face = glm::normalize(glm::cross(f.positions[i[1]] - f.positions[i[0]], f.positions[i[2]] - f.positions[i[0]]));
+    const glm::vec3 face =
+        glm::normalize(glm::cross(f.positions[i[1]] - f.positions[i[0]], f.positions[i[2]] - f.positions[i[0]]));
     for (int k = 0; k < 3; ++k) expectNear(f.normals[i[k]], face);
     EXPECT_GT(glm::dot(face, f.positions[i[0]]), 0.0f);
   }
@@ -1099,7 +1104,8 @@ TEST_F(SceneFlatNormals, CubeWithoutNormalsGetsFaceNormalsAndBakesAsWithThem) {
   for (size_t v = 0; v < 24; ++v) {
     size_t match = 24;
     for (size_t w = 0; w < 24; ++w)
-      if (glm::length(g.positions[w] - f.positions[v]) < kTol && glm::length(g.normals[w] - f.normals[v]) < kTol) match = w;
+      if (glm::length(g.positions[w] - f.positions[v]) < kTol && glm::length(g.normals[w] - f.normals[v]) < kTol)
+        match = w;
     ASSERT_LT(match, 24u) << "vertex " << v;
     for (int c = 0; c < 4; ++c) expectNear(f.transferOf(v, 2)[c], g.transferOf(match, 2)[c]);
   }
@@ -1160,8 +1166,9 @@ TEST_F(SceneTextureTransform, AlbedoIsTheTransformedLookupOnTheOverriddenTexCoor
   b.doc["textures"] = Json::array({{{"source", 0}}});
   // The specification's example: the lower-left quadrant, rotated 90°.
   Json transform = {{"offset", {0, 1}}, {"rotation", 1.57079632679}, {"scale", {0.5, 0.5}}, {"texCoord", 1}};
-  b.doc["materials"] = Json::array(
-      {{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}, {"extensions", {{"KHR_texture_transform", transform}}}}}}}}});
+  b.doc["materials"] =
+      Json::array({{{"pbrMetallicRoughness",
+                     {{"baseColorTexture", {{"index", 0}, {"extensions", {{"KHR_texture_transform", transform}}}}}}}}});
   b.doc["extensionsUsed"] = {"KHR_texture_transform"};
   b.doc["extensionsRequired"] = {"KHR_texture_transform"};
   b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
@@ -1198,8 +1205,10 @@ TEST_F(SceneSpecularGlossiness, DiffuseFactorAndTextureAreTheAlbedo) {
   const std::string png = encodePng(2, 1, {255, 0, 0, 255, 0, 255, 0, 255});
   b.doc["images"] = Json::array({{{"uri", "data:image/png;base64," + base64(png)}}});
   b.doc["textures"] = Json::array({{{"source", 0}}});
-  Json specGloss = {{"diffuseFactor", {0.5, 0.25, 1.0, 1.0}}, {"diffuseTexture", {{"index", 0}}},
-                    {"specularFactor", {1, 1, 1}}, {"glossinessFactor", 0.5}};
+  Json specGloss = {{"diffuseFactor", {0.5, 0.25, 1.0, 1.0}},
+                    {"diffuseTexture", {{"index", 0}}},
+                    {"specularFactor", {1, 1, 1}},
+                    {"glossinessFactor", 0.5}};
   // The metallic-roughness colour is what a viewer without the extension shows; prt must not.
   b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorFactor", {0.1, 0.1, 0.1, 1}}}},
                                      {"extensions", {{"KHR_materials_pbrSpecularGlossiness", specGloss}}}}});
@@ -1249,7 +1258,11 @@ TEST_F(ScenePng, SixteenBitSamplesKeepTheirPrecision) {
 TEST_F(ScenePng, PaletteWithTransparencyReadsItsColours) {
   // 4-bit palette indices 2, 0, 1 (two to a byte); tRNS gives entry 0 alpha 128, entry 1
   // alpha 0, entry 2 none (opaque).
-  const std::string plte("\xC8\x64\x0A" "\x00\x80\xFF" "\xFF\xFF\xFF", 9);
+  const std::string plte(
+      "\xC8\x64\x0A"
+      "\x00\x80\xFF"
+      "\xFF\xFF\xFF",
+      9);
   const std::string trns("\x80\x00", 2);
   const std::vector<uint8_t> rows = {0x20, 0x10};
   const std::string png = encodePngRaw(3, 1, 4, 3, rows, 2, pngChunk("PLTE", plte) + pngChunk("tRNS", trns));

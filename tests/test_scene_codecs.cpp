@@ -17,10 +17,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "prt/math.h"
 #include "harness.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/scene.h"
 #include "test_scenes.h"
 
@@ -37,8 +37,12 @@ struct Doc {
   std::string bin;
 
   Doc() {
-    j = {{"asset", {{"version", "2.0"}}}, {"scene", 0}, {"scenes", Json::array({{{"nodes", {0}}}})},
-         {"nodes", Json::array()}, {"meshes", Json::array()}, {"accessors", Json::array()},
+    j = {{"asset", {{"version", "2.0"}}},
+         {"scene", 0},
+         {"scenes", Json::array({{{"nodes", {0}}}})},
+         {"nodes", Json::array()},
+         {"meshes", Json::array()},
+         {"accessors", Json::array()},
          {"bufferViews", Json::array()},
          {"materials", Json::array({{{"pbrMetallicRoughness", {{"baseColorFactor", {0.6, 0.6, 0.6, 1.0}}}}}})}};
   }
@@ -64,7 +68,8 @@ struct Doc {
     j["extensionsRequired"].push_back(extension);
   }
   std::string text() {
-    const Json data = {{"byteLength", bin.size()}, {"uri", "data:application/octet-stream;base64," + test::base64(bin)}};
+    const Json data = {{"byteLength", bin.size()},
+                       {"uri", "data:application/octet-stream;base64," + test::base64(bin)}};
     if (!j.contains("buffers")) j["buffers"] = Json::array();
     j["buffers"].insert(j["buffers"].begin(), data);  // buffer 0
     return j.dump();
@@ -83,13 +88,20 @@ std::vector<float> flat(const std::vector<glm::vec3>& v) {
 Doc plainDoc(const MeshInstance& m) {
   Doc d;
   const std::vector<float> p = flat(m.positions), n = flat(m.normals);
-  const int pos = d.accessor({{"bufferView", d.view(p.data(), p.size() * 4)}, {"componentType", kFloat},
-                              {"count", m.vertexCount()}, {"type", "VEC3"}});
-  const int nor = d.accessor({{"bufferView", d.view(n.data(), n.size() * 4)}, {"componentType", kFloat},
-                              {"count", m.vertexCount()}, {"type", "VEC3"}});
+  const int pos = d.accessor({{"bufferView", d.view(p.data(), p.size() * 4)},
+                              {"componentType", kFloat},
+                              {"count", m.vertexCount()},
+                              {"type", "VEC3"}});
+  const int nor = d.accessor({{"bufferView", d.view(n.data(), n.size() * 4)},
+                              {"componentType", kFloat},
+                              {"count", m.vertexCount()},
+                              {"type", "VEC3"}});
   const int idx = d.accessor({{"bufferView", d.view(m.indices.data(), m.indices.size() * 4)},
-                              {"componentType", kUnsignedInt}, {"count", m.indices.size()}, {"type", "SCALAR"}});
-  d.j["meshes"].push_back({{"primitives", {{{"attributes", {{"POSITION", pos}, {"NORMAL", nor}}}, {"indices", idx}, {"material", 0}}}}});
+                              {"componentType", kUnsignedInt},
+                              {"count", m.indices.size()},
+                              {"type", "SCALAR"}});
+  d.j["meshes"].push_back(
+      {{"primitives", {{{"attributes", {{"POSITION", pos}, {"NORMAL", nor}}}, {"indices", idx}, {"material", 0}}}}});
   d.j["nodes"].push_back({{"mesh", 0}});
   return d;
 }
@@ -106,8 +118,10 @@ std::string dracoStream(const MeshInstance& m, int& positionId, int& normalId) {
   const int nor = b.AddAttribute(draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32);
   for (size_t t = 0; t < m.triangleCount(); ++t) {
     const uint32_t* i = &m.indices[3 * t];
-    b.SetAttributeValuesForFace(pos, draco::FaceIndex(uint32_t(t)), &m.positions[i[0]], &m.positions[i[1]], &m.positions[i[2]]);
-    b.SetAttributeValuesForFace(nor, draco::FaceIndex(uint32_t(t)), &m.normals[i[0]], &m.normals[i[1]], &m.normals[i[2]]);
+    b.SetAttributeValuesForFace(pos, draco::FaceIndex(uint32_t(t)), &m.positions[i[0]], &m.positions[i[1]],
+                                &m.positions[i[2]]);
+    b.SetAttributeValuesForFace(nor, draco::FaceIndex(uint32_t(t)), &m.normals[i[0]], &m.normals[i[1]],
+                                &m.normals[i[2]]);
   }
   std::unique_ptr<draco::Mesh> mesh = b.Finalize();
   positionId = int(mesh->attribute(pos)->unique_id());
@@ -131,8 +145,11 @@ std::string dracoFile(const MeshInstance& m, bool corrupt = false) {
   const int nor = d.accessor({{"componentType", kFloat}, {"count", m.vertexCount()}, {"type", "VEC3"}});
   const int idx = d.accessor({{"componentType", kUnsignedInt}, {"count", m.indices.size()}, {"type", "SCALAR"}});
   Json draco = {{"bufferView", view}, {"attributes", {{"POSITION", positionId}, {"NORMAL", normalId}}}};
-  d.j["meshes"].push_back({{"primitives", {{{"attributes", {{"POSITION", pos}, {"NORMAL", nor}}}, {"indices", idx},
-                                            {"material", 0}, {"extensions", {{"KHR_draco_mesh_compression", draco}}}}}}});
+  d.j["meshes"].push_back({{"primitives",
+                            {{{"attributes", {{"POSITION", pos}, {"NORMAL", nor}}},
+                              {"indices", idx},
+                              {"material", 0},
+                              {"extensions", {{"KHR_draco_mesh_compression", draco}}}}}}});
   d.j["nodes"].push_back({{"mesh", 0}});
   d.require("KHR_draco_mesh_compression");
   return d.text();
@@ -164,9 +181,15 @@ std::string meshoptFile(const MeshInstance& m, double& step, bool corrupt = fals
   auto compressed = [&](const std::vector<unsigned char>& stream, size_t stride, size_t count, const char* mode) {
     std::string bytes(stream.begin(), stream.end());
     if (corrupt) bytes.resize(bytes.size() / 2);
-    Json ext = {{"buffer", 0}, {"byteOffset", d.append(bytes.data(), bytes.size())}, {"byteLength", bytes.size()},
-                {"byteStride", stride}, {"count", count}, {"mode", mode}};
-    Json v = {{"buffer", 1}, {"byteOffset", fallback}, {"byteLength", stride * count},
+    Json ext = {{"buffer", 0},
+                {"byteOffset", d.append(bytes.data(), bytes.size())},
+                {"byteLength", bytes.size()},
+                {"byteStride", stride},
+                {"count", count},
+                {"mode", mode}};
+    Json v = {{"buffer", 1},
+              {"byteOffset", fallback},
+              {"byteLength", stride * count},
               {"extensions", {{"EXT_meshopt_compression", ext}}}};
     if (std::string(mode) == "ATTRIBUTES") v["byteStride"] = stride;
     fallback += (stride * count + 3) / 4 * 4;
@@ -183,13 +206,20 @@ std::string meshoptFile(const MeshInstance& m, double& step, bool corrupt = fals
   std::vector<unsigned char> idx(meshopt_encodeIndexBufferBound(m.indices.size(), m.vertexCount()));
   idx.resize(meshopt_encodeIndexBuffer(idx.data(), idx.size(), m.indices.data(), m.indices.size()));
   const int idxView = compressed(idx, 4, m.indices.size(), "TRIANGLES");
-  const int pos = d.accessor({{"bufferView", posView}, {"componentType", kUnsignedShort}, {"count", m.vertexCount()}, {"type", "VEC3"}});
-  const int nor = d.accessor({{"bufferView", norView}, {"componentType", kByte}, {"normalized", true},
-                              {"count", m.vertexCount()}, {"type", "VEC3"}});
-  const int ind = d.accessor({{"bufferView", idxView}, {"componentType", kUnsignedInt}, {"count", m.indices.size()}, {"type", "SCALAR"}});
-  d.j["meshes"].push_back({{"primitives", {{{"attributes", {{"POSITION", pos}, {"NORMAL", nor}}}, {"indices", ind}, {"material", 0}}}}});
+  const int pos = d.accessor(
+      {{"bufferView", posView}, {"componentType", kUnsignedShort}, {"count", m.vertexCount()}, {"type", "VEC3"}});
+  const int nor = d.accessor({{"bufferView", norView},
+                              {"componentType", kByte},
+                              {"normalized", true},
+                              {"count", m.vertexCount()},
+                              {"type", "VEC3"}});
+  const int ind = d.accessor(
+      {{"bufferView", idxView}, {"componentType", kUnsignedInt}, {"count", m.indices.size()}, {"type", "SCALAR"}});
+  d.j["meshes"].push_back(
+      {{"primitives", {{{"attributes", {{"POSITION", pos}, {"NORMAL", nor}}}, {"indices", ind}, {"material", 0}}}}});
   d.j["nodes"].push_back({{"mesh", 0}, {"translation", {lo.x, lo.y, lo.z}}, {"scale", {step, step, step}}});
-  d.j["buffers"] = Json::array({{{"byteLength", fallback}, {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}}});
+  d.j["buffers"] =
+      Json::array({{{"byteLength", fallback}, {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}}});
   d.require("EXT_meshopt_compression");
   d.require("KHR_mesh_quantization");
   return d.text();
@@ -353,7 +383,8 @@ std::string webpFile(const std::vector<unsigned char>& rgba, bool corrupt = fals
 double srgbToLinear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 
 TEST(SceneWebp, BaseColorTextureReadsAsLinearTexels) {
-  const std::vector<unsigned char> rgba = {255, 0, 0, 255, 0, 128, 0, 255, 0, 0, 64, 128, 200, 100, 50, 1};  // alpha 0 would let the encoder drop RGB
+  const std::vector<unsigned char> rgba = {255, 0, 0,  255, 0,   128, 0,  255,
+                                           0,   0, 64, 128, 200, 100, 50, 1};  // alpha 0 would let the encoder drop RGB
   const Scene s = loadSceneFromMemory("webp.gltf", webpFile(rgba));
   ASSERT_EQ(s.textures.size(), 1u);
   const Texture& t = s.textures[0];
@@ -381,8 +412,7 @@ TEST(SceneWebp, DataUriReadsTheSameTexels) {
 }
 
 TEST(SceneWebp, CorruptImageIsOneErrorNamingTheTexture) {
-  expectOneLineError("webp.gltf", webpFile(std::vector<unsigned char>(16, 200), true),
-                     {"texture 0 / image 0", "WebP"});
+  expectOneLineError("webp.gltf", webpFile(std::vector<unsigned char>(16, 200), true), {"texture 0 / image 0", "WebP"});
 }
 
 TEST(SceneExtensions, UnsupportedRequiredExtensionIsNamedInOneLine) {

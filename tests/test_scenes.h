@@ -43,7 +43,8 @@ inline MeshInstance makeCavity(double opening, int rings, int segments) {
     double theta = opening + (prt::kPi - opening) * double(r) / rings;
     for (int s = 0; s < segments; ++s) {
       double phi = 2.0 * prt::kPi * s / segments;
-      glm::vec3 p(float(std::sin(theta) * std::cos(phi)), float(std::cos(theta)), float(std::sin(theta) * std::sin(phi)));
+      glm::vec3 p(float(std::sin(theta) * std::cos(phi)), float(std::cos(theta)),
+                  float(std::sin(theta) * std::sin(phi)));
       m.positions.push_back(p);
       m.normals.push_back(-p);
     }

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "prt/math.h"
 #include "prt/error.h"
+#include "prt/math.h"
 #include "prt/sh.h"
 
 namespace prt::sh {
@@ -104,8 +104,7 @@ TEST(ShBasis, OrthonormalByProjection) {
       evaluate(kAll, d, y);
       return glm::vec3(static_cast<float>(y[i]));
     });
-    for (int j = 0; j < kAllCoeffs; ++j)
-      EXPECT_NEAR(c.c[j].x, i == j ? 1.0 : 0.0, kTol) << "i=" << i << " j=" << j;
+    for (int j = 0; j < kAllCoeffs; ++j) EXPECT_NEAR(c.c[j].x, i == j ? 1.0 : 0.0, kTol) << "i=" << i << " j=" << j;
   }
 }
 
@@ -132,8 +131,7 @@ TEST(ShBasis, OrthonormalByMidpointRule) {
   }
   for (int i = 0; i < kAllCoeffs; ++i)
     for (int j = 0; j <= i; ++j)
-      EXPECT_NEAR(gram[i * kAllCoeffs + j] * h * dPhi, i == j ? 1.0 : 0.0, kTol)
-          << "i=" << i << " j=" << j;
+      EXPECT_NEAR(gram[i * kAllCoeffs + j] * h * dPhi, i == j ? 1.0 : 0.0, kTol) << "i=" << i << " j=" << j;
 }
 
 // The Cartesian table of sh.h (Ramamoorthi & Hanrahan 2001; three.js SphericalHarmonics3).
@@ -229,8 +227,7 @@ TEST(ShClampedCosine, ProjectionOfLobe) {
   for (int k = 0; k < 4; ++k) {
     const glm::dvec3 n = randomDir(rng);
     ShRgb c = projectFunction(
-        kAll, [n](const glm::dvec3& d) { return glm::vec3(float(std::max(glm::dot(n, d), 0.0))); },
-        256);
+        kAll, [n](const glm::dvec3& d) { return glm::vec3(float(std::max(glm::dot(n, d), 0.0))); }, 256);
     double y[kAllCoeffs];
     evaluate(kAll, n, y);
     for (int i = 0; i < kAllCoeffs; ++i)
@@ -283,8 +280,7 @@ TEST(ShIrradiance, MatchesDirectIntegration) {
       }
       e *= (1.0 / kNt) * (2.0 * prt::kPi / kNphi);
       const glm::vec3 got = irradiance(c, glm::vec3(n));
-      for (int ch = 0; ch < 3; ++ch)
-        EXPECT_NEAR(got[ch], e[ch], kTol) << "bands=" << bands << " channel " << ch;
+      for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(got[ch], e[ch], kTol) << "bands=" << bands << " channel " << ch;
     }
   }
 }
@@ -412,8 +408,8 @@ TEST(ShRotation, RotationYSendsLightFromXToMinusZ) {
 
   const ShRgb turned = rot.apply(lobe);
   EXPECT_NEAR(reconstruct(turned, glm::vec3(0, 0, -1)).x, peak, 1e-4);
-  for (glm::vec3 d : {glm::vec3(1, 0, 0), glm::vec3(-1, 0, 0), glm::vec3(0, 1, 0),
-                      glm::vec3(0, -1, 0), glm::vec3(0, 0, 1)})
+  for (glm::vec3 d :
+       {glm::vec3(1, 0, 0), glm::vec3(-1, 0, 0), glm::vec3(0, 1, 0), glm::vec3(0, -1, 0), glm::vec3(0, 0, 1)})
     EXPECT_LT(reconstruct(turned, d).x, 0.25f * peak);
   // The maximum over the sphere is at -Z: 20000 directions are ~1.4° apart.
   glm::vec3 best(0.0f);
@@ -452,8 +448,7 @@ TEST(ShWindow, Factors) {
 }
 
 TEST(ShWindow, ParseAndName) {
-  for (Window w : {Window::None, Window::Hann, Window::Lanczos})
-    EXPECT_EQ(parseWindow(windowName(w)), w);
+  for (Window w : {Window::None, Window::Hann, Window::Lanczos}) EXPECT_EQ(parseWindow(windowName(w)), w);
   EXPECT_STREQ(windowName(Window::Hann), "hann");
   try {
     parseWindow("foo");
@@ -470,8 +465,7 @@ TEST(ShWindow, ApplyWindowScalesEachBand) {
   const ShRgb c = randomCoeffs(5, rng);
   ShRgb w = c;
   applyWindow(w, Window::Hann);
-  for (int i = 0; i < c.size(); ++i)
-    EXPECT_NEAR(w.c[i].x, c.c[i].x * windowFactor(Window::Hann, bandOf(i), 5), 1e-7);
+  for (int i = 0; i < c.size(); ++i) EXPECT_NEAR(w.c[i].x, c.c[i].x * windowFactor(Window::Hann, bandOf(i), 5), 1e-7);
 }
 
 // A truncated delta rings: its reconstruction has negative lobes. Hann windowing must shrink

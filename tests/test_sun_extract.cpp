@@ -5,19 +5,19 @@
 #include <limits>
 #include <map>
 #include <ostream>
-#include <utility>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "prt/math.h"
+#include "harness.h"
 #include "prt/error.h"
 #include "prt/image.h"
 #include "prt/light.h"
+#include "prt/math.h"
 #include "prt/sh.h"
 #include "prt/sun_extract.h"
-#include "harness.h"
 #include "test_util.h"
 
 namespace {
@@ -41,9 +41,7 @@ double angleDeg(const glm::dvec3& a, const glm::dvec3& b) {
 }
 
 // A smooth sky: constant plus a band-1 gradient, bluish, between 0.5 and 1.9 times its colour.
-glm::dvec3 smoothSky(const glm::dvec3& d) {
-  return glm::dvec3(0.3, 0.45, 0.8) * (1.2 + 0.5 * d.y + 0.2 * d.x);
-}
+glm::dvec3 smoothSky(const glm::dvec3& d) { return glm::dvec3(0.3, 0.45, 0.8) * (1.2 + 0.5 * d.y + 0.2 * d.x); }
 
 // The direction of every pixel centre of a w × h map, computed once per size.
 const std::vector<glm::dvec3>& pixelDirections(int w, int h) {
@@ -138,8 +136,8 @@ struct SunCase {
 
 // The test's name in ctest, instead of gtest's byte dump (which holds the name's address).
 void PrintTo(const SunCase& c, std::ostream* os) {
-  *os << c.width << "x" << c.width / 2 << ", elevation " << c.elevationDeg << ", azimuth "
-      << c.azimuthDeg << ", radius " << c.radiusDeg;
+  *os << c.width << "x" << c.width / 2 << ", elevation " << c.elevationDeg << ", azimuth " << c.azimuthDeg
+      << ", radius " << c.radiusDeg;
 }
 
 // Direction within 0.1°, irradiance within 1% (the requirements). The radius is the
@@ -207,8 +205,8 @@ TEST_P(LightSunExtract, FindsAKnownDiskOnASmoothSky) {
       const glm::dvec3 res(r.residual.at(x, y)), s(sky.at(x, y));
       if (glm::dot(pixelDirection(map, x, y), disk.direction) < cosReach) {
         ASSERT_EQ(r.residual.at(x, y), map.at(x, y))
-            << "pixel (" << x << ", " << y << ") changed, "
-            << angleDeg(pixelDirection(map, x, y), disk.direction) << " degrees from the sun";
+            << "pixel (" << x << ", " << y << ") changed, " << angleDeg(pixelDirection(map, x, y), disk.direction)
+            << " degrees from the sun";
         continue;
       }
       EXPECT_LE(luminance(res), ringMax) << "pixel (" << x << ", " << y << ")";
@@ -254,28 +252,31 @@ TEST(LightSunExtractNone, UniformSky) {
 TEST(LightSunExtractNone, GradientSky) {
   expectNothing(skyMap(512, 256, smoothSky), "no compact source");
   // A steep one: 30 times brighter at the horizon than at the zenith, dark ground.
-  expectNothing(skyMap(512, 256, [](const glm::dvec3& d) {
-                  return d.y >= 0.0 ? glm::dvec3(0.2, 0.3, 0.6) * (1.0 + 29.0 * std::pow(1.0 - d.y, 4.0))
-                                    : glm::dvec3(0.05);
-                }),
+  expectNothing(skyMap(512, 256,
+                       [](const glm::dvec3& d) {
+                         return d.y >= 0.0 ? glm::dvec3(0.2, 0.3, 0.6) * (1.0 + 29.0 * std::pow(1.0 - d.y, 4.0))
+                                           : glm::dvec3(0.05);
+                       }),
                 "no compact source");
 }
 
 TEST(LightSunExtractNone, OvercastSky) {
   // CIE standard overcast sky: L(el) = L_z (1 + 2 sin el) / 3, over a grey ground.
-  expectNothing(skyMap(512, 256, [](const glm::dvec3& d) {
-                  return d.y >= 0.0 ? glm::dvec3(1.0) * (1.0 + 2.0 * d.y) / 3.0 : glm::dvec3(0.1);
-                }),
+  expectNothing(skyMap(512, 256,
+                       [](const glm::dvec3& d) {
+                         return d.y >= 0.0 ? glm::dvec3(1.0) * (1.0 + 2.0 * d.y) / 3.0 : glm::dvec3(0.1);
+                       }),
                 "no compact source");
 }
 
 TEST(LightSunExtractNone, BroadGlow) {
   // A sunset glow without a disk: a Gaussian of 12° (1/e² radius 24°), 10 times the sky.
   const glm::dvec3 axis = fromElevationAzimuth(5.0, 30.0);
-  expectNothing(skyMap(512, 256, [&](const glm::dvec3& d) {
-                  const double a = angleDeg(d, axis) * kDeg, s = 12.0 * kDeg;
-                  return glm::dvec3(0.3, 0.35, 0.5) + glm::dvec3(3.0, 2.0, 1.0) * std::exp(-a * a / (2 * s * s));
-                }),
+  expectNothing(skyMap(512, 256,
+                       [&](const glm::dvec3& d) {
+                         const double a = angleDeg(d, axis) * kDeg, s = 12.0 * kDeg;
+                         return glm::dvec3(0.3, 0.35, 0.5) + glm::dvec3(3.0, 2.0, 1.0) * std::exp(-a * a / (2 * s * s));
+                       }),
                 "no compact source");
 }
 
@@ -292,9 +293,7 @@ TEST(LightSunExtractNone, SmallShare) {
   expectConserved(r);
 }
 
-TEST(LightSunExtractNone, BlackMap) {
-  expectNothing(ImageRgb(64, 32), "no power");
-}
+TEST(LightSunExtractNone, BlackMap) { expectNothing(ImageRgb(64, 32), "no power"); }
 
 TEST(LightSunExtract, SourceInAGlow) {
   // A disk inside a glow that is brighter than 1% of the disk's peak 20° away: the first
@@ -370,8 +369,10 @@ void expectShAdds(const ImageRgb& map, const prt::SunExtraction& r) {
   for (int c = 0; c < 3; ++c) {
     const double l0 = whole.c[0][c];
     EXPECT_NEAR(parts.c[0][c], l0, 1e-6 * l0) << "channel " << c;
-    for (int i = 1; i < 4; ++i) EXPECT_NEAR(parts.c[i][c], whole.c[i][c], 2e-3 * l0) << "band 1, " << i << ", channel " << c;
-    for (int i = 4; i < 9; ++i) EXPECT_NEAR(parts.c[i][c], whole.c[i][c], 1e-2 * l0) << "band 2, " << i << ", channel " << c;
+    for (int i = 1; i < 4; ++i)
+      EXPECT_NEAR(parts.c[i][c], whole.c[i][c], 2e-3 * l0) << "band 1, " << i << ", channel " << c;
+    for (int i = 4; i < 9; ++i)
+      EXPECT_NEAR(parts.c[i][c], whole.c[i][c], 1e-2 * l0) << "band 2, " << i << ", channel " << c;
   }
 }
 
@@ -405,8 +406,7 @@ TEST(LightSunExtractErrors, BadInput) {
                     -std::numeric_limits<float>::infinity()}) {
     ImageRgb m(8, 4);
     m.at(5, 2).g = bad;
-    EXPECT_EQ(errorOf([&] { prt::extractSun(m); }),
-              "sun extraction: environment map pixel (5, 2) is not finite");
+    EXPECT_EQ(errorOf([&] { prt::extractSun(m); }), "sun extraction: environment map pixel (5, 2) is not finite");
   }
   const ImageRgb ok(8, 4);
   auto withOptions = [&](auto change) {

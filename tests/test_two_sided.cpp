@@ -9,12 +9,12 @@
 
 #include <gtest/gtest.h>
 
-#include "prt/math.h"
 #include "gltf_file.h"
 #include "harness.h"
 #include "prt/bake/memory_estimate.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
+#include "prt/math.h"
 #include "prt/probe_grid.h"
 #include "prt/relight.h"
 #include "prt/sh.h"

@@ -44,9 +44,10 @@ void onSignal(int sig) {
 // the job on an error, so SIGTERM ends a rank at once (its checkpoint keeps the last
 // periodic save) and the error stays the job's one line.
 class SignalScope {
-public:
-  explicit SignalScope(bool mpiRank) : signals_(mpiRank ? std::vector<int>{SIGUSR1} : std::vector<int>{SIGINT, SIGTERM}) {
-    struct sigaction sa{};
+ public:
+  explicit SignalScope(bool mpiRank)
+      : signals_(mpiRank ? std::vector<int>{SIGUSR1} : std::vector<int>{SIGINT, SIGTERM}) {
+    struct sigaction sa {};
     sa.sa_handler = onSignal;
     sigemptyset(&sa.sa_mask);
     sa.sa_flags = SA_RESTART;
@@ -59,7 +60,7 @@ public:
   SignalScope(const SignalScope&) = delete;
   SignalScope& operator=(const SignalScope&) = delete;
 
-private:
+ private:
   std::vector<int> signals_;
   std::vector<struct sigaction> old_;
 };
@@ -131,15 +132,19 @@ bake::BakeJob bakeJob(const BakeArgs& a) {
   } catch (const bake::BakeRefused& e) {
     switch (e.reason()) {
       case Reason::MpiNotBuilt:
-        throw Error("started as one of several MPI ranks, but this prt was built without MPI (install "
-                    "libopenmpi-dev and build again, or use --shard)");
-      case Reason::ShardUnderMpi: throw UsageError("--shard: not under mpirun (MPI ranks share every stage themselves)");
+        throw Error(
+            "started as one of several MPI ranks, but this prt was built without MPI (install "
+            "libopenmpi-dev and build again, or use --shard)");
+      case Reason::ShardUnderMpi:
+        throw UsageError("--shard: not under mpirun (MPI ranks share every stage themselves)");
       case Reason::CheckpointFound:
-        throw Error(cat(e.path(), ": a checkpoint of an interrupted bake exists; add --resume to continue it, "
-                                  "or delete it to start over"));
+        throw Error(cat(e.path(),
+                        ": a checkpoint of an interrupted bake exists; add --resume to continue it, "
+                        "or delete it to start over"));
       case Reason::ShardsMerged:
-        throw Error(cat(e.path(), ": every stage is merged; write the outputs with the same prt bake command and "
-                                  "--resume instead of --shard"));
+        throw Error(cat(e.path(),
+                        ": every stage is merged; write the outputs with the same prt bake command and "
+                        "--resume instead of --shard"));
     }
     throw;
   } catch (const bake::InterruptedAndSaved& e) {
@@ -156,8 +161,9 @@ void printShard(const BakeArgs& a, const bake::BakeReport& r) {
     std::fprintf(stderr, "prt bake: shard %d/%d: its share is done already (%s.done); run prt merge %s --shards %d\n",
                  a.shardIndex, a.shardCount, r.shardFile.c_str(), r.checkpointPath.c_str(), a.shardCount);
   else
-    std::fprintf(stderr, "prt bake: %s -> %s.done; once all %d shards are done: prt merge %s --shards %d, then run "
-                         "the shards again (or, after the last stage, prt bake --resume without --shard)\n",
+    std::fprintf(stderr,
+                 "prt bake: %s -> %s.done; once all %d shards are done: prt merge %s --shards %d, then run "
+                 "the shards again (or, after the last stage, prt bake --resume without --shard)\n",
                  r.shardStage.c_str(), r.shardFile.c_str(), a.shardCount, r.checkpointPath.c_str(), a.shardCount);
 }
 
@@ -169,8 +175,8 @@ void printBake(const BakeArgs& a, const bake::BakeReport& r) {
   for (const MeshInstance& m : r.scene.meshes) receivers += m.receiverOnly;
   std::ostringstream stages;
   if (r.refined.seconds > 0) stages << "refine " << std::fixed << std::setprecision(2) << r.refined.seconds << " s, ";
-  for (const bake::StageStats& stage : st.stages) stages << stage.name << " " << std::fixed
-                                                         << std::setprecision(2) << stage.seconds << " s, ";
+  for (const bake::StageStats& stage : st.stages)
+    stages << stage.name << " " << std::fixed << std::setprecision(2) << stage.seconds << " s, ";
   double directSeconds = 0;
   for (const auto& stage : st.stages)
     if (stage.name == "direct") directSeconds = stage.seconds;
@@ -192,16 +198,17 @@ void printBake(const BakeArgs& a, const bake::BakeReport& r) {
 void printRefinementAndRanks(const bake::BakeReport& r) {
   const bake::RefineStats& refined = r.refined;
   if (r.refine.tolerance > 0.0)
-    std::fprintf(stderr,
-                 "  refinement: %s -> %s vertices, %s -> %s triangles in %d rounds (tolerance %g, budget %s%s), "
-                 "residual %.3f; %s points, %s rays in %.2f s\n",
-                 formatCount(double(refined.verticesBefore)).c_str(), formatCount(double(refined.verticesAfter)).c_str(),
-                 formatCount(double(refined.trianglesBefore)).c_str(),
-                 formatCount(double(refined.trianglesAfter)).c_str(), refined.rounds, r.refine.tolerance,
-                 formatCount(double(refined.budget)).c_str(), refined.budgetReached ? ", reached" : "",
-                 refined.residual, formatCount(double(refined.points)).c_str(),
-                 formatCount(double(refined.rays)).c_str(), refined.seconds);
-  for (const std::string& line : describeReceivers(r.scene, "--receiver")) std::fprintf(stderr, "  receiver %s\n", line.c_str());
+    std::fprintf(
+        stderr,
+        "  refinement: %s -> %s vertices, %s -> %s triangles in %d rounds (tolerance %g, budget %s%s), "
+        "residual %.3f; %s points, %s rays in %.2f s\n",
+        formatCount(double(refined.verticesBefore)).c_str(), formatCount(double(refined.verticesAfter)).c_str(),
+        formatCount(double(refined.trianglesBefore)).c_str(), formatCount(double(refined.trianglesAfter)).c_str(),
+        refined.rounds, r.refine.tolerance, formatCount(double(refined.budget)).c_str(),
+        refined.budgetReached ? ", reached" : "", refined.residual, formatCount(double(refined.points)).c_str(),
+        formatCount(double(refined.rays)).c_str(), refined.seconds);
+  for (const std::string& line : describeReceivers(r.scene, "--receiver"))
+    std::fprintf(stderr, "  receiver %s\n", line.c_str());
   if (r.mpi)
     std::fprintf(stderr, "  ranks: %d (MPI%s); rank 0 received %s from the others in %llu exchanges\n", r.ranks,
                  r.transportChoice.empty() ? "" : cat(": ", r.transportChoice).c_str(),
@@ -240,12 +247,14 @@ void printProbes(const BakeArgs& a, const bake::BakeReport& r) {
 // --probes.
 CLI::Option* addProbeOptions(CLI::App& bake, BakeArgs& a) {
   CLI::Option* probes = bake.add_option("--probes", a.probes, "Also bake a probe grid into this OpenVDB file (.vdb)");
-  CLI::Option* spacing = bake.add_option("--probe-spacing", a.probeSpacing, "Probe spacing in world units (else --probe-dims)")
-                             ->check(CLI::PositiveNumber);
+  CLI::Option* spacing =
+      bake.add_option("--probe-spacing", a.probeSpacing, "Probe spacing in world units (else --probe-dims)")
+          ->check(CLI::PositiveNumber);
   CLI::Option* dims = bake.add_option_function<std::string>(
       "--probe-dims",
       [&a](const std::string& v) {
-        std::vector<double> d = parseNumberList("--probe-dims", v, 3, true, "three integer counts X,Y,Z (e.g. 16,16,8)");
+        std::vector<double> d =
+            parseNumberList("--probe-dims", v, 3, true, "three integer counts X,Y,Z (e.g. 16,16,8)");
         a.probeDims.clear();
         for (double x : d) a.probeDims.push_back(int(x));
       },
@@ -266,7 +275,8 @@ CLI::Option* addProbeOptions(CLI::App& bake, BakeArgs& a) {
                       "Where probes go: inside (only space sealed in by the scene's surfaces), everywhere (all "
                       "space outside solid geometry), or auto (inside for a closed level, else near "
                       "surfaces or surrounded by them)")
-          ->transform(choice<Region>({{"auto", Region::Auto}, {"everywhere", Region::Everywhere}, {"inside", Region::Inside}}))
+          ->transform(
+              choice<Region>({{"auto", Region::Auto}, {"everywhere", Region::Everywhere}, {"inside", Region::Inside}}))
           ->default_str("auto");
   CLI::Option* height =
       bake.add_option("--probe-height", a.probeHeight,
@@ -288,11 +298,10 @@ void addRefineOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                       "relative to unoccluded transfer (0 = no refinement)")
           ->check(finiteAtLeast(0.0))
           ->capture_default_str();
-  CLI::Option* budget =
-      bake.add_option("--refine-budget", a.refine.budget,
-                      cat("Vertices refinement may add (0 = as many as the scene has, at least ", bake::kMinAutoBudget,
-                          ")"))
-          ->capture_default_str();
+  CLI::Option* budget = bake.add_option("--refine-budget", a.refine.budget,
+                                        cat("Vertices refinement may add (0 = as many as the scene has, at least ",
+                                            bake::kMinAutoBudget, ")"))
+                            ->capture_default_str();
   CLI::Option* samples = bake.add_option("--refine-samples", a.refine.samples,
                                          "Directions per point when refinement estimates transfer (at most --samples)")
                              ->check(CLI::Range(1, bake::kMaxSamples))
@@ -378,8 +387,9 @@ int runBake(const BakeArgs& a) {
   job.started = [&](bool mpiRank) { signals.emplace(mpiRank); };
   job.loaded = [&](const Scene& scene) {
     if (a.allowDegenerate && !a.quiet)
-      std::fprintf(stderr, "prt: warning: --allow-degenerate is deprecated and does nothing: every command drops "
-                           "zero-area triangles with a warning\n");
+      std::fprintf(stderr,
+                   "prt: warning: --allow-degenerate is deprecated and does nothing: every command drops "
+                   "zero-area triangles with a warning\n");
     printWarnings(scene, a.quiet);
   };
   bake::BakeReport report;

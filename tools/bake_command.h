@@ -35,7 +35,7 @@ struct BakeArgs {
   std::string checkpoint;          // default OUTPUT.prt-checkpoint
   double checkpointInterval = 60;  // seconds; 0 = only when interrupted
   bool resume = false;
-  std::optional<uint64_t> maxMemory;  // bytes; none: the available memory
+  std::optional<uint64_t> maxMemory;   // bytes; none: the available memory
   int shardIndex = 0, shardCount = 0;  // --shard I/N; count 0: not a shard
 };
 

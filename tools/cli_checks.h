@@ -15,7 +15,7 @@ namespace prt::tools {
 /// A usage error found after parsing, where options conflict in a way CLI11 cannot state (one
 /// of several options needed): main prints it with a usage hint and exits 2, like CLI11's own.
 class UsageError : public Error {
-public:
+ public:
   using Error::Error;
 };
 

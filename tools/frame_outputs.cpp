@@ -47,8 +47,7 @@ std::string findOnPath(const std::string& program) {
 
 VideoEncoder::VideoEncoder(const std::string& path) : path_(path) {
   ffmpeg_ = findOnPath("ffmpeg");
-  if (ffmpeg_.empty())
-    throw Error(cat("--mp4 ", path, ": ffmpeg not found on PATH (install ffmpeg, or drop --mp4)"));
+  if (ffmpeg_.empty()) throw Error(cat("--mp4 ", path, ": ffmpeg not found on PATH (install ffmpeg, or drop --mp4)"));
 }
 
 VideoEncoder::~VideoEncoder() {
@@ -62,8 +61,7 @@ void VideoEncoder::stop() {
   if (pid_ > 0) {
     ::kill(pid_, SIGTERM);
     int status = 0;
-    while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-    }
+    while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {}
   }
   pid_ = -1;
 }
@@ -83,12 +81,34 @@ void VideoEncoder::start(int width, int height, double fps) {
     throw Error(cat(path_, ": cannot create a pipe to ffmpeg: ", std::strerror(errno)));
   }
   // yuv420p (what players expect) needs even sizes: pad odd ones with a black row/column.
-  std::vector<std::string> args = {ffmpeg_,      "-nostdin",  "-hide_banner", "-loglevel", "error",
-                                   "-y",         "-f",        "rawvideo",     "-pix_fmt",  "rgb24",
-                                   "-s",         cat(width, "x", height),     "-framerate", cat(fps),
-                                   "-i",         "pipe:0",    "-vf",          "pad=ceil(iw/2)*2:ceil(ih/2)*2",
-                                   "-c:v",       "libx264",   "-crf",         "18",        "-pix_fmt",
-                                   "yuv420p",    "-movflags", "+faststart",   "-f",        "mp4",
+  std::vector<std::string> args = {ffmpeg_,
+                                   "-nostdin",
+                                   "-hide_banner",
+                                   "-loglevel",
+                                   "error",
+                                   "-y",
+                                   "-f",
+                                   "rawvideo",
+                                   "-pix_fmt",
+                                   "rgb24",
+                                   "-s",
+                                   cat(width, "x", height),
+                                   "-framerate",
+                                   cat(fps),
+                                   "-i",
+                                   "pipe:0",
+                                   "-vf",
+                                   "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+                                   "-c:v",
+                                   "libx264",
+                                   "-crf",
+                                   "18",
+                                   "-pix_fmt",
+                                   "yuv420p",
+                                   "-movflags",
+                                   "+faststart",
+                                   "-f",
+                                   "mp4",
                                    file_->tempPath()};
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
@@ -141,8 +161,7 @@ void VideoEncoder::finish() {
   ::close(pipe_);
   pipe_ = -1;
   int status = 0;
-  while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-  }
+  while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {}
   pid_ = -1;
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
     failWithLog(WIFEXITED(status) ? cat("ffmpeg failed (exit status ", WEXITSTATUS(status), ")")

@@ -19,7 +19,7 @@ std::string findOnPath(const std::string& program);
 /// a temporary file next to `path`; finish() renames it over `path`. Destroyed unfinished (an
 /// error), it stops ffmpeg and removes the temporary file.
 class VideoEncoder {
-public:
+ public:
   /// Throws prt::Error "--mp4 PATH: ffmpeg not found on PATH ..." when ffmpeg is missing. Does
   /// not touch `path` nor start ffmpeg yet (start()), so its folder may be created in between.
   explicit VideoEncoder(const std::string& path);
@@ -36,7 +36,7 @@ public:
   void finish();
   const std::string& ffmpeg() const { return ffmpeg_; }
 
-private:
+ private:
   [[noreturn]] void failWithLog(const std::string& what);
   void stop();
   std::string path_, ffmpeg_, logPath_;
@@ -50,7 +50,7 @@ private:
 /// linear radiance; the last row and column of boxes may be partial), tiles in frame order,
 /// row by row, 2 black pixels between tiles. Tone-mapped when written (same exposure as --png).
 class ContactSheet {
-public:
+ public:
   /// Sizes of a sheet, in 64 bits so that a caller can refuse one too large before making it.
   struct Layout {
     int64_t factor, tileWidth, tileHeight, columns, width, height;
@@ -72,7 +72,7 @@ public:
 
   static constexpr int kGap = 2;
 
-private:
+ private:
   int frameWidth_, frameHeight_, frames_, columns_, factor_, tileWidth_, tileHeight_;
   int added_ = 0;
   ImageRgb sheet_;

@@ -32,7 +32,8 @@ void infoGlb(const std::string& path) {
   std::printf("%s: glTF scene\n", path.c_str());
   std::printf("  file        %s on disk\n", formatBytes(std::filesystem::file_size(path)).c_str());
   std::printf("  instances   %zu (%zu with transfer, %zu receivers)\n", scene.meshes.size(), baked, receivers);
-  for (const std::string& line : describeReceivers(scene, "--receiver")) std::printf("  receiver    %s\n", line.c_str());
+  for (const std::string& line : describeReceivers(scene, "--receiver"))
+    std::printf("  receiver    %s\n", line.c_str());
   std::printf("  vertices    %zu\n  triangles   %zu\n", vertices, triangles);
   std::printf("  materials   %zu, textures %zu, cameras %zu, lights %zu\n", scene.materials.size(),
               scene.textures.size(), scene.cameras.size(), scene.lights.size());
@@ -46,15 +47,16 @@ void infoGlb(const std::string& path) {
     for (const AnimationChannel& ch : an.channels) end = std::max(end, ch.times.back());
     std::printf("  animation   '%s', %zu channels, %g s\n", an.name.c_str(), an.channels.size(), end);
   }
-  std::printf("  bounds      (%g, %g, %g) .. (%g, %g, %g)\n", scene.boundsMin.x, scene.boundsMin.y,
-              scene.boundsMin.z, scene.boundsMax.x, scene.boundsMax.y, scene.boundsMax.z);
+  std::printf("  bounds      (%g, %g, %g) .. (%g, %g, %g)\n", scene.boundsMin.x, scene.boundsMin.y, scene.boundsMin.z,
+              scene.boundsMax.x, scene.boundsMax.y, scene.boundsMax.z);
   // The memory figures come from the bake's own estimate (the one --max-memory checks).
   const bake::BakeSettings defaults;
   const bake::MemoryEstimate loaded = bake::estimateBakeMemory(scene, defaults, nullptr, 1.0);
-  std::printf("  memory      %s when loaded (geometry, transfer, textures); baking it with the defaults "
-              "(%d bands, %d samples, %d bounces) needs at most %s\n",
-              formatBytes(loaded.scene).c_str(), defaults.bands, defaults.samples, defaults.bounces,
-              formatBytes(loaded.total).c_str());
+  std::printf(
+      "  memory      %s when loaded (geometry, transfer, textures); baking it with the defaults "
+      "(%d bands, %d samples, %d bounces) needs at most %s\n",
+      formatBytes(loaded.scene).c_str(), defaults.bands, defaults.samples, defaults.bounces,
+      formatBytes(loaded.total).c_str());
   if (baked > 0) {
     std::printf("  transfer    %d bands (%d RGB coefficients per vertex)\n", scene.transferBands,
                 scene.transferBands * scene.transferBands);
@@ -80,8 +82,12 @@ int runInfo(const InfoArgs& a) {
     try {
       std::string what;
       switch (sniffFile(f, what)) {
-        case FileKind::ProbeGrid: std::printf("%s", describeProbeFile(f).c_str()); break;
-        case FileKind::Gltf: infoGlb(f); break;
+        case FileKind::ProbeGrid:
+          std::printf("%s", describeProbeFile(f).c_str());
+          break;
+        case FileKind::Gltf:
+          infoGlb(f);
+          break;
         case FileKind::Other:
           throw Error(cat(f, ": not a glTF scene (.gltf, .glb) or a probe grid (.vdb): the file is ", what));
       }
@@ -92,6 +98,5 @@ int runInfo(const InfoArgs& a) {
   }
   return status;
 }
-
 
 }  // namespace prt::tools

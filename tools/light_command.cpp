@@ -57,14 +57,17 @@ int runLight(const LightArgs& a) {
                       {"azimuth_deg", glm::degrees(std::atan2(d.direction.x, d.direction.z))},
                       {"radius_deg", glm::degrees(d.radius)},
                       {"irradiance", {d.irradiance.r, d.irradiance.g, d.irradiance.b}},
-                      {"source", fromMap ? "map" : source.type == RigLight::Type::Sun ? "sun" : "disk"},
+                      {"source", fromMap                              ? "map"
+                                 : source.type == RigLight::Type::Sun ? "sun"
+                                                                      : "disk"},
                       {"map_power_share", fromMap ? split.mapShare[k] : 0.0}});
   }
   j["direct_lights"] = direct;
   j["sh"] = shJson(split.sh);
   j["direct_sh"] = shJson(split.directSh);
   writeFileAtomic(a.output, j.dump(2) + "\n");
-  for (const std::string& line : describeDirectLights(split, rig)) std::fprintf(stderr, "prt light: direct light: %s\n", line.c_str());
+  for (const std::string& line : describeDirectLights(split, rig))
+    std::fprintf(stderr, "prt light: direct light: %s\n", line.c_str());
   return 0;
 }
 

@@ -35,8 +35,9 @@ Angle parseAngle(const std::string& option, const std::string& text, bool ranges
     return a;
   }
   if (!ranges)
-    throw UsageError(cat(option, " ", text, ": START:END needs a frame range (prt render); give one angle here, "
-                                       "or a --rig with keyframes and --frame N"));
+    throw UsageError(cat(option, " ", text,
+                         ": START:END needs a frame range (prt render); give one angle here, "
+                         "or a --rig with keyframes and --frame N"));
   a.start = parseNumber(option, text, text.substr(0, colon));
   a.end = parseNumber(option, text, text.substr(colon + 1));
   a.range = true;
@@ -72,20 +73,24 @@ void addLightOptions(CLI::App& app, LightOptions& o, bool animated, bool envPosi
   // One option for both spellings, so that --env-rotate and the others see the map either way.
   CLI::Option* env = app.add_option(envPositional ? "env,--env" : "--env", o.env,
                                     "Environment map, equirectangular (.exr or .hdr), linear radiance");
-  std::vector<CLI::Option*> envOptions = {
-      app.add_option("--env-rotate", o.envRotate,
-                     cat("Turn the environment about --env-axis (right-handed), degrees: ", angleForm))};
+  std::vector<CLI::Option*> envOptions = {app.add_option(
+      "--env-rotate", o.envRotate, cat("Turn the environment about --env-axis (right-handed), degrees: ", angleForm))};
   if (animated)
     envOptions.push_back(app.add_option("--env-rotate-end", o.envRotateEnd,
                                         "Rotation at the last frame (same as --env-rotate START:END)")
                              ->check(finite()));
   envOptions.push_back(app.add_option("--env-axis", o.envAxis, "Axis of --env-rotate X,Y,Z (world, glTF axes)")
-                           ->delimiter(',')->expected(3)->capture_default_str());
-  envOptions.push_back(app.add_option("--env-intensity", o.envIntensity,
-                                      "Multiply the environment's radiance: one value or R,G,B")
-                           ->delimiter(',')->expected(1, 3)->capture_default_str());
+                           ->delimiter(',')
+                           ->expected(3)
+                           ->capture_default_str());
+  envOptions.push_back(
+      app.add_option("--env-intensity", o.envIntensity, "Multiply the environment's radiance: one value or R,G,B")
+          ->delimiter(',')
+          ->expected(1, 3)
+          ->capture_default_str());
   CLI::Option* sunDir = app.add_option("--sun-dir", o.sunDir, "Direction towards the sun X,Y,Z (world, glTF axes)")
-                            ->delimiter(',')->expected(3);
+                            ->delimiter(',')
+                            ->expected(3);
   CLI::Option* sunAzimuth = app.add_option("--sun-azimuth", o.sunAzimuth,
                                            cat("Sun azimuth, degrees: ", angleForm, "; 0 = towards +Z, 90 = +X"));
   CLI::Option* sunElevation = app.add_option("--sun-elevation", o.sunElevation,
@@ -99,15 +104,17 @@ void addLightOptions(CLI::App& app, LightOptions& o, bool animated, bool envPosi
   CLI::Option* sunIrradiance = sunProperty(
       app.add_option("--sun-irradiance", o.sunIrradiance,
                      "Sun irradiance on a surface facing it, R,G,B or one value (W/m², as Blender's strength)")
-          ->delimiter(',')->expected(1, 3)->capture_default_str());
-  CLI::Option* sunRadius = sunProperty(
-      app.add_option("--sun-radius", o.sunRadius, "Angular radius of the sun disk in degrees (0 = a point)")
+          ->delimiter(',')
+          ->expected(1, 3)
           ->capture_default_str());
+  CLI::Option* sunRadius =
+      sunProperty(app.add_option("--sun-radius", o.sunRadius, "Angular radius of the sun disk in degrees (0 = a point)")
+                      ->capture_default_str());
   app.add_option_function<sh::Window>(
          "--window", [&o](const sh::Window& w) { o.window = w; },
          "Windowing of the light against ringing (default none, or the rig's)")
-      ->transform(choice<sh::Window>({{"none", sh::Window::None}, {"hann", sh::Window::Hann},
-                                      {"lanczos", sh::Window::Lanczos}}));
+      ->transform(choice<sh::Window>(
+          {{"none", sh::Window::None}, {"hann", sh::Window::Hann}, {"lanczos", sh::Window::Lanczos}}));
   app.add_flag("--no-extract-sun", o.noExtractSun,
                "Leave the suns in environment maps: each map goes whole through the SH transfer instead of its "
                "compact bright sources being lit exactly as direct lights (docs/lights.md)");
@@ -123,9 +130,10 @@ void addLightOptions(CLI::App& app, LightOptions& o, bool animated, bool envPosi
 }
 
 void addGatherOptions(CLI::App& app, GatherOptions& o) {
-  app.add_option("--bounce-samples", o.bounceSamples,
-                 "Rays per baked vertex (the bake's own first rays, traced once) that gather the direct lights' bounced "
-                 "light and the sky's light beyond the SH band limit; 0: both through the SH transfer instead")
+  app.add_option(
+         "--bounce-samples", o.bounceSamples,
+         "Rays per baked vertex (the bake's own first rays, traced once) that gather the direct lights' bounced "
+         "light and the sky's light beyond the SH band limit; 0: both through the SH transfer instead")
       ->check(CLI::Range(0, 16777216))
       ->capture_default_str();
   app.add_flag("--no-sky-detail", o.noSkyDetail,

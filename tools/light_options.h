@@ -19,22 +19,22 @@
 namespace prt::tools {
 
 struct LightOptions {
-  std::string rig;                // light rig file (JSON), "" = shortcuts
-  double frame = 0.0;             // stills (relight, light, probe): the frame of the rig to use
-  std::string env;                // equirectangular .exr / .hdr, "" = none
-  std::string envRotate;          // "DEG" or "START:END" (render: across the frame range)
+  std::string rig;        // light rig file (JSON), "" = shortcuts
+  double frame = 0.0;     // stills (relight, light, probe): the frame of the rig to use
+  std::string env;        // equirectangular .exr / .hdr, "" = none
+  std::string envRotate;  // "DEG" or "START:END" (render: across the frame range)
   double envRotateEnd = std::numeric_limits<double>::quiet_NaN();  // render: older form of START:END
   std::vector<double> envAxis{0.0, 1.0, 0.0};
-  std::vector<double> envIntensity{1.0};  // one value or R,G,B
-  std::vector<double> sunDir;             // towards the sun, world
-  std::string sunAzimuth, sunElevation;   // "DEG" or "START:END", degrees
+  std::vector<double> envIntensity{1.0};             // one value or R,G,B
+  std::vector<double> sunDir;                        // towards the sun, world
+  std::string sunAzimuth, sunElevation;              // "DEG" or "START:END", degrees
   std::vector<double> sunIrradiance{1.0, 1.0, 1.0};  // W/m² on a surface facing it
-  double sunRadius = 0.265;               // degrees (the real sun's angular radius)
-  std::optional<sh::Window> window;       // none: sh::Window::None, or the rig's
-  bool animated = false;                  // START:END allowed (prt render)
-  std::string sunOptionGiven;             // the first of --sun-irradiance, --sun-radius given, if any
-  bool noDirect = false;                  // --no-direct-lights: suns and small disks through SH only
-  bool noExtractSun = false;              // --no-extract-sun: environment maps whole through SH
+  double sunRadius = 0.265;                          // degrees (the real sun's angular radius)
+  std::optional<sh::Window> window;                  // none: sh::Window::None, or the rig's
+  bool animated = false;                             // START:END allowed (prt render)
+  std::string sunOptionGiven;                        // the first of --sun-irradiance, --sun-radius given, if any
+  bool noDirect = false;                             // --no-direct-lights: suns and small disks through SH only
+  bool noExtractSun = false;                         // --no-extract-sun: environment maps whole through SH
 };
 
 /// The gather over the bake's own rays that `prt render` and `prt relight` light baked

@@ -113,7 +113,8 @@ int main(int argc, char** argv) {
     return report(usageLine(e.what()), kUsageExit);
   } catch (const Interrupted& e) {
     // Every rank saves before it stops: rank 0's may take a while.
-    return report(cat("prt: ", e.what(), "\n"), 128 + (bake::interruptSignal() ? bake::interruptSignal() : SIGINT), 3000);
+    return report(cat("prt: ", e.what(), "\n"), 128 + (bake::interruptSignal() ? bake::interruptSignal() : SIGINT),
+                  3000);
   } catch (const Error& e) {
     return report(cat("prt: ", e.what(), "\n"), 1);
   } catch (const std::bad_alloc&) {

@@ -102,7 +102,8 @@ void probeAt(const ProbeArgs& a, const ProbeQuery& q) {
   }
   if (w.count == 0)
     std::fprintf(stderr, "prt: warning: (%g, %g, %g) is %s: reporting the unoccluded light, as the renderer does\n",
-                 x.x, x.y, x.z, cover == ProbeCover::Outside ? "outside the probe grid" : "in a cell with no valid probe");
+                 x.x, x.y, x.z,
+                 cover == ProbeCover::Outside ? "outside the probe grid" : "in a cell with no valid probe");
   else if (cover == ProbeCover::Fade)
     std::fprintf(stderr,
                  "prt: warning: (%g, %g, %g) is beyond the probe grid's domain: reporting its nearest probes blended "
@@ -113,7 +114,6 @@ void probeAt(const ProbeArgs& a, const ProbeQuery& q) {
 
 // Splits one CSV line at commas, RFC 4180 quoting: a field in double quotes may hold commas,
 // and "" inside it is one quote; the quotes are removed. nullopt: a quoted field is not closed
-
 
 // The CSV text of --points -o: each input row repeated verbatim (its own text, not re-printed
 // numbers), then E_r,E_g,E_b and the status. Throws "FILE:LINE: problem" on a malformed row.
@@ -168,8 +168,10 @@ std::string probePointsCsv(const std::string& path, const ProbeQuery& q) {
     out += cat(rows[i], ",", std::setprecision(9), e.r, ",", e.g, ",", e.b, ",", probeCoverName(cover), "\n");
   }
   if (outside)
-    std::fprintf(stderr, "prt: warning: %s: %d points beyond the probe grid's domain or without a valid probe got "
-                 "the unoccluded light, in whole or in part (status column)\n", path.c_str(), outside);
+    std::fprintf(stderr,
+                 "prt: warning: %s: %d points beyond the probe grid's domain or without a valid probe got "
+                 "the unoccluded light, in whole or in part (status column)\n",
+                 path.c_str(), outside);
   return out;
 }
 
@@ -177,10 +179,8 @@ std::string probePointsCsv(const std::string& path, const ProbeQuery& q) {
 
 void addProbe(CLI::App& cmd, ProbeArgs& a) {
   cmd.add_option("probes", a.file, "Probe grid (.vdb from prt bake --probes)")->required();
-  CLI::Option* at = cmd.add_option("--at", a.at, "Query point X,Y,Z (prints JSON)")
-                        ->delimiter(',')
-                        ->expected(3)
-                        ->check(finite());
+  CLI::Option* at =
+      cmd.add_option("--at", a.at, "Query point X,Y,Z (prints JSON)")->delimiter(',')->expected(3)->check(finite());
   CLI::Option* normal = cmd.add_option("--normal", a.normal, "Surface normal at the point: adds irradiance")
                             ->delimiter(',')
                             ->expected(3)
@@ -223,7 +223,8 @@ int runProbe(const ProbeArgs& a) {
   const std::string note =
       !lighting.direct.empty() && !split
           ? cat("prt probe: note: ", lighting.direct.size(), " direct light(s) (suns, disks up to ",
-                kMaxDirectRadiusDegrees, " deg) lit through the probes' SH, band-limited and without their own shadow: ",
+                kMaxDirectRadiusDegrees,
+                " deg) lit through the probes' SH, band-limited and without their own shadow: ",
                 !scene ? "give --scene BAKED.glb to trace them at each point"
                        : "the grid has no direct part (baked by an older prt); bake the probes again")
           : std::string();

@@ -29,13 +29,13 @@ void writeCsv(const std::string& path, const Scene& scene, const std::vector<std
       const MeshInstance& m = scene.meshes[k];
       for (size_t v = 0; v < radiance[k].size(); ++v) {
         const glm::vec3 &p = m.positions[v], &n = m.normals[v], &c = radiance[k][v];
-        out << m.node << ',' << m.primitive << ',' << v << ',' << p.x << ',' << p.y << ',' << p.z << ','
-            << n.x << ',' << n.y << ',' << n.z << ',' << c.r << ',' << c.g << ',' << c.b << '\n';
+        out << m.node << ',' << m.primitive << ',' << v << ',' << p.x << ',' << p.y << ',' << p.z << ',' << n.x << ','
+            << n.y << ',' << n.z << ',' << c.r << ',' << c.g << ',' << c.b << '\n';
       }
       for (size_t v = 0; v < back[k].size(); ++v) {
         const glm::vec3 &p = m.positions[v], n = -m.normals[v], &c = back[k][v];
-        out << m.node << ',' << m.primitive << ',' << v << ',' << p.x << ',' << p.y << ',' << p.z << ','
-            << n.x << ',' << n.y << ',' << n.z << ',' << c.r << ',' << c.g << ',' << c.b << '\n';
+        out << m.node << ',' << m.primitive << ',' << v << ',' << p.x << ',' << p.y << ',' << p.z << ',' << n.x << ','
+            << n.y << ',' << n.z << ',' << c.r << ',' << c.g << ',' << c.b << '\n';
       }
     }
     if (!out.flush()) throw Error(cat(path, ": cannot write"));
@@ -64,8 +64,8 @@ void printLighting(const RelightArgs& a, const Scene& scene, const LightRig& rig
   if (lights) {
     std::fprintf(stderr, "  direct lights (exact, with shadows and their bounces):\n");
     for (const std::string& line : describeDirectLights(light.rig, rig)) std::fprintf(stderr, "    %s\n", line.c_str());
-    std::fprintf(stderr, "  shadow rays   %llu (%d per light and vertex) in %.2f s\n", (unsigned long long)st.shadowRays,
-                 a.shadowSamples, st.shadowSeconds);
+    std::fprintf(stderr, "  shadow rays   %llu (%d per light and vertex) in %.2f s\n",
+                 (unsigned long long)st.shadowRays, a.shadowSamples, st.shadowSeconds);
   }
   if (lighting.skyDetail())
     std::fprintf(stderr, "  sky detail    the light beyond %d bands over the same rays\n", scene.transferBands);
@@ -76,8 +76,9 @@ void printLighting(const RelightArgs& a, const Scene& scene, const LightRig& rig
                    (unsigned long long)st.gatherRays, a.gather.bounceSamples, bounces,
                    st.traceSeconds + st.gatherSeconds);
     else
-      std::fprintf(stderr, "  %s\n", bounces > 0 ? "bounces       through the SH transfer (--bounce-samples 0)"
-                                                 : "bounces       none (baked without bounces)");
+      std::fprintf(stderr, "  %s\n",
+                   bounces > 0 ? "bounces       through the SH transfer (--bounce-samples 0)"
+                               : "bounces       none (baked without bounces)");
   }
   if (!lights && a.light.noDirect)
     std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
@@ -93,9 +94,11 @@ void printSummary(const RelightArgs& a, const Scene& scene, const Radiance& r) {
     }
   for (const auto& side : r.back) backSides += side.size();
   glm::vec3 mean = vertices ? sum / float(vertices) : glm::vec3(0);
-  std::string rigText = a.light.rig.empty() ? std::string() : cat(", lit by ", a.light.rig, " at frame ", a.light.frame);
+  std::string rigText =
+      a.light.rig.empty() ? std::string() : cat(", lit by ", a.light.rig, " at frame ", a.light.frame);
   const std::string sides = backSides ? cat(" (", backSides, " of them two-sided)") : std::string();
-  std::fprintf(stderr, "prt relight: %s -> %s%s%s\n  %zu vertices%s, %d bands%s, mean exitant radiance (%.4g, %.4g, %.4g)\n",
+  std::fprintf(stderr,
+               "prt relight: %s -> %s%s%s\n  %zu vertices%s, %d bands%s, mean exitant radiance (%.4g, %.4g, %.4g)\n",
                a.baked.c_str(), a.output.c_str(), a.csv.empty() ? "" : " + ", a.csv.c_str(), vertices, sides.c_str(),
                scene.transferBands, rigText.c_str(), mean.r, mean.g, mean.b);
 }
@@ -140,8 +143,9 @@ int runRelight(const RelightArgs& a) {
   bake::FrameLighting lighting(scene, rig, settings);
   const bake::FrameLight light = lighting.at(a.light.frame);
   if (light.foldedLights && !a.quiet)
-    std::fprintf(stderr, "prt relight: warning: %s has no direct part (baked by an older prt): its %zu direct "
-                         "light(s) are lit through SH, without exact shadows; bake again for them\n",
+    std::fprintf(stderr,
+                 "prt relight: warning: %s has no direct part (baked by an older prt): its %zu direct "
+                 "light(s) are lit through SH, without exact shadows; bake again for them\n",
                  a.baked.c_str(), light.foldedLights);
   const Radiance radiance = relight(scene, light);
   if (!a.csv.empty()) AtomicFile csvProbe(a.csv);

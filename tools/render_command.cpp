@@ -88,7 +88,8 @@ std::pair<int, int> parseSize(const std::string& text) {
   if (!w || !h || *w < 1 || *h < 1 || *w > kMaxSide || *h > kMaxSide)
     throw CLI::ValidationError(cat("--size ", text, ": expected WxH, each 1..", kMaxSide));
   if (*w * *h > kMaxPixels)
-    throw CLI::ValidationError(cat("--size ", text, ": ", *w * *h, " pixels, more than the ", kMaxPixels, " (8192x8192) allowed"));
+    throw CLI::ValidationError(
+        cat("--size ", text, ": ", *w * *h, " pixels, more than the ", kMaxPixels, " (8192x8192) allowed"));
   return {int(*w), int(*h)};
 }
 
@@ -99,7 +100,7 @@ std::pair<int, int> parseSize(const std::string& text) {
 // whole (each is written atomically). Destroyed before finish() (the render failed), it drops
 // the frames still queued.
 class FrameWriter {
-public:
+ public:
   explicit FrameWriter(size_t maxQueued) : maxQueued_(maxQueued), thread_([this] { run(); }) {}
   ~FrameWriter() {
     {
@@ -127,7 +128,7 @@ public:
     if (error_) std::rethrow_exception(error_);
   }
 
-private:
+ private:
   void run() {
     std::unique_lock<std::mutex> lock(mutex_);
     for (;;) {
@@ -177,7 +178,7 @@ FrameRange rigFrames(const LightRig& rig, const std::string& rigPath) {
 // The -o pattern: a name with at most one frame field, %d or %0Nd, in the file name. A bad
 // pattern is a usage error.
 class FramePattern {
-public:
+ public:
   explicit FramePattern(std::string pattern) : pattern_(std::move(pattern)) {
     const size_t p = pattern_.find('%');
     if (p == std::string::npos) return;
@@ -186,7 +187,8 @@ public:
     while (d < pattern_.size() && d - p <= 3 && std::isdigit(static_cast<unsigned char>(pattern_[d]))) ++d;
     const std::string width = pattern_.substr(p + 1, d - p - 1);
     if (d >= pattern_.size() || pattern_[d] != 'd' || !(width.empty() || (width.size() >= 2 && width[0] == '0')))
-      throw UsageError(cat("-o ", pattern_, ": bad frame field '", pattern_.substr(p, d - p + 1), "': use %d or %0Nd, e.g. %04d"));
+      throw UsageError(
+          cat("-o ", pattern_, ": bad frame field '", pattern_.substr(p, d - p + 1), "': use %d or %0Nd, e.g. %04d"));
     if (pattern_.find('%', d) != std::string::npos)
       throw UsageError(cat("-o ", pattern_, ": more than one '%' (one frame field, %d or %0Nd)"));
     if (pattern_.find('/', d) != std::string::npos)
@@ -207,7 +209,7 @@ public:
     return prefix_ + digits + suffix_;
   }
 
-private:
+ private:
   std::string pattern_, prefix_, suffix_;
   int width_ = 0;
   bool hasField_ = false;
@@ -237,8 +239,9 @@ void createFolderFor(const std::string& what, const std::filesystem::path& file)
 void checkOutput(const FramePattern& out, const FrameRange& frames) {
   const std::string what = cat("-o ", out.text());
   if (!out.hasField() && frames.count() > 1)
-    throw UsageError(cat(what, ": ", frames.count(), " frames need a frame-number field in the name, "
-                    "e.g. frame_%04d.exr (only a single frame may have a plain name)"));
+    throw UsageError(cat(what, ": ", frames.count(),
+                         " frames need a frame-number field in the name, "
+                         "e.g. frame_%04d.exr (only a single frame may have a plain name)"));
   const std::filesystem::path first = out.path(frames.first);
   std::string ext = first.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
@@ -253,7 +256,8 @@ render::OrbitCamera orbitCamera(const RenderArgs& a) {
   orbit.elevationDegrees = a.orbitElevation;
   orbit.yfovDegrees = a.orbitFov;
   orbit.distance = a.orbitDistance;
-  if (!a.orbitTarget.empty()) orbit.target = glm::vec3(glm::dvec3(a.orbitTarget[0], a.orbitTarget[1], a.orbitTarget[2]));
+  if (!a.orbitTarget.empty())
+    orbit.target = glm::vec3(glm::dvec3(a.orbitTarget[0], a.orbitTarget[1], a.orbitTarget[2]));
   return orbit;
 }
 
@@ -277,8 +281,8 @@ ChosenCamera chooseCamera(const RenderArgs& a, const render::OrbitCamera& orbit,
   const glm::dvec3 target = render::orbitTarget(scene, orbit);
   const double distance = glm::length(glm::dvec3(view.cameraToWorld[3]) - target);
   return {view, cat("orbit (target ", target.x, ",", target.y, ",", target.z, ", distance ", distance, ", azimuth ",
-                    orbit.azimuthDegrees, ", elevation ", orbit.elevationDegrees, ", vertical fov ",
-                    orbit.yfovDegrees, " deg", a.orbitOption.empty() ? "; the file has no camera" : "", ")")};
+                    orbit.azimuthDegrees, ", elevation ", orbit.elevationDegrees, ", vertical fov ", orbit.yfovDegrees,
+                    " deg", a.orbitOption.empty() ? "; the file has no camera" : "", ")")};
 }
 
 // A probe grid baked for another scene still renders, but wrongly: the bake's scene name and
@@ -311,8 +315,9 @@ void addCameraOptions(CLI::App& r, RenderArgs& a) {
                    "Orbit camera elevation, degrees (-89..89: straight up or down leaves the view's roll undefined)")
           ->check(finiteIn(-89.0, 89.0))
           ->capture_default_str(),
-      r.add_option("--orbit-distance", a.orbitDistance,
-                   "Orbit camera distance from the target (default: the sphere around where the geometry is fills the view)")
+      r.add_option(
+           "--orbit-distance", a.orbitDistance,
+           "Orbit camera distance from the target (default: the sphere around where the geometry is fills the view)")
           ->check(finitePositive()),
       r.add_option("--orbit-target", a.orbitTarget, "Point the orbit camera looks at X,Y,Z (default: bounds centre)")
           ->delimiter(',')
@@ -339,7 +344,8 @@ RenderSize renderSize(const RenderArgs& a) {
   const RenderSize size{int64_t(a.width) * a.supersample, int64_t(a.height) * a.supersample};
   if (size.width > kMaxSide || size.height > kMaxSide || size.width * size.height > kMaxPixels)
     throw UsageError(cat("--supersample ", a.supersample, " with --size ", a.width, "x", a.height, ": renders ",
-                         size.width, "x", size.height, ", more than the ", kMaxSide, " a side and 8192x8192 pixels allowed"));
+                         size.width, "x", size.height, ", more than the ", kMaxSide,
+                         " a side and 8192x8192 pixels allowed"));
   return size;
 }
 
@@ -354,8 +360,8 @@ struct FrameLights {
 FrameLights frameLights(const RenderArgs& a) {
   std::optional<LightRig> rig;
   if (!a.light.rig.empty()) rig = buildRig(a.light, 0, 0);
-  const FrameRange frames = a.frames || !rig || !rig->animated() ? a.frames.value_or(FrameRange{})
-                                                                   : rigFrames(*rig, a.light.rig);
+  const FrameRange frames =
+      a.frames || !rig || !rig->animated() ? a.frames.value_or(FrameRange{}) : rigFrames(*rig, a.light.rig);
   if (!rig) rig = buildRig(a.light, int(frames.first), int(frames.last));
   if (a.background == Background::Sky) {
     size_t maps = 0, caps = 0;
@@ -363,7 +369,8 @@ FrameLights frameLights(const RenderArgs& a) {
       maps += l.type == RigLight::Type::Environment;
       caps += l.type == RigLight::Type::Sun || l.type == RigLight::Type::Disk;
     }
-    render::checkBackgroundSize(cat("--background sky: ", a.light.rig.empty() ? "the lights" : a.light.rig), maps, caps);
+    render::checkBackgroundSize(cat("--background sky: ", a.light.rig.empty() ? "the lights" : a.light.rig), maps,
+                                caps);
   }
   return {std::move(*rig), frames};
 }
@@ -385,11 +392,12 @@ Outputs checkOutputs(const RenderArgs& a, const FrameRange& frames) {
     checkFolderFor(cat("--mp4 ", a.mp4), a.mp4);
   }
   if (!a.contactSheet.empty()) {
-    const ContactSheet::Layout sheet = ContactSheet::layout(a.width, a.height, frames.count(), a.sheetColumns, a.sheetTile);
+    const ContactSheet::Layout sheet =
+        ContactSheet::layout(a.width, a.height, frames.count(), a.sheetColumns, a.sheetTile);
     if (sheet.width > kMaxSide || sheet.height > kMaxSide || sheet.width * sheet.height > kMaxPixels)
-      throw UsageError(cat("--contact-sheet ", a.contactSheet, ": ", frames.count(), " frames make a ", sheet.width, "x",
-                      sheet.height, " sheet, over ", kMaxSide, " pixels a side or ", kMaxPixels,
-                      " in all; lower --sheet-tile or render fewer frames"));
+      throw UsageError(cat("--contact-sheet ", a.contactSheet, ": ", frames.count(), " frames make a ", sheet.width,
+                           "x", sheet.height, " sheet, over ", kMaxSide, " pixels a side or ", kMaxPixels,
+                           " in all; lower --sheet-tile or render fewer frames"));
     checkFolderFor(cat("--contact-sheet ", a.contactSheet), a.contactSheet);
   }
   return out;
@@ -471,10 +479,10 @@ RenderTimes renderFrames(const RenderArgs& a, const FrameLights& lights, const R
     bake::FrameLight light = lighting.at(double(f));
     RigBackground background;
     if (a.background == Background::Sky) background = lights.rig.background(double(f));
-    const render::Frame frame = renderFrame(a, size, camera, light, double(f) / fps,
-                                            a.background == Background::Sky ? &background : nullptr);
-    auto image = std::make_shared<const ImageRgb>(a.supersample > 1 ? downsampleBox(renderer.render(frame), a.supersample)
-                                                                     : renderer.render(frame));
+    const render::Frame frame =
+        renderFrame(a, size, camera, light, double(f) / fps, a.background == Background::Sky ? &background : nullptr);
+    auto image = std::make_shared<const ImageRgb>(
+        a.supersample > 1 ? downsampleBox(renderer.render(frame), a.supersample) : renderer.render(frame));
     const std::vector<std::string> now = renderer.warnings();
     for (; warningsShown < now.size(); ++warningsShown)
       if (!a.quiet) std::fprintf(stderr, "prt: warning: %s\n", now[warningsShown].c_str());
@@ -497,20 +505,21 @@ void printFrames(const RenderArgs& a, const FrameLights& lights, const RenderSiz
                  const render::FrameStats& last, int bands) {
   const int64_t n = lights.frames.count();
   const double perFrame = 1.0 / double(n);
-  std::fprintf(stderr,
-               "prt render: %lld frame%s %dx%d written (%s .. %s)%s on %s\n"
-               "  camera: %s\n"
-               "  %.2f ms/frame draw + %.2f ms/frame readback, %.3f ms per light update (%zu lights, %d bands, "
-               "window %s; maps projected once in %.1f ms), %.2f ms/frame writing; background %s, %d sample%s per pixel%s\n",
-               static_cast<long long>(n), n == 1 ? "" : "s", a.width, a.height,
-               out.pattern.path(lights.frames.first).c_str(), out.pattern.path(lights.frames.last).c_str(),
-               a.png ? " + PNG" : "", device.c_str(), camera.description.c_str(), t.draw * perFrame,
-               t.readback * perFrame, t.light * perFrame, lights.rig.lights.size(), bands,
-               sh::windowName(lights.rig.window), t.prepare, out.writeMs * perFrame,
-               a.background == Background::Sky ? "sky" : "black", last.samples, last.samples == 1 ? "" : "s",
-               a.supersample > 1 ? cat(", supersampled ", a.supersample, "x", a.supersample, " (rendered ", size.width,
-                                       "x", size.height, ", averaged down)").c_str()
-                                 : "");
+  std::fprintf(
+      stderr,
+      "prt render: %lld frame%s %dx%d written (%s .. %s)%s on %s\n"
+      "  camera: %s\n"
+      "  %.2f ms/frame draw + %.2f ms/frame readback, %.3f ms per light update (%zu lights, %d bands, "
+      "window %s; maps projected once in %.1f ms), %.2f ms/frame writing; background %s, %d sample%s per pixel%s\n",
+      static_cast<long long>(n), n == 1 ? "" : "s", a.width, a.height, out.pattern.path(lights.frames.first).c_str(),
+      out.pattern.path(lights.frames.last).c_str(), a.png ? " + PNG" : "", device.c_str(), camera.description.c_str(),
+      t.draw * perFrame, t.readback * perFrame, t.light * perFrame, lights.rig.lights.size(), bands,
+      sh::windowName(lights.rig.window), t.prepare, out.writeMs * perFrame,
+      a.background == Background::Sky ? "sky" : "black", last.samples, last.samples == 1 ? "" : "s",
+      a.supersample > 1 ? cat(", supersampled ", a.supersample, "x", a.supersample, " (rendered ", size.width, "x",
+                              size.height, ", averaged down)")
+                              .c_str()
+                        : "");
 }
 
 // The summary's lines on the direct lights, their bounces and the sky detail.
@@ -537,8 +546,10 @@ void printLighting(const RenderArgs& a, const FrameLights& lights, const RigLigh
                   last.directBaked ? "on baked surfaces" : "", last.directBaked && last.directReceivers ? " and " : "",
                   last.directReceivers ? "on receivers" : "", "; their bounces ", bounceText)
             : std::string("through SH (no direct part in the bake)");
-    std::fprintf(stderr, "  direct lights (frame %lld; %s):\n", static_cast<long long>(lights.frames.first), how.c_str());
-    for (const std::string& line : describeDirectLights(first, lights.rig)) std::fprintf(stderr, "    %s\n", line.c_str());
+    std::fprintf(stderr, "  direct lights (frame %lld; %s):\n", static_cast<long long>(lights.frames.first),
+                 how.c_str());
+    for (const std::string& line : describeDirectLights(first, lights.rig))
+      std::fprintf(stderr, "    %s\n", line.c_str());
   } else if (a.light.noDirect) {
     std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
   }

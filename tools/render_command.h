@@ -37,8 +37,8 @@ struct RenderArgs {
   ExrCompression exrCompression = ExrCompression::Zip;
   render::ProbeLookup probeLookup = render::ProbeLookup::PerPixel;  // where receivers interpolate the grid
   Background background = Background::Black;
-  int msaa = 1;  // samples per pixel
-  int supersample = 1;  // rendered supersample x supersample pixels per output pixel, averaged down
+  int msaa = 1;              // samples per pixel
+  int supersample = 1;       // rendered supersample x supersample pixels per output pixel, averaged down
   int shadowMapSize = 1024;  // texels a side of each direct light's shadow map (and cascade)
   GatherOptions gather;      // the bake's rays gathering the direct lights' bounces and the sky detail
   std::string mp4, contactSheet;

@@ -29,9 +29,7 @@ static_assert(sizeof(Batched) == 64);
 constexpr int kWrapShiftS = 8, kWrapShiftT = 10;
 
 // Texture::sample's wrap: 0 REPEAT (any mode it does not name), 1 CLAMP_TO_EDGE, 2 MIRRORED_REPEAT.
-uint32_t wrapKind(int mode) {
-  return mode == Texture::kClampToEdge ? 1u : mode == Texture::kMirroredRepeat ? 2u : 0u;
-}
+uint32_t wrapKind(int mode) { return mode == Texture::kClampToEdge ? 1u : mode == Texture::kMirroredRepeat ? 2u : 0u; }
 
 PRT_AVX512_BEGIN
 #define PRT_TARGET __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inline
@@ -46,8 +44,8 @@ PRT_TARGET __m256i wrap8(__m512d i, __m512d n, __m256i size, __m256i kind) {
   const __m512d clamp = _mm512_min_pd(_mm512_max_pd(i, _mm512_setzero_pd()), _mm512_sub_pd(n, one));
   const __m512d n2 = _mm512_mul_pd(_mm512_set1_pd(2.0), n);
   const __m512d m = _mm512_sub_pd(i, _mm512_mul_pd(n2, floor8(_mm512_div_pd(i, n2))));  // in [0, 2n)
-  const __m512d mirror = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(m, n, _CMP_LT_OQ),
-                                              _mm512_sub_pd(_mm512_sub_pd(n2, one), m), m);
+  const __m512d mirror =
+      _mm512_mask_blend_pd(_mm512_cmp_pd_mask(m, n, _CMP_LT_OQ), _mm512_sub_pd(_mm512_sub_pd(n2, one), m), m);
   __m512d r = _mm512_mask_mov_pd(repeat, _mm256_cmpeq_epi32_mask(kind, _mm256_set1_epi32(1)), clamp);
   r = _mm512_mask_mov_pd(r, _mm256_cmpeq_epi32_mask(kind, _mm256_set1_epi32(2)), mirror);
   const __m256i v = _mm512_cvttpd_epi32(r);
@@ -79,7 +77,6 @@ PRT_TARGET __m512d decode8(__m256i p, int c, __m256i table, const float* levels,
       _mm256_mmask_i32gather_ps(_mm256_setzero_ps(), lanes, _mm256_add_epi32(table, byte), levels, 4));
 }
 
-
 // A batch of eight hits: their instances' lines and flags, and, where the colour varies over
 // the triangle (textured or coloured), the barycentrics and corners.
 struct Lanes {
@@ -95,7 +92,7 @@ struct alignas(64) Staged {
   __m512i texel[4];  // (x0, y0), (x1, y0), (x0, y1), (x1, y1)
   __m512d fx, fy;
   __m256 factor[3], color[3];
-  __m256i table;     // the decode table's offset in levels
+  __m256i table;  // the decode table's offset in levels
   __mmask8 fast, tex, col;
 };
 
@@ -124,8 +121,8 @@ PRT_TARGET Lanes laneLines(const char* lines, const uint32_t* mesh, uint32_t k0,
   l.col = l.fast & _mm256_test_epi32_mask(l.flags, _mm256_set1_epi32(int(AlbedoLookup::kColoured)));
   st.fast = l.fast, st.tex = l.tex, st.col = l.col;
   for (int c = 0; c < 3; ++c)
-    st.factor[c] = _mm256_mmask_i32gather_ps(_mm256_setzero_ps(), l.fast, l.line,
-                                             lines + offsetof(Batched, factor) + 4 * c, 1);
+    st.factor[c] =
+        _mm256_mmask_i32gather_ps(_mm256_setzero_ps(), l.fast, l.line, lines + offsetof(Batched, factor) + 4 * c, 1);
   return l;
 }
 
@@ -310,8 +307,8 @@ AlbedoLookup::AlbedoLookup(const Scene& s) : scene(s) {
   many_ = kernel ? kAlbedoKernels.active().many : nullptr;
 }
 
-void AlbedoLookup::atMany(const uint32_t* mesh, const uint32_t* tri, const float* b1, const float* b2,
-                          uint32_t n, glm::vec3* out) const {
+void AlbedoLookup::atMany(const uint32_t* mesh, const uint32_t* tri, const float* b1, const float* b2, uint32_t n,
+                          glm::vec3* out) const {
   if (many_) {
     many_(*this, batched_.data(), levels_.data(), mesh, tri, b1, b2, n, out);
     return;

@@ -18,8 +18,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
-#include <set>
 #include <mutex>
+#include <set>
 
 #include "checkpoint_log.h"
 #include "prt/atomic_file.h"
@@ -135,7 +135,7 @@ void checkFingerprint(const Fingerprint& now, const Fingerprint& old, const std:
 }
 
 uint64_t fileSizeOf(int fd, const std::string& path) {
-  struct stat st{};
+  struct stat st {};
   if (::fstat(fd, &st) != 0) throw Error(cat(path, ": cannot read checkpoint: ", sysError()));
   return uint64_t(st.st_size);
 }
@@ -159,8 +159,9 @@ void Checkpoint::Impl::openExisting() {
   fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
   if (fd < 0) {
     if (errno == ENOENT)
-      throw Error(cat(path, ": no checkpoint to resume (a bake writes one when interrupted, or every "
-                            "checkpoint interval); start the bake afresh instead of resuming"));
+      throw Error(cat(path,
+                      ": no checkpoint to resume (a bake writes one when interrupted, or every "
+                      "checkpoint interval); start the bake afresh instead of resuming"));
     throw Error(cat(path, ": cannot open checkpoint: ", sysError()));
   }
   const uint64_t fileSize = fileSizeOf(fd, path);
@@ -197,8 +198,9 @@ Checkpoint::Checkpoint(CheckpointOptions options, Fingerprint fingerprint) : imp
     impl_->openExisting();
   } else {
     if (std::filesystem::exists(impl_->opt.path, ec))
-      throw CheckpointExists(cat(impl_->opt.path, ": a checkpoint of an interrupted bake exists; resume it to continue, "
-                                                  "or delete it to start over"));
+      throw CheckpointExists(cat(impl_->opt.path,
+                                 ": a checkpoint of an interrupted bake exists; resume it to continue, "
+                                 "or delete it to start over"));
     AtomicFile probe(impl_->opt.path);  // fail now on an unwritable directory
   }
 }

@@ -125,7 +125,8 @@ Fingerprint readHeader(int fd, const std::string& path, uint64_t& firstRecord) {
 std::vector<std::string> fingerprintDiffs(const Fingerprint& now, const Fingerprint& old) {
   std::vector<std::string> diffs;
   for (const auto& [k, v] : now.entries) {
-    auto it = std::find_if(old.entries.begin(), old.entries.end(), [&key = k](const auto& e) { return e.first == key; });
+    auto it =
+        std::find_if(old.entries.begin(), old.entries.end(), [&key = k](const auto& e) { return e.first == key; });
     if (it == old.entries.end())
       diffs.push_back(cat(k, " missing in the checkpoint"));
     else if (it->second != v)
@@ -160,8 +161,7 @@ Scan scanRecords(int fd, uint64_t pos, uint64_t fileSize) {
 
 std::string readPayload(int fd, const RecordInfo& r, const std::string& path) {
   std::string data(r.size, '\0');
-  if (!readAt(fd, r.offset, data.data(), data.size()))
-    throw Error(cat(path, ": cannot read checkpoint: ", sysError()));
+  if (!readAt(fd, r.offset, data.data(), data.size())) throw Error(cat(path, ": cannot read checkpoint: ", sysError()));
   return data;
 }
 

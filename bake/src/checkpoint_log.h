@@ -36,7 +36,7 @@ inline std::string sysError() { return std::strerror(errno); }
 
 // Buffered appends to a file descriptor, hashing what passes through.
 class FdWriter final : public ByteWriter {
-public:
+ public:
   FdWriter(int fd, uint64_t offset, const std::string& path) : fd_(fd), offset_(offset), path_(path) {
     buf_.reserve(kBuffer);
   }
@@ -75,7 +75,7 @@ public:
       throw Error(cat(path_, ": cannot write checkpoint: ", sysError()));
   }
 
-private:
+ private:
   static constexpr size_t kBuffer = size_t(4) << 20;
   void writeAll(const char* p, size_t n) {
     while (n > 0) {

@@ -1,12 +1,12 @@
 // Direct lights' interreflected light, gathered over the bake's own rays (prt/bake/direct_light.h).
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <tuple>
-#include <atomic>
-#include <chrono>
 
 #include <tbb/parallel_for.h>
 
@@ -86,7 +86,8 @@ struct DirectBounce::Impl {
   // alive with its entry, so its address is not reused): a rig's maps are the same images
   // every frame, only turned. Holds the last call's images only.
   mutable std::mutex filteredMutex;
-  mutable std::map<const ImageRgb*, std::pair<std::shared_ptr<const ImageRgb>, std::shared_ptr<const ImageRgb>>> filtered;
+  mutable std::map<const ImageRgb*, std::pair<std::shared_ptr<const ImageRgb>, std::shared_ptr<const ImageRgb>>>
+      filtered;
   uint64_t rays = 0, hits = 0;
   double seconds = 0.0;
 
@@ -175,8 +176,10 @@ DirectIrradiance DirectBounce::skyDetail(const RigBackground& skyIn, const sh::S
     for (RigBackground::Map& m : sky.maps) {
       auto& [source, f] = kept[m.image.get()];
       if (!f) {
-        if (auto it = b.filtered.find(m.image.get()); it != b.filtered.end()) std::tie(source, f) = it->second;
-        else source = m.image, f = prefiltered(m.image, K);
+        if (auto it = b.filtered.find(m.image.get()); it != b.filtered.end())
+          std::tie(source, f) = it->second;
+        else
+          source = m.image, f = prefiltered(m.image, K);
       }
       m.image = f;
     }
@@ -232,7 +235,8 @@ DirectIrradiance DirectBounce::bounce(const DirectIrradiance& e0) const {
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     if (lay.vertexOffset[k] == SIZE_MAX) continue;
     const size_t n = scene.meshes[k].vertexCount();
-    if (e0.front[k].size() == n) std::copy(e0.front[k].begin(), e0.front[k].end(), prev.begin() + ptrdiff_t(lay.vertexOffset[k]));
+    if (e0.front[k].size() == n)
+      std::copy(e0.front[k].begin(), e0.front[k].end(), prev.begin() + ptrdiff_t(lay.vertexOffset[k]));
     if (lay.backVertexOffset[k] != SIZE_MAX && e0.back[k].size() == n)
       std::copy(e0.back[k].begin(), e0.back[k].end(), prev.begin() + ptrdiff_t(lay.backVertexOffset[k]));
   }

@@ -28,7 +28,8 @@
 namespace prt::bake {
 
 void validate(const ShadowSettings& s) {
-  if (s.samples < 1 || s.samples > 65536) throw Error(cat("shadow samples ", s.samples, ": must be between 1 and 65536"));
+  if (s.samples < 1 || s.samples > 65536)
+    throw Error(cat("shadow samples ", s.samples, ": must be between 1 and 65536"));
   if (s.threads < 0) throw Error(cat("threads ", s.threads, ": must be 0 (all cores) or more"));
 }
 
@@ -51,15 +52,16 @@ struct CapSampler {
     const double cosT = 1.0 - double(sobol0(j, s0)) * oneMinusCos;
     const double sinT = std::sqrt(std::max(0.0, 1.0 - cosT * cosT));
     const double phi = 2.0 * kPiF * double(sobol1(j, s1));
-    return glm::normalize(frame.toWorld(glm::vec3(float(sinT * std::cos(phi)), float(sinT * std::sin(phi)), float(cosT))));
+    return glm::normalize(
+        frame.toWorld(glm::vec3(float(sinT * std::cos(phi)), float(sinT * std::sin(phi)), float(cosT))));
   }
 };
 
 // Σ_k E_k · c_k(n) · visible share at one point (ray origin `origin`, unit normal n); `index`
 // scrambles the strata (a vertex's global number, a query point's).
-glm::dvec3 irradianceAt(const RayScene& rays, const std::vector<CapSampler>& caps, const std::vector<DirectLight>& lights,
-                        const glm::vec3& origin, const glm::vec3& n, size_t index, const ShadowSettings& settings,
-                        float tnear, uint64_t& count) {
+glm::dvec3 irradianceAt(const RayScene& rays, const std::vector<CapSampler>& caps,
+                        const std::vector<DirectLight>& lights, const glm::vec3& origin, const glm::vec3& n,
+                        size_t index, const ShadowSettings& settings, float tnear, uint64_t& count) {
   alignas(64) Ray batch[kStream];
   float weight[kStream];
   glm::dvec3 e(0.0);
@@ -171,7 +173,8 @@ DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const RayScene& ra
 
 std::vector<glm::vec3> shadowedDirectIrradianceAt(const Scene& scene, const std::vector<glm::vec3>& points,
                                                   const std::vector<glm::vec3>& normals,
-                                                  const std::vector<DirectLight>& lights, const ShadowSettings& settings) {
+                                                  const std::vector<DirectLight>& lights,
+                                                  const ShadowSettings& settings) {
   validate(settings);
   if (lights.empty() || points.empty()) return std::vector<glm::vec3>(points.size(), glm::vec3(0.0f));
   return shadowedDirectIrradianceAt(RayScene(scene), points, normals, lights, settings);
@@ -179,7 +182,8 @@ std::vector<glm::vec3> shadowedDirectIrradianceAt(const Scene& scene, const std:
 
 std::vector<glm::vec3> shadowedDirectIrradianceAt(const RayScene& rays, const std::vector<glm::vec3>& points,
                                                   const std::vector<glm::vec3>& normals,
-                                                  const std::vector<DirectLight>& lights, const ShadowSettings& settings) {
+                                                  const std::vector<DirectLight>& lights,
+                                                  const ShadowSettings& settings) {
   validate(settings);
   PRT_CHECK_EQ(points.size(), normals.size());
   const ThreadLimit threadLimit(settings.threads);

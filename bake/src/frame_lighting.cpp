@@ -17,7 +17,8 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
 }
 
 bool sameLights(const std::vector<DirectLight>& x, const std::vector<DirectLight>& y) {
-  return x.size() == y.size() && std::equal(x.begin(), x.end(), y.begin(), [](const DirectLight& p, const DirectLight& q) {
+  return x.size() == y.size() &&
+         std::equal(x.begin(), x.end(), y.begin(), [](const DirectLight& p, const DirectLight& q) {
            return p.direction == q.direction && p.radius == q.radius && p.irradiance == q.irradiance;
          });
 }
@@ -109,8 +110,8 @@ struct FrameLighting::Impl {
     ShadowSettings ss;
     ss.samples = settings.shadowSamples;
     ss.threads = settings.threads;
-    DirectIrradiance lit = traceDirect ? shadowedDirectIrradiance(scene, *rays, l.direct, ss)
-                                       : shadowedDirectIrradiance(scene, {}, ss);
+    DirectIrradiance lit =
+        traceDirect ? shadowedDirectIrradiance(scene, *rays, l.direct, ss) : shadowedDirectIrradiance(scene, {}, ss);
     stats.shadowSeconds += lit.seconds;
     stats.shadowRays += lit.rays;
     DirectIrradiance delta;

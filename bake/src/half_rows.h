@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <vector>
 
-#include <glm/glm.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <glm/glm.hpp>
 
 #include "prt/bake/half.h"
 

@@ -14,9 +14,12 @@ struct KernelTables {
   /// The entry of set k (not Auto).
   const Table& of(Kernels k) const {
     switch (k) {
-      case Kernels::Avx512: return avx512;
-      case Kernels::Avx2: return avx2;
-      default: return portable;
+      case Kernels::Avx512:
+        return avx512;
+      case Kernels::Avx2:
+        return avx2;
+      default:
+        return portable;
     }
   }
   /// The entry of the set in use (activeKernels).

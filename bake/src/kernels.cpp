@@ -46,10 +46,14 @@ Kernels activeKernels() {
 
 const char* kernelsName(Kernels kernels) {
   switch (kernels) {
-    case Kernels::Avx512: return "avx512";
-    case Kernels::Avx2: return "avx2";
-    case Kernels::Portable: return "portable";
-    default: return "auto";
+    case Kernels::Avx512:
+      return "avx512";
+    case Kernels::Avx2:
+      return "avx2";
+    case Kernels::Portable:
+      return "portable";
+    default:
+      return "auto";
   }
 }
 

@@ -103,7 +103,8 @@ uint64_t sceneBytes(const Scene& scene) {
   uint64_t b = 0;
   for (const MeshInstance& m : scene.meshes)
     b += m.positions.capacity() * 12 + m.normals.capacity() * 12 + m.texcoords.capacity() * 8 +
-         m.colors.capacity() * 16 + m.indices.capacity() * 4 + (m.transfer.capacity() + m.transferBack.capacity()) * 12 + 256;
+         m.colors.capacity() * 16 + m.indices.capacity() * 4 +
+         (m.transfer.capacity() + m.transferBack.capacity()) * 12 + 256;
   for (const Texture& t : scene.textures) b += t.texels.capacity() * 16 + t.texels8.capacity() * 4;
   return b;
 }
@@ -153,8 +154,8 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   const uint64_t scratch = 1024 * (pn2 * 4 + 20 + 48 + 32) + 64 * ((3 * pn2 + 7) / 8 * 8) * 4;
   const uint64_t accum = pn2 * pn2 * (8 + 24) + scratch + kProbeChunk * matrix + 8 * kAllocOverhead;
   lattice = points * kProbeSlotBytes + valid * matrix;
-  const uint64_t trace = triangles * kBvhBytesPerTriangle + lattice + threads * accum + kCheckpointBuffers +
-                         points * kProbeTracedBytes;
+  const uint64_t trace =
+      triangles * kBvhBytesPerTriangle + lattice + threads * accum + kCheckpointBuffers + points * kProbeTracedBytes;
   // The assembly copies the valid points' transfer out of the chunks' into the grid's arrays,
   // each allocated once at its size, with a list of the active points (8 bytes each, up to
   // twice that while the list grows).
@@ -220,8 +221,7 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   if (s.refineVertices > 0 && shadowed)
     e.refinePeak = e.scene + original * kLayoutPerVertex + (triangles - 2 * s.refineVertices) * kBvhBytesPerTriangle +
                    vertices * (kRefineBytesPerVertex + kRefinePointsPerVertex * ((uint64_t(s.samples) + 63) / 64 * 8));
-  e.total = e.base +
-            uint64_t(double(std::max({e.surfacePeak, e.probePeak, e.writePeak, e.refinePeak})) * kSlack);
+  e.total = e.base + uint64_t(double(std::max({e.surfacePeak, e.probePeak, e.writePeak, e.refinePeak})) * kSlack);
   return e;
 }
 
@@ -266,12 +266,18 @@ uint64_t parseByteSize(const std::string& text, const std::string& option) {
   if (!unit.empty() && (unit.back() == 'B' || unit.back() == 'b')) unit.pop_back();
   if (unit.size() == 2 && (unit[1] == 'i' || unit[1] == 'I')) unit.pop_back();
   double mult = 1;
-  if (unit.empty()) mult = 1;
-  else if (unit == "k" || unit == "K") mult = 1024.0;
-  else if (unit == "m" || unit == "M") mult = 1024.0 * 1024;
-  else if (unit == "g" || unit == "G") mult = 1024.0 * 1024 * 1024;
-  else if (unit == "t" || unit == "T") mult = 1024.0 * 1024 * 1024 * 1024;
-  else throw bad();
+  if (unit.empty())
+    mult = 1;
+  else if (unit == "k" || unit == "K")
+    mult = 1024.0;
+  else if (unit == "m" || unit == "M")
+    mult = 1024.0 * 1024;
+  else if (unit == "g" || unit == "G")
+    mult = 1024.0 * 1024 * 1024;
+  else if (unit == "t" || unit == "T")
+    mult = 1024.0 * 1024 * 1024 * 1024;
+  else
+    throw bad();
   if (!std::isfinite(v) || v <= 0 || v * mult > 1.8e19) throw bad();
   return uint64_t(v * mult);
 }

@@ -16,8 +16,8 @@
 
 namespace prt::bake {
 
-Fingerprint bakeFingerprint(const Scene& scene, const BakeSettings& s, const RefineSettings& r,
-                            const ProbeSettings* ps, bool probeHalf) {
+Fingerprint bakeFingerprint(const Scene& scene, const BakeSettings& s, const RefineSettings& r, const ProbeSettings* ps,
+                            bool probeHalf) {
   Fingerprint fp;
   fp.add("prt", kVersion);
   addSceneFingerprint(fp, scene);
@@ -102,7 +102,7 @@ Plan planJob(const BakeJob& job, bool writer) {
 // (about 64 a point, on the scene before refinement, whose surfaces refinement keeps) count the
 // points the bake keeps, and that count is checked.
 class MemoryGuard {
-public:
+ public:
   MemoryGuard(const BakeJob& job, const Scene& scene, const BakeSettings& s, const ProbeSettings* ps)
       : names_(job.memoryNames), scene_(scene), s_(s), ps_(ps), limit_(memoryLimit(job.maxMemory)) {
     estimate_ = estimateBakeMemory(scene, s, ps, 0.0);
@@ -124,7 +124,7 @@ public:
   }
   const MemoryEstimate& estimate() const { return estimate_; }
 
-private:
+ private:
   void check() const {
     if (limit_) checkMemory(estimate_, *limit_, scene_, s_, ps_, names_);
   }
@@ -179,8 +179,8 @@ auto savingOnInterrupt(Checkpoint* checkpoint, const std::string& path, bool mpi
   } catch (const Interrupted&) {
     if (!checkpoint) throw;
     if (mpi)
-      throw InterruptedAndSaved(cat("interrupted: checkpoints saved to ", path, ".rank-*-of-", ranks().size(), " (rank ",
-                                ranks().rank(), ": ", checkpoint->progressText(), ")"));
+      throw InterruptedAndSaved(cat("interrupted: checkpoints saved to ", path, ".rank-*-of-", ranks().size(),
+                                    " (rank ", ranks().rank(), ": ", checkpoint->progressText(), ")"));
     throw InterruptedAndSaved(
         cat("interrupted: checkpoint saved to ", checkpoint->path(), " (", checkpoint->progressText(), ")"));
   }
@@ -236,8 +236,8 @@ void writeOutputs(const BakeJob& job, Stages& stages, BakeReport& report) {
   if (refine.tolerance > 0.0)
     record.refinement = {refine.tolerance,       refined.budget,        std::min(refine.samples, s.samples),
                          refined.verticesBefore, refined.verticesAfter, refined.residual};
-  record.backTransfer = std::any_of(scene.meshes.begin(), scene.meshes.end(),
-                                    [](const MeshInstance& m) { return m.hasBackTransfer(); });
+  record.backTransfer =
+      std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& m) { return m.hasBackTransfer(); });
   record.directTransfer = std::any_of(scene.meshes.begin(), scene.meshes.end(),
                                       [](const MeshInstance& m) { return m.hasDirectTransfer(); });
   writeBakedScene(job.scenePath, scene, &record, job.outputs.scene);
@@ -301,8 +301,9 @@ BakeReport runPipeline(const BakeJob& job) {
   }
   if (shard)
     throw BakeRefused(BakeRefused::Reason::ShardsMerged, report.checkpointPath,
-                      cat(report.checkpointPath, ": every stage is merged; write the outputs with the same bake "
-                                                 "resumed, not as a shard"));
+                      cat(report.checkpointPath,
+                          ": every stage is merged; write the outputs with the same bake "
+                          "resumed, not as a shard"));
   report.settings = plan.settings;
   report.surface = stages.surface.stats;
   report.memory = guard.estimate();

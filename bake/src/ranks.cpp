@@ -25,12 +25,12 @@ Ranks gSingle;
 Ranks* gRanks = &gSingle;
 
 class ShardRanks final : public Ranks {
-public:
+ public:
   ShardRanks(int index, int count) : index_(index), count_(count) {}
   int rank() const override { return index_; }
   int size() const override { return count_; }
 
-private:
+ private:
   int index_, count_;
 };
 
@@ -110,7 +110,7 @@ bool preferSharedMemoryOnOneHost() {
 }
 
 class MpiRanks final : public Ranks {
-public:
+ public:
   MpiRanks() : sharedMemory_(preferSharedMemoryOnOneHost()) {
     int provided = 0;
     // Only the thread that runs the stages calls MPI, between stages.
@@ -194,13 +194,15 @@ public:
     await(req, "MPI_Ibarrier");
   }
 
-  uint64_t* chunkCounter(uint32_t slot) override { return counters_ && slot < kCounterSlots ? counters_ + slot : nullptr; }
+  uint64_t* chunkCounter(uint32_t slot) override {
+    return counters_ && slot < kCounterSlots ? counters_ + slot : nullptr;
+  }
 
   std::string transportChoice() const override {
     return sharedMemory_ ? "Open MPI's ob1 over shared memory, chosen for one host" : "";
   }
 
-private:
+ private:
   // The chunk counters (Ranks::chunkCounter), when every rank runs on this host: an MPI-3
   // shared window of kCounterSlots uint64 on rank 0, which every rank maps, zeroed before any
   // rank reads it, open for loads and stores (a passive epoch) until the end. Ranks on several

@@ -48,7 +48,7 @@ struct PartialOccluder {
 struct RayScene::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
-  std::string error;  // first error Embree reported (set by its callback)
+  std::string error;                     // first error Embree reported (set by its callback)
   std::vector<PartialOccluder> partial;  // reserved up front: geometries point into it
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
@@ -88,8 +88,8 @@ void partialOccluderFilter(const RTCFilterFunctionNArguments* args) {
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] != -1) continue;
     const uint32_t tri = RTCHitN_primID(args->hit, args->N, i);
-    const float opacity = opacityAt(*occ.scene, *occ.mesh, tri, RTCHitN_u(args->hit, args->N, i),
-                                    RTCHitN_v(args->hit, args->N, i));
+    const float opacity =
+        opacityAt(*occ.scene, *occ.mesh, tri, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i));
     if (opacity >= 1.0f) continue;
     if (opacity > 0.0f) {
       RTCRayN* ray = args->ray;
@@ -121,15 +121,15 @@ RayScene::RayScene(const Scene& scene, bool includeReceivers) : impl_(std::make_
     const MeshInstance& m = scene.meshes[k];
     if ((m.receiverOnly && !includeReceivers) || m.triangleCount() == 0) continue;
     RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
-        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.vertexCount()));
+    auto* vb = static_cast<float*>(
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.vertexCount()));
     for (size_t i = 0; i < m.vertexCount(); ++i) {
       std::memcpy(vb + 3 * i, &m.positions[i], 3 * sizeof(float));
       lo = glm::min(lo, m.positions[i]);
       hi = glm::max(hi, m.positions[i]);
     }
-    auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
-        g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), m.triangleCount()));
+    auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                              3 * sizeof(uint32_t), m.triangleCount()));
     std::memcpy(ib, m.indices.data(), m.indices.size() * sizeof(uint32_t));
     rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
     if (partial[k]) {
@@ -158,8 +158,7 @@ void RayScene::intersect(Ray* rays, size_t n, bool coherent) const {
     rays[i].mesh = Ray::kInvalid;
     rays[i].inst = Ray::kInvalid;
   }
-  rtcIntersect1M(impl_->scene, &ctx, reinterpret_cast<RTCRayHit*>(rays), static_cast<unsigned>(n),
-                 sizeof(Ray));
+  rtcIntersect1M(impl_->scene, &ctx, reinterpret_cast<RTCRayHit*>(rays), static_cast<unsigned>(n), sizeof(Ray));
 }
 
 void RayScene::intersect8(RayPacket8* packets, size_t n) const {
@@ -181,8 +180,7 @@ void RayScene::occluded(Ray* rays, size_t n, bool coherent) const {
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   ctx.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-  rtcOccluded1M(impl_->scene, &ctx, reinterpret_cast<RTCRay*>(rays), static_cast<unsigned>(n),
-                sizeof(Ray));
+  rtcOccluded1M(impl_->scene, &ctx, reinterpret_cast<RTCRay*>(rays), static_cast<unsigned>(n), sizeof(Ray));
 }
 
 }  // namespace prt::bake

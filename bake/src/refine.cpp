@@ -85,19 +85,19 @@ struct Work {
   MeshInstance* m = nullptr;
   bool twoSided = false;  // both sides are baked (bakesBackSide): both are estimated and scored
   size_t originalVertices = 0;
-  std::vector<glm::vec3> sourceNormals;  // the instance's normals before refinement
-  std::vector<Blend> source;             // per vertex: the original vertices it interpolates
-  std::vector<uint32_t> posId;           // per vertex: its position's id (equal positions, equal ids)
-  std::vector<uint32_t> vertexEstimate;  // per vertex: its slot in the estimates
+  std::vector<glm::vec3> sourceNormals;                 // the instance's normals before refinement
+  std::vector<Blend> source;                            // per vertex: the original vertices it interpolates
+  std::vector<uint32_t> posId;                          // per vertex: its position's id (equal positions, equal ids)
+  std::vector<uint32_t> vertexEstimate;                 // per vertex: its slot in the estimates
   std::unordered_map<uint64_t, uint32_t> edgeEstimate;  // index edge -> slot of its midpoint
   std::map<std::array<uint32_t, 3>, uint32_t> centroidEstimate;  // sorted corners -> slot
   // Rebuilt every round:
   // Position edge -> its triangles (in triangle order) and the number of distinct index edges on
   // it, as flat arrays sorted by edge (a hash map of vectors cost most of refinement in malloc).
-  std::vector<uint64_t> edgeKeys;         // sorted, unique
-  std::vector<uint32_t> edgeBegin;        // edgeKeys.size() + 1 offsets into edgeTriangles
+  std::vector<uint64_t> edgeKeys;   // sorted, unique
+  std::vector<uint32_t> edgeBegin;  // edgeKeys.size() + 1 offsets into edgeTriangles
   std::vector<uint32_t> edgeTriangles;
-  std::vector<uint32_t> edgeIndexEdges;   // per edge: distinct index edges
+  std::vector<uint32_t> edgeIndexEdges;  // per edge: distinct index edges
   size_t edgeSlot(uint64_t pe) const {
     const auto it = std::lower_bound(edgeKeys.begin(), edgeKeys.end(), pe);
     PRT_CHECK(it != edgeKeys.end() && *it == pe);
@@ -203,7 +203,8 @@ struct Candidate {
 
 // Marks `pe` and its closure (the longest edge of every triangle beside a marked edge). Returns
 // the vertices that adds; `undo` collects what was marked.
-uint64_t markWithClosure(const Work& w, uint64_t pe, std::unordered_set<uint64_t>& marked, std::vector<uint64_t>& undo) {
+uint64_t markWithClosure(const Work& w, uint64_t pe, std::unordered_set<uint64_t>& marked,
+                         std::vector<uint64_t>& undo) {
   uint64_t cost = 0;
   std::vector<uint64_t> stack{pe};
   while (!stack.empty()) {
@@ -221,7 +222,8 @@ uint64_t markWithClosure(const Work& w, uint64_t pe, std::unordered_set<uint64_t
 
 // Creates (once per index edge) the midpoint vertex of (a, b), with every attribute
 // interpolated and the midpoint's estimate as its own.
-uint32_t midpointVertex(Work& w, PositionIds& ids, std::unordered_map<uint64_t, uint32_t>& made, uint32_t a, uint32_t b) {
+uint32_t midpointVertex(Work& w, PositionIds& ids, std::unordered_map<uint64_t, uint32_t>& made, uint32_t a,
+                        uint32_t b) {
   const uint64_t key = edgeKey(a, b);
   if (auto it = made.find(key); it != made.end()) return it->second;
   MeshInstance& m = *w.m;
@@ -287,14 +289,21 @@ size_t blockEnd(uint64_t b, size_t n) { return std::min(n, (b + 1) * kShareBlock
 // One refinement: the baked instances being refined, every point estimated so far and the
 // points waiting for their rays. run() repeats candidates → estimates → scores → splits.
 class Refiner {
-public:
+ public:
   Refiner(Scene& scene, const RefineSettings& refine, const BakeSettings& bake, Checkpoint* checkpoint,
           RefineStats& stats)
-      : scene_(scene), refine_(refine), checkpoint_(checkpoint), stats_(stats), threadLimit_(bake.threads),
-        rays_(scene), extent_(rays_.sceneExtent()),
+      : scene_(scene),
+        refine_(refine),
+        checkpoint_(checkpoint),
+        stats_(stats),
+        threadLimit_(bake.threads),
+        rays_(scene),
+        extent_(rays_.sceneExtent()),
         minEdge2_(std::pow(2.0 * kMinEdgeShare * double(extent_), 2.0)),  // children >= kMinEdgeShare
         estimator_(rays_, bake.bands, uint32_t(std::min(refine.samples, bake.samples)), bake.seed, extent_),
-        spread_(ranks()), shared_(spread_.exchanges()), left_(stats.budget) {
+        spread_(ranks()),
+        shared_(spread_.exchanges()),
+        left_(stats.budget) {
     est_.words = (estimator_.samples() + 63) / 64;
   }
 
@@ -319,7 +328,7 @@ public:
     writeFileBlends();
   }
 
-private:
+ private:
   // A new point to estimate, on both sides for a double-sided instance (the back: normal −n,
   // lifted along −n, as the bake's virtual vertices are); returns its front slot.
   uint32_t addPoint(bool twoSided, const Point& p) {
@@ -369,7 +378,8 @@ private:
     } else {
       std::vector<uint8_t> here(blocksOf(todo_.size()), 0);
       forRankShare(spread_.chunkCounter(refineCounterSlot(pass_++)), here.size(), [&](uint64_t b) {
-        for (size_t i = b * kShareBlock; i < blockEnd(b, todo_.size()); ++i) estimator_.trace(todo_[i], est_, todoSlot_[i]);
+        for (size_t i = b * kShareBlock; i < blockEnd(b, todo_.size()); ++i)
+          estimator_.trace(todo_[i], est_, todoSlot_[i]);
         here[b] = 1;
       });
       stopIfInterrupted(checkpoint_);
@@ -573,7 +583,8 @@ private:
     std::vector<uint32_t> indices;
     indices.reserve(m.indices.size() * 2);
     for (size_t t = 0; t < m.triangleCount(); ++t)
-      splitTriangle(w, ids_, marked, made, old, {m.indices[3 * t], m.indices[3 * t + 1], m.indices[3 * t + 2]}, indices);
+      splitTriangle(w, ids_, marked, made, old, {m.indices[3 * t], m.indices[3 * t + 1], m.indices[3 * t + 2]},
+                    indices);
     m.indices = std::move(indices);
     // The split edges' midpoints are vertices now; their halves are new edges.
     for (const auto& [key, v] : made) w.edgeEstimate.erase(key);

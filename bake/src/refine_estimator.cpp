@@ -43,8 +43,14 @@ constexpr int kStream = 256;
 }  // namespace
 
 Estimator::Estimator(const RayScene& rays, int bands, uint32_t samples, uint64_t seed, float extent)
-    : rays_(rays), bands_(bands), n2_(bands * bands), samples_(samples), seed_(seed), extent_(extent),
-      tnear_(tnearFor(extent)), local_(samples) {
+    : rays_(rays),
+      bands_(bands),
+      n2_(bands * bands),
+      samples_(samples),
+      seed_(seed),
+      extent_(extent),
+      tnear_(tnearFor(extent)),
+      local_(samples) {
   const VertexSampler up(glm::vec3(0.0f), glm::vec3(0, 0, 1), seed_, kRefineStream, tnear_);
   Ray ray;
   for (uint32_t j = 0; j < samples_; ++j) {
@@ -115,7 +121,8 @@ uint64_t Estimator::validBits(size_t word, size_t words) const {
 
 // Each point's frame, and unless all points share one normal, the closed-form interpolation
 // error `eu` of t_unoccluded (point 0 against the mean of the others).
-void Estimator::unoccludedError(const Estimates& est, const uint32_t* pts, int n, bool same, Frame* frame, double* eu) const {
+void Estimator::unoccludedError(const Estimates& est, const uint32_t* pts, int n, bool same, Frame* frame,
+                                double* eu) const {
   const double w = 1.0 / (n - 1);
   float y[sh::kMaxBands * sh::kMaxBands];
   for (int c = 0; c < n; ++c) {
@@ -133,7 +140,8 @@ double Estimator::meanSeenShare(const Estimates& est, const uint32_t* pts, int n
   double seen = 0.0;
   for (int c = 0; c < n; ++c) {
     uint64_t b = 0;
-    for (size_t word = 0; word < est.words; ++word) b += uint64_t(std::popcount(est.blocked[pts[c] * est.words + word]));
+    for (size_t word = 0; word < est.words; ++word)
+      b += uint64_t(std::popcount(est.blocked[pts[c] * est.words + word]));
     seen += double(samples_ - b) / samples_;
   }
   return seen / n;
@@ -198,6 +206,5 @@ void Estimator::sumDifferences(const Estimates& est, const uint32_t* pts, int n,
     }
   }
 }
-
 
 }  // namespace prt::bake::refinement

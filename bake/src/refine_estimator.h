@@ -36,7 +36,7 @@ struct Estimates {
 };
 
 class Estimator {
-public:
+ public:
   Estimator(const RayScene& rays, int bands, uint32_t samples, uint64_t seed, float extent);
 
   uint32_t samples() const { return samples_; }
@@ -48,13 +48,13 @@ public:
   // pts[1..n-1] (the corners that interpolate there); n ≤ 4.
   double score(const Estimates& est, const uint32_t* pts, int n) const;
 
-private:
+ private:
   uint64_t validBits(size_t word, size_t words) const;
   void unoccludedError(const Estimates& est, const uint32_t* pts, int n, bool same, Frame* frame, double* eu) const;
   double meanSeenShare(const Estimates& est, const uint32_t* pts, int n) const;
   bool fewerBlocked(const Estimates& est, const uint32_t* pts, int n) const;
-  void sumDifferences(const Estimates& est, const uint32_t* pts, int n, bool same, bool overBlocked,
-                      const Frame* frame, double* sum, double* sum2) const;
+  void sumDifferences(const Estimates& est, const uint32_t* pts, int n, bool same, bool overBlocked, const Frame* frame,
+                      double* sum, double* sum2) const;
 
   const RayScene& rays_;
   int bands_, n2_;

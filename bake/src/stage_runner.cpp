@@ -95,11 +95,11 @@ namespace {
 
 // Appends to a string: what a rank sends.
 class StringWriter final : public ByteWriter {
-public:
+ public:
   explicit StringWriter(std::string& out) : out_(out) {}
   void write(const void* data, size_t bytes) override { out_.append(static_cast<const char*>(data), bytes); }
 
-private:
+ private:
   std::string& out_;
 };
 
@@ -183,8 +183,7 @@ void ChunkedStage::runShared(const ChunkFn& fn, std::atomic<uint64_t>& rays, Pro
     finishChunk(c, outcome.rays, rays);
     const uint64_t taken = std::min<uint64_t>(spec_.items, next.load(std::memory_order_relaxed) * spec_.chunkSize);
     uint64_t before = shown.load();
-    while (before < taken && !shown.compare_exchange_weak(before, taken)) {
-    }
+    while (before < taken && !shown.compare_exchange_weak(before, taken)) {}
     if (before < taken) progress.add(taken - before);
   });
 }

@@ -35,17 +35,17 @@ namespace prt::bake {
 
 /// Caps the TBB threads of all work done while it lives; 0 leaves every core to TBB.
 class ThreadLimit {
-public:
+ public:
   explicit ThreadLimit(int threads);
 
-private:
+ private:
   std::unique_ptr<tbb::global_control> control_;
 };
 
 /// Forgets the checkpoint's stage writers when it goes out of scope: they point into buffers
 /// of the function that owns it, which would dangle once it returns or unwinds.
 class StageRelease {
-public:
+ public:
   explicit StageRelease(Checkpoint* cp) : cp_(cp) {}
   ~StageRelease() {
     if (cp_) cp_->releaseStages();
@@ -53,7 +53,7 @@ public:
   StageRelease(const StageRelease&) = delete;
   StageRelease& operator=(const StageRelease&) = delete;
 
-private:
+ private:
   Checkpoint* cp_;
 };
 
@@ -81,10 +81,10 @@ inline Chunk chunkOf(size_t items, size_t chunkSize, uint64_t index) {
 }
 
 struct StageSpec {
-  uint32_t id = 0;        // checkpoint stage id
-  std::string label;      // names the stage in checkpoint messages: "direct pass"
-  std::string name;       // progress bar and StageStats: "direct", "bounce 1"
-  std::string unit;       // what the items are: "vertices"
+  uint32_t id = 0;    // checkpoint stage id
+  std::string label;  // names the stage in checkpoint messages: "direct pass"
+  std::string name;   // progress bar and StageStats: "direct", "bounce 1"
+  std::string unit;   // what the items are: "vertices"
   size_t items = 0;
   size_t chunkSize = 0;   // items per chunk; the last chunk may hold fewer
   bool progress = false;  // progress bar on stderr
@@ -98,7 +98,7 @@ struct StageSpec {
 
 /// One stage's chunks: which are done, and running the rest.
 class ChunkedStage {
-public:
+ public:
   /// Reads one restored chunk record into the stage's buffers.
   using RestoreFn = std::function<void(const Chunk&, ByteReader&)>;
   /// Writes what other ranks need of a finished chunk.
@@ -146,7 +146,7 @@ public:
   /// are missing. Ends the stage. The seconds and rays (of all ranks) of this run.
   StageStats run(const ChunkFn& fn);
 
-private:
+ private:
   void exchange();
   void runShared(const ChunkFn& fn, std::atomic<uint64_t>& rays, Progress& progress);
   void runAssigned(const ChunkFn& fn, std::atomic<uint64_t>& rays, Progress& progress);

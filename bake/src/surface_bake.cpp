@@ -50,9 +50,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double secondsSince(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
+double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // Rays per Embree stream: enough to amortise the call, small enough to stay in cache.
 constexpr int kStream = 256;
@@ -126,8 +124,8 @@ struct SurfaceBake {
   const Layout& lay;
   int n2;
   size_t values;
-  uint32_t N;          // samples per vertex
-  bool keepHits;       // bounces follow: keep the direct pass's hit records
+  uint32_t N;     // samples per vertex
+  bool keepHits;  // bounces follow: keep the direct pass's hit records
   int bounces;
   uint32_t stageDone;  // checkpoint stage id of the finished surface stage
   std::vector<ChunkHits> chunkHits;
@@ -137,14 +135,22 @@ struct SurfaceBake {
   // t⁰, colourless: values floats (the direct part the files keep apart from the total).
   std::vector<float> direct;
   std::vector<glm::vec3> total, lowerOrder, prev, cur;
-  HalfRows half;                   // prev as halves, during a bounce (half_rows.h)
+  HalfRows half;                    // prev as halves, during a bounce (half_rows.h)
   std::vector<TriCorners> corners;  // per triangle, during the bounces
   uint64_t hitCount = 0;
 
   SurfaceBake(const Scene& sc, const BakeSettings& s, const Layout& l)
-      : scene(sc), settings(s), lay(l), n2(s.bands * s.bands), values(l.vertices * n2), N(uint32_t(s.samples)),
-        keepHits(s.bounces > 0), bounces(keepHits ? s.bounces : 0), stageDone(uint32_t(2 + bounces)),
-        chunkHits(keepHits ? (l.vertices + kChunk - 1) / kChunk : 0), holds(chunkHits.size(), 0) {}
+      : scene(sc),
+        settings(s),
+        lay(l),
+        n2(s.bands * s.bands),
+        values(l.vertices * n2),
+        N(uint32_t(s.samples)),
+        keepHits(s.bounces > 0),
+        bounces(keepHits ? s.bounces : 0),
+        stageDone(uint32_t(2 + bounces)),
+        chunkHits(keepHits ? (l.vertices + kChunk - 1) / kChunk : 0),
+        holds(chunkHits.size(), 0) {}
 
   Chunk chunk(uint64_t c) const { return chunkOf(lay.vertices, kChunk, c); }
   StageSpec spec(uint32_t id, const std::string& label, const std::string& name) const {
@@ -263,7 +269,8 @@ inline RecordWeights weightsOf(const SurfaceBake& b, const AlbedoLookup& albedo,
 }
 
 // Always inlined, as prefetchLines (half_rows.h) says.
-[[gnu::always_inline]] inline void prefetchAhead(const SurfaceBake& b, const HitRecord* hits, uint32_t h, uint32_t end) {
+[[gnu::always_inline]] inline void prefetchAhead(const SurfaceBake& b, const HitRecord* hits, uint32_t h,
+                                                 uint32_t end) {
   if (h + kAheadCorners < end) __builtin_prefetch(&b.corners[hits[h + kAheadCorners].tri]);
   if (h + kAheadRows < end) {
     const TriCorners& c = b.corners[hits[h + kAheadRows].tri];
@@ -305,8 +312,7 @@ void gatherChunkPortable(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk
 
 // With F16C: 8 lanes at a time, K vectors a row; ρ's channels repeat every 3 vectors.
 template <int K>
-__attribute__((target("avx2,f16c"))) void gatherChunkF16c(SurfaceBake& b, const AlbedoLookup& albedo,
-                                                         const Chunk& c) {
+__attribute__((target("avx2,f16c"))) void gatherChunkF16c(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk& c) {
   const int lanes = 3 * b.n2;
   const ChunkHits& ch = b.chunkHits[c.index];
   const HitRecord* hits = ch.hits.data();
@@ -349,13 +355,26 @@ ChunkOutcome gatherChunk(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk
     return {true, 0};
   }
   switch (b.half.stride / 8) {  // 3·n2 lanes padded to whole cache lines: 4 vectors a line
-    case 4: gatherChunkF16c<4>(b, albedo, c); break;
-    case 8: gatherChunkF16c<8>(b, albedo, c); break;
-    case 12: gatherChunkF16c<12>(b, albedo, c); break;
-    case 16: gatherChunkF16c<16>(b, albedo, c); break;
-    case 20: gatherChunkF16c<20>(b, albedo, c); break;
-    case 24: gatherChunkF16c<24>(b, albedo, c); break;
-    default: PRT_CHECK(false);
+    case 4:
+      gatherChunkF16c<4>(b, albedo, c);
+      break;
+    case 8:
+      gatherChunkF16c<8>(b, albedo, c);
+      break;
+    case 12:
+      gatherChunkF16c<12>(b, albedo, c);
+      break;
+    case 16:
+      gatherChunkF16c<16>(b, albedo, c);
+      break;
+    case 20:
+      gatherChunkF16c<20>(b, albedo, c);
+      break;
+    case 24:
+      gatherChunkF16c<24>(b, albedo, c);
+      break;
+    default:
+      PRT_CHECK(false);
   }
   return {true, 0};
 }
@@ -428,8 +447,9 @@ uint32_t restoreSurface(SurfaceBake& b, Checkpoint* cp, ChunkedStage& direct) {
   direct.restore([&](const Chunk& c, ByteReader& r) { readDirectChunk(b, c, r); });
   if (resumeStage != 0) {
     if (direct.chunksLeft() != 0)
-      throw Error(cat(cp->path(), ": corrupt checkpoint (hit records of the direct pass missing); delete it to "
-                                  "start over"));
+      throw Error(cat(cp->path(),
+                      ": corrupt checkpoint (hit records of the direct pass missing); delete it to "
+                      "start over"));
     // Each MPI rank's checkpoint holds its own chunks: the others' transfer comes from them.
     direct.exchangeWith([&b](uint64_t c, ByteWriter& w) { writeDirectChunk(b, b.chunk(c), w, false); },
                         [&b](const Chunk& c, ByteReader& r) { readDirectChunk(b, c, r); });

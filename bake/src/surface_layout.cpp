@@ -34,10 +34,9 @@ Layout makeLayout(const Scene& scene) {
     lay.vertices += m.vertexCount();
     lay.triangles += m.triangleCount();
   }
-  if (lay.triangles >= std::numeric_limits<uint32_t>::max() ||
-      lay.vertices >= std::numeric_limits<uint32_t>::max())
-    throw Error(cat("scene too large: ", lay.triangles, " triangles, ", lay.vertices,
-                    " vertices (at most 2^32 - 1 each)"));
+  if (lay.triangles >= std::numeric_limits<uint32_t>::max() || lay.vertices >= std::numeric_limits<uint32_t>::max())
+    throw Error(
+        cat("scene too large: ", lay.triangles, " triangles, ", lay.vertices, " vertices (at most 2^32 - 1 each)"));
   lay.meshOfVertex.resize(lay.vertices);
   lay.triVerts.resize(lay.triangles * 3);
   lay.meshOfTri.resize(lay.triangles);

@@ -4,10 +4,10 @@
 // bake's own rays and read its hits the same way.
 #pragma once
 
-#include <cstddef>
-#include <cstdint>
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -28,10 +28,7 @@ std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float e
 // The side's normal: a virtual vertex faces away from its vertex's normal.
 glm::vec3 normalOf(const Scene& scene, const Layout& lay, size_t v);
 
-
-inline uint16_t quantise(float b) {
-  return static_cast<uint16_t>(std::lround(std::clamp(b, 0.0f, 1.0f) * 65535.0f));
-}
+inline uint16_t quantise(float b) { return static_cast<uint16_t>(std::lround(std::clamp(b, 0.0f, 1.0f) * 65535.0f)); }
 
 // Hit records of one chunk of vertices, CSR: hits of vertex v are [begin[v], begin[v+1]).
 struct ChunkHits {

@@ -13,7 +13,7 @@
 namespace prt::bake {
 
 class TraceClock {
-public:
+ public:
   template <class F>
   void time(F&& call) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -27,7 +27,7 @@ public:
     return 1e-9 * double(sum);
   }
 
-private:
+ private:
   // One counter a thread, each on its own cache line: a counter shared by every thread moved
   // its line between the cores at every call (a locked add waiting on the other core). Threads
   // outside a TBB arena, or beyond kSlots, share slots; the adds stay atomic, so the sum is right.

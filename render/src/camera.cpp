@@ -108,8 +108,8 @@ CameraView orbitView(const Scene& scene, const OrbitCamera& orbit, double aspect
   const glm::dvec3 back(std::cos(el) * std::sin(az), std::sin(el), std::cos(el) * std::cos(az));
   const glm::dvec3 right = glm::normalize(glm::cross(glm::dvec3(0, 1, 0), back));
   const glm::dvec3 up = glm::cross(back, right);
-  v.cameraToWorld = glm::dmat4(glm::dvec4(right, 0), glm::dvec4(up, 0), glm::dvec4(back, 0),
-                               glm::dvec4(target + distance * back, 1));
+  v.cameraToWorld =
+      glm::dmat4(glm::dvec4(right, 0), glm::dvec4(up, 0), glm::dvec4(back, 0), glm::dvec4(target + distance * back, 1));
   v.znear = std::max(0.5 * (distance - radius), 1e-3 * radius);
   v.zfar = 0.0;
   return v;

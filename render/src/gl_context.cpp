@@ -31,18 +31,22 @@ GlBackend parseGlBackend(const std::string& name) {
   throw Error(cat("unknown GL back end '", name, "' (expected osmesa or egl)"));
 }
 
-const char* glBackendName(GlBackend backend) {
-  return backend == GlBackend::OSMesa ? "osmesa" : "egl";
-}
+const char* glBackendName(GlBackend backend) { return backend == GlBackend::OSMesa ? "osmesa" : "egl"; }
 
 std::string glErrorName(GLenum error) {
   switch (error) {
-    case GL_NO_ERROR: return "GL_NO_ERROR";
-    case GL_INVALID_ENUM: return "GL_INVALID_ENUM";
-    case GL_INVALID_VALUE: return "GL_INVALID_VALUE";
-    case GL_INVALID_OPERATION: return "GL_INVALID_OPERATION";
-    case GL_INVALID_FRAMEBUFFER_OPERATION: return "GL_INVALID_FRAMEBUFFER_OPERATION";
-    case GL_OUT_OF_MEMORY: return "GL_OUT_OF_MEMORY";
+    case GL_NO_ERROR:
+      return "GL_NO_ERROR";
+    case GL_INVALID_ENUM:
+      return "GL_INVALID_ENUM";
+    case GL_INVALID_VALUE:
+      return "GL_INVALID_VALUE";
+    case GL_INVALID_OPERATION:
+      return "GL_INVALID_OPERATION";
+    case GL_INVALID_FRAMEBUFFER_OPERATION:
+      return "GL_INVALID_FRAMEBUFFER_OPERATION";
+    case GL_OUT_OF_MEMORY:
+      return "GL_OUT_OF_MEMORY";
     default: {
       char buf[16];
       std::snprintf(buf, sizeof buf, "0x%04x", error);
@@ -52,8 +56,8 @@ std::string glErrorName(GLenum error) {
 }
 
 void GlFunctions::load(void* (*getProcAddress)(const char*), const char* who) {
-#define PRT_GL_LOAD(type, name)                                                        \
-  name = reinterpret_cast<type>(getProcAddress("gl" #name));                           \
+#define PRT_GL_LOAD(type, name)                              \
+  name = reinterpret_cast<type>(getProcAddress("gl" #name)); \
   if (!name) throw Error(cat(who, ": GL entry point gl" #name " not found"));
   PRT_GL_FUNCTIONS(PRT_GL_LOAD)
 #undef PRT_GL_LOAD
@@ -65,22 +69,38 @@ constexpr int kMajor = 4, kMinor = 5;
 
 const char* eglErrorName(EGLint e) {
   switch (e) {
-    case EGL_SUCCESS: return "EGL_SUCCESS";
-    case EGL_NOT_INITIALIZED: return "EGL_NOT_INITIALIZED";
-    case EGL_BAD_ACCESS: return "EGL_BAD_ACCESS";
-    case EGL_BAD_ALLOC: return "EGL_BAD_ALLOC";
-    case EGL_BAD_ATTRIBUTE: return "EGL_BAD_ATTRIBUTE";
-    case EGL_BAD_CONFIG: return "EGL_BAD_CONFIG";
-    case EGL_BAD_CONTEXT: return "EGL_BAD_CONTEXT";
-    case EGL_BAD_CURRENT_SURFACE: return "EGL_BAD_CURRENT_SURFACE";
-    case EGL_BAD_DISPLAY: return "EGL_BAD_DISPLAY";
-    case EGL_BAD_MATCH: return "EGL_BAD_MATCH";
-    case EGL_BAD_NATIVE_PIXMAP: return "EGL_BAD_NATIVE_PIXMAP";
-    case EGL_BAD_NATIVE_WINDOW: return "EGL_BAD_NATIVE_WINDOW";
-    case EGL_BAD_PARAMETER: return "EGL_BAD_PARAMETER";
-    case EGL_BAD_SURFACE: return "EGL_BAD_SURFACE";
-    case EGL_CONTEXT_LOST: return "EGL_CONTEXT_LOST";
-    default: return "unknown EGL error";
+    case EGL_SUCCESS:
+      return "EGL_SUCCESS";
+    case EGL_NOT_INITIALIZED:
+      return "EGL_NOT_INITIALIZED";
+    case EGL_BAD_ACCESS:
+      return "EGL_BAD_ACCESS";
+    case EGL_BAD_ALLOC:
+      return "EGL_BAD_ALLOC";
+    case EGL_BAD_ATTRIBUTE:
+      return "EGL_BAD_ATTRIBUTE";
+    case EGL_BAD_CONFIG:
+      return "EGL_BAD_CONFIG";
+    case EGL_BAD_CONTEXT:
+      return "EGL_BAD_CONTEXT";
+    case EGL_BAD_CURRENT_SURFACE:
+      return "EGL_BAD_CURRENT_SURFACE";
+    case EGL_BAD_DISPLAY:
+      return "EGL_BAD_DISPLAY";
+    case EGL_BAD_MATCH:
+      return "EGL_BAD_MATCH";
+    case EGL_BAD_NATIVE_PIXMAP:
+      return "EGL_BAD_NATIVE_PIXMAP";
+    case EGL_BAD_NATIVE_WINDOW:
+      return "EGL_BAD_NATIVE_WINDOW";
+    case EGL_BAD_PARAMETER:
+      return "EGL_BAD_PARAMETER";
+    case EGL_BAD_SURFACE:
+      return "EGL_BAD_SURFACE";
+    case EGL_CONTEXT_LOST:
+      return "EGL_CONTEXT_LOST";
+    default:
+      return "unknown EGL error";
   }
 }
 
@@ -172,16 +192,22 @@ struct GlContext::Impl {
 };
 
 void GlContext::Impl::openOSMesa() {
-  const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA,  OSMESA_DEPTH_BITS, 0,
-                         OSMESA_PROFILE, OSMESA_CORE_PROFILE,
-                         OSMESA_CONTEXT_MAJOR_VERSION, kMajor,
-                         OSMESA_CONTEXT_MINOR_VERSION, kMinor, 0};
+  const int attribs[] = {OSMESA_FORMAT,
+                         OSMESA_RGBA,
+                         OSMESA_DEPTH_BITS,
+                         0,
+                         OSMESA_PROFILE,
+                         OSMESA_CORE_PROFILE,
+                         OSMESA_CONTEXT_MAJOR_VERSION,
+                         kMajor,
+                         OSMESA_CONTEXT_MINOR_VERSION,
+                         kMinor,
+                         0};
   osmesa = osmesaApi().createContextAttribs(attribs, nullptr);
   if (!osmesa) throw Error(cat("OSMesa: no OpenGL ", kMajor, ".", kMinor, " core context"));
   platform = "OSMesa";
   makeCurrent();
-  gl.load([](const char* name) { return reinterpret_cast<void*>(osmesaApi().getProcAddress(name)); },
-          "OSMesa");
+  gl.load([](const char* name) { return reinterpret_cast<void*>(osmesaApi().getProcAddress(name)); }, "OSMesa");
   queryAndCheck("OSMesa");
 }
 
@@ -197,8 +223,7 @@ std::string GlContext::Impl::tryEglDisplay(EGLDisplay d, const std::string& wher
   };
   if (!eglBindAPI(EGL_OPENGL_API)) return fail("eglBindAPI(EGL_OPENGL_API) failed");
   const char* ext = eglQueryString(d, EGL_EXTENSIONS);
-  if (!hasExtension(ext, "EGL_KHR_surfaceless_context"))
-    return fail("EGL_KHR_surfaceless_context missing");
+  if (!hasExtension(ext, "EGL_KHR_surfaceless_context")) return fail("EGL_KHR_surfaceless_context missing");
 
   // Without a surface the config only matters for its absence: take EGL_NO_CONFIG_KHR where the
   // display allows it, else any config that can render OpenGL.
@@ -209,14 +234,12 @@ std::string GlContext::Impl::tryEglDisplay(EGLDisplay d, const std::string& wher
     if (!eglChooseConfig(d, want, &config, 1, &n) || n < 1)
       return fail("no config for OpenGL and no EGL_KHR_no_config_context");
   }
-  const EGLint attribs[] = {EGL_CONTEXT_MAJOR_VERSION, kMajor,
-                            EGL_CONTEXT_MINOR_VERSION, kMinor,
-                            EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
-                            EGL_NONE};
+  const EGLint attribs[] = {
+      EGL_CONTEXT_MAJOR_VERSION,           kMajor,  EGL_CONTEXT_MINOR_VERSION, kMinor, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+      EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
   EGLContext c = eglCreateContext(d, config, EGL_NO_CONTEXT, attribs);
   if (c == EGL_NO_CONTEXT)
-    return fail(cat("no OpenGL ", kMajor, ".", kMinor, " core context (",
-                    eglErrorName(eglGetError()), ")"));
+    return fail(cat("no OpenGL ", kMajor, ".", kMinor, " core context (", eglErrorName(eglGetError()), ")"));
   display = d;
   context = c;
   return "";
@@ -253,8 +276,7 @@ void GlContext::Impl::openEgl(EglPlatform want) {
         const char* file = nullptr;
         if (hasExtension(devExt, "EGL_EXT_device_drm_render_node"))
           file = queryDeviceString(dev, EGL_DRM_RENDER_NODE_FILE_EXT);
-        if (!file && hasExtension(devExt, "EGL_EXT_device_drm"))
-          file = queryDeviceString(dev, EGL_DRM_DEVICE_FILE_EXT);
+        if (!file && hasExtension(devExt, "EGL_EXT_device_drm")) file = queryDeviceString(dev, EGL_DRM_DEVICE_FILE_EXT);
         name = file ? file : software ? "software" : "hardware";
         break;
       }
@@ -278,9 +300,8 @@ void GlContext::Impl::openEgl(EglPlatform want) {
     if (!hasExtension(client, "EGL_MESA_platform_surfaceless")) {
       failures.push_back("no display on the surfaceless platform (EGL_MESA_platform_surfaceless missing)");
     } else {
-      std::string why =
-          tryEglDisplay(getPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr),
-                        "surfaceless platform");
+      std::string why = tryEglDisplay(getPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr),
+                                      "surfaceless platform");
       if (why.empty())
         platform = "EGL surfaceless";
       else
@@ -319,10 +340,9 @@ void GlContext::Impl::queryAndCheck(const char* who) {
   gl.GetIntegerv(GL_MINOR_VERSION, &minor);
   gl.GetIntegerv(GL_CONTEXT_PROFILE_MASK, &profile);
   // An empty renderer string is the symptom of GL calls going to the wrong library.
-  if (renderer.empty() || major * 10 + minor < kMajor * 10 + kMinor ||
-      !(profile & GL_CONTEXT_CORE_PROFILE_BIT))
-    throw Error(cat(who, ": context is not OpenGL ", kMajor, ".", kMinor, " core (GL_VERSION '",
-                    version, "', GL_RENDERER '", renderer, "')"));
+  if (renderer.empty() || major * 10 + minor < kMajor * 10 + kMinor || !(profile & GL_CONTEXT_CORE_PROFILE_BIT))
+    throw Error(cat(who, ": context is not OpenGL ", kMajor, ".", kMinor, " core (GL_VERSION '", version,
+                    "', GL_RENDERER '", renderer, "')"));
 }
 
 void GlContext::Impl::close() {
@@ -332,8 +352,7 @@ void GlContext::Impl::close() {
   }
   if (context != EGL_NO_CONTEXT) {
     // Release only our own context: another (possibly OSMesa) context may be current now.
-    if (eglGetCurrentContext() == context)
-      eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    if (eglGetCurrentContext() == context) eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     eglDestroyContext(display, context);
     context = EGL_NO_CONTEXT;
     releaseDisplay(display);
@@ -343,8 +362,7 @@ void GlContext::Impl::close() {
 
 GlContext::GlContext(GlBackend backend, int width, int height, const GlContextOptions& options)
     : impl_(std::make_unique<Impl>()) {
-  if (width <= 0 || height <= 0)
-    throw Error(cat("GL: bad frame size ", width, "x", height));
+  if (width <= 0 || height <= 0) throw Error(cat("GL: bad frame size ", width, "x", height));
   impl_->backend = backend;
   impl_->width = width;
   impl_->height = height;
@@ -377,8 +395,7 @@ int GlContext::maxSamples() const {
 }
 
 std::string GlContext::description() const {
-  return cat(glBackendName(impl_->backend), ": ", impl_->platform, ", ", impl_->renderer, ", ",
-             impl_->version);
+  return cat(glBackendName(impl_->backend), ": ", impl_->platform, ", ", impl_->renderer, ", ", impl_->version);
 }
 
 }  // namespace prt::render

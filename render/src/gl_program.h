@@ -11,12 +11,12 @@ namespace prt::render {
 /// A program and its uniforms' locations (-1 where the program has no such uniform).
 struct Program {
   GlProgram id;
-  GLint viewProj = -1, model = -1, normalMatrix = -1, light = -1, baseColor = -1, origin = -1, spacing = -1,
-        dims = -1, nearZero = -1, alphaCutoff = -1, opacity = -1;
+  GLint viewProj = -1, model = -1, normalMatrix = -1, light = -1, baseColor = -1, origin = -1, spacing = -1, dims = -1,
+        nearZero = -1, alphaCutoff = -1, opacity = -1;
   // DIRECT variants (direct_shading.h)
   GLint directSh = -1, directCount = -1, directDir = -1, directIrradiance = -1, shadowed = -1, cascades = -1,
-        cascadeFar = -1, viewOrigin = -1, viewForward = -1, shadowSize = -1, shadowMatrix = -1,
-        shadowParams = -1, loopStep = -1;
+        cascadeFar = -1, viewOrigin = -1, viewForward = -1, shadowSize = -1, shadowMatrix = -1, shadowParams = -1,
+        loopStep = -1;
 };
 
 /// Throws prt::Error naming `where` if the GL has an error pending.

@@ -14,10 +14,10 @@
 
 #include <algorithm>
 
-#include "direct_shading.h"
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include "direct_shading.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -44,9 +44,7 @@ std::string glslFloat(double v) {
   return buf;
 }
 
-double minSpacing(const ProbeGrid& grid) {
-  return std::min({grid.spacing.x, grid.spacing.y, grid.spacing.z});
-}
+double minSpacing(const ProbeGrid& grid) { return std::min({grid.spacing.x, grid.spacing.y, grid.spacing.z}); }
 
 // ============================================================================================
 // The probeWeights port (shaders/probe_weights.glsl, between BEGIN probeWeights port and END
@@ -150,12 +148,14 @@ std::string probeLookupGlsl(int bands) {
   s += "  int probe[8];\n  float w[8];\n  float fade;\n  float sum = probeWeights(x, n, probe, w, fade);\n";
   for (int i = 0; i < texels; ++i) s += cat("  T[", i, "] = vec4(0.0);\n");
   std::string corner = "  {  // corner C\n    int base = probe[C] * kTexels;\n";
-  for (int i = 0; i < texels; ++i) corner += cat("    T[", i, "] += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
+  for (int i = 0; i < texels; ++i)
+    corner += cat("    T[", i, "] += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
   corner += "  }\n";
   s += perCorner(corner);
   // Beyond the domain (fade > 0) the probes' answer blends into the light: receiverRadiance.
   for (int i = 0; i < texels; ++i)
-    s += cat("  T[", i, "] = sum > 0.0 ? mix(T[", i, "] / sum, uLightPacked[", i, "], fade) : uLightPacked[", i, "];\n");
+    s +=
+        cat("  T[", i, "] = sum > 0.0 ? mix(T[", i, "] / sum, uLightPacked[", i, "], fade) : uLightPacked[", i, "];\n");
   s += "}\n";
   return fillShader(shaders::kProbeLookup, {{"STATIC_TEXELS", cat(kProbeStaticTexels)},
                                             {"TEXELS", cat(texels)},
@@ -195,13 +195,14 @@ std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
   const bool perVertex = lookup == ProbeLookup::PerVertex;
   return fillShader(
       shaders::kReceiverFragment,
-      {{"LOOKUP_DECLARATIONS", perVertex ? cat("const int kTexels = ", radianceTexels(bands),
-                                               ";\ncentroid in vec4 vRadiance[kTexels];\n")
-                                         : probeLookupGlsl(bands)},
+      {{"LOOKUP_DECLARATIONS",
+        perVertex ? cat("const int kTexels = ", radianceTexels(bands), ";\ncentroid in vec4 vRadiance[kTexels];\n")
+                  : probeLookupGlsl(bands)},
        {"IRRADIANCE", irradianceGlsl(bands)},
        {"DIRECT_LIGHTING", directLightingGlsl()},
-       {"RADIANCE", perVertex ? "  vec3 e = irradiance(vRadiance, n);\n"
-                              : "  vec4 T[kTexels];\n  incidentRadiance(vWorld, n, T);\n  vec3 e = irradiance(T, n);\n"}});
+       {"RADIANCE", perVertex
+                        ? "  vec3 e = irradiance(vRadiance, n);\n"
+                        : "  vec4 T[kTexels];\n  incidentRadiance(vWorld, n, T);\n  vec3 e = irradiance(T, n);\n"}});
 }
 
 int radianceTexels(int bands) { return int(3 * irradianceCoefficients(bands).size() + 3) / 4; }
@@ -250,8 +251,7 @@ std::vector<glm::vec4> probeStaticTexels(const ProbeGrid& grid) {
       face[f] = glm::vec2(m.x, float(std::max(double(m.y) - double(m.x) * double(m.x), floor)));
     }
     for (int negY = 0; negY < 2; ++negY)
-      for (int negX = 0; negX < 2; ++negX)
-        t[1 + negX + 2 * negY] = glm::vec4(face[negX], face[2 + negY]);
+      for (int negX = 0; negX < 2; ++negX) t[1 + negX + 2 * negY] = glm::vec4(face[negX], face[2 + negY]);
     t[5] = glm::vec4(face[4], face[5]);
   }
   return out;

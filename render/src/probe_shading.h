@@ -31,7 +31,8 @@ int radianceTexels(int bands);
 void packRadiance(int bands, const std::vector<glm::vec3>& relit, std::vector<glm::vec4>& out);
 
 /// The receivers' shaders (shaders/receiver_*.glsl) for a grid of `bands` bands, to be compiled
-/// through withMaterialDefines (shader_variants.h); uniforms and bindings as set up by Renderer (renderer.cpp). The vertex
+/// through withMaterialDefines (shader_variants.h); uniforms and bindings as set up by Renderer (renderer.cpp). The
+/// vertex
 /// shader moves the rest-pose vertex by uModel / uNormalMatrix and passes vWorld, vNormal and the
 /// material's varyings. ProbeLookup::PerPixel: the fragment shader does the probe lookup at the
 /// interpolated x and n. PerVertex: the vertex shader does it at the vertex and passes the

@@ -107,7 +107,8 @@ void Renderer::Impl::ensureFramebuffer(int width, int height, int samples) {
   if (width <= 0 || height <= 0 || width > maxSize || height > maxSize)
     throw Error(cat("render: frame size ", width, "x", height, " outside 1..", maxSize));
   if (samples < 1 || samples > std::max(maxSamples, 1) || (samples & (samples - 1)) != 0)
-    throw Error(cat("render: ", samples, " samples per pixel; this GL allows 1, 2, 4 ... up to ", std::max(maxSamples, 1)));
+    throw Error(
+        cat("render: ", samples, " samples per pixel; this GL allows 1, 2, 4 ... up to ", std::max(maxSamples, 1)));
   target = Target{};
   Target t;
   t.framebuffer = createFramebuffer(gl);
@@ -222,13 +223,15 @@ FramePlan Renderer::Impl::planFrame(const Frame& frame) {
   if (anyDirect && !instances.empty() && !bakedDirect && !warnedBakedDirect) {
     warnedBakedDirect = true;
     warnings.push_back(cat("the baked scene has no direct part of its transfer (baked by an older prt): its ",
-                           frame.direct.size(), " direct light(s) are lit through SH, without exact shadows; bake "
+                           frame.direct.size(),
+                           " direct light(s) are lit through SH, without exact shadows; bake "
                            "again for them"));
   }
   if (anyDirect && plan.drawReceivers && !grid->hasDirect() && !warnedProbeDirect) {
     warnedProbeDirect = true;
     warnings.push_back(cat("the probe grid has no direct part (baked by an older prt): receivers get the ",
-                           frame.direct.size(), " direct light(s) through SH, without exact shadows; bake the "
+                           frame.direct.size(),
+                           " direct light(s) through SH, without exact shadows; bake the "
                            "probes again for them"));
   }
   stats.directBaked = plan.bakedSplit ? frame.direct.size() : 0;
@@ -360,8 +363,7 @@ bool Renderer::Impl::placeReceiver(const Program& p, const Instance& in, const F
   const glm::dmat3 linear(motion);
   // Cofactor matrix = det · inverse transpose: maps normals, defined even for singular
   // motions; its scale does not matter (the shader normalises), its sign does.
-  glm::dmat3 cof(glm::cross(linear[1], linear[2]), glm::cross(linear[2], linear[0]),
-                 glm::cross(linear[0], linear[1]));
+  glm::dmat3 cof(glm::cross(linear[1], linear[2]), glm::cross(linear[2], linear[0]), glm::cross(linear[0], linear[1]));
   const bool mirrored = glm::determinant(linear) < 0.0;
   if (mirrored) cof = -cof;
   const glm::mat4 model(motion);

@@ -63,8 +63,8 @@ struct Renderer::Impl {
     bool hasColor = false;
     bool doubleSided = false;
     float alphaCutoff = 0.5f, opacity = 1.0f;  // MASK's cutoff; 1 − transmissionFactor
-    bool blend = false;  // drawn blended after the opaque pass (BLEND or transmission)
-    int variant = 0;     // kVariantTexture | kVariantColor | ...: the shader variant it is drawn with
+    bool blend = false;                        // drawn blended after the opaque pass (BLEND or transmission)
+    int variant = 0;         // kVariantTexture | kVariantColor | ...: the shader variant it is drawn with
     MeshInstance placement;  // receivers: node and rest world only (no vertices), for the motion
   };
   /// The probe grid's buffers, each read through a buffer texture: lattice index, static
@@ -103,14 +103,14 @@ struct Renderer::Impl {
   glm::vec3 boundsMin{0.0f}, boundsMax{0.0f};
   std::vector<Instance> instances;  // baked
   std::vector<Instance> receivers;
-  SceneAnimation animation;       // moves the receivers
+  SceneAnimation animation;         // moves the receivers
   std::vector<GlTexture> textures;  // per Scene texture, none where unused
   // Per material variant (id 0: no instance needs it).
   std::array<Program, kVariants> programs;
   std::array<std::array<Program, kVariants>, 2> receiverPrograms;  // [ProbeLookup][variant]
   Program flatProgram, depthProgram;
   std::array<Program, kVariants> cutoutDepthPrograms;  // by material variant, linked on first use
-  bool bakedDirect = false;  // every baked instance holds the direct part of its transfer
+  bool bakedDirect = false;                            // every baked instance holds the direct part of its transfer
   ShadowMaps shadowMaps;
   bool warnedBakedDirect = false, warnedProbeDirect = false;
   const ProbeGrid* grid = nullptr;
@@ -142,8 +142,7 @@ struct Renderer::Impl {
                                GLint wrapS, GLint wrapT) const;
   void uploadProbes(const ProbeGrid& grid);
   void releaseProbes();
-  void uploadBounce(const std::vector<std::vector<glm::vec3>>* front,
-                    const std::vector<std::vector<glm::vec3>>* back);
+  void uploadBounce(const std::vector<std::vector<glm::vec3>>* front, const std::vector<std::vector<glm::vec3>>* back);
 
   // The frame's passes (renderer.cpp).
   FramePlan planFrame(const Frame& frame);

@@ -160,8 +160,7 @@ void Renderer::Impl::upload(const Scene& scene) {
     else
       uploadBaked(scene, m, maxSsbo);
   }
-  if (instances.empty() && receivers.empty())
-    throw Error(cat(scene.path, ": no baked instance or receiver to render"));
+  if (instances.empty() && receivers.empty()) throw Error(cat(scene.path, ": no baked instance or receiver to render"));
 }
 
 // A receiver, drawn from the probe grid: positions, normals, texcoords, colours; no transfer.
@@ -234,7 +233,8 @@ void Renderer::Impl::releaseProbes() {
 }
 
 void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
-  if (g.bands < 1 || g.bands > sh::kMaxBands) throw Error(cat("probe grid: ", g.bands, " bands, expected 1..", sh::kMaxBands));
+  if (g.bands < 1 || g.bands > sh::kMaxBands)
+    throw Error(cat("probe grid: ", g.bands, " bands, expected 1..", sh::kMaxBands));
   if (g.dims.x < 1 || g.dims.y < 1 || g.dims.z < 1)
     throw Error(cat("probe grid: dims ", g.dims.x, "x", g.dims.y, "x", g.dims.z, ", expected at least 1 per axis"));
   if (g.transfer.size() != g.probeCount() * g.transferStride() || g.validity.size() != g.probeCount() ||
@@ -258,7 +258,8 @@ void Renderer::Impl::uploadProbes(const ProbeGrid& g) {
   probes.lattice = storeBuffer(gl, lattice);
   probes.statics = storeBuffer(gl, statics);
   probes.radiance = createBuffer(gl);
-  gl.NamedBufferStorage(probes.radiance, GLsizeiptr(radianceCount * sizeof(glm::vec4)), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  gl.NamedBufferStorage(probes.radiance, GLsizeiptr(radianceCount * sizeof(glm::vec4)), nullptr,
+                        GL_DYNAMIC_STORAGE_BIT);
   auto bufferTexture = [&](GLenum format, GLuint buffer) {
     GlTexture t = createTexture(gl, GL_TEXTURE_BUFFER);
     gl.TextureBuffer(t, format, buffer);
@@ -285,8 +286,9 @@ void Renderer::Impl::uploadBounce(const std::vector<std::vector<glm::vec3>>* fro
       const std::vector<glm::vec3>* v = &zeros;
       if (given) {
         if (given->size() <= in.mesh || (*given)[in.mesh].size() != in.vertices)
-          throw Error(cat("render: the direct lights' bounce holds ", given->size() > in.mesh ? (*given)[in.mesh].size() : 0,
-                          " values for instance ", in.mesh, (side ? " (back side)" : ""), ", expected ", in.vertices));
+          throw Error(cat("render: the direct lights' bounce holds ",
+                          given->size() > in.mesh ? (*given)[in.mesh].size() : 0, " values for instance ", in.mesh,
+                          (side ? " (back side)" : ""), ", expected ", in.vertices));
         v = &(*given)[in.mesh];
       }
       if (!v->empty()) gl.NamedBufferSubData(buffer, 0, GLsizeiptr(v->size() * sizeof(glm::vec3)), v->data());

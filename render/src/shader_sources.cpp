@@ -23,7 +23,8 @@ std::string fillShader(std::string_view source, std::initializer_list<ShaderValu
     const auto value = std::find_if(values.begin(), values.end(), [&](const ShaderValue& v) { return v.name == name; });
     PRT_CHECK(value != values.end());  // a placeholder without a value
     used[size_t(value - values.begin())] = true;
-    const bool block = (open == 0 || source[open - 1] == '\n') && close + 1 < source.size() && source[close + 1] == '\n';
+    const bool block =
+        (open == 0 || source[open - 1] == '\n') && close + 1 < source.size() && source[close + 1] == '\n';
     out.append(source.substr(at, open - at));
     out += value->text;
     at = close + (block ? 2 : 1);
@@ -69,9 +70,9 @@ std::string bakedVertexShader(int bands) {
   const std::string transfer = bands <= kMaxAttributeBands
                                    ? transferAttributes(bands)
                                    : fillShader(shaders::kTransferStorage, {{"COEFFS", cat(bands * bands)}});
-  return fillShader(shaders::kBakedVertex, {{"COEFFS", cat(bands * bands)},
-                                            {"NORMAL_ATTRIBUTE", cat(kNormalAttribute)},
-                                            {"TRANSFER", transfer}});
+  return fillShader(
+      shaders::kBakedVertex,
+      {{"COEFFS", cat(bands * bands)}, {"NORMAL_ATTRIBUTE", cat(kNormalAttribute)}, {"TRANSFER", transfer}});
 }
 
 std::string bakedFragmentShader() {

@@ -17,7 +17,8 @@ namespace prt::render {
 constexpr int kVariantTexture = 1, kVariantColor = 2, kVariantMask = 4, kVariantBlend = 8, kVariantTwoSided = 16,
               kVariantDirect = 32, kVariantTransmission = 64, kVariants = 128;
 /// The bits a shadow caster's material needs (the cutout depth programs).
-constexpr int kVariantMaterialBits = kVariantTexture | kVariantColor | kVariantMask | kVariantBlend | kVariantTransmission;
+constexpr int kVariantMaterialBits =
+    kVariantTexture | kVariantColor | kVariantMask | kVariantBlend | kVariantTransmission;
 
 /// `source` (starting with its #version line) with HAS_TEXTURE / HAS_COLOR / HAS_MASK /
 /// HAS_BLEND / TWO_SIDED / DIRECT / HAS_TRANSMISSION_TEXTURE (and HAS_TEXCOORD where a texture

@@ -33,8 +33,8 @@ using Box = std::array<glm::dvec3, 8>;
 
 // The view depths where the cascades begin and end (one cascade: {nearest, farthest}); sets
 // plan.cascades and plan.cascadeFar.
-std::vector<double> cascadeSplits(const CameraView& camera, const Box& box, double diag, int heightPixels,
-                                  int mapSize, int maxCascades, ShadowPlan& plan) {
+std::vector<double> cascadeSplits(const CameraView& camera, const Box& box, double diag, int heightPixels, int mapSize,
+                                  int maxCascades, ShadowPlan& plan) {
   // View depths the casters' box spans.
   double dNear = 1e300, dFar = -1e300;
   for (const glm::dvec3& c : box) {
@@ -60,7 +60,8 @@ std::vector<double> cascadeSplits(const CameraView& camera, const Box& box, doub
       splits.assign(size_t(n) + 1, 0.0);
       for (int i = 0; i <= n; ++i) {
         const double f = double(i) / n;
-        splits[size_t(i)] = 0.75 * nearest * std::pow(farthest / nearest, f) + 0.25 * (nearest + (farthest - nearest) * f);
+        splits[size_t(i)] =
+            0.75 * nearest * std::pow(farthest / nearest, f) + 0.25 * (nearest + (farthest - nearest) * f);
       }
     }
   }
@@ -152,7 +153,8 @@ ShadowPlan planShadows(const std::vector<DirectLight>& lights, const CameraView&
   plan.viewOrigin = glm::dvec3(camera.cameraToWorld[3]);
   plan.viewForward = -glm::normalize(glm::dvec3(camera.cameraToWorld[2]));
   Box box;
-  for (int i = 0; i < 8; ++i) box[size_t(i)] = glm::dvec3(i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z);
+  for (int i = 0; i < 8; ++i)
+    box[size_t(i)] = glm::dvec3(i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z);
   const double diag = std::max(glm::length(hi - lo), 1e-6);
   const std::vector<double> splits = cascadeSplits(camera, box, diag, heightPixels, mapSize, maxCascades, plan);
   for (const DirectLight& light : lights) {
@@ -307,8 +309,8 @@ void Renderer::Impl::drawShadows(const Frame& frame, const FramePlan& plan) {
     std::vector<glm::dmat4> motions;
     shadowCasterBounds(frame, plan.drawReceivers, lo, hi, motions);
     const double aspect = double(plan.width) / plan.height;
-    shadows = planShadows(frame.direct, frame.camera, aspect, plan.height, lo, hi, settings.mapSize,
-                          settings.maxCascades);
+    shadows =
+        planShadows(frame.direct, frame.camera, aspect, plan.height, lo, hi, settings.mapSize, settings.maxCascades);
     drawShadowMaps(shadows, motions, plan.drawReceivers, settings.mapSize);
     stats.shadowMaps = int(shadows.layers.size());
     stats.cascades = shadows.cascades;

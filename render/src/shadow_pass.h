@@ -36,7 +36,7 @@ struct ShadowPlan {
 /// every caster of [lo, hi] in depth; in x and y the part of that box the view sees, split
 /// into cascades over view depth when one map's texel would be coarser than two pixels at the
 /// nearest visible depth (perspective cameras only). `mapSize` texels a side.
-ShadowPlan planShadows(const std::vector<DirectLight>& lights, const CameraView& camera, double aspect, int heightPixels,
-                       const glm::dvec3& lo, const glm::dvec3& hi, int mapSize, int maxCascades);
+ShadowPlan planShadows(const std::vector<DirectLight>& lights, const CameraView& camera, double aspect,
+                       int heightPixels, const glm::dvec3& lo, const glm::dvec3& hi, int mapSize, int maxCascades);
 
 }  // namespace prt::render

@@ -14,7 +14,7 @@
 namespace prt::fuzz {
 
 class MemoryFile {
-public:
+ public:
   explicit MemoryFile(const char* name) : fd_(memfd_create(name, 0)) {
     if (fd_ < 0) std::abort();
     path_ = "/proc/self/fd/" + std::to_string(fd_);
@@ -34,7 +34,7 @@ public:
     return path_;
   }
 
-private:
+ private:
   int fd_;
   std::string path_;
 };

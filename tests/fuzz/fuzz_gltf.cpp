@@ -17,7 +17,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     for (const prt::MeshInstance& m : scene.meshes)
       for (uint32_t i : m.indices)
         if (i >= m.vertexCount()) __builtin_trap();
-  } catch (const prt::Error&) {
-  }
+  } catch (const prt::Error&) {}
   return 0;
 }

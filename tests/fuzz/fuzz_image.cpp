@@ -14,7 +14,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (image.pixels.size() != size_t(image.width) * size_t(image.height)) __builtin_trap();
     for (const auto& p : image.pixels)
       if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) __builtin_trap();
-  } catch (const prt::Error&) {
-  }
+  } catch (const prt::Error&) {}
   return 0;
 }

@@ -31,7 +31,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (grid.transfer.size() != grid.probeCount() * grid.transferStride()) __builtin_trap();
     for (size_t p = 0; p < grid.probeCount(); ++p)
       if (grid.find(grid.coord[p]) != int(p)) __builtin_trap();
-  } catch (const prt::Error&) {
-  }
+  } catch (const prt::Error&) {}
   return 0;
 }

@@ -59,7 +59,6 @@ struct PackingTable {
 };
 constexpr PackingTable kPacking{};
 
-
 // A lane mask's sign bits, lane l at bit l.
 __attribute__((target("avx2"), always_inline)) inline uint32_t laneBits(__m256i m) {
   return uint32_t(_mm256_movemask_ps(_mm256_castsi256_ps(m)));
@@ -71,10 +70,10 @@ __attribute__((target("avx2"), always_inline)) inline void packLanes(void* to, _
 // The classification of `packets` whole packets with AVX2: what a packet hit, its counts and its
 // lit-hit entries eight lanes at once; its moments lane by lane, as the portable loop adds them
 // (so the same bits). The lit hits' corners are left to classifyRest to prefetch.
-__attribute__((target("avx2"))) void classifyAvx2(const RayPacket8* batch, uint32_t packets,
-                                                  const uint32_t* meshFlags, uint32_t yBase, uint32_t n2, double cap,
-                                                  StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes,
-                                                  ProbeAccum& acc, StreamTally& t) {
+__attribute__((target("avx2"))) void classifyAvx2(const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags,
+                                                  uint32_t yBase, uint32_t n2, double cap, StreamRows& rows,
+                                                  uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc,
+                                                  StreamTally& t) {
   const __m256i ones = _mm256_set1_epi32(-1), zero = _mm256_setzero_si256();
   const __m256i invalid = _mm256_set1_epi32(int(Ray::kInvalid)), lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i twoSidedBit = _mm256_set1_epi32(kTwoSided), litBit = _mm256_set1_epi32(kLit);
@@ -85,13 +84,11 @@ __attribute__((target("avx2"))) void classifyAvx2(const RayPacket8* batch, uint3
     const RayPacket8& r = batch[p];
     const __m256i mesh = _mm256_load_si256(reinterpret_cast<const __m256i*>(r.mesh));
     const __m256i hit = _mm256_xor_si256(_mm256_cmpeq_epi32(mesh, invalid), ones);
-    const __m256i flags =
-        _mm256_mask_i32gather_epi32(zero, reinterpret_cast<const int*>(meshFlags), mesh, hit, 4);
+    const __m256i flags = _mm256_mask_i32gather_epi32(zero, reinterpret_cast<const int*>(meshFlags), mesh, hit, 4);
     // Ray::backface: ng · d > 0, as glm::dot: (x·x' + y·y') + z·z', each rounded (no FMA here).
-    const __m256 dot = _mm256_add_ps(
-        _mm256_add_ps(_mm256_mul_ps(_mm256_load_ps(r.ngX), _mm256_load_ps(r.dirX)),
-                      _mm256_mul_ps(_mm256_load_ps(r.ngY), _mm256_load_ps(r.dirY))),
-        _mm256_mul_ps(_mm256_load_ps(r.ngZ), _mm256_load_ps(r.dirZ)));
+    const __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_load_ps(r.ngX), _mm256_load_ps(r.dirX)),
+                                                   _mm256_mul_ps(_mm256_load_ps(r.ngY), _mm256_load_ps(r.dirY))),
+                                     _mm256_mul_ps(_mm256_load_ps(r.ngZ), _mm256_load_ps(r.dirZ)));
     const __m256i backside = _mm256_castps_si256(_mm256_cmp_ps(dot, _mm256_setzero_ps(), _CMP_GT_OQ));
     const __m256i oneSided = _mm256_cmpeq_epi32(_mm256_and_si256(flags, twoSidedBit), zero);
     const __m256i back = _mm256_and_si256(backside, oneSided);
@@ -163,8 +160,8 @@ struct PacketTally {
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inline PacketTally startTally() {
   return {{}, _mm256_set1_ps(std::numeric_limits<float>::infinity())};
 }
-__attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inline void addToTally(PacketTally& a,
-                                                                                                  const PacketHits& h) {
+__attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inline void addToTally(
+    PacketTally& a, const PacketHits& h) {
   a.t.backs += uint32_t(__builtin_popcount(__mmask8(h.backside & ~h.twoSided)));
   a.t.backsTwoSided += uint32_t(__builtin_popcount(__mmask8(h.backside & h.twoSided)));
   a.t.escapes += uint32_t(__builtin_popcount(__mmask8(~h.hit)));
@@ -181,8 +178,8 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inl
 
 // The counts alone (the inside test) of `packets` whole packets, with AVX-512: the same as tallyLanes'.
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) StreamTally tallyAvx512(const RayPacket8* batch,
-                                                                                    uint32_t packets,
-                                                                                    const uint32_t* meshFlags) {
+                                                                                      uint32_t packets,
+                                                                                      const uint32_t* meshFlags) {
   PacketTally a = startTally();
   for (uint32_t p = 0; p < packets; ++p) addToTally(a, packetHitsAvx512(batch[p], meshFlags));
   return finishTally(a);
@@ -193,8 +190,9 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) StreamTally tallyA
 // face and lane's sums in the same order, the multiplies and adds rounded one by one as the
 // portable loop's).
 __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx512(
-    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags, const uint32_t* const* corners, uint32_t yBase,
-    uint32_t n2, double cap, StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc, StreamTally& t) {
+    const RayPacket8* batch, uint32_t packets, const uint32_t* meshFlags, const uint32_t* const* corners,
+    uint32_t yBase, uint32_t n2, double cap, StreamRows& rows, uint32_t& nLit, int32_t* escapedLanes, ProbeAccum& acc,
+    StreamTally& t) {
   constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;  // explicit: never contracted into FMAs
   // Each face's sums of the eight lanes, in registers over the stream.
   __m512d sumD[6], sumD2[6];
@@ -240,8 +238,8 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"))) void classifyAvx51
     const __mmask8 onZ = __mmask8(~(onX | onY));
     const __mmask8 posX = _mm256_cmp_ps_mask(dx, zero, _CMP_GE_OQ), posY = _mm256_cmp_ps_mask(dy, zero, _CMP_GE_OQ),
                    posZ = _mm256_cmp_ps_mask(dz, zero, _CMP_GE_OQ);
-    const __mmask8 face[6] = {__mmask8(onX & posX), __mmask8(onX & ~posX), __mmask8(onY & posY),
-                              __mmask8(onY & ~posY), __mmask8(onZ & posZ), __mmask8(onZ & ~posZ)};
+    const __mmask8 face[6] = {__mmask8(onX & posX),  __mmask8(onX & ~posX), __mmask8(onY & posY),
+                              __mmask8(onY & ~posY), __mmask8(onZ & posZ),  __mmask8(onZ & ~posZ)};
     const __m256 a = _mm256_mask_blend_ps(onX, _mm256_mask_blend_ps(onY, az, ay), ax);
     // Depth along the face's axis, capped; float × float is exact in double.
     const __m512d d = _mm512_min_pd(_mm512_mul_round_pd(_mm512_cvtps_pd(tfar), _mm512_cvtps_pd(a), kRound), capV);
@@ -327,8 +325,8 @@ void classifyStreamAvx2(const RayPacket8* batch, uint32_t count, const Classific
 }
 
 void classifyStreamAvx512(const RayPacket8* batch, uint32_t count, const Classification& c, StreamTally& t) {
-  classifyAvx512(batch, count / 8, c.meshFlags, c.corners, c.yBase, c.n2, c.cap, c.rows, c.nLit, c.escapedLanes,
-                 c.acc, t);
+  classifyAvx512(batch, count / 8, c.meshFlags, c.corners, c.yBase, c.n2, c.cap, c.rows, c.nLit, c.escapedLanes, c.acc,
+                 t);
   classifyRest(batch, count / 8, count, c, t, c.nLit);  // the kernel fetched its own hits' corners
 }
 
@@ -348,8 +346,7 @@ StreamTally tallyStreamAvx512(const RayPacket8* batch, uint32_t count, const uin
 
 }  // namespace
 
-const KernelTables<ClassifyKernels> kClassifyKernels{{classifyPortable, tallyPortable},
-                                                     {classifyStreamAvx2, tallyPortable},
-                                                     {classifyStreamAvx512, tallyStreamAvx512}};
+const KernelTables<ClassifyKernels> kClassifyKernels{
+    {classifyPortable, tallyPortable}, {classifyStreamAvx2, tallyPortable}, {classifyStreamAvx512, tallyStreamAvx512}};
 
 }  // namespace prt::bake::probe

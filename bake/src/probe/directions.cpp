@@ -5,9 +5,9 @@
 
 #include <immintrin.h>
 
+#include "probe_types.h"
 #include "prt/bake/sampling.h"
 #include "prt/error.h"
-#include "probe_types.h"
 
 namespace prt::bake::probe {
 
@@ -24,8 +24,8 @@ void sphereDirectionsPortable(const uint32_t* bx, const uint32_t* by, uint32_t n
   }
 }
 
-__attribute__((target("avx2"))) void sphereDirectionsAvx2(const uint32_t* bx, const uint32_t* by, uint32_t n,
-                                                          float* dx, float* dy, float* dz) {
+__attribute__((target("avx2"))) void sphereDirectionsAvx2(const uint32_t* bx, const uint32_t* by, uint32_t n, float* dx,
+                                                          float* dy, float* dz) {
   const __m256 one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f), zero = _mm256_setzero_ps();
   const __m256 half = _mm256_set1_ps(0.5f), unit = _mm256_set1_ps(0x1p-24f);
   const __m256 angle = _mm256_set1_ps(0x1p-22f * 0.5f * kPiF);
@@ -41,12 +41,13 @@ __attribute__((target("avx2"))) void sphereDirectionsAvx2(const uint32_t* bx, co
     const __m256i q = _mm256_srli_epi32(_mm256_add_epi32(iy, _mm256_set1_epi32(1 << 21)), 22);
     const __m256 a = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(iy, _mm256_slli_epi32(q, 22))), angle);
     const __m256 a2 = _mm256_mul_ps(a, a);
-    const __m256 sn = _mm256_add_ps(
-        a, _mm256_mul_ps(_mm256_mul_ps(a, a2),
-                         _mm256_add_ps(s1, _mm256_mul_ps(a2, _mm256_add_ps(s2, _mm256_mul_ps(a2, s3))))));
-    const __m256 cs = _mm256_add_ps(
-        _mm256_sub_ps(one, _mm256_mul_ps(half, a2)),
-        _mm256_mul_ps(_mm256_mul_ps(a2, a2), _mm256_add_ps(c1, _mm256_mul_ps(a2, _mm256_add_ps(c2, _mm256_mul_ps(a2, c3))))));
+    const __m256 sn =
+        _mm256_add_ps(a, _mm256_mul_ps(_mm256_mul_ps(a, a2),
+                                       _mm256_add_ps(s1, _mm256_mul_ps(a2, _mm256_add_ps(s2, _mm256_mul_ps(a2, s3))))));
+    const __m256 cs =
+        _mm256_add_ps(_mm256_sub_ps(one, _mm256_mul_ps(half, a2)),
+                      _mm256_mul_ps(_mm256_mul_ps(a2, a2),
+                                    _mm256_add_ps(c1, _mm256_mul_ps(a2, _mm256_add_ps(c2, _mm256_mul_ps(a2, c3))))));
     // Quarter turn k: (cos, sin) → k 0: (c, s), 1: (−s, c), 2: (−c, −s), 3: (s, −c).
     const __m256i k = _mm256_and_si256(q, _mm256_set1_epi32(3));
     const __m256 odd = _mm256_castsi256_ps(_mm256_slli_epi32(k, 31));  // k = 1, 3: swap
@@ -66,8 +67,8 @@ __attribute__((target("avx2"))) void sphereDirectionsAvx2(const uint32_t* bx, co
 // multiply-add), so the same bits.
 PRT_AVX512_BEGIN
 __attribute__((target("avx512f,avx512dq"))) void sphereDirectionsAvx512(const uint32_t* px, const uint32_t* py,
-                                                                       uint32_t kx, uint32_t ky, uint32_t n,
-                                                                       float* dx, float* dy, float* dz) {
+                                                                        uint32_t kx, uint32_t ky, uint32_t n, float* dx,
+                                                                        float* dy, float* dz) {
   constexpr int kRound = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;
 #define MUL(a, b) _mm512_mul_round_ps(a, b, kRound)
 #define ADD(a, b) _mm512_add_round_ps(a, b, kRound)

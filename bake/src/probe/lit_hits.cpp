@@ -51,7 +51,7 @@ void litLightsPortable(const LitHits& in, uint32_t h0, uint32_t n, float* g, int
 // over a row's vectors unrolls and ρ's permutation for each is a register; 0 reads it from ldg.
 template <int K>
 __attribute__((target("avx2,f16c,fma"))) void litLightsF16c(const LitHits& in, uint32_t h0, uint32_t n, float* g,
-                                                           int ldg) {
+                                                            int ldg) {
   const int vectors = K ? K : ldg / 8;
   // ρ's channels in the lanes of vectors k % 3 = 0, 1, 2 (lane i of vector k is channel (8k + i) % 3).
   const __m256i order[3] = {_mm256_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1), _mm256_setr_epi32(2, 0, 1, 2, 0, 1, 2, 0),
@@ -139,11 +139,20 @@ PRT_AVX512_END
 // litLightsF16c with K known for one to four bands.
 void litLightsAvx2(const LitHits& in, uint32_t h0, uint32_t n, float* g, int ldg) {
   switch (ldg / 8) {
-    case 1: litLightsF16c<1>(in, h0, n, g, ldg); break;
-    case 2: litLightsF16c<2>(in, h0, n, g, ldg); break;
-    case 4: litLightsF16c<4>(in, h0, n, g, ldg); break;
-    case 6: litLightsF16c<6>(in, h0, n, g, ldg); break;
-    default: litLightsF16c<0>(in, h0, n, g, ldg);
+    case 1:
+      litLightsF16c<1>(in, h0, n, g, ldg);
+      break;
+    case 2:
+      litLightsF16c<2>(in, h0, n, g, ldg);
+      break;
+    case 4:
+      litLightsF16c<4>(in, h0, n, g, ldg);
+      break;
+    case 6:
+      litLightsF16c<6>(in, h0, n, g, ldg);
+      break;
+    default:
+      litLightsF16c<0>(in, h0, n, g, ldg);
   }
 }
 
@@ -151,9 +160,12 @@ void litLightsAvx2(const LitHits& in, uint32_t h0, uint32_t n, float* g, int ldg
 void litListedAvx512For(const LitHits& in, uint32_t h0, uint32_t n, int n2, bool rho, double* c) {
   auto products = [&]<bool Rho>() {
     switch (n2) {
-      case 1: return litListedAvx512<1, Rho>(in, h0, n, c);
-      case 4: return litListedAvx512<4, Rho>(in, h0, n, c);
-      default: return litListedAvx512<9, Rho>(in, h0, n, c);
+      case 1:
+        return litListedAvx512<1, Rho>(in, h0, n, c);
+      case 4:
+        return litListedAvx512<4, Rho>(in, h0, n, c);
+      default:
+        return litListedAvx512<9, Rho>(in, h0, n, c);
     }
   };
   if (rho)
@@ -164,9 +176,8 @@ void litListedAvx512For(const LitHits& in, uint32_t h0, uint32_t n, int n2, bool
 
 }  // namespace
 
-const KernelTables<LitHitKernels> kLitHitKernels{{litLightsPortable, nullptr},
-                                                 {litLightsAvx2, nullptr},
-                                                 {litLightsAvx2, litListedAvx512For}};
+const KernelTables<LitHitKernels> kLitHitKernels{
+    {litLightsPortable, nullptr}, {litLightsAvx2, nullptr}, {litLightsAvx2, litListedAvx512For}};
 
 uint32_t Tracer::lookUpAlbedo(StreamRows& rows, uint32_t hits) const {
   StreamRows::Lookups& a = rows.albedo;
@@ -195,9 +206,8 @@ void Tracer::sumLit(StreamRows& rows, uint32_t hits, double* indirect) const {
   // Listed, without a hit on a textured or vertex-coloured instance, every ρ/π is 1 and goes
   // unread; the other kernels multiply by it.
   const uint32_t looked = listed && allLitUniform ? 0 : lookUpAlbedo(rows, hits);
-  const LitHits in{rows.hitMesh.data(), rows.hitTri.data(), rows.hitYOff.data(), rows.hitU.data(),
-                   rows.hitV.data(),    rows.rho.data(),    litMeshes.data(),     cornerIndices.data(),
-                   rows.ys.data(),      hits};
+  const LitHits in{rows.hitMesh.data(), rows.hitTri.data(), rows.hitYOff.data(),  rows.hitU.data(), rows.hitV.data(),
+                   rows.rho.data(),     litMeshes.data(),   cornerIndices.data(), rows.ys.data(),   hits};
   for (uint32_t h = 0; h < std::min(hits, kRowsAhead); ++h) in.prefetchRows(h);
   for (uint32_t h0 = 0; h0 < hits; h0 += kChunk) {
     const uint32_t k = std::min<uint32_t>(kChunk, hits - h0);

@@ -13,9 +13,9 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "../stage_runner.h"
 #include "prt/bake/ranks.h"
 #include "prt/error.h"
-#include "../stage_runner.h"
 #include "tracer.h"
 
 namespace prt::bake::probe {
@@ -231,8 +231,8 @@ std::vector<uint8_t> keptPoints(const Tracer& tracer, const ProbeGrid& grid, con
   }
   std::vector<uint8_t> keep(total, 0);
   for (size_t idx = 0; idx < total; ++idx)
-    keep[idx] = reg.free[idx] &&
-                (tests.wanted[idx] || anyNeighbour(dims, idx, [&](size_t j) { return tests.wanted[j] != 0; }));
+    keep[idx] =
+        reg.free[idx] && (tests.wanted[idx] || anyNeighbour(dims, idx, [&](size_t j) { return tests.wanted[j] != 0; }));
   return keep;
 }
 
@@ -240,8 +240,7 @@ std::vector<uint8_t> keptPoints(const Tracer& tracer, const ProbeGrid& grid, con
 // relocation because they border only free points left out (and geometry), or lie deep in
 // solid: no free neighbour and no surface within a spacing, so that no candidate (all within
 // 0.52 spacing of it) can leave the solid it is in.
-void markSkipped(const ProbeGrid& grid, const std::vector<uint8_t>& keep, const QuickTests& tests,
-                 LatticeRegion& reg) {
+void markSkipped(const ProbeGrid& grid, const std::vector<uint8_t>& keep, const QuickTests& tests, LatticeRegion& reg) {
   const glm::ivec3 dims = grid.dims;
   const float solidDistance = float(std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z}));
   for (size_t idx = 0; idx < reg.free.size(); ++idx) {
@@ -365,7 +364,8 @@ void validate(const ProbeSettings& s) {
     for (int a = 0; a < 3; ++a)
       if (size[a] < kFlatFraction * largest)
         throw Error(cat("probe bounds: the box is flat (", "xyz"[a], " extent ", size[a], " against ", largest,
-                        "): give the probes a volume, at least ", kFlatFraction, " of the largest extent on every axis"));
+                        "): give the probes a volume, at least ", kFlatFraction,
+                        " of the largest extent on every axis"));
   }
 }
 

@@ -19,7 +19,7 @@ struct LatticeRegion {
   std::vector<uint8_t> free;  // per lattice point: the quick test passed
   std::vector<uint8_t> skip;  // per lattice point: not baked
   uint64_t freeCount = 0, sealed = 0, outside = 0, aboveLevel = 0;
-  bool insideOnly = false;   // only sealed space is kept
+  bool insideOnly = false;  // only sealed space is kept
   uint64_t rays = 0;
   bool interrupted = false;  // an interrupt was requested before the quick tests finished
 };

@@ -19,8 +19,8 @@
 #include "../stage_runner.h"
 #include "placement.h"
 #include "prt/error.h"
-#include "prt/math.h"
 #include "prt/huge_pages.h"
+#include "prt/math.h"
 #include "tracer.h"
 
 namespace prt::bake {
@@ -137,8 +137,8 @@ struct ProbeBaker {
     const double w = 4.0 * kPi / settings.samples;
     const size_t n2 = size_t(acc.n2);
     for (size_t k = 0; k < n2 * n2; ++k) {
-      const glm::dvec3 v = w * (glm::dvec3(acc.direct[k]) + glm::dvec3(acc.indirect[3 * k], acc.indirect[3 * k + 1],
-                                                                        acc.indirect[3 * k + 2]));
+      const glm::dvec3 v = w * (glm::dvec3(acc.direct[k]) +
+                                glm::dvec3(acc.indirect[3 * k], acc.indirect[3 * k + 1], acc.indirect[3 * k + 2]));
       out[3 * k] = float(v.r);
       out[3 * k + 1] = float(v.g);
       out[3 * k + 2] = float(v.b);
@@ -160,10 +160,11 @@ void resizeFaultedInParallel(std::vector<T>& v, size_t n) {
   const size_t bytes = n * sizeof(T), kBlock = size_t(2) << 20;
   char* p = reinterpret_cast<char*>(v.data());
   adviseHugePages(p, bytes);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, (bytes + kBlock - 1) / kBlock, 1), [&](const tbb::blocked_range<size_t>& r) {
-    const size_t begin = r.begin() * kBlock;
-    populatePages(p + begin, std::min(bytes, r.end() * kBlock) - begin);
-  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, (bytes + kBlock - 1) / kBlock, 1),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      const size_t begin = r.begin() * kBlock;
+                      populatePages(p + begin, std::min(bytes, r.end() * kBlock) - begin);
+                    });
   v.resize(n);
 }
 
@@ -353,7 +354,8 @@ ProbeGrid bakeProbes(const Scene& scene, const std::vector<std::vector<glm::vec3
   // checkpoint does not keep the lattice alive (or save chunks of it) after the stage.
   const StageRelease release(cp);
   // Only rank 0 assembles and writes the grid: the other ranks send it their chunks.
-  ChunkedStage stage({kProbeStage, "probe stage", "probes", "probes", total, kProbeChunk, settings.progress, false}, cp);
+  ChunkedStage stage({kProbeStage, "probe stage", "probes", "probes", total, kProbeChunk, settings.progress, false},
+                     cp);
   stage.restore([&](const Chunk& c, ByteReader& r) { readProbeChunk(*res, c, r); }, "probe chunk index");
   Checkpoint::StageIo io;
   io.chunksOutliveStage = true;
@@ -439,6 +441,5 @@ std::vector<Ray> probeFullRays(const ProbeGrid& layout, const ProbeSettings& set
   }
   return out;
 }
-
 
 }  // namespace prt::bake

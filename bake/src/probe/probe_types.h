@@ -51,7 +51,7 @@ constexpr uint32_t kBackBit = 1u << 31;
 // Per instance with lower-order transfer (Tracer::litMeshes): where a lit hit's rows are (its
 // corners: Tracer::cornerIndices).
 struct LitMesh {
-  const uint16_t* rows = nullptr;     // the front sides' rows (HalfRows), stride halves apart
+  const uint16_t* rows = nullptr;      // the front sides' rows (HalfRows), stride halves apart
   const uint16_t* backRows = nullptr;  // the back sides' (the front's where only one side is baked)
   size_t stride = 0;
   // One colour (AlbedoLookup::uniform): its rows hold ρ/π · t and its hits' ρ/π is 1
@@ -101,7 +101,7 @@ struct ProbeAccum {
   std::vector<double> indirect;  // n2 × n2 RGB: row a holds n2 triples
   StreamRows stream;             // scratch of the stream being summed
   uint32_t rays = 0, backfaces = 0, escaped = 0;
-  uint32_t backTwoSided = 0;  // hits on the back of double-sided faces
+  uint32_t backTwoSided = 0;                               // hits on the back of double-sided faces
   float nearest = std::numeric_limits<float>::infinity();  // of the hits (any face)
   // Per cube face and lane of a packet (face · 8 + lane), summed over the packets in ray order:
   // the vector and portable classifications add in the same order. Summed lane by lane at the end.
@@ -139,7 +139,8 @@ struct RayBuffer {
 struct LitHits {
   const uint32_t *mesh, *tri, *yOff;  // yOff with kBackBit on a back side
   const float *b1, *b2;
-  const float* rho;  // 4 floats a hit (ρ/π, then a zero: StreamRows::rho; with AVX-512 read only where one was looked up)
+  const float*
+      rho;  // 4 floats a hit (ρ/π, then a zero: StreamRows::rho; with AVX-512 read only where one was looked up)
   const LitMesh* meshes;
   const uint32_t* const* corners;
   const float* y;
@@ -197,8 +198,8 @@ struct SphereSet {
 // The unit directions of n rays (uniformSphereFromBits) from the bits (px[j] ^ kx) >> 8 and
 // (py[j] ^ ky) >> 8: a stream's Sobol points and its scramble (SphereSet).
 struct DirectionKernels {
-  void (*directions)(const uint32_t* px, const uint32_t* py, uint32_t kx, uint32_t ky, uint32_t n, float* dx,
-                     float* dy, float* dz);
+  void (*directions)(const uint32_t* px, const uint32_t* py, uint32_t kx, uint32_t ky, uint32_t n, float* dx, float* dy,
+                     float* dz);
 };
 
 // One stream's classification (Tracer::trace, the full set of rays): what it reads besides the

@@ -34,8 +34,8 @@ void addProductsPortable(const float* y, const uint32_t* yOff, const float* v, i
 // on two ports).
 template <int R, int B>
 __attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(const float* y, const uint32_t* yOff,
-                                                                             const float* v, int ldv, int n, int a0,
-                                                                             int j0, int cols, double* c, int ldc) {
+                                                                                const float* v, int ldv, int n, int a0,
+                                                                                int j0, int cols, double* c, int ldc) {
   // The unroll pragmas (at least R and B) let the sums live in registers only: unrolled later,
   // GCC keeps the array in memory too and stores every sum on every ray (a store-port bound,
   // twice the FMAs' time). With pragmas of 4 for the rows, the 3-band block of all nine rows
@@ -72,9 +72,9 @@ __attribute__((target("avx2,fma"), always_inline)) inline void productBlockAvx2(
 // Rows [a, rows) of columns [j0, j0 + 8B) in blocks of R rows, the last block smaller.
 template <int R, int B>
 __attribute__((target("avx2,fma"), always_inline)) inline void productRowsAvx2(const float* y, const uint32_t* yOff,
-                                                                            const float* v, int ldv, int n, int rows,
-                                                                            int a, int j0, int cols, double* c,
-                                                                            int ldc) {
+                                                                               const float* v, int ldv, int n, int rows,
+                                                                               int a, int j0, int cols, double* c,
+                                                                               int ldc) {
   for (; a + R <= rows; a += R) productBlockAvx2<R, B>(y, yOff, v, ldv, n, a, j0, cols, c, ldc);
   if constexpr (R > 1)
     if (a < rows) productRowsAvx2<R - 1, B>(y, yOff, v, ldv, n, rows, a, j0, cols, c, ldc);
@@ -85,13 +85,18 @@ __attribute__((target("avx2,fma"), always_inline)) inline void productRowsAvx2(c
 // 16 ymm registers (the sums, B column vectors and a broadcast). The indirect part's 27 columns
 // at 3 bands: 24 in 3 blocks of 3 rows, then 3 (padded to 8) in one block of all 9 rows.
 __attribute__((target("avx2,fma"))) void addProductsAvx2(const float* y, const uint32_t* yOff, const float* v, int ldv,
-                                                     int n, int rows, int cols, double* c, int ldc) {
+                                                         int n, int rows, int cols, double* c, int ldc) {
   int j0 = 0;
   for (; j0 + 3 * kBlock <= ldv; j0 += 3 * kBlock) productRowsAvx2<3, 3>(y, yOff, v, ldv, n, rows, 0, j0, cols, c, ldc);
   switch ((ldv - j0) / kBlock) {
-    case 2: productRowsAvx2<4, 2>(y, yOff, v, ldv, n, rows, 0, j0, cols, c, ldc); break;
-    case 1: productRowsAvx2<9, 1>(y, yOff, v, ldv, n, rows, 0, j0, cols, c, ldc); break;
-    default: break;
+    case 2:
+      productRowsAvx2<4, 2>(y, yOff, v, ldv, n, rows, 0, j0, cols, c, ldc);
+      break;
+    case 1:
+      productRowsAvx2<9, 1>(y, yOff, v, ldv, n, rows, 0, j0, cols, c, ldc);
+      break;
+    default:
+      break;
   }
 }
 
@@ -114,7 +119,7 @@ void addDirectPortable(const float* ys, const int32_t* escaped, int n2, float* s
 // zeros, which leave every sum as it is (sums from +0 never become −0).
 template <int NB>
 __attribute__((target("avx2,fma"))) void directPairsAvx2(const float* ys, const int32_t* escaped, const uint8_t* list,
-                                                       int packets, int n2, int a, int b0, float* sums) {
+                                                         int packets, int n2, int a, int b0, float* sums) {
   __m256 s[NB];
 #pragma GCC unroll 8
   for (int i = 0; i < NB; ++i) s[i] = _mm256_setzero_ps();
@@ -139,14 +144,30 @@ void forPairBlocks(int n2, const Block& block) {
   for (int a = 0; a < n2; ++a)
     for (int b0 = a; b0 < n2; b0 += 8) {
       switch (std::min(8, n2 - b0)) {
-        case 1: block.template operator()<1>(a, b0); break;
-        case 2: block.template operator()<2>(a, b0); break;
-        case 3: block.template operator()<3>(a, b0); break;
-        case 4: block.template operator()<4>(a, b0); break;
-        case 5: block.template operator()<5>(a, b0); break;
-        case 6: block.template operator()<6>(a, b0); break;
-        case 7: block.template operator()<7>(a, b0); break;
-        default: block.template operator()<8>(a, b0); break;
+        case 1:
+          block.template operator()<1>(a, b0);
+          break;
+        case 2:
+          block.template operator()<2>(a, b0);
+          break;
+        case 3:
+          block.template operator()<3>(a, b0);
+          break;
+        case 4:
+          block.template operator()<4>(a, b0);
+          break;
+        case 5:
+          block.template operator()<5>(a, b0);
+          break;
+        case 6:
+          block.template operator()<6>(a, b0);
+          break;
+        case 7:
+          block.template operator()<7>(a, b0);
+          break;
+        default:
+          block.template operator()<8>(a, b0);
+          break;
       }
     }
 }
@@ -161,8 +182,8 @@ void addDirectAvx2(const float* ys, const int32_t* escaped, const uint8_t* list,
 PRT_AVX512_BEGIN
 template <int NB>
 __attribute__((target("avx512f,fma"))) void directPairsAvx512(const float* ys, const int32_t* escaped,
-                                                              const uint8_t* list, int packets, int n2, int a,
-                                                              int b0, float* sums) {
+                                                              const uint8_t* list, int packets, int n2, int a, int b0,
+                                                              float* sums) {
   constexpr int NV = NB / 2;
   __m512 s[NV > 0 ? NV : 1];
   __m256 last = _mm256_setzero_ps();
@@ -173,8 +194,8 @@ __attribute__((target("avx512f,fma"))) void directPairsAvx512(const float* ys, c
     const float* y = ys + size_t(q) * n2 * 8;
     const __m256 mask = _mm256_castsi256_ps(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(escaped + 8 * q)));
     const __m256 ya = _mm256_and_ps(mask, _mm256_loadu_ps(y + 8 * a));
-    const __m512 ya2 = _mm512_castpd_ps(
-        _mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_castps_pd(ya)), _mm256_castps_pd(ya), 1));
+    const __m512 ya2 =
+        _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_castps_pd(ya)), _mm256_castps_pd(ya), 1));
 #pragma GCC unroll 4
     for (int i = 0; i < NV; ++i) s[i] = _mm512_fmadd_ps(ya2, _mm512_loadu_ps(y + 8 * (b0 + 2 * i)), s[i]);
     if constexpr (NB % 2) last = _mm256_fmadd_ps(ya, _mm256_loadu_ps(y + 8 * (b0 + NB - 1)), last);
@@ -202,8 +223,7 @@ void directSumsPortable(const float* ys, const int32_t* escaped, const uint8_t* 
 
 }  // namespace
 
-const KernelTables<ProductKernels> kProductKernels{{addProductsPortable, directSumsPortable},
-                                                   {addProductsAvx2, addDirectAvx2},
-                                                   {addProductsAvx2, addDirectAvx512}};
+const KernelTables<ProductKernels> kProductKernels{
+    {addProductsPortable, directSumsPortable}, {addProductsAvx2, addDirectAvx2}, {addProductsAvx2, addDirectAvx512}};
 
 }  // namespace prt::bake::probe

@@ -123,7 +123,7 @@ void Tracer::addStream(const RayPacket8* batch, uint32_t first, uint32_t count, 
                        ProbeAccum& acc) const {
   const int n2 = bands * bands;
   StreamRows& rows = acc.stream;
-  const uint32_t inGroup = first % kGroup;  // the stream's first ray within its group
+  const uint32_t inGroup = first % kGroup;                 // the stream's first ray within its group
   float* groupYs = rows.ys.data() + size_t(inGroup) * n2;  // the stream's packets
   for (uint32_t q = 0; q < count; q += 8) {
     const RayPacket8& r = batch[q >> 3];
@@ -131,8 +131,15 @@ void Tracer::addStream(const RayPacket8* batch, uint32_t first, uint32_t count, 
   }
   alignas(32) int32_t escapedLanes[kStream];  // per ray of the stream: −1 where it escaped, else 0
   StreamTally t{0, 0, 0, std::numeric_limits<float>::infinity()};
-  const Classification c{meshFlags.data(), cornerIndices.data(), inGroup * uint32_t(n2), uint32_t(n2), maxDistance,
-                         rows, nLit, escapedLanes, acc};
+  const Classification c{meshFlags.data(),
+                         cornerIndices.data(),
+                         inGroup * uint32_t(n2),
+                         uint32_t(n2),
+                         maxDistance,
+                         rows,
+                         nLit,
+                         escapedLanes,
+                         acc};
   kernels.classify.classify(batch, count, c, t);
   addCounts(acc, t, count);
   addDirect(groupYs, escapedLanes, count, acc);

@@ -18,10 +18,10 @@
 #include <glm/glm.hpp>
 
 #include "../trace_clock.h"
+#include "probe_types.h"
 #include "prt/bake/albedo_lookup.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/scene.h"
-#include "probe_types.h"
 
 namespace prt::bake::probe {
 
@@ -51,8 +51,12 @@ struct Tracer {
   mutable TraceClock inEmbree;  // all threads' time inside Embree's calls (ProbeStats::traceSeconds)
   mutable TraceClock inGather;  // and inside the lit hits' gather, sumLit (ProbeStats::gatherSeconds)
 
-  void intersect8(RayPacket8* p, size_t n) const { inEmbree.time([&] { rays.intersect8(p, n); }); }
-  void occluded(Ray* r, size_t n) const { inEmbree.time([&] { rays.occluded(r, n); }); }
+  void intersect8(RayPacket8* p, size_t n) const {
+    inEmbree.time([&] { rays.intersect8(p, n); });
+  }
+  void occluded(Ray* r, size_t n) const {
+    inEmbree.time([&] { rays.occluded(r, n); });
+  }
 
   // Traces `n` sphere directions from x. full = reset acc, then accumulate M and moments;
   // otherwise only count rays and back faces into acc (the inside test). False when an
@@ -67,7 +71,7 @@ struct Tracer {
   // (lit_hits.cpp).
   void sumLit(StreamRows& rows, uint32_t hits, double* indirect) const;
 
-private:
+ private:
   // ρ/π of each of a group's lit hits into rows.rho: looked up (AlbedoLookup::atMany) on textured
   // or vertex-coloured instances, 1 on an instance of one colour (its rows hold ρ/π · t already).
   // Returns how many were looked up.

@@ -30,8 +30,7 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   std::string stem = p.filename().string();
   std::string ext = p.extension().string();
   temp_ = (dir / cat(".", stem, ".tmp", ::getpid(), "-", counter++, ext)).string();
-  if (::access(dir.c_str(), W_OK) != 0)
-    throw Error(cat(path_, ": cannot write: ", std::strerror(errno)));
+  if (::access(dir.c_str(), W_OK) != 0) throw Error(cat(path_, ": cannot write: ", std::strerror(errno)));
 }
 
 AtomicFile::~AtomicFile() {
@@ -43,8 +42,7 @@ void AtomicFile::commit() {
   if (fd < 0) throw Error(cat(path_, ": cannot write: temporary file missing (", std::strerror(errno), ")"));
   ::fsync(fd);
   ::close(fd);
-  if (std::rename(temp_.c_str(), path_.c_str()) != 0)
-    throw Error(cat(path_, ": cannot write: ", std::strerror(errno)));
+  if (std::rename(temp_.c_str(), path_.c_str()) != 0) throw Error(cat(path_, ": cannot write: ", std::strerror(errno)));
   committed_ = true;
 }
 

@@ -43,7 +43,11 @@ std::string printable(const std::string& s, size_t maxBytes) {
   for (size_t i = 0; i < s.size();) {
     if (out.size() >= maxBytes) return out + "...";
     const auto c = static_cast<unsigned char>(s[i]);
-    const size_t n = c < 0x80 ? 1 : c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+    const size_t n = c < 0x80                 ? 1
+                     : c >= 0xC2 && c <= 0xDF ? 2
+                     : c >= 0xE0 && c <= 0xEF ? 3
+                     : c >= 0xF0 && c <= 0xF4 ? 4
+                                              : 0;
     bool valid = n > 0 && i + n <= s.size() && (n > 1 || (c >= 0x20 && c != 0x7F));
     for (size_t k = 1; valid && k < n; ++k) valid = (static_cast<unsigned char>(s[i + k]) & 0xC0) == 0x80;
     if (valid) {

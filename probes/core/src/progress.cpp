@@ -10,16 +10,17 @@
 namespace prt {
 
 Progress::Progress(std::string label, uint64_t total, std::string unit, bool enabled)
-    : label_(std::move(label)), unit_(std::move(unit)), total_(total), enabled_(enabled),
+    : label_(std::move(label)),
+      unit_(std::move(unit)),
+      total_(total),
+      enabled_(enabled),
       start_(std::chrono::steady_clock::now()) {}
 
 Progress::~Progress() {
   if (!finished_) finish();
 }
 
-bool Progress::terminalDefault() {
-  return ::isatty(STDERR_FILENO) && std::getenv("PRT_NO_PROGRESS") == nullptr;
-}
+bool Progress::terminalDefault() { return ::isatty(STDERR_FILENO) && std::getenv("PRT_NO_PROGRESS") == nullptr; }
 
 double Progress::elapsedSeconds() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
@@ -28,8 +29,7 @@ double Progress::elapsedSeconds() const {
 void Progress::add(uint64_t n) {
   done_.fetch_add(n, std::memory_order_relaxed);
   if (!enabled_) return;
-  int64_t now = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                    std::chrono::steady_clock::now() - start_).count();
+  int64_t now = std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start_).count();
   int64_t last = lastDrawNs_.load(std::memory_order_relaxed);
   // Redraw at most 10 times a second, by whichever thread gets there first.
   if (now - last < 100'000'000) return;
@@ -65,9 +65,9 @@ void Progress::draw(bool final) {
     std::snprintf(buf, sizeof buf, "%dm%02ds", int(left) / 60, int(left) % 60);
     eta = buf;
   }
-  std::fprintf(stderr, "\r%-12s [%s] %5.1f%%  %s %s/s  %s %s   ", label_.c_str(), bar.c_str(),
-               100.0 * frac, formatCount(rate).c_str(), unit_.c_str(),
-               final ? "in" : "ETA", final ? (std::to_string(int(t)) + "s").c_str() : eta.c_str());
+  std::fprintf(stderr, "\r%-12s [%s] %5.1f%%  %s %s/s  %s %s   ", label_.c_str(), bar.c_str(), 100.0 * frac,
+               formatCount(rate).c_str(), unit_.c_str(), final ? "in" : "ETA",
+               final ? (std::to_string(int(t)) + "s").c_str() : eta.c_str());
   std::fflush(stderr);
 }
 

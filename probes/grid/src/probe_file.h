@@ -78,7 +78,8 @@ constexpr const char* kShConvention =
 constexpr const char* kUnits = "incident radiance SH = transfer · light SH; radiance";
 constexpr const char* kLayout =
     "transfer_JJ_II vec3s: RGB of M_ji (c_j = sum_i M_ji l_i); direct_JJ_II float, JJ <= II: M0_ji = M0_ij, "
-    "the direct (bounce 0, first-hit visibility) part of M, colourless and symmetric; validity float (1 valid, 0 inside "
+    "the direct (bounce 0, first-hit visibility) part of M, colourless and symmetric; validity float (1 valid, 0 "
+    "inside "
     "geometry); offset vec3s: world offset of the probe from its lattice point; sky_visibility "
     "float; irradiance_preview vec3s: irradiance at a +Y normal under a uniform sky of radiance "
     "1; moments_mean_pos/neg vec3s: for the rays of the +X,+Y,+Z / -X,-Y,-Z cube faces, mean "
@@ -104,9 +105,9 @@ struct FormatVersion {};
 /// Where a key's value lives: a field of ProbeGrid or of its ProbeGridInfo, the format version,
 /// or (Fixed keys) the text itself. The seed, a uint64, is stored as decimal text: metadata
 /// has no unsigned 64-bit type.
-using Field = std::variant<FormatVersion, const char*, int ProbeGrid::*, glm::ivec3 ProbeGrid::*,
-                           glm::dvec3 ProbeGrid::*, int ProbeGridInfo::*, uint64_t ProbeGridInfo::*,
-                           std::string ProbeGridInfo::*>;
+using Field =
+    std::variant<FormatVersion, const char*, int ProbeGrid::*, glm::ivec3 ProbeGrid::*, glm::dvec3 ProbeGrid::*,
+                 int ProbeGridInfo::*, uint64_t ProbeGridInfo::*, std::string ProbeGridInfo::*>;
 
 struct MetaKey {
   const char* key;
@@ -152,10 +153,14 @@ struct FieldValue<T C::*> {
 /// The type a value of C++ type V is stored as.
 template <class V>
 constexpr MetaType storedAs() {
-  if constexpr (std::is_same_v<V, int> || std::is_same_v<V, FormatVersion>) return MetaType::Int32;
-  else if constexpr (std::is_same_v<V, glm::ivec3>) return MetaType::Vec3i;
-  else if constexpr (std::is_same_v<V, glm::dvec3>) return MetaType::Vec3d;
-  else return MetaType::Text;  // std::string, uint64_t (decimal), const char*
+  if constexpr (std::is_same_v<V, int> || std::is_same_v<V, FormatVersion>)
+    return MetaType::Int32;
+  else if constexpr (std::is_same_v<V, glm::ivec3>)
+    return MetaType::Vec3i;
+  else if constexpr (std::is_same_v<V, glm::dvec3>)
+    return MetaType::Vec3d;
+  else
+    return MetaType::Text;  // std::string, uint64_t (decimal), const char*
 }
 
 constexpr bool typesMatchFields() {
@@ -173,9 +178,12 @@ void withField(Grid& grid, const MetaKey& key, F&& f) {
   std::visit(
       [&](auto field) {
         using M = decltype(field);
-        if constexpr (std::is_same_v<M, FormatVersion> || std::is_same_v<M, const char*>) f(field);
-        else if constexpr (std::is_invocable_v<M, Grid&>) f(grid.*field);  // a member of ProbeGrid
-        else f(grid.info.*field);
+        if constexpr (std::is_same_v<M, FormatVersion> || std::is_same_v<M, const char*>)
+          f(field);
+        else if constexpr (std::is_invocable_v<M, Grid&>)
+          f(grid.*field);  // a member of ProbeGrid
+        else
+          f(grid.info.*field);
       },
       key.field);
 }

@@ -100,10 +100,9 @@ std::vector<glm::vec3> relight(const ProbeGrid& grid, const sh::ShRgb& light, co
         if (i != j) c[i] -= v * d.c[size_t(j)];
       }
   };
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, grid.probeCount(), 256),
-                    [&](const tbb::blocked_range<size_t>& r) {
-                      for (size_t p = r.begin(); p < r.end(); ++p) relightOne(p);
-                    });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, grid.probeCount(), 256), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t p = r.begin(); p < r.end(); ++p) relightOne(p);
+  });
   return out;
 }
 
@@ -235,11 +234,16 @@ ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::
 
 const char* probeCoverName(ProbeCover c) {
   switch (c) {
-    case ProbeCover::Lattice: return "lattice";
-    case ProbeCover::Shell: return "shell";
-    case ProbeCover::Fade: return "fade";
-    case ProbeCover::Outside: return "outside";
-    case ProbeCover::NoValidProbe: return "no_valid_probe";
+    case ProbeCover::Lattice:
+      return "lattice";
+    case ProbeCover::Shell:
+      return "shell";
+    case ProbeCover::Fade:
+      return "fade";
+    case ProbeCover::Outside:
+      return "outside";
+    case ProbeCover::NoValidProbe:
+      return "no_valid_probe";
   }
   return "?";
 }

@@ -22,10 +22,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "probe_file.h"
 #include "prt/error.h"
 #include "prt/probe_grid.h"
 #include "prt/progress.h"
-#include "probe_file.h"
 #include "vdb_layout.h"
 
 namespace prt {
@@ -57,8 +57,7 @@ struct LoadedFile {
 // How MetaMap::readMeta reads a value of this type, from OpenVDB's own registry (vdb_layout.h).
 vdb_layout::MetaType metaTypeOf(const std::string& type) {
   using vdb_layout::MetaRead;
-  if (!vdb::Metadata::isRegisteredType(type) || type == vdb::StringMetadata::staticTypeName())
-    return {MetaRead::Bytes};
+  if (!vdb::Metadata::isRegisteredType(type) || type == vdb::StringMetadata::staticTypeName()) return {MetaRead::Bytes};
   if (type == vdb::io::DelayedLoadMetadata::staticTypeName()) return {MetaRead::DelayedLoad};
   static std::mutex mutex;
   static std::map<std::string, uint32_t> sizes;
@@ -107,7 +106,8 @@ LoadedFile loadFile(const std::string& path) {
   in.exceptions(std::ios::failbit | std::ios::badbit);
   initOpenVdb();
   try {
-    const vdb_layout::Layout layout = vdb_layout::walk(in, out.fileSize, path, vdb::OPENVDB_FILE_VERSION, metaTypeOf, mapBytesOf);
+    const vdb_layout::Layout layout =
+        vdb_layout::walk(in, out.fileSize, path, vdb::OPENVDB_FILE_VERSION, metaTypeOf, mapBytesOf);
     std::string start(layout.metadataEnd, '\0');
     in.seekg(0);
     in.read(start.data(), std::streamsize(start.size()));
@@ -190,8 +190,7 @@ typename GridT::Ptr requireGrid(const std::string& path, const LoadedFile& file,
   auto it = file.byName.find(name);
   if (it == file.byName.end()) throw Error(cat(path, ": grid '", name, "' missing"));
   typename GridT::Ptr g = vdb::gridPtrCast<GridT>(it->second);
-  if (!g)
-    throw Error(cat(path, ": grid '", name, "' is ", it->second->valueType(), ", expected ", expectedType));
+  if (!g) throw Error(cat(path, ": grid '", name, "' is ", it->second->valueType(), ", expected ", expectedType));
   return g;
 }
 
@@ -213,8 +212,8 @@ void readProbes(const std::string& path, const GridT& g, const std::vector<glm::
   for (size_t p = 0; p < coord.size(); ++p) {
     typename GridT::ValueType v;
     if (!acc.probeValue(vdb::Coord(coord[p].x, coord[p].y, coord[p].z), v))
-      throw Error(cat(path, ": grid '", g.getName(), "' has no active value at probe (", coord[p].x, ", ",
-                      coord[p].y, ", ", coord[p].z, ")"));
+      throw Error(cat(path, ": grid '", g.getName(), "' has no active value at probe (", coord[p].x, ", ", coord[p].y,
+                      ", ", coord[p].z, ")"));
     store(p, v);
   }
 }
@@ -224,8 +223,10 @@ void readProbes(const std::string& path, const GridT& g, const std::vector<glm::
 int64_t readVersion(const std::string& path, const MetaReader& meta) {
   const int64_t version = meta.integer(kVersionKey);
   if (version == kVersionWithRayLengths)
-    throw Error(cat(path, ": ", kVersionKey, " ", version, " is no longer read: its moment grids hold ray lengths, "
-                    "version ", kVersionWithoutDirect, " holds depths along the face axis; bake the probes again"));
+    throw Error(cat(path, ": ", kVersionKey, " ", version,
+                    " is no longer read: its moment grids hold ray lengths, "
+                    "version ",
+                    kVersionWithoutDirect, " holds depths along the face axis; bake the probes again"));
   if (version != kFormatVersion && version != kVersionWithoutDirect)
     throw Error(cat(path, ": ", kVersionKey, " ", version, " is not supported (this prt reads ", kVersionWithoutDirect,
                     " and ", kFormatVersion, ")"));
@@ -267,8 +268,8 @@ void checkLattice(const std::string& path, const ProbeGrid& grid) {
   // corrupt dims would otherwise become a huge allocation).
   const double lattice = double(grid.dims.x) * grid.dims.y * grid.dims.z;
   if (lattice > double(INT32_MAX))
-    throw Error(cat(path, ": dims (", grid.dims.x, ", ", grid.dims.y, ", ", grid.dims.z,
-                    ") exceed 2^31 lattice points"));
+    throw Error(
+        cat(path, ": dims (", grid.dims.x, ", ", grid.dims.y, ", ", grid.dims.z, ") exceed 2^31 lattice points"));
 }
 
 // The metadata in the order of kMetaKeys: the version first, then the required keys, whose
@@ -304,8 +305,8 @@ std::vector<vdb::Vec3SGrid::Ptr> transferGrids(const std::string& path, const Lo
       transfer[size_t(j) * n2 + i] = requireGrid<vdb::Vec3SGrid>(path, file, transferName(j, i), "vec3s");
   const size_t found = gridsNamed(file, kTransferPrefix);
   if (found != transfer.size())
-    throw Error(cat(path, ": bands = ", grid.bands, " needs ", transfer.size(), " transfer grids, the file holds ",
-                    found));
+    throw Error(
+        cat(path, ": bands = ", grid.bands, " needs ", transfer.size(), " transfer grids, the file holds ", found));
   return transfer;
 }
 
@@ -338,18 +339,16 @@ void readCoords(const std::string& path, const vdb::FloatGrid& validity, ProbeGr
     const vdb::Coord c = it.getCoord();
     grid.coord.emplace_back(c.x(), c.y(), c.z());
   }
-  std::sort(grid.coord.begin(), grid.coord.end(), [](const glm::ivec3& a, const glm::ivec3& b) {
-    return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z);
-  });
+  std::sort(grid.coord.begin(), grid.coord.end(),
+            [](const glm::ivec3& a, const glm::ivec3& b) { return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z); });
   for (const glm::ivec3& c : grid.coord)
     if (c.x < 0 || c.y < 0 || c.z < 0 || c.x >= grid.dims.x || c.y >= grid.dims.y || c.z >= grid.dims.z)
-      throw Error(cat(path, ": probe (", c.x, ", ", c.y, ", ", c.z, ") lies outside dims (", grid.dims.x,
-                      ", ", grid.dims.y, ", ", grid.dims.z, ")"));
+      throw Error(cat(path, ": probe (", c.x, ", ", c.y, ", ", c.z, ") lies outside dims (", grid.dims.x, ", ",
+                      grid.dims.y, ", ", grid.dims.z, ")"));
 }
 
 // Validity, offset, sky visibility and the moments of every probe.
-void readProbeValues(const std::string& path, const LoadedFile& file, const vdb::FloatGrid& validity,
-                     ProbeGrid& grid) {
+void readProbeValues(const std::string& path, const LoadedFile& file, const vdb::FloatGrid& validity, ProbeGrid& grid) {
   const size_t count = grid.coord.size();
   grid.validity.resize(count);
   readProbes(path, validity, grid.coord, [&](size_t p, float v) { grid.validity[p] = v; });
@@ -370,8 +369,7 @@ void readProbeValues(const std::string& path, const LoadedFile& file, const vdb:
     const auto g = requireGrid<vdb::Vec3SGrid>(path, file, mg.name, "vec3s");
     checkLike(path, *g, validity);
     readProbes(path, *g, grid.coord, [&](size_t p, const vdb::Vec3s& v) {
-      for (int axis = 0; axis < 3; ++axis)
-        grid.moments[p][size_t(2 * axis + mg.sign)][mg.component] = v[axis];
+      for (int axis = 0; axis < 3; ++axis) grid.moments[p][size_t(2 * axis + mg.sign)][mg.component] = v[axis];
     });
   }
 }
@@ -481,8 +479,10 @@ std::string describeProbeFile(const std::string& path) {
   os << "\n";
   // What prt holds once read: the parallel arrays plus the dense index of find().
   const uintmax_t arrays =
-      grid.probeCount() * (sizeof(glm::ivec3) + (grid.transferStride() + grid.direct.size() / std::max<size_t>(grid.probeCount(), 1)) * sizeof(float) + sizeof(float) * 2 +
-                           sizeof(glm::vec3) + sizeof(grid.moments[0])) +
+      grid.probeCount() *
+          (sizeof(glm::ivec3) +
+           (grid.transferStride() + grid.direct.size() / std::max<size_t>(grid.probeCount(), 1)) * sizeof(float) +
+           sizeof(float) * 2 + sizeof(glm::vec3) + sizeof(grid.moments[0])) +
       uintmax_t(lattice) * sizeof(int32_t);
   os << "  file size     " << formatBytes(file.fileSize) << " on disk\n";
   os << "  memory        " << formatBytes(arrays) << " once loaded by prt (probe arrays and lattice index)\n"
@@ -494,8 +494,8 @@ std::string describeProbeFile(const std::string& path) {
     os << "  region        "
        << (grid.info.region == "inside"       ? "inside: only space sealed in by the scene's surfaces"
            : grid.info.region == "everywhere" ? "everywhere outside solid geometry"
-           : grid.info.region == "near"       ? "near: near surfaces or surrounded by them (open air far from all not baked)"
-                                              : grid.info.region)
+           : grid.info.region == "near" ? "near: near surfaces or surrounded by them (open air far from all not baked)"
+                                        : grid.info.region)
        << "\n";
   return os.str();
 }

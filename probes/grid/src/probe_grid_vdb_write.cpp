@@ -15,11 +15,11 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "probe_file.h"
 #include "prt/atomic_file.h"
 #include "prt/error.h"
 #include "prt/math.h"
 #include "prt/probe_grid.h"
-#include "probe_file.h"
 
 namespace prt {
 
@@ -88,14 +88,17 @@ void stampContentUuid(const std::string& tempPath, const std::string& path) {
   if (f.bad()) throw Error(cat(path, ": cannot write VDB file (reading it back failed)"));
   char uuid[kUuidLength + 1];
   std::snprintf(uuid, sizeof uuid, "%08x-%04x-%04x-%04x-%012llx", unsigned(h[0] >> 32), unsigned(h[0] >> 16 & 0xffff),
-                unsigned(h[0] & 0xffff), unsigned(h[1] >> 48), static_cast<unsigned long long>(h[1] & 0xffffffffffffull));
+                unsigned(h[0] & 0xffff), unsigned(h[1] >> 48),
+                static_cast<unsigned long long>(h[1] & 0xffffffffffffull));
   f.clear();
   f.seekp(std::streamoff(kUuidOffset));
   f.write(uuid, std::streamsize(kUuidLength));
   if (!f.flush()) throw Error(cat(path, ": cannot write VDB file"));
 }
 
-vdb::Coord coordOf(const ProbeGrid& grid, size_t p) { return vdb::Coord(grid.coord[p].x, grid.coord[p].y, grid.coord[p].z); }
+vdb::Coord coordOf(const ProbeGrid& grid, size_t p) {
+  return vdb::Coord(grid.coord[p].x, grid.coord[p].y, grid.coord[p].z);
+}
 
 void checkWritable(const ProbeGrid& grid) {
   const size_t count = grid.probeCount();
@@ -110,8 +113,7 @@ void checkWritable(const ProbeGrid& grid) {
   PRT_CHECK_EQ(grid.skyVisibility.size(), count);
   PRT_CHECK_EQ(grid.moments.size(), count);
   for (const glm::ivec3& c : grid.coord)
-    PRT_CHECK(c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x < grid.dims.x && c.y < grid.dims.y &&
-              c.z < grid.dims.z);
+    PRT_CHECK(c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x < grid.dims.x && c.y < grid.dims.y && c.z < grid.dims.z);
 }
 
 // Every grid gets a value at every active probe (setValue activates it even when it equals
@@ -123,23 +125,21 @@ std::vector<vdb::Vec3SGrid::Ptr> makeTransferGrids(const ProbeGrid& grid, const 
   const int n2 = grid.coeffs();
   const size_t stride = grid.transferStride();
   std::vector<vdb::Vec3SGrid::Ptr> transfer(size_t(n2) * size_t(n2));
-  tbb::parallel_for(
-      tbb::blocked_range<size_t>(0, transfer.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t k = r.begin(); k < r.end(); ++k) {
-          const int j = int(k) / n2, i = int(k) % n2;
-          auto g = makeGrid<vdb::Vec3SGrid>(
-              transferName(j, i), xform,
-              cat("RGB transfer M_ji, j = ", j, ", i = ", i, ": incident radiance SH c_j = sum_i M_ji l_i"),
-              half);
-          g->setVectorType(vdb::VEC_INVARIANT);  // colours: not turned by the transform
-          auto acc = g->getAccessor();
-          for (size_t p = 0; p < grid.probeCount(); ++p) {
-            const float* m = grid.transfer.data() + p * stride + k * 3;
-            acc.setValue(coordOf(grid, p), vdb::Vec3s(m[0], m[1], m[2]));
-          }
-          transfer[k] = g;
-        }
-      });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, transfer.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t k = r.begin(); k < r.end(); ++k) {
+      const int j = int(k) / n2, i = int(k) % n2;
+      auto g = makeGrid<vdb::Vec3SGrid>(
+          transferName(j, i), xform,
+          cat("RGB transfer M_ji, j = ", j, ", i = ", i, ": incident radiance SH c_j = sum_i M_ji l_i"), half);
+      g->setVectorType(vdb::VEC_INVARIANT);  // colours: not turned by the transform
+      auto acc = g->getAccessor();
+      for (size_t p = 0; p < grid.probeCount(); ++p) {
+        const float* m = grid.transfer.data() + p * stride + k * 3;
+        acc.setValue(coordOf(grid, p), vdb::Vec3s(m[0], m[1], m[2]));
+      }
+      transfer[k] = g;
+    }
+  });
   return transfer;
 }
 
@@ -154,10 +154,10 @@ std::vector<vdb::FloatGrid::Ptr> makeDirectGrids(const ProbeGrid& grid, const vd
       int j = 0, first = 0;  // k is (j, i) of the upper triangle, row by row
       while (first + (n2 - j) <= int(k)) first += n2 - j++;
       const int i = j + (int(k) - first);
-      auto g = makeGrid<vdb::FloatGrid>(
-          directName(j, i), xform,
-          cat("direct part M0_ji = M0_ij, j = ", j, ", i = ", i, ": bounce-0 transfer (first-hit visibility), colourless"),
-          half);
+      auto g = makeGrid<vdb::FloatGrid>(directName(j, i), xform,
+                                        cat("direct part M0_ji = M0_ij, j = ", j, ", i = ", i,
+                                            ": bounce-0 transfer (first-hit visibility), colourless"),
+                                        half);
       auto acc = g->getAccessor();
       for (size_t p = 0; p < grid.probeCount(); ++p) acc.setValue(coordOf(grid, p), grid.direct[p * dstride + k]);
       direct[k] = g;
@@ -175,8 +175,8 @@ struct ProbeGrids {
 
 ProbeGrids makeProbeGrids(const vdb::math::Transform::Ptr& xform, bool half) {
   ProbeGrids out;
-  out.validity = makeGrid<vdb::FloatGrid>(kValidityGrid, xform,
-                                          "1 = valid probe, 0 = inside geometry (never interpolated)", half);
+  out.validity =
+      makeGrid<vdb::FloatGrid>(kValidityGrid, xform, "1 = valid probe, 0 = inside geometry (never interpolated)", half);
   out.sky = makeGrid<vdb::FloatGrid>(kSkyGrid, xform, "fraction of directions that escape to the sky (preview)", half);
   // Fog volume: values in [0, 1], 0 outside, which viewers (Blender, vdb_render) show as density.
   out.sky->setGridClass(vdb::GRID_FOG_VOLUME);
@@ -206,8 +206,7 @@ std::vector<float> irradianceFactors(int bands) {
   sh::evaluate(bands, glm::vec3(0.0f, 1.0f, 0.0f), yUp.data());
   std::vector<float> upFactor(static_cast<size_t>(n2));
   for (int j = 0; j < n2; ++j)
-    upFactor[size_t(j)] =
-        float(sh::clampedCosineFactor(sh::bandOf(j)) * 2.0 * std::sqrt(kPi)) * yUp[size_t(j)];
+    upFactor[size_t(j)] = float(sh::clampedCosineFactor(sh::bandOf(j)) * 2.0 * std::sqrt(kPi)) * yUp[size_t(j)];
   return upFactor;
 }
 
@@ -270,9 +269,8 @@ void writeFile(const vdb::GridPtrVec& grids, const vdb::MetaMap& meta, const std
   try {
     vdb::io::File file(out.tempPath());
     // Blosc: about as small as ZIP for this data and ~8x faster to write (platform notes).
-    file.setCompression(
-        vdb::io::COMPRESS_ACTIVE_MASK |
-        (vdb::io::Archive::hasBloscCompression() ? vdb::io::COMPRESS_BLOSC : vdb::io::COMPRESS_ZIP));
+    file.setCompression(vdb::io::COMPRESS_ACTIVE_MASK |
+                        (vdb::io::Archive::hasBloscCompression() ? vdb::io::COMPRESS_BLOSC : vdb::io::COMPRESS_ZIP));
     file.write(grids, meta);
     file.close();
   } catch (const std::exception& e) {

@@ -29,10 +29,7 @@ constexpr uint32_t kNoCompressedSizes = 0xffffffffu;
 std::string describe(const std::string& what) { return what; }
 std::string describe(const char* what) { return what; }
 template <class F>
-  requires std::is_invocable_r_v<std::string, const F&>
-std::string describe(const F& what) {
-  return what();
-}
+requires std::is_invocable_r_v<std::string, const F&> std::string describe(const F& what) { return what(); }
 
 // Reads forward through [pos, limit) of the file: every size is checked against what is left
 // before anything of that size is read.
@@ -160,7 +157,8 @@ void metaMap(Cursor& c, const MetaTypeOf& metaType, uint64_t regionBytes, const 
         c.skip(numBytes, what);
         break;
       case MetaRead::Fixed:
-        if (numBytes != t.size) c.corrupt(cat(what, " (", printable(type, 64), ") holds ", numBytes, " bytes, expected ", t.size));
+        if (numBytes != t.size)
+          c.corrupt(cat(what, " (", printable(type, 64), ") holds ", numBytes, " bytes, expected ", t.size));
         c.skip(numBytes, what);
         break;
       case MetaRead::DelayedLoad:
@@ -183,8 +181,8 @@ struct TreeValues {
 
 TreeValues treeValues(const std::string& gridType) {
   static const std::pair<const char*, TreeValues> kTypes[] = {
-      {"Tree_float_5_4_3", {4, 2}}, {"Tree_double_5_4_3", {8, 2}},  {"Tree_int32_5_4_3", {4, 0}},
-      {"Tree_int64_5_4_3", {8, 0}}, {"Tree_vec3s_5_4_3", {12, 6}}, {"Tree_vec3d_5_4_3", {24, 6}},
+      {"Tree_float_5_4_3", {4, 2}},  {"Tree_double_5_4_3", {8, 2}}, {"Tree_int32_5_4_3", {4, 0}},
+      {"Tree_int64_5_4_3", {8, 0}},  {"Tree_vec3s_5_4_3", {12, 6}}, {"Tree_vec3d_5_4_3", {24, 6}},
       {"Tree_vec3i_5_4_3", {12, 0}},
   };
   for (const auto& [name, values] : kTypes)
@@ -322,7 +320,8 @@ void transform(Cursor& c, const MapBytesOf& mapBytes, const std::string& what, c
     if (map == kFrustum) c.corrupt(cat(what, ": a frustum map inside a frustum map"));
   }
   const uint32_t bytes = mapBytes(map);
-  if (bytes == 0) throw Error(cat(path, ": ", what, ": transform map '", printable(map, 64), "' is not one OpenVDB knows"));
+  if (bytes == 0)
+    throw Error(cat(path, ": ", what, ": transform map '", printable(map, 64), "' is not one OpenVDB knows"));
   c.skip(bytes, cat(what, ", transform"));
 }
 
@@ -340,13 +339,14 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
     throw Error(cat(path, ": VDB file format version ", version, " is older than prt reads (", kOldestVersion,
                     ", OpenVDB 2.0, and later); write it again with a current OpenVDB"));
   if (version > maxVersion)
-    throw Error(cat(path, ": VDB file format version ", version, " is newer than this OpenVDB reads (",
-                    maxVersion, ")"));
+    throw Error(
+        cat(path, ": VDB file format version ", version, " is newer than this OpenVDB reads (", maxVersion, ")"));
   c.skip(8, "the header's library version");
   const uint8_t hasGridOffsets = c.read<uint8_t>("the header's grid offsets flag");
   if (hasGridOffsets == 0)
-    throw Error(cat(path, ": a VDB stream without grid offsets (written by io::Stream); prt reads probe files "
-                          "written as files (io::File, as prt bake and pyopenvdb write them)"));
+    throw Error(cat(path,
+                    ": a VDB stream without grid offsets (written by io::Stream); prt reads probe files "
+                    "written as files (io::File, as prt bake and pyopenvdb write them)"));
   c.skip(kUuidBytes, "the header's UUID");
   out.headerEnd = c.pos();
   metaMap(c, metaType, fileSize, "the file's");
@@ -391,7 +391,8 @@ Layout walk(std::istream& in, uint64_t fileSize, const std::string& path, uint32
     if (c.pos() != uint64_t(blockPos))
       c.corrupt(cat(what, ", topology ends at byte ", c.pos(), ", where the file says ", blockPos));
     tree.buffers(leaves);
-    if (c.pos() != span.end) c.corrupt(cat(what, ", buffers end at byte ", c.pos(), ", where the file says ", span.end));
+    if (c.pos() != span.end)
+      c.corrupt(cat(what, ", buffers end at byte ", c.pos(), ", where the file says ", span.end));
     c.setLimit(fileSize);  // the walk ended at span.end, where the next descriptor begins
     out.grids.push_back(span);
   }

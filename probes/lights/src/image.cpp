@@ -69,9 +69,8 @@ void checkFinite(const std::string& path, const ImageRgb& image) {
 // OpenEXR reads from the bytes already in memory, so the format we detected and the data we
 // decode are the same file even if it changes on disk meanwhile.
 class MemoryIStream : public Imf::IStream {
-public:
-  MemoryIStream(const std::string& data, const std::string& path)
-      : Imf::IStream(path.c_str()), data_(data) {}
+ public:
+  MemoryIStream(const std::string& data, const std::string& path) : Imf::IStream(path.c_str()), data_(data) {}
 
   bool read(char c[], int n) override {
     if (n < 0 || pos_ > data_.size() || static_cast<uint64_t>(n) > data_.size() - pos_)
@@ -83,7 +82,7 @@ public:
   uint64_t tellg() override { return pos_; }
   void seekg(uint64_t pos) override { pos_ = pos; }
 
-private:
+ private:
   const std::string& data_;
   uint64_t pos_ = 0;
 };
@@ -115,17 +114,13 @@ ImageRgb loadExr(const std::string& path, const std::string& data) {
     if (!file.isComplete()) throw Error(cat(path, ": corrupt OpenEXR file (pixel data missing or truncated)"));
 
     const Imf::ChannelList& channels = file.header().channels();
-    const bool rgb = channels.findChannel("R") && channels.findChannel("G") &&
-                     channels.findChannel("B");
+    const bool rgb = channels.findChannel("R") && channels.findChannel("G") && channels.findChannel("B");
     if (!rgb && !channels.findChannel("Y")) {
       std::string names;
-      for (auto it = channels.begin(); it != channels.end(); ++it)
-        names += cat(names.empty() ? "" : ", ", it.name());
-      throw Error(cat(path, ": no R, G, B or Y channels (found: ",
-                      names.empty() ? "none" : names, ")"));
+      for (auto it = channels.begin(); it != channels.end(); ++it) names += cat(names.empty() ? "" : ", ", it.name());
+      throw Error(cat(path, ": no R, G, B or Y channels (found: ", names.empty() ? "none" : names, ")"));
     }
-    const std::vector<const char*> used = rgb ? std::vector<const char*>{"R", "G", "B"}
-                                              : std::vector<const char*>{"Y"};
+    const std::vector<const char*> used = rgb ? std::vector<const char*>{"R", "G", "B"} : std::vector<const char*>{"Y"};
     for (const char* name : used) {
       const Imf::Channel* c = channels.findChannel(name);
       if (c->xSampling != 1 || c->ySampling != 1)
@@ -183,8 +178,7 @@ bool radianceDataComplete(const std::string& data, int w, int h) {
     if (size - pos < 4) return false;
     // A scan line without the run-length marker makes stb_image restart and read the whole
     // image flat from here.
-    if (byte(pos) != 2 || byte(pos + 1) != 2 || (byte(pos + 2) & 0x80))
-      return size - pos >= flatSize;
+    if (byte(pos) != 2 || byte(pos + 1) != 2 || (byte(pos + 2) & 0x80)) return size - pos >= flatSize;
     if (((byte(pos + 2) << 8) | byte(pos + 3)) != w) return true;
     pos += 4;
     for (int channel = 0; channel < 4; ++channel)
@@ -208,8 +202,7 @@ bool radianceDataComplete(const std::string& data, int w, int h) {
 }
 
 ImageRgb loadRadiance(const std::string& path, const std::string& data) {
-  if (data.size() > static_cast<size_t>(INT32_MAX))
-    throw Error(cat(path, ": file too large for a Radiance HDR image"));
+  if (data.size() > static_cast<size_t>(INT32_MAX)) throw Error(cat(path, ": file too large for a Radiance HDR image"));
   const auto* bytes = reinterpret_cast<const stbi_uc*>(data.data());
   const int len = static_cast<int>(data.size());
   int w = 0, h = 0, comp = 0;
@@ -217,12 +210,9 @@ ImageRgb loadRadiance(const std::string& path, const std::string& data) {
   if (!stbi_info_from_memory(bytes, len, &w, &h, &comp))
     throw Error(cat(path, ": corrupt Radiance HDR file (", stbi_failure_reason(), ")"));
   checkDimensions(path, w, h);
-  if (!radianceDataComplete(data, w, h))
-    throw Error(cat(path, ": corrupt Radiance HDR file (pixel data ends early)"));
-  std::unique_ptr<float, void (*)(void*)> pixels(
-      stbi_loadf_from_memory(bytes, len, &w, &h, &comp, 3), stbi_image_free);
-  if (!pixels)
-    throw Error(cat(path, ": corrupt Radiance HDR file (", stbi_failure_reason(), ")"));
+  if (!radianceDataComplete(data, w, h)) throw Error(cat(path, ": corrupt Radiance HDR file (pixel data ends early)"));
+  std::unique_ptr<float, void (*)(void*)> pixels(stbi_loadf_from_memory(bytes, len, &w, &h, &comp, 3), stbi_image_free);
+  if (!pixels) throw Error(cat(path, ": corrupt Radiance HDR file (", stbi_failure_reason(), ")"));
   ImageRgb image(w, h);
   std::memcpy(image.pixels.data(), pixels.get(), image.pixels.size() * sizeof(glm::vec3));
   return image;
@@ -231,8 +221,7 @@ ImageRgb loadRadiance(const std::string& path, const std::string& data) {
 void checkWritable(const std::string& path, const ImageRgb& image) {
   PRT_CHECK_EQ(image.pixels.size(), static_cast<size_t>(image.width) * image.height);
   if (image.width <= 0 || image.height <= 0)
-    throw Error(cat(path, ": cannot write an image of ", image.width, "x", image.height,
-                    " pixels"));
+    throw Error(cat(path, ": cannot write an image of ", image.width, "x", image.height, " pixels"));
 }
 
 }  // namespace
@@ -256,9 +245,14 @@ ImageRgb loadHdrImage(const std::string& path) {
   const std::string data = readFile(path);
   ImageRgb image;
   switch (detectFormat(data)) {
-    case Format::Exr: image = loadExr(path, data); break;
-    case Format::Radiance: image = loadRadiance(path, data); break;
-    case Format::Unknown: throw Error(cat(path, ": not an OpenEXR or Radiance HDR image"));
+    case Format::Exr:
+      image = loadExr(path, data);
+      break;
+    case Format::Radiance:
+      image = loadRadiance(path, data);
+      break;
+    case Format::Unknown:
+      throw Error(cat(path, ": not an OpenEXR or Radiance HDR image"));
   }
   checkFinite(path, image);
   return image;
@@ -276,12 +270,17 @@ void writeExr(const std::string& path, const ImageRgb& image, ExrCompression com
     // All three are lossless and deterministic. ZIP (the default) suits smooth renders and SH
     // reconstructions; it costs ~5x the write time of NONE for ~10% fewer bytes on renders.
     switch (compression) {
-      case ExrCompression::None: header.compression() = Imf::NO_COMPRESSION; break;
-      case ExrCompression::Zip: header.compression() = Imf::ZIP_COMPRESSION; break;
-      case ExrCompression::Piz: header.compression() = Imf::PIZ_COMPRESSION; break;
+      case ExrCompression::None:
+        header.compression() = Imf::NO_COMPRESSION;
+        break;
+      case ExrCompression::Zip:
+        header.compression() = Imf::ZIP_COMPRESSION;
+        break;
+      case ExrCompression::Piz:
+        header.compression() = Imf::PIZ_COMPRESSION;
+        break;
     }
-    for (const char* name : {"R", "G", "B"})
-      header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+    for (const char* name : {"R", "G", "B"}) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
     // OpenEXR only reads through the frame buffer while writing; the cast does not mutate.
     char* base = const_cast<char*>(reinterpret_cast<const char*>(image.pixels.data()));
     const size_t xs = sizeof(glm::vec3), ys = xs * static_cast<size_t>(image.width);
@@ -305,8 +304,7 @@ void writePng(const std::string& path, const ImageRgb& image, float exposure) {
   // ~3% larger (measured 2026-12-01). The variable is stb's global; prt is its only user here.
   stbi_write_png_compression_level = 1;
   AtomicFile out(path);
-  if (!stbi_write_png(out.tempPath().c_str(), image.width, image.height, 3, bytes.data(),
-                      image.width * 3))
+  if (!stbi_write_png(out.tempPath().c_str(), image.width, image.height, 3, bytes.data(), image.width * 3))
     throw Error(cat(path, ": cannot write PNG"));
   out.commit();
 }
@@ -372,10 +370,11 @@ std::vector<unsigned char> toneMapSrgb8(const ImageRgb& image, float exposure) {
   const float scale = std::exp2(exposure);
   std::vector<unsigned char> bytes(image.pixels.size() * 3);
   srgbTable();  // built once, before the threads
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, image.pixels.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i < r.end(); ++i)
-      for (int c = 0; c < 3; ++c) bytes[3 * i + size_t(c)] = srgb8(image.pixels[i][c] * scale);
-  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, image.pixels.size(), 16384),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t i = r.begin(); i < r.end(); ++i)
+                        for (int c = 0; c < 3; ++c) bytes[3 * i + size_t(c)] = srgb8(image.pixels[i][c] * scale);
+                    });
   return bytes;
 }
 

@@ -2,8 +2,8 @@
 // Conventions: prt/light.h, prt/sh.h; docs/lights.md has the derivations in one place.
 #include "prt/light.h"
 
-#include <array>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -18,8 +18,7 @@ namespace prt {
 namespace {
 
 void checkBands(int bands) {
-  if (bands < 1 || bands > sh::kMaxBands)
-    throw Error(cat("SH bands must be 1 to ", sh::kMaxBands, ", got ", bands));
+  if (bands < 1 || bands > sh::kMaxBands) throw Error(cat("SH bands must be 1 to ", sh::kMaxBands, ", got ", bands));
 }
 
 glm::dvec3 unitDirection(const glm::dvec3& d, const char* what) {
@@ -122,8 +121,7 @@ double equirectPixelSolidAngle(int row, int width, int height) {
   PRT_CHECK(width > 0 && height > 0 && row >= 0 && row < height);
   // (2π/W)(cos θ₀ - cos θ₁) written as (2π/W) · 2 sin θ_c sin(Δθ/2), θ_c = π(row + ½)/H, which
   // does not cancel near the poles.
-  return (2.0 * kPi / width) * 2.0 * std::sin(kPi * ((row + 0.5) / height)) *
-         std::sin(kPi / (2.0 * height));
+  return (2.0 * kPi / width) * 2.0 * std::sin(kPi * ((row + 0.5) / height)) * std::sin(kPi / (2.0 * height));
 }
 
 sh::ShRgb projectEnvironment(const ImageRgb& equirect, int bands) {
@@ -157,19 +155,15 @@ sh::ShRgb projectEnvironment(const ImageRgb& equirect, int bands) {
   return toShRgb(bands, c);
 }
 
-sh::ShRgb projectDiskRadiance(int bands, const glm::dvec3& toLight, double radius,
-                              const glm::dvec3& radiance) {
+sh::ShRgb projectDiskRadiance(int bands, const glm::dvec3& toLight, double radius, const glm::dvec3& radiance) {
   checkBands(bands);
-  if (!(radius > 0.0 && radius <= kPi))
-    throw Error(cat("disk radius ", radius, " rad is outside (0, π]"));
+  if (!(radius > 0.0 && radius <= kPi)) throw Error(cat("disk radius ", radius, " rad is outside (0, π]"));
   return zonal(bands, unitDirection(toLight, "disk"), capFactors(bands, radius), radiance);
 }
 
-sh::ShRgb projectSun(int bands, const glm::dvec3& toLight, double radius,
-                     const glm::dvec3& irradiance) {
+sh::ShRgb projectSun(int bands, const glm::dvec3& toLight, double radius, const glm::dvec3& irradiance) {
   checkBands(bands);
-  if (!(radius >= 0.0 && radius < kPi / 2.0))
-    throw Error(cat("sun radius ", radius, " rad is outside [0, π/2)"));
+  if (!(radius >= 0.0 && radius < kPi / 2.0)) throw Error(cat("sun radius ", radius, " rad is outside [0, π/2)"));
   const glm::dvec3 d = unitDirection(toLight, "sun");
   // A disk of radiance L and radius r < π/2 seen by a surface facing it gives
   //   E = ∫_cap L cos θ dω = 2π L ∫_{cos r}^1 t dt = π L sin² r,

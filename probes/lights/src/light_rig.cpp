@@ -57,8 +57,7 @@ glm::dvec3 Track::at(double frame) const {
   PRT_CHECK(!keys.empty());
   // The first key after `frame`; the segment is [it - 1, it]. A frame equal to a key's frame
   // selects that key as the segment's start, so keys are reproduced exactly.
-  auto it = std::upper_bound(keys.begin(), keys.end(), frame,
-                             [](double f, const Key& k) { return f < k.frame; });
+  auto it = std::upper_bound(keys.begin(), keys.end(), frame, [](double f, const Key& k) { return f < k.frame; });
   if (it == keys.begin()) return keys.front().value;  // before the first key: hold it
   if (it == keys.end()) return keys.back().value;     // after the last key: hold it
   const Key& k0 = *(it - 1);
@@ -126,7 +125,8 @@ struct Checker {
         if (!std::isfinite(x)) fail(where, "not a finite number");
         if (std::abs(x) > RigLimits::kMaxValue) fail(where, cat(x, " is beyond ±", RigLimits::kMaxValue));
         switch (range) {
-          case Range::Any: break;
+          case Range::Any:
+            break;
           case Range::NonNegative:
             if (x < 0) fail(where, cat("must be >= 0 (got ", x, ")"));
             break;
@@ -301,10 +301,11 @@ void LightRig::validate() {
           check.directions(light.direction, origin(light.direction, "direction"));
         }
         Range r = light.type == RigLight::Type::Sun ? Range::SunRadius
-                  : light.colorIsIrradiance          ? Range::DiskIrradianceRadius
-                                                     : Range::DiskRadius;
+                  : light.colorIsIrradiance         ? Range::DiskIrradianceRadius
+                                                    : Range::DiskRadius;
         check.values(light.radius, origin(light.radius, "radius"), r, 1);
-        const char* colorName = light.type == RigLight::Type::Sun || light.colorIsIrradiance ? "irradiance" : "radiance";
+        const char* colorName =
+            light.type == RigLight::Type::Sun || light.colorIsIrradiance ? "irradiance" : "radiance";
         check.values(light.color, origin(light.color, colorName), Range::NonNegative, 3);
         break;
       }
@@ -323,7 +324,8 @@ template <class Cache>
 const sh::ShRgb& projected(Cache& cache, const std::string& file, int bands) {
   auto key = std::make_pair(file, bands);
   auto it = cache.projected.find(key);
-  if (it == cache.projected.end()) it = cache.projected.emplace(key, projectEnvironment(cache.get(file).image, bands)).first;
+  if (it == cache.projected.end())
+    it = cache.projected.emplace(key, projectEnvironment(cache.get(file).image, bands)).first;
   return it->second;
 }
 
@@ -431,7 +433,8 @@ sh::ShRgb LightRig::evaluate(double frame, int bands) const {
         }
         const double angle = light.rotation.scalarAt(frame);
         // A zero angle skips the rotation, so an unrotated map is bit-identical to its projection.
-        sh::ShRgb env = angle == 0.0 ? base : sh::Rotation(bands, sh::rotationAxis(light.axis.at(frame), angle)).apply(base);
+        sh::ShRgb env =
+            angle == 0.0 ? base : sh::Rotation(bands, sh::rotationAxis(light.axis.at(frame), angle)).apply(base);
         env *= glm::vec3(light.intensity.at(frame));
         sum += env;
         break;
@@ -476,8 +479,8 @@ RigBackground LightRig::radianceAt(double frame, bool shPart) const {
         const double angle = light.rotation.scalarAt(frame);
         const glm::dmat3 rotation = angle == 0.0 ? glm::dmat3(1.0) : sh::rotationAxis(light.axis.at(frame), angle);
         // Turned by R, the map lights direction d with what it held at R⁻¹ d = Rᵀ d.
-        b.maps.push_back({std::shared_ptr<const ImageRgb>(cache_, image), glm::transpose(rotation),
-                          light.intensity.at(frame)});
+        b.maps.push_back(
+            {std::shared_ptr<const ImageRgb>(cache_, image), glm::transpose(rotation), light.intensity.at(frame)});
         break;
       }
       case RigLight::Type::Sun:
@@ -509,7 +512,8 @@ glm::dvec3 RigBackground::radiance(const glm::dvec3& d) const {
 
 bool LightRig::animated() const {
   for (const RigLight& l : lights)
-    for (const Track* t : {&l.axis, &l.rotation, &l.intensity, &l.direction, &l.azimuth, &l.elevation, &l.radius, &l.color})
+    for (const Track* t :
+         {&l.axis, &l.rotation, &l.intensity, &l.direction, &l.azimuth, &l.elevation, &l.radius, &l.color})
       if (t->animated()) return true;
   return false;
 }
@@ -518,7 +522,8 @@ std::pair<double, double> LightRig::keyRange() const {
   bool any = false;
   double lo = 0.0, hi = 0.0;
   for (const RigLight& l : lights)
-    for (const Track* t : {&l.axis, &l.rotation, &l.intensity, &l.direction, &l.azimuth, &l.elevation, &l.radius, &l.color})
+    for (const Track* t :
+         {&l.axis, &l.rotation, &l.intensity, &l.direction, &l.azimuth, &l.elevation, &l.radius, &l.color})
       if (t->animated()) {
         lo = any ? std::min(lo, t->keys.front().frame) : t->keys.front().frame;
         hi = any ? std::max(hi, t->keys.back().frame) : t->keys.back().frame;

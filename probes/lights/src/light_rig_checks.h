@@ -12,8 +12,8 @@ namespace prt::detail {
 template <class Check>
 void checkFps(const Check& check, double fps) {
   if (!(fps >= RigLimits::kMinFps && fps <= RigLimits::kMaxFps))
-    check.fail("fps", cat("must be in [", RigLimits::kMinFps, ", ", RigLimits::kMaxFps, "] frames per second (got ", fps,
-                          ")"));
+    check.fail("fps", cat("must be in [", RigLimits::kMinFps, ", ", RigLimits::kMaxFps, "] frames per second (got ",
+                          fps, ")"));
 }
 
 }  // namespace prt::detail

@@ -65,7 +65,9 @@ std::string jsonProblem(const Json::exception& e) {
   return printable(what.substr(0, quote + 1), 200) + printable(what.substr(quote + 1));
 }
 
-[[noreturn]] void failBytes(const std::string& name, const std::string& problem) { throw Error(cat(name, ": ", problem)); }
+[[noreturn]] void failBytes(const std::string& name, const std::string& problem) {
+  throw Error(cat(name, ": ", problem));
+}
 
 void checkSize(const std::string& name, uintmax_t bytes) {
   if (bytes > RigLimits::kMaxFileBytes)
@@ -85,9 +87,12 @@ void checkBytes(const std::string& name, const std::string& bytes) {
   for (char c : bytes) {
     if (c == '\n') ++line;
     if (inString) {
-      if (escaped) escaped = false;
-      else if (c == '\\') escaped = true;
-      else if (c == '"') inString = false;
+      if (escaped)
+        escaped = false;
+      else if (c == '\\')
+        escaped = true;
+      else if (c == '"')
+        inString = false;
     } else if (c == '"') {
       inString = true;
     } else if (c == '[' || c == '{') {
@@ -100,7 +105,7 @@ void checkBytes(const std::string& name, const std::string& bytes) {
 }
 
 class Reader {
-public:
+ public:
   Reader(std::string name, const RigReadOptions& options)
       : name_(std::move(name)), baseDir_(options.baseDir), maps_(options.maps) {}
 
@@ -150,7 +155,7 @@ public:
     return rig;
   }
 
-private:
+ private:
   std::string name_;
   std::filesystem::path baseDir_;
   const std::map<std::string, ImageRgb>& maps_;
@@ -183,9 +188,12 @@ private:
     if (j.is_array() && j.size() == 3 && shape != Shape::Scalar && j[0].is_number())
       return {number(j[0], path + "[0]"), number(j[1], path + "[1]"), number(j[2], path + "[2]")};
     switch (shape) {
-      case Shape::Scalar: fail(path, cat("expected a number, got ", shortDump(j)));
-      case Shape::Color: fail(path, cat("expected a number or [R, G, B], got ", shortDump(j)));
-      case Shape::Direction: fail(path, cat("expected a direction [X, Y, Z], got ", shortDump(j)));
+      case Shape::Scalar:
+        fail(path, cat("expected a number, got ", shortDump(j)));
+      case Shape::Color:
+        fail(path, cat("expected a number or [R, G, B], got ", shortDump(j)));
+      case Shape::Direction:
+        fail(path, cat("expected a direction [X, Y, Z], got ", shortDump(j)));
     }
     return {};
   }
@@ -209,9 +217,12 @@ private:
       if (j.contains("interpolation")) {
         const Json& in = j["interpolation"];
         std::string s = in.is_string() ? in.get<std::string>() : in.dump();
-        if (s == "linear") t.interp = Track::Interp::Linear;
-        else if (s == "step") t.interp = Track::Interp::Step;
-        else fail(path + ".interpolation", cat("'", printable(s), "': expected linear or step"));
+        if (s == "linear")
+          t.interp = Track::Interp::Linear;
+        else if (s == "step")
+          t.interp = Track::Interp::Step;
+        else
+          fail(path + ".interpolation", cat("'", printable(s), "': expected linear or step"));
       }
     } else if (isKeyList(j)) {
       list = &j;
@@ -292,8 +303,10 @@ private:
         light.azimuth = track(j["azimuth"], path + ".azimuth", Shape::Scalar);
         light.elevation = track(j["elevation"], path + ".elevation", Shape::Scalar);
       }
-      if (j.contains("radius")) light.radius = track(j["radius"], path + ".radius", Shape::Scalar);
-      else if (!sun) fail(path + ".radius", "missing (angular radius of the disk, degrees)");
+      if (j.contains("radius"))
+        light.radius = track(j["radius"], path + ".radius", Shape::Scalar);
+      else if (!sun)
+        fail(path + ".radius", "missing (angular radius of the disk, degrees)");
       if (sun) {
         if (j.contains("irradiance")) light.color = track(j["irradiance"], path + ".irradiance", Shape::Color);
         light.colorIsIrradiance = true;
@@ -317,7 +330,6 @@ private:
     if (j.contains("name") && !j["name"].is_string()) fail(path + ".name", "expected a string");
     return light;
   }
-
 };
 
 }  // namespace

@@ -29,8 +29,9 @@ double degrees(double radians) { return radians * 180.0 / kPi; }
 // The lat-long grid: per-row and per-column tables, neighbours, pixel moments, and the weights
 // of the Laplacian that in-paints.
 class Grid {
-public:
-  Grid(int w, int h) : w_(w), h_(h), sinT_(h), cosT_(h), dOmega_(h), ax_(h), ay_(h), wH_(h), wV_(h + 1, 0.0), cosP_(w), sinP_(w) {
+ public:
+  Grid(int w, int h)
+      : w_(w), h_(h), sinT_(h), cosT_(h), dOmega_(h), ax_(h), ay_(h), wH_(h), wV_(h + 1, 0.0), cosP_(w), sinP_(w) {
     const double dTheta = kPi / h, dPhi = 2.0 * kPi / w;
     for (int y = 0; y < h; ++y) {
       const double t = kPi * ((y + 0.5) / h);
@@ -71,9 +72,7 @@ public:
   double solidAngle(int y) const { return dOmega_[y]; }
 
   // The direction of pixel (x, y)'s centre: equirectDirection((x + ½)/W, (y + ½)/H).
-  glm::dvec3 direction(int x, int y) const {
-    return {sinT_[y] * cosP_[x], cosT_[y], sinT_[y] * sinP_[x]};
-  }
+  glm::dvec3 direction(int x, int y) const { return {sinT_[y] * cosP_[x], cosT_[y], sinT_[y] * sinP_[x]}; }
   // ∫_pixel ω dω (Note 1).
   glm::dvec3 moment(int x, int y) const { return {ax_[y] * cosP_[x], ay_[y], ax_[y] * sinP_[x]}; }
 
@@ -105,7 +104,7 @@ public:
     if (y + 1 < h_) f(x, y + 1, wV_[y + 1]);
   }
 
-private:
+ private:
   int w_, h_;
   std::vector<double> sinT_, cosT_, dOmega_, ax_, ay_, wH_, wV_, cosP_, sinP_;
 };
@@ -126,9 +125,8 @@ enum Mark : uint8_t { kNone = 0, kCore = 1, kRegion = 2, kBoundary = 3 };
 // Grows the 8-connected set of pixels with luminance >= threshold from `seed`, keeping it
 // within the cap of cos-radius `cosMax` around `centre`. Returns false, with `marks` cleared,
 // when a pixel of the set lies outside the cap (the bright region is not compact).
-bool growRegion(const ImageRgb& image, const Grid& grid, size_t seed, const glm::dvec3& centre,
-                double cosMax, double threshold, std::vector<uint8_t>& marks,
-                std::vector<size_t>& region) {
+bool growRegion(const ImageRgb& image, const Grid& grid, size_t seed, const glm::dvec3& centre, double cosMax,
+                double threshold, std::vector<uint8_t>& marks, std::vector<size_t>& region) {
   region.clear();
   region.push_back(seed);
   marks[seed] = kCore;
@@ -172,7 +170,7 @@ struct Laplace {
   std::vector<double> diag;
   std::vector<std::array<Edge, 4>> edges;
   std::vector<int> edgeCount;
-  std::vector<double> lower;           // weight between unknowns i − 1 and i of one run, else 0
+  std::vector<double> lower;               // weight between unknowns i − 1 and i of one run, else 0
   std::vector<double> denom, upperFactor;  // the Thomas factorization of the row-tridiagonal part
 
   void factor() {
@@ -263,7 +261,6 @@ void checkInput(const ImageRgb& image, const SunExtractOptions& o) {
   if (o.marginPixels < 0 || o.marginPixels > 64)
     throw Error(cat("sun extraction: margin of ", o.marginPixels, " pixels is outside [0, 64]"));
 }
-
 
 // The steps of extractSun, in order.
 
@@ -473,9 +470,9 @@ SunExtraction extractSun(const ImageRgb& equirect, const SunExtractOptions& opti
   const Peak peak = findPeak(equirect);
   Region region;
   if (!growCore(equirect, grid, peak, options, region)) {
-    out.reason = cat("no sun: the pixels brighter than ", region.threshold / peak.luminance, " of the brightest (",
-                     peak.luminance, ") reach beyond ", degrees(options.maxRadius),
-                     " degrees of it: no compact source");
+    out.reason =
+        cat("no sun: the pixels brighter than ", region.threshold / peak.luminance, " of the brightest (",
+            peak.luminance, ") reach beyond ", degrees(options.maxRadius), " degrees of it: no compact source");
     return out;
   }
   addMargin(grid, options.marginPixels, region);
@@ -495,9 +492,9 @@ SunExtraction extractSun(const ImageRgb& equirect, const SunExtractOptions& opti
   const double share = sunLuminance / mapLuminance;
   if (!(sunLuminance > 0.0) || share < options.minPowerShare) {
     out.residual = equirect;
-    out.reason = cat("no sun: the compact source around the brightest pixel (", peak.luminance, "; ",
-                     region.corePixels, " pixels above ", region.threshold / peak.luminance, " of it) carries ",
-                     100.0 * share, "% of the map's power, below ", 100.0 * options.minPowerShare, "%");
+    out.reason = cat("no sun: the compact source around the brightest pixel (", peak.luminance, "; ", region.corePixels,
+                     " pixels above ", region.threshold / peak.luminance, " of it) carries ", 100.0 * share,
+                     "% of the map's power, below ", 100.0 * options.minPowerShare, "%");
     return out;
   }
 

@@ -19,9 +19,12 @@ namespace detail {
 
 const char* pathName(AnimationPath p) {
   switch (p) {
-    case AnimationPath::Translation: return "translation";
-    case AnimationPath::Rotation: return "rotation";
-    case AnimationPath::Scale: return "scale";
+    case AnimationPath::Translation:
+      return "translation";
+    case AnimationPath::Rotation:
+      return "rotation";
+    case AnimationPath::Scale:
+      return "scale";
   }
   return "?";
 }
@@ -123,7 +126,8 @@ glm::dvec4 sampleChannel(const AnimationChannel& ch, double t) {
 
 bool isAnimated(const SceneAnimation& animation, int node) {
   // Bounded walk: a malformed hierarchy outside the default scene must not loop forever.
-  for (size_t steps = 0; node >= 0 && size_t(node) < animation.nodes.size() && steps <= animation.nodes.size(); ++steps) {
+  for (size_t steps = 0; node >= 0 && size_t(node) < animation.nodes.size() && steps <= animation.nodes.size();
+       ++steps) {
     if (nodeDriven(animation, node)) return true;
     node = animation.nodes[size_t(node)].parent;
   }
@@ -164,7 +168,8 @@ std::string drivenProperties(const SceneAnimation& animation, int node) {
     for (const Animation& a : animation.animations)
       for (const AnimationChannel& c : a.channels) {
         if (c.node != n) continue;
-        std::string part = n == node ? std::string(pathName(c.path)) : cat(pathName(c.path), " of ", nodeLabel(animation, n));
+        std::string part =
+            n == node ? std::string(pathName(c.path)) : cat(pathName(c.path), " of ", nodeLabel(animation, n));
         if (std::find(parts.begin(), parts.end(), part) == parts.end()) parts.push_back(std::move(part));
       }
   std::string out;

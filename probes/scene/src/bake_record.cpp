@@ -39,7 +39,7 @@ std::string shown(const Json& v) {
 }
 
 class Fields {
-public:
+ public:
   Fields(const Json& j, const std::string& where) : j_(j), where_(where) {}
 
   [[noreturn]] void fail(const char* key, const std::string& what) const {
@@ -52,8 +52,9 @@ public:
   }
   int integer(const char* key, int lo, int hi, const std::string& range) const {
     const Json& v = get(key);
-    const bool ok = v.is_number_integer() && (v.is_number_unsigned() ? v.get<uint64_t>() <= uint64_t(hi)
-                                                                       : v.get<int64_t>() >= lo && v.get<int64_t>() <= hi);
+    const bool ok =
+        v.is_number_integer() &&
+        (v.is_number_unsigned() ? v.get<uint64_t>() <= uint64_t(hi) : v.get<int64_t>() >= lo && v.get<int64_t>() <= hi);
     if (!ok) fail(key, cat("expected an integer ", range, ", got ", shown(v)));
     return int(v.get<int64_t>());
   }
@@ -90,7 +91,7 @@ public:
   }
   bool has(const char* key) const { return j_.contains(key); }
 
-private:
+ private:
   const Json& j_;
   const std::string& where_;
 };
@@ -114,9 +115,12 @@ Json bakeRecordToJson(const BakeRecord& r) {
   if (!r.prtVersion.empty()) j[kPrtVersionKey] = r.prtVersion;
   if (r.refinement.tolerance > 0.0) {
     const BakeRecord::Refinement& f = r.refinement;
-    j[kRefinementKey] = {{"tolerance", f.tolerance},           {"budget", f.budget},
-                         {"samples", f.samples},               {"vertices_before", f.verticesBefore},
-                         {"vertices_after", f.verticesAfter},  {"residual", f.residual}};
+    j[kRefinementKey] = {{"tolerance", f.tolerance},
+                         {"budget", f.budget},
+                         {"samples", f.samples},
+                         {"vertices_before", f.verticesBefore},
+                         {"vertices_after", f.verticesAfter},
+                         {"residual", f.residual}};
   }
   return j;
 }
@@ -128,8 +132,8 @@ BakeRecord bakeRecordFromJson(const Json& j, const std::string& where) {
   if (!version.is_number_integer()) f.fail(kVersionKey, cat("expected an integer, got ", shown(version)));
   if (version.is_number_unsigned() ? version.get<uint64_t>() > uint64_t(BakeRecord::kLayoutVersion)
                                    : version.get<int64_t>() > BakeRecord::kLayoutVersion)
-    f.fail(kVersionKey, cat(shown(version), ": written by a newer prt (this one reads version ",
-                            BakeRecord::kLayoutVersion, ")"));
+    f.fail(kVersionKey,
+           cat(shown(version), ": written by a newer prt (this one reads version ", BakeRecord::kLayoutVersion, ")"));
   if (version.get<int64_t>() != BakeRecord::kLayoutVersion)
     f.fail(kVersionKey, cat("expected ", BakeRecord::kLayoutVersion, ", got ", shown(version)));
 

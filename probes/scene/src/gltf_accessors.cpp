@@ -19,11 +19,16 @@ constexpr size_t kMaxBufferlessCount = size_t(1) << 24;
 
 int componentCount(int type) {
   switch (type) {
-    case TINYGLTF_TYPE_SCALAR: return 1;
-    case TINYGLTF_TYPE_VEC2: return 2;
-    case TINYGLTF_TYPE_VEC3: return 3;
-    case TINYGLTF_TYPE_VEC4: return 4;
-    default: return 0;  // matrices are never vertex data we read
+    case TINYGLTF_TYPE_SCALAR:
+      return 1;
+    case TINYGLTF_TYPE_VEC2:
+      return 2;
+    case TINYGLTF_TYPE_VEC3:
+      return 3;
+    case TINYGLTF_TYPE_VEC4:
+      return 4;
+    default:
+      return 0;  // matrices are never vertex data we read
   }
 }
 
@@ -31,11 +36,16 @@ int componentCount(int type) {
 
 const char* typeName(int type) {
   switch (type) {
-    case TINYGLTF_TYPE_SCALAR: return "SCALAR";
-    case TINYGLTF_TYPE_VEC2: return "VEC2";
-    case TINYGLTF_TYPE_VEC3: return "VEC3";
-    case TINYGLTF_TYPE_VEC4: return "VEC4";
-    default: return "a matrix type";
+    case TINYGLTF_TYPE_SCALAR:
+      return "SCALAR";
+    case TINYGLTF_TYPE_VEC2:
+      return "VEC2";
+    case TINYGLTF_TYPE_VEC3:
+      return "VEC3";
+    case TINYGLTF_TYPE_VEC4:
+      return "VEC4";
+    default:
+      return "a matrix type";
   }
 }
 
@@ -55,7 +65,8 @@ AccessorData openAccessor(const Gltf& g, int index, const std::string& where) {
   d.normalized = a.normalized;
   int size = componentSize(a.componentType);
   if (size == 0) fail(g, cat(where, ": accessor ", index, " has invalid component type ", a.componentType));
-  if (d.components == 0) fail(g, cat(where, ": accessor ", index, " has type ", typeName(a.type), ", expected a scalar or vector"));
+  if (d.components == 0)
+    fail(g, cat(where, ": accessor ", index, " has type ", typeName(a.type), ", expected a scalar or vector"));
   size_t elementSize = size_t(size) * size_t(d.components);
   if (a.bufferView < 0) {  // glTF: an accessor without a buffer view reads as zeros
     if (d.count > kMaxBufferlessCount)
@@ -71,8 +82,8 @@ AccessorData openAccessor(const Gltf& g, int index, const std::string& where) {
   const tinygltf::Buffer& buffer = m.buffers[size_t(view.buffer)];
   if (view.byteOffset > buffer.data.size() || view.byteLength > buffer.data.size() - view.byteOffset)
     fail(g, cat(where, ": buffer view ", a.bufferView, " (bytes ", view.byteOffset, "..",
-                view.byteOffset + view.byteLength, ") runs past the end of buffer ", view.buffer,
-                " (", buffer.data.size(), " bytes)"));
+                view.byteOffset + view.byteLength, ") runs past the end of buffer ", view.buffer, " (",
+                buffer.data.size(), " bytes)"));
   d.stride = view.byteStride ? view.byteStride : elementSize;
   if (d.stride < elementSize)
     fail(g, cat(where, ": buffer view ", a.bufferView, " has byteStride ", view.byteStride,
@@ -83,9 +94,8 @@ AccessorData openAccessor(const Gltf& g, int index, const std::string& where) {
     bool fits = a.byteOffset <= view.byteLength && elementSize <= view.byteLength - a.byteOffset &&
                 (d.count - 1) <= (view.byteLength - a.byteOffset - elementSize) / d.stride;
     if (!fits)
-      fail(g, cat(where, ": accessor ", index, " (", d.count, " elements, stride ", d.stride,
-                  ", offset ", a.byteOffset, ") runs past the end of buffer view ", a.bufferView,
-                  " (", view.byteLength, " bytes)"));
+      fail(g, cat(where, ": accessor ", index, " (", d.count, " elements, stride ", d.stride, ", offset ", a.byteOffset,
+                  ") runs past the end of buffer view ", a.bufferView, " (", view.byteLength, " bytes)"));
   }
   d.bytes = buffer.data.data() + view.byteOffset + a.byteOffset;
   return d;
@@ -102,13 +112,12 @@ void requireType(const Gltf& g, const AccessorData& d, const std::string& where,
 }
 
 void requireCount(const Gltf& g, const AccessorData& d, const std::string& where, size_t expected) {
-  if (d.count != expected)
-    fail(g, cat(where, ": ", d.count, " values, expected ", expected, " (the POSITION count)"));
+  if (d.count != expected) fail(g, cat(where, ": ", d.count, " values, expected ", expected, " (the POSITION count)"));
 }
 
 /// Index values of a primitive (or 0..n-1 without indices), each checked against the vertex count.
-std::vector<uint32_t> readIndices(const Gltf& g, const tinygltf::Primitive& prim,
-                                  const std::string& where, size_t vertexCount) {
+std::vector<uint32_t> readIndices(const Gltf& g, const tinygltf::Primitive& prim, const std::string& where,
+                                  size_t vertexCount) {
   std::vector<uint32_t> out;
   if (prim.indices < 0) {
     out.resize(vertexCount);
@@ -126,8 +135,8 @@ std::vector<uint32_t> readIndices(const Gltf& g, const tinygltf::Primitive& prim
   for (size_t i = 0; i < d.count; ++i) {
     double v = d.get(i, 0);
     if (v >= double(vertexCount))
-      fail(g, cat(here, ": index ", i, " is ", uint64_t(v), ", out of range (the primitive has ",
-                  vertexCount, " vertices)"));
+      fail(g, cat(here, ": index ", i, " is ", uint64_t(v), ", out of range (the primitive has ", vertexCount,
+                  " vertices)"));
     out[i] = static_cast<uint32_t>(v);
   }
   return out;

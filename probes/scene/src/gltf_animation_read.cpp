@@ -55,8 +55,7 @@ Interpolation readInterpolation(const Gltf& g, const tinygltf::AnimationSampler&
 }
 
 /// The sampler's input: SCALAR float key times, finite and strictly increasing.
-void readKeyTimes(const Gltf& g, const tinygltf::AnimationSampler& s, const std::string& where,
-                  AnimationChannel& out) {
+void readKeyTimes(const Gltf& g, const tinygltf::AnimationSampler& s, const std::string& where, AnimationChannel& out) {
   const std::string inWhere = cat(where, " / input");
   const AccessorData in = openAccessor(g, s.input, inWhere);
   if (in.components != 1 || in.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
@@ -89,12 +88,12 @@ void readKeyValues(const Gltf& g, const tinygltf::AnimationSampler& s, const std
   const int want = rotation ? 4 : 3;
   const bool floatType = val.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT;
   // glTF allows normalized byte and short quaternions; translation and scale are float only.
-  const bool normalizedRotation = rotation && val.normalized && val.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+  const bool normalizedRotation =
+      rotation && val.normalized && val.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
   if (val.components != want || !(floatType || normalizedRotation))
     fail(g, cat(outWhere, ": ", pathName(out.path), " values must be ", rotation ? "VEC4" : "VEC3",
-                rotation ? " float or normalized integers" : " float", ", accessor ", s.output, " has ",
-                val.components, " components of component type ", val.componentType,
-                val.normalized ? " (normalized)" : ""));
+                rotation ? " float or normalized integers" : " float", ", accessor ", s.output, " has ", val.components,
+                " components of component type ", val.componentType, val.normalized ? " (normalized)" : ""));
   const size_t expected = keys * (cubic ? 3 : 1);
   if (val.count != expected)
     fail(g, cat(outWhere, ": ", val.count, " values, expected ", expected, " (", keys, " key times",
@@ -106,8 +105,7 @@ void readKeyValues(const Gltf& g, const tinygltf::AnimationSampler& s, const std
     if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z) || !std::isfinite(v.w))
       fail(g, cat(outWhere, ": value ", i, " is not finite"));
     const bool isValue = !cubic || i % 3 == 1;  // tangents may be anything finite
-    if (rotation && isValue && glm::length(v) == 0.0)
-      fail(g, cat(outWhere, ": value ", i, " is a zero quaternion"));
+    if (rotation && isValue && glm::length(v) == 0.0) fail(g, cat(outWhere, ": value ", i, " is a zero quaternion"));
     out.values[i] = v;
   }
 }

@@ -143,8 +143,8 @@ Bytes readUri(const Document& d, const std::string& uri, const std::string& wher
     if (!out) fail(d, cat(where, ": the data: URI is not base64"));
     return *out;
   }
-  std::string joined = guard.baseDir.empty() || guard.baseDir.back() == '/' ? guard.baseDir + uri
-                                                                             : cat(guard.baseDir, "/", uri);
+  std::string joined =
+      guard.baseDir.empty() || guard.baseDir.back() == '/' ? guard.baseDir + uri : cat(guard.baseDir, "/", uri);
   std::string file = guardedExpandFilePath(joined, &guard);
   if (!guardedFileExists(file, &guard)) {
     if (!guard.refusal.empty()) {
@@ -194,11 +194,12 @@ void readBuffers(Document& d, const std::string& bytes, bool binary, UriGuard& g
 const unsigned char* bufferRange(const Document& d, uint64_t index, uint64_t offset, uint64_t length,
                                  const std::string& where) {
   if (index >= d.buffers.size()) fail(d, cat(where, ": buffer ", index, " does not exist"));
-  if (!d.buffers[index]) fail(d, cat(where, ": buffer ", index, " is the meshopt fallback buffer, which holds no data"));
+  if (!d.buffers[index])
+    fail(d, cat(where, ": buffer ", index, " is the meshopt fallback buffer, which holds no data"));
   const Bytes& b = *d.buffers[index];
   if (offset > b.size() || length > b.size() - offset)
-    fail(d, cat(where, ": bytes ", offset, "..", offset + length, " run past the end of buffer ", index, " (",
-                b.size(), " bytes)"));
+    fail(d, cat(where, ": bytes ", offset, "..", offset + length, " run past the end of buffer ", index, " (", b.size(),
+                " bytes)"));
   return b.data() + offset;
 }
 
@@ -233,7 +234,7 @@ std::vector<unsigned char> decodeMeshoptView(const Document& d, const Json& ext,
   if (n > (kMaxMeshoptRatio * length + kMeshoptSlack) / stride)
     fail(d, cat(meshopt, ": ", n, " elements of ", stride, " bytes cannot come from a ", length, "-byte stream"));
   std::vector<unsigned char> out(n * stride);
-  int rc = mode == "ATTRIBUTES" ? meshopt_decodeVertexBuffer(out.data(), n, stride, src, length)
+  int rc = mode == "ATTRIBUTES"  ? meshopt_decodeVertexBuffer(out.data(), n, stride, src, length)
            : mode == "TRIANGLES" ? meshopt_decodeIndexBuffer(out.data(), n, stride, src, length)
                                  : meshopt_decodeIndexSequence(out.data(), n, stride, src, length);
   if (rc != 0) fail(d, cat(meshopt, ": corrupt ", mode, " stream (meshopt error ", rc, ")"));
@@ -286,12 +287,16 @@ void rebaseViews(Document& d) {
 int componentBytes(int type) {
   switch (type) {
     case kByte:
-    case kUnsignedByte: return 1;
+    case kUnsignedByte:
+      return 1;
     case kShort:
-    case kUnsignedShort: return 2;
+    case kUnsignedShort:
+      return 2;
     case kUnsignedInt:
-    case kFloat: return 4;
-    default: return 0;
+    case kFloat:
+      return 4;
+    default:
+      return 0;
   }
 }
 
@@ -304,7 +309,8 @@ int typeComponents(const std::string& type) {
 }
 
 template <class T>
-bool convertAttribute(const draco::PointAttribute& attr, size_t points, int components, std::vector<unsigned char>& out) {
+bool convertAttribute(const draco::PointAttribute& attr, size_t points, int components,
+                      std::vector<unsigned char>& out) {
   out.resize(points * size_t(components) * sizeof(T));
   std::vector<T> value(static_cast<size_t>(components));
   for (size_t i = 0; i < points; ++i) {
@@ -373,8 +379,7 @@ void decodeDracoPrimitive(Document& d, Json& prim, Json& ext, std::set<uint64_t>
     const draco::PointAttribute* attr = cloud->GetAttributeByUniqueId(id.get<uint32_t>());
     if (!attr) fail(d, cat(here, ": the Draco stream has no attribute ", id.get<uint64_t>()));
     uint64_t index = slot->is_number_unsigned() ? slot->get<uint64_t>() : std::numeric_limits<uint64_t>::max();
-    if (index >= accessors.size() || !accessors[index].is_object())
-      fail(d, cat(here, ": accessor does not exist"));
+    if (index >= accessors.size() || !accessors[index].is_object()) fail(d, cat(here, ": accessor does not exist"));
     const Json& a = accessors[index];
     const int components = typeComponents(a.value("type", std::string()));
     const int type = a.value("componentType", 0);
@@ -383,12 +388,24 @@ void decodeDracoPrimitive(Document& d, Json& prim, Json& ext, std::set<uint64_t>
     std::vector<unsigned char> data;
     bool ok = false;
     switch (type) {
-      case kByte: ok = convertAttribute<int8_t>(*attr, points, components, data); break;
-      case kUnsignedByte: ok = convertAttribute<uint8_t>(*attr, points, components, data); break;
-      case kShort: ok = convertAttribute<int16_t>(*attr, points, components, data); break;
-      case kUnsignedShort: ok = convertAttribute<uint16_t>(*attr, points, components, data); break;
-      case kUnsignedInt: ok = convertAttribute<uint32_t>(*attr, points, components, data); break;
-      default: ok = convertAttribute<float>(*attr, points, components, data); break;
+      case kByte:
+        ok = convertAttribute<int8_t>(*attr, points, components, data);
+        break;
+      case kUnsignedByte:
+        ok = convertAttribute<uint8_t>(*attr, points, components, data);
+        break;
+      case kShort:
+        ok = convertAttribute<int16_t>(*attr, points, components, data);
+        break;
+      case kUnsignedShort:
+        ok = convertAttribute<uint16_t>(*attr, points, components, data);
+        break;
+      case kUnsignedInt:
+        ok = convertAttribute<uint32_t>(*attr, points, components, data);
+        break;
+      default:
+        ok = convertAttribute<float>(*attr, points, components, data);
+        break;
     }
     if (!ok) fail(d, cat(here, ": the Draco attribute cannot be read as accessor ", index, " declares it"));
     int view = appendView(d, data.data(), data.size());
@@ -434,8 +451,10 @@ void dropExtensionNames(Document& d) {
     Json kept = Json::array();
     for (const Json& n : *names)
       if (!(n.is_string() && (n == kDraco || n == kMeshopt))) kept.push_back(n);
-    if (kept.empty()) d.json.erase(list);
-    else *names = std::move(kept);
+    if (kept.empty())
+      d.json.erase(list);
+    else
+      *names = std::move(kept);
   }
 }
 

@@ -20,7 +20,8 @@ constexpr const char* kMeshQuantization = "KHR_mesh_quantization";
 
 /// The document `bytes` (.gltf text, or .glb when `binary`) with its Draco primitives and meshopt
 /// buffer views decoded and its data:image/webp URIs moved into buffer views, as GLB bytes;
-/// nothing when it has none of them (the bytes are then parsed as they are). Buffers given by URI are read through `guard`. Throws prt::Error
+/// nothing when it has none of them (the bytes are then parsed as they are). Buffers given by URI are read through
+/// `guard`. Throws prt::Error
 /// naming the file and the mesh / primitive or buffer view whose stream is corrupt.
 std::optional<std::string> decodeCompressed(const std::string& path, const std::string& bytes, bool binary,
                                             UriGuard& guard);

@@ -51,8 +51,7 @@ namespace {
 
 /// tinygltf image writer callback that writes nothing: the writers embed every image as a
 /// buffer view first, and an image they could not read keeps its URI as it was.
-bool keepImageUri(const std::string*, const std::string*, const tinygltf::Image*, bool,
-                  std::string*, void*) {
+bool keepImageUri(const std::string*, const std::string*, const tinygltf::Image*, bool, std::string*, void*) {
   return false;
 }
 
@@ -96,7 +95,9 @@ bool onlyKnownExtensions(const tinygltf::Model& m) {
 /// Marks the accessors that core glTF objects refer to.
 std::vector<char> usedAccessors(const tinygltf::Model& m) {
   std::vector<char> used(m.accessors.size(), 0);
-  auto mark = [&](int a) { if (a >= 0 && size_t(a) < used.size()) used[size_t(a)] = 1; };
+  auto mark = [&](int a) {
+    if (a >= 0 && size_t(a) < used.size()) used[size_t(a)] = 1;
+  };
   for (const tinygltf::Mesh& mesh : m.meshes) {
     for (const tinygltf::Primitive& prim : mesh.primitives) {
       for (const auto& [name, a] : prim.attributes) mark(a);
@@ -107,7 +108,10 @@ std::vector<char> usedAccessors(const tinygltf::Model& m) {
   }
   for (const tinygltf::Skin& skin : m.skins) mark(skin.inverseBindMatrices);
   for (const tinygltf::Animation& anim : m.animations)
-    for (const tinygltf::AnimationSampler& s : anim.samplers) { mark(s.input); mark(s.output); }
+    for (const tinygltf::AnimationSampler& s : anim.samplers) {
+      mark(s.input);
+      mark(s.output);
+    }
   return used;
 }
 
@@ -120,7 +124,9 @@ void remapAccessors(tinygltf::Model& m, const std::vector<char>& keep) {
     kept.push_back(std::move(m.accessors[i]));
   }
   m.accessors = std::move(kept);
-  auto map = [&](int& a) { if (a >= 0 && size_t(a) < to.size()) a = to[size_t(a)]; };
+  auto map = [&](int& a) {
+    if (a >= 0 && size_t(a) < to.size()) a = to[size_t(a)];
+  };
   for (tinygltf::Mesh& mesh : m.meshes) {
     for (tinygltf::Primitive& prim : mesh.primitives) {
       for (auto& [name, a] : prim.attributes) map(a);
@@ -131,7 +137,10 @@ void remapAccessors(tinygltf::Model& m, const std::vector<char>& keep) {
   }
   for (tinygltf::Skin& skin : m.skins) map(skin.inverseBindMatrices);
   for (tinygltf::Animation& anim : m.animations)
-    for (tinygltf::AnimationSampler& s : anim.samplers) { map(s.input); map(s.output); }
+    for (tinygltf::AnimationSampler& s : anim.samplers) {
+      map(s.input);
+      map(s.output);
+    }
 }
 
 /// GLB holds one binary buffer: copies every kept buffer view into a new buffer 0, dropping
@@ -141,10 +150,15 @@ void packIntoOneBuffer(const Gltf& g, tinygltf::Model& m) {
   bool prune = onlyKnownExtensions(m);
   if (prune) remapAccessors(m, usedAccessors(m));
   std::vector<char> keepView(m.bufferViews.size(), prune ? 0 : 1);
-  auto mark = [&](int v) { if (v >= 0 && size_t(v) < keepView.size()) keepView[size_t(v)] = 1; };
+  auto mark = [&](int v) {
+    if (v >= 0 && size_t(v) < keepView.size()) keepView[size_t(v)] = 1;
+  };
   for (const tinygltf::Accessor& a : m.accessors) {
     mark(a.bufferView);
-    if (a.sparse.isSparse) { mark(a.sparse.indices.bufferView); mark(a.sparse.values.bufferView); }
+    if (a.sparse.isSparse) {
+      mark(a.sparse.indices.bufferView);
+      mark(a.sparse.values.bufferView);
+    }
   }
   for (const tinygltf::Image& image : m.images) mark(image.bufferView);
 
@@ -169,10 +183,15 @@ void packIntoOneBuffer(const Gltf& g, tinygltf::Model& m) {
     to[i] = static_cast<int>(views.size());
     views.push_back(std::move(view));
   }
-  auto map = [&](int& v) { if (v >= 0 && size_t(v) < to.size()) v = to[size_t(v)]; };
+  auto map = [&](int& v) {
+    if (v >= 0 && size_t(v) < to.size()) v = to[size_t(v)];
+  };
   for (tinygltf::Accessor& a : m.accessors) {
     map(a.bufferView);
-    if (a.sparse.isSparse) { map(a.sparse.indices.bufferView); map(a.sparse.values.bufferView); }
+    if (a.sparse.isSparse) {
+      map(a.sparse.indices.bufferView);
+      map(a.sparse.values.bufferView);
+    }
   }
   for (tinygltf::Image& image : m.images) map(image.bufferView);
   m.bufferViews = std::move(views);

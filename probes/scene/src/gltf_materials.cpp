@@ -33,11 +33,10 @@ constexpr int64_t kMaxTexels = int64_t(1) << 26;
 
 /// The sRGB decoding curve (IEC 61966-2-1), exact. Kept local: the copy in image.h belongs to
 /// another part of the library.
-double srgbDecode(double c) {
-  return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-}
+double srgbDecode(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 
-static_assert(Texture::kRepeat == TINYGLTF_TEXTURE_WRAP_REPEAT && Texture::kClampToEdge == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE &&
+static_assert(Texture::kRepeat == TINYGLTF_TEXTURE_WRAP_REPEAT &&
+              Texture::kClampToEdge == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE &&
               Texture::kMirroredRepeat == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT);
 
 bool isWrapMode(int mode) {
@@ -56,8 +55,8 @@ void checkTextureHeader(const Gltf& g, const std::vector<unsigned char>& bytes, 
   if (!stbi_info_from_memory(bytes.data(), size, &w, &h, &comp))
     fail(g, cat(where, ": cannot decode (", stbi_failure_reason(), ")"));
   if (w <= 0 || h <= 0 || w > kMaxTextureSide || h > kMaxTextureSide || int64_t(w) * h > kMaxTexels)
-    fail(g, cat(where, ": image ", w, "x", h, " is too large (at most ", kMaxTextureSide, " a side, ",
-                kMaxTexels, " texels)"));
+    fail(g, cat(where, ": image ", w, "x", h, " is too large (at most ", kMaxTextureSide, " a side, ", kMaxTexels,
+                " texels)"));
 }
 
 /// The image a texture shows: EXT_texture_webp's when it names one (prt decodes WebP, and
@@ -76,8 +75,7 @@ Texture decodeBaseColorTexture(const Gltf& g, int index, bool srgb = true) {
   const tinygltf::Texture& t = m.textures[size_t(index)];
   std::string where = cat("texture ", index);
   const int source = textureSource(t);
-  if (source < 0 || size_t(source) >= m.images.size())
-    fail(g, cat(where, ": image ", source, " does not exist"));
+  if (source < 0 || size_t(source) >= m.images.size()) fail(g, cat(where, ": image ", source, " does not exist"));
   const tinygltf::Image& image = m.images[size_t(source)];
   where = cat(where, " / image ", source, image.uri.empty() ? "" : cat(" ('", image.uri, "')"));
   if (image.image.empty()) fail(g, cat(where, ": could not be read"));
@@ -150,7 +148,8 @@ std::vector<double> numbers(const Gltf& g, const tinygltf::Value& v, size_t size
   std::vector<double> out;
   for (size_t i = 0; i < size; ++i) {
     const tinygltf::Value& x = v.Get(int(i));
-    if (!x.IsNumber() || !std::isfinite(x.GetNumberAsDouble())) fail(g, cat(where, ": value ", i, " is not a finite number"));
+    if (!x.IsNumber() || !std::isfinite(x.GetNumberAsDouble()))
+      fail(g, cat(where, ": value ", i, " is not a finite number"));
     out.push_back(x.GetNumberAsDouble());
   }
   return out;
@@ -192,8 +191,10 @@ void readTextureTransform(const Gltf& g, const tinygltf::ExtensionMap& extension
 /// unless the material has no base colour texture, whose coordinates it then decides.
 void readAlphaAndTransmission(const Gltf& g, const tinygltf::Material& src, const std::string& where, Material& mat,
                               BaseColorSource& source, std::vector<std::string>& warnings) {
-  if (src.alphaMode == "MASK") mat.alphaMode = Material::AlphaMode::Mask;
-  else if (src.alphaMode == "BLEND") mat.alphaMode = Material::AlphaMode::Blend;
+  if (src.alphaMode == "MASK")
+    mat.alphaMode = Material::AlphaMode::Mask;
+  else if (src.alphaMode == "BLEND")
+    mat.alphaMode = Material::AlphaMode::Blend;
   else if (!src.alphaMode.empty() && src.alphaMode != "OPAQUE")
     fail(g, cat(where, ": alphaMode '", src.alphaMode, "' is not OPAQUE, MASK or BLEND"));
   if (!std::isfinite(src.alphaCutoff) || src.alphaCutoff < 0.0)
@@ -225,8 +226,9 @@ void readAlphaAndTransmission(const Gltf& g, const tinygltf::Material& src, cons
     source.texCoord = own.texCoord;
     source.uvTransform = own.uvTransform;
   } else if (own.texCoord != source.texCoord || own.uvTransform != source.uvTransform) {
-    warnings.push_back(cat(g.path, ": ", here, ": transmissionTexture uses other texture coordinates than the base "
-                                              "colour texture; ignored (transmissionFactor only)"));
+    warnings.push_back(cat(g.path, ": ", here,
+                           ": transmissionTexture uses other texture coordinates than the base "
+                           "colour texture; ignored (transmissionFactor only)"));
     return;
   }
   source.transmissionTexture = index.Get<int>();
@@ -250,7 +252,8 @@ std::vector<BaseColorSource> readMaterials(const Gltf& g, Scene& scene) {
       const tinygltf::Value& sg = specGloss->second;
       const std::string here = cat(where, " / ", kSpecularGlossiness);
       if (sg.Has("diffuseFactor"))
-        mat.baseColorFactor = glm::vec4(glm::make_vec4(numbers(g, sg.Get("diffuseFactor"), 4, cat(here, " / diffuseFactor")).data()));
+        mat.baseColorFactor =
+            glm::vec4(glm::make_vec4(numbers(g, sg.Get("diffuseFactor"), 4, cat(here, " / diffuseFactor")).data()));
       if (sg.Has("diffuseTexture")) {
         const tinygltf::Value& info = sg.Get("diffuseTexture");
         const tinygltf::Value& index = info.Get("index");
@@ -260,12 +263,15 @@ std::vector<BaseColorSource> readMaterials(const Gltf& g, Scene& scene) {
         const tinygltf::Value& texCoord = info.Get("texCoord");
         if (texCoord.IsInt()) source.texCoord = texCoord.Get<int>();
         const tinygltf::Value& ext = info.Get("extensions");
-        if (ext.IsObject()) readTextureTransform(g, ext.Get<tinygltf::Value::Object>(), cat(here, " / diffuseTexture"), source);
+        if (ext.IsObject())
+          readTextureTransform(g, ext.Get<tinygltf::Value::Object>(), cat(here, " / diffuseTexture"), source);
       }
     } else {
       const std::vector<double>& f = src.pbrMetallicRoughness.baseColorFactor;
-      if (f.size() == 4) mat.baseColorFactor = glm::vec4(f[0], f[1], f[2], f[3]);
-      else if (!f.empty()) fail(g, cat(where, ": baseColorFactor has ", f.size(), " values, expected 4"));
+      if (f.size() == 4)
+        mat.baseColorFactor = glm::vec4(f[0], f[1], f[2], f[3]);
+      else if (!f.empty())
+        fail(g, cat(where, ": baseColorFactor has ", f.size(), " values, expected 4"));
       const tinygltf::TextureInfo& info = src.pbrMetallicRoughness.baseColorTexture;
       texture = info.index;
       source.texCoord = info.texCoord;

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include <glm/glm.hpp>
 #include <tiny_gltf.h>
+#include <glm/glm.hpp>
 
 #include "prt/error.h"
 
@@ -38,18 +38,15 @@ struct Gltf {
   tinygltf::Model model;
 };
 
-[[noreturn]] inline void fail(const Gltf& g, const std::string& what) {
-  throw Error(cat(g.path, ": ", what));
-}
+[[noreturn]] inline void fail(const Gltf& g, const std::string& what) { throw Error(cat(g.path, ": ", what)); }
 
-inline std::string primitiveWhere(int mesh, int primitive) {
-  return cat("mesh ", mesh, " / primitive ", primitive);
-}
+inline std::string primitiveWhere(int mesh, int primitive) { return cat("mesh ", mesh, " / primitive ", primitive); }
 
 /// The attribute name of transfer coefficient i: _PRT_SH_00, _PRT_SH_01, ... (`back`:
 /// _PRT_SH_BACK_NN; `direct`: _PRT_SH_DIRECT_NN or _PRT_SH_BACK_DIRECT_NN).
 inline const char* transferPrefix(bool back, bool direct) {
-  return direct ? (back ? kBackDirectTransferPrefix : kDirectTransferPrefix) : (back ? kBackTransferPrefix : kTransferPrefix);
+  return direct ? (back ? kBackDirectTransferPrefix : kDirectTransferPrefix)
+                : (back ? kBackTransferPrefix : kTransferPrefix);
 }
 inline std::string coefficientName(int i, bool back = false, bool direct = false) {
   return cat(transferPrefix(back, direct), i < 10 ? "0" : "", i);
@@ -62,12 +59,16 @@ Gltf readGltf(const std::string& path, std::vector<std::string>* warnings, bool 
 inline int componentSize(int componentType) {
   switch (componentType) {
     case TINYGLTF_COMPONENT_TYPE_BYTE:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return 1;
     case TINYGLTF_COMPONENT_TYPE_SHORT:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return 2;
     case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
-    default: return 0;  // INT and DOUBLE are not glTF 2.0 accessor types
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return 4;
+    default:
+      return 0;  // INT and DOUBLE are not glTF 2.0 accessor types
   }
 }
 
@@ -85,25 +86,35 @@ struct AccessorData {
     if (!bytes) return 0.0;
     const unsigned char* p = bytes + i * stride + static_cast<size_t>(c) * componentSize(componentType);
     switch (componentType) {
-      case TINYGLTF_COMPONENT_TYPE_FLOAT: { float v; std::memcpy(&v, p, 4); return v; }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0 : p[0];
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+        float v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        return normalized ? p[0] / 255.0 : p[0];
       case TINYGLTF_COMPONENT_TYPE_BYTE: {
-        int8_t v; std::memcpy(&v, p, 1);
+        int8_t v;
+        std::memcpy(&v, p, 1);
         return normalized ? std::max(v / 127.0, -1.0) : v;
       }
       case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-        uint16_t v; std::memcpy(&v, p, 2);
+        uint16_t v;
+        std::memcpy(&v, p, 2);
         return normalized ? v / 65535.0 : v;
       }
       case TINYGLTF_COMPONENT_TYPE_SHORT: {
-        int16_t v; std::memcpy(&v, p, 2);
+        int16_t v;
+        std::memcpy(&v, p, 2);
         return normalized ? std::max(v / 32767.0, -1.0) : v;
       }
       case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
-        uint32_t v; std::memcpy(&v, p, 4);
+        uint32_t v;
+        std::memcpy(&v, p, 4);
         return normalized ? v / 4294967295.0 : v;
       }
-      default: return 0.0;
+      default:
+        return 0.0;
     }
   }
 };
@@ -114,8 +125,8 @@ struct AccessorData {
 AccessorData openAccessor(const Gltf& g, int index, const std::string& where);
 
 /// Index values of a primitive (or 0..n-1 without indices), each checked against the vertex count.
-std::vector<uint32_t> readIndices(const Gltf& g, const tinygltf::Primitive& prim,
-                                  const std::string& where, size_t vertexCount);
+std::vector<uint32_t> readIndices(const Gltf& g, const tinygltf::Primitive& prim, const std::string& where,
+                                  size_t vertexCount);
 
 /// Triangle list from TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN indices, in glTF's winding
 /// (strips alternate: triangle i is p_i, p_{i+1+i%2}, p_{i+2-i%2}; fans are p_{i+1}, p_{i+2}, p_0).

@@ -124,14 +124,14 @@ NodeMarks nodeMarks(const Gltf& g, const LoadOptions& options) {
 }
 
 std::vector<NodeVisit> visitDefaultScene(const Gltf& g, const NodeMarks& marks) {
-  Traversal traversal{g, marks, std::vector<char>(g.model.nodes.size(), 0),
-                      std::vector<char>(g.model.nodes.size(), 0), {}};
+  Traversal traversal{
+      g, marks, std::vector<char>(g.model.nodes.size(), 0), std::vector<char>(g.model.nodes.size(), 0), {}};
   for (int root : rootNodes(g)) traversal.visit(root, NodeVisit{}, 0);
   return std::move(traversal.out);
 }
 
-MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, int primIndex,
-                          const PrimitiveData& p, std::vector<std::string>& warnings) {
+MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, int primIndex, const PrimitiveData& p,
+                          std::vector<std::string>& warnings) {
   const tinygltf::Node& node = g.model.nodes[size_t(visit.node)];
   const tinygltf::Mesh& mesh = g.model.meshes[size_t(meshIndex)];
   MeshInstance inst;
@@ -160,8 +160,8 @@ MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, 
   if (glm::determinant(linear) < 0.0)
     for (size_t t = 0; t < inst.triangleCount(); ++t) std::swap(inst.indices[3 * t + 1], inst.indices[3 * t + 2]);
   if (size_t repaired = setNormals(inst, p, linear))
-    warnings.push_back(cat(g.path, ": node ", visit.node, " / ", primitiveWhere(meshIndex, primIndex), ": ",
-                           repaired, " zero or non-finite normals replaced by face normals"));
+    warnings.push_back(cat(g.path, ": node ", visit.node, " / ", primitiveWhere(meshIndex, primIndex), ": ", repaired,
+                           " zero or non-finite normals replaced by face normals"));
   inst.texcoords = p.texcoords;
   inst.colors = p.colors;
   inst.fileVertex = p.fileVertex;
@@ -174,7 +174,8 @@ MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, 
 
 Camera readCamera(const Gltf& g, const NodeVisit& v) {
   const tinygltf::Node& n = g.model.nodes[size_t(v.node)];
-  if (size_t(n.camera) >= g.model.cameras.size()) fail(g, cat("node ", v.node, ": camera ", n.camera, " does not exist"));
+  if (size_t(n.camera) >= g.model.cameras.size())
+    fail(g, cat("node ", v.node, ": camera ", n.camera, " does not exist"));
   const tinygltf::Camera& src = g.model.cameras[size_t(n.camera)];
   Camera c;
   c.name = !src.name.empty() ? src.name : n.name;
@@ -206,9 +207,12 @@ std::optional<PunctualLight> readLight(const Gltf& g, const NodeVisit& v, std::v
     fail(g, cat("node ", v.node, ": ", kLights, " light does not exist"));
   const tinygltf::Light& src = g.model.lights[size_t(index.GetNumberAsInt())];
   PunctualLight l;
-  if (src.type == "directional") l.type = PunctualLight::Type::Directional;
-  else if (src.type == "point") l.type = PunctualLight::Type::Point;
-  else if (src.type == "spot") l.type = PunctualLight::Type::Spot;
+  if (src.type == "directional")
+    l.type = PunctualLight::Type::Directional;
+  else if (src.type == "point")
+    l.type = PunctualLight::Type::Point;
+  else if (src.type == "spot")
+    l.type = PunctualLight::Type::Spot;
   else {
     warnings.push_back(cat(g.path, ": node ", v.node, ": skipping light of unknown type '", src.type, "'"));
     return std::nullopt;

@@ -79,8 +79,9 @@ void gather(std::vector<T>& values, const std::vector<uint32_t>& from, size_t pe
   if (values.empty()) return;
   std::vector<T> out;
   out.reserve(from.size() * perVertex);
-  for (uint32_t v : from) out.insert(out.end(), values.begin() + std::ptrdiff_t(v * perVertex),
-                                     values.begin() + std::ptrdiff_t((v + 1) * perVertex));
+  for (uint32_t v : from)
+    out.insert(out.end(), values.begin() + std::ptrdiff_t(v * perVertex),
+               values.begin() + std::ptrdiff_t((v + 1) * perVertex));
   values = std::move(out);
 }
 
@@ -159,7 +160,8 @@ void readTransferSets(const Gltf& g, const tinygltf::Primitive& prim, PrimitiveD
                   sh::kMaxBands * sh::kMaxBands));
     for (int i = 0; i < count; ++i)
       if (!coefficients[set].count(i))
-        fail(g, cat(where, ": transfer attribute ", coefficientName(i, back, direct), " is missing (", count, " found)"));
+        fail(g,
+             cat(where, ": transfer attribute ", coefficientName(i, back, direct), " is missing (", count, " found)"));
     if (set != 0 && bands != p.transferBands)
       fail(g, cat(where, ": ", count, what, " transfer attributes (", prefixName, "NN), but ",
                   p.transferBands * p.transferBands, " front ones (", kTransferPrefix, "NN)"));
@@ -193,14 +195,14 @@ void readTransferSets(const Gltf& g, const tinygltf::Primitive& prim, PrimitiveD
 
 }  // namespace
 
-PrimitiveData readPrimitive(const Gltf& g, const std::vector<BaseColorSource>& materials, int meshIndex,
-                            int primIndex, std::vector<std::string>& warnings) {
+PrimitiveData readPrimitive(const Gltf& g, const std::vector<BaseColorSource>& materials, int meshIndex, int primIndex,
+                            std::vector<std::string>& warnings) {
   const tinygltf::Primitive& prim = g.model.meshes[size_t(meshIndex)].primitives[size_t(primIndex)];
   std::string where = primitiveWhere(meshIndex, primIndex);
   PrimitiveData p;
   if (prim.mode >= TINYGLTF_MODE_POINTS && prim.mode <= TINYGLTF_MODE_LINE_STRIP) {
-    warnings.push_back(cat(g.path, ": ", where, ": skipping mode ", modeName(prim.mode),
-                           " (only triangles are baked)"));
+    warnings.push_back(
+        cat(g.path, ": ", where, ": skipping mode ", modeName(prim.mode), " (only triangles are baked)"));
     return p;
   }
   if (prim.mode < TINYGLTF_MODE_TRIANGLES || prim.mode > TINYGLTF_MODE_TRIANGLE_FAN)
@@ -256,11 +258,13 @@ PrimitiveData readPrimitive(const Gltf& g, const std::vector<BaseColorSource>& m
 
 /// Per vertex, the area-weighted sum of the normals of the triangles that use it, normalised;
 /// (0, 1, 0) for a vertex no triangle uses.
-std::vector<glm::vec3> flatVertexNormals(const std::vector<glm::vec3>& positions, const std::vector<uint32_t>& indices) {
+std::vector<glm::vec3> flatVertexNormals(const std::vector<glm::vec3>& positions,
+                                         const std::vector<uint32_t>& indices) {
   std::vector<glm::dvec3> sum(positions.size(), glm::dvec3(0.0));
   for (size_t t = 0; t + 2 < indices.size(); t += 3) {
     const glm::dvec3 p0(positions[indices[t]]);
-    const glm::dvec3 n = glm::cross(glm::dvec3(positions[indices[t + 1]]) - p0, glm::dvec3(positions[indices[t + 2]]) - p0);
+    const glm::dvec3 n =
+        glm::cross(glm::dvec3(positions[indices[t + 1]]) - p0, glm::dvec3(positions[indices[t + 2]]) - p0);
     for (size_t k = 0; k < 3; ++k) sum[indices[t + k]] += n;
   }
   std::vector<glm::vec3> out(positions.size(), glm::vec3(0, 1, 0));
@@ -291,8 +295,7 @@ std::vector<glm::dvec3> areaWeightedNormals(const MeshInstance& inst) {
 size_t setNormals(MeshInstance& inst, const PrimitiveData& p, const glm::dmat3& linear) {
   // cofactor(M) = det(M)·M^-T; scaled by sign(det) it is a positive multiple of M^-T and
   // stays defined for singular M.
-  glm::dmat3 cof(glm::cross(linear[1], linear[2]), glm::cross(linear[2], linear[0]),
-                 glm::cross(linear[0], linear[1]));
+  glm::dmat3 cof(glm::cross(linear[1], linear[2]), glm::cross(linear[2], linear[0]), glm::cross(linear[0], linear[1]));
   if (glm::determinant(linear) < 0.0) cof = -cof;
   size_t n = inst.positions.size();
   inst.normals.assign(n, glm::vec3(0.0f));

@@ -136,8 +136,8 @@ Gltf parseGltf(const std::string& path, const std::string& bytes, const std::str
   g.path = path;
   tinygltf::TinyGLTF parser;
   parser.SetImageLoader(&keepEncodedImage, &g.model);
-  parser.SetFsCallbacks(tinygltf::FsCallbacks{&guardedFileExists, &guardedExpandFilePath, &guardedReadWholeFile,
-                                              &refuseWrite, &guard});
+  parser.SetFsCallbacks(
+      tinygltf::FsCallbacks{&guardedFileExists, &guardedExpandFilePath, &guardedReadWholeFile, &refuseWrite, &guard});
   std::string err, warn;
   bool ok = false;
   const auto* data = reinterpret_cast<const unsigned char*>(input.data());
@@ -210,8 +210,7 @@ void addNodeContents(const Gltf& g, const NodeVisit& v, const std::vector<BaseCo
   for (size_t p = 0; p < mesh.primitives.size(); ++p) {
     auto key = std::make_pair(n.mesh, int(p));
     auto it = cache.find(key);
-    if (it == cache.end())
-      it = cache.emplace(key, readPrimitive(g, materials, n.mesh, int(p), scene.warnings)).first;
+    if (it == cache.end()) it = cache.emplace(key, readPrimitive(g, materials, n.mesh, int(p), scene.warnings)).first;
     if (it->second.skipped) continue;
     scene.meshes.push_back(makeInstance(g, v, n.mesh, int(p), it->second, scene.warnings));
   }
@@ -219,8 +218,7 @@ void addNodeContents(const Gltf& g, const NodeVisit& v, const std::vector<BaseCo
 
 /// One band count for the whole file: every primitive with transfer has the same, and the
 /// bake record, if any, says that count too.
-void checkTransferBands(const Gltf& g, const std::map<std::pair<int, int>, PrimitiveData>& primitives,
-                        Scene& scene) {
+void checkTransferBands(const Gltf& g, const std::map<std::pair<int, int>, PrimitiveData>& primitives, Scene& scene) {
   for (const MeshInstance& inst : scene.meshes) {
     const int bands = primitives.at({inst.mesh, inst.primitive}).transferBands;
     if (bands == 0) continue;
@@ -299,9 +297,7 @@ Scene loadSceneFrom(const std::string& path, const std::string* memory, const Lo
 // ---------------------------------------------------------------------------------------------
 // Public: loading
 
-Scene loadScene(const std::string& path, const LoadOptions& options) {
-  return loadSceneFrom(path, nullptr, options);
-}
+Scene loadScene(const std::string& path, const LoadOptions& options) { return loadSceneFrom(path, nullptr, options); }
 
 Scene loadSceneFromMemory(const std::string& name, const std::string& bytes, const LoadOptions& options) {
   return loadSceneFrom(name, &bytes, options);

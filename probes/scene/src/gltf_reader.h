@@ -83,20 +83,20 @@ struct PrimitiveData {
   std::vector<glm::vec3> normals;  // empty if absent
   std::vector<glm::vec2> texcoords;
   std::vector<glm::vec4> colors;
-  std::vector<uint32_t> indices;   // triangle list, glTF winding, degenerate triangles dropped
+  std::vector<uint32_t> indices;     // triangle list, glTF winding, degenerate triangles dropped
   std::vector<uint32_t> fileVertex;  // MeshInstance::fileVertex
   int material = -1;
   int transferBands = 0;
   std::vector<glm::vec3> transfer;
-  std::vector<glm::vec3> transferBack;  // _PRT_SH_BACK_ (double-sided primitives of a bake)
+  std::vector<glm::vec3> transferBack;                    // _PRT_SH_BACK_ (double-sided primitives of a bake)
   std::vector<float> transferDirect, transferDirectBack;  // _PRT_SH_DIRECT_, _PRT_SH_BACK_DIRECT_
 };
 
 /// Primitive `primIndex` of mesh `meshIndex`: skipped (with a warning) if it has no triangles
 /// or no POSITION; else validated, its degenerate triangles dropped and, without NORMAL, its
 /// vertices split for flat normals.
-PrimitiveData readPrimitive(const Gltf& g, const std::vector<BaseColorSource>& materials, int meshIndex,
-                            int primIndex, std::vector<std::string>& warnings);
+PrimitiveData readPrimitive(const Gltf& g, const std::vector<BaseColorSource>& materials, int meshIndex, int primIndex,
+                            std::vector<std::string>& warnings);
 
 /// World normals: given ones through the inverse transpose, computed ones where the file has
 /// none or a zero (or non-finite) normal. Returns how many given normals were replaced.
@@ -127,8 +127,8 @@ NodeMarks nodeMarks(const Gltf& g, const LoadOptions& options);
 /// deep, finite transforms).
 std::vector<NodeVisit> visitDefaultScene(const Gltf& g, const NodeMarks& marks);
 /// Primitive `primIndex` of mesh `meshIndex` placed in the world by the node of `visit`.
-MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, int primIndex,
-                          const PrimitiveData& p, std::vector<std::string>& warnings);
+MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, int primIndex, const PrimitiveData& p,
+                          std::vector<std::string>& warnings);
 /// The camera a node carries (precondition: it has one).
 Camera readCamera(const Gltf& g, const NodeVisit& v);
 /// The KHR_lights_punctual light a node carries, if any.

@@ -28,7 +28,8 @@ using Json = nlohmann::json;
 
 tinygltf::Value toValue(const Json& j) {
   switch (j.type()) {
-    case Json::value_t::boolean: return tinygltf::Value(j.get<bool>());
+    case Json::value_t::boolean:
+      return tinygltf::Value(j.get<bool>());
     case Json::value_t::number_integer:
     case Json::value_t::number_unsigned: {
       // tinygltf's Value holds 32-bit ints; larger integers survive as doubles.
@@ -38,8 +39,10 @@ tinygltf::Value toValue(const Json& j) {
         return tinygltf::Value(static_cast<int>(j.get<int64_t>()));
       return tinygltf::Value(j.get<double>());
     }
-    case Json::value_t::number_float: return tinygltf::Value(j.get<double>());
-    case Json::value_t::string: return tinygltf::Value(j.get<std::string>());
+    case Json::value_t::number_float:
+      return tinygltf::Value(j.get<double>());
+    case Json::value_t::string:
+      return tinygltf::Value(j.get<std::string>());
     case Json::value_t::array: {
       tinygltf::Value::Array a;
       for (const Json& e : j) a.push_back(toValue(e));
@@ -50,7 +53,8 @@ tinygltf::Value toValue(const Json& j) {
       for (const auto& [key, value] : j.items()) o[key] = toValue(value);
       return tinygltf::Value(std::move(o));
     }
-    default: return tinygltf::Value();
+    default:
+      return tinygltf::Value();
   }
 }
 
@@ -76,7 +80,8 @@ int addScalarAccessor(tinygltf::Model& m, int& staging, const std::vector<float>
 }
 
 /// Makes `prim` a triangle list with `indices` (UNSIGNED_INT, in the staging buffer).
-void setTriangleList(tinygltf::Model& m, int& staging, tinygltf::Primitive& prim, const std::vector<uint32_t>& indices) {
+void setTriangleList(tinygltf::Model& m, int& staging, tinygltf::Primitive& prim,
+                     const std::vector<uint32_t>& indices) {
   tinygltf::Accessor a;
   a.bufferView = appendBufferView(m, stagingBuffer(m, staging), indices.data(), indices.size() * sizeof(uint32_t),
                                   TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
@@ -106,7 +111,8 @@ void checkMatchesScene(const Gltf& g, const Scene& scene) {
              std::all_of(inst.fileBlend.begin(), inst.fileBlend.end(), [&](const MeshInstance::FileBlend& b) {
                return b.vertex[0] < count && b.vertex[1] < count && b.vertex[2] < count;
              });
-      else if (ok && inst.fileVertex.empty()) ok = count == inst.vertexCount();
+      else if (ok && inst.fileVertex.empty())
+        ok = count == inst.vertexCount();
       else if (ok)
         ok = inst.fileVertex.size() == inst.vertexCount() &&
              std::all_of(inst.fileVertex.begin(), inst.fileVertex.end(), [&](uint32_t v) { return v < count; });
@@ -197,7 +203,8 @@ void rewriteSplitPrimitives(Gltf& g, int& staging, const Scene& scene) {
       continue;
     }
     const std::string where = primitiveWhere(inst.mesh, inst.primitive);
-    for (auto& [name, a] : prim.attributes) a = gatheredAccessor(g, staging, a, inst.fileVertex, cat(where, " / ", name));
+    for (auto& [name, a] : prim.attributes)
+      a = gatheredAccessor(g, staging, a, inst.fileVertex, cat(where, " / ", name));
     for (size_t t = 0; t < prim.targets.size(); ++t)
       for (auto& [name, a] : prim.targets[t])
         a = gatheredAccessor(g, staging, a, inst.fileVertex, cat(where, " / target ", t, " / ", name));
@@ -257,7 +264,8 @@ int blendedAccessor(Gltf& g, int& staging, int index, const std::string& name,
     std::array<std::pair<double, std::array<double, 4>>, 3> terms{};
     for (int j = 0; j < 3; ++j) {
       terms[size_t(j)].first = b.weight[j];
-      for (int c = 0; c < n; ++c) terms[size_t(j)].second[size_t(c)] = b.weight[j] != 0.0f ? d.get(b.vertex[j], c) : 0.0;
+      for (int c = 0; c < n; ++c)
+        terms[size_t(j)].second[size_t(c)] = b.weight[j] != 0.0f ? d.get(b.vertex[j], c) : 0.0;
     }
     std::sort(terms.begin(), terms.end());
     std::array<double, 4> v{};
@@ -384,14 +392,15 @@ void storeRecord(const Scene& scene, tinygltf::Model& m, const BakeRecord* recor
       std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& i) { return !i.transfer.empty(); });
   if (anyTransfer && record->bands != scene.transferBands)
     throw Error(cat(where, ".bands: ", record->bands, ", but the transfer holds ", scene.transferBands, " bands"));
-  const bool anyBack = std::any_of(scene.meshes.begin(), scene.meshes.end(),
-                                   [](const MeshInstance& i) { return i.hasBackTransfer(); });
+  const bool anyBack =
+      std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& i) { return i.hasBackTransfer(); });
   if (anyBack != record->backTransfer)
     throw Error(cat(where, ".back_transfer: the record ", record->backTransfer ? "says" : "does not say",
                     " that double-sided primitives carry back-side transfer, but ", anyBack ? "some do" : "none does"));
-  const bool allDirect = anyTransfer && std::all_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& i) {
-    return i.transfer.empty() || (i.hasDirectTransfer() && i.hasBackTransfer() == !i.transferDirectBack.empty());
-  });
+  const bool allDirect =
+      anyTransfer && std::all_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& i) {
+        return i.transfer.empty() || (i.hasDirectTransfer() && i.hasBackTransfer() == !i.transferDirectBack.empty());
+      });
   const bool anyDirect = std::any_of(scene.meshes.begin(), scene.meshes.end(),
                                      [](const MeshInstance& i) { return i.hasDirectTransfer(); });
   if (anyDirect != record->directTransfer || (anyDirect && !allDirect))

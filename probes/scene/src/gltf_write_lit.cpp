@@ -76,8 +76,8 @@ void makeMaterialsUnlitWhite(tinygltf::Model& m) {
   m.samplers.clear();
   // Material and texture extensions have nothing left to apply to.
   auto gone = [](const std::string& e) {
-    return (e.rfind("KHR_materials_", 0) == 0 && e != kUnlit) || e == kTextureTransform ||
-           e == "KHR_texture_basisu" || e == "EXT_texture_webp";
+    return (e.rfind("KHR_materials_", 0) == 0 && e != kUnlit) || e == kTextureTransform || e == "KHR_texture_basisu" ||
+           e == "EXT_texture_webp";
   };
   std::erase_if(m.extensionsUsed, gone);
   std::erase_if(m.extensionsRequired, gone);
@@ -100,8 +100,7 @@ void removeEmptyMeshes(tinygltf::Model& m) {
 
 /// Removes the primitives of instances without radiance; a node left without primitives
 /// loses its mesh.
-void removeUnlitInstances(tinygltf::Model& m, const Scene& scene,
-                          const std::vector<std::vector<glm::vec3>>& radiance) {
+void removeUnlitInstances(tinygltf::Model& m, const Scene& scene, const std::vector<std::vector<glm::vec3>>& radiance) {
   std::map<int, std::set<int>> drop;  // node -> primitives
   for (size_t k = 0; k < scene.meshes.size(); ++k)
     if (radiance[k].empty()) drop[scene.meshes[k].node].insert(scene.meshes[k].primitive);

@@ -15,8 +15,7 @@ namespace {
 std::vector<std::vector<glm::vec3>> relightSide(const Scene& scene, const sh::ShRgb& light, bool back,
                                                 const sh::ShRgb* directLight = nullptr,
                                                 const std::vector<std::vector<glm::vec3>>* directIrradiance = nullptr) {
-  if (scene.transferBands <= 0)
-    throw Error(cat(scene.path, ": holds no baked transfer (run prt bake first)"));
+  if (scene.transferBands <= 0) throw Error(cat(scene.path, ": holds no baked transfer (run prt bake first)"));
   const sh::ShRgb l = sh::resize(light, scene.transferBands);
   const sh::ShRgb d = directLight ? sh::resize(*directLight, scene.transferBands) : sh::ShRgb();
   const int n2 = l.size();
@@ -59,8 +58,9 @@ std::vector<std::vector<glm::vec3>> relightVerticesSplit(const Scene& scene, con
                                                          bool back) {
   if (scene.transferBands <= 0) throw Error(cat(scene.path, ": holds no baked transfer (run prt bake first)"));
   if (!hasDirectTransfer(scene))
-    throw Error(cat(scene.path, ": baked before prt kept the direct part apart (no _PRT_SH_DIRECT_ attributes): "
-                                "bake it again to light suns exactly"));
+    throw Error(cat(scene.path,
+                    ": baked before prt kept the direct part apart (no _PRT_SH_DIRECT_ attributes): "
+                    "bake it again to light suns exactly"));
   PRT_CHECK_EQ(directIrradiance.size(), scene.meshes.size());
   // t · (l + d) − t⁰ · d: the whole transfer sees both, minus the direct lights' direct part.
   sh::ShRgb all = sh::resize(light, scene.transferBands);

@@ -40,8 +40,7 @@ int hexValue(char c) {
 std::string percentDecoded(const std::string& uri) {
   std::string out;
   for (size_t i = 0; i < uri.size(); ++i) {
-    if (uri[i] == '%' && i + 2 < uri.size() && hexValue(uri[i + 1]) >= 0 &&
-        hexValue(uri[i + 2]) >= 0) {
+    if (uri[i] == '%' && i + 2 < uri.size() && hexValue(uri[i + 1]) >= 0 && hexValue(uri[i + 2]) >= 0) {
       out += char(hexValue(uri[i + 1]) * 16 + hexValue(uri[i + 2]));
       i += 2;
     } else {
@@ -58,14 +57,12 @@ std::string uriProblem(const UriGuard& guard, const std::string& encoded) {
   const std::string uri = percentDecoded(encoded);
   size_t colon = uri.find(':');
   bool scheme = colon != std::string::npos && colon > 0 && std::isalpha(static_cast<unsigned char>(uri[0])) &&
-                std::all_of(uri.begin(), uri.begin() + std::ptrdiff_t(colon), [](unsigned char c) {
-                  return std::isalnum(c) || c == '+' || c == '-' || c == '.';
-                });
+                std::all_of(uri.begin(), uri.begin() + std::ptrdiff_t(colon),
+                            [](unsigned char c) { return std::isalnum(c) || c == '+' || c == '-' || c == '.'; });
   if (scheme) return cat("uses scheme '", uri.substr(0, colon), "'; only relative file paths and data: URIs are read");
   if (guard.baseDir.empty()) return "refers to a file, but the document was read from memory (no folder)";
   bool absolute = !uri.empty() && (uri[0] == '/' || uri[0] == '\\');
-  if (absolute && !guard.allowExternal)
-    return cat("is an absolute path; ", kExternalRefused);
+  if (absolute && !guard.allowExternal) return cat("is an absolute path; ", kExternalRefused);
   std::error_code ec;
   fs::path target = fs::weakly_canonical(absolute ? fs::path(uri) : guard.canonicalDir / uri, ec);
   if (!guard.allowExternal && (ec || !isWithin(target, guard.canonicalDir)))
@@ -146,8 +143,7 @@ void checkDocument(const std::string& path, const std::string& text, const UriGu
   while (!stack.empty()) {
     auto [j, depth] = stack.back();
     stack.pop_back();
-    if (depth > kMaxJsonDepth)
-      throw Error(cat(path, ": JSON nested deeper than ", kMaxJsonDepth, " levels"));
+    if (depth > kMaxJsonDepth) throw Error(cat(path, ": JSON nested deeper than ", kMaxJsonDepth, " levels"));
     if (j->is_structured())
       for (const Json& child : *j) stack.emplace_back(&child, depth + 1);
   }

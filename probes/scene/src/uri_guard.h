@@ -21,8 +21,8 @@ struct UriGuard {
   std::string baseDir;                 // as tinygltf joins URIs to it ("" = read from memory)
   std::filesystem::path canonicalDir;  // the folder every file must lie in
   bool allowExternal = false;
-  std::string refusal;                 // first refused file, reported once parsing returns
-  bool refusalIsExternal = false;      // ... refused for lying outside the folder (ExternalUriRefused)
+  std::string refusal;             // first refused file, reported once parsing returns
+  bool refusalIsExternal = false;  // ... refused for lying outside the folder (ExternalUriRefused)
 };
 
 /// The end of every refusal of a URI outside the scene's folder.

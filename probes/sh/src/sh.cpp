@@ -83,7 +83,7 @@ void evaluateT(int runtimeBands, const V& d, T* out) {
 // y < 0, and x − (−0) is not x when x = −0), so each lane has the scalar function's bits. The
 // eight-lane paths for other band counts evaluate lane by lane.
 __attribute__((target("avx2"))) void evaluate8Bands3Avx2(const float* px, const float* py, const float* pz,
-                                                          float* out) {
+                                                         float* out) {
   const __m256 x = _mm256_loadu_ps(px), y = _mm256_loadu_ps(py), z = _mm256_loadu_ps(pz);
   __m256 k[3][3];  // K_l^m as floats (T(kNorms.k[l][m])), converted once (a call converted six)
   for (int l = 0; l < 3; ++l)
@@ -93,8 +93,8 @@ __attribute__((target("avx2"))) void evaluate8Bands3Avx2(const float* px, const 
   // m = 0: Q_0^0 = 1, Q_1^0 = (1 · z) · 1, Q_2^0 = ((3 · z) · Q_1^0 − 1 · 1) / 2.
   const __m256 q10 = _mm256_mul_ps(_mm256_mul_ps(one, z), one);
   // "/ 2" as "· 0.5": the same real number, so the same rounded result, without a division.
-  const __m256 q20 = _mm256_mul_ps(
-      _mm256_sub_ps(_mm256_mul_ps(_mm256_mul_ps(three, z), q10), _mm256_mul_ps(one, one)), half);
+  const __m256 q20 =
+      _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_mul_ps(three, z), q10), _mm256_mul_ps(one, one)), half);
   _mm256_storeu_ps(out + 8 * 0, _mm256_mul_ps(k[0][0], one));
   _mm256_storeu_ps(out + 8 * 2, _mm256_mul_ps(k[1][0], q10));
   _mm256_storeu_ps(out + 8 * 6, _mm256_mul_ps(k[2][0], q20));
@@ -137,10 +137,14 @@ int bandOf(int i) {
 
 void evaluate(int bands, const glm::vec3& d, float* out) {
   switch (bands) {  // the bake's common orders: about half the time of the general loop
-    case 2: return evaluateT<float, glm::vec3, 2>(bands, d, out);
-    case 3: return evaluateT<float, glm::vec3, 3>(bands, d, out);
-    case 4: return evaluateT<float, glm::vec3, 4>(bands, d, out);
-    default: return evaluateT<float>(bands, d, out);
+    case 2:
+      return evaluateT<float, glm::vec3, 2>(bands, d, out);
+    case 3:
+      return evaluateT<float, glm::vec3, 3>(bands, d, out);
+    case 4:
+      return evaluateT<float, glm::vec3, 4>(bands, d, out);
+    default:
+      return evaluateT<float>(bands, d, out);
   }
 }
 void evaluate(int bands, const glm::dvec3& d, double* out) { evaluateT<double>(bands, d, out); }

@@ -51,8 +51,7 @@ GaussLegendre gaussLegendre(int n) {
 
 }  // namespace
 
-ShRgb projectFunction(int bands, const std::function<glm::vec3(const glm::dvec3&)>& f,
-                      int thetaSamples) {
+ShRgb projectFunction(int bands, const std::function<glm::vec3(const glm::dvec3&)>& f, int thetaSamples) {
   PRT_CHECK(bands >= 1 && bands <= kMaxBands);
   PRT_CHECK_GE(thetaSamples, 1);
   // The basis' polar axis is +Z, so t = cos θ = z. In t the integrand y_i·f is a polynomial
@@ -98,9 +97,12 @@ Window parseWindow(const std::string& name) {
 
 const char* windowName(Window w) {
   switch (w) {
-    case Window::None: return "none";
-    case Window::Hann: return "hann";
-    case Window::Lanczos: return "lanczos";
+    case Window::None:
+      return "none";
+    case Window::Hann:
+      return "hann";
+    case Window::Lanczos:
+      return "lanczos";
   }
   return "none";
 }
@@ -110,9 +112,12 @@ double windowFactor(Window w, int l, int bands) {
   PRT_CHECK(l >= 0 && l < bands);
   const double x = double(l) / double(bands);
   switch (w) {
-    case Window::None: return 1.0;
-    case Window::Hann: return 0.5 * (1.0 + std::cos(kPi * x));
-    case Window::Lanczos: return l == 0 ? 1.0 : std::sin(kPi * x) / (kPi * x);
+    case Window::None:
+      return 1.0;
+    case Window::Hann:
+      return 0.5 * (1.0 + std::cos(kPi * x));
+    case Window::Lanczos:
+      return l == 0 ? 1.0 : std::sin(kPi * x) / (kPi * x);
   }
   return 1.0;
 }

@@ -29,11 +29,11 @@ namespace {
 
 // Read access to a band block with centred indices -l..l, as [3] writes them.
 class Block {
-public:
+ public:
   Block(int l, const std::vector<double>& a) : l_(l), a_(a) {}
   double operator()(int m, int n) const { return a_[(m + l_) * (2 * l_ + 1) + (n + l_)]; }
 
-private:
+ private:
   int l_;
   const std::vector<double>& a_;
 };
@@ -64,8 +64,7 @@ std::vector<double> bandBlock(int l, const Block& r1, const Block& rPrev) {
         sum += u * helperP(0, m, n, l, r1, rPrev);
       }
       {
-        double v =
-            0.5 * std::sqrt((1.0 + d0) * (l + am - 1.0) * (l + am) / denom) * (1.0 - 2.0 * d0);
+        double v = 0.5 * std::sqrt((1.0 + d0) * (l + am - 1.0) * (l + am) / denom) * (1.0 - 2.0 * d0);
         double bigV;
         if (m == 0) {
           bigV = helperP(1, 1, n, l, r1, rPrev) + helperP(-1, -1, n, l, r1, rPrev);
@@ -81,9 +80,8 @@ std::vector<double> bandBlock(int l, const Block& r1, const Block& rPrev) {
       // w vanishes exactly when |m| >= l-1 (and for m = 0), where W would index outside.
       if (m != 0 && am < l - 1) {
         double w = -0.5 * std::sqrt((l - am - 1.0) * (l - am) / denom);
-        double bigW =
-            m > 0 ? helperP(1, m + 1, n, l, r1, rPrev) + helperP(-1, -m - 1, n, l, r1, rPrev)
-                  : helperP(1, m - 1, n, l, r1, rPrev) - helperP(-1, -m + 1, n, l, r1, rPrev);
+        double bigW = m > 0 ? helperP(1, m + 1, n, l, r1, rPrev) + helperP(-1, -m - 1, n, l, r1, rPrev)
+                            : helperP(1, m - 1, n, l, r1, rPrev) - helperP(-1, -m + 1, n, l, r1, rPrev);
         sum += w * bigW;
       }
       out[(m + l) * size + (n + l)] = sum;

@@ -14,9 +14,9 @@ namespace prt::bake {
 
 struct AlbedoLookup {
   const Scene& scene;
-  std::vector<uint8_t> uniform;      // per instance: no texture, no vertex colours
-  std::vector<glm::vec3> constant;   // its colour when uniform
-  bool varies = false;               // some instance is not uniform
+  std::vector<uint8_t> uniform;     // per instance: no texture, no vertex colours
+  std::vector<glm::vec3> constant;  // its colour when uniform
+  bool varies = false;              // some instance is not uniform
 
   explicit AlbedoLookup(const Scene& s);
 
@@ -41,8 +41,8 @@ struct AlbedoLookup {
     const glm::vec4* colors = nullptr;     // COLOR_0 (kColoured)
     float factor[3] = {1.0f, 1.0f, 1.0f};  // baseColorFactor's RGB (1 without a material)
     int32_t width = 0, height = 0;
-    int32_t levels = 0;                    // the texture's colour decode: levels_[levels .. +256)
-    uint32_t flags = 0;                    // kKernel | kTextured | kColoured | wrap kinds << 8, << 10
+    int32_t levels = 0;  // the texture's colour decode: levels_[levels .. +256)
+    uint32_t flags = 0;  // kKernel | kTextured | kColoured | wrap kinds << 8, << 10
   };
   static constexpr uint32_t kKernel = 1, kTextured = 2, kColoured = 4;
   /// atMany's kernels (prt/bake/kernels.h): a kernel over the tables, null where there is none.
@@ -51,7 +51,7 @@ struct AlbedoLookup {
                  const uint32_t* tri, const float* b1, const float* b2, uint32_t n, glm::vec3* out);
   };
 
-private:
+ private:
   std::vector<Batched> batched_;  // per instance
   std::vector<float> levels_;     // 256 per texture: Texture::levels8[0]
   // The kernel of the set in use when constructed, where some instance is batched and instance
@@ -65,7 +65,7 @@ private:
 // eight at a time with AVX-512), the barycentrics dequantised as the gathers do. A thread's
 // scratch, kept from vertex to vertex (kWindow · 32 bytes, whatever the sample count).
 class VaryingColours {
-public:
+ public:
   static constexpr uint32_t kWindow = 4096;
   void start(const AlbedoLookup& albedo, const Layout& lay, const HitRecord* hits, uint32_t first, uint32_t last) {
     albedo_ = &albedo, lay_ = &lay, hits_ = hits, scan_ = first, last_ = last, at_ = count_ = 0;
@@ -75,7 +75,7 @@ public:
     return rgb_[at_++];
   }
 
-private:
+ private:
   void fill() {
     if (mesh_.empty()) {
       for (auto* v : {&mesh_, &tri_}) v->resize(kWindow);

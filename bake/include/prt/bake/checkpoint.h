@@ -47,13 +47,13 @@ void addSceneFingerprint(Fingerprint& fp, const Scene& scene);
 
 /// Thrown by Checkpoint when a checkpoint exists where a fresh bake would start one.
 class CheckpointExists : public Error {
-public:
+ public:
   using Error::Error;
 };
 
 /// Thrown by mergeShards when shard `index` of `count` left no finished log (it was never run).
 class ShardMissing : public Error {
-public:
+ public:
   ShardMissing(const std::string& what, int index, int count) : Error(what), index(index), count(count) {}
   int index, count;
 };
@@ -79,7 +79,7 @@ struct CheckpointOptions {
 
 /// One bake's checkpoint. Created before the bake; the file appears at the first save.
 class Checkpoint {
-public:
+ public:
   /// Without resume: throws prt::Error if a file exists at options.path (it may hold hours of
   /// work: --resume continues it). With resume: reads and validates it, and throws prt::Error
   /// naming what differs when it was made with another fingerprint, or when there is none.
@@ -133,7 +133,7 @@ public:
   /// Deletes the file (after the outputs are in place).
   void remove();
 
-private:
+ private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

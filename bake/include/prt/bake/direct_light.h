@@ -87,7 +87,7 @@ void validate(const BounceSettings& s);
 /// kept hits (8 bytes each), so one DirectBounce relights any number of frames. Which rays
 /// escape is kept too (a bit each), for skyDetail().
 class DirectBounce {
-public:
+ public:
   /// Traces K rays from every baked vertex (both sides of double-sided instances) of `scene`,
   /// which must outlive this object.
   DirectBounce(const Scene& scene, const BounceSettings& settings);
@@ -114,11 +114,11 @@ public:
   /// feature smaller than that is spread over it, not caught by one ray in a hundred vertices.
   DirectIrradiance skyDetail(const RigBackground& sky, const sh::ShRgb& sh) const;
 
-  uint64_t rays() const;         // traced by the constructor
-  uint64_t hitRecords() const;   // kept
-  double traceSeconds() const;   // the constructor's time
+  uint64_t rays() const;        // traced by the constructor
+  uint64_t hitRecords() const;  // kept
+  double traceSeconds() const;  // the constructor's time
 
-private:
+ private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -54,8 +54,8 @@ struct FrameLight {
 struct FrameLightingStats {
   uint64_t gatherRays = 0;  // traced once, from every baked vertex
   double traceSeconds = 0.0;
-  int updates = 0;          // frames whose vertex light was gathered
-  uint64_t shadowRays = 0;  // over all updates
+  int updates = 0;                                                       // frames whose vertex light was gathered
+  uint64_t shadowRays = 0;                                               // over all updates
   double updateSeconds = 0.0, shadowSeconds = 0.0, gatherSeconds = 0.0;  // over all updates
 };
 
@@ -63,7 +63,7 @@ struct FrameLightingStats {
 /// first at() (the set of direct lights is the same in every frame: their types and radii
 /// decide); the bake's rays are traced then.
 class FrameLighting {
-public:
+ public:
   /// `scene` (baked) and `rig` (prepared for the scene's bands, or not) must outlive this.
   FrameLighting(const Scene& scene, const LightRig& rig, const FrameLightingSettings& settings);
   ~FrameLighting();
@@ -79,7 +79,7 @@ public:
   bool skyDetail() const;
   const FrameLightingStats& stats() const;
 
-private:
+ private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
@@ -91,12 +91,12 @@ RigLighting rigLighting(const LightRig& rig, double frame, int bands, bool direc
 /// Direct lights' shadowed irradiance at arbitrary points of a baked scene whose rays are built
 /// once (shadowedDirectIrradianceAt), for a command that asks many times.
 class PointShadows {
-public:
+ public:
   explicit PointShadows(const Scene& scene) : rays_(scene) {}
   std::vector<glm::vec3> irradiance(const std::vector<glm::vec3>& points, const std::vector<glm::vec3>& normals,
                                     const std::vector<DirectLight>& lights, const ShadowSettings& settings) const;
 
-private:
+ private:
   RayScene rays_;
 };
 

@@ -17,8 +17,8 @@ inline uint16_t halfFromFloat(float f) {
   x &= 0x7fffffffu;
   if (x >= 0x7f800000u) return uint16_t(sign | 0x7c00u | (x > 0x7f800000u ? 0x200u : 0u));  // inf, NaN
   if (x >= 0x477ff000u) return uint16_t(sign | 0x7c00u);  // from 65520 up: rounds to infinity
-  if (x < 0x38800000u) {                                   // below 2^-14: a subnormal half (or 0)
-    if (x <= 0x33000000u) return sign;                     // up to 2^-25 (a tie, to even): 0
+  if (x < 0x38800000u) {                                  // below 2^-14: a subnormal half (or 0)
+    if (x <= 0x33000000u) return sign;                    // up to 2^-25 (a tie, to even): 0
     const uint32_t m = (x & 0x7fffffu) | 0x800000u;
     const uint32_t shift = 126u - (x >> 23);  // value = m · 2^(e−150); in units of 2^-24: m >> shift
     uint32_t r = m >> shift;

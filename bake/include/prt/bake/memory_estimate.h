@@ -15,12 +15,12 @@ namespace prt::bake {
 
 struct MemoryEstimate {
   // Parts of the peak, in bytes (the peak is the largest phase, not the sum of the parts).
-  uint64_t base = 0;       // the process itself: code, libraries, thread stacks
-  uint64_t scene = 0;      // the loaded scene (geometry, textures)
-  uint64_t bvh = 0;        // Embree's copy of the geometry and its BVH
-  uint64_t hits = 0;       // hit records of the direct pass (for the bounces)
-  uint64_t transfer = 0;   // one per-vertex transfer buffer (vertices × bands² × 12)
-  uint64_t probes = 0;     // probe bake: the lattice's slots and transfer (its part that scales)
+  uint64_t base = 0;           // the process itself: code, libraries, thread stacks
+  uint64_t scene = 0;          // the loaded scene (geometry, textures)
+  uint64_t bvh = 0;            // Embree's copy of the geometry and its BVH
+  uint64_t hits = 0;           // hit records of the direct pass (for the bounces)
+  uint64_t transfer = 0;       // one per-vertex transfer buffer (vertices × bands² × 12)
+  uint64_t probes = 0;         // probe bake: the lattice's slots and transfer (its part that scales)
   double frontHitShare = 1.0;  // share of direct rays assumed to hit a front face
   /// The probe placement counted, where it was measured (placeProbes); else every lattice point
   /// counts as baked and active.
@@ -28,7 +28,7 @@ struct MemoryEstimate {
   // Peaks of the phases.
   uint64_t surfacePeak = 0, probePeak = 0, writePeak = 0;
   uint64_t refinePeak = 0;  // refinement (BakeSettings::refineVertices > 0), before the bake
-  uint64_t total = 0;      // max of the phase peaks
+  uint64_t total = 0;       // max of the phase peaks
 
   /// Adds a refinement phase measured before (estimated with BakeSettings::refineVertices) to
   /// an estimate of the refined scene, so that it bounds the whole run.
@@ -44,9 +44,8 @@ struct MemoryEstimate {
 /// `frontHitShare` bounds the share of direct rays that hit a front face (1 = worst case:
 /// every ray leaves a hit record). `placement` (placeProbes for these probe settings) counts
 /// only the lattice points the probe bake keeps; null: all of them (the worst case).
-MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& settings,
-                                  const ProbeSettings* probes, double frontHitShare,
-                                  const ProbePlacement* placement = nullptr);
+MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& settings, const ProbeSettings* probes,
+                                  double frontHitShare, const ProbePlacement* placement = nullptr);
 
 struct MemoryLimit {
   uint64_t bytes = 0;

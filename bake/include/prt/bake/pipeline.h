@@ -72,14 +72,14 @@ struct BakeReport {
   std::string shardFile;       // a shard's own checkpoint
   std::string shardStage;      // ShardSaved: what was saved ("direct pass: chunks ...")
 
-  Scene scene;               // Written: the baked (refined) scene, with its transfer
-  BakeSettings settings;     // as baked
-  RefineSettings refine;     // as applied (tolerance 0: none)
+  Scene scene;            // Written: the baked (refined) scene, with its transfer
+  BakeSettings settings;  // as baked
+  RefineSettings refine;  // as applied (tolerance 0: none)
   RefineStats refined;
   BakeStats surface;
-  ProbeStats probes;         // with BakeJob::probes
-  uint64_t probeBytes = 0;   // the .vdb's size
-  MemoryEstimate memory;     // the last estimate the guard checked
+  ProbeStats probes;        // with BakeJob::probes
+  uint64_t probeBytes = 0;  // the .vdb's size
+  MemoryEstimate memory;    // the last estimate the guard checked
   double writeSeconds = 0.0;
   // The processes: MPI ranks (with what rank 0 received), else one.
   bool mpi = false;
@@ -91,7 +91,7 @@ struct BakeReport {
 /// A refusal whose remedy is one of the job's settings, so that a tool can say it in its own
 /// options (what() says it in the library's terms).
 class BakeRefused : public Error {
-public:
+ public:
   enum class Reason {
     MpiNotBuilt,      // started as an MPI rank by a prt built without MPI: bake in shards
     ShardUnderMpi,    // a shard asked for under an MPI launcher
@@ -103,7 +103,7 @@ public:
   Reason reason() const { return reason_; }
   const std::string& path() const { return path_; }
 
-private:
+ private:
   Reason reason_;
   std::string path_;
 };
@@ -111,7 +111,7 @@ private:
 /// Thrown when a bake with a checkpoint is interrupted, once the checkpoint is saved: "interrupted:
 /// checkpoint saved to PATH (bounce 1 40% done)". Resuming continues it.
 class InterruptedAndSaved : public Interrupted {
-public:
+ public:
   using Interrupted::Interrupted;
 };
 

@@ -20,14 +20,14 @@ namespace prt::bake {
 
 struct ProbeSettings {
   int bands = 3;
-  int samples = 1024;          // uniform sphere directions per probe
-  int bounces = 2;             // as the surface bake's (recorded in the file)
+  int samples = 1024;  // uniform sphere directions per probe
+  int bounces = 2;     // as the surface bake's (recorded in the file)
   uint64_t seed = 1;
-  double spacing = 0.0;        // > 0: probe spacing in world units
-  glm::ivec3 dims{0};          // or: probe counts per axis (used when spacing == 0)
+  double spacing = 0.0;                            // > 0: probe spacing in world units
+  glm::ivec3 dims{0};                              // or: probe counts per axis (used when spacing == 0)
   std::optional<glm::dvec3> boundsMin, boundsMax;  // default: the scene's bounds
   bool progress = false;
-  int threads = 0;             // 0 = all cores
+  int threads = 0;  // 0 = all cores
   /// A probe whose rays hit back faces for more than this share is inside geometry.
   double insideThreshold = 0.25;
   /// Where probes are baked (docs/probes.md, "Where probes go"):
@@ -46,7 +46,6 @@ struct ProbeSettings {
   /// world units (glTF: metres); 0 = no limit.
   double maxHeight = 4.0;
 };
-
 
 /// Throws prt::Error on bad values; the message names the field ("probe spacing: ...").
 void validate(const ProbeSettings& s);

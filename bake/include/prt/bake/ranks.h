@@ -28,13 +28,13 @@ namespace prt::bake {
 /// Thrown by a shard once it has saved its share of a stage whose other shares other shards
 /// compute: not a failure (`prt merge` joins the shards, and the next run goes on).
 class ShardDone : public Error {
-public:
+ public:
   using Error::Error;
 };
 
 /// The processes of one bake.
 class Ranks {
-public:
+ public:
   virtual ~Ranks() = default;
   virtual int rank() const { return 0; }
   virtual int size() const { return 1; }
@@ -68,7 +68,7 @@ public:
   uint64_t bytesReceived() const { return received_; }
   uint64_t gathers() const { return gathers_; }
 
-protected:
+ protected:
   uint64_t received_ = 0, gathers_ = 0;
 };
 
@@ -84,13 +84,13 @@ Ranks& ranks();
 
 /// Makes `r` the process's ranks while it lives.
 class RanksScope {
-public:
+ public:
   explicit RanksScope(Ranks* r);
   ~RanksScope();
   RanksScope(const RanksScope&) = delete;
   RanksScope& operator=(const RanksScope&) = delete;
 
-private:
+ private:
   Ranks* previous_;
 };
 

@@ -25,7 +25,7 @@ struct alignas(16) Ray {
   uint32_t id = 0;
   uint32_t flags = 0;
   // hit (intersect only)
-  glm::vec3 ng{0.0f};  // unnormalised geometric normal, cross(v1 - v0, v2 - v0)
+  glm::vec3 ng{0.0f};        // unnormalised geometric normal, cross(v1 - v0, v2 - v0)
   float u = 0.0f, v = 0.0f;  // barycentrics of the triangle's 2nd and 3rd vertices
   uint32_t tri = kInvalid;   // triangle index within the instance
   uint32_t mesh = kInvalid;  // index into Scene::meshes, kInvalid on a miss
@@ -116,7 +116,7 @@ struct alignas(32) RayPacket8 {
 };
 
 class RayScene {
-public:
+ public:
   /// Builds a BVH over the scene's non-receiver instances (geometry ids = instance indices).
   /// `includeReceivers` adds receiver-only instances too. Instances that may let light through
   /// (passesLight: MASK or BLEND alpha below the cutoff or 1 somewhere, transmission) are cut
@@ -143,7 +143,7 @@ public:
   /// Bounding-box diagonal of the traced geometry, for ray offsets.
   float sceneExtent() const { return extent_; }
 
-private:
+ private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
   float extent_ = 1.0f;
@@ -154,7 +154,7 @@ private:
 /// two; a resumed bake past the direct pass builds it for the probes). The scene must outlive
 /// it unchanged. Not thread-safe: the stages' own thread asks, before it starts their workers.
 class SharedRayScene {
-public:
+ public:
   explicit SharedRayScene(const Scene& scene) : scene_(scene) {}
   const RayScene& get() {
     if (!rays_) rays_ = std::make_unique<RayScene>(scene_);
@@ -163,7 +163,7 @@ public:
   /// Frees the BVH (the last stage that traces is done with it); get() would build it again.
   void release() { rays_.reset(); }
 
-private:
+ private:
   const Scene& scene_;
   std::unique_ptr<RayScene> rays_;
 };

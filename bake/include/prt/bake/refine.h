@@ -40,11 +40,11 @@ constexpr int kMaxRefineRounds = 24;
 void validate(const RefineSettings& s);
 
 struct RefineStats {
-  uint64_t verticesBefore = 0, verticesAfter = 0;        // of the baked instances
+  uint64_t verticesBefore = 0, verticesAfter = 0;  // of the baked instances
   uint64_t trianglesBefore = 0, trianglesAfter = 0;
-  uint64_t budget = 0;                                   // the budget used (refineBudget)
-  int rounds = 0;                                        // rounds that split edges
-  uint64_t points = 0;                                   // points estimated
+  uint64_t budget = 0;  // the budget used (refineBudget)
+  int rounds = 0;       // rounds that split edges
+  uint64_t points = 0;  // points estimated
   uint64_t rays = 0;
   bool budgetReached = false;
   /// Largest noise-corrected interpolation error left among the final mesh's candidates,

@@ -11,7 +11,6 @@
 
 namespace prt::bake {
 
-
 /// SplitMix64: a 64-bit mixer, for per-vertex seeds that do not depend on thread scheduling.
 inline uint64_t splitMix64(uint64_t x) {
   x += 0x9e3779b97f4a7c15ull;

@@ -12,7 +12,7 @@ namespace prt::bake {
 
 /// 64-bit hash of bytes, streamed (for checksums and fingerprints; not cryptographic).
 class Hasher {
-public:
+ public:
   explicit Hasher(uint64_t seed = 0);
   void add(const void* data, size_t bytes);
   template <class T>
@@ -23,7 +23,7 @@ public:
   }
   uint64_t digest() const;
 
-private:
+ private:
   uint64_t h_;
   uint64_t tail_ = 0;
   int tailBytes_ = 0;
@@ -32,11 +32,13 @@ private:
 
 /// Appends plain data to a record payload.
 class ByteWriter {
-public:
+ public:
   virtual ~ByteWriter() = default;
   virtual void write(const void* data, size_t bytes) = 0;
   template <class T>
-  void put(const T& v) { write(&v, sizeof v); }
+  void put(const T& v) {
+    write(&v, sizeof v);
+  }
   /// Writes count, then the elements (trivially copyable T).
   template <class T>
   void putArray(const T* data, size_t count) {
@@ -47,7 +49,7 @@ public:
 
 /// Reads a record payload back; throws prt::Error (naming the checkpoint) past its end.
 class ByteReader {
-public:
+ public:
   ByteReader(const std::string& data, std::string where) : data_(data), where_(std::move(where)) {}
   void read(void* out, size_t bytes);
   template <class T>
@@ -75,7 +77,7 @@ public:
   bool atEnd() const { return pos_ == data_.size(); }
   [[noreturn]] void fail(const std::string& what) const;
 
-private:
+ private:
   const std::string& data_;
   size_t pos_ = 0;
   std::string where_;

@@ -19,13 +19,13 @@
 namespace prt::bake {
 
 struct BakeSettings {
-  int bands = 3;          // 1 .. sh::kMaxBands
-  int samples = 1024;     // directions per vertex (hemisphere, cosine-weighted)
-  int bounces = 2;        // 0 = direct shadowed only
-  bool shadowed = true;   // false: unshadowed transfer, closed form, no rays
+  int bands = 3;         // 1 .. sh::kMaxBands
+  int samples = 1024;    // directions per vertex (hemisphere, cosine-weighted)
+  int bounces = 2;       // 0 = direct shadowed only
+  bool shadowed = true;  // false: unshadowed transfer, closed form, no rays
   uint64_t seed = 1;
-  int threads = 0;        // 0 = all cores
-  bool progress = false;  // progress bar on stderr
+  int threads = 0;              // 0 = all cores
+  bool progress = false;        // progress bar on stderr
   bool keepLowerOrder = false;  // also return the transfer summed to K−1 bounces (for probes)
   /// Memory guard only (bakeSurface ignores it): vertices that refinement (refine.h) may still
   /// add to the scene before the bake, each with two triangles.
@@ -77,7 +77,8 @@ struct BakeControl {
   /// still stops on interruptRequested(), throwing prt::Interrupted.
   Checkpoint* checkpoint = nullptr;
   /// Called once, before the direct pass, with an upper bound on the share of direct rays
-  /// kept as hit records, front faces and double-sided backs (what the hit records will take; exact when the checkpoint already
+  /// kept as hit records, front faces and double-sided backs (what the hit records will take; exact when the checkpoint
+  /// already
   /// holds the direct pass). May throw prt::Error to refuse the bake (memory guard).
   std::function<void(double frontHitShare)> checkMemory;
   /// The BVH to trace, shared with the stages that follow (null: the direct pass builds its
@@ -92,7 +93,8 @@ struct BakeControl {
 SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, const BakeControl& control = {});
 
 /// The direct-pass rays of the given baked vertices (global order: instances in scene order,
-/// receivers skipped, then the back sides of double-sided instances in scene order), exactly as bakeSurface casts them, `samples` per vertex in order. For
+/// receivers skipped, then the back sides of double-sided instances in scene order), exactly as bakeSurface casts them,
+/// `samples` per vertex in order. For
 /// benchmarks (the Embree ceiling on the same rays) and tests. `extent` is
 /// RayScene::sceneExtent() of the scene.
 std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& settings, float extent,

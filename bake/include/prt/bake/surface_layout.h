@@ -25,7 +25,7 @@ struct Layout {
   std::vector<uint32_t> triOffset;       // per mesh, global index of its first triangle
   std::vector<uint32_t> backTriOffset;   // per mesh, its first virtual triangle (kNone: one-sided)
   std::vector<uint32_t> meshOfVertex;
-  std::vector<uint32_t> triVerts;    // global triangle -> 3 global vertex indices
+  std::vector<uint32_t> triVerts;  // global triangle -> 3 global vertex indices
   std::vector<uint32_t> meshOfTri;
   size_t frontVertices = 0;   // real vertices; virtual ones are [frontVertices, vertices)
   size_t frontTriangles = 0;  // real triangles; virtual ones are [frontTriangles, triangles)

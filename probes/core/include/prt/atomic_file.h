@@ -7,7 +7,7 @@
 namespace prt {
 
 class AtomicFile {
-public:
+ public:
   /// Prepares a temporary path next to `path` (same directory, so rename is atomic).
   /// Throws prt::Error if the directory does not exist or is not writable.
   explicit AtomicFile(std::string path);
@@ -21,7 +21,7 @@ public:
   /// fsyncs the temporary file and renames it over path(). Throws prt::Error on failure.
   void commit();
 
-private:
+ private:
   std::string path_;
   std::string temp_;
   bool committed_ = false;

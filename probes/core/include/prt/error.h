@@ -21,13 +21,13 @@ namespace prt {
 
 /// Bad input: a file, an option, a value. The message is one line, ready for the user.
 class Error : public std::runtime_error {
-public:
+ public:
   explicit Error(const std::string& what) : std::runtime_error(what) {}
 };
 
 /// A bake or render stopped on request (SIGINT/SIGTERM).
 class Interrupted : public Error {
-public:
+ public:
   explicit Interrupted(const std::string& what) : Error(what) {}
 };
 
@@ -49,13 +49,13 @@ std::string printable(const std::string& s, size_t maxBytes = 40);
 /// the outermost first:
 ///   prt::CheckContext context([&] { return prt::cat("instance ", k, ", vertex ", v); });
 class CheckContext {
-public:
+ public:
   explicit CheckContext(std::function<std::string()> describe);
   ~CheckContext();
   CheckContext(const CheckContext&) = delete;
   CheckContext& operator=(const CheckContext&) = delete;
 
-private:
+ private:
   std::function<std::string()> describe_;
 };
 
@@ -67,19 +67,18 @@ namespace detail {
 
 }  // namespace prt
 
-#define PRT_CHECK(cond)                                                     \
-  do {                                                                      \
+#define PRT_CHECK(cond)                                                                     \
+  do {                                                                                      \
     if (!(cond)) ::prt::detail::checkFailed(__FILE__, __LINE__, "CHECK(" #cond ") failed"); \
   } while (0)
 
-#define PRT_CHECK_OP(a, op, b)                                                          \
-  do {                                                                                  \
-    auto&& prtA_ = (a);                                                                 \
-    auto&& prtB_ = (b);                                                                 \
-    if (!(prtA_ op prtB_))                                                              \
-      ::prt::detail::checkFailed(__FILE__, __LINE__,                                    \
-                                 ::prt::cat("CHECK(" #a " " #op " " #b ") failed: ", prtA_, \
-                                            " vs ", prtB_));                            \
+#define PRT_CHECK_OP(a, op, b)                                                                               \
+  do {                                                                                                       \
+    auto&& prtA_ = (a);                                                                                      \
+    auto&& prtB_ = (b);                                                                                      \
+    if (!(prtA_ op prtB_))                                                                                   \
+      ::prt::detail::checkFailed(__FILE__, __LINE__,                                                         \
+                                 ::prt::cat("CHECK(" #a " " #op " " #b ") failed: ", prtA_, " vs ", prtB_)); \
   } while (0)
 
 #define PRT_CHECK_EQ(a, b) PRT_CHECK_OP(a, ==, b)
@@ -92,12 +91,12 @@ namespace detail {
 // Debug-only checks. Under NDEBUG the condition is still compiled (so a variable used only in a
 // check stays used) but never evaluated.
 #ifdef NDEBUG
-#define PRT_DCHECK(cond) \
-  do {                   \
+#define PRT_DCHECK(cond)        \
+  do {                          \
     if (false) PRT_CHECK(cond); \
   } while (0)
-#define PRT_DCHECK_OP(a, op, b) \
-  do {                          \
+#define PRT_DCHECK_OP(a, op, b)        \
+  do {                                 \
     if (false) PRT_CHECK_OP(a, op, b); \
   } while (0)
 #else

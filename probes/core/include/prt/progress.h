@@ -11,7 +11,7 @@
 namespace prt {
 
 class Progress {
-public:
+ public:
   /// `unit` names what is counted ("vertices", "rays"). enabled=false keeps it silent.
   Progress(std::string label, uint64_t total, std::string unit, bool enabled);
   ~Progress();
@@ -22,7 +22,7 @@ public:
   /// True when stderr is a terminal and PRT_NO_PROGRESS is unset.
   static bool terminalDefault();
 
-private:
+ private:
   void draw(bool final);
   std::string label_, unit_;
   uint64_t total_;

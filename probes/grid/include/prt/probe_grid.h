@@ -50,14 +50,14 @@ struct ProbeGrid {
 
   // Active probes, in any order; arrays below are parallel to `coord`.
   std::vector<glm::ivec3> coord;
-  std::vector<float> transfer;        // probe p: n⁴ RGB triples, [p][j][i] -> 3 floats (r, g, b)
+  std::vector<float> transfer;  // probe p: n⁴ RGB triples, [p][j][i] -> 3 floats (r, g, b)
   /// The direct part M⁰_ji = ∫ V y_j y_i dω of each probe's M (first-hit visibility, no
   /// bounce): colourless and symmetric, so its upper triangle j ≤ i, row by row (directStride()
   /// floats per probe). Empty in files baked before prt kept it apart (prt_format_version 2).
   std::vector<float> direct;
-  std::vector<float> validity;        // 1 = valid, 0 = inside geometry (never interpolated)
-  std::vector<glm::vec3> offset;      // world offset from the lattice position (0 if not moved)
-  std::vector<float> skyVisibility;   // fraction of all directions that escape to the sky
+  std::vector<float> validity;       // 1 = valid, 0 = inside geometry (never interpolated)
+  std::vector<glm::vec3> offset;     // world offset from the lattice position (0 if not moved)
+  std::vector<float> skyVisibility;  // fraction of all directions that escape to the sky
   // Per Face: mean and mean square of the first hits' depth along the face's axis, |t · ω_axis|
   // (ray length t, direction ω; misses count as 2 × max spacing). prt_format_version 2.
   std::vector<std::array<glm::vec2, 6>> moments;
@@ -78,7 +78,7 @@ struct ProbeGrid {
   /// Position in `coord` of probe (i, j, k), or -1 if it is inactive or outside dims.
   int find(const glm::ivec3& c) const;
 
-private:
+ private:
   std::vector<int32_t> dense_;  // dims.x·dims.y·dims.z entries, -1 = inactive
 };
 
@@ -132,13 +132,14 @@ ProbeWeights probeWeights(const ProbeGrid& grid, const glm::vec3& x, const glm::
 
 /// Interpolated incident radiance SH at x from relit probes (relightProbes()); zero where
 /// probeWeights finds no probe. The probes only: receiverRadiance applies the fade.
-sh::ShRgb interpolateRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit,
-                              const glm::vec3& x, const glm::vec3* normal);
+sh::ShRgb interpolateRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const glm::vec3& x,
+                              const glm::vec3* normal);
 
 /// Incident radiance SH at x as the renderer lights a receiver there: interpolated from the
 /// probes where probeWeights finds any, else the unoccluded light itself (M = I: nothing
 /// around x blocks or reflects); beyond the domain (cover Fade) the two blended,
-/// (1 − fade) · probes + fade · light, so the light changes continuously as x leaves the grid. `light` is the one the probes were relit with. `cover` (if
+/// (1 − fade) · probes + fade · light, so the light changes continuously as x leaves the grid. `light` is the one the
+/// probes were relit with. `cover` (if
 /// given) receives where x lies. prt probe and the renderer's shader both follow this rule.
 sh::ShRgb receiverRadiance(const ProbeGrid& grid, const std::vector<glm::vec3>& relit, const sh::ShRgb& light,
                            const glm::vec3& x, const glm::vec3* normal, ProbeCover* cover = nullptr);

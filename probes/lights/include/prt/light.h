@@ -36,8 +36,7 @@ sh::ShRgb projectEnvironment(const ImageRgb& equirect, int bands);
 
 /// SH of a uniform disk (spherical cap) of angular radius `radius` (radians) around unit
 /// direction `toLight`, with uniform radiance `radiance`. radius = 0 is not allowed here.
-sh::ShRgb projectDiskRadiance(int bands, const glm::dvec3& toLight, double radius,
-                              const glm::dvec3& radiance);
+sh::ShRgb projectDiskRadiance(int bands, const glm::dvec3& toLight, double radius, const glm::dvec3& radiance);
 
 /// Below this angular radius (radians) a sun is a delta direction (projectSun, Note 3 there).
 constexpr double kPointSunRadians = 1e-6;
@@ -45,8 +44,7 @@ constexpr double kPointSunRadians = 1e-6;
 /// SH of a sun: a disk of angular radius `radius` (radians, 0 = a delta direction) whose
 /// irradiance on a surface facing it is `irradiance` (as Blender's sun "strength", W/m²).
 /// Radiance inside the disk is irradiance / (π sin² radius).
-sh::ShRgb projectSun(int bands, const glm::dvec3& toLight, double radius,
-                     const glm::dvec3& irradiance);
+sh::ShRgb projectSun(int bands, const glm::dvec3& toLight, double radius, const glm::dvec3& irradiance);
 
 /// A uniform environment of the given radiance: only coefficient 0, = 2√π · radiance.
 sh::ShRgb projectUniform(int bands, const glm::dvec3& radiance);

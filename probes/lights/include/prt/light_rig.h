@@ -24,8 +24,8 @@
 
 #include "prt/image.h"
 #include "prt/light.h"
-#include "prt/sun_extract.h"
 #include "prt/sh.h"
+#include "prt/sun_extract.h"
 
 namespace prt {
 
@@ -33,14 +33,14 @@ namespace prt {
 /// allocating for it, and within them every SH a rig evaluates to is finite in float.
 struct RigLimits {
   static constexpr size_t kMaxFileBytes = size_t(16) << 20;  // a rig file, or the bytes given
-  static constexpr int kMaxJsonDepth = 64;                    // nesting of [ and {
-  static constexpr double kMaxValue = 1e12;                   // |every number| (colours, angles, ...)
-  static constexpr double kMaxFrame = 1e9;                    // |keyframe numbers|
+  static constexpr int kMaxJsonDepth = 64;                   // nesting of [ and {
+  static constexpr double kMaxValue = 1e12;                  // |every number| (colours, angles, ...)
+  static constexpr double kMaxFrame = 1e9;                   // |keyframe numbers|
   static constexpr double kMinFps = 0.001, kMaxFps = 1e4;
   static constexpr size_t kMaxLights = 1024;
-  static constexpr size_t kMaxKeys = 100000;        // per parameter
-  static constexpr size_t kMaxPathBytes = 4096;     // an environment map's `file`
-  static constexpr double kMaxMapRadiance = 1e30;   // brightest map pixel × intensity
+  static constexpr size_t kMaxKeys = 100000;       // per parameter
+  static constexpr size_t kMaxPathBytes = 4096;    // an environment map's `file`
+  static constexpr double kMaxMapRadiance = 1e30;  // brightest map pixel × intensity
 };
 
 /// A parameter over frames: one key is a constant, several keys are interpolated.
@@ -87,8 +87,8 @@ struct RigLight {
   // `rotation` degrees about `axis` (right-handed) and multiplied by `intensity` (RGB).
   std::string file;
   Track axis = Track::constant(glm::dvec3(0.0, 1.0, 0.0));  // direction track
-  Track rotation = Track::constant(0.0);                     // degrees
-  Track intensity = Track::constant(1.0);                    // RGB factor
+  Track rotation = Track::constant(0.0);                    // degrees
+  Track intensity = Track::constant(1.0);                   // RGB factor
   /// Split the map's suns off as direct lights (extractSun; docs/lights.md, "Direct lights"):
   /// evaluateLighting lights them exactly and the in-painted residual through SH. JSON
   /// "extract_sun" (default true); evaluate() always projects the whole map.
@@ -162,7 +162,7 @@ struct MapSuns {
 /// A set of lights summed, windowed against ringing, with an optional frame rate.
 /// Copies share the cache of environment maps. evaluate() may be called from several threads.
 class LightRig {
-public:
+ public:
   std::vector<RigLight> lights;
   sh::Window window = sh::Window::None;  // applied to the sum, after every light is added
   std::optional<double> fps;             // frames per second, for videos
@@ -214,7 +214,7 @@ public:
   /// The first and last keyframe over all tracks (0, 0 for a rig without keyframes).
   std::pair<double, double> keyRange() const;
 
-private:
+ private:
   RigBackground radianceAt(double frame, bool shPart) const;
   struct Cache;
   std::shared_ptr<Cache> cache_;

@@ -53,11 +53,11 @@ struct SunExtractOptions {
 /// A sun found in a map, modelled as a uniform cap of radiance L and angular radius r.
 struct ExtractedSun {
   glm::dvec3 direction{0.0, 1.0, 0.0};  ///< unit, towards the sun (glTF axes, the map as stored)
-  double radius = 0.0;                   ///< angular radius (radians) of the cap; 0: a delta
-  glm::dvec3 irradiance{0.0};  ///< RGB on a surface facing it: π L sin² r (what projectSun takes)
-  glm::dvec3 power{0.0};       ///< RGB ∫ L dω of the extracted excess = L · 2π(1 − cos r)
-  double powerShare = 0.0;     ///< luminance of `power` over the luminance of the map's power
-  size_t pixels = 0;           ///< pixels in the in-painted region
+  double radius = 0.0;                  ///< angular radius (radians) of the cap; 0: a delta
+  glm::dvec3 irradiance{0.0};           ///< RGB on a surface facing it: π L sin² r (what projectSun takes)
+  glm::dvec3 power{0.0};                ///< RGB ∫ L dω of the extracted excess = L · 2π(1 − cos r)
+  double powerShare = 0.0;              ///< luminance of `power` over the luminance of the map's power
+  size_t pixels = 0;                    ///< pixels in the in-painted region
 };
 
 /// What extractSun returns: the sun, if any, and the map without it.

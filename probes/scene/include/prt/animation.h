@@ -15,11 +15,11 @@ struct MeshInstance;  // prt/scene.h
 /// animation). Indices are the file's node indices (MeshInstance::node, Camera::node).
 struct Node {
   std::string name;
-  int parent = -1;                 // -1: a root, or a node outside the default scene
-  bool hasMatrix = false;          // rest transform given as a matrix (glTF forbids animating it)
-  glm::dmat4 matrix{1.0};          // when hasMatrix
+  int parent = -1;         // -1: a root, or a node outside the default scene
+  bool hasMatrix = false;  // rest transform given as a matrix (glTF forbids animating it)
+  glm::dmat4 matrix{1.0};  // when hasMatrix
   glm::dvec3 translation{0.0};
-  glm::dvec4 rotation{0, 0, 0, 1}; // unit quaternion (x, y, z, w), glTF's order
+  glm::dvec4 rotation{0, 0, 0, 1};  // unit quaternion (x, y, z, w), glTF's order
   glm::dvec3 scale{1.0};
 };
 
@@ -33,7 +33,7 @@ struct AnimationChannel {
   int node = -1;
   AnimationPath path = AnimationPath::Translation;
   Interpolation interpolation = Interpolation::Linear;
-  std::vector<double> times;       // seconds, >= 0, strictly increasing, at least one key
+  std::vector<double> times;  // seconds, >= 0, strictly increasing, at least one key
   /// One value per key (Linear, Step) or three (CubicSpline: in-tangent, value, out-tangent).
   /// xyz for translation and scale (w unused); a quaternion (x, y, z, w) for rotation.
   std::vector<glm::dvec4> values;

@@ -16,8 +16,7 @@ struct BakeRecord {
   /// Fixed descriptions written beside the fields, for whoever reads the file without prt.
   /// kTransfer is checked on read: it says what the _PRT_SH_ attributes hold.
   static constexpr const char* kTransfer = "irradiance";
-  static constexpr const char* kShConvention =
-      "real orthonormal, no Condon-Shortley phase, index l(l+1)+m, glTF axes";
+  static constexpr const char* kShConvention = "real orthonormal, no Condon-Shortley phase, index l(l+1)+m, glTF axes";
   static constexpr const char* kUnits = "E = transfer . light (irradiance); L_o = albedo / pi * E";
   /// What the _PRT_SH_BACK_ attributes hold, written as "back_transfer" when the file has them
   /// (backTransfer); absent in a file without them, so one-sided bakes write what they did.
@@ -29,14 +28,14 @@ struct BakeRecord {
   static constexpr const char* kDirectTransfer =
       "_PRT_SH_DIRECT_NN (_PRT_SH_BACK_DIRECT_NN): bounce-0 transfer, first-hit visibility, colourless";
 
-  std::string scene;       // file name of the scene baked (no folder)
-  int bands = 0;           // 1 .. sh::kMaxBands
-  int samples = 0;         // rays per vertex, >= 1
-  int bounces = 0;         // interreflection bounces, >= 0 (0 when unshadowed)
+  std::string scene;  // file name of the scene baked (no folder)
+  int bands = 0;      // 1 .. sh::kMaxBands
+  int samples = 0;    // rays per vertex, >= 1
+  int bounces = 0;    // interreflection bounces, >= 0 (0 when unshadowed)
   bool shadowed = true;
   uint64_t seed = 0;
-  std::string prtVersion;  // the prt that baked it; empty for files baked before it was recorded
-  bool backTransfer = false;  // double-sided primitives carry the back side's transfer (_PRT_SH_BACK_)
+  std::string prtVersion;       // the prt that baked it; empty for files baked before it was recorded
+  bool backTransfer = false;    // double-sided primitives carry the back side's transfer (_PRT_SH_BACK_)
   bool directTransfer = false;  // every baked primitive carries its direct part (_PRT_SH_DIRECT_)
 
   /// Adaptive refinement of the meshes before the bake (prt/bake/refine.h). tolerance 0: none

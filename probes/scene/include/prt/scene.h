@@ -57,17 +57,17 @@ struct Material {
   int baseColorTexture = -1;        // index into Scene::textures, -1 if none
   int baseColorTexCoord = 0;        // which TEXCOORD_n the texture uses (after the transform's override)
   bool doubleSided = false;
-  bool unlit = false;               // KHR_materials_unlit
+  bool unlit = false;  // KHR_materials_unlit
   /// glTF alphaMode. The alpha is baseColorFactor.a × texture alpha × COLOR_0 alpha (alphaAt).
   /// Opaque: alpha ignored; Mask: a cutout, solid where alpha >= alphaCutoff, absent elsewhere;
   /// Blend: a partial occluder of opacity alpha (docs/formats.md, "Materials as light sees them").
   enum class AlphaMode { Opaque, Mask, Blend };
   AlphaMode alphaMode = AlphaMode::Opaque;
-  float alphaCutoff = 0.5f;         // Mask only
+  float alphaCutoff = 0.5f;  // Mask only
   /// KHR_materials_transmission: the share of light that goes through (thin and untinted in
   /// prt), transmissionFactor × transmissionTexture's R channel (linear texels).
   float transmissionFactor = 0.0f;
-  int transmissionTexture = -1;     // index into Scene::textures (decoded linear), -1 if none
+  int transmissionTexture = -1;  // index into Scene::textures (decoded linear), -1 if none
 };
 
 /// Why an instance is a receiver: left out of the bake (neither baked nor an occluder) and lit
@@ -82,11 +82,11 @@ enum class ReceiverReason {
 
 /// One glTF primitive placed by one node, in world space.
 struct MeshInstance {
-  std::string name;        // "node name/mesh name/primitive k", for messages
-  int node = -1;           // glTF node index
-  int mesh = -1;           // glTF mesh index
-  int primitive = -1;      // primitive index within the mesh
-  glm::dmat4 world{1.0};   // node's world transform
+  std::string name;       // "node name/mesh name/primitive k", for messages
+  int node = -1;          // glTF node index
+  int mesh = -1;          // glTF mesh index
+  int primitive = -1;     // primitive index within the mesh
+  glm::dmat4 world{1.0};  // node's world transform
 
   std::vector<glm::vec3> positions;  // world space
   std::vector<glm::vec3> normals;    // world space, unit; flat (per face) if the file has none
@@ -94,8 +94,8 @@ struct MeshInstance {
   /// with the texture's KHR_texture_transform applied, so a lookup at an interpolated
   /// coordinate is the transformed lookup glTF defines; empty if none.
   std::vector<glm::vec2> texcoords;
-  std::vector<glm::vec4> colors;     // COLOR_0, linear RGBA; empty if none
-  std::vector<uint32_t> indices;     // triangle list, 3 per triangle
+  std::vector<glm::vec4> colors;  // COLOR_0, linear RGBA; empty if none
+  std::vector<uint32_t> indices;  // triangle list, 3 per triangle
   /// Which vertex of the glTF primitive each vertex is: empty when they are one to one. Filled
   /// only for a primitive without NORMAL whose flat normals split vertices: the first copy of
   /// a file vertex keeps its index, the extra copies follow the file's vertices.
@@ -110,8 +110,8 @@ struct MeshInstance {
   /// (prt/bake/refine.h) added vertices, and then used instead of fileVertex. The baked file
   /// holds the refined primitive: every attribute interpolated, the refined triangles.
   std::vector<FileBlend> fileBlend;
-  int material = -1;                 // index into Scene::materials, -1 = glTF default (white)
-  bool receiverOnly = false;         // excluded from the bake (moving / unbaked object)
+  int material = -1;                                     // index into Scene::materials, -1 = glTF default (white)
+  bool receiverOnly = false;                             // excluded from the bake (moving / unbaked object)
   ReceiverReason receiverReason = ReceiverReason::None;  // why, as the loader decided
 
   /// Per-vertex transfer when read from a baked file: vertexCount × bands² RGB, vertex-major,
@@ -149,12 +149,12 @@ struct MeshInstance {
 struct Camera {
   std::string name;
   int node = -1;
-  glm::dmat4 world{1.0};       // camera looks down its local -Z, +Y up (glTF)
+  glm::dmat4 world{1.0};  // camera looks down its local -Z, +Y up (glTF)
   bool perspective = true;
-  double yfov = 0.8;           // radians (perspective)
-  double aspectRatio = 0.0;    // 0 = not given (use the image's)
+  double yfov = 0.8;         // radians (perspective)
+  double aspectRatio = 0.0;  // 0 = not given (use the image's)
   double znear = 0.01;
-  double zfar = 0.0;           // 0 = infinite
+  double zfar = 0.0;              // 0 = infinite
   double xmag = 1.0, ymag = 1.0;  // orthographic
 };
 
@@ -166,7 +166,7 @@ struct PunctualLight {
   Type type = Type::Directional;
   glm::vec3 color{1.0f};
   float intensity = 1.0f;
-  float range = 0.0f;             // 0 = infinite
+  float range = 0.0f;  // 0 = infinite
   glm::vec3 position{0.0f};
   glm::vec3 direction{0, 0, -1};  // direction the light travels (world)
   float innerConeAngle = 0.0f, outerConeAngle = 0.7853982f;
@@ -183,8 +183,8 @@ struct Scene : SceneAnimation {
   std::vector<Camera> cameras;
   std::vector<PunctualLight> lights;
   glm::vec3 boundsMin{0.0f}, boundsMax{0.0f};  // of all instances
-  std::vector<std::string> warnings;            // skipped or repaired input, one line each
-  std::optional<BakeRecord> bakeRecord;         // asset.extras.prt of a baked file, validated
+  std::vector<std::string> warnings;           // skipped or repaired input, one line each
+  std::optional<BakeRecord> bakeRecord;        // asset.extras.prt of a baked file, validated
   /// The band count of every instance's transfer: the _PRT_SH_ attributes', or, in a bake
   /// whose every instance is a receiver (no attributes), the record's. 0: not baked.
   int transferBands = 0;
@@ -211,7 +211,7 @@ Scene loadScene(const std::string& path, const LoadOptions& options = {});
 /// What loadScene throws for a buffer or image URI outside the scene's folder while
 /// LoadOptions::allowExternalUris is off (a tool adds the option that allows it).
 class ExternalUriRefused : public Error {
-public:
+ public:
   using Error::Error;
 };
 /// Loads .gltf or .glb bytes held in memory; `name` stands for the file in messages and its
@@ -249,7 +249,8 @@ std::vector<char> passesLight(const Scene& scene);
 /// transfer, scene.transferBands) as attributes _PRT_SH_00 .. (VEC3 float, RGB of coefficient
 /// i), the back side's (MeshInstance::transferBack, where filled) as _PRT_SH_BACK_00 .., the
 /// direct parts (transferDirect, transferDirectBack, where filled) as _PRT_SH_DIRECT_00 .. and
-/// _PRT_SH_BACK_DIRECT_00 .. (SCALAR float), meshes duplicated where one is used by several nodes, strips and fans rewritten as
+/// _PRT_SH_BACK_DIRECT_00 .. (SCALAR float), meshes duplicated where one is used by several nodes, strips and fans
+/// rewritten as
 /// triangle lists, primitives whose vertices were split for flat normals (MeshInstance::
 /// fileVertex) rewritten with the split vertices and their NORMAL, primitives refined by the
 /// bake (MeshInstance::fileBlend) rewritten with every attribute interpolated and the refined

@@ -95,13 +95,12 @@ void convolveClampedCosine(ShRgb& c);
 /// Projects f(ω) onto n bands by numerical quadrature: Gauss-Legendre in cos θ with
 /// `thetaSamples` nodes times 2·thetaSamples uniform φ. Exact (to rounding) for functions that
 /// are band-limited below min(2·thetaSamples, ...) — a tool for tests and analytic lights.
-ShRgb projectFunction(int bands, const std::function<glm::vec3(const glm::dvec3&)>& f,
-                      int thetaSamples = 64);
+ShRgb projectFunction(int bands, const std::function<glm::vec3(const glm::dvec3&)>& f, int thetaSamples = 64);
 
 /// Exact rotation of SH coefficients by a 3×3 rotation R, for every band [3]. If g(ω) = f(R⁻¹ω)
 /// (the function turned by R), then coeffs(g) = D(R) · coeffs(f). D is block diagonal.
 class Rotation {
-public:
+ public:
   /// Precondition: R is a rotation (orthonormal, det +1), 1 <= bands <= kMaxBands.
   Rotation(int bands, const glm::dmat3& R);
   int bands() const { return bands_; }
@@ -112,7 +111,7 @@ public:
   /// Element (row, col) of the block of band l, row/col in -l..l.
   double element(int l, int row, int col) const;
 
-private:
+ private:
   int bands_;
   std::vector<std::vector<double>> blocks_;  // per band, (2l+1)² row-major
 };

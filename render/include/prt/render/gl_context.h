@@ -36,7 +36,7 @@ struct GlFunctions;  // the loaded function table (render/src/gl_functions.h)
 /// Several contexts, of either back end, may exist in one process; call makeCurrent() before
 /// using one after another was made current. Not thread-safe: use a context on one thread.
 class GlContext {
-public:
+ public:
   /// Opens a context. `width` × `height` is the default frame size for renderers on it.
   /// Throws prt::Error with one line on failure, e.g. "EGL: no display on the surfaceless
   /// platform (eglInitialize: EGL_NOT_INITIALIZED)" or "OSMesa: no OpenGL 4.5 core context".
@@ -65,7 +65,7 @@ public:
   /// The entry points loaded from this context (render library internals only).
   const GlFunctions& gl() const;
 
-private:
+ private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

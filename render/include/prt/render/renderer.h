@@ -30,10 +30,10 @@ namespace prt::render {
 struct CameraView {
   glm::dmat4 cameraToWorld{1.0};  // rotation and translation only
   bool perspective = true;
-  double yfov = 0.8;     // radians
+  double yfov = 0.8;  // radians
   double ymag = 1.0;
   double znear = 0.01;
-  double zfar = 0.0;     // 0 = infinite (perspective only)
+  double zfar = 0.0;  // 0 = infinite (perspective only)
 };
 
 /// The view of a glTF camera of the scene (scale is removed from its world matrix).
@@ -66,14 +66,14 @@ struct FrameStats {
   double shadowMs = 0.0;    // the shadow-map pass (part of drawMs)
   size_t triangles = 0;     // drawn in the last frame (baked and receivers)
   size_t receiverTriangles = 0;
-  int samples = 1;          // samples per pixel the GL gave (>= Frame::samples; llvmpipe: 4 for 2)
+  int samples = 1;  // samples per pixel the GL gave (>= Frame::samples; llvmpipe: 4 for 2)
   /// Direct lights of the frame lit per pixel (exactly, with shadow maps), on baked instances
   /// and on receivers; those not lit so went through the SH light (an older bake, a grid
   /// without its direct part).
   size_t directBaked = 0, directReceivers = 0;
-  int shadowMaps = 0;       // shadow-map layers drawn (lights × cascades)
-  int cascades = 0;         // per light
-  int shadowMapSize = 0;    // texels a side
+  int shadowMaps = 0;     // shadow-map layers drawn (lights × cascades)
+  int cascades = 0;       // per light
+  int shadowMapSize = 0;  // texels a side
 };
 
 /// At most this many direct lights per frame (Frame::direct): each costs a shadow map per
@@ -84,9 +84,9 @@ inline constexpr int kMaxCascades = 4;
 
 /// How direct lights' shadows are made (docs/render.md).
 struct ShadowSettings {
-  bool enabled = true;   // false: every visible share is 1 (no shadow maps drawn)
-  int mapSize = 1024;    // texels a side of each shadow map, 16..8192
-  int maxCascades = 4;   // 1..kMaxCascades; cascades are used only where one map is too coarse
+  bool enabled = true;  // false: every visible share is 1 (no shadow maps drawn)
+  int mapSize = 1024;   // texels a side of each shadow map, 16..8192
+  int maxCascades = 4;  // 1..kMaxCascades; cascades are used only where one map is too coarse
 };
 
 /// How a frame is shaded. Flat draws the same instances with the same vertex buffers, depth
@@ -104,7 +104,7 @@ enum class ProbeLookup { PerPixel, PerVertex };
 /// One frame to render.
 struct Frame {
   CameraView camera;
-  sh::ShRgb light;          // distant light; truncated or zero-padded to the bands in use
+  sh::ShRgb light;  // distant light; truncated or zero-padded to the bands in use
   /// Direct lights (docs/render.md, "Direct lights and their shadows"; RigLighting): `light`
   /// is then RigLighting::sh, `directLight` their SH (RigLighting::directSh), which goes only
   /// through the bounced part of the transfer, and `direct` the lights themselves, lit per pixel
@@ -121,8 +121,8 @@ struct Frame {
   const std::vector<std::vector<glm::vec3>>* directBounce = nullptr;
   const std::vector<std::vector<glm::vec3>>* directBounceBack = nullptr;
   ShadowSettings shadows;
-  double time = 0.0;        // seconds: receivers are placed by the scene's animations at time
-  int width = 0;            // 0: the context's size
+  double time = 0.0;  // seconds: receivers are placed by the scene's animations at time
+  int width = 0;      // 0: the context's size
   int height = 0;
   Shading shading = Shading::Prt;
   ProbeLookup probeLookup = ProbeLookup::PerPixel;
@@ -159,7 +159,7 @@ void checkBackgroundSize(const std::string& what, size_t maps, size_t caps);
 /// setProbes(), and are not drawn without one (see warnings()). Unbaked instances that are not
 /// receivers are skipped with a warning. The context must outlive the renderer.
 class Renderer {
-public:
+ public:
   /// Uploads geometry, transfer and textures. Throws prt::Error if the scene has neither a
   /// baked instance nor a receiver, or the GL cannot hold it (e.g. a transfer buffer larger than
   /// the GL allows).
@@ -196,7 +196,7 @@ public:
   /// bake, a probe grid without its direct part).
   std::vector<std::string> warnings() const;
 
-private:
+ private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
