@@ -170,11 +170,11 @@ TEST(SceneWriteValid, AccessorBoundsAreTheData) {
   const Glb glb(out);
   const Json& written = glb.primitive("Plane");
   const Json& p = glb.j["accessors"][written["attributes"]["POSITION"].get<size_t>()];
-  EXPECT_EQ(p["min"], Json({-1.0, 0.0, -1.0}));
-  EXPECT_EQ(p["max"], Json({1.0, 0.0, 1.0}));
+  EXPECT_EQ(p["min"], Json::array({-1.0, 0.0, -1.0}));
+  EXPECT_EQ(p["max"], Json::array({1.0, 0.0, 1.0}));
   const Json& indices = glb.j["accessors"][written["indices"].get<size_t>()];
-  EXPECT_EQ(indices["min"], Json({0}));
-  EXPECT_EQ(indices["max"], Json({8}));
+  EXPECT_EQ(indices["min"], Json::array({0}));
+  EXPECT_EQ(indices["max"], Json::array({8}));
 }
 
 // The .glb framing: the header's length is the file's, both chunks 4-byte multiples, the BIN
