@@ -26,10 +26,15 @@ PACKAGES=(
   libtbb-dev libcli11-dev libosmesa6-dev libegl-dev libegl1-mesa-dev libgl1-mesa-dri
   libgtest-dev libdraco-dev libmeshoptimizer-dev libwebp-dev gltfpack
   libopenmpi-dev openmpi-bin
-  nodejs npm
   clang-14 libclang-rt-14-dev llvm-14
   universal-ctags
 )
+# Node and npm run the Khronos glTF Validator in the tests: Debian's packages, unless a node
+# with npm is there already (NodeSource's nodejs carries its own npm and conflicts with
+# Debian's npm package).
+if ! { command -v node && command -v npm; } >/dev/null 2>&1; then
+  PACKAGES+=(nodejs npm)
+fi
 
 usage() {
   cat <<'EOF'

@@ -345,6 +345,25 @@ void setAccessor(Document& d, Json& slot, int view, size_t elements, std::option
   a.erase("sparse");
 }
 
+// convertAttribute for the accessor's component type `type` (float for any other).
+bool convertAttributeAs(int type, const draco::PointAttribute& attr, size_t points, int components,
+                        std::vector<unsigned char>& data) {
+  switch (type) {
+    case kByte:
+      return convertAttribute<int8_t>(attr, points, components, data);
+    case kUnsignedByte:
+      return convertAttribute<uint8_t>(attr, points, components, data);
+    case kShort:
+      return convertAttribute<int16_t>(attr, points, components, data);
+    case kUnsignedShort:
+      return convertAttribute<uint16_t>(attr, points, components, data);
+    case kUnsignedInt:
+      return convertAttribute<uint32_t>(attr, points, components, data);
+    default:
+      return convertAttribute<float>(attr, points, components, data);
+  }
+}
+
 void decodeDracoPrimitive(Document& d, Json& prim, Json& ext, std::set<uint64_t>& decoded, const std::string& where) {
   const std::string draco = cat(where, ": ", kDraco);
   if (!ext.is_object()) fail(d, cat(draco, " is not an object"));
@@ -386,28 +405,8 @@ void decodeDracoPrimitive(Document& d, Json& prim, Json& ext, std::set<uint64_t>
     if (components == 0 || componentBytes(type) == 0)
       fail(d, cat(here, ": accessor ", index, " has an unsupported type or component type"));
     std::vector<unsigned char> data;
-    bool ok = false;
-    switch (type) {
-      case kByte:
-        ok = convertAttribute<int8_t>(*attr, points, components, data);
-        break;
-      case kUnsignedByte:
-        ok = convertAttribute<uint8_t>(*attr, points, components, data);
-        break;
-      case kShort:
-        ok = convertAttribute<int16_t>(*attr, points, components, data);
-        break;
-      case kUnsignedShort:
-        ok = convertAttribute<uint16_t>(*attr, points, components, data);
-        break;
-      case kUnsignedInt:
-        ok = convertAttribute<uint32_t>(*attr, points, components, data);
-        break;
-      default:
-        ok = convertAttribute<float>(*attr, points, components, data);
-        break;
-    }
-    if (!ok) fail(d, cat(here, ": the Draco attribute cannot be read as accessor ", index, " declares it"));
+    if (!convertAttributeAs(type, *attr, points, components, data))
+      fail(d, cat(here, ": the Draco attribute cannot be read as accessor ", index, " declares it"));
     int view = appendView(d, data.data(), data.size());
     setAccessor(d, *slot, view, points, std::nullopt, decoded, here);
   }
