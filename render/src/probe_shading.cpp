@@ -136,38 +136,31 @@ std::vector<int> irradianceCoefficients(int bands) {
 
 namespace {
 
-// Declarations and functions of the probe lookup, for the fragment or the vertex stage:
-// incidentRadiance(x, n, T) = Σ_p w_p c_p / Σ_p w_p in the packed radiance layout (T[i] = texel
-// i), or the light in that layout where no probe applies; irradiance(T, n) = Σ_j Â_l y_j(n) c_j.
+// probe_lookup.glsl for `bands` bands: the probe weights, and incidentRadiance's sums unrolled
+// over the packed texels T[i] (one line per texel in each).
 std::string probeLookupGlsl(int bands) {
   PRT_CHECK(bands >= 1 && bands <= sh::kMaxBands);
   const int texels = radianceTexels(bands);
-  std::string s;
-  // Per corner, the weighted packed texels are summed (T_i += w · texel_i) and divided by Σ w once.
-  s += "\nvoid incidentRadiance(vec3 x, vec3 n, out vec4 T[kTexels]) {\n";
-  s += "  int probe[8];\n  float w[8];\n  float fade;\n  float sum = probeWeights(x, n, probe, w, fade);\n";
-  for (int i = 0; i < texels; ++i) s += cat("  T[", i, "] = vec4(0.0);\n");
-  std::string corner = "  {  // corner C\n    int base = probe[C] * kTexels;\n";
-  for (int i = 0; i < texels; ++i)
-    corner += cat("    T[", i, "] += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
-  corner += "  }\n";
-  s += perCorner(corner);
-  // Beyond the domain (fade > 0) the probes' answer blends into the light: receiverRadiance.
-  for (int i = 0; i < texels; ++i)
-    s +=
+  std::string cleared, fetches, normalised;
+  for (int i = 0; i < texels; ++i) {
+    cleared += cat("  T[", i, "] = vec4(0.0);\n");
+    fetches += cat("    T[", i, "] += w[C] * texelFetch(uProbeRadiance, base + ", i, ");\n");
+    normalised +=
         cat("  T[", i, "] = sum > 0.0 ? mix(T[", i, "] / sum, uLightPacked[", i, "], fade) : uLightPacked[", i, "];\n");
-  s += "}\n";
-  return fillShader(shaders::kProbeLookup, {{"STATIC_TEXELS", cat(kProbeStaticTexels)},
-                                            {"TEXELS", cat(texels)},
-                                            {"PROBE_WEIGHTS", probeWeightsGlsl()},
-                                            {"INCIDENT_RADIANCE", s}});
+  }
+  return fillShader(shaders::kProbeLookup,
+                    {{"STATIC_TEXELS", cat(kProbeStaticTexels)},
+                     {"TEXELS", cat(texels)},
+                     {"PROBE_WEIGHTS", probeWeightsGlsl()},
+                     {"TEXELS_CLEARED", cleared},
+                     {"CORNER_SUMS", perCorner(fillShader(shaders::kProbeCornerRadiance, {{"TEXEL_SUMS", fetches}}))},
+                     {"TEXELS_NORMALISED", normalised}});
 }
 
-// irradiance(T, n): the basis applied to packed radiance, n unit.
-std::string irradianceGlsl(int bands) {
-  std::string s = "\nvec3 irradiance(vec4 T[kTexels], vec3 n) {\n  float px = n.x, py = n.y, pz = n.z;\n";
-  s += irradianceBasisGlsl(bands);
-  s += "  vec3 e = vec3(0.0);\n";
+// irradiance.glsl's sums: e += c_j · b<j> per coefficient j with Â_l ≠ 0, c_j's RGB read from the
+// packed texels' lanes.
+std::string irradianceSumsGlsl(int bands) {
+  std::string s;
   const std::vector<int> used = irradianceCoefficients(bands);
   const char* lane = "xyzw";
   for (size_t k = 0; k < used.size(); ++k) {
@@ -178,31 +171,25 @@ std::string irradianceGlsl(int bands) {
     }
     s += cat("  e += vec3(", rgb, ") * b", used[k], ";\n");
   }
-  return s + "  return e;\n}\n";
+  return s;
 }
 
 }  // namespace
 
 std::string receiverVertexShader(int bands, ProbeLookup lookup) {
   const bool perVertex = lookup == ProbeLookup::PerVertex;
-  return fillShader(
-      shaders::kReceiverVertex,
-      {{"LOOKUP_DECLARATIONS", perVertex ? probeLookupGlsl(bands) + "out vec4 vRadiance[kTexels];\n" : ""},
-       {"LOOKUP", perVertex ? "  vec4 T[kTexels];\n  incidentRadiance(vWorld, vNormal, T);\n  vRadiance = T;\n" : ""}});
+  return fillShader(shaders::kReceiverVertex,
+                    {{"PER_VERTEX", cat(int(perVertex))}, {"PROBE_LOOKUP", perVertex ? probeLookupGlsl(bands) : ""}});
 }
 
 std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
   const bool perVertex = lookup == ProbeLookup::PerVertex;
-  return fillShader(
-      shaders::kReceiverFragment,
-      {{"LOOKUP_DECLARATIONS",
-        perVertex ? cat("const int kTexels = ", radianceTexels(bands), ";\ncentroid in vec4 vRadiance[kTexels];\n")
-                  : probeLookupGlsl(bands)},
-       {"IRRADIANCE", irradianceGlsl(bands)},
-       {"DIRECT_LIGHTING", directLightingGlsl()},
-       {"RADIANCE", perVertex
-                        ? "  vec3 e = irradiance(vRadiance, n);\n"
-                        : "  vec4 T[kTexels];\n  incidentRadiance(vWorld, n, T);\n  vec3 e = irradiance(T, n);\n"}});
+  return fillShader(shaders::kReceiverFragment, {{"PER_VERTEX", cat(int(perVertex))},
+                                                 {"TEXELS", cat(radianceTexels(bands))},
+                                                 {"PROBE_LOOKUP", perVertex ? "" : probeLookupGlsl(bands)},
+                                                 {"IRRADIANCE_BASIS", irradianceBasisGlsl(bands)},
+                                                 {"IRRADIANCE_SUMS", irradianceSumsGlsl(bands)},
+                                                 {"DIRECT_LIGHTING", directLightingGlsl()}});
 }
 
 int radianceTexels(int bands) { return int(3 * irradianceCoefficients(bands).size() + 3) / 4; }

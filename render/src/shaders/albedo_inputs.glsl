@@ -17,28 +17,20 @@ layout(binding = 6) uniform sampler2D uTransmissionTexture;  // KHR_materials_tr
 centroid in vec4 vColor;
 #endif
 uniform vec4 uBaseColor;
-vec3 albedo() {
-  vec3 a = uBaseColor.rgb;
+// baseColorFactor × baseColorTexture(texcoord) × COLOR_0, RGBA: albedo() is its RGB, baseAlpha()
+// its alpha (each lane the same product as on its own).
+vec4 baseColor() {
+  vec4 c = uBaseColor;
 #ifdef HAS_COLOR
-  a *= vColor.rgb;
+  c *= vColor;
 #endif
 #ifdef HAS_TEXTURE
-  a *= texture(uBaseColorTexture, vTexcoord).rgb;
+  c *= texture(uBaseColorTexture, vTexcoord);
 #endif
-  return a;
+  return c;
 }
-#if defined(HAS_MASK) || defined(HAS_BLEND)
-float baseAlpha() {
-  float a = uBaseColor.a;
-#ifdef HAS_COLOR
-  a *= vColor.a;
-#endif
-#ifdef HAS_TEXTURE
-  a *= texture(uBaseColorTexture, vTexcoord).a;
-#endif
-  return a;
-}
-#endif
+vec3 albedo() { return baseColor().rgb; }
+float baseAlpha() { return baseColor().a; }
 #ifdef HAS_MASK
 uniform float uAlphaCutoff;
 #endif

@@ -1,12 +1,20 @@
-// Receivers: albedo / π × E with E the irradiance from the probes (@LOOKUP_DECLARATIONS@: the
-// lookup, PerPixel, or the interpolated radiance, PerVertex; @IRRADIANCE@: irradiance(T, n);
-// @RADIANCE@: e at the pixel). DIRECT: plus the direct lights per pixel (direct_lighting.glsl).
+// Receivers: albedo / π × E with E = irradiance(T, n) (irradiance.glsl) of the incident radiance
+// T, found by the probe lookup here (PER_VERTEX_LOOKUP 0, ProbeLookup::PerPixel; @PROBE_LOOKUP@:
+// probe_lookup.glsl) or interpolated from the vertices' lookups (PER_VERTEX_LOOKUP 1,
+// ProbeLookup::PerVertex; @TEXELS@ packed texels). DIRECT: plus the direct lights per pixel
+// (direct_lighting.glsl).
 #version 450 core
+#define PER_VERTEX_LOOKUP @PER_VERTEX@
 centroid in vec3 vWorld;
 centroid in vec3 vNormal;
 #include "albedo_inputs.glsl"
-@LOOKUP_DECLARATIONS@
-@IRRADIANCE@
+#if PER_VERTEX_LOOKUP
+const int kTexels = @TEXELS@;
+centroid in vec4 vRadiance[kTexels];
+#else
+@PROBE_LOOKUP@
+#endif
+#include "irradiance.glsl"
 #ifdef DIRECT
 @DIRECT_LIGHTING@
 #endif
@@ -18,7 +26,13 @@ void main() {
 #endif
   float a = coverage();
   vec3 n = normalize(vNormal);
-@RADIANCE@
+#if PER_VERTEX_LOOKUP
+  vec3 e = irradiance(vRadiance, n);
+#else
+  vec4 T[kTexels];
+  incidentRadiance(vWorld, n, T);
+  vec3 e = irradiance(T, n);
+#endif
 #ifdef DIRECT
   e += directIrradiance(vWorld, n, dxW, dyW);
 #endif

@@ -1,7 +1,9 @@
 // Receivers: the rest-pose vertex moved by uModel / uNormalMatrix; vWorld, vNormal and the
-// material's varyings. @LOOKUP_DECLARATIONS@ and @LOOKUP@: ProbeLookup::PerVertex does the
-// probe lookup here and passes the packed incident radiance on (empty for PerPixel).
+// material's varyings. PER_VERTEX_LOOKUP (@PER_VERTEX@: 1 for ProbeLookup::PerVertex, 0 for
+// PerPixel): the probe lookup (@PROBE_LOOKUP@: probe_lookup.glsl) runs here, at the vertex, and
+// the packed incident radiance it finds is passed on, interpolated.
 #version 450 core
+#define PER_VERTEX_LOOKUP @PER_VERTEX@
 layout(location = 0) in vec3 aPosition;
 layout(location = 1) in vec2 aTexcoord;
 layout(location = 2) in vec4 aColor;
@@ -13,13 +15,20 @@ out vec3 vWorld;
 out vec3 vWorldPixel;  // vWorld for the footprint's derivatives (direct_shading.cpp); unread without direct lights
 out vec3 vNormal;
 #include "albedo_outputs.glsl"
-@LOOKUP_DECLARATIONS@
+#if PER_VERTEX_LOOKUP
+@PROBE_LOOKUP@
+out vec4 vRadiance[kTexels];
+#endif
 void main() {
   vec4 world = uModel * vec4(aPosition, 1.0);
   vWorld = world.xyz;
   vWorldPixel = world.xyz;
   vNormal = normalize(uNormalMatrix * aNormal);  // unit world normals per vertex, interpolated
 #include "albedo_pass.glsl"
-@LOOKUP@
+#if PER_VERTEX_LOOKUP
+  vec4 T[kTexels];
+  incidentRadiance(vWorld, vNormal, T);
+  vRadiance = T;
+#endif
   gl_Position = uViewProj * world;
 }
