@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "gltf_file.h"
@@ -39,6 +40,9 @@ BakeJob smallJob(const std::string& scene, const fs::path& dir, const std::strin
   ps.dims = glm::ivec3(9, 7, 8);
   ps.samples = 64;
   job.probes = ps;
+  OperatorSettings os;
+  os.samples = 32;
+  job.bounceOperator = os;  // built after the transfer: the resumed bake writes the same one
   job.outputs = {(dir / (name + ".glb")).string(), (dir / (name + ".vdb")).string(), false};
   job.checkpoint.intervalSeconds = 0.0;  // saves only when interrupted
   return job;
@@ -95,6 +99,50 @@ TEST(BakePipeline, ProbeBakeInterruptedThenResumedWritesTheSameBits) {
     fs::remove(resumed.outputs.scene);
     fs::remove(resumed.outputs.probes);
   }
+}
+
+// The bounce operator a bake writes is read back with its scene, and a file whose operator was
+// changed (its checksum, or its count of vertex sides) is refused with one line naming the file
+// and the part, where the rest of the file is intact.
+TEST(BakePipeline, StoredOperatorIsReadBackAndCheckedAgainstItsFile) {
+  const test::TempDir tmp("pipeline-operator");
+  const std::string scene = writeScene(tmp.path());
+  BakeJob job = smallJob(scene, tmp.path(), "op");
+  job.probes.reset();
+  const BakeReport r = runPipeline(job);
+  ASSERT_TRUE(r.bounceOperator.built);
+  const Scene back = loadScene(job.outputs.scene);
+  ASSERT_NE(back.bounceOperator, nullptr);
+  EXPECT_EQ(back.bounceOperator->vertexRows.node, r.scene.bounceOperator->vertexRows.node);
+  EXPECT_EQ(back.bounceOperator->clusterRows.weight, r.scene.bounceOperator->clusterRows.weight);
+  EXPECT_EQ(back.bounceOperator->bounces, 2);
+  const std::string bytes = test::fileBytes(job.outputs.scene);
+  auto refusal = [&](const std::string& from, const std::string& to) -> std::string {
+    std::string edited = bytes;
+    const size_t at = edited.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at == std::string::npos) return "";
+    EXPECT_EQ(from.size(), to.size());
+    edited.replace(at, from.size(), to);
+    const std::string path = (tmp.path() / "edited.glb").string();
+    std::ofstream(path, std::ios::binary) << edited;
+    try {
+      loadScene(path);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  const size_t sum = bytes.find("\\\"checksum\\\":\\\"") + 15;
+  std::string checksum = bytes.substr(sum, 16), other = checksum;
+  other[0] = other[0] == '0' ? '1' : '0';
+  const std::string corrupt = refusal(checksum, other);
+  EXPECT_NE(corrupt.find("edited.glb: asset.extras.prt_operator: bytes: their checksum"), std::string::npos) << corrupt;
+  const std::string sides = cat("\\\"vertex_sides\\\":", r.scene.bounceOperator->vertexSides);
+  std::string fewer = sides;
+  fewer.back() = fewer.back() == '0' ? '1' : char(fewer.back() - 1);
+  const std::string mismatch = refusal(sides, fewer);
+  EXPECT_NE(mismatch.find("edited.glb: asset.extras.prt_operator: "), std::string::npos) << mismatch;
 }
 
 }  // namespace

@@ -106,6 +106,7 @@ bake::BakeJob bakeJob(const BakeArgs& a) {
   job.refine = a.refine;
   if (a.noRefine) job.refine.tolerance = 0.0;
   if (!a.probes.empty()) job.probes = probeSettings(a);
+  if (a.withOperator) job.bounceOperator = a.bounceOperator;
   job.outputs = {a.output, a.probes, a.probeHalf};
   job.checkpoint.path = a.checkpoint;
   job.checkpoint.intervalSeconds = a.checkpointInterval;
@@ -313,6 +314,40 @@ void addRefineOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
   }
 }
 
+// The bounce operator's options (docs/lights.md, "Their bounces"; docs/formats.md).
+void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
+  bake::OperatorSettings& o = a.bounceOperator;
+  CLI::Option* rays = bake.add_option("--operator-samples", o.samples,
+                                      "Gather rays per vertex side that build the bounce operator (the bake's first "
+                                      "ones; at most --samples)")
+                          ->check(CLI::Range(1, bake::kMaxSamples))
+                          ->capture_default_str();
+  CLI::Option* cluster = bake.add_option("--operator-cluster", o.clusterSize,
+                                         "Vertex sides per surface cluster of the bounce operator, at most")
+                             ->check(CLI::Range(1, 65536))
+                             ->capture_default_str();
+  CLI::Option* row =
+      bake.add_option("--operator-row", o.rowLength, "Entries per vertex side's row of the bounce operator, at most")
+          ->check(CLI::Range(1, BounceOperator::kMaxRowLength))
+          ->capture_default_str();
+  CLI::Option* clusterRow = bake.add_option("--operator-cluster-row", o.clusterRowLength,
+                                            "Entries per cluster's row of the bounce operator (the bounces after the "
+                                            "first), at most")
+                                ->check(CLI::Range(1, BounceOperator::kMaxRowLength))
+                                ->capture_default_str();
+  CLI::Option* on =
+      bake.add_flag("--operator", a.withOperator,
+                    "Store the bounce operator (docs/lights.md, \"The bounce operator\"): `prt render` "
+                    "and `prt relight` then light the direct lights' bounces and the sky detail by sparse "
+                    "products instead of tracing the bake's rays again (milliseconds a light change, "
+                    "at the accuracy docs/validation.md measures)");
+  on->excludes(unshadowed);
+  for (CLI::Option* x : {rays, cluster, row, clusterRow}) {
+    x->needs(on);
+    x->excludes(unshadowed);
+  }
+}
+
 }  // namespace
 
 void addBake(CLI::App& bake, BakeArgs& a) {
@@ -341,6 +376,7 @@ void addBake(CLI::App& bake, BakeArgs& a) {
                 "Read buffers and images outside the scene's folder (absolute paths, ..)");
   bake.add_flag("-q,--quiet", a.quiet, "No progress bar, no summary");
   addRefineOptions(bake, a, unshadowed);
+  addOperatorOptions(bake, a, unshadowed);
   // Probes are baked with the bounces, and a checkpoint holds rays: neither exists unshadowed.
   addProbeOptions(bake, a)->excludes(unshadowed);
   bake.add_flag("--resume", a.resume, "Continue an interrupted bake from its checkpoint (same scene and settings)")
@@ -404,6 +440,14 @@ int runBake(const BakeArgs& a) {
   printBake(a, report);
   printRefinementAndRanks(report);
   if (!a.probes.empty()) printProbes(a, report);
+  if (report.bounceOperator.built) {
+    const auto& o = report.bounceOperator;
+    std::fprintf(stderr,
+                 "  bounce operator: %s clusters, %s vertex entries, %s cluster entries, %s in the file, built in "
+                 "%.2f s\n",
+                 formatCount(double(o.clusters)).c_str(), formatCount(double(o.vertexEntries)).c_str(),
+                 formatCount(double(o.clusterEntries)).c_str(), formatBytes(o.bytes).c_str(), o.seconds);
+  }
   return 0;
 }
 

@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "prt/bake/bounce_operator.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/refine.h"
 #include "prt/bake/surface_bake.h"
@@ -28,6 +29,8 @@ struct BakeArgs {
   bake::BakeSettings settings;
   bake::RefineSettings refine;
   bool noRefine = false;
+  bool withOperator = false;  // a bounce operator in the output (--operator)
+  bake::OperatorSettings bounceOperator;
   bool unshadowed = false;
   bool quiet = false;
   bool allowDegenerate = false;  // deprecated --allow-degenerate: dropping them is the default

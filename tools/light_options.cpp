@@ -133,9 +133,15 @@ void addGatherOptions(CLI::App& app, GatherOptions& o) {
   app.add_option(
          "--bounce-samples", o.bounceSamples,
          "Rays per baked vertex (the bake's own first rays, traced once) that gather the direct lights' bounced "
-         "light and the sky's light beyond the SH band limit; 0: both through the SH transfer instead")
+         "light and the sky's light beyond the SH band limit where the bake stored no bounce operator (or with "
+         "--no-operator; the operator's own count is the bake's, `prt info` shows it); 0: both through the SH "
+         "transfer instead")
       ->check(CLI::Range(0, 16777216))
       ->capture_default_str();
+  app.add_flag("--no-operator", o.noOperator,
+               "Gather the direct lights' bounces and the sky detail by tracing the bake's rays again at start-up "
+               "(seconds to minutes on a large scene), instead of through the bounce operator the bake stored "
+               "(sparse products per light change; docs/lights.md, \"Their bounces\")");
   app.add_flag("--no-sky-detail", o.noSkyDetail,
                "Light the sky (maps, residuals, uniform skies) through the SH transfer alone, without its light "
                "beyond the band limit gathered over those rays");
@@ -146,6 +152,7 @@ bake::FrameLightingSettings frameLightingSettings(const LightOptions& light, con
   s.directLights = !light.noDirect;
   s.gatherSamples = gather.bounceSamples;
   s.skyDetail = !gather.noSkyDetail;
+  s.useOperator = !gather.noOperator;
   return s;
 }
 

@@ -42,6 +42,7 @@ struct LightOptions {
 struct GatherOptions {
   int bounceSamples = 256;   // rays per baked vertex; 0: both through the SH transfer
   bool noSkyDetail = false;  // the sky's light beyond the SH band limit left out (the transfer alone)
+  bool noOperator = false;   // trace the bake's rays again instead of using its bounce operator
 };
 
 /// Adds --rig, --env, --env-rotate, --env-axis, --env-intensity, --sun-dir, --sun-azimuth,

@@ -71,7 +71,10 @@ void printLighting(const RelightArgs& a, const Scene& scene, const LightRig& rig
     std::fprintf(stderr, "  sky detail    the light beyond %d bands over the same rays\n", scene.transferBands);
   const int bounces = scene.bakeRecord.value_or(BakeRecord{}).bounces;
   if (light.vertexLight && (lights || lighting.skyDetail())) {
-    if (lighting.gathers())
+    if (lighting.usesOperator())
+      std::fprintf(stderr, "  bounces       through the bake's bounce operator (%d bounces as baked) in %.3f s\n",
+                   bounces, st.gatherSeconds);
+    else if (lighting.gathers())
       std::fprintf(stderr, "  gather rays   %llu (%d per vertex, %d bounces as baked) in %.2f s\n",
                    (unsigned long long)st.gatherRays, a.gather.bounceSamples, bounces,
                    st.traceSeconds + st.gatherSeconds);

@@ -529,7 +529,15 @@ void printLighting(const RenderArgs& a, const FrameLights& lights, const RigLigh
   const double updates = std::max(st.updates, 1);
   if (!first.direct.empty()) {
     std::string bounceText = "through the transfer";
-    if (lighting.gathers()) {
+    if (lighting.usesOperator()) {
+      char text[256];
+      std::snprintf(text, sizeof text,
+                    "on baked surfaces through the bake's bounce operator, redone for %d of the frames (%.2f ms each: "
+                    "shadow rays %.2f, products %.2f)%s",
+                    st.updates, 1e3 * st.updateSeconds / updates, 1e3 * st.shadowSeconds / updates,
+                    1e3 * st.gatherSeconds / updates, last.directReceivers ? ", on receivers through the probes" : "");
+      bounceText = text;
+    } else if (lighting.gathers()) {
       char text[256];
       std::snprintf(text, sizeof text,
                     "on baked surfaces gathered with %d rays per vertex (traced once in %.2f s), redone for %d of the "
@@ -553,7 +561,13 @@ void printLighting(const RenderArgs& a, const FrameLights& lights, const RigLigh
   } else if (a.light.noDirect) {
     std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
   }
-  if (lighting.skyDetail())
+  if (lighting.skyDetail() && lighting.usesOperator())
+    std::fprintf(
+        stderr,
+        "  sky detail: the sky's light beyond %d bands on baked surfaces, through the bake's bounce operator%s "
+        "(docs/lights.md, \"Sky detail\"), redone for %d of the frames\n",
+        bands, first.direct.empty() ? "" : " with the bounces", st.updates);
+  else if (lighting.skyDetail())
     std::fprintf(stderr,
                  "  sky detail: the sky's light beyond %d bands on baked surfaces, gathered over the same %d rays per "
                  "vertex%s (docs/lights.md, \"Sky detail\"), redone for %d of the frames (%.1f ms each)\n",

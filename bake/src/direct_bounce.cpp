@@ -16,6 +16,7 @@
 #include "prt/light.h"
 #include "prt/math.h"
 #include "prt/sh.h"
+#include "sky_prefilter.h"
 #include "stage_runner.h"
 #include "surface_layout.h"
 #include "vertex_rays.h"
@@ -34,37 +35,6 @@ namespace {
 constexpr uint32_t kStream = 256;
 constexpr size_t kChunk = 64;  // vertices per task and per block of hit records
 
-// The map averaged down to pixels of about four rays' share of the hemisphere each (2π/K
-// per ray; two rays across a pixel: an equirectangular width of √(2πK)/2, 20 pixels at K = 256,
-// so a 1k map is read at 32 × 16), by a whole factor that divides both sides, each output pixel
-// the solid-angle weighted mean of its block: the power is kept, and a bright feature smaller
-// than that (a lamp the sources split off left behind, a sun's glow) is spread over it instead
-// of being hit by one ray in a hundred vertices (the detail's noise). The bilinear reading then
-// filters over about two such pixels. Measured on the validation room (docs/validation.md):
-// one ray a pixel was noisier (Royal Esplanade 3.3% / 11.9% per vertex), four rays across
-// blurrier (3.4% / 13.7%, Venice Sunset 1.8% / 5.1%), two across the best (2.9% / 10.5%,
-// 0.9% / 3.0%).
-std::shared_ptr<const ImageRgb> prefiltered(const std::shared_ptr<const ImageRgb>& map, uint32_t K) {
-  const int w = map->width, h = map->height;
-  const double target = 0.5 * std::sqrt(2.0 * kPiF * double(K));
-  int f = std::max(1, int(std::floor(double(w) / target)));
-  while (f > 1 && (w % f != 0 || h % f != 0)) --f;
-  if (f == 1) return map;
-  auto out = std::make_shared<ImageRgb>(w / f, h / f);
-  for (int Y = 0; Y < out->height; ++Y)
-    for (int X = 0; X < out->width; ++X) {
-      glm::dvec3 sum(0.0);
-      double weight = 0.0;
-      for (int y = Y * f; y < (Y + 1) * f; ++y) {
-        const double omega = equirectPixelSolidAngle(y, w, h);
-        for (int x = X * f; x < (X + 1) * f; ++x) sum += omega * glm::dvec3(map->at(x, y));
-        weight += omega * f;
-      }
-      out->at(X, Y) = glm::vec3(sum / weight);
-    }
-  return out;
-}
-
 double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -82,16 +52,12 @@ struct DirectBounce::Impl {
   std::vector<std::vector<uint64_t>> escaped;
   std::vector<glm::vec3> origins;
   float tnear = 0.0f;
-  // The maps skyDetail reads, averaged down (prefiltered), by the image they come from (kept
-  // alive with its entry, so its address is not reused): a rig's maps are the same images
-  // every frame, only turned. Holds the last call's images only.
-  mutable std::mutex filteredMutex;
-  mutable std::map<const ImageRgb*, std::pair<std::shared_ptr<const ImageRgb>, std::shared_ptr<const ImageRgb>>>
-      filtered;
+  PrefilteredSky filtered;  // the maps skyDetail reads
   uint64_t rays = 0, hits = 0;
   double seconds = 0.0;
 
-  Impl(const Scene& s, const BounceSettings& b) : scene(s), settings(b), lay(makeLayout(s)), albedo(s) {}
+  Impl(const Scene& s, const BounceSettings& b)
+      : scene(s), settings(b), lay(makeLayout(s)), albedo(s), filtered(uint32_t(b.samples)) {}
 };
 
 DirectBounce::DirectBounce(const Scene& scene, const BounceSettings& settings)
@@ -167,24 +133,7 @@ DirectIrradiance DirectBounce::skyDetail(const RigBackground& skyIn, const sh::S
   const uint32_t K = uint32_t(b.settings.samples);
   const size_t words = (K + 63) / 64;
   std::vector<glm::vec3> delta(lay.vertices, glm::vec3(0.0f));
-  RigBackground sky = skyIn;
-  {
-    // Only this call's images are kept, so a rig whose maps change every frame does not
-    // accumulate them.
-    std::lock_guard<std::mutex> lock(b.filteredMutex);
-    decltype(b.filtered) kept;
-    for (RigBackground::Map& m : sky.maps) {
-      auto& [source, f] = kept[m.image.get()];
-      if (!f) {
-        if (auto it = b.filtered.find(m.image.get()); it != b.filtered.end())
-          std::tie(source, f) = it->second;
-        else
-          source = m.image, f = prefiltered(m.image, K);
-      }
-      m.image = f;
-    }
-    b.filtered = std::move(kept);
-  }
+  const RigBackground sky = b.filtered(skyIn);
   tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {
     const size_t first = c * kChunk, end = std::min(lay.vertices, first + kChunk);
     double y[sh::kMaxBands * sh::kMaxBands];

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <optional>
 
+#include "prt/bake/bounce_operator.h"
 #include "prt/bake_record.h"
 #include "prt/relight.h"
 
@@ -60,7 +61,8 @@ struct FrameLighting::Impl {
   bool sky = false;          // the sky detail is gathered
   bool traceDirect = false;  // the direct lights' shadow rays are traced
   std::unique_ptr<DirectBounce> gather;
-  std::optional<RayScene> rays;  // the static scene, for the direct lights' shadow rays
+  std::unique_ptr<OperatorLighting> through;  // the bake's operator, where it is used
+  std::optional<RayScene> rays;               // the static scene, for the direct lights' shadow rays
   double setupSeconds = 0.0;
   // The last gather and what it was for.
   DirectIrradiance light;
@@ -81,8 +83,11 @@ struct FrameLighting::Impl {
     sky = gatherable && settings.skyDetail;
     const bool directBounces = gatherable && !first.direct.empty() && record.bounces > 0;
     traceDirect = settings.directAtVertices ? !first.direct.empty() : directBounces;
-    if (traceDirect) rays.emplace(scene);
-    if (sky || directBounces) {
+    if (traceDirect && (settings.directAtVertices || !useOperator())) rays.emplace(scene);
+    if ((sky || directBounces) && useOperator()) {
+      through = std::make_unique<OperatorLighting>(scene, *scene.bounceOperator, !settings.directAtVertices,
+                                                   settings.threads);
+    } else if (sky || directBounces) {
       BounceSettings bs;
       bs.samples = settings.gatherSamples;
       bs.bounces = record.bounces;
@@ -95,8 +100,11 @@ struct FrameLighting::Impl {
     setupSeconds += secondsSince(t0);
   }
 
+  bool useOperator() const { return settings.useOperator && scene.bounceOperator != nullptr; }
+  bool gathering() const { return gather != nullptr || through != nullptr; }
+
   bool needsVertexLight(const RigLighting& l) const {
-    return settings.directAtVertices ? !l.direct.empty() || sky : gather != nullptr;
+    return settings.directAtVertices ? !l.direct.empty() || sky : gathering();
   }
   bool stale(const RigLighting& l) const {
     return stats.updates == 0 || (sky && l.sh.c != skyFor.c) || !sameLights(l.direct, lightFor);
@@ -106,6 +114,7 @@ struct FrameLighting::Impl {
   // when nothing of it bounces), plus the sky's detail Δ (added per vertex, and bounced), then
   // their bounces E_b; per pixel the renderer lights E⁰ itself.
   void update(double frame, const RigLighting& l) {
+    if (through) return updateThroughOperator(frame, l);
     const auto t0 = std::chrono::steady_clock::now();
     ShadowSettings ss;
     ss.samples = settings.shadowSamples;
@@ -137,7 +146,40 @@ struct FrameLighting::Impl {
     stats.updateSeconds += secondsSince(t0);
     ++stats.updates;
   }
+  void updateThroughOperator(double frame, const RigLighting& l);
 };
+
+// Through the operator: at the vertices (a relit file) E⁰ traced exactly at every vertex, then
+// its bounces and the sky detail as products; for the renderer (which lights E⁰ per pixel)
+// only the products, E⁰ taken at the clusters' sample points.
+void FrameLighting::Impl::updateThroughOperator(double frame, const RigLighting& l) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const RigBackground skyLight = sky ? rig.shRadiance(frame) : RigBackground{};
+  const RigBackground* skyOrNull = sky ? &skyLight : nullptr;
+  const std::vector<DirectLight> bouncing = record.bounces > 0 ? l.direct : std::vector<DirectLight>{};
+  if (settings.directAtVertices) {
+    ShadowSettings ss;
+    ss.samples = settings.shadowSamples;
+    ss.threads = settings.threads;
+    DirectIrradiance lit =
+        traceDirect ? shadowedDirectIrradiance(scene, *rays, l.direct, ss) : shadowedDirectIrradiance(scene, {}, ss);
+    stats.shadowSeconds += lit.seconds;
+    stats.shadowRays += lit.rays;
+    const DirectIrradiance more = through->lightFrom(lit, skyOrNull, l.sh);
+    addIrradiance(lit, more);
+    light = std::move(lit);
+  } else {
+    light = through->light(bouncing, skyOrNull, l.sh);
+  }
+  const OperatorTimes& t = through->lastTimes();
+  stats.shadowSeconds += t.shadows;
+  stats.shadowRays += t.shadowRays;
+  stats.gatherSeconds += t.sky + t.clusters + t.vertices;
+  lightFor = l.direct;
+  skyFor = l.sh;
+  stats.updateSeconds += secondsSince(t0);
+  ++stats.updates;
+}
 
 FrameLighting::FrameLighting(const Scene& scene, const LightRig& rig, const FrameLightingSettings& settings)
     : impl_(std::make_unique<Impl>(scene, rig, settings)) {}
@@ -159,12 +201,13 @@ FrameLight FrameLighting::at(double frame) {
     out.vertexLight = &m.light;
   }
   // The bounces gathered here do not also go through the transfer's (t − t⁰) · directSh.
-  if (m.settings.directAtVertices && m.gather) out.rig.directSh = sh::ShRgb(bands);
+  if (m.settings.directAtVertices && m.gathering()) out.rig.directSh = sh::ShRgb(bands);
   out.seconds = secondsSince(t0) - (m.setupSeconds - setup0);
   return out;
 }
 
-bool FrameLighting::gathers() const { return impl_->gather != nullptr; }
+bool FrameLighting::gathers() const { return impl_->gathering(); }
+bool FrameLighting::usesOperator() const { return impl_->through != nullptr; }
 bool FrameLighting::skyDetail() const { return impl_->sky; }
 const FrameLightingStats& FrameLighting::stats() const { return impl_->stats; }
 

@@ -3,6 +3,7 @@
 // bounds made exact, and the file written atomically as a .glb (or as .gltf JSON with a data:
 // URI) that the Khronos glTF Validator accepts.
 #include "gltf_glb.h"
+#include "gltf_operator.h"
 
 #include <algorithm>
 #include <cctype>
@@ -161,6 +162,7 @@ void packIntoOneBuffer(const Gltf& g, tinygltf::Model& m) {
     }
   }
   for (const tinygltf::Image& image : m.images) mark(image.bufferView);
+  mark(operatorBufferView(m));
 
   tinygltf::Buffer packed;
   std::vector<int> to(m.bufferViews.size(), -1);
@@ -194,6 +196,10 @@ void packIntoOneBuffer(const Gltf& g, tinygltf::Model& m) {
     }
   }
   for (tinygltf::Image& image : m.images) map(image.bufferView);
+  if (int view = operatorBufferView(m); view >= 0) {
+    map(view);
+    setOperatorBufferView(m, view);
+  }
   m.bufferViews = std::move(views);
   m.buffers.assign(1, std::move(packed));
 }

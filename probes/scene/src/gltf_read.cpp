@@ -24,6 +24,7 @@
 
 #include "bake_record_json.h"
 #include "gltf_decode.h"
+#include "gltf_operator.h"
 #include "gltf_reader.h"
 #include "image_webp.h"
 #include "prt/error.h"
@@ -289,6 +290,7 @@ Scene loadSceneFrom(const std::string& path, const std::string* memory, const Lo
   readAnimations(g, scene);
   makeAnimatedInstancesReceivers(g, scene, keepStatic);
   takeBandsFromRecord(scene);
+  scene.bounceOperator = readOperator(g, scene);
   return scene;
 }
 

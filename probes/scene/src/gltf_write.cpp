@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bake_record_json.h"
+#include "gltf_operator.h"
 #include "gltf_write.h"
 #include "prt/error.h"
 
@@ -464,6 +465,7 @@ Gltf gltf::reloadForWriting(const std::string& inputPath, const Scene& scene, in
   rewriteStripsAndFans(g, staging, meshes);
   giveEachNodeItsOwnMesh(g.model, scene);
   dropTransferAttributes(g.model);
+  dropOperator(g.model);
   rewriteSplitPrimitives(g, staging, scene);
   rewriteRefinedPrimitives(g, staging, scene);
   return g;
@@ -476,6 +478,7 @@ void writeBakedScene(const std::string& inputPath, const Scene& scene, const Bak
   addTransferAttributes(g.model, staging, scene);
   markOptionReceivers(g.model, scene);
   storeRecord(scene, g.model, record, outPath);
+  if (scene.bounceOperator) storeOperator(g.model, staging, *scene.bounceOperator);
   writeSceneFile(g, g.model, staging, outPath);
 }
 

@@ -26,6 +26,10 @@ struct FrameLightingSettings {
   int gatherSamples = 256;
   /// False: the sky through the SH transfer alone, without its light beyond the band limit.
   bool skyDetail = true;
+  /// True: where the bake stored its bounce operator (prt/bounce_operator.h), the bounces and the
+  /// sky detail go through it (nothing traced at start-up, sparse products per light change).
+  /// False, or a bake without one: the bake's rays are traced again and gathered.
+  bool useOperator = true;
   /// True: the direct lights' shadowed light is part of FrameLight::vertexLight (a relit
   /// .glb). False: it is lit elsewhere (per pixel, by the renderer), and only what it sends on
   /// is gathered here.
@@ -52,7 +56,7 @@ struct FrameLight {
 };
 
 struct FrameLightingStats {
-  uint64_t gatherRays = 0;  // traced once, from every baked vertex
+  uint64_t gatherRays = 0;  // traced once, from every baked vertex (0 through the operator)
   double traceSeconds = 0.0;
   int updates = 0;                                                       // frames whose vertex light was gathered
   uint64_t shadowRays = 0;                                               // over all updates
@@ -77,6 +81,8 @@ class FrameLighting {
   /// among it; false until the first at().
   bool gathers() const;
   bool skyDetail() const;
+  /// Whether that goes through the bake's bounce operator (else through rays traced again).
+  bool usesOperator() const;
   const FrameLightingStats& stats() const;
 
  private:

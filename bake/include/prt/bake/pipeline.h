@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 
+#include "prt/bake/bounce_operator.h"
 #include "prt/bake/checkpoint.h"
 #include "prt/bake/memory_estimate.h"
 #include "prt/bake/probe_bake.h"
@@ -47,6 +48,10 @@ struct BakeJob {
   /// A probe grid into BakeOutputs::probes. Its bands, bounces, seed, threads and progress
   /// are the surface bake's.
   std::optional<ProbeSettings> probes;
+  /// The direct-to-indirect operator stored in the baked scene (prt/bounce_operator.h), built
+  /// by the writing process after the transfer; none: the file holds none (its direct lights'
+  /// bounces are then gathered by tracing at relight time). Its threads are the bake's.
+  std::optional<OperatorSettings> bounceOperator;
   BakeOutputs outputs;
   JobCheckpoint checkpoint;
   std::optional<uint64_t> maxMemory;   // bytes; none: the memory available
@@ -79,7 +84,14 @@ struct BakeReport {
   BakeStats surface;
   ProbeStats probes;        // with BakeJob::probes
   uint64_t probeBytes = 0;  // the .vdb's size
-  MemoryEstimate memory;    // the last estimate the guard checked
+  struct Operator {
+    bool built = false;
+    double seconds = 0.0;
+    uint64_t bytes = 0;  // packed
+    uint32_t clusters = 0;
+    uint64_t vertexEntries = 0, clusterEntries = 0;
+  } bounceOperator;
+  MemoryEstimate memory;  // the last estimate the guard checked
   double writeSeconds = 0.0;
   // The processes: MPI ranks (with what rank 0 received), else one.
   bool mpi = false;

@@ -15,6 +15,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,6 +24,7 @@
 
 #include "prt/animation.h"
 #include "prt/bake_record.h"
+#include "prt/bounce_operator.h"
 #include "prt/error.h"
 #include "prt/sh.h"
 
@@ -185,6 +187,9 @@ struct Scene : SceneAnimation {
   glm::vec3 boundsMin{0.0f}, boundsMax{0.0f};  // of all instances
   std::vector<std::string> warnings;           // skipped or repaired input, one line each
   std::optional<BakeRecord> bakeRecord;        // asset.extras.prt of a baked file, validated
+  /// The direct-to-indirect operator of a baked file (asset.extras.prt_operator, checked
+  /// against the scene), or of a bake about to be written; null when there is none.
+  std::shared_ptr<const BounceOperator> bounceOperator;
   /// The band count of every instance's transfer: the _PRT_SH_ attributes', or, in a bake
   /// whose every instance is a receiver (no attributes), the record's. 0: not baked.
   int transferBands = 0;

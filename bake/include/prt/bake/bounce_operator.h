@@ -1,0 +1,74 @@
+// The direct-to-indirect operator (prt/bounce_operator.h): built by the bake from its own rays,
+// and evaluated at each light change by `prt render` and `prt relight` (docs/lights.md, "Their
+// bounces"). Per light change: the direct light at each cluster (a few shadow rays, or the mean
+// of the vertices' own where they are traced), the sky's detail in each sky bin, then sparse
+// products: cluster to cluster for the bounces after the first, and one row per vertex side.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "prt/bake/direct_light.h"
+#include "prt/bounce_operator.h"
+#include "prt/light_rig.h"
+#include "prt/scene.h"
+#include "prt/sh.h"
+
+namespace prt::bake {
+
+struct OperatorSettings {
+  int samples = 256;                  // gather rays per vertex side: the bake's first ones
+  int clusterSize = 16;               // vertex sides per cluster, at most (a cluster holds half to all of it)
+  int rowLength = 16;                 // entries of a vertex side's row, at most
+  int clusterRowLength = 32;          // entries of a cluster's row, at most
+  int skyWidth = 32, skyHeight = 16;  // sky bins (equirectangular)
+  int samplePoints = 4;               // shadow-ray points per cluster
+  int threads = 0;                    // 0 = all cores
+};
+
+/// Throws prt::Error unless every field is within its limits (samples 1..16777216, cluster
+/// size 1..65536, row lengths 1..255, sky bins 1..1024, sample points 1..64).
+void validate(const OperatorSettings& s);
+
+/// Builds the operator of a baked scene (its meshes as the bake numbers them, refinement done)
+/// for `bounces` bounces, tracing `settings.samples` of the bake's rays (seed `seed`) from every
+/// vertex side. Deterministic for any thread count. `uncompressed` keeps every leaf a vertex
+/// row reaches (rows may then exceed rowLength, and the operator is for tests only: it cannot
+/// be stored).
+BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& settings, int bounces, uint64_t seed,
+                                   bool uncompressed = false);
+
+/// What one light change costs, by part.
+struct OperatorTimes {
+  double sky = 0.0, shadows = 0.0, clusters = 0.0, vertices = 0.0;  // seconds
+  uint64_t shadowRays = 0;
+};
+
+/// Evaluates an operator at light changes. The scene and operator must outlive it.
+class OperatorLighting {
+ public:
+  /// `traceShadows`: build the static scene's rays for light() (shadow rays at the clusters'
+  /// sample points); off, only lightFrom() may be called.
+  OperatorLighting(const Scene& scene, const BounceOperator& op, bool traceShadows, int threads = 0);
+  ~OperatorLighting();
+  OperatorLighting(const OperatorLighting&) = delete;
+  OperatorLighting& operator=(const OperatorLighting&) = delete;
+
+  /// Per instance and side (DirectIrradiance's layout): the bounced light of `lights` (their
+  /// shadowed light at each cluster, one shadow ray per light and sample point) and of the sky
+  /// detail, plus the sky detail's own light Δ (docs/lights.md, "Sky detail"): E_b + Δ. `sky`
+  /// null: no sky detail; else `sky` is the radiance `sh` stands for (LightRig::shRadiance).
+  DirectIrradiance light(const std::vector<DirectLight>& lights, const RigBackground* sky, const sh::ShRgb& sh);
+  /// The same with the direct light known at every vertex side (`e0`, shadowedDirectIrradiance's
+  /// layout): a cluster's is its members' mean.
+  DirectIrradiance lightFrom(const DirectIrradiance& e0, const RigBackground* sky, const sh::ShRgb& sh);
+
+  const OperatorTimes& lastTimes() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace prt::bake

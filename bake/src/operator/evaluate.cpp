@@ -1,0 +1,228 @@
+// The bounce operator at a light change (prt/bake/bounce_operator.h): sky bins, the direct
+// light at the clusters, the bounces cluster to cluster, then one sparse row per vertex side.
+#include <chrono>
+#include <optional>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "../sky_prefilter.h"
+#include "../stage_runner.h"
+#include "../surface_layout.h"
+#include "prt/bake/bounce_operator.h"
+#include "prt/error.h"
+#include "prt/light.h"
+#include "prt/math.h"
+
+namespace prt::bake {
+
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+constexpr float kUnit = 1.0f / float(BounceOperator::kWeightOne);
+
+// Σ weight · value over row r.
+inline glm::vec3 product(const BounceOperator::Rows& rows, size_t r, const std::vector<glm::vec3>& value) {
+  glm::vec3 acc(0.0f);
+  for (uint32_t e = rows.start[r]; e < rows.start[r + 1]; ++e) acc += float(rows.weight[e]) * value[rows.node[e]];
+  return acc * kUnit;
+}
+
+}  // namespace
+
+struct OperatorLighting::Impl {
+  const Scene& scene;
+  const BounceOperator& op;
+  Layout lay;
+  int threads;
+  std::optional<RayScene> rays;
+  std::vector<uint8_t> sky;                // per node: in the sky tree
+  std::vector<float> nodeWeight;           // per node: area or solid angle below it
+  std::vector<glm::vec3> points, normals;  // the clusters' sample points, cluster by cluster
+  std::vector<uint32_t> pointStart;
+  PrefilteredSky filtered;
+  std::vector<glm::vec3> skyValue, bounced, next, total, clusterE0;
+  OperatorTimes times;
+
+  Impl(const Scene& s, const BounceOperator& o, bool traceShadows, int t)
+      : scene(s), op(o), lay(makeLayout(s)), threads(t), sky(skyNodeMask(o)), filtered(uint32_t(o.samples)) {
+    PRT_CHECK_EQ(lay.vertices, size_t(op.vertexSides));
+    nodeWeight.assign(op.nodes(), 0.0f);
+    for (size_t n = 0; n < op.leaves(); ++n) nodeWeight[n] = op.leafWeight[n];
+    for (size_t i = 0; i < op.children.size() / 2; ++i)
+      nodeWeight[op.leaves() + i] = nodeWeight[op.children[2 * i]] + nodeWeight[op.children[2 * i + 1]];
+    if (!traceShadows) return;
+    rays.emplace(s);
+    const std::vector<glm::vec3> origins = rayOrigins(s, lay, rays->sceneExtent());
+    pointStart.assign(1, 0);
+    for (uint32_t c = 0; c < op.clusters; ++c) {
+      const uint32_t b = op.memberStart[c], e = std::min(op.memberStart[c + 1], b + uint32_t(op.samplePoints));
+      for (uint32_t i = b; i < e; ++i) {
+        points.push_back(origins[op.members[i]]);
+        normals.push_back(normalOf(s, lay, op.members[i]));
+      }
+      pointStart.push_back(uint32_t(points.size()));
+    }
+  }
+
+  // Inner nodes of one tree (sky or surface) as the weighted means of their children.
+  void aggregate(std::vector<glm::vec3>& v, bool ofSky) const {
+    const size_t L = op.leaves();
+    for (size_t i = 0; i < op.children.size() / 2; ++i) {
+      const size_t n = L + i;
+      if ((sky[n] != 0) != ofSky) continue;
+      const uint32_t a = op.children[2 * i], b = op.children[2 * i + 1];
+      v[n] = (nodeWeight[a] * v[a] + nodeWeight[b] * v[b]) / nodeWeight[n];
+    }
+  }
+
+  // π × (L − L̃) over each bin, L read from the prefiltered maps and L̃ the band-limited sky, at
+  // 2 × 2 points of the bin: the sky detail as a radiance per bin, in irradiance units.
+  void skyBins(const RigBackground* skyIn, const sh::ShRgb& shLight) {
+    skyValue.assign(op.nodes(), glm::vec3(0.0f));
+    if (!skyIn) return;
+    const RigBackground f = filtered(*skyIn);
+    const int bands = scene.transferBands > 0 ? scene.transferBands : shLight.bands;
+    const int n2 = std::min(bands * bands, int(shLight.c.size()));
+    const int W = op.skyWidth, H = op.skyHeight;
+    double y[sh::kMaxBands * sh::kMaxBands];
+    for (size_t s = 0; s < op.skyBins(); ++s) {
+      const int x = int(op.skyBin[s]) % W, yy = int(op.skyBin[s]) / W;
+      glm::dvec3 sum(0.0);
+      for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j) {
+          const glm::dvec3 d = equirectDirection((x + 0.25 + 0.5 * i) / W, (yy + 0.25 + 0.5 * j) / H);
+          sh::evaluate(bands, d, y);
+          glm::dvec3 band(0.0);
+          for (int k = 0; k < n2; ++k) band += y[k] * glm::dvec3(shLight.c[size_t(k)]);
+          sum += f.radiance(d) - band;
+        }
+      skyValue[op.clusters + s] = glm::vec3(sum * (kPi / 4.0));
+    }
+    aggregate(skyValue, true);
+  }
+
+  // R⁰ = ρ (E⁰ + the sky detail at the cluster), then each bounce after the first through the
+  // cluster rows; `total` ends as Σ_k R^k on the surface tree and the sky detail on the sky's.
+  void bounces() {
+    const size_t C = op.clusters;
+    total.assign(op.nodes(), glm::vec3(0.0f));
+    if (op.bounces > 0) {
+      bounced.assign(op.nodes(), glm::vec3(0.0f));
+      tbb::parallel_for(size_t(0), C, [&](size_t c) {
+        bounced[c] = op.albedo[c] * (clusterE0[c] + product(op.clusterRows, c, skyValue));
+      });
+      for (size_t c = 0; c < C; ++c) total[c] = bounced[c];
+      for (int k = 1; k < op.bounces; ++k) {
+        aggregate(bounced, false);
+        next.assign(op.nodes(), glm::vec3(0.0f));
+        tbb::parallel_for(size_t(0), C,
+                          [&](size_t c) { next[c] = op.albedo[c] * product(op.clusterRows, c, bounced); });
+        std::swap(bounced, next);
+        for (size_t c = 0; c < C; ++c) total[c] += bounced[c];
+      }
+      aggregate(total, false);
+    }
+    for (size_t n = 0; n < op.nodes(); ++n)
+      if (sky[n]) total[n] = skyValue[n];
+  }
+
+  DirectIrradiance vertices() const {
+    std::vector<glm::vec3> out(op.vertexSides);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, op.vertexSides, 1024), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t v = r.begin(); v != r.end(); ++v) out[v] = product(op.vertexRows, v, total);
+    });
+    DirectIrradiance d;
+    d.front.resize(scene.meshes.size());
+    d.back.resize(scene.meshes.size());
+    for (size_t k = 0; k < scene.meshes.size(); ++k) {
+      const MeshInstance& m = scene.meshes[k];
+      if (lay.vertexOffset[k] == SIZE_MAX || m.transfer.empty()) continue;
+      const auto at = out.begin() + ptrdiff_t(lay.vertexOffset[k]);
+      d.front[k].assign(at, at + ptrdiff_t(m.vertexCount()));
+      if (lay.backVertexOffset[k] != SIZE_MAX && m.hasBackTransfer()) {
+        const auto back = out.begin() + ptrdiff_t(lay.backVertexOffset[k]);
+        d.back[k].assign(back, back + ptrdiff_t(m.vertexCount()));
+      }
+    }
+    return d;
+  }
+
+  DirectIrradiance finish(std::chrono::steady_clock::time_point t0) {
+    auto t = std::chrono::steady_clock::now();
+    bounces();
+    times.clusters = secondsSince(t);
+    t = std::chrono::steady_clock::now();
+    DirectIrradiance d = vertices();
+    times.vertices = secondsSince(t);
+    d.seconds = secondsSince(t0);
+    return d;
+  }
+};
+
+OperatorLighting::OperatorLighting(const Scene& scene, const BounceOperator& op, bool traceShadows, int threads)
+    : impl_(std::make_unique<Impl>(scene, op, traceShadows, threads)) {}
+
+OperatorLighting::~OperatorLighting() = default;
+
+const OperatorTimes& OperatorLighting::lastTimes() const { return impl_->times; }
+
+DirectIrradiance OperatorLighting::light(const std::vector<DirectLight>& lights, const RigBackground* sky,
+                                         const sh::ShRgb& sh) {
+  Impl& m = *impl_;
+  PRT_CHECK(m.rays.has_value());
+  const auto t0 = std::chrono::steady_clock::now();
+  const ThreadLimit threadLimit(m.threads);
+  m.times = {};
+  m.skyBins(sky, sh);
+  m.times.sky = secondsSince(t0);
+  auto t = std::chrono::steady_clock::now();
+  m.clusterE0.assign(m.op.clusters, glm::vec3(0.0f));
+  if (!lights.empty() && m.op.bounces > 0) {
+    ShadowSettings ss;
+    ss.samples = 1;
+    ss.threads = m.threads;
+    const std::vector<glm::vec3> e = shadowedDirectIrradianceAt(*m.rays, m.points, m.normals, lights, ss);
+    for (uint32_t c = 0; c < m.op.clusters; ++c) {
+      glm::vec3 sum(0.0f);
+      for (uint32_t i = m.pointStart[c]; i < m.pointStart[c + 1]; ++i) sum += e[i];
+      m.clusterE0[c] = sum / float(m.pointStart[c + 1] - m.pointStart[c]);
+    }
+    m.times.shadowRays = uint64_t(m.points.size()) * lights.size();
+  }
+  m.times.shadows = secondsSince(t);
+  return m.finish(t0);
+}
+
+DirectIrradiance OperatorLighting::lightFrom(const DirectIrradiance& e0, const RigBackground* sky,
+                                             const sh::ShRgb& sh) {
+  Impl& m = *impl_;
+  const auto t0 = std::chrono::steady_clock::now();
+  const ThreadLimit threadLimit(m.threads);
+  m.times = {};
+  m.skyBins(sky, sh);
+  m.times.sky = secondsSince(t0);
+  PRT_CHECK_EQ(e0.front.size(), m.scene.meshes.size());
+  PRT_CHECK_EQ(e0.back.size(), m.scene.meshes.size());
+  std::vector<glm::vec3> side(m.op.vertexSides, glm::vec3(0.0f));
+  for (size_t k = 0; k < m.scene.meshes.size(); ++k) {
+    if (m.lay.vertexOffset[k] == SIZE_MAX) continue;
+    const size_t n = m.scene.meshes[k].vertexCount();
+    if (e0.front[k].size() == n)
+      std::copy(e0.front[k].begin(), e0.front[k].end(), side.begin() + ptrdiff_t(m.lay.vertexOffset[k]));
+    if (m.lay.backVertexOffset[k] != SIZE_MAX && e0.back[k].size() == n)
+      std::copy(e0.back[k].begin(), e0.back[k].end(), side.begin() + ptrdiff_t(m.lay.backVertexOffset[k]));
+  }
+  m.clusterE0.assign(m.op.clusters, glm::vec3(0.0f));
+  for (uint32_t c = 0; c < m.op.clusters; ++c) {
+    glm::vec3 sum(0.0f);
+    for (uint32_t i = m.op.memberStart[c]; i < m.op.memberStart[c + 1]; ++i) sum += side[m.op.members[i]];
+    m.clusterE0[c] = sum / float(m.op.memberStart[c + 1] - m.op.memberStart[c]);
+  }
+  return m.finish(t0);
+}
+
+}  // namespace prt::bake

@@ -1,0 +1,101 @@
+// The direct-to-indirect operator a bake stores beside its transfer (docs/lights.md, "Their
+// bounces"; its bytes: docs/formats.md, "The bounce operator"). It maps the light that arrives
+// directly at the baked surfaces (suns and disks with their shadows, the sky's detail beyond the
+// SH band limit) to the light those surfaces send on, at every baked vertex side, after the
+// bake's bounce count:
+//   E_b(v) = Σ_{entries (n, w) of v's row} w · value(n)
+// over a tree of nodes. Its leaves are surface clusters (patches of a few vertex sides of similar
+// position and normal) and sky bins (cells of an equirectangular grid of world directions); an
+// inner node stands for the leaves below it, its value their area-weighted (solid-angle-weighted)
+// mean. A row is one vertex side's gather rays (the bake's first `samples` rays): the share that
+// hits each cluster or escapes through each bin, with far or faint shares merged into the
+// coarsest node that keeps the row within its length. A cluster's own row carries the higher
+// bounces (cluster to cluster). What the values are at each light change is prt::bake's
+// (prt/bake/operator_lighting.h); this header says what the operator is, and checks it.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace prt {
+
+struct BounceOperator {
+  static constexpr int kVersion = 1;
+  static constexpr int kMaxRowLength = 255;      // entries in one row (its length is stored in a byte)
+  static constexpr uint32_t kWeightOne = 65535;  // a weight is stored as w · kWeightOne, rounded
+
+  // How it was built (informative, and checked against the bake record).
+  int samples = 0;      // gather rays per vertex side: the bake's first ones
+  int bounces = 0;      // the bake's bounce count
+  uint64_t seed = 0;    // the bake's seed (its ray streams)
+  int clusterSize = 0;  // the largest cluster asked for
+  int rowLength = 0;    // the longest vertex row asked for
+  int clusterRowLength = 0;
+
+  uint32_t vertexSides = 0;         // the bake's numbering: every baked instance's vertices, then the back sides
+  uint32_t clusters = 0;            // surface leaves: nodes [0, clusters)
+  int skyWidth = 0, skyHeight = 0;  // sky leaves: nodes [clusters, clusters + skyWidth · skyHeight)
+  int samplePoints = 0;             // the first ones of each cluster's members stand for it under shadow rays
+
+  /// Per leaf: its area (a cluster, m² in scene units) or solid angle (a bin, sr).
+  std::vector<float> leafWeight;
+  /// Two per inner node: inner node leaves() + i has children[2i] and children[2i + 1], both of
+  /// smaller index (children before parents).
+  std::vector<uint32_t> children;
+  uint32_t surfaceRoot = 0, skyRoot = 0;
+  /// Per cluster: the area-weighted mean diffuse albedo of its members (linear RGB).
+  std::vector<glm::vec3> albedo;
+  /// Per cluster c: its vertex sides members[memberStart[c] .. memberStart[c + 1]); every vertex
+  /// side is in exactly one cluster.
+  std::vector<uint32_t> memberStart;
+  std::vector<uint32_t> members;
+  /// Per sky leaf: its bin, y · skyWidth + x (x along u, y along v of prt/light.h's equirectUv).
+  std::vector<uint32_t> skyBin;
+
+  /// Sparse rows, CSR: row r's entries are [start[r], start[r + 1]).
+  struct Rows {
+    std::vector<uint32_t> start;
+    std::vector<uint32_t> node;
+    std::vector<uint16_t> weight;  // w · kWeightOne
+    size_t rows() const { return start.empty() ? 0 : start.size() - 1; }
+    size_t entries() const { return node.size(); }
+  };
+  Rows vertexRows;   // one per vertex side
+  Rows clusterRows;  // one per cluster
+
+  size_t skyBins() const { return size_t(skyWidth) * size_t(skyHeight); }
+  size_t leaves() const { return clusters + skyBins(); }
+  size_t nodes() const { return leaves() + children.size() / 2; }
+};
+
+/// The operator as stored: a JSON header (text) and the bytes of its arrays, in the order and
+/// widths docs/formats.md lists.
+struct PackedOperator {
+  std::string header;
+  std::vector<uint8_t> bytes;
+};
+
+/// Packs `op` (which must pass checkOperator).
+PackedOperator packOperator(const BounceOperator& op);
+
+/// Reads a packed operator. Throws prt::Error "WHERE: PART: problem" when the header is not
+/// one this prt reads (version, fields), the bytes are truncated or corrupt (their checksum),
+/// or the arrays are inconsistent (checkOperator).
+BounceOperator unpackOperator(const std::string& header, const uint8_t* bytes, size_t size, const std::string& where);
+
+/// Throws prt::Error "WHERE: PART: problem" unless every array has its size and every index
+/// is in range: children before parents and each node but the two roots a child once, members
+/// a partition of the vertex sides, sky bins each once, rows within their length limit over
+/// existing nodes, weights and albedos finite.
+void checkOperator(const BounceOperator& op, const std::string& where);
+
+/// Per node, 1 if it is a sky leaf or has sky leaves below it (the sky tree), else 0.
+std::vector<uint8_t> skyNodeMask(const BounceOperator& op);
+
+/// FNV-1a (64 bits) of `size` bytes: the checksum the header records.
+uint64_t fnv1a64(const uint8_t* bytes, size_t size);
+
+}  // namespace prt

@@ -1,0 +1,308 @@
+// The bounce operator's checks and its packed form (prt/bounce_operator.h, docs/formats.md
+// "The bounce operator").
+#include "prt/bounce_operator.h"
+
+#include <cmath>
+#include <cstring>
+#include <iomanip>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "prt/error.h"
+
+namespace prt {
+
+namespace {
+
+using Json = nlohmann::json;
+
+// Appends arrays little-endian (every supported machine is), each starting on a 4-byte boundary.
+class Packer {
+ public:
+  template <class T>
+  void put(const std::vector<T>& v) {
+    align();
+    const auto* p = reinterpret_cast<const uint8_t*>(v.data());
+    bytes.insert(bytes.end(), p, p + v.size() * sizeof(T));
+  }
+  // Node indices at `width` bytes each (2 or 4).
+  void putNodes(const std::vector<uint32_t>& v, int width) {
+    if (width == 4) return put(v);
+    std::vector<uint16_t> narrow(v.begin(), v.end());
+    put(narrow);
+  }
+  std::vector<uint8_t> bytes;
+
+ private:
+  void align() {
+    while (bytes.size() % 4 != 0) bytes.push_back(0);
+  }
+};
+
+class Unpacker {
+ public:
+  Unpacker(const uint8_t* bytes, size_t size, std::string where) : p_(bytes), size_(size), where_(std::move(where)) {}
+  template <class T>
+  std::vector<T> take(size_t count, const char* part) {
+    at_ = (at_ + 3) / 4 * 4;
+    if (count > (size_ - std::min(at_, size_)) / sizeof(T))
+      throw Error(cat(where_, ": ", part, ": the bytes end at ", size_, ", before its ", count,
+                      " values (the file is truncated)"));
+    std::vector<T> v(count);
+    if (count) std::memcpy(v.data(), p_ + at_, count * sizeof(T));
+    at_ += count * sizeof(T);
+    return v;
+  }
+  std::vector<uint32_t> takeNodes(size_t count, int width, const char* part) {
+    if (width == 4) return take<uint32_t>(count, part);
+    const std::vector<uint16_t> narrow = take<uint16_t>(count, part);
+    return {narrow.begin(), narrow.end()};
+  }
+  size_t used() const { return at_; }
+
+ private:
+  const uint8_t* p_;
+  size_t size_, at_ = 0;
+  std::string where_;
+};
+
+std::vector<uint8_t> lengths(const BounceOperator::Rows& r) {
+  std::vector<uint8_t> out(r.rows());
+  for (size_t i = 0; i < out.size(); ++i) out[i] = uint8_t(r.start[i + 1] - r.start[i]);
+  return out;
+}
+
+std::vector<uint32_t> startsFrom(const std::vector<uint8_t>& lengths) {
+  std::vector<uint32_t> start(lengths.size() + 1, 0);
+  for (size_t i = 0; i < lengths.size(); ++i) start[i + 1] = start[i] + lengths[i];
+  return start;
+}
+
+std::string hex(uint64_t v) {
+  std::ostringstream s;
+  s << std::hex << std::setw(16) << std::setfill('0') << v;
+  return s.str();
+}
+
+int nodeWidth(const BounceOperator& op) { return op.nodes() <= 65536 ? 2 : 4; }
+
+void checkRows(const BounceOperator::Rows& r, size_t rows, size_t nodes, const std::string& where) {
+  if (r.rows() != rows || r.start.front() != 0 || r.start.back() != r.node.size() || r.weight.size() != r.node.size())
+    throw Error(
+        cat(where, ": ", rows, " rows expected, the arrays hold ", r.rows(), " rows of ", r.node.size(), " entries"));
+  for (size_t i = 0; i < rows; ++i) {
+    if (r.start[i + 1] < r.start[i] || r.start[i + 1] - r.start[i] > uint32_t(BounceOperator::kMaxRowLength))
+      throw Error(cat(where, ": row ", i, " has ", int64_t(r.start[i + 1]) - int64_t(r.start[i]), " entries (at most ",
+                      BounceOperator::kMaxRowLength, ")"));
+  }
+  for (size_t e = 0; e < r.node.size(); ++e)
+    if (r.node[e] >= nodes)
+      throw Error(cat(where, ": entry ", e, " names node ", r.node[e], " of ", nodes, " (corrupt or truncated)"));
+}
+
+void checkTree(const BounceOperator& op, const std::string& where) {
+  const size_t leaves = op.leaves(), nodes = op.nodes();
+  if (op.children.size() % 2 != 0) throw Error(cat(where, ": children: an odd count, ", op.children.size()));
+  std::vector<uint8_t> parents(nodes, 0);
+  for (size_t i = 0; i < op.children.size(); ++i) {
+    const size_t parent = leaves + i / 2;
+    const uint32_t c = op.children[i];
+    if (c >= parent) throw Error(cat(where, ": children: node ", parent, " has child ", c, " (children come first)"));
+    if (++parents[c] > 1) throw Error(cat(where, ": children: node ", c, " has two parents"));
+  }
+  if (op.surfaceRoot >= nodes || op.skyRoot >= nodes || op.surfaceRoot == op.skyRoot)
+    throw Error(cat(where, ": roots: ", op.surfaceRoot, " and ", op.skyRoot, " of ", nodes, " nodes"));
+  for (size_t n = 0; n < nodes; ++n) {
+    const bool root = n == op.surfaceRoot || n == op.skyRoot;
+    if ((parents[n] == 0) != root)
+      throw Error(cat(where, ": children: node ", n, root ? " is a root but has a parent" : " has no parent"));
+  }
+}
+
+void checkClusters(const BounceOperator& op, const std::string& where) {
+  if (op.albedo.size() != op.clusters || op.memberStart.size() != size_t(op.clusters) + 1 ||
+      op.members.size() != op.vertexSides || op.memberStart.front() != 0 || op.memberStart.back() != op.vertexSides)
+    throw Error(cat(where, ": clusters: ", op.clusters, " clusters of ", op.vertexSides,
+                    " vertex sides expected, the arrays disagree"));
+  for (size_t c = 0; c < op.clusters; ++c) {
+    if (op.memberStart[c + 1] <= op.memberStart[c])
+      throw Error(cat(where, ": clusters: cluster ", c, " has no members"));
+    const glm::vec3 a = op.albedo[c];
+    if (!(std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z)) ||
+        glm::any(glm::lessThan(a, glm::vec3(0.0f))))
+      throw Error(cat(where, ": albedo: cluster ", c, " has albedo (", a.x, ", ", a.y, ", ", a.z, ")"));
+  }
+  std::vector<uint8_t> seen(op.vertexSides, 0);
+  for (uint32_t m : op.members)
+    if (m >= op.vertexSides || seen[m]++)
+      throw Error(
+          cat(where, ": members: vertex side ", m, m >= op.vertexSides ? " does not exist" : " is listed twice"));
+}
+
+}  // namespace
+
+uint64_t fnv1a64(const uint8_t* bytes, size_t size) {
+  uint64_t h = 1469598103934665603ull;
+  for (size_t i = 0; i < size; ++i) h = (h ^ bytes[i]) * 1099511628211ull;
+  return h;
+}
+
+void checkOperator(const BounceOperator& op, const std::string& where) {
+  if (op.samples < 1 || op.bounces < 0 || op.bounces > 64 || op.skyWidth < 1 || op.skyHeight < 1 ||
+      op.samplePoints < 1 || op.clusters == 0)
+    throw Error(cat(where, ": header: samples ", op.samples, ", bounces ", op.bounces, ", sky bins ", op.skyWidth,
+                    " x ", op.skyHeight, ", sample points ", op.samplePoints, ", clusters ", op.clusters));
+  if (op.leafWeight.size() != op.leaves())
+    throw Error(cat(where, ": leaf weights: ", op.leafWeight.size(), " for ", op.leaves(), " leaves"));
+  for (size_t i = 0; i < op.leafWeight.size(); ++i)
+    if (!(op.leafWeight[i] > 0.0f) || !std::isfinite(op.leafWeight[i]))
+      throw Error(cat(where, ": leaf weights: leaf ", i, " weighs ", op.leafWeight[i]));
+  checkTree(op, where);
+  checkClusters(op, where);
+  if (op.skyBin.size() != op.skyBins())
+    throw Error(cat(where, ": sky bins: ", op.skyBin.size(), " for ", op.skyBins()));
+  std::vector<uint8_t> seen(op.skyBins(), 0);
+  for (uint32_t b : op.skyBin)
+    if (b >= op.skyBins() || seen[b]++) throw Error(cat(where, ": sky bins: bin ", b, " out of range or twice"));
+  checkRows(op.vertexRows, op.vertexSides, op.nodes(), cat(where, ": vertex rows"));
+  checkRows(op.clusterRows, op.clusters, op.nodes(), cat(where, ": cluster rows"));
+}
+
+std::vector<uint8_t> skyNodeMask(const BounceOperator& op) {
+  std::vector<uint8_t> sky(op.nodes(), 0);
+  for (size_t n = op.clusters; n < op.leaves(); ++n) sky[n] = 1;
+  for (size_t i = 0; i < op.children.size() / 2; ++i)
+    sky[op.leaves() + i] = sky[op.children[2 * i]] | sky[op.children[2 * i + 1]];
+  return sky;
+}
+
+PackedOperator packOperator(const BounceOperator& op) {
+  checkOperator(op, "bounce operator");
+  const int width = nodeWidth(op);
+  Packer p;
+  std::vector<float> albedo(size_t(op.clusters) * 3);
+  std::memcpy(albedo.data(), op.albedo.data(), albedo.size() * sizeof(float));
+  p.put(op.leafWeight);
+  p.put(op.children);
+  p.put(albedo);
+  p.put(op.memberStart);
+  p.put(op.members);
+  p.put(op.skyBin);
+  p.put(lengths(op.vertexRows));
+  p.putNodes(op.vertexRows.node, width);
+  p.put(op.vertexRows.weight);
+  p.put(lengths(op.clusterRows));
+  p.putNodes(op.clusterRows.node, width);
+  p.put(op.clusterRows.weight);
+  while (p.bytes.size() % 4 != 0) p.bytes.push_back(0);
+  Json h;
+  h["version"] = BounceOperator::kVersion;
+  h["samples"] = op.samples;
+  h["bounces"] = op.bounces;
+  h["seed"] = std::to_string(op.seed);
+  h["cluster_size"] = op.clusterSize;
+  h["row_length"] = op.rowLength;
+  h["cluster_row_length"] = op.clusterRowLength;
+  h["vertex_sides"] = op.vertexSides;
+  h["clusters"] = op.clusters;
+  h["sky_bins"] = {op.skyWidth, op.skyHeight};
+  h["sample_points"] = op.samplePoints;
+  h["inner_nodes"] = op.children.size() / 2;
+  h["roots"] = {op.surfaceRoot, op.skyRoot};
+  h["node_index_bytes"] = width;
+  h["vertex_entries"] = op.vertexRows.entries();
+  h["cluster_entries"] = op.clusterRows.entries();
+  h["byte_length"] = p.bytes.size();
+  h["checksum"] = hex(fnv1a64(p.bytes.data(), p.bytes.size()));
+  return {h.dump(), std::move(p.bytes)};
+}
+
+namespace {
+
+template <class T>
+T field(const Json& h, const char* key, const std::string& where) {
+  if (!h.contains(key)) throw Error(cat(where, ": header: no \"", key, "\""));
+  try {
+    return h.at(key).get<T>();
+  } catch (const Json::exception&) {
+    throw Error(cat(where, ": header: \"", key, "\" is ", h.at(key).dump(), ", not a value of the right type"));
+  }
+}
+
+BounceOperator headerOf(const Json& h, const std::string& where) {
+  const int version = field<int>(h, "version", where);
+  if (version != BounceOperator::kVersion)
+    throw Error(cat(where, ": header: version ", version, "; this prt reads version ", BounceOperator::kVersion,
+                    " (bake the scene again)"));
+  BounceOperator op;
+  op.samples = field<int>(h, "samples", where);
+  op.bounces = field<int>(h, "bounces", where);
+  const std::string seed = field<std::string>(h, "seed", where);
+  try {
+    op.seed = std::stoull(seed);
+  } catch (const std::exception&) {
+    throw Error(cat(where, ": header: seed \"", seed, "\" is not a number"));
+  }
+  op.clusterSize = field<int>(h, "cluster_size", where);
+  op.rowLength = field<int>(h, "row_length", where);
+  op.clusterRowLength = field<int>(h, "cluster_row_length", where);
+  op.vertexSides = field<uint32_t>(h, "vertex_sides", where);
+  op.clusters = field<uint32_t>(h, "clusters", where);
+  const auto bins = field<std::vector<int>>(h, "sky_bins", where);
+  const auto roots = field<std::vector<uint32_t>>(h, "roots", where);
+  if (bins.size() != 2 || roots.size() != 2) throw Error(cat(where, ": header: sky_bins and roots hold two values"));
+  op.skyWidth = bins[0];
+  op.skyHeight = bins[1];
+  op.surfaceRoot = roots[0];
+  op.skyRoot = roots[1];
+  op.samplePoints = field<int>(h, "sample_points", where);
+  if (op.skyWidth < 1 || op.skyHeight < 1 || op.skyWidth > 4096 || op.skyHeight > 4096)
+    throw Error(cat(where, ": header: sky bins ", op.skyWidth, " x ", op.skyHeight));
+  return op;
+}
+
+}  // namespace
+
+BounceOperator unpackOperator(const std::string& headerText, const uint8_t* bytes, size_t size,
+                              const std::string& where) {
+  Json h;
+  try {
+    h = Json::parse(headerText);
+  } catch (const Json::exception& e) {
+    throw Error(cat(where, ": header: not JSON (", e.what(), ")"));
+  }
+  if (!h.is_object()) throw Error(cat(where, ": header: not a JSON object"));
+  BounceOperator op = headerOf(h, where);
+  const size_t byteLength = field<size_t>(h, "byte_length", where);
+  if (byteLength != size)
+    throw Error(cat(where, ": bytes: ", size, " bytes, the header says ", byteLength, " (truncated or corrupt)"));
+  if (field<std::string>(h, "checksum", where) != hex(fnv1a64(bytes, size)))
+    throw Error(cat(where, ": bytes: their checksum is not the header's (the file is corrupt)"));
+  const int width = field<int>(h, "node_index_bytes", where);
+  const size_t inner = field<size_t>(h, "inner_nodes", where);
+  const size_t vertexEntries = field<size_t>(h, "vertex_entries", where);
+  const size_t clusterEntries = field<size_t>(h, "cluster_entries", where);
+  if (width != 2 && width != 4) throw Error(cat(where, ": header: node_index_bytes ", width, " (2 or 4)"));
+  Unpacker u(bytes, size, where);
+  op.leafWeight = u.take<float>(op.leaves(), "leaf weights");
+  op.children = u.take<uint32_t>(2 * inner, "children");
+  const std::vector<float> albedo = u.take<float>(size_t(op.clusters) * 3, "albedo");
+  op.albedo.resize(op.clusters);
+  std::memcpy(op.albedo.data(), albedo.data(), albedo.size() * sizeof(float));
+  op.memberStart = u.take<uint32_t>(size_t(op.clusters) + 1, "member starts");
+  op.members = u.take<uint32_t>(op.vertexSides, "members");
+  op.skyBin = u.take<uint32_t>(op.skyBins(), "sky bins");
+  op.vertexRows.start = startsFrom(u.take<uint8_t>(op.vertexSides, "vertex row lengths"));
+  op.vertexRows.node = u.takeNodes(vertexEntries, width, "vertex row nodes");
+  op.vertexRows.weight = u.take<uint16_t>(vertexEntries, "vertex row weights");
+  op.clusterRows.start = startsFrom(u.take<uint8_t>(op.clusters, "cluster row lengths"));
+  op.clusterRows.node = u.takeNodes(clusterEntries, width, "cluster row nodes");
+  op.clusterRows.weight = u.take<uint16_t>(clusterEntries, "cluster row weights");
+  if ((u.used() + 3) / 4 * 4 != size)
+    throw Error(cat(where, ": bytes: ", size, " bytes, the arrays fill ", u.used(), " (corrupt)"));
+  checkOperator(op, where);
+  return op;
+}
+
+}  // namespace prt
