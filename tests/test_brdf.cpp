@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <random>
 #include <vector>
 
@@ -160,6 +161,17 @@ TEST(BrdfEnergy, DielectricKeepsEnergyExceptAtGrazingViews) {
     m.metallic = 0.0, m.roughness = r;
     const brdf::Lobes e = directionalAlbedo(m, 0.15);
     EXPECT_LE(e.diffuse.x + e.specular.x, 1.25) << "roughness " << r;
+  }
+  // The table docs/bake.md quotes: diffuse + specular = total per roughness and n·v.
+  for (double r : kRoughness) {
+    std::printf("white dielectric, roughness %.2f:", r);
+    for (double nv : {1.0, 0.7, 0.4, 0.15, 0.05}) {
+      brdf::MetallicRoughness m;
+      m.metallic = 0.0, m.roughness = r;
+      const brdf::Lobes e = directionalAlbedo(m, nv);
+      std::printf("  n·v %.2f: %.3f + %.3f = %.3f", nv, e.diffuse.x, e.specular.x, e.diffuse.x + e.specular.x);
+    }
+    std::printf("\n");
   }
 }
 
