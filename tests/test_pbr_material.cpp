@@ -247,6 +247,26 @@ TEST(ScenePbrMaterial, NormalTextureWithoutItsCoordinatesIsIgnoredWithAWarning) 
   EXPECT_TRUE(s.meshes[0].uvs(s.materials[0].normalTexture.uvSet).empty());
 }
 
+// A metallic-roughness texture that cannot be decoded: a warning naming the material, and the
+// factor alone (metallic 0.5: half the base colour) instead of a refused file.
+TEST(ScenePbrMaterial, UndecodableTextureLeavesTheFactorWithAWarning) {
+  test::TempDir dir;
+  test::GltfFile f;
+  f.j["images"].push_back({{"uri", "data:image/png;base64," + test::base64(std::string("not an image"))}});
+  f.j["textures"].push_back({{"source", 0}});
+  f.j["materials"].push_back(
+      {{"name", "Broken"},
+       {"pbrMetallicRoughness", {{"metallicFactor", 0.5}, {"metallicRoughnessTexture", {{"index", 0}}}}}});
+  addQuad(f, 0);
+  const Scene s = loadScene(f.write("broken", dir.path()));
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("not a PNG or JPEG image (material 0 'Broken'); the texture is ignored"),
+            std::string::npos)
+      << s.warnings[0];
+  EXPECT_EQ(s.materials[0].metallicRoughnessTexture.texture, -1);
+  EXPECT_EQ(albedoAtVertex(s, s.meshes[0], 0), glm::vec3(0.5f));
+}
+
 // ---- The bake's diffuse albedo (docs/bake.md, "Materials")
 
 /// The scene of one quad whose material is `material`, loaded.

@@ -314,7 +314,7 @@ void decodeUsedTextures(const Gltf& g, const std::vector<BaseColorSource>& sourc
   std::map<std::pair<int, bool>, int> slot;  // (glTF texture, sRGB) -> Scene::textures
   auto decode = [&](int texture, bool srgb) {
     auto [it, fresh] = slot.emplace(std::make_pair(texture, srgb), int(scene.textures.size()));
-    if (fresh) scene.textures.push_back(decodeBaseColorTexture(g, texture, srgb));
+    if (fresh) scene.textures.push_back(decodeBaseColorTexture(g, texture, srgb));  // may throw: the caller erases
     return it->second;
   };
   for (size_t i = 0; i < sources.size(); ++i) {
@@ -322,8 +322,17 @@ void decodeUsedTextures(const Gltf& g, const std::vector<BaseColorSource>& sourc
     if (sources[i].texture >= 0) scene.materials[i].baseColorTexture = decode(sources[i].texture, true);
     if (sources[i].transmissionTexture >= 0)
       scene.materials[i].transmissionTexture = decode(sources[i].transmissionTexture, false);
-    for (const BaseColorSource::Extra& e : sources[i].extras)
-      if (shadingTextures || !e.shadingOnly) (scene.materials[i].*e.slot).texture = decode(e.texture, e.srgb);
+    // A texture past the base colour that cannot be read leaves its factor alone, as a viewer
+    // would draw the material: a warning, not a refused file (prt read none of them before).
+    for (const BaseColorSource::Extra& e : sources[i].extras) {
+      if (!shadingTextures && e.shadingOnly) continue;
+      try {
+        (scene.materials[i].*e.slot).texture = decode(e.texture, e.srgb);
+      } catch (const Error& error) {
+        slot.erase(std::make_pair(e.texture, e.srgb));
+        scene.warnings.push_back(cat(error.what(), " (", materialWhere(g, i), "); the texture is ignored"));
+      }
+    }
   }
 }
 
