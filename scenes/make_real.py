@@ -28,7 +28,10 @@ def main():
     keep_images = []
     for m in g["materials"]:
         m.pop("normalTexture", None)
-        m["pbrMetallicRoughness"].pop("metallicRoughnessTexture", None)
+        # Without its ARM texture a material's metalness is metallicFactor alone, whose glTF
+        # default is 1: the wood and rope would turn to metal. They are dielectrics.
+        if m["pbrMetallicRoughness"].pop("metallicRoughnessTexture", None) is not None:
+            m["pbrMetallicRoughness"]["metallicFactor"] = 0
         keep_images.append(g["textures"][m["pbrMetallicRoughness"]["baseColorTexture"]["index"]]["source"])
     images, textures = [], []
     for m in g["materials"]:

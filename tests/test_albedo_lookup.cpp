@@ -95,10 +95,13 @@ Scene randomScene(std::mt19937& rng) {
     m.baseColorFactor = glm::vec4(0.3f + 0.1f * t, 0.9f, 0.55f, 1.0f);
     m.baseColorTexture = t;
     m.doubleSided = t % 2 == 1;  // both sides baked: back triangles in the bake's numbering
+    // Metallic 0.35 on one: the kernel's factor must be albedoAt's first product, (1 − 0.35)·factor.
+    m.metallicFactor = t == 1 ? 0.35f : 0.0f;
     s.materials.push_back(m);
   }
   Material plain;
   plain.baseColorFactor = glm::vec4(0.2f, 0.4f, 0.8f, 1.0f);
+  plain.metallicFactor = 0.0f;
   s.materials.push_back(plain);
   for (int t = 0; t < int(s.textures.size()); ++t) {
     s.meshes.push_back(randomMesh(rng, t, 40, 60, true, false));

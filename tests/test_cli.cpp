@@ -190,7 +190,8 @@ TEST(Cli, DoubleSidedPlaneIsBakedRelitAndDescribedOnBothSides) {
   // the front (normal +Y) and one for the back (normal −Y); prt info names the back transfer.
   TempDir d;
   test::GltfFile f;
-  f.j["materials"] = {{{"doubleSided", true}, {"pbrMetallicRoughness", {{"baseColorFactor", {0.8, 0.8, 0.8, 1.0}}}}}};
+  f.j["materials"] = {{{"doubleSided", true},
+                       {"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {0.8, 0.8, 0.8, 1.0}}}}}};
   f.node({{"mesh", f.mesh({-1, 0, -1, 1, 0, -1, 1, 0, 1, -1, 0, 1}, {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0},
                           {0, 2, 1, 0, 3, 2}, 0)}},
          true);

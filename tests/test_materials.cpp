@@ -127,7 +127,10 @@ int addMaterial(test::GltfFile& f, Json material) {
   return int(f.j["materials"].size() - 1);
 }
 
-Json checkerMask() { return {{"alphaMode", "MASK"}, {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}; }
+Json checkerMask() {
+  return {{"alphaMode", "MASK"},
+          {"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorTexture", {{"index", 0}}}}}};
+}
 
 /// Floor vertex v's sky fraction from its direct transfer: t_00 = π y_00 · (unoccluded cosine share).
 double openFraction(const bake::SurfaceTransfer& t, size_t mesh, size_t v, int bands) {
@@ -156,7 +159,8 @@ TEST(SceneMaterial, AlphaModesCutoffAndTransmissionAreRead) {
   Json mask = checkerMask();
   mask["alphaCutoff"] = 0.3;
   addMaterial(f, mask);
-  addMaterial(f, {{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.25}}}}});
+  addMaterial(f, {{"alphaMode", "BLEND"},
+                  {"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {1, 1, 1, 0.25}}}}});
   addMaterial(
       f, {{"extensions",
            {{"KHR_materials_transmission", {{"transmissionFactor", 0.5}, {"transmissionTexture", {{"index", 1}}}}}}}});
@@ -202,7 +206,7 @@ TEST(SceneMaterial, AlphaModesCutoffAndTransmissionAreRead) {
 TEST(SceneMaterial, OpaqueIgnoresAlphaAndBadAlphaModeIsRefused) {
   test::TempDir dir;
   test::GltfFile f;
-  addMaterial(f, {{"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.0}}}}});
+  addMaterial(f, {{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {1, 1, 1, 0.0}}}}});
   addOccluder(f, 0);
   const Scene s = loadScene(f.write("opaque", dir.path()));
   EXPECT_FALSE(mayPassLight(s, s.meshes[0]));
@@ -318,11 +322,13 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(
         PaneCase{
             "transmission", {{"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.5}}}}}}, 0.5},
-        PaneCase{
-            "blend", {{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.5}}}}}, 0.5},
+        PaneCase{"blend",
+                 {{"alphaMode", "BLEND"},
+                  {"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {1, 1, 1, 0.5}}}}},
+                 0.5},
         PaneCase{"both",
                  {{"alphaMode", "BLEND"},
-                  {"pbrMetallicRoughness", {{"baseColorFactor", {0.2, 0.9, 0.4, 0.5}}}},
+                  {"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {0.2, 0.9, 0.4, 0.5}}}},
                   {"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.5}}}}}},
                  0.25}),
     [](const ::testing::TestParamInfo<PaneCase>& c) { return std::string(c.param.name); });
@@ -339,7 +345,8 @@ TEST(BakePartialOccluderBounce, FloorGathersOpacityTimesTheOpaqueBounce) {
   auto bounce = [&](const Json& pane) {
     test::GltfFile f;
     addOccluder(f, addMaterial(f, pane));
-    addFloor(f, addMaterial(f, {{"pbrMetallicRoughness", {{"baseColorFactor", {0.0, 0.0, 0.0, 1.0}}}}}));
+    addFloor(f, addMaterial(
+                    f, {{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {0.0, 0.0, 0.0, 1.0}}}}}));
     bake::BakeSettings bs = directOnly(4096);
     bs.bounces = 1;
     bs.keepLowerOrder = true;
@@ -349,9 +356,11 @@ TEST(BakePartialOccluderBounce, FloorGathersOpacityTimesTheOpaqueBounce) {
       out.push_back(t.perMesh[1][4 * v].r - t.perMeshLowerOrder[1][4 * v].r);
     return out;
   };
-  const std::vector<double> opaque = bounce({{"pbrMetallicRoughness", {{"baseColorFactor", {1.0, 1.0, 1.0, 1.0}}}}});
+  const std::vector<double> opaque =
+      bounce({{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {1.0, 1.0, 1.0, 1.0}}}}});
   const std::vector<double> half =
-      bounce({{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1.0, 1.0, 1.0, 0.5}}}}});
+      bounce({{"alphaMode", "BLEND"},
+              {"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {1.0, 1.0, 1.0, 0.5}}}}});
   ASSERT_EQ(opaque.size(), half.size());
   double worst = 0.0;
   for (size_t v = 0; v < opaque.size(); ++v) {
@@ -360,6 +369,46 @@ TEST(BakePartialOccluderBounce, FloorGathersOpacityTimesTheOpaqueBounce) {
     worst = std::max(worst, std::abs(half[v] / opaque[v] - 0.5));
   }
   std::printf("bounce under an α = 0.5 pane / under the opaque pane: 0.5 ± %.4f\n", worst);
+}
+
+// Bounces use the diffuse albedo (docs/bake.md, "Materials"): under a white pane of metallic m
+// over a black floor, the floor's first bounce is (1 − m) times the dielectric pane's. The
+// rays, hits and the pane's own t⁰ are the same bits in every bake (albedo does not change
+// visibility), so the ratio is exact up to float rounding in the sums: 1e-5. A metal pane
+// (metallic 1, or its texture's B channel at 255) sends nothing.
+TEST(BakeAlbedoBounce, FloorGathersOneMinusMetallicOfTheDielectricBounce) {
+  test::TempDir dir;
+  auto bounce = [&](Json pbr, bool texture = false) {
+    test::GltfFile f;
+    if (texture) {
+      f.j["images"].push_back(
+          {{"uri", "data:image/png;base64," + test::base64(test::encodePng(1, 1, {0, 255, 255, 255}))}});
+      f.j["textures"].push_back({{"source", 0}});
+      pbr["metallicRoughnessTexture"] = {{"index", 0}};
+    }
+    pbr["baseColorFactor"] = {1.0, 1.0, 1.0, 1.0};
+    addOccluder(f, addMaterial(f, {{"pbrMetallicRoughness", pbr}}));
+    addFloor(f,
+             addMaterial(f, {{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {0, 0, 0, 1.0}}}}}));
+    bake::BakeSettings bs = directOnly(1024);
+    bs.bounces = 1;
+    bs.keepLowerOrder = true;
+    const bake::SurfaceTransfer t = bake::bakeSurface(loadScene(f.write("metal", dir.path())), bs);
+    std::vector<double> out;  // the floor's bounce-1 DC per vertex
+    for (size_t v = 0; v < t.perMesh[1].size() / 4; ++v)
+      out.push_back(t.perMesh[1][4 * v].r - t.perMeshLowerOrder[1][4 * v].r);
+    return out;
+  };
+  const std::vector<double> dielectric = bounce({{"metallicFactor", 0.0}});
+  const std::vector<double> quarter = bounce({{"metallicFactor", 0.75}});
+  const std::vector<double> metal = bounce(Json::object());  // metallicFactor absent: 1
+  const std::vector<double> textured = bounce({{"metallicFactor", 1.0}}, true);
+  for (size_t v = 0; v < dielectric.size(); ++v) {
+    ASSERT_GT(dielectric[v], 0.05);
+    EXPECT_NEAR(quarter[v] / dielectric[v], 0.25, 1e-5) << "vertex " << v;
+    EXPECT_EQ(metal[v], 0.0) << "vertex " << v;
+    EXPECT_EQ(textured[v], 0.0) << "vertex " << v;
+  }
 }
 
 // ---- Determinism and opaque scenes
@@ -378,9 +427,11 @@ TEST(BakeCutout, SameBitsForAnyThreadCount) {
   addOccluder(f, addMaterial(f, checkerMask()));
   addOccluder(
       f,
-      addMaterial(f, {{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 0.5}}}}}),
+      addMaterial(f, {{"alphaMode", "BLEND"},
+                      {"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {0.5, 0.5, 0.5, 0.5}}}}}),
       0.5f * kHeight);
-  addFloor(f, addMaterial(f, {{"pbrMetallicRoughness", {{"baseColorFactor", {0.7, 0.7, 0.7, 1.0}}}}}));
+  addFloor(f, addMaterial(
+                  f, {{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {0.7, 0.7, 0.7, 1.0}}}}}));
   const Scene s = loadScene(f.write("threads", dir.path()));
   bake::BakeSettings bs;
   bs.samples = 256;
@@ -425,7 +476,8 @@ TEST(BakeCutout, AlphaThatCutsNothingChangesNoBit) {
     // where the bilinear lookup is texel (0, 0) alone.
     if (texture != kNone) addTexture(f, 255, texture == kClear ? 0 : 255, 0, texture == kUnreached);
     addOccluder(f, addMaterial(f, material), kHeight, texture == kUnreached ? 0.125f / kHalf : 0.5f / kCell);
-    addFloor(f, addMaterial(f, {{"pbrMetallicRoughness", {{"baseColorFactor", {0.7, 0.7, 0.7, 1.0}}}}}));
+    addFloor(f, addMaterial(
+                    f, {{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {0.7, 0.7, 0.7, 1.0}}}}}));
     bake::BakeSettings bs;
     bs.samples = 256;
     bs.bounces = 2;
@@ -433,11 +485,13 @@ TEST(BakeCutout, AlphaThatCutsNothingChangesNoBit) {
     EXPECT_EQ(passesLight(s)[0], texture == kUnreached) << material.dump();
     return bake::bakeSurface(s, bs);
   };
-  const Json grey = {{"baseColorFactor", {0.6, 0.6, 0.6, 1.0}}};
-  const Json greyTextured = {{"baseColorFactor", {0.6, 0.6, 0.6, 1.0}}, {"baseColorTexture", {{"index", 0}}}};
+  const Json grey = {{"metallicFactor", 0}, {"baseColorFactor", {0.6, 0.6, 0.6, 1.0}}};
+  const Json greyTextured = {
+      {"metallicFactor", 0}, {"baseColorFactor", {0.6, 0.6, 0.6, 1.0}}, {"baseColorTexture", {{"index", 0}}}};
   const bake::SurfaceTransfer plain = bakeWith({{"pbrMetallicRoughness", grey}}, kNone);
   Json clear = {
-      {"pbrMetallicRoughness", {{"baseColorFactor", {0.6, 0.6, 0.6, 0.0}}, {"baseColorTexture", {{"index", 0}}}}}};
+      {"pbrMetallicRoughness",
+       {{"metallicFactor", 0}, {"baseColorFactor", {0.6, 0.6, 0.6, 0.0}}, {"baseColorTexture", {{"index", 0}}}}}};
   const bake::SurfaceTransfer opaque = bakeWith(clear, kClear);
   const bake::SurfaceTransfer solidMask =
       bakeWith({{"alphaMode", "MASK"}, {"alphaCutoff", 0.9}, {"pbrMetallicRoughness", grey}}, kNone);
@@ -459,16 +513,20 @@ TEST(SceneMaterial, PassesLightOnlyWhereAlphaCanCut) {
   const std::string png = test::encodePng(1, 1, {9, 9, 9, 255});
   f.j["images"][1]["uri"] = "data:image/png;base64," + test::base64(png);
   f.j["textures"].push_back({{"source", 1}});
-  const Json solidTexture = {{"baseColorTexture", {{"index", 1}}}};
+  const Json solidTexture = {{"metallicFactor", 0}, {"baseColorTexture", {{"index", 1}}}};
   const std::vector<std::pair<Json, bool>> cases = {
       {checkerMask(), true},
       {{{"alphaMode", "MASK"}, {"pbrMetallicRoughness", solidTexture}}, false},
-      {{{"alphaMode", "MASK"}, {"alphaCutoff", 0.6}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.5}}}}},
+      {{{"alphaMode", "MASK"},
+        {"alphaCutoff", 0.6},
+        {"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {1, 1, 1, 0.5}}}}},
        true},
       {{{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", solidTexture}}, false},
-      {{{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.99}}}}}, true},
+      {{{"alphaMode", "BLEND"},
+        {"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {1, 1, 1, 0.99}}}}},
+       true},
       {{{"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.1}}}}}}, true},
-      {{{"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.0}}}}}, false}};
+      {{{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {1, 1, 1, 0.0}}}}}, false}};
   for (const auto& [material, passes] : cases) addOccluder(f, addMaterial(f, material));
   const Scene s = loadScene(f.write("passes", dir.path()));
   const std::vector<char> got = passesLight(s);
@@ -489,7 +547,8 @@ TEST(BakeCutout, PacketsOfEightFindTheHitsOfSingleRays) {
     test::GltfFile f;
     addTexture(f, 255, 255, 0);
     addOccluder(f, addMaterial(f, blend ? Json{{"alphaMode", "BLEND"},
-                                               {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.5}}}}}
+                                               {"pbrMetallicRoughness",
+                                                {{"metallicFactor", 0}, {"baseColorFactor", {1, 1, 1, 0.5}}}}}
                                         : checkerMask()));
     addFloor(f);
     const Scene s = loadScene(f.write(blend ? "blend" : "mask", dir.path()));

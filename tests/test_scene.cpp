@@ -313,7 +313,8 @@ std::string writeTexturedScene(const fs::path& dir, const std::string& imageUri,
   prim["attributes"]["COLOR_0"] = b.accessor(colors.data(), colors.size(), kUnsignedByte, 3, "VEC4", true);
   prim["material"] = 0;
   b.doc["materials"] = Json::array(
-      {{{"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 1, 1, 1}}, {"baseColorTexture", {{"index", 0}}}}}}});
+      {{{"pbrMetallicRoughness",
+         {{"metallicFactor", 0}, {"baseColorFactor", {0.5, 1, 1, 1}}, {"baseColorTexture", {{"index", 0}}}}}}});
   b.doc["textures"] = Json::array({{{"source", 0}, {"sampler", 0}}});
   b.doc["samplers"] = Json::array({{{"wrapS", 33071}, {"wrapT", 33648}}});
   if (imageUri.empty()) {
@@ -393,7 +394,8 @@ GltfBuilder texturedGlb() {
   std::string png = encodePng(2, 1, {255, 0, 0, 255, 0, 255, 0, 255});
   b.doc["images"] = Json::array({{{"bufferView", b.view(png.data(), png.size())}, {"mimeType", "image/png"}}});
   b.doc["textures"] = Json::array({{{"source", 0}}});
-  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+  b.doc["materials"] =
+      Json::array({{{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorTexture", {{"index", 0}}}}}}});
   b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
   return b;
 }
@@ -1168,7 +1170,8 @@ TEST_F(SceneTextureTransform, AlbedoIsTheTransformedLookupOnTheOverriddenTexCoor
   Json transform = {{"offset", {0, 1}}, {"rotation", 1.57079632679}, {"scale", {0.5, 0.5}}, {"texCoord", 1}};
   b.doc["materials"] =
       Json::array({{{"pbrMetallicRoughness",
-                     {{"baseColorTexture", {{"index", 0}, {"extensions", {{"KHR_texture_transform", transform}}}}}}}}});
+                     {{"metallicFactor", 0},
+                      {"baseColorTexture", {{"index", 0}, {"extensions", {{"KHR_texture_transform", transform}}}}}}}}});
   b.doc["extensionsUsed"] = {"KHR_texture_transform"};
   b.doc["extensionsRequired"] = {"KHR_texture_transform"};
   b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
@@ -1210,8 +1213,9 @@ TEST_F(SceneSpecularGlossiness, DiffuseFactorAndTextureAreTheAlbedo) {
                     {"specularFactor", {1, 1, 1}},
                     {"glossinessFactor", 0.5}};
   // The metallic-roughness colour is what a viewer without the extension shows; prt must not.
-  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorFactor", {0.1, 0.1, 0.1, 1}}}},
-                                     {"extensions", {{"KHR_materials_pbrSpecularGlossiness", specGloss}}}}});
+  b.doc["materials"] =
+      Json::array({{{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorFactor", {0.1, 0.1, 0.1, 1}}}},
+                    {"extensions", {{"KHR_materials_pbrSpecularGlossiness", specGloss}}}}});
   b.doc["extensionsUsed"] = {"KHR_materials_pbrSpecularGlossiness"};
   b.doc["extensionsRequired"] = {"KHR_materials_pbrSpecularGlossiness"};
   b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
@@ -1232,7 +1236,8 @@ prt::Scene loadWithTexture(const fs::path& dir, const std::string& png) {
   prim["material"] = 0;
   b.doc["images"] = Json::array({{{"uri", "data:image/png;base64," + base64(png)}}});
   b.doc["textures"] = Json::array({{{"source", 0}}});
-  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+  b.doc["materials"] =
+      Json::array({{{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorTexture", {{"index", 0}}}}}}});
   b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
   return prt::loadScene(b.write(dir / "png.gltf"));
 }
@@ -1292,7 +1297,8 @@ TEST_F(SceneUri, PercentEncodedImageUriIsDecoded) {
   // RFC 3986: space as %20, the folder separator as %2F, '+' as %2B.
   b.doc["images"] = Json::array({{{"uri", "tex%20dir%2Fa%20b%2Bc.png"}}});
   b.doc["textures"] = Json::array({{{"source", 0}}});
-  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+  b.doc["materials"] =
+      Json::array({{{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorTexture", {{"index", 0}}}}}}});
   b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
   const prt::Scene scene = prt::loadScene(b.write(dir_ / "encoded.gltf"));
   ASSERT_EQ(scene.textures.size(), 1u);
@@ -1309,7 +1315,8 @@ TEST_F(SceneUri, PercentEncodedDotsStillCannotLeaveTheFolder) {
   prim["material"] = 0;
   b.doc["images"] = Json::array({{{"uri", "%2E%2E%2Foutside.png"}}});
   b.doc["textures"] = Json::array({{{"source", 0}}});
-  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+  b.doc["materials"] =
+      Json::array({{{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorTexture", {{"index", 0}}}}}}});
   b.scene({b.node({{"mesh", b.mesh(Json::array({prim}))}})});
   const std::string path = b.write(dir_ / "scene" / "escape.gltf");
   try {
@@ -1335,7 +1342,8 @@ TEST_F(SceneUnusedMesh, IsIgnoredByLoadingAndWriting) {
   broken["material"] = 0;
   b.mesh(Json::array({broken}));
   b.doc["textures"] = Json::array({{{"source", 5}}});
-  b.doc["materials"] = Json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+  b.doc["materials"] =
+      Json::array({{{"pbrMetallicRoughness", {{"metallicFactor", 0}, {"baseColorTexture", {{"index", 0}}}}}}});
   b.scene({b.node({{"mesh", used}})});
   const std::string input = b.write(dir_ / "unused.gltf");
   prt::Scene scene = prt::loadScene(input);

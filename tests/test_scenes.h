@@ -67,12 +67,14 @@ inline MeshInstance makeCavity(double opening, int rings, int segments) {
   return m;
 }
 
-/// A scene of the given instances with one grey material of albedo `rho` each.
+/// A scene of the given instances with one grey material of albedo `rho` each (a dielectric:
+/// metallicFactor 0, where glTF's default is 1).
 inline Scene makeScene(std::vector<MeshInstance> meshes, float rho) {
   Scene s;
   s.path = "memory";
   Material mat;
   mat.baseColorFactor = glm::vec4(rho, rho, rho, 1.0f);
+  mat.metallicFactor = 0.0f;
   s.materials.push_back(mat);
   s.boundsMin = glm::vec3(1e30f);
   s.boundsMax = glm::vec3(-1e30f);

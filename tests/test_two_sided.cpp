@@ -263,7 +263,8 @@ TEST(SceneTwoSided, BackTransferRoundTripsThroughTheBakedFile) {
   // back half, the one-sided one none.
   test::TempDir d;
   test::GltfFile f;
-  f.j["materials"] = {{{"doubleSided", true}}, {{"doubleSided", false}}};
+  f.j["materials"] = {{{"doubleSided", true}, {"pbrMetallicRoughness", {{"metallicFactor", 0}}}},
+                      {{"doubleSided", false}, {"pbrMetallicRoughness", {{"metallicFactor", 0}}}}};
   const int m0 = f.mesh(test::makePlane(glm::vec3(0.0f), 1.0f, 2), 0);
   const int m1 = f.mesh(test::makePlane(glm::vec3(0.0f), 1.0f, 1), 1);
   f.node({{"mesh", m0}}, true);

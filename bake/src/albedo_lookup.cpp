@@ -269,7 +269,8 @@ AlbedoLookup::AlbedoLookup(const Scene& s) : scene(s) {
   bool batched = false;  // some instance is
   for (size_t k = 0; k < s.meshes.size(); ++k) {
     const MeshInstance& m = s.meshes[k];
-    const bool textured = m.material >= 0 && s.materials[size_t(m.material)].baseColorTexture >= 0;
+    const bool metallicTexture = readsMetallicTexture(s, m);  // metallic varies: looked up one by one
+    const bool textured = (m.material >= 0 && s.materials[size_t(m.material)].baseColorTexture >= 0) || metallicTexture;
     const bool uni = !textured && m.colors.empty();
     uniform.push_back(uni);
     varies = varies || !uni;
@@ -280,7 +281,8 @@ AlbedoLookup::AlbedoLookup(const Scene& s) : scene(s) {
     b.flags = kKernel;
     if (m.material >= 0) {
       const Material& mat = s.materials[size_t(m.material)];
-      for (int c = 0; c < 3; ++c) b.factor[c] = mat.baseColorFactor[c];
+      const float scale = diffuseScale(s, m);  // albedoAt's first product, rounded as it rounds it
+      for (int c = 0; c < 3; ++c) b.factor[c] = mat.baseColorFactor[c] * scale;
       if (mat.baseColorTexture >= 0 && !m.texcoords.empty()) {
         const Texture& t = s.textures[size_t(mat.baseColorTexture)];
         if (t.width > 0 && t.height > 0 && !t.texels.empty()) {  // else sample() gives 1: the factor alone
@@ -296,6 +298,7 @@ AlbedoLookup::AlbedoLookup(const Scene& s) : scene(s) {
         }
       }
     }
+    if (metallicTexture) b.flags = 0;
     if (!m.colors.empty()) {
       b.flags |= kColoured;
       b.colors = m.colors.data();

@@ -43,6 +43,7 @@ void addSceneFingerprint(Fingerprint& fp, const Scene& scene) {
     materials.add(&mat, sizeof mat);
     materials.addVector(m.texcoords);
     materials.addVector(m.colors);
+    for (const std::vector<glm::vec2>& set : m.moreTexcoords) materials.addVector(set);
   }
   for (const Material& m : scene.materials) {
     materials.add(&m.baseColorFactor, sizeof m.baseColorFactor);
@@ -53,6 +54,19 @@ void addSceneFingerprint(Fingerprint& fp, const Scene& scene) {
     if (m.alphaMode != Material::AlphaMode::Opaque || m.transmissionFactor > 0.0f) {
       const float f[2] = {m.alphaCutoff, m.transmissionFactor};
       const int32_t w[2] = {int32_t(m.alphaMode), m.transmissionTexture};
+      materials.add(f, sizeof f);
+      materials.add(w, sizeof w);
+    }
+    // What the diffuse albedo takes of the metallic-roughness model, only where it is not the
+    // default dielectric's (metallic 0, ior 1.5, no KHR_materials_specular), so such scenes keep
+    // the fingerprint of the bakes before they were read.
+    const bool dielectric = m.metallicFactor == 0.0f && m.metallicRoughnessTexture.texture < 0 && m.ior == 1.5f &&
+                            m.specularFactor == 1.0f && m.specularColorFactor == glm::vec3(1.0f);
+    if (!dielectric && !m.specularGlossiness) {
+      const float f[6] = {m.metallicFactor,        m.ior,
+                          m.specularFactor,        m.specularColorFactor.x,
+                          m.specularColorFactor.y, m.specularColorFactor.z};
+      const int32_t w[2] = {m.metallicRoughnessTexture.texture, m.metallicRoughnessTexture.uvSet};
       materials.add(f, sizeof f);
       materials.add(w, sizeof w);
     }

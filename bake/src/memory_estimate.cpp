@@ -103,7 +103,8 @@ uint64_t sceneBytes(const Scene& scene) {
   uint64_t b = 0;
   for (const MeshInstance& m : scene.meshes)
     b += m.positions.capacity() * 12 + m.normals.capacity() * 12 + m.texcoords.capacity() * 8 +
-         m.colors.capacity() * 16 + m.indices.capacity() * 4 +
+         m.colors.capacity() * 16 + m.indices.capacity() * 4 + m.tangents.capacity() * 16 +
+         m.moreTexcoords.size() * m.texcoords.capacity() * 8 +
          (m.transfer.capacity() + m.transferBack.capacity()) * 12 + 256;
   for (const Texture& t : scene.textures) b += t.texels.capacity() * 16 + t.texels8.capacity() * 4;
   return b;

@@ -31,6 +31,7 @@
 #include "prt/bake/interrupt.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/error.h"
+#include "prt/tangents.h"
 #include "refine_estimator.h"
 #include "stage_runner.h"
 #include "vertex_rays.h"
@@ -233,6 +234,13 @@ uint32_t midpointVertex(Work& w, PositionIds& ids, std::unordered_map<uint64_t, 
   m.positions.push_back(p);
   m.normals.push_back(blendNormal(w, s, m.normals[a]));
   if (!m.texcoords.empty()) m.texcoords.push_back((m.texcoords[a] + m.texcoords[b]) * 0.5f);
+  for (std::vector<glm::vec2>& set : m.moreTexcoords)
+    if (!set.empty()) set.push_back((set[a] + set[b]) * 0.5f);
+  if (!m.tangents.empty()) {  // the mean direction, made orthogonal to the new normal; a's handedness
+    bool ok = false;
+    const glm::vec3 t = orthogonalTangent(glm::vec3(m.tangents[a] + m.tangents[b]), m.normals.back(), ok);
+    m.tangents.push_back(glm::vec4(t, m.tangents[a].w));
+  }
   if (!m.colors.empty()) m.colors.push_back((m.colors[a] + m.colors[b]) * 0.5f);
   w.source.push_back(s);
   w.posId.push_back(ids.of(p));

@@ -1,9 +1,10 @@
 // glTF materials and their textures: base colour (metallic-roughness or
 // KHR_materials_pbrSpecularGlossiness), KHR_texture_transform, alpha and
-// KHR_materials_transmission. Images are kept encoded at load time; only the base colour (and
-// transmission) textures of materials the default scene uses are decoded here, PNG/JPEG with
-// stb and WebP with libwebp, so a scene full of normal maps costs nothing. Part of the glTF
-// reader (gltf_reader.h).
+// KHR_materials_transmission (the other metallic-roughness fields: gltf_material_pbr.cpp).
+// Images are kept encoded at load time; only the textures of materials the default scene uses
+// are decoded here, PNG/JPEG with stb and WebP with libwebp, and those only shading reads
+// (normal, occlusion, emissive, specular) only on request, so a bake of a scene full of normal
+// maps does not pay for them. Part of the glTF reader (gltf_reader.h).
 #include <stb_image.h>
 
 #include <array>
@@ -142,6 +143,11 @@ Texture decodeBaseColorTexture(const Gltf& g, int index, bool srgb = true) {
   return out;
 }
 
+bool specGlossOf(const tinygltf::Material& src) {
+  auto it = src.extensions.find(kSpecularGlossiness);
+  return it != src.extensions.end() && it->second.IsObject();
+}
+
 /// A number array of `size` values (glTF JSON held by tinygltf), checked as it is read.
 std::vector<double> numbers(const Gltf& g, const tinygltf::Value& v, size_t size, const std::string& where) {
   if (!v.IsArray() || v.ArrayLen() != size) fail(g, cat(where, ": expected an array of ", size, " numbers"));
@@ -153,36 +159,6 @@ std::vector<double> numbers(const Gltf& g, const tinygltf::Value& v, size_t size
     out.push_back(x.GetNumberAsDouble());
   }
   return out;
-}
-
-/// KHR_texture_transform as the affine map uv -> T·R·S·uv of its specification (rotation
-/// counter-clockwise in the image, whose v points down: u' = u cos r + v sin r,
-/// v' = -u sin r + v cos r), and its texCoord override if it has one.
-void readTextureTransform(const Gltf& g, const tinygltf::ExtensionMap& extensions, const std::string& where,
-                          BaseColorSource& out) {
-  auto it = extensions.find(kTextureTransform);
-  if (it == extensions.end() || !it->second.IsObject()) return;
-  const tinygltf::Value& t = it->second;
-  const std::string here = cat(where, " / ", kTextureTransform);
-  glm::dvec2 offset(0.0), scale(1.0);
-  double rotation = 0.0;
-  if (t.Has("offset")) offset = glm::make_vec2(numbers(g, t.Get("offset"), 2, cat(here, " / offset")).data());
-  if (t.Has("scale")) scale = glm::make_vec2(numbers(g, t.Get("scale"), 2, cat(here, " / scale")).data());
-  if (t.Has("rotation")) {
-    const tinygltf::Value& r = t.Get("rotation");
-    if (!r.IsNumber() || !std::isfinite(r.GetNumberAsDouble())) fail(g, cat(here, " / rotation: not a finite number"));
-    rotation = r.GetNumberAsDouble();
-  }
-  if (t.Has("texCoord")) {
-    const tinygltf::Value& c = t.Get("texCoord");
-    if (!c.IsInt() || c.Get<int>() < 0) fail(g, cat(here, " / texCoord: not a non-negative integer"));
-    out.texCoord = c.Get<int>();
-  }
-  const double c = std::cos(rotation), s = std::sin(rotation);
-  const glm::dmat3 translate(1, 0, 0, 0, 1, 0, offset.x, offset.y, 1);  // glm is column-major
-  const glm::dmat3 rotate(c, -s, 0, s, c, 0, 0, 0, 1);
-  const glm::dmat3 scaling(scale.x, 0, 0, 0, scale.y, 0, 0, 0, 1);
-  out.uvTransform = translate * rotate * scaling;
 }
 
 /// alphaMode, alphaCutoff and KHR_materials_transmission. The transmission texture is read at
@@ -236,6 +212,41 @@ void readAlphaAndTransmission(const Gltf& g, const tinygltf::Material& src, cons
 
 }  // namespace
 
+// KHR_texture_transform as the affine map uv -> T·R·S·uv of its specification (rotation
+/// counter-clockwise in the image, whose v points down: u' = u cos r + v sin r,
+/// v' = -u sin r + v cos r), and its texCoord override if it has one.
+void readTextureTransform(const Gltf& g, const tinygltf::ExtensionMap& extensions, const std::string& where,
+                          BaseColorSource& out) {
+  auto it = extensions.find(kTextureTransform);
+  if (it == extensions.end() || !it->second.IsObject()) return;
+  const tinygltf::Value& t = it->second;
+  const std::string here = cat(where, " / ", kTextureTransform);
+  glm::dvec2 offset(0.0), scale(1.0);
+  double rotation = 0.0;
+  if (t.Has("offset")) offset = glm::make_vec2(numbers(g, t.Get("offset"), 2, cat(here, " / offset")).data());
+  if (t.Has("scale")) scale = glm::make_vec2(numbers(g, t.Get("scale"), 2, cat(here, " / scale")).data());
+  if (t.Has("rotation")) {
+    const tinygltf::Value& r = t.Get("rotation");
+    if (!r.IsNumber() || !std::isfinite(r.GetNumberAsDouble())) fail(g, cat(here, " / rotation: not a finite number"));
+    rotation = r.GetNumberAsDouble();
+  }
+  if (t.Has("texCoord")) {
+    const tinygltf::Value& c = t.Get("texCoord");
+    if (!c.IsInt() || c.Get<int>() < 0) fail(g, cat(here, " / texCoord: not a non-negative integer"));
+    out.texCoord = c.Get<int>();
+  }
+  const double c = std::cos(rotation), s = std::sin(rotation);
+  const glm::dmat3 translate(1, 0, 0, 0, 1, 0, offset.x, offset.y, 1);  // glm is column-major
+  const glm::dmat3 rotate(c, -s, 0, s, c, 0, 0, 0, 1);
+  const glm::dmat3 scaling(scale.x, 0, 0, 0, scale.y, 0, 0, 0, 1);
+  out.uvTransform = translate * rotate * scaling;
+}
+
+std::string materialWhere(const Gltf& g, size_t index) {
+  const std::string& name = g.model.materials[index].name;
+  return name.empty() ? cat("material ", index) : cat("material ", index, " '", name, "'");
+}
+
 std::vector<BaseColorSource> readMaterials(const Gltf& g, Scene& scene) {
   const tinygltf::Model& m = g.model;
   std::vector<BaseColorSource> sources;
@@ -244,10 +255,11 @@ std::vector<BaseColorSource> readMaterials(const Gltf& g, Scene& scene) {
     const std::string where = cat("material ", i);
     Material mat;
     mat.name = src.name;
+    mat.specularGlossiness = specGlossOf(src);
     BaseColorSource source;
     int texture = -1;
     auto specGloss = src.extensions.find(kSpecularGlossiness);
-    if (specGloss != src.extensions.end() && specGloss->second.IsObject()) {
+    if (mat.specularGlossiness) {
       // The extension replaces the metallic-roughness model: its diffuse colour is the albedo.
       const tinygltf::Value& sg = specGloss->second;
       const std::string here = cat(where, " / ", kSpecularGlossiness);
@@ -286,20 +298,23 @@ std::vector<BaseColorSource> readMaterials(const Gltf& g, Scene& scene) {
     mat.baseColorTexCoord = source.texCoord;
     mat.doubleSided = src.doubleSided;
     mat.unlit = src.extensions.count(kUnlit) > 0;
+    // The extension replaces the metallic-roughness model: its fields keep their defaults.
+    if (!mat.specularGlossiness) readPbrFields(g, i, mat, source, scene.warnings);
     scene.materials.push_back(mat);
     sources.push_back(source);
   }
   return sources;
 }
 
-void decodeUsedTextures(const Gltf& g, const std::vector<BaseColorSource>& sources, Scene& scene) {
+void decodeUsedTextures(const Gltf& g, const std::vector<BaseColorSource>& sources, bool shadingTextures,
+                        Scene& scene) {
   std::vector<char> used(scene.materials.size(), 0);
   for (const MeshInstance& inst : scene.meshes)
     if (inst.material >= 0) used[size_t(inst.material)] = 1;
   std::map<std::pair<int, bool>, int> slot;  // (glTF texture, sRGB) -> Scene::textures
   auto decode = [&](int texture, bool srgb) {
     auto [it, fresh] = slot.emplace(std::make_pair(texture, srgb), int(scene.textures.size()));
-    if (fresh) scene.textures.push_back(decodeBaseColorTexture(g, texture, srgb));
+    if (fresh) scene.textures.push_back(decodeBaseColorTexture(g, texture, srgb));  // may throw: the caller erases
     return it->second;
   };
   for (size_t i = 0; i < sources.size(); ++i) {
@@ -307,6 +322,17 @@ void decodeUsedTextures(const Gltf& g, const std::vector<BaseColorSource>& sourc
     if (sources[i].texture >= 0) scene.materials[i].baseColorTexture = decode(sources[i].texture, true);
     if (sources[i].transmissionTexture >= 0)
       scene.materials[i].transmissionTexture = decode(sources[i].transmissionTexture, false);
+    // A texture past the base colour that cannot be read leaves its factor alone, as a viewer
+    // would draw the material: a warning, not a refused file (prt read none of them before).
+    for (const BaseColorSource::Extra& e : sources[i].extras) {
+      if (!shadingTextures && e.shadingOnly) continue;
+      try {
+        (scene.materials[i].*e.slot).texture = decode(e.texture, e.srgb);
+      } catch (const Error& error) {
+        slot.erase(std::make_pair(e.texture, e.srgb));
+        scene.warnings.push_back(cat(error.what(), " (", materialWhere(g, i), "); the texture is ignored"));
+      }
+    }
   }
 }
 

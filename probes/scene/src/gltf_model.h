@@ -31,6 +31,9 @@ constexpr const char* kLights = "KHR_lights_punctual";
 constexpr const char* kTextureTransform = "KHR_texture_transform";
 constexpr const char* kSpecularGlossiness = "KHR_materials_pbrSpecularGlossiness";
 constexpr const char* kTransmission = "KHR_materials_transmission";
+constexpr const char* kIor = "KHR_materials_ior";
+constexpr const char* kSpecular = "KHR_materials_specular";
+constexpr const char* kEmissiveStrength = "KHR_materials_emissive_strength";
 
 /// A loaded glTF document and the path its messages start with.
 struct Gltf {

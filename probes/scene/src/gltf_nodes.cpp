@@ -14,6 +14,7 @@
 
 #include "gltf_reader.h"
 #include "prt/error.h"
+#include "prt/tangents.h"
 
 namespace prt::gltf {
 
@@ -130,6 +131,25 @@ std::vector<NodeVisit> visitDefaultScene(const Gltf& g, const NodeMarks& marks) 
   return std::move(traversal.out);
 }
 
+namespace {
+
+/// The primitive's tangents in world space: xyz through the node's linear part (a tangent is a
+/// direction along the surface), made orthogonal to the world normal and unit; w flipped by a
+/// mirroring transform, which turns n × t against the mapped bitangent.
+void setTangents(MeshInstance& inst, const PrimitiveData& p, const glm::dmat3& linear) {
+  if (p.tangents.size() != inst.normals.size()) return;
+  const double flip = glm::determinant(linear) < 0.0 ? -1.0 : 1.0;
+  inst.tangents.resize(p.tangents.size());
+  for (size_t v = 0; v < p.tangents.size(); ++v) {
+    bool ok = false;
+    const glm::vec3 t =
+        orthogonalTangent(glm::vec3(linear * glm::dvec3(glm::vec3(p.tangents[v]))), inst.normals[v], ok);
+    inst.tangents[v] = glm::vec4(t, float((p.tangents[v].w < 0.0f ? -1.0 : 1.0) * flip));
+  }
+}
+
+}  // namespace
+
 MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, int primIndex, const PrimitiveData& p,
                           std::vector<std::string>& warnings) {
   const tinygltf::Node& node = g.model.nodes[size_t(visit.node)];
@@ -163,6 +183,8 @@ MeshInstance makeInstance(const Gltf& g, const NodeVisit& visit, int meshIndex, 
     warnings.push_back(cat(g.path, ": node ", visit.node, " / ", primitiveWhere(meshIndex, primIndex), ": ", repaired,
                            " zero or non-finite normals replaced by face normals"));
   inst.texcoords = p.texcoords;
+  inst.moreTexcoords = p.moreTexcoords;
+  setTangents(inst, p, linear);
   inst.colors = p.colors;
   inst.fileVertex = p.fileVertex;
   inst.transfer = p.transfer;

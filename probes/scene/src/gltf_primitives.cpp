@@ -11,6 +11,7 @@
 
 #include "gltf_reader.h"
 #include "prt/error.h"
+#include "prt/tangents.h"
 
 namespace prt::gltf {
 
@@ -121,6 +122,7 @@ void splitForFlatNormals(PrimitiveData& p) {
   if (fileVertex.size() > n) {
     gather(p.positions, fileVertex);
     gather(p.texcoords, fileVertex);
+    for (std::vector<glm::vec2>& set : p.moreTexcoords) gather(set, fileVertex);
     gather(p.colors, fileVertex);
     gather(p.transfer, fileVertex, size_t(p.transferBands) * size_t(p.transferBands));
     gather(p.transferBack, fileVertex, size_t(p.transferBands) * size_t(p.transferBands));
@@ -193,6 +195,44 @@ void readTransferSets(const Gltf& g, const tinygltf::Primitive& prim, PrimitiveD
   }
 }
 
+/// TEXCOORD_`set` of the primitive with `transform` applied, or empty where the primitive has
+/// none (with a warning naming `user`, where not null).
+std::vector<glm::vec2> readTexcoords(const Gltf& g, const tinygltf::Primitive& prim, const std::string& where, size_t n,
+                                     int set, const glm::dmat3& transform, const char* user,
+                                     std::vector<std::string>& warnings) {
+  const std::string uvName = cat("TEXCOORD_", set);
+  auto it = prim.attributes.find(uvName);
+  if (it == prim.attributes.end()) {
+    if (user) warnings.push_back(cat(g.path, ": ", where, ": no ", uvName, " for ", user, "; texture ignored"));
+    return {};
+  }
+  std::string here = cat(where, " / ", uvName);
+  AccessorData d = openAccessor(g, it->second, here);
+  requireType(g, d, here, {2});
+  requireCount(g, d, here, n);
+  std::vector<glm::vec2> uv = readVectors<2>(d);
+  if (transform != glm::dmat3(1.0))
+    for (glm::vec2& c : uv) c = glm::vec2(transform * glm::dvec3(c, 1.0));
+  return uv;
+}
+
+/// The normal map's tangents where the file gives none: MikkTSpace over the normal texture's
+/// coordinates (prt/tangents.h), with a warning naming the material where some vertices got
+/// the fallback frame. Nothing where the primitive lacks those coordinates (a warning said so).
+void addTangents(const Gltf& g, const BaseColorSource& source, const std::string& where, PrimitiveData& p,
+                 std::vector<std::string>& warnings) {
+  const std::vector<glm::vec2>& uv =
+      source.normalUvSet == 0 ? p.texcoords : p.moreTexcoords[size_t(source.normalUvSet) - 1];
+  if (!p.tangents.empty() || uv.empty()) return;
+  TangentResult t = generateTangents(p.positions, p.normals, uv, p.indices);
+  p.tangents = std::move(t.tangents);
+  if (t.degenerateVertices)
+    warnings.push_back(cat(g.path, ": ", materialWhere(g, size_t(p.material)), ": ", where, ": ", t.degenerateVertices,
+                           " of ", p.positions.size(),
+                           " vertices have degenerate texture coordinates for the normal texture; their tangent "
+                           "is an arbitrary direction orthogonal to the normal"));
+}
+
 }  // namespace
 
 PrimitiveData readPrimitive(const Gltf& g, const std::vector<BaseColorSource>& materials, int meshIndex, int primIndex,
@@ -227,17 +267,25 @@ PrimitiveData readPrimitive(const Gltf& g, const std::vector<BaseColorSource>& m
     p.normals = readVectors<3>(d);
   }
   const BaseColorSource* source = p.material >= 0 ? &materials[size_t(p.material)] : nullptr;
-  std::string uvName = cat("TEXCOORD_", source ? source->texCoord : 0);
-  if (auto it = prim.attributes.find(uvName); it != prim.attributes.end()) {
-    std::string here = cat(where, " / ", uvName);
+  const std::string user =
+      source ? cat("the textures of ", materialWhere(g, size_t(p.material)), " that read it") : std::string();
+  const char* baseUser = source && source->texture >= 0     ? "the base colour texture"
+                         : source && source->extrasReadSet0 ? user.c_str()
+                                                            : nullptr;
+  p.texcoords = readTexcoords(g, prim, where, n, source ? source->texCoord : 0,
+                              source ? source->uvTransform : glm::dmat3(1.0), baseUser, warnings);
+  if (source) {
+    for (const BaseColorSource::UvSet& set : source->moreUvSets)
+      p.moreTexcoords.push_back(
+          readTexcoords(g, prim, where, n, set.texCoord, set.uvTransform, user.c_str(), warnings));
+  }
+  if (auto it = prim.attributes.find("TANGENT"); it != prim.attributes.end() && source && source->normalUvSet >= 0) {
+    std::string here = cat(where, " / TANGENT");
     AccessorData d = openAccessor(g, it->second, here);
-    requireType(g, d, here, {2});
+    requireType(g, d, here, {4});
     requireCount(g, d, here, n);
-    p.texcoords = readVectors<2>(d);
-    if (source && source->uvTransform != glm::dmat3(1.0))
-      for (glm::vec2& uv : p.texcoords) uv = glm::vec2(source->uvTransform * glm::dvec3(uv, 1.0));
-  } else if (source && source->texture >= 0) {
-    warnings.push_back(cat(g.path, ": ", where, ": no ", uvName, " for the base colour texture; texture ignored"));
+    p.tangents = readVectors<4>(d);
+    requireFinite(g, p.tangents, here);
   }
   if (auto it = prim.attributes.find("COLOR_0"); it != prim.attributes.end()) {
     std::string here = cat(where, " / COLOR_0");
@@ -252,7 +300,11 @@ PrimitiveData readPrimitive(const Gltf& g, const std::vector<BaseColorSource>& m
   p.indices = toTriangleList(g, prim.mode, readIndices(g, prim, where, n), cat(where, " / indices"));
   removeDegenerate(g, p, where, warnings);
   readTransferSets(g, prim, p, where);
-  if (p.normals.empty()) splitForFlatNormals(p);
+  if (p.normals.empty()) {
+    p.tangents.clear();  // glTF: without NORMAL, flat normals, and TANGENT is ignored
+    splitForFlatNormals(p);
+  }
+  if (source && source->normalUvSet >= 0) addTangents(g, *source, where, p, warnings);
   return p;
 }
 

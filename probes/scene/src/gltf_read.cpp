@@ -189,7 +189,8 @@ namespace {
 void checkRequiredExtensions(const Gltf& g) {
   for (const std::string& ext : g.model.extensionsRequired) {
     if (ext == kUnlit || ext == kLights || ext == kTextureTransform || ext == kSpecularGlossiness ||
-        ext == kMeshQuantization || ext == kTextureWebp || ext == kTransmission)
+        ext == kMeshQuantization || ext == kTextureWebp || ext == kTransmission || ext == kIor || ext == kSpecular ||
+        ext == kEmissiveStrength)
       continue;
     fail(g, cat("required extension ", ext, " is not supported"));
   }
@@ -282,7 +283,7 @@ Scene loadSceneFrom(const std::string& path, const std::string* memory, const Lo
     addNodeContents(g, v, materials, scene, cache);
     keepStatic[size_t(v.node)] = v.keepStatic;
   }
-  decodeUsedTextures(g, materials, scene);
+  decodeUsedTextures(g, materials, options.shadingTextures, scene);
   readBakeRecord(g, scene);
   checkTransferBands(g, cache, scene);
   computeBounds(g, scene);

@@ -58,20 +58,51 @@ std::vector<glm::vec<N, float>> readVectors(const AccessorData& d) {
 // Materials (gltf_materials.cpp)
 
 /// Where a material's base colour comes from: the glTF texture (decoded later, only if an
-/// instance uses the material), the TEXCOORD_n it reads and its KHR_texture_transform.
+/// instance uses the material), the TEXCOORD_n it reads and its KHR_texture_transform; and
+/// where its other textures come from.
 struct BaseColorSource {
   int texture = -1;
   int texCoord = 0;
   glm::dmat3 uvTransform{1.0};
   int transmissionTexture = -1;  // KHR_materials_transmission's, read at the same coordinates
+  /// A coordinate set: TEXCOORD_n and the transform applied to it (TextureSlot::uvSet).
+  struct UvSet {
+    int texCoord = 0;
+    glm::dmat3 uvTransform{1.0};
+  };
+  std::vector<UvSet> moreUvSets;  // uvSet k ≥ 1 at [k − 1]; set 0 is the base colour's above
+  /// A texture of another slot: the glTF texture, decoded as sRGB or linear, always or only
+  /// with LoadOptions::shadingTextures, into `slot` of the material.
+  struct Extra {
+    int texture = -1;
+    bool srgb = false;
+    bool shadingOnly = true;
+    TextureSlot Material::*slot = nullptr;
+  };
+  std::vector<Extra> extras;
+  int normalUvSet = -1;         // the normal texture's coordinate set (tangents); -1 without one
+  bool extrasReadSet0 = false;  // some other slot reads the base colour's coordinates
 };
 
 /// Reads the materials; their base colour textures are decoded later (decodeUsedTextures),
 /// once the instances show which materials the default scene uses.
 std::vector<BaseColorSource> readMaterials(const Gltf& g, Scene& scene);
-/// Decodes the base colour textures of the materials the instances use, each glTF texture
-/// once, in the order of the materials: a texture only unused meshes need is never read.
-void decodeUsedTextures(const Gltf& g, const std::vector<BaseColorSource>& sources, Scene& scene);
+/// Decodes the textures of the materials the instances use, each glTF texture once (per
+/// colour space), in the order of the materials: a texture only unused meshes need is never
+/// read, nor one only shading needs unless `shadingTextures`.
+void decodeUsedTextures(const Gltf& g, const std::vector<BaseColorSource>& sources, bool shadingTextures, Scene& scene);
+
+/// KHR_texture_transform of a texture reference, into `out` (texCoord override, uvTransform);
+/// nothing where the extension is absent (gltf_materials.cpp).
+void readTextureTransform(const Gltf& g, const tinygltf::ExtensionMap& extensions, const std::string& where,
+                          BaseColorSource& out);
+/// "material 3 'Hull'" (the name where it has one), for messages.
+std::string materialWhere(const Gltf& g, size_t index);
+/// The metallic-roughness fields past the base colour (gltf_material_pbr.cpp): factors checked
+/// (a warning names the material and the value used instead), texture slots with their
+/// coordinate sets in `source`, KHR_materials_emissive_strength, _ior and _specular.
+void readPbrFields(const Gltf& g, size_t index, Material& mat, BaseColorSource& source,
+                   std::vector<std::string>& warnings);
 
 // ---------------------------------------------------------------------------------------------
 // Primitives (gltf_primitives.cpp), read once per mesh/primitive, in the primitive's own space
@@ -82,6 +113,8 @@ struct PrimitiveData {
   std::vector<glm::vec3> positions;
   std::vector<glm::vec3> normals;  // empty if absent
   std::vector<glm::vec2> texcoords;
+  std::vector<std::vector<glm::vec2>> moreTexcoords;  // BaseColorSource::moreUvSets, transformed
+  std::vector<glm::vec4> tangents;                    // TANGENT or generated (MeshInstance::tangents); primitive space
   std::vector<glm::vec4> colors;
   std::vector<uint32_t> indices;     // triangle list, glTF winding, degenerate triangles dropped
   std::vector<uint32_t> fileVertex;  // MeshInstance::fileVertex

@@ -1,10 +1,11 @@
-// Material lookups: bilinear texture sampling with the glTF wrap modes, and base colour, alpha
-// and opacity at a vertex or at a point of a triangle.
+// Material lookups: bilinear texture sampling with the glTF wrap modes, and the bake's diffuse
+// albedo, alpha and opacity at a vertex or at a point of a triangle.
 #include "prt/scene.h"
 
 #include <algorithm>
 #include <cmath>
 
+#include "prt/brdf.h"
 #include "prt/error.h"
 
 namespace prt {
@@ -64,14 +65,41 @@ inline __attribute__((always_inline)) glm::vec4 sampleTexture(const Texture& t, 
 
 glm::vec4 Texture::sample(const glm::vec2& uv) const { return sampleTexture(*this, uv); }
 
+float diffuseScale(const Scene& scene, const MeshInstance& mesh) {
+  if (mesh.material < 0) return 1.0f;
+  const Material& m = scene.materials[size_t(mesh.material)];
+  if (m.specularGlossiness || m.unlit) return 1.0f;
+  // The dielectric's specular share relative to the default dielectric's (docs/bake.md,
+  // "Materials"): exactly 1 for ior 1.5 without KHR_materials_specular, so such materials keep
+  // the base colour's bits.
+  float dielectric = 1.0f;
+  if (m.ior != 1.5f || m.specularFactor != 1.0f || m.specularColorFactor != glm::vec3(1.0f)) {
+    static const double kDefault = brdf::dielectricDiffuseWeight(1.5, 1.0, glm::dvec3(1.0));
+    const double w = brdf::dielectricDiffuseWeight(m.ior, m.specularFactor, glm::dvec3(m.specularColorFactor));
+    dielectric = static_cast<float>(std::min(1.0, w / kDefault));
+  }
+  return readsMetallicTexture(scene, mesh) ? dielectric : (1.0f - m.metallicFactor) * dielectric;
+}
+
+bool readsMetallicTexture(const Scene& scene, const MeshInstance& mesh) {
+  if (mesh.material < 0) return false;
+  const Material& m = scene.materials[size_t(mesh.material)];
+  return !m.specularGlossiness && !m.unlit && m.metallicRoughnessTexture.texture >= 0 &&
+         !mesh.uvs(m.metallicRoughnessTexture.uvSet).empty();
+}
+
 glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v) {
   PRT_CHECK_LT(size_t(v), mesh.vertexCount());
   glm::vec3 albedo(1.0f);
   if (mesh.material >= 0) {
     const Material& mat = scene.materials[size_t(mesh.material)];
-    albedo = glm::vec3(mat.baseColorFactor);
+    albedo = glm::vec3(mat.baseColorFactor) * diffuseScale(scene, mesh);
     if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty())
       albedo *= glm::vec3(scene.textures[size_t(mat.baseColorTexture)].sample(mesh.texcoords[v]));
+    if (readsMetallicTexture(scene, mesh)) {
+      const TextureSlot& mr = mat.metallicRoughnessTexture;
+      albedo *= 1.0f - mat.metallicFactor * scene.textures[size_t(mr.texture)].sample(mesh.uvs(mr.uvSet)[v]).b;
+    }
   }
   if (!mesh.colors.empty()) albedo *= glm::vec3(mesh.colors[v]);
   return albedo;
@@ -84,11 +112,17 @@ glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, f
   glm::vec3 albedo(1.0f);
   if (mesh.material >= 0) {
     const Material& mat = scene.materials[size_t(mesh.material)];
-    albedo = glm::vec3(mat.baseColorFactor);
+    albedo = glm::vec3(mat.baseColorFactor) * diffuseScale(scene, mesh);
     if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty()) {
       // Interpolate the coordinates, not the texels: the texture varies inside the triangle.
       glm::vec2 uv = b0 * mesh.texcoords[i[0]] + b1 * mesh.texcoords[i[1]] + b2 * mesh.texcoords[i[2]];
       albedo *= glm::vec3(sampleTexture(scene.textures[size_t(mat.baseColorTexture)], uv));
+    }
+    if (readsMetallicTexture(scene, mesh)) {  // metallic = factor × B, sampled as the base colour is
+      const TextureSlot& mr = mat.metallicRoughnessTexture;
+      const std::vector<glm::vec2>& t = mesh.uvs(mr.uvSet);
+      const glm::vec2 uv = b0 * t[i[0]] + b1 * t[i[1]] + b2 * t[i[2]];
+      albedo *= 1.0f - mat.metallicFactor * sampleTexture(scene.textures[size_t(mr.texture)], uv).b;
     }
   }
   if (!mesh.colors.empty())
