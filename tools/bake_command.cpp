@@ -327,14 +327,21 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                              ->check(CLI::Range(1, 65536))
                              ->capture_default_str();
   CLI::Option* row =
-      bake.add_option("--operator-row", o.rowLength, "Entries per vertex side's row of the bounce operator, at most")
-          ->check(CLI::Range(1, BounceOperator::kMaxRowLength))
+      bake.add_option("--operator-row", o.rowLength,
+                      "Entries per vertex side's own row of the bounce operator, at most (0: none, each takes its "
+                      "cluster's light)")
+          ->check(CLI::Range(0, BounceOperator::kMaxRowLength))
           ->capture_default_str();
   CLI::Option* clusterRow = bake.add_option("--operator-cluster-row", o.clusterRowLength,
-                                            "Entries per cluster's row of the bounce operator (the bounces after the "
-                                            "first), at most")
+                                            "Entries per cluster's row of the bounce operator (what its vertex sides "
+                                            "gather, and the bounces after the first), at most")
                                 ->check(CLI::Range(1, BounceOperator::kMaxRowLength))
                                 ->capture_default_str();
+  CLI::Option* risk = bake.add_option("--operator-risk", o.clusterRisk,
+                                      "A cluster's row stops growing once no entry risks more than this (weight times "
+                                      "merge risk; 0: every row grows to --operator-cluster-row)")
+                          ->check(CLI::Range(0.0, 1.0))
+                          ->capture_default_str();
   CLI::Option* on =
       bake.add_flag("--operator", a.withOperator,
                     "Store the bounce operator (docs/lights.md, \"The bounce operator\"): `prt render` "
@@ -342,7 +349,7 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                     "products instead of tracing the bake's rays again (milliseconds a light change, "
                     "at the accuracy docs/validation.md measures)");
   on->excludes(unshadowed);
-  for (CLI::Option* x : {rays, cluster, row, clusterRow}) {
+  for (CLI::Option* x : {rays, cluster, row, clusterRow, risk}) {
     x->needs(on);
     x->excludes(unshadowed);
   }

@@ -165,11 +165,11 @@ void FrameLighting::Impl::updateThroughOperator(double frame, const RigLighting&
         traceDirect ? shadowedDirectIrradiance(scene, *rays, l.direct, ss) : shadowedDirectIrradiance(scene, {}, ss);
     stats.shadowSeconds += lit.seconds;
     stats.shadowRays += lit.rays;
-    const DirectIrradiance more = through->lightFrom(lit, skyOrNull, l.sh);
+    const DirectIrradiance more = through->lightFrom(lit, &l.directSh, skyOrNull, l.sh);
     addIrradiance(lit, more);
     light = std::move(lit);
   } else {
-    light = through->light(bouncing, skyOrNull, l.sh);
+    light = through->light(bouncing, &l.directSh, skyOrNull, l.sh);
   }
   const OperatorTimes& t = through->lastTimes();
   stats.shadowSeconds += t.shadows;

@@ -207,7 +207,7 @@ def setup_cycles(scene, a, width, height):
     c.blur_glossy = 0.0
     c.light_sampling_threshold = 0.0
     c.use_fast_gi = False
-    if a.pixel_filter == "box":
+    if getattr(a, "pixel_filter", None) == "box":
         c.pixel_filter_type = "BOX"
         c.filter_width = 1.0
     c.film_exposure = 1.0

@@ -29,7 +29,8 @@
 #
 # Environment: VSAMPLES (per seed, default 1024), CSAMPLES (per seed, controls, default 128),
 # FSAMPLES (default 1024), SIZE (default 160x90), SUPERSAMPLE (default 1: prt's defaults),
-# BAKE_SAMPLES (default 4096), BLENDER, PRT, THREADS, NO_SUN_OPTION (the prt option that turns
+# BAKE_SAMPLES (default 4096), BAKE_ARGS (more `prt bake` options, e.g. --operator: then each map is
+# also lit with --no-operator, the gather traced again, for comparison), BLENDER, PRT, THREADS, NO_SUN_OPTION (the prt option that turns
 # the map's sun extraction off; default: found in `prt relight --help`, else none).
 set -euo pipefail
 
@@ -101,9 +102,11 @@ cycles_frame() {
 
 # bake BANDS [BOUNCES]: prt's bake of the room (default options otherwise).
 bake() {
-  local k=${2:-$BOUNCES}
-  local glb="$OUT/prt_b$1_k${k}_s$BAKE_SAMPLES.glb"
-  [ -f "$glb" ] || "$PRT" bake "$SCENE" -o "$glb" --bands "$1" --bounces "$k" --samples "$BAKE_SAMPLES" -q
+  local k=${2:-$BOUNCES} tag=""
+  [ -z "${BAKE_ARGS:-}" ] || tag="_$(echo "$BAKE_ARGS" | tr -c 'a-z0-9' '_')"
+  local glb="$OUT/prt_b$1_k${k}_s$BAKE_SAMPLES$tag.glb"
+  # shellcheck disable=SC2086 # BAKE_ARGS is a list of options
+  [ -f "$glb" ] || "$PRT" bake "$SCENE" -o "$glb" --bands "$1" --bounces "$k" --samples "$BAKE_SAMPLES" ${BAKE_ARGS:-} -q
   echo "$glb"
 }
 
@@ -146,6 +149,7 @@ for m in "${MAPS[@]}"; do
   case_ "${n}_before" 3 "$m" "$n" --no-direct-lights
   [ -z "$NO_SUN_OPTION" ] || case_ "${n}_nosun" 3 "$m" "$n" "$NO_SUN_OPTION"
   case_ "${n}_after" 3 "$m" "$n"
+  case " ${BAKE_ARGS:-} " in *" --operator "*) case_ "${n}_traced" 3 "$m" "$n" --no-operator ;; esac
 done
 
 rows=()

@@ -13,6 +13,7 @@
 #include "prt/error.h"
 #include "prt/light.h"
 #include "prt/math.h"
+#include "tree.h"
 
 namespace prt::bake {
 
@@ -43,6 +44,12 @@ struct OperatorLighting::Impl {
   std::vector<float> nodeWeight;           // per node: area or solid angle below it
   std::vector<glm::vec3> points, normals;  // the clusters' sample points, cluster by cluster
   std::vector<uint32_t> pointStart;
+  std::vector<uint32_t> clusterOf;
+  std::vector<glm::vec3> clusterBounce, clusterSky;  // what a cluster gathers from surfaces, from the sky
+  // Per vertex side: how much more of the bounced light and of the sky it gets than its
+  // cluster's mean, by its own transfer (below).
+  std::vector<float> bounceShare, skyShare;
+  std::vector<float> area;  // per vertex side, for a cluster's mean of its members' light
   PrefilteredSky filtered;
   std::vector<glm::vec3> skyValue, bounced, next, total, clusterE0;
   OperatorTimes times;
@@ -54,6 +61,11 @@ struct OperatorLighting::Impl {
     for (size_t n = 0; n < op.leaves(); ++n) nodeWeight[n] = op.leafWeight[n];
     for (size_t i = 0; i < op.children.size() / 2; ++i)
       nodeWeight[op.leaves() + i] = nodeWeight[op.children[2 * i]] + nodeWeight[op.children[2 * i + 1]];
+    area = op::sideAreas(s, lay);
+    clusterOf.assign(op.vertexSides, 0);
+    for (uint32_t c = 0; c < op.clusters; ++c)
+      for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) clusterOf[op.members[i]] = c;
+    shares();
     if (!traceShadows) return;
     rays.emplace(s);
     const std::vector<glm::vec3> origins = rayOrigins(s, lay, rays->sceneExtent());
@@ -66,6 +78,30 @@ struct OperatorLighting::Impl {
       }
       pointStart.push_back(uint32_t(points.size()));
     }
+  }
+
+  // t⁰ · l and (t − t⁰) · l at vertex side v (0 where the instance has no direct part).
+  glm::vec3 shDirect(size_t v, const sh::ShRgb& l) const {
+    const MeshInstance& m = scene.meshes[lay.meshOfVertex[v]];
+    if (!m.hasDirectTransfer()) return glm::vec3(0.0f);
+    const int bands = scene.transferBands, n2 = std::min(bands * bands, int(l.c.size()));
+    const float* t0 = m.directTransferOf(lay.localVertex(v), bands, lay.isBack(v));
+    glm::vec3 e(0.0f);
+    for (int i = 0; i < n2; ++i) e += t0[i] * l.c[size_t(i)];
+    return e;
+  }
+  glm::vec3 shBounced(size_t v, const sh::ShRgb& l) const {
+    const MeshInstance& m = scene.meshes[lay.meshOfVertex[v]];
+    if (!m.hasDirectTransfer()) return glm::vec3(0.0f);
+    const int bands = scene.transferBands, n2 = std::min(bands * bands, int(l.c.size()));
+    const bool back = lay.isBack(v);
+    const size_t local = lay.localVertex(v);
+    if (back && !m.hasBackTransfer()) return glm::vec3(0.0f);
+    const glm::vec3* t = back ? m.backTransferOf(local, bands) : m.transferOf(local, bands);
+    const float* t0 = m.directTransferOf(local, bands, back);
+    glm::vec3 e(0.0f);
+    for (int i = 0; i < n2; ++i) e += (t[i] - glm::vec3(t0[i])) * l.c[size_t(i)];
+    return e;
   }
 
   // Inner nodes of one tree (sky or surface) as the weighted means of their children.
@@ -130,10 +166,60 @@ struct OperatorLighting::Impl {
       if (sky[n]) total[n] = skyValue[n];
   }
 
-  DirectIrradiance vertices() const {
+  // A vertex side without a row of its own takes its cluster's light, shaded by its own
+  // transfer: the bounced part by its share of the cluster's bounced transfer under a uniform
+  // sky (coefficient 0 of t − t⁰: how much of its hemisphere other surfaces fill, so a vertex in
+  // a corner gets more and one on an edge less), the sky detail by its share of the cluster's
+  // visible sky (coefficient 0 of t⁰). Each share is the vertex's over the cluster's
+  // area-weighted mean, so the cluster's light is kept; without transfer, 1.
+  void shares() {
+    bounceShare.assign(op.vertexSides, 1.0f);
+    skyShare.assign(op.vertexSides, 1.0f);
+    auto lum = [](const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; };
+    sh::ShRgb white(scene.transferBands > 0 ? scene.transferBands : 1);
+    white.c[0] = glm::vec3(1.0f);
+    std::vector<float> b(op.vertexSides), d(op.vertexSides);
+    for (size_t v = 0; v < op.vertexSides; ++v) b[v] = lum(shBounced(v, white)), d[v] = lum(shDirect(v, white));
+    for (uint32_t c = 0; c < op.clusters; ++c) {
+      double sb = 0.0, sd = 0.0, w = 0.0;
+      for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) {
+        const uint32_t v = op.members[i];
+        sb += double(area[v]) * b[v], sd += double(area[v]) * d[v], w += area[v];
+      }
+      if (!(w > 0.0)) continue;
+      for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) {
+        const uint32_t v = op.members[i];
+        if (sb > 0.0) bounceShare[v] = float(b[v] * w / sb);
+        if (sd > 0.0) skyShare[v] = float(d[v] * w / sd);
+      }
+    }
+  }
+
+  // What each cluster gathers, from the surfaces and from the sky apart, for the vertex sides
+  // without a row of their own.
+  void clusterLights() {
+    clusterBounce.assign(op.clusters, glm::vec3(0.0f));
+    clusterSky.assign(op.clusters, glm::vec3(0.0f));
+    tbb::parallel_for(size_t(0), size_t(op.clusters), [&](size_t c) {
+      glm::vec3 surface(0.0f), fromSky(0.0f);
+      for (uint32_t e = op.clusterRows.start[c]; e < op.clusterRows.start[c + 1]; ++e) {
+        const uint32_t n = op.clusterRows.node[e];
+        (sky[n] ? fromSky : surface) += float(op.clusterRows.weight[e]) * total[n];
+      }
+      clusterBounce[c] = surface * kUnit, clusterSky[c] = fromSky * kUnit;
+    });
+  }
+
+  DirectIrradiance vertices(const sh::ShRgb* directSh) const {
     std::vector<glm::vec3> out(op.vertexSides);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, op.vertexSides, 1024), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t v = r.begin(); v != r.end(); ++v) out[v] = product(op.vertexRows, v, total);
+      for (size_t v = r.begin(); v != r.end(); ++v) {
+        const bool own = op.vertexRows.start[v + 1] > op.vertexRows.start[v];
+        const uint32_t c = clusterOf[v];
+        out[v] =
+            own ? product(op.vertexRows, v, total) : bounceShare[v] * clusterBounce[c] + skyShare[v] * clusterSky[c];
+        if (directSh && op.bounces > 0) out[v] += shBounced(v, *directSh);
+      }
     });
     DirectIrradiance d;
     d.front.resize(scene.meshes.size());
@@ -151,12 +237,13 @@ struct OperatorLighting::Impl {
     return d;
   }
 
-  DirectIrradiance finish(std::chrono::steady_clock::time_point t0) {
+  DirectIrradiance finish(std::chrono::steady_clock::time_point t0, const sh::ShRgb* directSh) {
     auto t = std::chrono::steady_clock::now();
     bounces();
+    clusterLights();
     times.clusters = secondsSince(t);
     t = std::chrono::steady_clock::now();
-    DirectIrradiance d = vertices();
+    DirectIrradiance d = vertices(directSh);
     times.vertices = secondsSince(t);
     d.seconds = secondsSince(t0);
     return d;
@@ -170,8 +257,8 @@ OperatorLighting::~OperatorLighting() = default;
 
 const OperatorTimes& OperatorLighting::lastTimes() const { return impl_->times; }
 
-DirectIrradiance OperatorLighting::light(const std::vector<DirectLight>& lights, const RigBackground* sky,
-                                         const sh::ShRgb& sh) {
+DirectIrradiance OperatorLighting::light(const std::vector<DirectLight>& lights, const sh::ShRgb* directSh,
+                                         const RigBackground* sky, const sh::ShRgb& sh) {
   Impl& m = *impl_;
   PRT_CHECK(m.rays.has_value());
   const auto t0 = std::chrono::steady_clock::now();
@@ -188,17 +275,20 @@ DirectIrradiance OperatorLighting::light(const std::vector<DirectLight>& lights,
     const std::vector<glm::vec3> e = shadowedDirectIrradianceAt(*m.rays, m.points, m.normals, lights, ss);
     for (uint32_t c = 0; c < m.op.clusters; ++c) {
       glm::vec3 sum(0.0f);
-      for (uint32_t i = m.pointStart[c]; i < m.pointStart[c + 1]; ++i) sum += e[i];
+      for (uint32_t i = m.pointStart[c]; i < m.pointStart[c + 1]; ++i) {
+        sum += e[i];
+        if (directSh) sum -= m.shDirect(m.op.members[m.op.memberStart[c] + (i - m.pointStart[c])], *directSh);
+      }
       m.clusterE0[c] = sum / float(m.pointStart[c + 1] - m.pointStart[c]);
     }
     m.times.shadowRays = uint64_t(m.points.size()) * lights.size();
   }
   m.times.shadows = secondsSince(t);
-  return m.finish(t0);
+  return m.finish(t0, m.op.bounces > 0 && !lights.empty() ? directSh : nullptr);
 }
 
-DirectIrradiance OperatorLighting::lightFrom(const DirectIrradiance& e0, const RigBackground* sky,
-                                             const sh::ShRgb& sh) {
+DirectIrradiance OperatorLighting::lightFrom(const DirectIrradiance& e0, const sh::ShRgb* directSh,
+                                             const RigBackground* sky, const sh::ShRgb& sh) {
   Impl& m = *impl_;
   const auto t0 = std::chrono::steady_clock::now();
   const ThreadLimit threadLimit(m.threads);
@@ -216,13 +306,23 @@ DirectIrradiance OperatorLighting::lightFrom(const DirectIrradiance& e0, const R
     if (m.lay.backVertexOffset[k] != SIZE_MAX && e0.back[k].size() == n)
       std::copy(e0.back[k].begin(), e0.back[k].end(), side.begin() + ptrdiff_t(m.lay.backVertexOffset[k]));
   }
+  // A cluster's light: its members' area-weighted mean (the plain mean where they have no area),
+  // as its value stands for the light over its area.
   m.clusterE0.assign(m.op.clusters, glm::vec3(0.0f));
   for (uint32_t c = 0; c < m.op.clusters; ++c) {
-    glm::vec3 sum(0.0f);
-    for (uint32_t i = m.op.memberStart[c]; i < m.op.memberStart[c + 1]; ++i) sum += side[m.op.members[i]];
-    m.clusterE0[c] = sum / float(m.op.memberStart[c + 1] - m.op.memberStart[c]);
+    glm::dvec3 sum(0.0), plain(0.0);
+    double weight = 0.0;
+    const uint32_t b = m.op.memberStart[c], e = m.op.memberStart[c + 1];
+    for (uint32_t i = b; i < e; ++i) {
+      const uint32_t v = m.op.members[i];
+      const glm::vec3 rest = directSh ? side[v] - m.shDirect(v, *directSh) : side[v];
+      sum += double(m.area[v]) * glm::dvec3(rest);
+      plain += glm::dvec3(rest);
+      weight += m.area[v];
+    }
+    m.clusterE0[c] = glm::vec3(weight > 0.0 ? sum / weight : plain / double(e - b));
   }
-  return m.finish(t0);
+  return m.finish(t0, m.op.bounces > 0 ? directSh : nullptr);
 }
 
 }  // namespace prt::bake

@@ -310,6 +310,25 @@ class Builder {
 
 }  // namespace
 
+std::vector<float> sideAreas(const Scene& scene, const Layout& lay) {
+  std::vector<float> out(lay.vertices, 0.0f);
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    if (lay.vertexOffset[k] == SIZE_MAX) continue;
+    const MeshInstance& m = scene.meshes[k];
+    for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+      const uint32_t* ix = &m.indices[t];
+      const float a =
+          glm::length(glm::cross(m.positions[ix[1]] - m.positions[ix[0]], m.positions[ix[2]] - m.positions[ix[0]])) /
+          6.0f;
+      for (int j = 0; j < 3; ++j) {
+        out[lay.vertexOffset[k] + ix[j]] += a;
+        if (lay.backVertexOffset[k] != SIZE_MAX) out[lay.backVertexOffset[k] + ix[j]] += a;
+      }
+    }
+  }
+  return out;
+}
+
 Tree buildTree(BounceOperator& op, const std::vector<SidePoint>& sides) {
   PRT_CHECK_EQ(sides.size(), size_t(op.vertexSides));
   PRT_CHECK_GT(sides.size(), size_t(0));

@@ -10,7 +10,9 @@
 
 #include <glm/glm.hpp>
 
+#include "prt/bake/surface_layout.h"
 #include "prt/bounce_operator.h"
+#include "prt/scene.h"
 
 namespace prt::bake::op {
 
@@ -31,6 +33,10 @@ struct Tree {
   std::vector<uint32_t> clusterOf;       // per vertex side: its cluster (leaf)
   std::vector<uint32_t> skyLeafOfBin;    // per sky bin: its leaf
 };
+
+/// Per vertex side of the bake's numbering (makeLayout): a third of the area of each triangle
+/// around its vertex (the same for both sides).
+std::vector<float> sideAreas(const Scene& scene, const Layout& lay);
 
 /// Fills op's clusters, albedo, members (the first samplePoints of each spread over it), sky
 /// bins, leaf weights, children and roots, and returns the build's view of the tree. Needs

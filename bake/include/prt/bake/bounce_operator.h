@@ -18,17 +18,20 @@
 namespace prt::bake {
 
 struct OperatorSettings {
-  int samples = 256;                  // gather rays per vertex side: the bake's first ones
-  int clusterSize = 16;               // vertex sides per cluster, at most (a cluster holds half to all of it)
-  int rowLength = 16;                 // entries of a vertex side's row, at most
-  int clusterRowLength = 32;          // entries of a cluster's row, at most
+  int samples = 256;          // gather rays per vertex side: the bake's first ones
+  int clusterSize = 8;        // vertex sides per cluster, at most
+  int rowLength = 16;         // entries of a vertex side's own row (kept where its view is not its cluster's); 0: none
+  int clusterRowLength = 96;  // entries of a cluster's row, at most
+  /// A cluster's row stops being refined once no entry risks more than this (its weight times
+  /// its merge risk): open, far views take few entries, near and cluttered ones up to the limit.
+  float clusterRisk = 0.0f;
   int skyWidth = 32, skyHeight = 16;  // sky bins (equirectangular)
   int samplePoints = 4;               // shadow-ray points per cluster
   int threads = 0;                    // 0 = all cores
 };
 
 /// Throws prt::Error unless every field is within its limits (samples 1..16777216, cluster
-/// size 1..65536, row lengths 1..255, sky bins 1..1024, sample points 1..64).
+/// size 1..65536, row lengths 0..255 (a cluster's at least 1), sky bins 1..1024, sample points 1..64).
 void validate(const OperatorSettings& s);
 
 /// Builds the operator of a baked scene (its meshes as the bake numbers them, refinement done)
@@ -59,10 +62,16 @@ class OperatorLighting {
   /// shadowed light at each cluster, one shadow ray per light and sample point) and of the sky
   /// detail, plus the sky detail's own light Δ (docs/lights.md, "Sky detail"): E_b + Δ. `sky`
   /// null: no sky detail; else `sky` is the radiance `sh` stands for (LightRig::shRadiance).
-  DirectIrradiance light(const std::vector<DirectLight>& lights, const RigBackground* sky, const sh::ShRgb& sh);
+  /// `directSh` (the lights' SH, RigLighting::directSh; null: none) makes the transfer carry
+  /// what it can: the bounces of the lights' SH light t⁰ · directSh are the bake's own
+  /// (t − t⁰) · directSh, exact at every vertex, and only the rest, E⁰ − t⁰ · directSh, goes
+  /// through the operator (a control variate: docs/lights.md, "The bounce operator").
+  DirectIrradiance light(const std::vector<DirectLight>& lights, const sh::ShRgb* directSh, const RigBackground* sky,
+                         const sh::ShRgb& sh);
   /// The same with the direct light known at every vertex side (`e0`, shadowedDirectIrradiance's
-  /// layout): a cluster's is its members' mean.
-  DirectIrradiance lightFrom(const DirectIrradiance& e0, const RigBackground* sky, const sh::ShRgb& sh);
+  /// layout): a cluster's is its members' area-weighted mean.
+  DirectIrradiance lightFrom(const DirectIrradiance& e0, const sh::ShRgb* directSh, const RigBackground* sky,
+                             const sh::ShRgb& sh);
 
   const OperatorTimes& lastTimes() const;
 
