@@ -17,7 +17,9 @@
 // (CLOCK_PROCESS_CPUTIME_ID: llvmpipe's and TBB's threads included), so that the load of a
 // shared machine falls on all kinds alike. --frames-only 1 skips the light-update part, which
 // ends with `prt render`'s own light update (frame_lighting: the rig, shadow rays and the gather
-// over the bake's rays, bake::FrameLighting).
+// over the bake's rays, bake::FrameLighting), and the same through the bounce operator
+// (frame_lighting_operator; operator_build: its build time next to the surface bake's, its
+// size) beside the SH product alone (relight_cpu_ms, for 1M vertices).
 // The `sun` part (sunShadows) times the same frame with a sun lit per pixel with its shadow maps
 // against the frame with the sun through SH (docs/render.md, "Direct lights and their shadows");
 // --sun-only 1 stops after it.
@@ -39,6 +41,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench_cli.h"
+#include "prt/bake/bounce_operator.h"
 #include "prt/bake/frame_lighting.h"
 #include "prt/bake/probe_bake.h"
 #include "prt/bake/surface_bake.h"
@@ -396,9 +399,10 @@ nlohmann::json lightUpdates(render::GlContext& context, const Scene& scene, cons
 // The light update of `prt render` (bake::FrameLighting): the bundled environment map turning
 // 360° over the frames and a sun, so that every frame evaluates the rig and gathers its direct
 // lights' bounces and the sky detail over the bake's rays again (traced once, at the first
-// frame: trace_s), then draws. light_update_ms is the frame's light without the renderer's part.
-nlohmann::json frameLighting(render::Renderer& renderer, const Scene& scene, const render::CameraView& view,
-                             int frames) {
+// frame: trace_s), or, `useOperator`, through the scene's bounce operator (nothing traced), then
+// draws. light_update_ms is the frame's light without the renderer's part.
+nlohmann::json frameLighting(render::Renderer& renderer, const Scene& scene, const render::CameraView& view, int frames,
+                             bool useOperator) {
   LightRig rig;
   RigLight env;
   env.type = RigLight::Type::Environment;
@@ -414,6 +418,7 @@ nlohmann::json frameLighting(render::Renderer& renderer, const Scene& scene, con
   rig.prepare(renderer.bands());
   bake::FrameLightingSettings settings;
   settings.shadowSamples = 4;  // prt render's shadow rays for the light that bounces
+  settings.useOperator = useOperator;
   bake::FrameLighting lighting(scene, rig, settings);
   Timing timing;
   std::vector<double> updateMs;
@@ -427,12 +432,36 @@ nlohmann::json frameLighting(render::Renderer& renderer, const Scene& scene, con
     if (i >= 0) updateMs.push_back(1e3 * light.seconds);
   }
   const bake::FrameLightingStats& st = lighting.stats();
-  return {{"gather_samples", settings.gatherSamples},
+  return {{"through_operator", lighting.usesOperator()},
+          {"gather_samples", settings.gatherSamples},
           {"gather_rays", st.gatherRays},
+          {"shadow_ms", 1e3 * st.shadowSeconds / std::max(st.updates, 1)},
+          {"gather_ms", 1e3 * st.gatherSeconds / std::max(st.updates, 1)},
           {"trace_s", st.traceSeconds},
           {"updates", st.updates},
           {"light_update_ms", median(updateMs)},
           {"frame", timing.json()}};
+}
+
+// The bounce operator of the in-process bake, as `prt bake --operator` builds it: its build time
+// and packed size next to the bake's own time.
+nlohmann::json addOperator(Scene& scene, const bake::BakeSettings& bs, double bakeSeconds) {
+  bake::OperatorSettings os;
+  os.samples = std::min(os.samples, bs.samples);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto op = std::make_shared<BounceOperator>(bake::buildBounceOperator(scene, os, bs.bounces, bs.seed));
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const size_t bytes = packOperator(*op).bytes.size();
+  nlohmann::json j = {{"clusters", op->clusters},
+                      {"vertex_sides", op->vertexSides},
+                      {"cluster_entries", op->clusterRows.entries()},
+                      {"vertex_entries", op->vertexRows.entries()},
+                      {"bytes", bytes},
+                      {"build_s", seconds},
+                      {"surface_bake_s", bakeSeconds},
+                      {"build_over_bake", seconds / std::max(bakeSeconds, 1e-9)}};
+  scene.bounceOperator = std::move(op);
+  return j;
 }
 
 }  // namespace
@@ -471,16 +500,20 @@ int main(int argc, char** argv) {
     // --- The scene: baked here or read from files ---------------------------------------------
     Scene scene;
     ProbeGrid grid;
+    nlohmann::json operatorBuild;
     if (bakedPath.empty()) {
       scene = loadScene(PRT_SOURCE_DIR "/scenes/cornell_open.gltf");
       bake::BakeSettings bs;
       bs.samples = samples;
       bs.bounces = 1;
       bs.keepLowerOrder = true;
+      const auto bake0 = std::chrono::steady_clock::now();
       bake::SurfaceTransfer t = bake::bakeSurface(scene, bs);
+      const double bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - bake0).count();
       scene.transferBands = t.bands;
       bake::storeTransfer(scene, t.perMesh, t.perMeshDirect);                 // with the direct part (sun frames)
       scene.bakeRecord = bake::bakeRecord(bs, "cornell_open.gltf", "bench");  // bounces for the gather
+      operatorBuild = addOperator(scene, bs, bakeSeconds);
       bake::ProbeSettings ps;
       ps.dims = glm::ivec3(probeDims);
       ps.samples = 256;
@@ -571,7 +604,11 @@ int main(int argc, char** argv) {
     }
     j["receiver_closeup"] = receiverCloseup(renderer, bakedOnly, scene, width, height, frames);
     if (!framesOnly) j.update(lightUpdates(context, scene, view));
-    if (!framesOnly) j["frame_lighting"] = frameLighting(renderer, scene, view, frames);
+    if (!framesOnly) j["frame_lighting"] = frameLighting(renderer, scene, view, frames, false);
+    if (!framesOnly && scene.bounceOperator) {
+      j["frame_lighting_operator"] = frameLighting(renderer, scene, view, frames, true);
+      if (!operatorBuild.is_null()) j["operator_build"] = operatorBuild;
+    }
     const std::string text = j.dump(2);
     std::printf("%s\n", text.c_str());
     if (!jsonPath.empty()) std::ofstream(jsonPath) << text << "\n";

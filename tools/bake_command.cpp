@@ -337,11 +337,6 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                                             "gather, and the bounces after the first), at most")
                                 ->check(CLI::Range(1, BounceOperator::kMaxRowLength))
                                 ->capture_default_str();
-  CLI::Option* risk = bake.add_option("--operator-risk", o.clusterRisk,
-                                      "A cluster's row stops growing once no entry risks more than this (weight times "
-                                      "merge risk; 0: every row grows to --operator-cluster-row)")
-                          ->check(CLI::Range(0.0, 1.0))
-                          ->capture_default_str();
   CLI::Option* on =
       bake.add_flag("--operator", a.withOperator,
                     "Store the bounce operator (docs/lights.md, \"The bounce operator\"): `prt render` "
@@ -349,7 +344,7 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                     "products instead of tracing the bake's rays again (milliseconds a light change, "
                     "at the accuracy docs/validation.md measures)");
   on->excludes(unshadowed);
-  for (CLI::Option* x : {rays, cluster, row, clusterRow, risk}) {
+  for (CLI::Option* x : {rays, cluster, row, clusterRow}) {
     x->needs(on);
     x->excludes(unshadowed);
   }

@@ -67,6 +67,18 @@ void infoGlb(const std::string& path) {
     std::printf("  transfer    none (not baked)\n");
   }
   if (scene.bakeRecord) std::printf("  bake        %s\n", describeBakeRecord(*scene.bakeRecord).c_str());
+  if (const BounceOperator* op = scene.bounceOperator.get()) {
+    size_t own = 0;
+    for (size_t v = 0; v < op->vertexRows.rows(); ++v) own += op->vertexRows.start[v + 1] > op->vertexRows.start[v];
+    std::printf(
+        "  operator    version %d: %u clusters of up to %d vertex sides, %zu cluster entries (up to %d a row), %zu "
+        "of %u vertex sides with rows of their own (%zu entries), %d x %d sky bins, %d rays per vertex side, %d "
+        "bounces\n",
+        BounceOperator::kVersion, op->clusters, op->clusterSize, op->clusterRows.entries(), op->clusterRowLength, own,
+        op->vertexSides, op->vertexRows.entries(), op->skyWidth, op->skyHeight, op->samples, op->bounces);
+  } else if (baked > 0) {
+    std::printf("  operator    none (prt render and prt relight trace the bake's rays again; bake with --operator)\n");
+  }
   for (const std::string& w : scene.warnings) std::printf("  warning     %s\n", w.c_str());
 }
 

@@ -64,8 +64,7 @@ class RowMaker {
  public:
   RowMaker(const BounceOperator& o, const Tree& t, const std::vector<uint8_t>& sky) : op_(o), t_(t), sky_(sky) {}
 
-  std::vector<Entry> make(const std::vector<Entry>& leaves, const glm::vec3& x, size_t maxLength,
-                          float enoughRisk = 0.0f) {
+  std::vector<Entry> make(const std::vector<Entry>& leaves, const glm::vec3& x, size_t maxLength) {
     e_ = &leaves;
     prefix_.assign(leaves.size() + 1, 0.0);
     for (size_t i = 0; i < leaves.size(); ++i) prefix_[i + 1] = prefix_[i] + double(leaves[i].w);
@@ -75,7 +74,7 @@ class RowMaker {
     std::vector<Entry> done;
     while (!heap.empty()) {
       const Item top = heap.top();
-      if (isLeaf(top.node) || heap.size() + done.size() + 1 > maxLength || top.priority < enoughRisk) break;
+      if (isLeaf(top.node) || heap.size() + done.size() + 1 > maxLength) break;
       heap.pop();
       const uint32_t* ch = &op_.children[2 * (top.node - op_.leaves())];
       for (int k = 0; k < 2; ++k)
@@ -302,7 +301,7 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
         for (const Entry& x : raw[i - b]) all.push_back({x.leaf, x.w * share});
       }
       mergeEntries(all);
-      clusterRows[c] = maker.make(all, tree.center[c], clusterLength, uncompressed ? 0.0f : s.clusterRisk);
+      clusterRows[c] = maker.make(all, tree.center[c], clusterLength);
       if (vertexLength == 0) continue;
       // A member whose own view differs from its cluster's (near another surface, at a corner)
       // keeps a row of its own; the others take the cluster's light.

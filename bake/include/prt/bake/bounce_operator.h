@@ -22,9 +22,6 @@ struct OperatorSettings {
   int clusterSize = 8;        // vertex sides per cluster, at most
   int rowLength = 16;         // entries of a vertex side's own row (kept where its view is not its cluster's); 0: none
   int clusterRowLength = 96;  // entries of a cluster's row, at most
-  /// A cluster's row stops being refined once no entry risks more than this (its weight times
-  /// its merge risk): open, far views take few entries, near and cluttered ones up to the limit.
-  float clusterRisk = 0.0f;
   int skyWidth = 32, skyHeight = 16;  // sky bins (equirectangular)
   int samplePoints = 4;               // shadow-ray points per cluster
   int threads = 0;                    // 0 = all cores
