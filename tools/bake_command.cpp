@@ -337,6 +337,11 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                                             "gather, and the bounces after the first), at most")
                                 ->check(CLI::Range(1, BounceOperator::kMaxRowLength))
                                 ->capture_default_str();
+  CLI::Option* points = bake.add_option("--operator-points", o.samplePoints,
+                                        "Shadow-ray points per cluster with which `prt render` takes the direct "
+                                        "lights' light at the clusters (one ray per light and point)")
+                            ->check(CLI::Range(1, 64))
+                            ->capture_default_str();
   CLI::Option* on =
       bake.add_flag("--operator", a.withOperator,
                     "Store the bounce operator (docs/lights.md, \"The bounce operator\"): `prt render` "
@@ -344,7 +349,7 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                     "products instead of tracing the bake's rays again (milliseconds a light change, "
                     "at the accuracy docs/validation.md measures)");
   on->excludes(unshadowed);
-  for (CLI::Option* x : {rays, cluster, row, clusterRow}) {
+  for (CLI::Option* x : {rays, cluster, row, clusterRow, points}) {
     x->needs(on);
     x->excludes(unshadowed);
   }
