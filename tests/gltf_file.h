@@ -38,14 +38,15 @@ struct GltfFile {
     const int pos = accessor({0, 0, 0, 1, 0, 0, 0, 1, 0}, "VEC3");
     j["meshes"].push_back({{"primitives", Json::array({{{"attributes", {{"POSITION", pos}}}}})}});
   }
-  /// Appends 4-byte values as a buffer view and an accessor of `type` (SCALAR, VEC3, VEC4).
+  /// Appends 4-byte values as a buffer view and an accessor of `type` (SCALAR, VEC2, VEC3, VEC4).
   template <typename T>
   int accessor(const std::vector<T>& data, const char* type, int componentType = 5126) {
     static_assert(sizeof(T) == 4);
     const size_t offset = bin.size();
     bin.resize(offset + data.size() * 4);
     std::memcpy(bin.data() + offset, data.data(), data.size() * 4);
-    const int width = std::string(type) == "SCALAR" ? 1 : std::string(type) == "VEC3" ? 3 : 4;
+    const std::string t(type);
+    const int width = t == "SCALAR" ? 1 : t == "VEC2" ? 2 : t == "VEC3" ? 3 : 4;
     j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * 4}});
     j["accessors"].push_back({{"bufferView", j["bufferViews"].size() - 1},
                               {"componentType", componentType},

@@ -76,17 +76,7 @@ double overCells(Corner corner, double px, double pz, double h, bool all) {
 
 // ---- Scenes as glTF files.
 
-int vec2Accessor(test::GltfFile& f, const std::vector<float>& data) {
-  const size_t offset = f.bin.size();
-  f.bin.resize(offset + data.size() * 4);
-  std::memcpy(f.bin.data() + offset, data.data(), data.size() * 4);
-  f.j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * 4}});
-  f.j["accessors"].push_back({{"bufferView", f.j["bufferViews"].size() - 1},
-                              {"componentType", 5126},
-                              {"count", data.size() / 2},
-                              {"type", "VEC2"}});
-  return int(f.j["accessors"].size() - 1);
-}
+int vec2Accessor(test::GltfFile& f, const std::vector<float>& data) { return f.accessor(data, "VEC2"); }
 
 /// The occluder square facing down, TEXCOORD_0 = (x + kHalf, z + kHalf) / (2 kCell) (one
 /// repeat of a 2×2 texture covers 2×2 cells) or, given, (x + kHalf, z + kHalf) · uvScale;

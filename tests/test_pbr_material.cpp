@@ -19,17 +19,7 @@ namespace {
 
 using Json = nlohmann::json;
 
-int vec2Accessor(test::GltfFile& f, const std::vector<float>& data) {
-  const size_t offset = f.bin.size();
-  f.bin.resize(offset + data.size() * 4);
-  std::memcpy(f.bin.data() + offset, data.data(), data.size() * 4);
-  f.j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * 4}});
-  f.j["accessors"].push_back({{"bufferView", f.j["bufferViews"].size() - 1},
-                              {"componentType", 5126},
-                              {"count", data.size() / 2},
-                              {"type", "VEC2"}});
-  return int(f.j["accessors"].size() - 1);
-}
+int vec2Accessor(test::GltfFile& f, const std::vector<float>& data) { return f.accessor(data, "VEC2"); }
 
 /// A unit quad in the plane y = 0 facing +Y, TEXCOORD_0 = (x, z) and TEXCOORD_1 = (1 − x, z),
 /// of material `material`, placed by a root node.

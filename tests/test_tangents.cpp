@@ -140,17 +140,7 @@ TEST(SceneTangents, DegenerateCoordinatesGiveAFallbackFrameNeverNaN) {
 
 // ---- The loader
 
-int vec2Accessor(test::GltfFile& f, const std::vector<float>& data) {
-  const size_t offset = f.bin.size();
-  f.bin.resize(offset + data.size() * 4);
-  std::memcpy(f.bin.data() + offset, data.data(), data.size() * 4);
-  f.j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * 4}});
-  f.j["accessors"].push_back({{"bufferView", f.j["bufferViews"].size() - 1},
-                              {"componentType", 5126},
-                              {"count", data.size() / 2},
-                              {"type", "VEC2"}});
-  return int(f.j["accessors"].size() - 1);
-}
+int vec2Accessor(test::GltfFile& f, const std::vector<float>& data) { return f.accessor(data, "VEC2"); }
 
 /// A unit quad in z = 0 facing +Z with u = x, v = 1 − y, a normal texture, optionally TANGENT
 /// (xyzw for every vertex) and degenerate coordinates; node `node` places it.

@@ -116,13 +116,7 @@ struct FrameLighting::Impl {
   void update(double frame, const RigLighting& l) {
     if (through) return updateThroughOperator(frame, l);
     const auto t0 = std::chrono::steady_clock::now();
-    ShadowSettings ss;
-    ss.samples = settings.shadowSamples;
-    ss.threads = settings.threads;
-    DirectIrradiance lit =
-        traceDirect ? shadowedDirectIrradiance(scene, *rays, l.direct, ss) : shadowedDirectIrradiance(scene, {}, ss);
-    stats.shadowSeconds += lit.seconds;
-    stats.shadowRays += lit.rays;
+    DirectIrradiance lit = tracedDirect(l);
     DirectIrradiance delta;
     if (sky) {
       delta = gather->skyDetail(rig.shRadiance(frame), l.sh);
@@ -147,6 +141,18 @@ struct FrameLighting::Impl {
     ++stats.updates;
   }
   void updateThroughOperator(double frame, const RigLighting& l);
+
+  // The direct lights' shadowed light at every vertex (dark where they are not traced).
+  DirectIrradiance tracedDirect(const RigLighting& l) {
+    ShadowSettings ss;
+    ss.samples = settings.shadowSamples;
+    ss.threads = settings.threads;
+    DirectIrradiance lit =
+        traceDirect ? shadowedDirectIrradiance(scene, *rays, l.direct, ss) : shadowedDirectIrradiance(scene, {}, ss);
+    stats.shadowSeconds += lit.seconds;
+    stats.shadowRays += lit.rays;
+    return lit;
+  }
 };
 
 // Through the operator: at the vertices (a relit file) E⁰ traced exactly at every vertex, then
@@ -158,13 +164,7 @@ void FrameLighting::Impl::updateThroughOperator(double frame, const RigLighting&
   const RigBackground* skyOrNull = sky ? &skyLight : nullptr;
   const std::vector<DirectLight> bouncing = record.bounces > 0 ? l.direct : std::vector<DirectLight>{};
   if (settings.directAtVertices) {
-    ShadowSettings ss;
-    ss.samples = settings.shadowSamples;
-    ss.threads = settings.threads;
-    DirectIrradiance lit =
-        traceDirect ? shadowedDirectIrradiance(scene, *rays, l.direct, ss) : shadowedDirectIrradiance(scene, {}, ss);
-    stats.shadowSeconds += lit.seconds;
-    stats.shadowRays += lit.rays;
+    DirectIrradiance lit = tracedDirect(l);
     const DirectIrradiance more = through->lightFrom(lit, &l.directSh, skyOrNull, l.sh);
     addIrradiance(lit, more);
     light = std::move(lit);
