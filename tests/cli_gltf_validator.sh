@@ -3,7 +3,8 @@
 # (tools/validation/gltf_validate.js, the npm package gltf-validator under Node) with 0 errors:
 # scenes/cornell_open.gltf baked (.glb) and relit under a map (.glb) and under a map and a sun
 # (.gltf); a floor under a lid (gltf_validator_scene.js) baked with refinement and flat-normal
-# splits (.glb and .gltf) and relit. Few samples: the files matter, not the light.
+# splits (.glb and .gltf) and relit; the room baked with its bounce operator (.glb, and relit
+# through it). Few samples: the files matter, not the light.
 #
 # usage: cli_gltf_validator.sh PRT NODE NODE_MODULES SOURCE_DIR
 # Writes into a fresh temporary folder, removed at the end unless a step failed.
@@ -39,6 +40,8 @@ if ! grep -q "refinement: 8 -> [0-9]" lid_bake.log || grep -q "refinement: 8 -> 
 fi
 run bake lid.gltf -o lid_baked.gltf "${bake[@]}"
 run relight lid_baked.glb --env "$env" --bounce-samples 16 --threads 2 -o lid_lit.glb
+run bake "$src/scenes/cornell_open.gltf" -o room_operator.glb "${bake[@]}" --operator
+run relight room_operator.glb --env "$env" --threads 2 -o room_operator_lit.glb
 
 "$node" "$src/tools/validation/gltf_validate.js" room.glb room_lit.glb room_sun_lit.gltf lid_baked.glb \
-  lid_baked.gltf lid_lit.glb
+  lid_baked.gltf lid_lit.glb room_operator.glb room_operator_lit.glb
