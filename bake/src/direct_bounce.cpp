@@ -154,19 +154,7 @@ DirectIrradiance DirectBounce::skyDetail(const RigBackground& skyIn, const sh::S
       delta[v] = glm::vec3(sum * (kPiF / double(K)));
     }
   });
-  DirectIrradiance out;
-  out.front.resize(scene.meshes.size());
-  out.back.resize(scene.meshes.size());
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    if (lay.vertexOffset[k] == SIZE_MAX || scene.meshes[k].transfer.empty()) continue;
-    const size_t n = scene.meshes[k].vertexCount();
-    const auto at = delta.begin() + ptrdiff_t(lay.vertexOffset[k]);
-    out.front[k].assign(at, at + ptrdiff_t(n));
-    if (lay.backVertexOffset[k] != SIZE_MAX && scene.meshes[k].hasBackTransfer()) {
-      const auto back = delta.begin() + ptrdiff_t(lay.backVertexOffset[k]);
-      out.back[k].assign(back, back + ptrdiff_t(n));
-    }
-  }
+  DirectIrradiance out = perInstance(scene, lay, delta);
   out.seconds = secondsSince(t0);
   return out;
 }
@@ -177,18 +165,8 @@ DirectIrradiance DirectBounce::bounce(const DirectIrradiance& e0) const {
   const Impl& b = *impl_;
   const Layout& lay = b.lay;
   const Scene& scene = b.scene;
-  PRT_CHECK_EQ(e0.front.size(), scene.meshes.size());
-  PRT_CHECK_EQ(e0.back.size(), scene.meshes.size());
   // E⁰ in the layout's numbering; a side without values is dark.
-  std::vector<glm::vec3> prev(lay.vertices, glm::vec3(0.0f)), cur(lay.vertices), sum(lay.vertices, glm::vec3(0.0f));
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    if (lay.vertexOffset[k] == SIZE_MAX) continue;
-    const size_t n = scene.meshes[k].vertexCount();
-    if (e0.front[k].size() == n)
-      std::copy(e0.front[k].begin(), e0.front[k].end(), prev.begin() + ptrdiff_t(lay.vertexOffset[k]));
-    if (lay.backVertexOffset[k] != SIZE_MAX && e0.back[k].size() == n)
-      std::copy(e0.back[k].begin(), e0.back[k].end(), prev.begin() + ptrdiff_t(lay.backVertexOffset[k]));
-  }
+  std::vector<glm::vec3> prev = sideValues(scene, lay, e0), cur(lay.vertices), sum(lay.vertices, glm::vec3(0.0f));
   const float w = 1.0f / float(b.settings.samples);
   for (int bounce = 0; bounce < b.settings.bounces; ++bounce) {
     tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {
@@ -213,21 +191,7 @@ DirectIrradiance DirectBounce::bounce(const DirectIrradiance& e0) const {
     });
     std::swap(prev, cur);
   }
-  DirectIrradiance out;
-  out.front.resize(scene.meshes.size());
-  out.back.resize(scene.meshes.size());
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    if (lay.vertexOffset[k] == SIZE_MAX) continue;
-    const size_t n = scene.meshes[k].vertexCount();
-    if (e0.front[k].size() == n) {
-      const auto at = sum.begin() + ptrdiff_t(lay.vertexOffset[k]);
-      out.front[k].assign(at, at + ptrdiff_t(n));
-    }
-    if (lay.backVertexOffset[k] != SIZE_MAX && e0.back[k].size() == n) {
-      const auto at = sum.begin() + ptrdiff_t(lay.backVertexOffset[k]);
-      out.back[k].assign(at, at + ptrdiff_t(n));
-    }
-  }
+  DirectIrradiance out = perInstance(scene, lay, sum, &e0);
   out.seconds = secondsSince(t0);
   return out;
 }

@@ -90,4 +90,43 @@ glm::vec3 normalOf(const Scene& scene, const Layout& lay, size_t v) {
   return lay.isBack(v) ? -n : n;
 }
 
+std::vector<glm::vec3> sideValues(const Scene& scene, const Layout& lay, const DirectIrradiance& d) {
+  PRT_CHECK_EQ(d.front.size(), scene.meshes.size());
+  PRT_CHECK_EQ(d.back.size(), scene.meshes.size());
+  std::vector<glm::vec3> out(lay.vertices, glm::vec3(0.0f));
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    if (lay.vertexOffset[k] == SIZE_MAX) continue;
+    const size_t n = scene.meshes[k].vertexCount();
+    if (d.front[k].size() == n)
+      std::copy(d.front[k].begin(), d.front[k].end(), out.begin() + ptrdiff_t(lay.vertexOffset[k]));
+    if (lay.backVertexOffset[k] != SIZE_MAX && d.back[k].size() == n)
+      std::copy(d.back[k].begin(), d.back[k].end(), out.begin() + ptrdiff_t(lay.backVertexOffset[k]));
+  }
+  return out;
+}
+
+DirectIrradiance perInstance(const Scene& scene, const Layout& lay, const std::vector<glm::vec3>& values,
+                             const DirectIrradiance* like) {
+  DirectIrradiance out;
+  out.front.resize(scene.meshes.size());
+  out.back.resize(scene.meshes.size());
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (lay.vertexOffset[k] == SIZE_MAX) continue;
+    const size_t n = m.vertexCount();
+    const bool front = like ? like->front[k].size() == n : !m.transfer.empty();
+    const bool back = lay.backVertexOffset[k] != SIZE_MAX &&
+                      (like ? like->back[k].size() == n : !m.transfer.empty() && m.hasBackTransfer());
+    if (front) {
+      const auto at = values.begin() + ptrdiff_t(lay.vertexOffset[k]);
+      out.front[k].assign(at, at + ptrdiff_t(n));
+    }
+    if (back) {
+      const auto at = values.begin() + ptrdiff_t(lay.backVertexOffset[k]);
+      out.back[k].assign(at, at + ptrdiff_t(n));
+    }
+  }
+  return out;
+}
+
 }  // namespace prt::bake

@@ -14,6 +14,7 @@
 #include <glm/glm.hpp>
 
 #include "prt/bake/albedo_lookup.h"
+#include "prt/bake/direct_light.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_layout.h"
 #include "prt/scene.h"
@@ -27,6 +28,16 @@ std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float e
 
 // The side's normal: a virtual vertex faces away from its vertex's normal.
 glm::vec3 normalOf(const Scene& scene, const Layout& lay, size_t v);
+
+// Irradiance per instance and side (DirectIrradiance's layout) as one value per vertex side of
+// the layout; a side without values is zero.
+std::vector<glm::vec3> sideValues(const Scene& scene, const Layout& lay, const DirectIrradiance& d);
+
+// One value per vertex side back in DirectIrradiance's layout: for the sides `like` holds values
+// for, or, without `like`, for the instances that hold transfer (their back sides where they
+// hold back-side transfer).
+DirectIrradiance perInstance(const Scene& scene, const Layout& lay, const std::vector<glm::vec3>& values,
+                             const DirectIrradiance* like = nullptr);
 
 inline uint16_t quantise(float b) { return static_cast<uint16_t>(std::lround(std::clamp(b, 0.0f, 1.0f) * 65535.0f)); }
 

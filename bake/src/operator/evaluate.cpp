@@ -221,20 +221,7 @@ struct OperatorLighting::Impl {
         if (directSh && op.bounces > 0) out[v] += shBounced(v, *directSh);
       }
     });
-    DirectIrradiance d;
-    d.front.resize(scene.meshes.size());
-    d.back.resize(scene.meshes.size());
-    for (size_t k = 0; k < scene.meshes.size(); ++k) {
-      const MeshInstance& m = scene.meshes[k];
-      if (lay.vertexOffset[k] == SIZE_MAX || m.transfer.empty()) continue;
-      const auto at = out.begin() + ptrdiff_t(lay.vertexOffset[k]);
-      d.front[k].assign(at, at + ptrdiff_t(m.vertexCount()));
-      if (lay.backVertexOffset[k] != SIZE_MAX && m.hasBackTransfer()) {
-        const auto back = out.begin() + ptrdiff_t(lay.backVertexOffset[k]);
-        d.back[k].assign(back, back + ptrdiff_t(m.vertexCount()));
-      }
-    }
-    return d;
+    return perInstance(scene, lay, out);
   }
 
   DirectIrradiance finish(std::chrono::steady_clock::time_point t0, const sh::ShRgb* directSh) {
@@ -295,17 +282,7 @@ DirectIrradiance OperatorLighting::lightFrom(const DirectIrradiance& e0, const s
   m.times = {};
   m.skyBins(sky, sh);
   m.times.sky = secondsSince(t0);
-  PRT_CHECK_EQ(e0.front.size(), m.scene.meshes.size());
-  PRT_CHECK_EQ(e0.back.size(), m.scene.meshes.size());
-  std::vector<glm::vec3> side(m.op.vertexSides, glm::vec3(0.0f));
-  for (size_t k = 0; k < m.scene.meshes.size(); ++k) {
-    if (m.lay.vertexOffset[k] == SIZE_MAX) continue;
-    const size_t n = m.scene.meshes[k].vertexCount();
-    if (e0.front[k].size() == n)
-      std::copy(e0.front[k].begin(), e0.front[k].end(), side.begin() + ptrdiff_t(m.lay.vertexOffset[k]));
-    if (m.lay.backVertexOffset[k] != SIZE_MAX && e0.back[k].size() == n)
-      std::copy(e0.back[k].begin(), e0.back[k].end(), side.begin() + ptrdiff_t(m.lay.backVertexOffset[k]));
-  }
+  const std::vector<glm::vec3> side = sideValues(m.scene, m.lay, e0);
   // A cluster's light: its members' area-weighted mean (the plain mean where they have no area),
   // as its value stands for the light over its area.
   m.clusterE0.assign(m.op.clusters, glm::vec3(0.0f));
