@@ -32,7 +32,6 @@ void validate(const BounceSettings& s) {
 
 namespace {
 
-constexpr uint32_t kStream = 256;
 constexpr size_t kChunk = 64;  // vertices per task and per block of hit records
 
 double secondsSince(std::chrono::steady_clock::time_point t0) {
@@ -77,7 +76,6 @@ DirectBounce::DirectBounce(const Scene& scene, const BounceSettings& settings)
   const uint32_t K = uint32_t(settings.samples);
   const size_t words = (K + 63) / 64;
   tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {
-    alignas(64) Ray batch[kStream];
     ChunkHits& ch = b.chunks[c];
     ch.begin.assign(1, 0);
     const size_t end = std::min(lay.vertices, (c + 1) * kChunk);
@@ -86,20 +84,11 @@ DirectBounce::DirectBounce(const Scene& scene, const BounceSettings& settings)
     for (size_t v = c * kChunk; v < end; ++v) {
       const VertexSampler sampler(b.origins[v], normalOf(scene, lay, v), settings.seed, v, b.tnear);
       uint64_t* mask = &esc[(v - c * kChunk) * words];
-      for (uint32_t first = 0; first < K; first += kStream) {
-        const uint32_t count = std::min(kStream, K - first);
-        for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
-        rays.intersect(batch, count);
-        for (uint32_t j = 0; j < count; ++j) {
-          if (!batch[j].hit()) {
-            mask[(first + j) / 64] |= uint64_t(1) << ((first + j) % 64);
-            continue;
-          }
-          if (settings.bounces == 0) continue;
-          const uint32_t tri = recordedTriangle(lay, batch[j]);
-          if (tri != Layout::kNone) ch.hits.push_back({tri, quantise(batch[j].u), quantise(batch[j].v)});
-        }
-      }
+      traceGatherRays(
+          rays, lay, sampler, K, [&](uint32_t j, const Ray&) { mask[j / 64] |= uint64_t(1) << (j % 64); },
+          [&](uint32_t tri, uint16_t b1, uint16_t b2) {
+            if (settings.bounces > 0) ch.hits.push_back({tri, b1, b2});
+          });
       ch.begin.push_back(uint32_t(ch.hits.size()));
     }
     ch.hits.shrink_to_fit();

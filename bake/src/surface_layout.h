@@ -18,6 +18,7 @@
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_layout.h"
 #include "prt/scene.h"
+#include "vertex_rays.h"
 
 namespace prt::bake {
 
@@ -54,6 +55,31 @@ inline uint32_t recordedTriangle(const Layout& lay, const Ray& ray) {
   if (!ray.backface()) return lay.triOffset[ray.mesh] + ray.tri;
   const uint32_t b = lay.backTriOffset[ray.mesh];
   return b == Layout::kNone ? Layout::kNone : b + ray.tri;
+}
+
+// A vertex side's first K gather rays, exactly as the bake casts them (`sampler`), traced in
+// streams: escaped(j, ray) for each ray that leaves the scene, hit(triangle, b1, b2) for each
+// one that lands on a recorded triangle (recordedTriangle; barycentrics quantised as a
+// HitRecord keeps them). The gather at relight time and the bounce operator read them so.
+template <class Escaped, class Hit>
+void traceGatherRays(const RayScene& rays, const Layout& lay, const VertexSampler& sampler, uint32_t K,
+                     Escaped&& escaped, Hit&& hit) {
+  constexpr uint32_t kStream = 256;
+  alignas(64) Ray batch[kStream];
+  for (uint32_t first = 0; first < K; first += kStream) {
+    const uint32_t count = std::min(kStream, K - first);
+    for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
+    rays.intersect(batch, count);
+    for (uint32_t j = 0; j < count; ++j) {
+      const Ray& r = batch[j];
+      if (!r.hit()) {
+        escaped(first + j, r);
+        continue;
+      }
+      const uint32_t tri = recordedTriangle(lay, r);
+      if (tri != Layout::kNone) hit(tri, quantise(r.u), quantise(r.v));
+    }
+  }
 }
 
 }  // namespace prt::bake

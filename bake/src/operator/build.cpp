@@ -36,8 +36,6 @@ namespace {
 
 using op::Tree;
 
-constexpr uint32_t kStream = 256;
-
 struct Entry {
   uint32_t leaf;
   float w;
@@ -188,30 +186,22 @@ struct Trace {
   // one-sided face sends nothing.
   void gather(size_t v, std::vector<Entry>& out) const {
     out.clear();
-    alignas(64) Ray batch[kStream];
     const VertexSampler sampler(origins[v], normalOf(scene, lay, v), seed, v, tnear);
     const float w = 1.0f / float(K);
-    for (uint32_t first = 0; first < K; first += kStream) {
-      const uint32_t count = std::min(kStream, K - first);
-      for (uint32_t j = 0; j < count; ++j) sampler.make(first + j, batch[j]);
-      rays.intersect(batch, count);
-      for (uint32_t j = 0; j < count; ++j) {
-        const Ray& r = batch[j];
-        if (!r.hit()) {
+    traceGatherRays(
+        rays, lay, sampler, K,
+        [&](uint32_t, const Ray& r) {
           splatSky(r.dir, op.skyWidth, op.skyHeight, [&](uint32_t bin, float share) {
             out.push_back({tree.skyLeafOfBin[bin], w * share});
           });
-          continue;
-        }
-        const uint32_t tri = recordedTriangle(lay, r);
-        if (tri == Layout::kNone) continue;
-        const float b1 = quantise(r.u) / 65535.0f, b2 = quantise(r.v) / 65535.0f;
-        const uint32_t* tv = &lay.triVerts[3 * size_t(tri)];
-        out.push_back({tree.clusterOf[tv[0]], w * (1.0f - b1 - b2)});
-        out.push_back({tree.clusterOf[tv[1]], w * b1});
-        out.push_back({tree.clusterOf[tv[2]], w * b2});
-      }
-    }
+        },
+        [&](uint32_t tri, uint16_t q1, uint16_t q2) {
+          const float b1 = q1 / 65535.0f, b2 = q2 / 65535.0f;
+          const uint32_t* tv = &lay.triVerts[3 * size_t(tri)];
+          out.push_back({tree.clusterOf[tv[0]], w * (1.0f - b1 - b2)});
+          out.push_back({tree.clusterOf[tv[1]], w * b1});
+          out.push_back({tree.clusterOf[tv[2]], w * b2});
+        });
     mergeEntries(out);
   }
 };
