@@ -1,17 +1,19 @@
-// The direct-to-indirect operator a bake stores beside its transfer (docs/lights.md, "Their
-// bounces"; its bytes: docs/formats.md, "The bounce operator"). It maps the light that arrives
+// The direct-to-indirect operator a bake stores beside its transfer (docs/lights.md, "The bounce
+// operator"; its bytes: docs/formats.md, "The bounce operator"). It maps the light that arrives
 // directly at the baked surfaces (suns and disks with their shadows, the sky's detail beyond the
 // SH band limit) to the light those surfaces send on, at every baked vertex side, after the
-// bake's bounce count:
-//   E_b(v) = Σ_{entries (n, w) of v's row} w · value(n)
-// over a tree of nodes. Its leaves are surface clusters (patches of a few vertex sides of similar
-// position and normal) and sky bins (cells of an equirectangular grid of world directions); an
-// inner node stands for the leaves below it, its value their area-weighted (solid-angle-weighted)
-// mean. A row is one vertex side's gather rays (the bake's first `samples` rays): the share that
-// hits each cluster or escapes through each bin, with far or faint shares merged into the
-// coarsest node that keeps the row within its length. A cluster's own row carries the higher
-// bounces (cluster to cluster). What the values are at each light change is prt::bake's
-// (prt/bake/operator_lighting.h); this header says what the operator is, and checks it.
+// bake's bounce count, as sparse rows over a tree of nodes:
+//   E(row) = Σ_{entries (n, w) of the row} w · value(n).
+// Its leaves are surface clusters (patches of a few vertex sides of similar position and
+// normal) and sky bins (cells of an equirectangular grid of world directions); an inner node
+// stands for the leaves below it, its value their area-weighted (solid-angle-weighted) mean.
+// A cluster's row is its members' gather rays (the bake's first `samples` rays of each): the
+// share that hits each cluster or escapes through each bin, with far or faint shares merged into
+// the coarsest node that keeps the row within its length. Cluster rows carry the bounces after
+// the first (cluster to cluster) and what a cluster's vertex sides receive; a vertex side whose
+// view differs from its cluster's has a row of its own instead. What the values are at each
+// light change, and how a vertex side shares its cluster's light, is prt::bake's
+// (prt/bake/bounce_operator.h); this header says what the operator is, and checks it.
 #pragma once
 
 #include <cstdint>
