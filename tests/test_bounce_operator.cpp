@@ -132,17 +132,17 @@ Spread spread(const std::vector<glm::vec3>& a, const std::vector<glm::vec3>& r) 
   return {e[e.size() / 2], e[size_t(0.95 * double(e.size() - 1))]};
 }
 
-// The stored operator (defaults: clusters of up to 8 vertex sides, cluster rows of 96 entries,
-// rows of 16 of their own for the vertex sides whose view differs from their cluster's) against
-// the uncompressed one, under a sun shining into the cavity at 30° off its axis: a sharp lit
-// patch, the hard case. The stored one bounces the sun's SH through the bake's own transfer and
-// only the rest through the operator (a control variate), as `prt relight` does. What it gives
-// up is where within a cluster and within a merged node the light lands. Measured over the lit
-// sides: median 3.3%, p95 32% of the mean bounce; the cavity's own sides are off by 3% on
-// average, the tail is the slab's underside, 0.1 above the floor in the shadow it casts, where
-// the bounce changes across a few vertices (12% on average over the slab's sides). Without the
-// control variate: median 9%, p95 48%. The bounds (5%, 40%) hold the measured accuracy and catch
-// a lost control variate, a row that loses weight or lands it on the wrong node.
+// The stored operator (defaults: clusters of up to 8 vertex sides, cluster rows of 96 entries and
+// two gradient rows of 24, no rows of their own) against the uncompressed one, under a sun
+// shining into the cavity at 30° off its axis: a sharp lit patch, the hard case. The stored one
+// bounces the sun's SH through the bake's own transfer and only the rest through the operator (a
+// control variate), as `prt relight` does. What it gives up is where within a cluster and within
+// a merged node the light lands. Measured over the lit sides: median 2.7%, p95 38% of the mean
+// bounce; the tail is the slab's underside, 0.1 above the floor in the shadow it casts, where the
+// bounce changes across a few vertices. Without the control variate: median 5%, p95 51%. The
+// bounds (5%, 45%) hold the measured accuracy and catch a lost control variate, a row that
+// loses weight or lands it on the wrong node. With rows of their own asked for, some vertex
+// sides (near the slab, where the walls meet it) keep one, and not many.
 TEST(BounceOperator, CompressedStaysNearTheUncompressed) {
   Scene s = colouredRoom(24, 48);
   bakeScene(s, 256, 3, 7);
@@ -152,13 +152,19 @@ TEST(BounceOperator, CompressedStaysNearTheUncompressed) {
     return bake::buildBounceOperator(s, one, 3, 7, true);
   }();
   const BounceOperator op = bake::buildBounceOperator(s, bake::OperatorSettings{}, 3, 7);
-  // Few vertex sides keep rows of their own (those near the slab and where the walls meet it).
-  size_t own = 0;
-  for (size_t v = 0; v < op.vertexRows.rows(); ++v) own += op.vertexRows.start[v + 1] > op.vertexRows.start[v];
-  std::printf("[ measured ] %zu of %u vertex sides keep rows of their own\n", own, op.vertexSides);
-  EXPECT_GT(own, 0u);
-  EXPECT_LT(own, size_t(op.vertexSides) / 4);
+  EXPECT_EQ(op.vertexRows.entries(), 0u);
   EXPECT_LE(op.clusters, op.vertexSides / 2);
+  {
+    bake::OperatorSettings withOwn;
+    withOwn.rowLength = 16;
+    const BounceOperator o = bake::buildBounceOperator(s, withOwn, 3, 7);
+    size_t own = 0;
+    for (size_t v = 0; v < o.vertexRows.rows(); ++v) own += o.vertexRows.start[v + 1] > o.vertexRows.start[v];
+    std::printf("[ measured ] with rows of their own asked for: %zu of %u vertex sides keep one\n", own,
+                o.vertexSides);
+    EXPECT_GT(own, 0u);
+    EXPECT_LT(own, size_t(o.vertexSides) / 4);
+  }
   DirectLight sun;
   sun.direction = glm::normalize(glm::dvec3(0.5, 0.866, 0.0));
   sun.irradiance = glm::dvec3(3.0, 2.5, 2.0);
@@ -174,7 +180,7 @@ TEST(BounceOperator, CompressedStaysNearTheUncompressed) {
                 op.clusters);
     if (directSh) {
       EXPECT_LT(d.median, 0.05);
-      EXPECT_LT(d.p95, 0.40);
+      EXPECT_LT(d.p95, 0.45);
     }
   }
 }
@@ -280,6 +286,10 @@ TEST(BounceOperator, PackedBytesAreCheckedWhenRead) {
   EXPECT_EQ(back.vertexRows.node, op.vertexRows.node);
   EXPECT_EQ(back.vertexRows.weight, op.vertexRows.weight);
   EXPECT_EQ(back.clusterRows.start, op.clusterRows.start);
+  EXPECT_GT(op.clusterGradients.entries(), 0u);
+  EXPECT_EQ(back.clusterGradients.start, op.clusterGradients.start);
+  EXPECT_EQ(back.clusterGradients.node, op.clusterGradients.node);
+  EXPECT_EQ(back.clusterGradients.weight, op.clusterGradients.weight);
   EXPECT_EQ(back.children, op.children);
   EXPECT_EQ(packOperator(back).bytes, p.bytes);
   auto refused = [&](const std::string& header, std::vector<uint8_t> bytes) -> std::string {
@@ -295,9 +305,9 @@ TEST(BounceOperator, PackedBytesAreCheckedWhenRead) {
   std::vector<uint8_t> flipped = p.bytes;
   flipped[flipped.size() / 2] ^= 0x10;
   EXPECT_NE(refused(p.header, flipped).find("checksum"), std::string::npos);
-  std::string v2 = p.header;
-  v2.replace(v2.find("\"version\":1"), 11, "\"version\":2");
-  EXPECT_NE(refused(v2, p.bytes).find("version 2"), std::string::npos) << refused(v2, p.bytes);
+  std::string v3 = p.header;
+  v3.replace(v3.find("\"version\":2"), 11, "\"version\":3");
+  EXPECT_NE(refused(v3, p.bytes).find("version 3"), std::string::npos) << refused(v3, p.bytes);
   EXPECT_NE(refused("{", p.bytes).find("not JSON"), std::string::npos);
 }
 

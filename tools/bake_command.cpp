@@ -337,6 +337,12 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                                             "gather, and the bounces after the first), at most")
                                 ->check(CLI::Range(1, BounceOperator::kMaxRowLength))
                                 ->capture_default_str();
+  CLI::Option* gradient =
+      bake.add_option("--operator-gradient", o.gradientRowLength,
+                      "Entries per row of each of a cluster's two gradients (how its vertex sides' light changes "
+                      "across it), at most (0: none, each takes its cluster's mean)")
+          ->check(CLI::Range(0, BounceOperator::kMaxRowLength))
+          ->capture_default_str();
   CLI::Option* points = bake.add_option("--operator-points", o.samplePoints,
                                         "Shadow-ray points per cluster with which `prt render` takes the direct "
                                         "lights' light at the clusters (one ray per light and point)")
@@ -349,7 +355,7 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                     "products instead of tracing the bake's rays again (milliseconds a light change, "
                     "at the accuracy docs/validation.md measures)");
   on->excludes(unshadowed);
-  for (CLI::Option* x : {rays, cluster, row, clusterRow, points}) {
+  for (CLI::Option* x : {rays, cluster, row, clusterRow, gradient, points}) {
     x->needs(on);
     x->excludes(unshadowed);
   }

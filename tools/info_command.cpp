@@ -72,10 +72,11 @@ void infoGlb(const std::string& path) {
     for (size_t v = 0; v < op->vertexRows.rows(); ++v) own += op->vertexRows.start[v + 1] > op->vertexRows.start[v];
     std::printf(
         "  operator    version %d: %u clusters of up to %d vertex sides, %zu cluster entries (up to %d a row), %zu "
-        "of %u vertex sides with rows of their own (%zu entries), %d x %d sky bins, %d rays per vertex side, %d "
-        "bounces\n",
-        BounceOperator::kVersion, op->clusters, op->clusterSize, op->clusterRows.entries(), op->clusterRowLength, own,
-        op->vertexSides, op->vertexRows.entries(), op->skyWidth, op->skyHeight, op->samples, op->bounces);
+        "gradient entries (up to %d a row), %zu of %u vertex sides with rows of their own (%zu entries), %d x %d "
+        "sky bins, %d rays per vertex side, %d bounces\n",
+        op->version, op->clusters, op->clusterSize, op->clusterRows.entries(), op->clusterRowLength,
+        op->clusterGradients.entries(), op->gradientRowLength, own, op->vertexSides, op->vertexRows.entries(),
+        op->skyWidth, op->skyHeight, op->samples, op->bounces);
   } else if (baked > 0) {
     std::printf("  operator    none (prt render and prt relight trace the bake's rays again; bake with --operator)\n");
   }

@@ -2,6 +2,8 @@
 // then every vertex side's gather rays, traced once, each row compressed as soon as it is made
 // so that no hit record outlives its vertex.
 #include <algorithm>
+#include <array>
+#include <cstdlib>
 #include <cmath>
 #include <queue>
 
@@ -14,6 +16,7 @@
 #include "prt/bake/bounce_operator.h"
 #include "prt/error.h"
 #include "prt/light.h"
+#include "training.h"
 #include "tree.h"
 
 namespace prt::bake {
@@ -26,6 +29,7 @@ void validate(const OperatorSettings& s) {
   within("operator cluster size", s.clusterSize, 1, 65536);
   within("operator row length", s.rowLength, 0, BounceOperator::kMaxRowLength);
   within("operator cluster row length", s.clusterRowLength, 1, BounceOperator::kMaxRowLength);
+  within("operator gradient row length", s.gradientRowLength, 0, BounceOperator::kMaxRowLength);
   within("operator sky bins across", s.skyWidth, 1, 1024);
   within("operator sky bins down", s.skyHeight, 1, 1024);
   within("operator sample points", s.samplePoints, 1, 64);
@@ -54,18 +58,21 @@ void mergeEntries(std::vector<Entry>& e) {
   e.resize(out);
 }
 
-// A row over the tree from merged leaf entries: top-down from the two roots, each time the
-// node whose weight times angular size (what merging below it risks) is largest is split into
-// its children, until the row is `maxLength` long or holds only leaves. Single-child chains
-// are walked down for free. Weight is kept exactly: each entry holds its node's whole share.
+// A row over the tree from merged leaf entries, cut top-down: from the two roots, each time the
+// node whose entry would be wrongest under the training lights (training.h) is split into its
+// children, until the row is `maxLength` long or holds only leaves. A node's error is the mean
+// over the lights of |Σ its leaves' weight · value − its weight · its value|: what standing for
+// its leaves by their mean costs this row. (A row of signed weights, a gradient, is cut alike.)
+// Single-child chains are walked down for free. Weight is kept exactly: each entry holds its
+// node's whole share.
 class RowMaker {
  public:
-  RowMaker(const BounceOperator& o, const Tree& t, const std::vector<uint8_t>& sky) : op_(o), t_(t), sky_(sky) {}
+  static constexpr int K = op::Training::kLights;
+  RowMaker(const BounceOperator& o, const Tree& t, const std::vector<uint8_t>& sky, const op::Training& tr)
+      : op_(o), t_(t), sky_(sky), tr_(tr) {}
 
   std::vector<Entry> make(const std::vector<Entry>& leaves, const glm::vec3& x, size_t maxLength) {
-    e_ = &leaves;
-    prefix_.assign(leaves.size() + 1, 0.0);
-    for (size_t i = 0; i < leaves.size(); ++i) prefix_[i + 1] = prefix_[i] + double(leaves[i].w);
+    setRow(leaves);
     std::priority_queue<Item> heap;
     for (uint32_t root : {op_.surfaceRoot, op_.skyRoot})
       if (count(root) > 0) heap.push(item(descend(root), x));
@@ -83,12 +90,34 @@ class RowMaker {
     return done;
   }
 
+  /// Under each training light, what `row` (over the tree) gathers from surfaces and from the
+  /// sky apart, each as K values.
+  void values(const std::vector<Entry>& row, std::array<double, K>& surface, std::array<double, K>& sky) const {
+    surface.fill(0.0), sky.fill(0.0);
+    for (const Entry& e : row) {
+      const float* v = tr_.of(e.leaf);
+      std::array<double, K>& to = sky_[e.leaf] ? sky : surface;
+      for (int k = 0; k < K; ++k) to[size_t(k)] += double(e.w) * v[k];
+    }
+  }
+
  private:
   struct Item {
     float priority;
     uint32_t node;
     bool operator<(const Item& o) const { return priority < o.priority || (priority == o.priority && node > o.node); }
   };
+  void setRow(const std::vector<Entry>& leaves) {
+    e_ = &leaves;
+    prefix_.assign((leaves.size() + 1) * (K + 1), 0.0);
+    for (size_t i = 0; i < leaves.size(); ++i) {
+      const double* p = &prefix_[i * (K + 1)];
+      double* q = &prefix_[(i + 1) * (K + 1)];
+      const float* v = tr_.of(leaves[i].leaf);
+      q[0] = p[0] + double(leaves[i].w);
+      for (int k = 0; k < K; ++k) q[k + 1] = p[k + 1] + double(leaves[i].w) * v[k];
+    }
+  }
   bool isLeaf(uint32_t n) const { return n < op_.leaves(); }
   std::pair<size_t, size_t> range(uint32_t n) const {
     auto lo =
@@ -102,7 +131,7 @@ class RowMaker {
   }
   double weight(uint32_t n) const {
     const auto [a, b] = range(n);
-    return prefix_[b] - prefix_[a];
+    return prefix_[b * (K + 1)] - prefix_[a * (K + 1)];
   }
   uint32_t descend(uint32_t n) const {
     while (!isLeaf(n)) {
@@ -113,24 +142,27 @@ class RowMaker {
     }
     return n;
   }
-  // A node's risk, per unit of its weight: mergeRisk, plus the evidence that the row does not
-  // see all of it. Were its m leaves all in view, the K·w rays that reached it would have
-  // touched a share of about 1 − exp(−K·w/m) of them; a row that touched far fewer (the two
-  // sides of a slab, a wall behind another) would average light it cannot see.
+  // A node's error under the training lights; a geometric term a thousand times smaller
+  // (mergeRisk: its angular size and normal spread, per unit of weight) orders the nodes that
+  // no training light tells apart.
   Item item(uint32_t n, const glm::vec3& x) const {
     if (isLeaf(n)) return {-1.0f, n};
-    const double w = weight(n);
-    const double m = double(t_.leafHi[n] - t_.leafLo[n]);
-    const double expected = 1.0 - std::exp(-double(op_.samples) * w / m);
-    const double unseen = std::max(0.0, expected - double(count(n)) / m);
-    return {float(w * (double(op::mergeRisk(t_, n, sky_[n] != 0, x)) + unseen)), n};
+    const auto [a, b] = range(n);
+    const double* p = &prefix_[a * (K + 1)];
+    const double* q = &prefix_[b * (K + 1)];
+    const double w = q[0] - p[0];
+    const float* v = tr_.of(n);
+    double err = 0.0;
+    for (int k = 0; k < K; ++k) err += std::fabs(q[k + 1] - p[k + 1] - w * double(v[k]));
+    return {float(err / K + 1e-3 * std::fabs(w) * double(op::mergeRisk(t_, n, sky_[n] != 0, x))), n};
   }
 
   const BounceOperator& op_;
   const Tree& t_;
   const std::vector<uint8_t>& sky_;
+  const op::Training& tr_;
   const std::vector<Entry>* e_ = nullptr;
-  std::vector<double> prefix_;
+  std::vector<double> prefix_;  // per row entry i: Σ_{j<i} w_j, then Σ_{j<i} w_j · value_k(j) for each light k
 };
 
 // Vertex sides as the clustering sees them: position, side normal, a third of the area of each
@@ -206,36 +238,49 @@ struct Trace {
   }
 };
 
-// The resolution at which a vertex's view is compared with its cluster's, and how different it
-// must be to keep a row of its own. Two gathers of 256 rays of one view differ by a total
-// variation of about 0.1 over 16 nodes (Σ √(p/K) · √(2/π) / 2), so 0.25 is a real difference: a
-// different near field.
-constexpr size_t kCompareLength = 16;
-constexpr double kOwnRowDivergence = 0.25;
+// A vertex side keeps a row of its own (where rows of their own are asked for) when its cluster's
+// light, shaded by its transfer shares and placed on the cluster's plane, misses what its own
+// gather receives under the training lights by more than this share of the light it gets.
+constexpr double kOwnRowError = 0.05;
 
-// The total variation distance between a vertex's gather (leaf entries) and a row over the
-// tree: ½ Σ over the row's nodes of |the vertex's weight below the node − the row's|, the
-// vertex's weight outside every node counted whole.
-double divergence(const std::vector<Entry>& leaves, const std::vector<Entry>& row, const Tree& t) {
-  struct Range {
-    uint32_t lo, hi;
-    double row, mine;
-  };
-  std::vector<Range> ranges;
-  for (const Entry& e : row) ranges.push_back({t.leafLo[e.leaf], t.leafHi[e.leaf], e.w, 0.0});
-  std::sort(ranges.begin(), ranges.end(), [](const Range& a, const Range& b) { return a.lo < b.lo; });
-  double outside = 0.0;
-  for (const Entry& x : leaves) {
-    auto it =
-        std::upper_bound(ranges.begin(), ranges.end(), x.leaf, [](uint32_t v, const Range& r) { return v < r.lo; });
-    if (it != ranges.begin() && x.leaf < (it - 1)->hi)
-      (it - 1)->mine += x.w;
-    else
-      outside += x.w;
+void storeGradients(BounceOperator::SignedRows& rows, const std::vector<std::vector<Entry>>& made) {
+  rows.start.assign(1, 0);
+  rows.node.clear(), rows.weight.clear();
+  for (const std::vector<Entry>& row : made) {
+    for (const Entry& e : row) {
+      const long q = std::clamp<long>(std::lround(double(e.w) * BounceOperator::kGradientOne), -32767, 32767);
+      if (q == 0) continue;
+      rows.node.push_back(e.leaf);
+      rows.weight.push_back(int16_t(q));
+    }
+    rows.start.push_back(uint32_t(rows.node.size()));
   }
-  double d = outside;
-  for (const Range& r : ranges) d += std::fabs(r.mine - r.row);
-  return 0.5 * d;
+}
+
+// The least-squares plane through a cluster's member gathers (`raw`, with their area shares and
+// their places `st` in the cluster's frame, centred there): its two gradients, as leaf entries.
+void planeOf(const std::vector<std::vector<Entry>>& raw, const std::vector<float>& share,
+             const std::vector<glm::vec2>& st, std::vector<Entry>& gu, std::vector<Entry>& gv) {
+  gu.clear(), gv.clear();
+  double m00 = 0.0, m01 = 0.0, m11 = 0.0;
+  for (size_t i = 0; i < share.size(); ++i) {
+    m00 += double(share[i]) * st[i].x * st[i].x;
+    m01 += double(share[i]) * st[i].x * st[i].y;
+    m11 += double(share[i]) * st[i].y * st[i].y;
+  }
+  const double reg = 1e-3 * (m00 + m11);
+  const double det = (m00 + reg) * (m11 + reg) - m01 * m01;
+  if (!(m00 + m11 > 1e-6) || !(det > 0.0)) return;
+  const double i00 = (m11 + reg) / det, i01 = -m01 / det, i11 = (m00 + reg) / det;
+  for (size_t i = 0; i < share.size(); ++i) {
+    const double cu = share[i] * (i00 * st[i].x + i01 * st[i].y), cv = share[i] * (i01 * st[i].x + i11 * st[i].y);
+    for (const Entry& x : raw[i]) {
+      gu.push_back({x.leaf, float(x.w * cu)});
+      gv.push_back({x.leaf, float(x.w * cv)});
+    }
+  }
+  mergeEntries(gu);
+  mergeEntries(gv);
 }
 
 void storeRows(BounceOperator::Rows& rows, const std::vector<std::vector<Entry>>& made) {
@@ -263,46 +308,76 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
   BounceOperator op;
   op.samples = s.samples, op.bounces = bounces, op.seed = seed;
   op.clusterSize = s.clusterSize, op.rowLength = s.rowLength, op.clusterRowLength = s.clusterRowLength;
+  op.gradientRowLength = s.gradientRowLength;
   op.skyWidth = s.skyWidth, op.skyHeight = s.skyHeight, op.samplePoints = s.samplePoints;
   op.vertexSides = uint32_t(lay.vertices);
+  const RayScene rays(scene);
+  const std::vector<glm::vec3> origins = rayOrigins(scene, lay, rays.sceneExtent());
+  const op::SideTraining sideTraining = op::trainSides(scene, lay, rays, origins);
   const std::vector<op::SidePoint> sides = sidePoints(scene, lay);
   const Tree tree = op::buildTree(op, sides);
   const std::vector<uint8_t> sky = skyNodeMask(op);
-  const RayScene rays(scene);
-  const std::vector<glm::vec3> origins = rayOrigins(scene, lay, rays.sceneExtent());
   const Trace trace{scene, lay, tree, op, rays, origins, tnearFor(rays.sceneExtent()), seed, uint32_t(s.samples)};
+  std::vector<float> area(sides.size());
+  for (size_t v = 0; v < sides.size(); ++v) area[v] = sides[v].area;
+  const op::Training training = op::trainNodes(scene, op, sideTraining, area);
+  const op::TransferShares shares = op::transferShares(scene, lay, op, area);
+  const std::vector<glm::vec2> st = op::clusterCoordinates(scene, lay, op, area);
+  const size_t gradientLength = uncompressed ? SIZE_MAX : size_t(s.gradientRowLength);
   const size_t vertexLength = uncompressed ? SIZE_MAX : size_t(s.rowLength);
   const size_t clusterLength = uncompressed ? SIZE_MAX : size_t(s.clusterRowLength);
-  std::vector<std::vector<Entry>> vertexRows(lay.vertices), clusterRows(op.clusters);
+  std::vector<std::vector<Entry>> vertexRows(lay.vertices), clusterRows(op.clusters), gradients(2 * op.clusters);
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, op.clusters, 4), [&](const tbb::blocked_range<uint32_t>& r) {
-    RowMaker maker(op, tree, sky);
+    RowMaker maker(op, tree, sky, training);
     std::vector<std::vector<Entry>> raw;
     std::vector<Entry> all;
+    std::array<double, RowMaker::K> surface, fromSky, ownSurface, ownSky, su, ku, sv, kv;
+    std::vector<float> memberShare;
+    std::vector<glm::vec2> memberSt;
+    std::vector<Entry> gu, gv;
     for (uint32_t c = r.begin(); c != r.end(); ++c) {
       all.clear();
       const uint32_t b = op.memberStart[c], e = op.memberStart[c + 1];
-      const float area = op.leafWeight[c];
+      const float clusterArea = op.leafWeight[c];
       raw.resize(std::max<size_t>(raw.size(), e - b));
+      memberShare.clear(), memberSt.clear();
       for (uint32_t i = b; i < e; ++i) {
         const uint32_t v = op.members[i];
         trace.gather(v, raw[i - b]);
         // The cluster's gather: its members' area-weighted mean (the plain mean without area).
-        const float share = area > 1e-30f ? sides[v].area / area : 1.0f / float(e - b);
+        const float share = clusterArea > 1e-30f ? area[v] / clusterArea : 1.0f / float(e - b);
         for (const Entry& x : raw[i - b]) all.push_back({x.leaf, x.w * share});
+        memberShare.push_back(share), memberSt.push_back(st[v]);
       }
       mergeEntries(all);
       clusterRows[c] = maker.make(all, tree.center[c], clusterLength);
+      if (gradientLength > 0) {
+        planeOf(raw, memberShare, memberSt, gu, gv);
+        gradients[2 * c] = maker.make(gu, tree.center[c], gradientLength);
+        gradients[2 * c + 1] = maker.make(gv, tree.center[c], gradientLength);
+      }
       if (vertexLength == 0) continue;
-      // A member whose own view differs from its cluster's (near another surface, at a corner)
-      // keeps a row of its own; the others take the cluster's light.
-      const std::vector<Entry> coarse = maker.make(all, tree.center[c], kCompareLength);
-      for (uint32_t i = b; i < e; ++i)
-        if (uncompressed || divergence(raw[i - b], coarse, tree) > kOwnRowDivergence)
-          vertexRows[op.members[i]] = maker.make(raw[i - b], sides[op.members[i]].position, vertexLength);
+      // A member whose own gather the cluster's light (shaded by its shares) misses under the
+      // training lights (near another surface, at a corner) keeps a row of its own.
+      maker.values(clusterRows[c], surface, fromSky);
+      maker.values(gradients[2 * c], su, ku);
+      maker.values(gradients[2 * c + 1], sv, kv);
+      for (uint32_t i = b; i < e; ++i) {
+        const uint32_t v = op.members[i];
+        maker.values(raw[i - b], ownSurface, ownSky);
+        double err = 0.0;
+        const double bs = shares.bounce[v], ss = shares.sky[v];
+        for (size_t k = 0; k < size_t(RowMaker::K); ++k)
+          err += std::fabs(ownSurface[k] + ownSky[k] - bs * (surface[k] + st[v].x * su[k] + st[v].y * sv[k]) -
+                           ss * (fromSky[k] + st[v].x * ku[k] + st[v].y * kv[k]));
+        if (uncompressed || err / RowMaker::K > kOwnRowError * sideTraining.scale[v])
+          vertexRows[v] = maker.make(raw[i - b], sides[v].position, vertexLength);
+      }
     }
   });
   storeRows(op.vertexRows, vertexRows);
   storeRows(op.clusterRows, clusterRows);
+  if (gradientLength > 0) storeGradients(op.clusterGradients, gradients);
   return op;
 }
 

@@ -13,6 +13,7 @@
 #include "prt/error.h"
 #include "prt/light.h"
 #include "prt/math.h"
+#include "training.h"
 #include "tree.h"
 
 namespace prt::bake {
@@ -50,6 +51,11 @@ struct OperatorLighting::Impl {
   // cluster's mean, by its own transfer (below).
   std::vector<float> bounceShare, skyShare;
   std::vector<float> area;  // per vertex side, for a cluster's mean of its members' light
+  // Per vertex side: its place in its cluster's frame (op::clusterCoordinates), and per
+  // cluster gradient row what it gathers from surfaces and from the sky.
+  std::vector<glm::vec2> st;
+  std::vector<glm::vec3> gradientBounce, gradientSky;
+
   PrefilteredSky filtered;
   std::vector<glm::vec3> skyValue, bounced, next, total, clusterE0;
   OperatorTimes times;
@@ -65,7 +71,9 @@ struct OperatorLighting::Impl {
     clusterOf.assign(op.vertexSides, 0);
     for (uint32_t c = 0; c < op.clusters; ++c)
       for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) clusterOf[op.members[i]] = c;
-    shares();
+    const op::TransferShares sh = op::transferShares(s, lay, o, area);
+    bounceShare = sh.bounce, skyShare = sh.sky;
+    if (!o.clusterGradients.start.empty()) st = op::clusterCoordinates(s, lay, o, area);
     if (!traceShadows) return;
     rays.emplace(s);
     const std::vector<glm::vec3> origins = rayOrigins(s, lay, rays->sceneExtent());
@@ -80,29 +88,8 @@ struct OperatorLighting::Impl {
     }
   }
 
-  // t⁰ · l and (t − t⁰) · l at vertex side v (0 where the instance has no direct part).
-  glm::vec3 shDirect(size_t v, const sh::ShRgb& l) const {
-    const MeshInstance& m = scene.meshes[lay.meshOfVertex[v]];
-    if (!m.hasDirectTransfer()) return glm::vec3(0.0f);
-    const int bands = scene.transferBands, n2 = std::min(bands * bands, int(l.c.size()));
-    const float* t0 = m.directTransferOf(lay.localVertex(v), bands, lay.isBack(v));
-    glm::vec3 e(0.0f);
-    for (int i = 0; i < n2; ++i) e += t0[i] * l.c[size_t(i)];
-    return e;
-  }
-  glm::vec3 shBounced(size_t v, const sh::ShRgb& l) const {
-    const MeshInstance& m = scene.meshes[lay.meshOfVertex[v]];
-    if (!m.hasDirectTransfer()) return glm::vec3(0.0f);
-    const int bands = scene.transferBands, n2 = std::min(bands * bands, int(l.c.size()));
-    const bool back = lay.isBack(v);
-    const size_t local = lay.localVertex(v);
-    if (back && !m.hasBackTransfer()) return glm::vec3(0.0f);
-    const glm::vec3* t = back ? m.backTransferOf(local, bands) : m.transferOf(local, bands);
-    const float* t0 = m.directTransferOf(local, bands, back);
-    glm::vec3 e(0.0f);
-    for (int i = 0; i < n2; ++i) e += (t[i] - glm::vec3(t0[i])) * l.c[size_t(i)];
-    return e;
-  }
+  glm::vec3 shDirect(size_t v, const sh::ShRgb& l) const { return op::shDirect(scene, lay, v, l); }
+  glm::vec3 shBounced(size_t v, const sh::ShRgb& l) const { return op::shBounced(scene, lay, v, l); }
 
   // Inner nodes of one tree (sky or surface) as the weighted means of their children.
   void aggregate(std::vector<glm::vec3>& v, bool ofSky) const {
@@ -166,35 +153,6 @@ struct OperatorLighting::Impl {
       if (sky[n]) total[n] = skyValue[n];
   }
 
-  // A vertex side without a row of its own takes its cluster's light, shaded by its own
-  // transfer: the bounced part by its share of the cluster's bounced transfer under a uniform
-  // sky (coefficient 0 of t − t⁰: how much of its hemisphere other surfaces fill, so a vertex in
-  // a corner gets more and one on an edge less), the sky detail by its share of the cluster's
-  // visible sky (coefficient 0 of t⁰). Each share is the vertex's over the cluster's
-  // area-weighted mean, so the cluster's light is kept; without transfer, 1.
-  void shares() {
-    bounceShare.assign(op.vertexSides, 1.0f);
-    skyShare.assign(op.vertexSides, 1.0f);
-    auto lum = [](const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; };
-    sh::ShRgb white(scene.transferBands > 0 ? scene.transferBands : 1);
-    white.c[0] = glm::vec3(1.0f);
-    std::vector<float> b(op.vertexSides), d(op.vertexSides);
-    for (size_t v = 0; v < op.vertexSides; ++v) b[v] = lum(shBounced(v, white)), d[v] = lum(shDirect(v, white));
-    for (uint32_t c = 0; c < op.clusters; ++c) {
-      double sb = 0.0, sd = 0.0, w = 0.0;
-      for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) {
-        const uint32_t v = op.members[i];
-        sb += double(area[v]) * b[v], sd += double(area[v]) * d[v], w += area[v];
-      }
-      if (!(w > 0.0)) continue;
-      for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) {
-        const uint32_t v = op.members[i];
-        if (sb > 0.0) bounceShare[v] = float(b[v] * w / sb);
-        if (sd > 0.0) skyShare[v] = float(d[v] * w / sd);
-      }
-    }
-  }
-
   // What each cluster gathers, from the surfaces and from the sky apart, for the vertex sides
   // without a row of their own.
   void clusterLights() {
@@ -208,6 +166,17 @@ struct OperatorLighting::Impl {
       }
       clusterBounce[c] = surface * kUnit, clusterSky[c] = fromSky * kUnit;
     });
+    const BounceOperator::SignedRows& g = op.clusterGradients;
+    if (g.start.empty()) return;
+    gradientBounce.assign(g.rows(), glm::vec3(0.0f));
+    gradientSky.assign(g.rows(), glm::vec3(0.0f));
+    tbb::parallel_for(size_t(0), g.rows(), [&](size_t r) {
+      glm::vec3 surface(0.0f), fromSky(0.0f);
+      for (uint32_t e = g.start[r]; e < g.start[r + 1]; ++e)
+        (sky[g.node[e]] ? fromSky : surface) += float(g.weight[e]) * total[g.node[e]];
+      gradientBounce[r] = surface / float(BounceOperator::kGradientOne);
+      gradientSky[r] = fromSky / float(BounceOperator::kGradientOne);
+    });
   }
 
   DirectIrradiance vertices(const sh::ShRgb* directSh) const {
@@ -216,8 +185,15 @@ struct OperatorLighting::Impl {
       for (size_t v = r.begin(); v != r.end(); ++v) {
         const bool own = op.vertexRows.start[v + 1] > op.vertexRows.start[v];
         const uint32_t c = clusterOf[v];
-        out[v] =
-            own ? product(op.vertexRows, v, total) : bounceShare[v] * clusterBounce[c] + skyShare[v] * clusterSky[c];
+        if (own) {
+          out[v] = product(op.vertexRows, v, total);
+        } else if (st.empty()) {
+          out[v] = bounceShare[v] * clusterBounce[c] + skyShare[v] * clusterSky[c];
+        } else {
+          const float s = st[v].x, t = st[v].y;
+          out[v] = bounceShare[v] * (clusterBounce[c] + s * gradientBounce[2 * c] + t * gradientBounce[2 * c + 1]) +
+                   skyShare[v] * (clusterSky[c] + s * gradientSky[2 * c] + t * gradientSky[2 * c + 1]);
+        }
         if (directSh && op.bounces > 0) out[v] += shBounced(v, *directSh);
       }
     });

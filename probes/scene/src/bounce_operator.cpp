@@ -67,7 +67,8 @@ class Unpacker {
   std::string where_;
 };
 
-std::vector<uint8_t> lengths(const BounceOperator::Rows& r) {
+template <class Rows>
+std::vector<uint8_t> lengths(const Rows& r) {
   std::vector<uint8_t> out(r.rows());
   for (size_t i = 0; i < out.size(); ++i) out[i] = uint8_t(r.start[i + 1] - r.start[i]);
   return out;
@@ -87,7 +88,8 @@ std::string hex(uint64_t v) {
 
 int nodeWidth(const BounceOperator& op) { return op.nodes() <= 65536 ? 2 : 4; }
 
-void checkRows(const BounceOperator::Rows& r, size_t rows, size_t nodes, const std::string& where) {
+template <class Rows>
+void checkRows(const Rows& r, size_t rows, size_t nodes, const std::string& where) {
   if (r.rows() != rows || r.start.front() != 0 || r.start.back() != r.node.size() || r.weight.size() != r.node.size())
     throw Error(
         cat(where, ": ", rows, " rows expected, the arrays hold ", r.rows(), " rows of ", r.node.size(), " entries"));
@@ -167,6 +169,8 @@ void checkOperator(const BounceOperator& op, const std::string& where) {
     if (b >= op.skyBins() || seen[b]++) throw Error(cat(where, ": sky bins: bin ", b, " out of range or twice"));
   checkRows(op.vertexRows, op.vertexSides, op.nodes(), cat(where, ": vertex rows"));
   checkRows(op.clusterRows, op.clusters, op.nodes(), cat(where, ": cluster rows"));
+  if (!op.clusterGradients.start.empty())
+    checkRows(op.clusterGradients, 2 * size_t(op.clusters), op.nodes(), cat(where, ": cluster gradients"));
 }
 
 std::vector<uint8_t> skyNodeMask(const BounceOperator& op) {
@@ -195,6 +199,12 @@ PackedOperator packOperator(const BounceOperator& op) {
   p.put(lengths(op.clusterRows));
   p.putNodes(op.clusterRows.node, width);
   p.put(op.clusterRows.weight);
+  BounceOperator::SignedRows none;
+  none.start.assign(2 * size_t(op.clusters) + 1, 0);
+  const BounceOperator::SignedRows& g = op.clusterGradients.start.empty() ? none : op.clusterGradients;
+  p.put(lengths(g));
+  p.putNodes(g.node, width);
+  p.put(g.weight);
   while (p.bytes.size() % 4 != 0) p.bytes.push_back(0);
   Json h;
   h["version"] = BounceOperator::kVersion;
@@ -204,6 +214,7 @@ PackedOperator packOperator(const BounceOperator& op) {
   h["cluster_size"] = op.clusterSize;
   h["row_length"] = op.rowLength;
   h["cluster_row_length"] = op.clusterRowLength;
+  h["gradient_row_length"] = op.gradientRowLength;
   h["vertex_sides"] = op.vertexSides;
   h["clusters"] = op.clusters;
   h["sky_bins"] = {op.skyWidth, op.skyHeight};
@@ -213,6 +224,7 @@ PackedOperator packOperator(const BounceOperator& op) {
   h["node_index_bytes"] = width;
   h["vertex_entries"] = op.vertexRows.entries();
   h["cluster_entries"] = op.clusterRows.entries();
+  h["gradient_entries"] = g.entries();
   h["byte_length"] = p.bytes.size();
   h["checksum"] = hex(fnv1a64(p.bytes.data(), p.bytes.size()));
   return {h.dump(), std::move(p.bytes)};
@@ -232,10 +244,11 @@ T field(const Json& h, const char* key, const std::string& where) {
 
 BounceOperator headerOf(const Json& h, const std::string& where) {
   const int version = field<int>(h, "version", where);
-  if (version != BounceOperator::kVersion)
+  if (version != BounceOperator::kVersion && version != 1)
     throw Error(cat(where, ": header: version ", version, "; this prt reads version ", BounceOperator::kVersion,
                     " (bake the scene again)"));
   BounceOperator op;
+  op.version = version;
   op.samples = field<int>(h, "samples", where);
   op.bounces = field<int>(h, "bounces", where);
   const std::string seed = field<std::string>(h, "seed", where);
@@ -247,6 +260,7 @@ BounceOperator headerOf(const Json& h, const std::string& where) {
   op.clusterSize = field<int>(h, "cluster_size", where);
   op.rowLength = field<int>(h, "row_length", where);
   op.clusterRowLength = field<int>(h, "cluster_row_length", where);
+  if (version >= 2) op.gradientRowLength = field<int>(h, "gradient_row_length", where);
   op.vertexSides = field<uint32_t>(h, "vertex_sides", where);
   op.clusters = field<uint32_t>(h, "clusters", where);
   const auto bins = field<std::vector<int>>(h, "sky_bins", where);
@@ -299,6 +313,12 @@ BounceOperator unpackOperator(const std::string& headerText, const uint8_t* byte
   op.clusterRows.start = startsFrom(u.take<uint8_t>(op.clusters, "cluster row lengths"));
   op.clusterRows.node = u.takeNodes(clusterEntries, width, "cluster row nodes");
   op.clusterRows.weight = u.take<uint16_t>(clusterEntries, "cluster row weights");
+  if (field<int>(h, "version", where) >= 2) {
+    const size_t gradientEntries = field<size_t>(h, "gradient_entries", where);
+    op.clusterGradients.start = startsFrom(u.take<uint8_t>(2 * size_t(op.clusters), "cluster gradient lengths"));
+    op.clusterGradients.node = u.takeNodes(gradientEntries, width, "cluster gradient nodes");
+    op.clusterGradients.weight = u.take<int16_t>(gradientEntries, "cluster gradient weights");
+  }
   if ((u.used() + 3) / 4 * 4 != size)
     throw Error(cat(where, ": bytes: ", size, " bytes, the arrays fill ", u.used(), " (corrupt)"));
   checkOperator(op, where);

@@ -25,9 +25,12 @@
 namespace prt {
 
 struct BounceOperator {
-  static constexpr int kVersion = 1;
+  static constexpr int kVersion = 2;  // version 1 had no cluster gradients; it is still read
   static constexpr int kMaxRowLength = 255;      // entries in one row (its length is stored in a byte)
   static constexpr uint32_t kWeightOne = 65535;  // a weight is stored as w · kWeightOne, rounded
+  static constexpr int kGradientOne = 16384;     // a gradient weight g (|g| < 2) as g · kGradientOne
+
+  int version = kVersion;  // of the file it was read from
 
   // How it was built (informative, and checked against the bake record).
   int samples = 0;      // gather rays per vertex side: the bake's first ones
@@ -36,6 +39,7 @@ struct BounceOperator {
   int clusterSize = 0;  // the largest cluster asked for
   int rowLength = 0;    // the longest vertex row asked for
   int clusterRowLength = 0;
+  int gradientRowLength = 0;  // the longest cluster gradient row asked for (0 in version 1)
 
   uint32_t vertexSides = 0;         // the bake's numbering: every baked instance's vertices, then the back sides
   uint32_t clusters = 0;            // surface leaves: nodes [0, clusters)
@@ -58,15 +62,22 @@ struct BounceOperator {
   std::vector<uint32_t> skyBin;
 
   /// Sparse rows, CSR: row r's entries are [start[r], start[r + 1]).
-  struct Rows {
+  template <class Weight>
+  struct RowsOf {
     std::vector<uint32_t> start;
     std::vector<uint32_t> node;
-    std::vector<uint16_t> weight;  // w · kWeightOne
+    std::vector<Weight> weight;
     size_t rows() const { return start.empty() ? 0 : start.size() - 1; }
     size_t entries() const { return node.size(); }
   };
+  using Rows = RowsOf<uint16_t>;        // weights w · kWeightOne
+  using SignedRows = RowsOf<int16_t>;  // weights g · kGradientOne
   Rows vertexRows;   // one per vertex side
   Rows clusterRows;  // one per cluster
+  /// Two per cluster c, rows 2c and 2c + 1: how its members' gathers change across it, along
+  /// the two axes of its plane (clusterFrame), per unit of its radius. A member at (s, t) in
+  /// that frame gathers row(c) + s · gradient(2c) + t · gradient(2c + 1). Empty in version 1.
+  SignedRows clusterGradients;
 
   size_t skyBins() const { return size_t(skyWidth) * size_t(skyHeight); }
   size_t leaves() const { return clusters + skyBins(); }
