@@ -160,8 +160,7 @@ TEST(BounceOperator, CompressedStaysNearTheUncompressed) {
     const BounceOperator o = bake::buildBounceOperator(s, withOwn, 3, 7);
     size_t own = 0;
     for (size_t v = 0; v < o.vertexRows.rows(); ++v) own += o.vertexRows.start[v + 1] > o.vertexRows.start[v];
-    std::printf("[ measured ] with rows of their own asked for: %zu of %u vertex sides keep one\n", own,
-                o.vertexSides);
+    std::printf("[ measured ] with rows of their own asked for: %zu of %u vertex sides keep one\n", own, o.vertexSides);
     EXPECT_GT(own, 0u);
     EXPECT_LT(own, size_t(o.vertexSides) / 4);
   }

@@ -3,8 +3,8 @@
 // so that no hit record outlives its vertex.
 #include <algorithm>
 #include <array>
-#include <cstdlib>
 #include <cmath>
+#include <cstdlib>
 #include <queue>
 
 #include <tbb/blocked_range.h>
@@ -243,6 +243,30 @@ struct Trace {
 // gather receives under the training lights by more than this share of the light it gets.
 constexpr double kOwnRowError = 0.05;
 
+// What a cluster's rows gather under the training lights, from surfaces and from the sky apart:
+// its mean and its two gradients.
+struct ClusterLight {
+  using Values = std::array<double, RowMaker::K>;
+  Values surface, sky, surfaceU, skyU, surfaceV, skyV;
+  ClusterLight(const RowMaker& m, const std::vector<Entry>& mean, const std::vector<Entry>& u,
+               const std::vector<Entry>& v) {
+    m.values(mean, surface, sky);
+    m.values(u, surfaceU, skyU);
+    m.values(v, surfaceV, skyV);
+  }
+  // The mean over the training lights of |what the gather `raw` receives − the cluster's light
+  // at (s, t) on its plane, shaded by the side's shares (`bs` of the surfaces', `ss` of the sky's)|.
+  double error(const RowMaker& m, const std::vector<Entry>& raw, double bs, double ss, glm::vec2 st) const {
+    Values own, ownSky;
+    m.values(raw, own, ownSky);
+    double err = 0.0;
+    for (size_t k = 0; k < size_t(RowMaker::K); ++k)
+      err += std::fabs(own[k] + ownSky[k] - bs * (surface[k] + st.x * surfaceU[k] + st.y * surfaceV[k]) -
+                       ss * (sky[k] + st.x * skyU[k] + st.y * skyV[k]));
+    return err / RowMaker::K;
+  }
+};
+
 void storeGradients(BounceOperator::SignedRows& rows, const std::vector<std::vector<Entry>>& made) {
   rows.start.assign(1, 0);
   rows.node.clear(), rows.weight.clear();
@@ -331,7 +355,6 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
     RowMaker maker(op, tree, sky, training);
     std::vector<std::vector<Entry>> raw;
     std::vector<Entry> all;
-    std::array<double, RowMaker::K> surface, fromSky, ownSurface, ownSky, su, ku, sv, kv;
     std::vector<float> memberShare;
     std::vector<glm::vec2> memberSt;
     std::vector<Entry> gu, gv;
@@ -357,20 +380,13 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
         gradients[2 * c + 1] = maker.make(gv, tree.center[c], gradientLength);
       }
       if (vertexLength == 0) continue;
-      // A member whose own gather the cluster's light (shaded by its shares) misses under the
-      // training lights (near another surface, at a corner) keeps a row of its own.
-      maker.values(clusterRows[c], surface, fromSky);
-      maker.values(gradients[2 * c], su, ku);
-      maker.values(gradients[2 * c + 1], sv, kv);
+      // A member whose own gather the cluster's light misses under the training lights (near
+      // another surface, at a corner) keeps a row of its own.
+      const ClusterLight light(maker, clusterRows[c], gradients[2 * c], gradients[2 * c + 1]);
       for (uint32_t i = b; i < e; ++i) {
         const uint32_t v = op.members[i];
-        maker.values(raw[i - b], ownSurface, ownSky);
-        double err = 0.0;
-        const double bs = shares.bounce[v], ss = shares.sky[v];
-        for (size_t k = 0; k < size_t(RowMaker::K); ++k)
-          err += std::fabs(ownSurface[k] + ownSky[k] - bs * (surface[k] + st[v].x * su[k] + st[v].y * sv[k]) -
-                           ss * (fromSky[k] + st[v].x * ku[k] + st[v].y * kv[k]));
-        if (uncompressed || err / RowMaker::K > kOwnRowError * sideTraining.scale[v])
+        if (uncompressed || light.error(maker, raw[i - b], shares.bounce[v], shares.sky[v], st[v]) >
+                                kOwnRowError * sideTraining.scale[v])
           vertexRows[v] = maker.make(raw[i - b], sides[v].position, vertexLength);
       }
     }

@@ -5,11 +5,11 @@
 
 #include <tbb/parallel_for.h>
 
+#include "../surface_layout.h"
 #include "prt/bake/direct_light.h"
 #include "prt/light.h"
 #include "prt/math.h"
 #include "prt/sh.h"
-#include "../surface_layout.h"
 
 namespace prt::bake::op {
 
@@ -214,7 +214,8 @@ Training trainNodes(const Scene& scene, const BounceOperator& op, const SideTrai
     weight[n] = weight[a] + weight[b];
     const float wa = weight[n] > 0.0f ? weight[a] / weight[n] : 0.5f;
     for (int k = 0; k < K; ++k)
-      t.value[n * K + size_t(k)] = wa * t.value[size_t(a) * K + size_t(k)] + (1.0f - wa) * t.value[size_t(b) * K + size_t(k)];
+      t.value[n * K + size_t(k)] =
+          wa * t.value[size_t(a) * K + size_t(k)] + (1.0f - wa) * t.value[size_t(b) * K + size_t(k)];
   }
   return t;
 }

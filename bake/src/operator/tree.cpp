@@ -87,8 +87,7 @@ class Builder {
     const Box all = boxOf(b, e);
     const glm::vec3 nspread = all.nhi - all.nlo;
     const float coherent = std::max({nspread.x, nspread.y, nspread.z});
-    if (e - b == 1 ||
-        (e - b <= size_t(op_.clusterSize) && coherent <= 0.5f && flat(b, e, all))) {
+    if (e - b == 1 || (e - b <= size_t(op_.clusterSize) && coherent <= 0.5f && flat(b, e, all))) {
       clusterBegin_.push_back(uint32_t(b));
       return {Ref::Cluster, uint32_t(clusterBegin_.size() - 1)};
     }

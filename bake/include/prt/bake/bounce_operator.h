@@ -18,8 +18,8 @@
 namespace prt::bake {
 
 struct OperatorSettings {
-  int samples = 256;          // gather rays per vertex side: the bake's first ones
-  int clusterSize = 8;        // vertex sides per cluster, at most
+  int samples = 256;           // gather rays per vertex side: the bake's first ones
+  int clusterSize = 8;         // vertex sides per cluster, at most
   int rowLength = 0;           // entries of a vertex side's own row (kept where its view is not its cluster's); 0: none
   int clusterRowLength = 96;   // entries of a cluster's row, at most
   int gradientRowLength = 24;  // entries of each of a cluster's two gradient rows, at most; 0: none

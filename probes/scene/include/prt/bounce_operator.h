@@ -25,7 +25,7 @@
 namespace prt {
 
 struct BounceOperator {
-  static constexpr int kVersion = 2;  // version 1 had no cluster gradients; it is still read
+  static constexpr int kVersion = 2;             // version 1 had no cluster gradients; it is still read
   static constexpr int kMaxRowLength = 255;      // entries in one row (its length is stored in a byte)
   static constexpr uint32_t kWeightOne = 65535;  // a weight is stored as w · kWeightOne, rounded
   static constexpr int kGradientOne = 16384;     // a gradient weight g (|g| < 2) as g · kGradientOne
@@ -70,10 +70,10 @@ struct BounceOperator {
     size_t rows() const { return start.empty() ? 0 : start.size() - 1; }
     size_t entries() const { return node.size(); }
   };
-  using Rows = RowsOf<uint16_t>;        // weights w · kWeightOne
+  using Rows = RowsOf<uint16_t>;       // weights w · kWeightOne
   using SignedRows = RowsOf<int16_t>;  // weights g · kGradientOne
-  Rows vertexRows;   // one per vertex side
-  Rows clusterRows;  // one per cluster
+  Rows vertexRows;                     // one per vertex side
+  Rows clusterRows;                    // one per cluster
   /// Two per cluster c, rows 2c and 2c + 1: how its members' gathers change across it, along
   /// the two axes of its plane (clusterFrame), per unit of its radius. A member at (s, t) in
   /// that frame gathers row(c) + s · gradient(2c) + t · gradient(2c + 1). Empty in version 1.
