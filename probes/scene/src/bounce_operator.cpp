@@ -32,6 +32,22 @@ class Packer {
     std::vector<uint16_t> narrow(v.begin(), v.end());
     put(narrow);
   }
+  // The node indices of every row, each row ascending, as LEB128 varints: the first index, then
+  // each index less its predecessor, less 1. Returns the count of bytes.
+  template <class Rows>
+  size_t putRowNodes(const Rows& r) {
+    std::vector<uint8_t> out;
+    for (size_t i = 0; i < r.rows(); ++i)
+      for (uint32_t e = r.start[i]; e < r.start[i + 1]; ++e) {
+        if (e > r.start[i] && r.node[e] <= r.node[e - 1])
+          throw Error(cat("bounce operator: row ", i, " is not in ascending node order"));
+        uint32_t x = e > r.start[i] ? r.node[e] - r.node[e - 1] - 1 : r.node[e];
+        for (; x >= 0x80; x >>= 7) out.push_back(uint8_t(x | 0x80));
+        out.push_back(uint8_t(x));
+      }
+    put(out);
+    return out.size();
+  }
   std::vector<uint8_t> bytes;
 
  private:
@@ -53,6 +69,28 @@ class Unpacker {
     if (count) std::memcpy(v.data(), p_ + at_, count * sizeof(T));
     at_ += count * sizeof(T);
     return v;
+  }
+  // putRowNodes' bytes back, for rows of the given starts.
+  std::vector<uint32_t> takeRowNodes(const std::vector<uint32_t>& start, size_t byteCount, const char* part) {
+    const std::vector<uint8_t> in = take<uint8_t>(byteCount, part);
+    std::vector<uint32_t> node(start.back());
+    size_t at = 0;
+    for (size_t i = 0; i + 1 < start.size(); ++i)
+      for (uint32_t e = start[i]; e < start[i + 1]; ++e) {
+        uint64_t x = 0;
+        for (int shift = 0;; shift += 7) {
+          if (at >= in.size() || shift > 28)
+            throw Error(cat(where_, ": ", part, ": row ", i, " ends inside a node index (corrupt)"));
+          x |= uint64_t(in[at] & 0x7f) << shift;
+          if (!(in[at++] & 0x80)) break;
+        }
+        if (e > start[i]) x += uint64_t(node[e - 1]) + 1;
+        if (x > UINT32_MAX) throw Error(cat(where_, ": ", part, ": row ", i, " names a node beyond 2^32 (corrupt)"));
+        node[e] = uint32_t(x);
+      }
+    if (at != in.size())
+      throw Error(cat(where_, ": ", part, ": ", in.size(), " bytes, the rows use ", at, " (corrupt)"));
+    return node;
   }
   std::vector<uint32_t> takeNodes(size_t count, int width, const char* part) {
     if (width == 4) return take<uint32_t>(count, part);
@@ -85,8 +123,6 @@ std::string hex(uint64_t v) {
   s << std::hex << std::setw(16) << std::setfill('0') << v;
   return s.str();
 }
-
-int nodeWidth(const BounceOperator& op) { return op.nodes() <= 65536 ? 2 : 4; }
 
 template <class Rows>
 void checkRows(const Rows& r, size_t rows, size_t nodes, const std::string& where) {
@@ -183,7 +219,6 @@ std::vector<uint8_t> skyNodeMask(const BounceOperator& op) {
 
 PackedOperator packOperator(const BounceOperator& op) {
   checkOperator(op, "bounce operator");
-  const int width = nodeWidth(op);
   Packer p;
   std::vector<float> albedo(size_t(op.clusters) * 3);
   std::memcpy(albedo.data(), op.albedo.data(), albedo.size() * sizeof(float));
@@ -193,17 +228,18 @@ PackedOperator packOperator(const BounceOperator& op) {
   p.put(op.memberStart);
   p.put(op.members);
   p.put(op.skyBin);
-  p.put(lengths(op.vertexRows));
-  p.putNodes(op.vertexRows.node, width);
-  p.put(op.vertexRows.weight);
-  p.put(lengths(op.clusterRows));
-  p.putNodes(op.clusterRows.node, width);
-  p.put(op.clusterRows.weight);
   BounceOperator::SignedRows none;
   none.start.assign(2 * size_t(op.clusters) + 1, 0);
   const BounceOperator::SignedRows& g = op.clusterGradients.start.empty() ? none : op.clusterGradients;
+  Json nodeBytes;
+  p.put(lengths(op.vertexRows));
+  nodeBytes["vertex"] = p.putRowNodes(op.vertexRows);
+  p.put(op.vertexRows.weight);
+  p.put(lengths(op.clusterRows));
+  nodeBytes["cluster"] = p.putRowNodes(op.clusterRows);
+  p.put(op.clusterRows.weight);
   p.put(lengths(g));
-  p.putNodes(g.node, width);
+  nodeBytes["gradient"] = p.putRowNodes(g);
   p.put(g.weight);
   while (p.bytes.size() % 4 != 0) p.bytes.push_back(0);
   Json h;
@@ -221,7 +257,7 @@ PackedOperator packOperator(const BounceOperator& op) {
   h["sample_points"] = op.samplePoints;
   h["inner_nodes"] = op.children.size() / 2;
   h["roots"] = {op.surfaceRoot, op.skyRoot};
-  h["node_index_bytes"] = width;
+  h["row_node_bytes"] = nodeBytes;
   h["vertex_entries"] = op.vertexRows.entries();
   h["cluster_entries"] = op.clusterRows.entries();
   h["gradient_entries"] = g.entries();
@@ -293,11 +329,19 @@ BounceOperator unpackOperator(const std::string& headerText, const uint8_t* byte
     throw Error(cat(where, ": bytes: ", size, " bytes, the header says ", byteLength, " (truncated or corrupt)"));
   if (field<std::string>(h, "checksum", where) != hex(fnv1a64(bytes, size)))
     throw Error(cat(where, ": bytes: their checksum is not the header's (the file is corrupt)"));
-  const int width = field<int>(h, "node_index_bytes", where);
+  const int version = op.version;
+  const int width = version == 1 ? field<int>(h, "node_index_bytes", where) : 0;
+  const Json nodeBytes = version == 1 ? Json() : field<Json>(h, "row_node_bytes", where);
+  auto bytesOf = [&](const char* rows) {
+    if (!nodeBytes.contains(rows) || !nodeBytes.at(rows).is_number_unsigned())
+      throw Error(cat(where, ": header: row_node_bytes has no count for the ", rows, " rows"));
+    return nodeBytes.at(rows).get<size_t>();
+  };
   const size_t inner = field<size_t>(h, "inner_nodes", where);
   const size_t vertexEntries = field<size_t>(h, "vertex_entries", where);
   const size_t clusterEntries = field<size_t>(h, "cluster_entries", where);
-  if (width != 2 && width != 4) throw Error(cat(where, ": header: node_index_bytes ", width, " (2 or 4)"));
+  if (version == 1 && width != 2 && width != 4)
+    throw Error(cat(where, ": header: node_index_bytes ", width, " (2 or 4)"));
   Unpacker u(bytes, size, where);
   op.leafWeight = u.take<float>(op.leaves(), "leaf weights");
   op.children = u.take<uint32_t>(2 * inner, "children");
@@ -308,15 +352,17 @@ BounceOperator unpackOperator(const std::string& headerText, const uint8_t* byte
   op.members = u.take<uint32_t>(op.vertexSides, "members");
   op.skyBin = u.take<uint32_t>(op.skyBins(), "sky bins");
   op.vertexRows.start = startsFrom(u.take<uint8_t>(op.vertexSides, "vertex row lengths"));
-  op.vertexRows.node = u.takeNodes(vertexEntries, width, "vertex row nodes");
+  op.vertexRows.node = version == 1 ? u.takeNodes(vertexEntries, width, "vertex row nodes")
+                                    : u.takeRowNodes(op.vertexRows.start, bytesOf("vertex"), "vertex row nodes");
   op.vertexRows.weight = u.take<uint16_t>(vertexEntries, "vertex row weights");
   op.clusterRows.start = startsFrom(u.take<uint8_t>(op.clusters, "cluster row lengths"));
-  op.clusterRows.node = u.takeNodes(clusterEntries, width, "cluster row nodes");
+  op.clusterRows.node = version == 1 ? u.takeNodes(clusterEntries, width, "cluster row nodes")
+                                     : u.takeRowNodes(op.clusterRows.start, bytesOf("cluster"), "cluster row nodes");
   op.clusterRows.weight = u.take<uint16_t>(clusterEntries, "cluster row weights");
-  if (field<int>(h, "version", where) >= 2) {
+  if (version >= 2) {
     const size_t gradientEntries = field<size_t>(h, "gradient_entries", where);
     op.clusterGradients.start = startsFrom(u.take<uint8_t>(2 * size_t(op.clusters), "cluster gradient lengths"));
-    op.clusterGradients.node = u.takeNodes(gradientEntries, width, "cluster gradient nodes");
+    op.clusterGradients.node = u.takeRowNodes(op.clusterGradients.start, bytesOf("gradient"), "cluster gradient nodes");
     op.clusterGradients.weight = u.take<int16_t>(gradientEntries, "cluster gradient weights");
   }
   if ((u.used() + 3) / 4 * 4 != size)
