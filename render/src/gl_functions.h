@@ -89,6 +89,7 @@ namespace prt::render {
   X(PFNGLPROGRAMUNIFORM1IPROC, ProgramUniform1i)                                       \
   X(PFNGLPROGRAMUNIFORM1FPROC, ProgramUniform1f)                                       \
   X(PFNGLPROGRAMUNIFORM3IVPROC, ProgramUniform3iv)                                     \
+  X(PFNGLPROGRAMUNIFORM4IVPROC, ProgramUniform4iv)                                     \
   X(PFNGLPROGRAMUNIFORM3FVPROC, ProgramUniform3fv)                                     \
   X(PFNGLPROGRAMUNIFORM4FVPROC, ProgramUniform4fv)                                     \
   X(PFNGLPROGRAMUNIFORM2FVPROC, ProgramUniform2fv)                                     \

@@ -189,7 +189,8 @@ std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
                                                  {"PROBE_LOOKUP", perVertex ? "" : probeLookupGlsl(bands)},
                                                  {"IRRADIANCE_BASIS", irradianceBasisGlsl(bands)},
                                                  {"IRRADIANCE_SUMS", irradianceSumsGlsl(bands)},
-                                                 {"DIRECT_LIGHTING", directLightingGlsl()}});
+                                                 {"DIRECT_LIGHTING", directLightingGlsl()},
+                                                 {"MATERIAL_SHADING", materialShadingGlsl()}});
 }
 
 int radianceTexels(int bands) { return int(3 * irradianceCoefficients(bands).size() + 3) / 4; }

@@ -191,6 +191,7 @@ ImageRgb Renderer::render(const Frame& frame) {
   r.stats.shadowMaps = r.stats.cascades = r.stats.shadowMapSize = 0;
   if (plan.bakedSplit || plan.receiverSplit) r.drawShadows(frame, plan);
   r.beginFrame(frame, plan);
+  r.beginMaterialFrame(frame, plan);
   r.drawOpaque(frame, plan);
   // After the baked instances, so that the depth test rejects hidden receiver pixels before
   // their (costly) probe lookup runs.
@@ -236,8 +237,9 @@ FramePlan Renderer::Impl::planFrame(const Frame& frame) {
   }
   stats.directBaked = plan.bakedSplit ? frame.direct.size() : 0;
   stats.directReceivers = plan.receiverSplit ? frame.direct.size() : 0;
-  plan.bakedExtra = plan.bakedSplit ? kVariantDirect : 0;
-  plan.receiverExtra = plan.receiverSplit ? kVariantDirect : 0;
+  const int material = !plan.flat && frame.materials == MaterialShading::Full ? kVariantFullMaterial : 0;
+  plan.bakedExtra = (plan.bakedSplit ? kVariantDirect : 0) | material;
+  plan.receiverExtra = (plan.receiverSplit ? kVariantDirect : 0) | (plan.drawReceivers ? material : 0);
   return plan;
 }
 
@@ -261,7 +263,7 @@ void Renderer::Impl::updateBakedLight(const Frame& frame, const FramePlan& plan)
   if (plan.bakedSplit) {
     uploadBounce(gathered ? frame.directBounce : nullptr, gathered ? frame.directBounceBack : nullptr);
     for (const Instance& in : instances) {
-      const Program& p = bakedProgram(in.variant | kVariantDirect);
+      const Program& p = bakedProgram(in.variant | plan.bakedExtra);
       gl.ProgramUniform3fv(p.id, p.directSh, dl.size(), &dl.c[0].x);
     }
   }
@@ -324,6 +326,7 @@ void Renderer::Impl::setMaterialUniforms(const Program& p, const Instance& in) {
   if (p.alphaCutoff >= 0) gl.ProgramUniform1f(p.id, p.alphaCutoff, in.alphaCutoff);
   if (in.texture) gl.BindTextureUnit(0, in.texture);
   if (in.transmissionTexture) gl.BindTextureUnit(kTransmissionUnit, in.transmissionTexture);
+  if (p.material >= 0) setFullMaterialUniforms(p, in);
 }
 
 void Renderer::Impl::drawInstance(const Program& p, const Instance& in, bool mirrored, bool flat) {
@@ -354,6 +357,7 @@ bool Renderer::Impl::placeBaked(const Instance& in, const FramePlan& plan) {
     gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, in.directBounce);
     if (in.directBounceBack) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, in.directBounceBack);
   }
+  if (plan.bakedExtra & kVariantFullMaterial) bindMaterialBuffers(in, plan.bakedSplit);
   return false;
 }
 

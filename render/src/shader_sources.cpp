@@ -44,7 +44,8 @@ std::string withMaterialDefines(const std::string& source, int variant) {
   if (variant & kVariantTwoSided) defines += "#define TWO_SIDED 1\n";
   if (variant & kVariantDirect) defines += "#define DIRECT 1\n";
   if (variant & kVariantTransmission) defines += "#define HAS_TRANSMISSION_TEXTURE 1\n";
-  if (variant & (kVariantTexture | kVariantTransmission)) defines += "#define HAS_TEXCOORD 1\n";
+  if (variant & kVariantFullMaterial) defines += "#define MATERIAL 1\n";
+  if (variant & (kVariantTexture | kVariantTransmission | kVariantFullMaterial)) defines += "#define HAS_TEXCOORD 1\n";
   return source.substr(0, eol) + defines + source.substr(eol);
 }
 
@@ -75,8 +76,14 @@ std::string bakedVertexShader(int bands) {
       {{"COEFFS", cat(bands * bands)}, {"NORMAL_ATTRIBUTE", cat(kNormalAttribute)}, {"TRANSFER", transfer}});
 }
 
+std::string materialShadingGlsl() {
+  return fillShader(shaders::kMaterialShading,
+                    {{"MAX_ENV_MAPS", cat(kMaxReflectedMaps)}, {"DFG_UNIT", cat(17 + kMaxReflectedMaps)}});
+}
+
 std::string bakedFragmentShader() {
-  return fillShader(shaders::kBakedFragment, {{"DIRECT_LIGHTING", directLightingGlsl()}});
+  return fillShader(shaders::kBakedFragment,
+                    {{"DIRECT_LIGHTING", directLightingGlsl()}, {"MATERIAL_SHADING", materialShadingGlsl()}});
 }
 
 std::string cutoutDepthVertexShader() { return std::string(shaders::kCutoutDepthVertex); }

@@ -52,6 +52,11 @@ constexpr GLuint kTransmissionUnit = 6;  // uTransmissionTexture (albedo_inputs.
 /// vec4 attributes holding 3·bands² transfer floats.
 int attributeChunks(int bands);
 
+/// Texture units of the MATERIAL variants: the metallic-roughness, normal, occlusion and
+/// emissive textures (material_inputs.glsl), the reflected maps, the DFG table.
+constexpr GLuint kMaterialFirstUnit = 13, kEnvironmentFirstUnit = 17;
+/// material_shading.glsl, its placeholders filled (the DFG table at unit 17 + kMaxReflectedMaps).
+std::string materialShadingGlsl();
 /// The baked instances' shaders for `bands` bands (to compile through withMaterialDefines).
 std::string bakedVertexShader(int bands);
 std::string bakedFragmentShader();
