@@ -54,7 +54,10 @@ glm::dvec3 pixelDirection(int x, int y, int width, int height) {
 void filterLevel(const std::vector<ImageRgb>& chain, double roughness, int samples, ImageRgb& out) {
   const double alpha = roughness * roughness;
   const ImageRgb& source = chain.front();
-  const double maxLod = double(chain.size() - 1);
+  // The coarsest mip read keeps 32 texels across (or the map's own): coarser ones cannot hold
+  // even a linear function of direction (a 4 × 2 map is 10% off one), which the widest lobes'
+  // samples would otherwise read.
+  const double maxLod = std::max(0.0, std::floor(std::log2(std::max(1.0, source.width / 32.0))));
   tbb::parallel_for(tbb::blocked_range<int>(0, out.height), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (int x = 0; x < out.width; ++x) {
@@ -98,8 +101,7 @@ glm::dvec3 samplePrefiltered(const std::vector<ImageRgb>& levels, double lod, co
 std::vector<ImageRgb> prefilterEnvironment(const ImageRgb& map, int levels, int samples) {
   PRT_CHECK(levels >= 1 && samples >= 1);
   if (map.width < 1 || map.height < 1) throw Error("environment map: empty, nothing to reflect");
-  int w0 = 1 << (levels - 1);
-  while (2 * w0 <= std::min(map.width, 512)) w0 *= 2;
+  const int w0 = kPrefilterWidth;
   const std::vector<ImageRgb> chain = boxChain(map);
   std::vector<ImageRgb> out;
   for (int k = 0; k < levels; ++k) {

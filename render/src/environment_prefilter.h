@@ -20,12 +20,14 @@
 
 namespace prt::render {
 
-/// Levels of the prefiltered map (roughness 0, 0.2, ..., 1) and the GGX samples per texel.
-constexpr int kPrefilterLevels = 6, kPrefilterSamples = 96;
+/// Levels of the prefiltered map (roughness 0, 0.2, ..., 1), the GGX samples per texel, and
+/// level 0's width W₀. W₀ is fixed, whatever the map's size: the roughest level (W₀/32 × W₀/64,
+/// 16 × 8) must still hold a smooth function of direction to 1% (an equirectangular map of 4 × 2
+/// texels holds a linear one to 10%: test MaterialRender.PrefilteredMapIsTheLobeAverage).
+constexpr int kPrefilterLevels = 6, kPrefilterSamples = 96, kPrefilterWidth = 512;
 
-/// The prefiltered levels of an equirectangular map (prt/light.h's orientation): level 0 of
-/// width W₀ = the largest power of two ≤ min(map width, 512) (at least 2^(levels − 1)), height
-/// W₀ / 2; level k half the previous. Deterministic (Hammersley points).
+/// The prefiltered levels of an equirectangular map (prt/light.h's orientation): level 0
+/// W₀ × W₀/2, level k half the previous. Deterministic (Hammersley points).
 std::vector<ImageRgb> prefilterEnvironment(const ImageRgb& map, int levels = kPrefilterLevels,
                                            int samples = kPrefilterSamples);
 

@@ -17,10 +17,8 @@ namespace prt::render {
 
 namespace {
 
-/// The DFG table's entries a side and samples per entry: (A, B) vary slowly in n·v and
-/// roughness (bilinear between 32² entries is within 1e-3 of the integral, test
-/// MaterialRender.DfgTableMatchesIntegration), and 512 Hammersley samples leave < 1e-3.
-constexpr int kDfgSize = 32, kDfgSamples = 512;
+/// The DFG table's samples per entry (Hammersley points; its size: kDfgSize).
+constexpr int kDfgSamples = 512;
 
 GlBuffer vertexBuffer(const GlFunctions& gl, const void* data, size_t bytes) {
   GlBuffer buffer = createBuffer(gl);
@@ -151,9 +149,18 @@ void Renderer::Impl::beginMaterialFrame(const Frame& frame, const FramePlan& pla
   const bool recv = plan.drawReceivers && (plan.receiverExtra & kVariantFullMaterial);
   if (!baked && !recv) return;
   if (!dfg) {
-    const brdf::DfgTable t = brdf::computeDfgTable(kDfgSize, kDfgSamples);
-    std::vector<glm::vec2> ab(t.ab.begin(), t.ab.end());  // row: roughness (t), column: n·v (s)
-    dfg = linearFloatTexture(GL_RG32F, GL_RG, t.size, t.size, ab.data(), GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+    // Entries on a grid that includes its ends, n·v and roughness = i / (size − 1), so that a
+    // lookup at roughness 1 or n·v 1 reads the table there, not clamped half an entry short
+    // (material_shading.glsl maps x to (x (size − 1) + ½) / size). Roughness below the
+    // shaders' floor and n·v = 0 take the nearest value they reach.
+    std::vector<glm::vec2> ab(size_t(kDfgSize) * kDfgSize);
+    for (int row = 0; row < kDfgSize; ++row)
+      for (int col = 0; col < kDfgSize; ++col) {
+        const double roughness = std::max(double(row) / (kDfgSize - 1), 0.045);
+        const double nDotV = std::max(double(col) / (kDfgSize - 1), 1e-3);
+        ab[size_t(row) * kDfgSize + size_t(col)] = glm::vec2(brdf::integrateDfg(nDotV, roughness, kDfgSamples));
+      }
+    dfg = linearFloatTexture(GL_RG32F, GL_RG, kDfgSize, kDfgSize, ab.data(), GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
   }
   const GLuint dfgUnit = kEnvironmentFirstUnit + GLuint(kMaxReflectedMaps);
   gl.BindTextureUnit(dfgUnit, dfg);

@@ -240,6 +240,9 @@ FramePlan Renderer::Impl::planFrame(const Frame& frame) {
   const int material = !plan.flat && frame.materials == MaterialShading::Full ? kVariantFullMaterial : 0;
   plan.bakedExtra = (plan.bakedSplit ? kVariantDirect : 0) | material;
   plan.receiverExtra = (plan.receiverSplit ? kVariantDirect : 0) | (plan.drawReceivers ? material : 0);
+  // Linked before the light update, which sets the light on the linked programs.
+  if (material)
+    for (const Instance& in : instances) bakedProgram(in.variant | plan.bakedExtra);
   return plan;
 }
 

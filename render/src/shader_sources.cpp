@@ -77,8 +77,9 @@ std::string bakedVertexShader(int bands) {
 }
 
 std::string materialShadingGlsl() {
-  return fillShader(shaders::kMaterialShading,
-                    {{"MAX_ENV_MAPS", cat(kMaxReflectedMaps)}, {"DFG_UNIT", cat(17 + kMaxReflectedMaps)}});
+  return fillShader(shaders::kMaterialShading, {{"MAX_ENV_MAPS", cat(kMaxReflectedMaps)},
+                                                {"DFG_UNIT", cat(kEnvironmentFirstUnit + kMaxReflectedMaps)},
+                                                {"DFG_SIZE", cat(kDfgSize)}});
 }
 
 std::string bakedFragmentShader() {

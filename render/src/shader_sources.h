@@ -55,6 +55,9 @@ int attributeChunks(int bands);
 /// Texture units of the MATERIAL variants: the metallic-roughness, normal, occlusion and
 /// emissive textures (material_inputs.glsl), the reflected maps, the DFG table.
 constexpr GLuint kMaterialFirstUnit = 13, kEnvironmentFirstUnit = 17;
+/// The DFG table's entries a side (material_pass.cpp): bilinear between 32² entries stays within
+/// 1% of the integral (test MaterialRender.WhiteFurnaceMetalMatchesMonteCarlo).
+constexpr int kDfgSize = 32;
 /// material_shading.glsl, its placeholders filled (the DFG table at unit 17 + kMaxReflectedMaps).
 std::string materialShadingGlsl();
 /// The baked instances' shaders for `bands` bands (to compile through withMaterialDefines).

@@ -72,7 +72,8 @@ float specularOcclusion(float nv, float ao, float a) {
 
 // The split sum's second factor, F0·A + B per lobe, mixed as specularFresnel [5, 6].
 vec3 splitSumWeight(Surface s, float nv) {
-  vec2 ab = texture(uDfg, vec2(nv, s.roughness)).rg;
+  const float n = float(@DFG_SIZE@);  // entries at x = i / (n − 1), texel centres (i + ½) / n
+  vec2 ab = texture(uDfg, (vec2(nv, s.roughness) * (n - 1.0) + 0.5) / n).rg;
   vec3 fd = uSpecularColor.rgb * ab.x + ab.y;
   vec3 fm = s.baseColor * ab.x + ab.y;
   return (1.0 - s.metallic) * uSpecularColor.w * fd + s.metallic * fm;
