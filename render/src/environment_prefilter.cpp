@@ -105,7 +105,7 @@ std::vector<ImageRgb> prefilterEnvironment(const ImageRgb& map, int levels, int 
   const std::vector<ImageRgb> chain = boxChain(map);
   std::vector<ImageRgb> out;
   for (int k = 0; k < levels; ++k) {
-    ImageRgb level(std::max(1, w0 >> k), std::max(1, (w0 / 2) >> k));
+    ImageRgb level(w0, w0 / 2);
     if (k == 0) {
       // The mirror: the map averaged down to the level's texels.
       const double lod = std::log2(double(map.width) / level.width);

@@ -9,9 +9,8 @@
 // chain at the level whose texel matches the sample's share of the lobe, lod = ½ log2(Ω_s/Ω_p) + 1,
 // Ω_s = 1/(N·pdf(l)), Ω_p the source texel's solid angle (Colbert and Křivánek, GPU Gems 3,
 // ch. 20, "filtered importance sampling"): few samples, no fireflies. Level 0 (the mirror) is the
-// map itself, averaged down to the level's size. Level k is (W₀ >> k) × (H₀ >> k), the texture's
-// mip level k, so that one trilinear lookup at lod = roughness · (levels − 1) blends two
-// neighbouring roughnesses.
+// map itself, resampled to the level's size. Every level has the same size, a layer of one
+// texture array; a lookup blends the two layers around roughness · (levels − 1).
 #pragma once
 
 #include <vector>
@@ -21,18 +20,17 @@
 namespace prt::render {
 
 /// Levels of the prefiltered map (roughness 0, 0.2, ..., 1), the GGX samples per texel, and
-/// level 0's width W₀. W₀ is fixed, whatever the map's size: the roughest level (W₀/32 × W₀/64,
-/// 16 × 8) must still hold a smooth function of direction to 1% (an equirectangular map of 4 × 2
-/// texels holds a linear one to 10%: test MaterialRender.PrefilteredMapIsTheLobeAverage).
-constexpr int kPrefilterLevels = 6, kPrefilterSamples = 96, kPrefilterWidth = 512;
+/// the levels' width W (height W/2: 1.4° texels, finer than the lobe of roughness 0.2).
+constexpr int kPrefilterLevels = 6, kPrefilterSamples = 96, kPrefilterWidth = 256;
 
-/// The prefiltered levels of an equirectangular map (prt/light.h's orientation): level 0
-/// W₀ × W₀/2, level k half the previous. Deterministic (Hammersley points).
+/// The prefiltered levels of an equirectangular map (prt/light.h's orientation), each W × W/2.
+/// Deterministic (Hammersley points).
 std::vector<ImageRgb> prefilterEnvironment(const ImageRgb& map, int levels = kPrefilterLevels,
                                            int samples = kPrefilterSamples);
 
-/// The radiance of one prefiltered level towards unit direction d, bilinear as a GL_LINEAR
-/// texture with GL_REPEAT in s and GL_CLAMP_TO_EDGE in t reads it (the tests' CPU reference).
+/// The prefiltered radiance towards unit direction d at fractional level `lod`: the two levels
+/// around it bilinear (as a GL_LINEAR texture with GL_REPEAT in s and GL_CLAMP_TO_EDGE in t
+/// reads them) and blended linearly, as material_shading.glsl does (the tests' CPU reference).
 glm::dvec3 samplePrefiltered(const std::vector<ImageRgb>& levels, double lod, const glm::dvec3& d);
 
 }  // namespace prt::render

@@ -53,6 +53,7 @@ namespace prt::render {
   X(PFNGLDELETETEXTURESPROC, DeleteTextures)                                           \
   X(PFNGLTEXTURESTORAGE2DPROC, TextureStorage2D)                                       \
   X(PFNGLTEXTURESTORAGE3DPROC, TextureStorage3D)                                       \
+  X(PFNGLTEXTURESUBIMAGE3DPROC, TextureSubImage3D)                                     \
   X(PFNGLNAMEDFRAMEBUFFERTEXTURELAYERPROC, NamedFramebufferTextureLayer)               \
   X(PFNGLTEXTURESUBIMAGE2DPROC, TextureSubImage2D)                                     \
   X(PFNGLTEXTUREPARAMETERIPROC, TextureParameteri)                                     \

@@ -58,7 +58,6 @@ void findUniforms(const GlFunctions& gl, Program& p) {
   p.slots = loc("uSlots");
   p.vertexInputs = loc("uVertexInputs");
   p.eye = loc("uEye");
-  p.envCount = loc("uEnvCount");
   p.envWorldToMap = loc("uEnvWorldToMap");
   p.envScale = loc("uEnvScale");
   p.envUniform = loc("uEnvUniform");

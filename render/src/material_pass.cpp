@@ -122,26 +122,38 @@ void Renderer::Impl::bindMaterialBuffers(const Instance& in, bool direct) {
   }
 }
 
-// The map prefiltered by roughness as one mipmapped texture (level k: roughness k / (levels − 1)),
-// made once per image.
-GLuint Renderer::Impl::reflectionTexture(const std::shared_ptr<const ImageRgb>& image) {
-  auto it = reflections.find(image.get());
-  if (it != reflections.end()) return it->second.second;
-  const std::vector<ImageRgb> levels = prefilterEnvironment(*image);
-  GlTexture tex = createTexture(gl, GL_TEXTURE_2D);
-  gl.TextureStorage2D(tex, GLsizei(levels.size()), GL_RGB32F, levels[0].width, levels[0].height);
+// The environment's maps prefiltered by roughness (once per image) in one texture array: map i's
+// level k is layer i · levels + k. An array, not mip levels: llvmpipe samples a mipmapped
+// texture at a per-pixel lod several times slower than two bilinear lookups at lod 0; and one
+// array, not one sampler per map, so that the shader's loop over the maps indexes no samplers
+// (docs/render.md, "Cost of the materials"). Made again only when the frame's maps change.
+void Renderer::Impl::bindReflections(const RigBackground* env) {
+  std::vector<const ImageRgb*> key;
+  if (env)
+    for (const RigBackground::Map& m : env->maps) key.push_back(m.image.get());
+  if (key.empty() || (reflectionArray && key == reflectionKey)) return;
+  std::vector<const std::vector<ImageRgb>*> all;
+  for (const RigBackground::Map& m : env->maps) {
+    auto it = reflections.find(m.image.get());
+    if (it == reflections.end())
+      it = reflections.emplace(m.image.get(), std::make_pair(m.image, prefilterEnvironment(*m.image))).first;
+    all.push_back(&it->second.second);
+  }
+  const int w = kPrefilterWidth, h = kPrefilterWidth / 2;
+  GlTexture tex = createTexture(gl, GL_TEXTURE_2D_ARRAY);
+  gl.TextureStorage3D(tex, 1, GL_RGB32F, w, h, GLsizei(all.size() * kPrefilterLevels));
   gl.PixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  for (size_t k = 0; k < levels.size(); ++k)
-    gl.TextureSubImage2D(tex, GLint(k), 0, 0, levels[k].width, levels[k].height, GL_RGB, GL_FLOAT,
-                         levels[k].pixels.data());
-  gl.TextureParameteri(tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+  for (size_t i = 0; i < all.size(); ++i)
+    for (size_t k = 0; k < size_t(kPrefilterLevels); ++k)
+      gl.TextureSubImage3D(tex, 0, 0, 0, GLint(i * kPrefilterLevels + k), w, h, 1, GL_RGB, GL_FLOAT,
+                           (*all[i])[k].pixels.data());
+  gl.TextureParameteri(tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   gl.TextureParameteri(tex, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   gl.TextureParameteri(tex, GL_TEXTURE_WRAP_S, GL_REPEAT);
   gl.TextureParameteri(tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  checkError("uploading a prefiltered environment map");
-  const GLuint name = tex;
-  reflections.emplace(image.get(), std::make_pair(image, std::move(tex)));
-  return name;
+  checkError("uploading the prefiltered environment maps");
+  reflectionArray = std::move(tex);
+  reflectionKey = std::move(key);
 }
 
 void Renderer::Impl::beginMaterialFrame(const Frame& frame, const FramePlan& plan) {
@@ -162,16 +174,15 @@ void Renderer::Impl::beginMaterialFrame(const Frame& frame, const FramePlan& pla
       }
     dfg = linearFloatTexture(GL_RG32F, GL_RG, kDfgSize, kDfgSize, ab.data(), GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
   }
-  const GLuint dfgUnit = kEnvironmentFirstUnit + GLuint(kMaxReflectedMaps);
+  const GLuint dfgUnit = kEnvironmentFirstUnit + 1;
   gl.BindTextureUnit(dfgUnit, dfg);
   const RigBackground* env = frame.environment;
-  const int maps = env ? int(env->maps.size()) : 0;
-  if (maps > kMaxReflectedMaps)
-    throw Error(cat("render: ", maps, " environment maps to reflect, at most ", kMaxReflectedMaps));
+  const int maps = envMaps;  // planFrame: the frame's, checked
   std::vector<glm::mat3> toMap;
   std::vector<glm::vec3> scale;
+  bindReflections(env);
+  if (maps) gl.BindTextureUnit(kEnvironmentFirstUnit, reflectionArray);
   for (int i = 0; i < maps; ++i) {
-    gl.BindTextureUnit(kEnvironmentFirstUnit + GLuint(i), reflectionTexture(env->maps[size_t(i)].image));
     toMap.emplace_back(env->maps[size_t(i)].worldToMap);
     scale.emplace_back(env->maps[size_t(i)].scale);
   }
@@ -184,7 +195,6 @@ void Renderer::Impl::beginMaterialFrame(const Frame& frame, const FramePlan& pla
     if (!done.insert(p.id).second) return;
     gl.ProgramUniform4fv(p.id, p.eye, 1, &eye.x);
     gl.ProgramUniform1i(p.id, p.envOn, env ? 1 : 0);
-    gl.ProgramUniform1i(p.id, p.envCount, maps);
     if (maps) {
       gl.ProgramUniformMatrix3fv(p.id, p.envWorldToMap, maps, GL_FALSE, &toMap[0][0][0]);
       gl.ProgramUniform3fv(p.id, p.envScale, maps, &scale[0].x);

@@ -79,7 +79,7 @@ const Program& Renderer::Impl::bakedProgram(int variant) {
   Program& p = programs[size_t(variant)];
   if (!p.id)
     p = linkProgram(gl, withMaterialDefines(bakedVertexShader(bands), variant),
-                    withMaterialDefines(bakedFragmentShader(), variant), "baked");
+                    withMaterialDefines(bakedFragmentShader(envMaps), variant), "baked");
   return p;
 }
 
@@ -87,7 +87,7 @@ const Program& Renderer::Impl::receiverProgram(ProbeLookup lookup, int variant) 
   Program& p = receiverPrograms[size_t(lookup)][size_t(variant)];
   if (!p.id) {
     p = linkProgram(gl, withMaterialDefines(receiverVertexShader(grid->bands, lookup), variant),
-                    withMaterialDefines(receiverFragmentShader(grid->bands, lookup), variant), "receiver");
+                    withMaterialDefines(receiverFragmentShader(grid->bands, lookup, envMaps), variant), "receiver");
     const glm::vec3 origin(grid->origin), spacing(grid->spacing);
     gl.ProgramUniform3fv(p.id, p.origin, 1, &origin.x);
     gl.ProgramUniform3fv(p.id, p.spacing, 1, &spacing.x);
@@ -240,7 +240,20 @@ FramePlan Renderer::Impl::planFrame(const Frame& frame) {
   const int material = !plan.flat && frame.materials == MaterialShading::Full ? kVariantFullMaterial : 0;
   plan.bakedExtra = (plan.bakedSplit ? kVariantDirect : 0) | material;
   plan.receiverExtra = (plan.receiverSplit ? kVariantDirect : 0) | (plan.drawReceivers ? material : 0);
-  // Linked before the light update, which sets the light on the linked programs.
+  // The MATERIAL programs compile the reflected maps' count in: linked again when it changes
+  // (a rig's maps stay the same across its frames), before the light update, which sets the
+  // light on the linked programs.
+  const int maps = material && frame.environment ? int(frame.environment->maps.size()) : 0;
+  if (material && maps != envMaps) {
+    if (maps > kMaxReflectedMaps)
+      throw Error(cat("render: ", maps, " environment maps to reflect, at most ", kMaxReflectedMaps));
+    envMaps = maps;
+    for (int v = 0; v < kVariants; ++v) {
+      if (!(v & kVariantFullMaterial)) continue;
+      programs[size_t(v)] = Program{};
+      for (auto& lookup : receiverPrograms) lookup[size_t(v)] = Program{};
+    }
+  }
   if (material)
     for (const Instance& in : instances) bakedProgram(in.variant | plan.bakedExtra);
   return plan;

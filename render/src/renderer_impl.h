@@ -137,7 +137,10 @@ struct Renderer::Impl {
   std::vector<std::string> warnings;
   // MaterialShading::Full (material_pass.cpp): the DFG table and the prefiltered maps, by image.
   GlTexture dfg;
-  std::map<const ImageRgb*, std::pair<std::shared_ptr<const ImageRgb>, GlTexture>> reflections;
+  std::map<const ImageRgb*, std::pair<std::shared_ptr<const ImageRgb>, std::vector<ImageRgb>>> reflections;
+  int envMaps = 0;                             // reflected maps the MATERIAL programs are compiled for
+  GlTexture reflectionArray;                   // the frame's maps' levels as layers (bindReflections)
+  std::vector<const ImageRgb*> reflectionKey;  // which maps it holds, in order
 
   explicit Impl(GlContext& c) : context(c), gl(c.gl()) {}
   void checkError(const char* where) const { checkGlError(gl, where); }
@@ -200,7 +203,7 @@ struct Renderer::Impl {
   void beginMaterialFrame(const Frame& frame, const FramePlan& plan);
   void setFullMaterialUniforms(const Program& p, const Instance& in);
   void bindMaterialBuffers(const Instance& in, bool direct);
-  GLuint reflectionTexture(const std::shared_ptr<const ImageRgb>& image);
+  void bindReflections(const RigBackground* environment);
 
   // The background (background_pass.cpp).
   GLuint environmentTexture(const std::shared_ptr<const ImageRgb>& image);

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "direct_shading.h"
+#include "environment_prefilter.h"
 #include "prt/error.h"
 #include "prt/render/renderer.h"
 #include "render_shaders.h"
@@ -76,15 +77,17 @@ std::string bakedVertexShader(int bands) {
       {{"COEFFS", cat(bands * bands)}, {"NORMAL_ATTRIBUTE", cat(kNormalAttribute)}, {"TRANSFER", transfer}});
 }
 
-std::string materialShadingGlsl() {
+std::string materialShadingGlsl(int envMaps) {
   return fillShader(shaders::kMaterialShading, {{"MAX_ENV_MAPS", cat(kMaxReflectedMaps)},
-                                                {"DFG_UNIT", cat(kEnvironmentFirstUnit + kMaxReflectedMaps)},
+                                                {"ENV_MAPS", cat(envMaps)},
+                                                {"DFG_UNIT", cat(kEnvironmentFirstUnit + 1)},
+                                                {"LEVELS", cat(kPrefilterLevels)},
                                                 {"DFG_SIZE", cat(kDfgSize)}});
 }
 
-std::string bakedFragmentShader() {
+std::string bakedFragmentShader(int envMaps) {
   return fillShader(shaders::kBakedFragment,
-                    {{"DIRECT_LIGHTING", directLightingGlsl()}, {"MATERIAL_SHADING", materialShadingGlsl()}});
+                    {{"DIRECT_LIGHTING", directLightingGlsl()}, {"MATERIAL_SHADING", materialShadingGlsl(envMaps)}});
 }
 
 std::string cutoutDepthVertexShader() { return std::string(shaders::kCutoutDepthVertex); }

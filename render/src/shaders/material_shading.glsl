@@ -7,14 +7,15 @@
 // materialRadiance() puts the pixel together. Needs material_inputs.glsl.
 #include "common.glsl"
 const int kMaxEnvMaps = @MAX_ENV_MAPS@;
+#define ENV_MAPS @ENV_MAPS@
 uniform vec4 uEye;  // xyz: the camera's position (w = 1) or its view direction towards the scene (w = 0)
-uniform int uEnvCount;
 uniform mat3 uEnvWorldToMap[kMaxEnvMaps];
 uniform vec3 uEnvScale[kMaxEnvMaps];
 uniform vec3 uEnvUniform;   // the uniform part of the environment's radiance
-uniform float uEnvMaxLod;   // prefiltered levels − 1: lod = roughness × uEnvMaxLod
+uniform float uEnvMaxLod;   // prefiltered layers − 1: layer = roughness × uEnvMaxLod
 uniform int uEnvOn;         // 0: no environment reflection (Frame::environment null)
-layout(binding = 17) uniform sampler2D uEnvMaps[kMaxEnvMaps];
+const int kLevels = @LEVELS@;
+layout(binding = 17) uniform sampler2DArray uEnvMaps;  // map i's level k (roughness k / uEnvMaxLod): layer i·kLevels + k
 layout(binding = @DFG_UNIT@) uniform sampler2D uDfg;  // (A, B) at (n·v, roughness)
 
 float ggxD(float nh, float a) {
@@ -51,15 +52,38 @@ vec3 specularBrdf(Surface s, vec3 l, vec3 v, float a) {
 // The unit vector from x towards the camera.
 vec3 viewDirection(vec3 x) { return uEye.w > 0.0 ? normalize(uEye.xyz - x) : -uEye.xyz; }
 
-// The environment's radiance prefiltered by the GGX lobe of `roughness` around r.
+// Map i's radiance between its two levels l0, l1 (blend f), along r. GLSL's atan: the levels are
+// smooth over its error (~1e-4 rad against their 1.4° texels), and it costs half of
+// atan2Accurate on llvmpipe.
+vec3 envMap(int i, vec3 r, float l0, float l1, float f) {
+  vec3 m = uEnvWorldToMap[i] * r;
+  vec2 uv = vec2(0.5 + atan(m.z, m.x) / (2.0 * kPi), atan(length(m.xz), m.y) / kPi);
+  float base = float(i * kLevels);
+  vec3 a = textureLod(uEnvMaps, vec3(uv, base + l0), 0.0).rgb;
+  vec3 b = textureLod(uEnvMaps, vec3(uv, base + l1), 0.0).rgb;
+  return uEnvScale[i] * mix(a, b, f);
+}
+
+// The environment's radiance prefiltered by the GGX lobe of `roughness` around r: each map
+// between its two levels around roughness × uEnvMaxLod. The map count is compiled in (ENV_MAPS,
+// the frame's): a loop or a branch on a uniform count costs llvmpipe the lookups of every map
+// it could skip.
 vec3 prefilteredRadiance(vec3 r, float roughness) {
   vec3 L = uEnvUniform;
-  for (int i = 0; i < kMaxEnvMaps; ++i) {
-    if (i >= uEnvCount) break;
-    vec3 m = uEnvWorldToMap[i] * r;
-    vec2 uv = vec2(0.5 + atan2Accurate(m.z, m.x) / (2.0 * kPi), atan2Accurate(length(m.xz), m.y) / kPi);
-    L += uEnvScale[i] * textureLod(uEnvMaps[i], uv, roughness * uEnvMaxLod).rgb;
-  }
+  float level = roughness * uEnvMaxLod;
+  float l0 = floor(level), l1 = min(l0 + 1.0, uEnvMaxLod), f = level - l0;
+#if ENV_MAPS > 0
+  L += envMap(0, r, l0, l1, f);
+#endif
+#if ENV_MAPS > 1
+  L += envMap(1, r, l0, l1, f);
+#endif
+#if ENV_MAPS > 2
+  L += envMap(2, r, l0, l1, f);
+#endif
+#if ENV_MAPS > 3
+  L += envMap(3, r, l0, l1, f);
+#endif
   return L;
 }
 
