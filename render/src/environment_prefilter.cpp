@@ -45,6 +45,27 @@ double radicalInverse(uint32_t i) {
   return double(i) * 2.3283064365386963e-10;
 }
 
+// sampleEquirect in float, inlined: the prefilter's inner loop (its lookups are most of its cost).
+inline glm::vec3 lookup(const ImageRgb& m, const glm::vec3& d) {
+  const float u = 0.5f + std::atan2(d.z, d.x) * (0.5f / kPiF);
+  const float v = std::acos(std::clamp(d.y, -1.0f, 1.0f)) * (1.0f / kPiF);
+  const float x = u * m.width - 0.5f, y = v * m.height - 0.5f;
+  const float x0 = std::floor(x), y0 = std::floor(y), fx = x - x0, fy = y - y0;
+  auto wrap = [&](int i) { return ((i % m.width) + m.width) % m.width; };
+  const int xa = wrap(int(x0)), xb = wrap(int(x0) + 1);
+  const int ya = std::clamp(int(y0), 0, m.height - 1), yb = std::clamp(int(y0) + 1, 0, m.height - 1);
+  return (1.0f - fy) * ((1.0f - fx) * m.at(xa, ya) + fx * m.at(xb, ya)) +
+         fy * ((1.0f - fx) * m.at(xa, yb) + fx * m.at(xb, yb));
+}
+
+// Trilinear lookup in the box chain.
+inline glm::vec3 chainLookup(const std::vector<ImageRgb>& chain, float lod, const glm::vec3& d) {
+  const int a = int(lod), b = std::min(a + 1, int(chain.size()) - 1);
+  const float f = lod - float(a);
+  const glm::vec3 la = lookup(chain[size_t(a)], d);
+  return f > 0.0f ? la + f * (lookup(chain[size_t(b)], d) - la) : la;
+}
+
 // Direction of pixel (x, y)'s centre of a width × height equirectangular image.
 glm::dvec3 pixelDirection(int x, int y, int width, int height) {
   return equirectDirection((x + 0.5) / width, (y + 0.5) / height);
@@ -79,7 +100,7 @@ void filterLevel(const std::vector<ImageRgb>& chain, double roughness, int sampl
           const double omegaP = (2.0 * kPi / source.width) * (kPi / source.height) * sinTheta;
           const double omegaS = 1.0 / (samples * std::max(pdf, 1e-12));
           const double lod = std::clamp(0.5 * std::log2(omegaS / omegaP) + 1.0, 0.0, maxLod);
-          sum += nl * samplePrefiltered(chain, lod, l);
+          sum += nl * glm::dvec3(chainLookup(chain, float(lod), glm::vec3(l)));
           weight += nl;
         }
         out.at(x, y) = glm::vec3(weight > 0.0 ? sum / weight : glm::dvec3(0.0));
@@ -113,7 +134,18 @@ std::vector<ImageRgb> prefilterEnvironment(const ImageRgb& map, int levels, int 
         for (int x = 0; x < level.width; ++x)
           level.at(x, y) = glm::vec3(samplePrefiltered(chain, lod, pixelDirection(x, y, level.width, level.height)));
     } else {
-      filterLevel(chain, double(k) / (levels - 1), samples, level);
+      // Rougher lobes are smoother: level k is filtered at W₀ / 2^(k−1) (no fewer than 64 texels
+      // across, 5.6° texels against the ≥ 40° lobe of roughness 0.6) and resampled bilinearly
+      // to the common size, which a third of the lookups cost.
+      ImageRgb coarse(std::max(64, w0 >> (k - 1)), std::max(32, (w0 / 2) >> (k - 1)));
+      filterLevel(chain, double(k) / (levels - 1), samples, coarse);
+      if (coarse.width == level.width) {
+        level = std::move(coarse);
+      } else {
+        for (int y = 0; y < level.height; ++y)
+          for (int x = 0; x < level.width; ++x)
+            level.at(x, y) = glm::vec3(sampleEquirect(coarse, pixelDirection(x, y, level.width, level.height)));
+      }
     }
     out.push_back(std::move(level));
   }

@@ -21,7 +21,7 @@ namespace prt::render {
 
 /// Levels of the prefiltered map (roughness 0, 0.2, ..., 1), the GGX samples per texel, and
 /// the levels' width W (height W/2: 1.4° texels, finer than the lobe of roughness 0.2).
-constexpr int kPrefilterLevels = 6, kPrefilterSamples = 96, kPrefilterWidth = 256;
+constexpr int kPrefilterLevels = 6, kPrefilterSamples = 64, kPrefilterWidth = 256;
 
 /// The prefiltered levels of an equirectangular map (prt/light.h's orientation), each W × W/2.
 /// Deterministic (Hammersley points).

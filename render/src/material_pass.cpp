@@ -87,6 +87,7 @@ void Renderer::Impl::setFullMaterial(const Scene& scene, const MeshInstance& m, 
     f.slots[i] = slot.uvSet >= 1 ? 1 : 0;
     f.textures[size_t(i)] = sceneTexture(scene, slot.texture);
   }
+  if (f.slots != glm::ivec4(-1)) in.variant |= kVariantMaterialTextures;
   if (f.slots[1] >= 0) {
     f.tangents = vertexBuffer(gl, m.tangents.data(), m.tangents.size() * sizeof(glm::vec4));
     f.vertexInputs |= 1;

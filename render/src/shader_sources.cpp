@@ -46,6 +46,7 @@ std::string withMaterialDefines(const std::string& source, int variant) {
   if (variant & kVariantDirect) defines += "#define DIRECT 1\n";
   if (variant & kVariantTransmission) defines += "#define HAS_TRANSMISSION_TEXTURE 1\n";
   if (variant & kVariantFullMaterial) defines += "#define MATERIAL 1\n";
+  if (variant & kVariantMaterialTextures) defines += "#define MATERIAL_TEXTURES 1\n";
   if (variant & (kVariantTexture | kVariantTransmission | kVariantFullMaterial)) defines += "#define HAS_TEXCOORD 1\n";
   return source.substr(0, eol) + defines + source.substr(eol);
 }

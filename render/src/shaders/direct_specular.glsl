@@ -14,9 +14,11 @@ void directShading(vec3 x, vec3 ng, Surface s, vec3 v, vec3 dxW, vec3 dyW, out v
     vec4 dir = uDirectDir[k];
     float cotR = uDirectIrradiance[k].w;
     float f = directCosineFactor(s.n, dir, cotR);
-    float fg = directCosineFactor(ng, dir, cotR);
+    // The cap above the geometric horizon too (a normal map may turn n away from it): a test,
+    // not a second cosine factor, which would cost as much as the highlight.
+    bool facing = f > 0.0 || dot(ng, dir.xyz) > -sqrt(dir.w);
     float vis = 1.0;
-    if (uShadowed != 0) vis = visibleShare(k, x, ng, max(f, fg) > 0.0, dxW, dyW);
+    if (uShadowed != 0) vis = visibleShare(k, x, ng, facing, dxW, dyW);
     vec3 l = dir.xyz;
     float norm = 1.0;
     if (dir.w > 0.0) {

@@ -41,6 +41,9 @@ vec2 slotUv(int set) {
 // frame (T, B = w · ng × T, ng) with T orthogonalised against ng; the geometric normal where the
 // interpolated tangent has no component off it.
 vec3 mappedNormal(vec3 ng, float side) {
+#ifndef MATERIAL_TEXTURES
+  return ng;
+#endif
   if (uSlots.y < 0) return ng;
   vec3 t = vTangent.xyz - ng * dot(ng, vTangent.xyz);
   if (dot(t, t) < 1e-12) return ng;
@@ -59,19 +62,22 @@ Surface surfaceAt(vec3 ng, float side) {
   Surface s;
   vec3 base = albedo();
   float metallic = uMaterial.x, roughness = uMaterial.y;
+  s.occlusion = 1.0;
+  s.emission = uEmissive;
+#ifdef MATERIAL_TEXTURES  // the slots' lookups only where the material has a texture in one
   if (uSlots.x >= 0) {
     vec4 mr = texture(uMetallicRoughnessTexture, slotUv(uSlots.x));
     roughness *= mr.g;
     metallic *= mr.b;
   }
+  if (uSlots.z >= 0) s.occlusion = 1.0 + uMaterial.w * (texture(uOcclusionTexture, slotUv(uSlots.z)).r - 1.0);
+  if (uSlots.w >= 0) s.emission *= texture(uEmissiveTexture, slotUv(uSlots.w)).rgb;
+#endif
   metallic = clamp(metallic, 0.0, 1.0);
   s.baseColor = base;
   s.metallic = metallic;
   s.roughness = clamp(roughness, kMinRoughness, 1.0);
   s.diffuse = base * (1.0 - metallic) * uDiffuseScale;
   s.n = mappedNormal(ng, side);
-  s.occlusion = uSlots.z >= 0 ? 1.0 + uMaterial.w * (texture(uOcclusionTexture, slotUv(uSlots.z)).r - 1.0) : 1.0;
-  s.emission = uEmissive;
-  if (uSlots.w >= 0) s.emission *= texture(uEmissiveTexture, slotUv(uSlots.w)).rgb;
   return s;
 }
