@@ -308,12 +308,13 @@ TEST(RenderAnimatedReceivers, BakeAndRenderCommandsMoveTheCube) {
   EXPECT_NE(bakeRun.err.find("(1 receivers skipped)"), std::string::npos) << bakeRun.err;
   EXPECT_NE(bakeRun.err.find("receiver node 1 'Cube': animated (translation)"), std::string::npos) << bakeRun.err;
 
-  const RunResult renderRun =
-      runPrt({"render", baked, "--rig", rig.string(), "--probes", probes, "--camera", "Top", "--frames", "0-2",
-              "--size", "64x48", "--exr-compression", "none", "-q", "-o", (dir / "f_%d.exr").string()});
+  const RunResult renderRun = runPrt({"render", baked, "--rig", rig.string(), "--probes", probes, "--camera", "Top",
+                                      "--frames", "0-2", "--size", "64x48", "--exr-compression", "none", "-q",
+                                      "--materials", "diffuse", "-o", (dir / "f_%d.exr").string()});
   ASSERT_EQ(renderRun.status, 0) << renderRun.err;
 
-  // The oracle from the files the command read: the receiver survives the baked file.
+  // The oracle from the files the command read (the Lambertian formula: --materials diffuse):
+  // the receiver survives the baked file.
   const Scene file = loadScene(baked);
   ASSERT_TRUE(instanceOf(file, "Cube").receiverOnly);
   const ProbeGrid grid = readProbeGrid(probes);
@@ -365,8 +366,9 @@ TEST(RenderAnimatedReceivers, SceneOfReceiversOnlyRendersFromTheProbes) {
   for (const MeshInstance& m : loadScene(baked).meshes)
     ASSERT_TRUE(m.transfer.empty() && m.receiverOnly);  // nothing baked: the case under test
   ASSERT_EQ(loadScene(baked).transferBands, 3);         // the bake record's bands (prt bake's default)
-  const RunResult renderRun = runPrt({"render", baked, "--rig", rig.string(), "--probes", probes, "--camera", "Top",
-                                      "--frames", "1", "--size", "64x48", "-q", "-o", (dir / "f.exr").string()});
+  const RunResult renderRun =
+      runPrt({"render", baked, "--rig", rig.string(), "--probes", probes, "--camera", "Top", "--frames", "1", "--size",
+              "64x48", "-q", "--materials", "diffuse", "-o", (dir / "f.exr").string()});
   ASSERT_EQ(renderRun.status, 0) << renderRun.err;
   const Scene file = loadScene(baked);
   const sh::ShRgb light = loadLightRig(rig.string()).evaluate(1, 3);

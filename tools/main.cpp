@@ -80,7 +80,9 @@ int main(int argc, char** argv) {
   std::vector<Command> commands = {
       {"bake", "Bake per-vertex SH transfer of a glTF scene into a .glb", [&](CLI::App& c) { addBake(c, bake); },
        [&] { return runBake(bake); }},
-      {"relight", "Relight a baked scene: per-vertex exitant radiance as _RADIANCE (COLOR_0: clamped for viewers)",
+      {"relight",
+       "Relight a baked scene: per-vertex exitant radiance (diffuse, view-independent) as _RADIANCE (COLOR_0: "
+       "clamped for viewers)",
        [&](CLI::App& c) { addRelight(c, relight); }, [&] { return runRelight(relight); }},
       {"light", "Project lighting to SH and write it as JSON", [&](CLI::App& c) { addLight(c, light); },
        [&] { return runLight(light); }},

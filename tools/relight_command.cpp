@@ -109,6 +109,10 @@ void printSummary(const RelightArgs& a, const Scene& scene, const Radiance& r) {
 }  // namespace
 
 void addRelight(CLI::App& cmd, RelightArgs& a) {
+  cmd.footer(
+      "The radiance written is view-independent: every surface Lambertian with its diffuse albedo "
+      "(baseColor·(1 − metallic)), no highlights, no normal or occlusion maps, no emission; prt render "
+      "draws the glTF material in full (docs/render.md, \"Materials\").");
   cmd.add_option("baked", a.baked, "Baked scene (.glb from prt bake)")->required();
   cmd.add_option("-o,--output", a.output,
                  "Output lit scene (.glb, or .gltf): radiance as _RADIANCE, and clamped to 0..1 as COLOR_0 on unlit "

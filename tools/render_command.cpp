@@ -372,6 +372,13 @@ FrameLights frameLights(const RenderArgs& a) {
     render::checkBackgroundSize(cat("--background sky: ", a.light.rig.empty() ? "the lights" : a.light.rig), maps,
                                 caps);
   }
+  if (a.materials == render::MaterialShading::Full) {
+    size_t maps = 0;
+    for (const RigLight& l : rig->lights) maps += l.type == RigLight::Type::Environment;
+    if (maps > size_t(render::kMaxReflectedMaps))
+      throw Error(cat(a.light.rig.empty() ? "the lights" : a.light.rig, ": ", maps, " environment maps, at most ",
+                      render::kMaxReflectedMaps, " can be reflected (--materials diffuse reflects none)"));
+  }
   return {std::move(*rig), frames};
 }
 
@@ -451,7 +458,8 @@ std::function<void()> writeJob(const RenderArgs& a, Outputs& out, int64_t f, std
 // Frame f's frame: the camera, the light of the frame (the gathered vertex light valid until
 // the next frame's), the options' shadows, lookup and samples, the background if asked for.
 render::Frame renderFrame(const RenderArgs& a, const RenderSize& size, const render::CameraView& camera,
-                          bake::FrameLight& light, double time, const RigBackground* background) {
+                          bake::FrameLight& light, double time, const RigBackground* background,
+                          const RigBackground* environment) {
   render::Frame frame;
   frame.camera = camera;
   const bake::DirectIrradiance* v = light.vertexLight;
@@ -461,6 +469,8 @@ render::Frame renderFrame(const RenderArgs& a, const RenderSize& size, const ren
   frame.probeLookup = a.probeLookup;
   frame.samples = a.msaa;
   frame.background = background;
+  frame.materials = a.materials;
+  frame.environment = environment;
   frame.width = int(size.width);
   frame.height = int(size.height);
   return frame;
@@ -479,8 +489,13 @@ RenderTimes renderFrames(const RenderArgs& a, const FrameLights& lights, const R
     bake::FrameLight light = lighting.at(double(f));
     RigBackground background;
     if (a.background == Background::Sky) background = lights.rig.background(double(f));
+    // The light glossy surfaces reflect besides the direct lights: the rig's SH part.
+    RigBackground environment;
+    const bool full = a.materials == render::MaterialShading::Full;
+    if (full) environment = lights.rig.shRadiance(double(f));
     const render::Frame frame =
-        renderFrame(a, size, camera, light, double(f) / fps, a.background == Background::Sky ? &background : nullptr);
+        renderFrame(a, size, camera, light, double(f) / fps, a.background == Background::Sky ? &background : nullptr,
+                    full ? &environment : nullptr);
     auto image = std::make_shared<const ImageRgb>(
         a.supersample > 1 ? downsampleBox(renderer.render(frame), a.supersample) : renderer.render(frame));
     const std::vector<std::string> now = renderer.warnings();
@@ -589,6 +604,20 @@ void printOutputs(const RenderArgs& a, const Outputs& out, int64_t n, double fps
 
 }  // namespace
 
+namespace {
+
+void addMaterialOption(CLI::App& r, RenderArgs& a) {
+  r.add_option("--materials", a.materials,
+               "full: the glTF metallic-roughness material per pixel (metals, gloss, normal, occlusion and emissive "
+               "maps, highlights of the direct lights and of the environment); diffuse: every surface Lambertian "
+               "with its base colour, as prt relight (docs/render.md, \"Materials\")")
+      ->transform(choice<render::MaterialShading>(
+          {{"full", render::MaterialShading::Full}, {"diffuse", render::MaterialShading::Diffuse}}))
+      ->default_str("full");
+}
+
+}  // namespace
+
 void addRender(CLI::App& r, RenderArgs& a) {
   r.add_option("baked", a.baked, "Baked scene (.glb from prt bake)")->required();
   r.add_option("-o,--output", a.output,
@@ -655,6 +684,7 @@ void addRender(CLI::App& r, RenderArgs& a) {
                "per pixel with PCSS-filtered shadow maps (docs/render.md)")
       ->check(CLI::Range(16, 8192))
       ->capture_default_str();
+  addMaterialOption(r, a);
   addGatherOptions(r, a.gather);
   r.add_option("--contact-sheet", a.contactSheet, "Also write a PNG grid of all frames, downscaled");
   r.add_option("--sheet-columns", a.sheetColumns, "Contact sheet columns (0 = about square)")
@@ -673,7 +703,9 @@ int runRender(const RenderArgs& a) {
   Outputs out = checkOutputs(a, lights.frames);
   const double fps = a.fps ? *a.fps : lights.rig.fps.value_or(kDefaultFps);
 
-  Scene scene = loadScene(a.baked);
+  LoadOptions load;
+  load.shadingTextures = a.materials == render::MaterialShading::Full;  // normal, occlusion, emissive
+  Scene scene = loadScene(a.baked, load);
   if (scene.transferBands == 0) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
   const int bands = scene.transferBands;
   const ChosenCamera camera = chooseCamera(a, orbitCamera(a), scene, double(a.width) / a.height);

@@ -40,7 +40,8 @@ struct RenderArgs {
   int msaa = 1;              // samples per pixel
   int supersample = 1;       // rendered supersample x supersample pixels per output pixel, averaged down
   int shadowMapSize = 1024;  // texels a side of each direct light's shadow map (and cascade)
-  GatherOptions gather;      // the bake's rays gathering the direct lights' bounces and the sky detail
+  render::MaterialShading materials = render::MaterialShading::Full;  // the glTF material, or diffuse only
+  GatherOptions gather;  // the bake's rays gathering the direct lights' bounces and the sky detail
   std::string mp4, contactSheet;
   int sheetColumns = 0, sheetTile = 192;
   double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitFov = 45.0, orbitDistance = 0.0;  // distance 0: fit

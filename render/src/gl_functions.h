@@ -53,6 +53,7 @@ namespace prt::render {
   X(PFNGLDELETETEXTURESPROC, DeleteTextures)                                           \
   X(PFNGLTEXTURESTORAGE2DPROC, TextureStorage2D)                                       \
   X(PFNGLTEXTURESTORAGE3DPROC, TextureStorage3D)                                       \
+  X(PFNGLTEXTURESUBIMAGE3DPROC, TextureSubImage3D)                                     \
   X(PFNGLNAMEDFRAMEBUFFERTEXTURELAYERPROC, NamedFramebufferTextureLayer)               \
   X(PFNGLTEXTURESUBIMAGE2DPROC, TextureSubImage2D)                                     \
   X(PFNGLTEXTUREPARAMETERIPROC, TextureParameteri)                                     \
@@ -89,6 +90,7 @@ namespace prt::render {
   X(PFNGLPROGRAMUNIFORM1IPROC, ProgramUniform1i)                                       \
   X(PFNGLPROGRAMUNIFORM1FPROC, ProgramUniform1f)                                       \
   X(PFNGLPROGRAMUNIFORM3IVPROC, ProgramUniform3iv)                                     \
+  X(PFNGLPROGRAMUNIFORM4IVPROC, ProgramUniform4iv)                                     \
   X(PFNGLPROGRAMUNIFORM3FVPROC, ProgramUniform3fv)                                     \
   X(PFNGLPROGRAMUNIFORM4FVPROC, ProgramUniform4fv)                                     \
   X(PFNGLPROGRAMUNIFORM2FVPROC, ProgramUniform2fv)                                     \

@@ -51,6 +51,18 @@ void findUniforms(const GlFunctions& gl, Program& p) {
   p.shadowMatrix = loc("uShadowMatrix");
   p.shadowParams = loc("uShadowParams");
   p.loopStep = loc("uLoopStep");
+  p.material = loc("uMaterial");
+  p.emissive = loc("uEmissive");
+  p.specularColor = loc("uSpecularColor");
+  p.diffuseScale = loc("uDiffuseScale");
+  p.slots = loc("uSlots");
+  p.vertexInputs = loc("uVertexInputs");
+  p.eye = loc("uEye");
+  p.envWorldToMap = loc("uEnvWorldToMap");
+  p.envScale = loc("uEnvScale");
+  p.envUniform = loc("uEnvUniform");
+  p.envMaxLod = loc("uEnvMaxLod");
+  p.envOn = loc("uEnvOn");
 }
 
 }  // namespace

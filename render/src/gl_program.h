@@ -17,6 +17,9 @@ struct Program {
   GLint directSh = -1, directCount = -1, directDir = -1, directIrradiance = -1, shadowed = -1, cascades = -1,
         cascadeFar = -1, viewOrigin = -1, viewForward = -1, shadowSize = -1, shadowMatrix = -1, shadowParams = -1,
         loopStep = -1;
+  // MATERIAL variants (material_pass.cpp)
+  GLint material = -1, emissive = -1, specularColor = -1, diffuseScale = -1, slots = -1, vertexInputs = -1, eye = -1,
+        envWorldToMap = -1, envScale = -1, envUniform = -1, envMaxLod = -1, envOn = -1;
 };
 
 /// Throws prt::Error naming `where` if the GL has an error pending.

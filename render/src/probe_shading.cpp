@@ -182,14 +182,15 @@ std::string receiverVertexShader(int bands, ProbeLookup lookup) {
                     {{"PER_VERTEX", cat(int(perVertex))}, {"PROBE_LOOKUP", perVertex ? probeLookupGlsl(bands) : ""}});
 }
 
-std::string receiverFragmentShader(int bands, ProbeLookup lookup) {
+std::string receiverFragmentShader(int bands, ProbeLookup lookup, int envMaps) {
   const bool perVertex = lookup == ProbeLookup::PerVertex;
   return fillShader(shaders::kReceiverFragment, {{"PER_VERTEX", cat(int(perVertex))},
                                                  {"TEXELS", cat(radianceTexels(bands))},
                                                  {"PROBE_LOOKUP", perVertex ? "" : probeLookupGlsl(bands)},
                                                  {"IRRADIANCE_BASIS", irradianceBasisGlsl(bands)},
                                                  {"IRRADIANCE_SUMS", irradianceSumsGlsl(bands)},
-                                                 {"DIRECT_LIGHTING", directLightingGlsl()}});
+                                                 {"DIRECT_LIGHTING", directLightingGlsl()},
+                                                 {"MATERIAL_SHADING", materialShadingGlsl(envMaps)}});
 }
 
 int radianceTexels(int bands) { return int(3 * irradianceCoefficients(bands).size() + 3) / 4; }

@@ -39,7 +39,7 @@ void packRadiance(int bands, const std::vector<glm::vec3>& relit, std::vector<gl
 /// normalised incident radiance (packed, radianceTexels vec4) on, interpolated; the fragment shader
 /// applies the irradiance basis at the interpolated normal.
 std::string receiverVertexShader(int bands, ProbeLookup lookup);
-std::string receiverFragmentShader(int bands, ProbeLookup lookup);
+std::string receiverFragmentShader(int bands, ProbeLookup lookup, int envMaps);
 
 /// The light packed as packRadiance packs one probe (radianceTexels(bands) texels).
 std::vector<glm::vec4> packLight(int bands, const sh::ShRgb& light);

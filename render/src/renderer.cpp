@@ -79,7 +79,7 @@ const Program& Renderer::Impl::bakedProgram(int variant) {
   Program& p = programs[size_t(variant)];
   if (!p.id)
     p = linkProgram(gl, withMaterialDefines(bakedVertexShader(bands), variant),
-                    withMaterialDefines(bakedFragmentShader(), variant), "baked");
+                    withMaterialDefines(bakedFragmentShader(envMaps), variant), "baked");
   return p;
 }
 
@@ -87,7 +87,7 @@ const Program& Renderer::Impl::receiverProgram(ProbeLookup lookup, int variant) 
   Program& p = receiverPrograms[size_t(lookup)][size_t(variant)];
   if (!p.id) {
     p = linkProgram(gl, withMaterialDefines(receiverVertexShader(grid->bands, lookup), variant),
-                    withMaterialDefines(receiverFragmentShader(grid->bands, lookup), variant), "receiver");
+                    withMaterialDefines(receiverFragmentShader(grid->bands, lookup, envMaps), variant), "receiver");
     const glm::vec3 origin(grid->origin), spacing(grid->spacing);
     gl.ProgramUniform3fv(p.id, p.origin, 1, &origin.x);
     gl.ProgramUniform3fv(p.id, p.spacing, 1, &spacing.x);
@@ -191,6 +191,7 @@ ImageRgb Renderer::render(const Frame& frame) {
   r.stats.shadowMaps = r.stats.cascades = r.stats.shadowMapSize = 0;
   if (plan.bakedSplit || plan.receiverSplit) r.drawShadows(frame, plan);
   r.beginFrame(frame, plan);
+  r.beginMaterialFrame(frame, plan);
   r.drawOpaque(frame, plan);
   // After the baked instances, so that the depth test rejects hidden receiver pixels before
   // their (costly) probe lookup runs.
@@ -236,8 +237,25 @@ FramePlan Renderer::Impl::planFrame(const Frame& frame) {
   }
   stats.directBaked = plan.bakedSplit ? frame.direct.size() : 0;
   stats.directReceivers = plan.receiverSplit ? frame.direct.size() : 0;
-  plan.bakedExtra = plan.bakedSplit ? kVariantDirect : 0;
-  plan.receiverExtra = plan.receiverSplit ? kVariantDirect : 0;
+  const int material = !plan.flat && frame.materials == MaterialShading::Full ? kVariantFullMaterial : 0;
+  plan.bakedExtra = (plan.bakedSplit ? kVariantDirect : 0) | material;
+  plan.receiverExtra = (plan.receiverSplit ? kVariantDirect : 0) | (plan.drawReceivers ? material : 0);
+  // The MATERIAL programs compile the reflected maps' count in: linked again when it changes
+  // (a rig's maps stay the same across its frames), before the light update, which sets the
+  // light on the linked programs.
+  const int maps = material && frame.environment ? int(frame.environment->maps.size()) : 0;
+  if (material && maps != envMaps) {
+    if (maps > kMaxReflectedMaps)
+      throw Error(cat("render: ", maps, " environment maps to reflect, at most ", kMaxReflectedMaps));
+    envMaps = maps;
+    for (int v = 0; v < kVariants; ++v) {
+      if (!(v & kVariantFullMaterial)) continue;
+      programs[size_t(v)] = Program{};
+      for (auto& lookup : receiverPrograms) lookup[size_t(v)] = Program{};
+    }
+  }
+  if (material)
+    for (const Instance& in : instances) bakedProgram(in.variant | plan.bakedExtra);
   return plan;
 }
 
@@ -261,7 +279,7 @@ void Renderer::Impl::updateBakedLight(const Frame& frame, const FramePlan& plan)
   if (plan.bakedSplit) {
     uploadBounce(gathered ? frame.directBounce : nullptr, gathered ? frame.directBounceBack : nullptr);
     for (const Instance& in : instances) {
-      const Program& p = bakedProgram(in.variant | kVariantDirect);
+      const Program& p = bakedProgram(in.variant | plan.bakedExtra);
       gl.ProgramUniform3fv(p.id, p.directSh, dl.size(), &dl.c[0].x);
     }
   }
@@ -324,6 +342,7 @@ void Renderer::Impl::setMaterialUniforms(const Program& p, const Instance& in) {
   if (p.alphaCutoff >= 0) gl.ProgramUniform1f(p.id, p.alphaCutoff, in.alphaCutoff);
   if (in.texture) gl.BindTextureUnit(0, in.texture);
   if (in.transmissionTexture) gl.BindTextureUnit(kTransmissionUnit, in.transmissionTexture);
+  if (p.material >= 0) setFullMaterialUniforms(p, in);
 }
 
 void Renderer::Impl::drawInstance(const Program& p, const Instance& in, bool mirrored, bool flat) {
@@ -354,6 +373,7 @@ bool Renderer::Impl::placeBaked(const Instance& in, const FramePlan& plan) {
     gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, in.directBounce);
     if (in.directBounceBack) gl.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, in.directBounceBack);
   }
+  if (plan.bakedExtra & kVariantFullMaterial) bindMaterialBuffers(in, plan.bakedSplit);
   return false;
 }
 

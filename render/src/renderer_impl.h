@@ -40,6 +40,19 @@ struct FramePlan {
   glm::mat4 viewProj{1.0f};
 };
 
+/// An instance's glTF material as the MATERIAL variants read it (material_pass.cpp): the
+/// uniforms of material_inputs.glsl, the slots' textures and the per-vertex inputs.
+struct FullMaterial {
+  glm::vec4 factors{0.0f, 1.0f, 1.0f, 1.0f};  // metallic, roughness, normal scale, occlusion strength
+  glm::vec3 emissive{0.0f};
+  glm::vec4 specularColor{0.0f};  // dielectric F0 colour, specular weight (0: Lambertian only)
+  float diffuseScale = 1.0f;
+  glm::ivec4 slots{-1};  // coordinate set per slot, -1 none
+  std::array<GLuint, 4> textures{};
+  GlBuffer tangents, texcoords1;
+  int vertexInputs = 0;  // bit 0 tangents, bit 1 texcoords1, bit 2 the direct part (baked)
+};
+
 struct Renderer::Impl {
   /// A baked instance or a receiver on the GPU.
   struct Instance {
@@ -66,6 +79,7 @@ struct Renderer::Impl {
     bool blend = false;                        // drawn blended after the opaque pass (BLEND or transmission)
     int variant = 0;         // kVariantTexture | kVariantColor | ...: the shader variant it is drawn with
     MeshInstance placement;  // receivers: node and rest world only (no vertices), for the motion
+    FullMaterial full;       // MaterialShading::Full
   };
   /// The probe grid's buffers, each read through a buffer texture: lattice index, static
   /// per-probe data, per-frame radiance.
@@ -121,6 +135,12 @@ struct Renderer::Impl {
   std::vector<glm::vec4> radiance;  // per-frame upload: c_p as RGBA (see uploadProbes)
   FrameStats stats;
   std::vector<std::string> warnings;
+  // MaterialShading::Full (material_pass.cpp): the DFG table and the prefiltered maps, by image.
+  GlTexture dfg;
+  std::map<const ImageRgb*, std::pair<std::shared_ptr<const ImageRgb>, std::vector<ImageRgb>>> reflections;
+  int envMaps = 0;                             // reflected maps the MATERIAL programs are compiled for
+  GlTexture reflectionArray;                   // the frame's maps' levels as layers (bindReflections)
+  std::vector<const ImageRgb*> reflectionKey;  // which maps it holds, in order
 
   explicit Impl(GlContext& c) : context(c), gl(c.gl()) {}
   void checkError(const char* where) const { checkGlError(gl, where); }
@@ -175,6 +195,15 @@ struct Renderer::Impl {
                       int mapSize);
   void castShadow(const Instance& in, const glm::mat4& model, const glm::mat4& viewProj, GLuint& current);
   void setDirectUniforms(const Frame& frame, const FramePlan& plan, const ShadowPlan& shadows, bool maps);
+
+  // The glTF material (material_pass.cpp).
+  void setFullMaterial(const Scene& scene, const MeshInstance& m, Instance& in, bool receiver);
+  /// The frame's MATERIAL uniforms (eye, reflected maps) on the programs it uses, and the
+  /// environment's textures bound.
+  void beginMaterialFrame(const Frame& frame, const FramePlan& plan);
+  void setFullMaterialUniforms(const Program& p, const Instance& in);
+  void bindMaterialBuffers(const Instance& in, bool direct);
+  void bindReflections(const RigBackground* environment);
 
   // The background (background_pass.cpp).
   GLuint environmentTexture(const std::shared_ptr<const ImageRgb>& image);

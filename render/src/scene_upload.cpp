@@ -181,6 +181,7 @@ void Renderer::Impl::uploadReceiver(const Scene& scene, const MeshInstance& m) {
   attribute(gl, in.vao, 1, in.texcoords, 2, !m.texcoords.empty());
   attribute(gl, in.vao, 2, in.colors, 4, in.hasColor);
   attribute(gl, in.vao, 3, in.normals, 3, m.normals.size() == m.positions.size());
+  setFullMaterial(scene, m, in, true);
   gl.VertexArrayElementBuffer(in.vao, in.indices);
   checkError(cat("uploading receiver '", m.name, "'").c_str());
   receivers.push_back(std::move(in));
@@ -200,7 +201,9 @@ void Renderer::Impl::uploadBaked(const Scene& scene, const MeshInstance& m, GLin
   in.colors = storeBuffer(gl, m.colors);
   in.indices = storeBuffer(gl, m.indices);
   in.transfer = storeBuffer(gl, m.transfer);
-  in.normals = storeBuffer(gl, parts.direct ? m.normals : std::vector<glm::vec3>());
+  // The normals serve the direct lights (DIRECT) and the material (MATERIAL).
+  const bool normals = m.normals.size() == m.vertexCount();
+  in.normals = storeBuffer(gl, normals ? m.normals : std::vector<glm::vec3>());
   if (parts.twoSided) in.transferBack = storeBuffer(gl, m.transferBack);
   in.mesh = size_t(&m - scene.meshes.data());
   in.vertices = m.vertexCount();
@@ -218,8 +221,9 @@ void Renderer::Impl::uploadBaked(const Scene& scene, const MeshInstance& m, GLin
   attribute(gl, in.vao, 0, in.positions, 3, true);
   attribute(gl, in.vao, 1, in.texcoords, 2, !m.texcoords.empty());
   attribute(gl, in.vao, 2, in.colors, 4, in.hasColor);
-  attribute(gl, in.vao, kNormalAttribute, in.normals, 3, parts.direct);
+  attribute(gl, in.vao, kNormalAttribute, in.normals, 3, normals);
   if (bands <= kMaxAttributeBands) transferAttributes(gl, in.vao, in.transfer, bands);
+  setFullMaterial(scene, m, in, false);
   gl.VertexArrayElementBuffer(in.vao, in.indices);
   checkError(cat("uploading instance '", m.name, "'").c_str());
   instances.push_back(std::move(in));

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "direct_shading.h"
+#include "environment_prefilter.h"
 #include "prt/error.h"
 #include "prt/render/renderer.h"
 #include "render_shaders.h"
@@ -44,7 +45,9 @@ std::string withMaterialDefines(const std::string& source, int variant) {
   if (variant & kVariantTwoSided) defines += "#define TWO_SIDED 1\n";
   if (variant & kVariantDirect) defines += "#define DIRECT 1\n";
   if (variant & kVariantTransmission) defines += "#define HAS_TRANSMISSION_TEXTURE 1\n";
-  if (variant & (kVariantTexture | kVariantTransmission)) defines += "#define HAS_TEXCOORD 1\n";
+  if (variant & kVariantFullMaterial) defines += "#define MATERIAL 1\n";
+  if (variant & kVariantMaterialTextures) defines += "#define MATERIAL_TEXTURES 1\n";
+  if (variant & (kVariantTexture | kVariantTransmission | kVariantFullMaterial)) defines += "#define HAS_TEXCOORD 1\n";
   return source.substr(0, eol) + defines + source.substr(eol);
 }
 
@@ -75,8 +78,17 @@ std::string bakedVertexShader(int bands) {
       {{"COEFFS", cat(bands * bands)}, {"NORMAL_ATTRIBUTE", cat(kNormalAttribute)}, {"TRANSFER", transfer}});
 }
 
-std::string bakedFragmentShader() {
-  return fillShader(shaders::kBakedFragment, {{"DIRECT_LIGHTING", directLightingGlsl()}});
+std::string materialShadingGlsl(int envMaps) {
+  return fillShader(shaders::kMaterialShading, {{"MAX_ENV_MAPS", cat(kMaxReflectedMaps)},
+                                                {"ENV_MAPS", cat(envMaps)},
+                                                {"DFG_UNIT", cat(kEnvironmentFirstUnit + 1)},
+                                                {"LEVELS", cat(kPrefilterLevels)},
+                                                {"DFG_SIZE", cat(kDfgSize)}});
+}
+
+std::string bakedFragmentShader(int envMaps) {
+  return fillShader(shaders::kBakedFragment,
+                    {{"DIRECT_LIGHTING", directLightingGlsl()}, {"MATERIAL_SHADING", materialShadingGlsl(envMaps)}});
 }
 
 std::string cutoutDepthVertexShader() { return std::string(shaders::kCutoutDepthVertex); }

@@ -52,9 +52,17 @@ constexpr GLuint kTransmissionUnit = 6;  // uTransmissionTexture (albedo_inputs.
 /// vec4 attributes holding 3·bands² transfer floats.
 int attributeChunks(int bands);
 
+/// Texture units of the MATERIAL variants: the metallic-roughness, normal, occlusion and
+/// emissive textures (material_inputs.glsl), the reflected maps' array, then the DFG table.
+constexpr GLuint kMaterialFirstUnit = 13, kEnvironmentFirstUnit = 17;
+/// The DFG table's entries a side (material_pass.cpp): bilinear between 32² entries stays within
+/// 1% of the integral (test MaterialRender.WhiteFurnaceMetalMatchesMonteCarlo).
+constexpr int kDfgSize = 32;
+/// material_shading.glsl, its placeholders filled, for `envMaps` reflected maps (compiled in).
+std::string materialShadingGlsl(int envMaps);
 /// The baked instances' shaders for `bands` bands (to compile through withMaterialDefines).
 std::string bakedVertexShader(int bands);
-std::string bakedFragmentShader();
+std::string bakedFragmentShader(int envMaps);
 /// Shadow casters that let light through (MASK, BLEND, transmission), by material variant.
 std::string cutoutDepthVertexShader();
 std::string cutoutDepthFragmentShader();

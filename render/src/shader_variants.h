@@ -13,16 +13,22 @@ namespace prt::render {
 /// baked double-sided instance with back-side transfer: each fragment is shaded with the side
 /// it is seen from), bit kVariantDirect (direct lights lit per pixel with shadow maps:
 /// direct_shading.h), bit kVariantTransmission (KHR_materials_transmission's texture sampled:
-/// the opacity is 1 − factor × its R).
+/// the opacity is 1 − factor × its R), bit kVariantFullMaterial (MaterialShading::Full: the glTF
+/// metallic-roughness material, material_pass.cpp), bit kVariantMaterialTextures (the material
+/// has a metallic-roughness, normal, occlusion or emissive texture: MATERIAL programs read the
+/// slots; without it they read none, as llvmpipe pays for a texture lookup behind a uniform
+/// branch not taken).
 constexpr int kVariantTexture = 1, kVariantColor = 2, kVariantMask = 4, kVariantBlend = 8, kVariantTwoSided = 16,
-              kVariantDirect = 32, kVariantTransmission = 64, kVariants = 128;
+              kVariantDirect = 32, kVariantTransmission = 64, kVariantFullMaterial = 128,
+              kVariantMaterialTextures = 256, kVariants = 512;
 /// The bits a shadow caster's material needs (the cutout depth programs).
 constexpr int kVariantMaterialBits =
     kVariantTexture | kVariantColor | kVariantMask | kVariantBlend | kVariantTransmission;
 
 /// `source` (starting with its #version line) with HAS_TEXTURE / HAS_COLOR / HAS_MASK /
-/// HAS_BLEND / TWO_SIDED / DIRECT / HAS_TRANSMISSION_TEXTURE (and HAS_TEXCOORD where a texture
-/// is sampled) defined after that line as `variant` says.
+/// HAS_BLEND / TWO_SIDED / DIRECT / HAS_TRANSMISSION_TEXTURE / MATERIAL / MATERIAL_TEXTURES (and
+/// HAS_TEXCOORD where a
+/// texture may be sampled) defined after that line as `variant` says.
 std::string withMaterialDefines(const std::string& source, int variant);
 
 }  // namespace prt::render

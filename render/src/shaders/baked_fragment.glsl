@@ -1,28 +1,54 @@
 // Baked instances: albedo / π × e per pixel, the alpha the opacity (coverage()). TWO_SIDED: the
 // back side's e where the back of the triangle is seen. DIRECT: plus the direct lights per pixel
-// (@DIRECT_LIGHTING@: direct_lighting.glsl).
+// (@DIRECT_LIGHTING@: direct_lighting.glsl). MATERIAL: the glTF material instead
+// (materialRadiance, @MATERIAL_SHADING@: material_shading.glsl).
 #version 450 core
 centroid in vec3 vTransferLight;
 #ifdef TWO_SIDED
 centroid in vec3 vTransferLightBack;
 #endif
-#ifdef DIRECT
+#if defined(DIRECT) || defined(MATERIAL)
 centroid in vec3 vWorld;
 centroid in vec3 vNormal;
+#endif
+#ifdef DIRECT
 @DIRECT_LIGHTING@
 #endif
 #include "albedo_inputs.glsl"
+#ifdef MATERIAL
+centroid in float vVisibility;
+#ifdef TWO_SIDED
+centroid in float vVisibilityBack;
+#endif
+#include "material_inputs.glsl"
+@MATERIAL_SHADING@
+#ifdef DIRECT
+#include "direct_specular.glsl"
+#endif
+#include "material_radiance.glsl"
+#endif
 out vec4 fragColor;
 void main() {
 #ifdef DIRECT
   vec3 dxW, dyW;
   pixelFootprint(dxW, dyW);
+#elif defined(MATERIAL)
+  vec3 dxW = vec3(0.0), dyW = vec3(0.0);
 #endif
   float a = coverage();
 #ifdef TWO_SIDED
   vec3 e = gl_FrontFacing ? vTransferLight : vTransferLightBack;
 #else
   vec3 e = vTransferLight;
+#endif
+#ifdef MATERIAL
+#ifdef TWO_SIDED
+  float visibility = gl_FrontFacing ? vVisibility : vVisibilityBack;
+#else
+  float visibility = vVisibility;
+#endif
+  fragColor = vec4(materialRadiance(vWorld, vNormal, e, visibility, dxW, dyW), a);
+  return;
 #endif
 #ifdef DIRECT
   vec3 n = normalize(vNormal);

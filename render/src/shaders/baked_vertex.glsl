@@ -1,7 +1,8 @@
 // Baked instances: e = transfer · light per vertex (shader_sources.cpp explains the two ways
 // to the transfer, @TRANSFER@: transfer_attributes.glsl or transfer_storage.glsl). TWO_SIDED
 // also computes the back side's e; DIRECT takes the direct lights' SH part off (t⁰ · directSh)
-// and adds their gathered bounce, and passes the world position and normal on.
+// and adds their gathered bounce; DIRECT and MATERIAL pass the world position and normal on,
+// MATERIAL the tangent, the second coordinate set and the ambient visibility.
 #version 450 core
 layout(location = 0) in vec3 aPosition;
 layout(location = 1) in vec2 aTexcoord;
@@ -14,18 +15,37 @@ layout(std430, binding = 1) readonly buffer TransferBack { float transferBack[];
 #endif
 #include "albedo_outputs.glsl"
 const int kCoeffsAll = @COEFFS@;
-#ifdef DIRECT
+#if defined(DIRECT) || defined(MATERIAL)
 layout(location = @NORMAL_ATTRIBUTE@) in vec3 aNormal;
 layout(std430, binding = 2) readonly buffer TransferDirect { float transferDirect[]; };
-layout(std430, binding = 4) readonly buffer DirectBounce { float directBounce[]; };  // RGB per vertex
 #ifdef TWO_SIDED
 layout(std430, binding = 3) readonly buffer TransferDirectBack { float transferDirectBack[]; };
+#endif
+out vec3 vWorld;
+out vec3 vNormal;
+#endif
+#ifdef DIRECT
+layout(std430, binding = 4) readonly buffer DirectBounce { float directBounce[]; };  // RGB per vertex
+#ifdef TWO_SIDED
 layout(std430, binding = 5) readonly buffer DirectBounceBack { float directBounceBack[]; };
 #endif
 uniform vec3 uDirectSh[kCoeffsAll];  // the direct lights' SH, through the bounced part only
-out vec3 vWorld;
 out vec3 vWorldPixel;
-out vec3 vNormal;
+#endif
+#ifdef MATERIAL
+// The material's per-vertex inputs (material_inputs.glsl) from storage buffers indexed by
+// gl_VertexID, as the direct part: the 16 attributes are taken by the transfer at 4 bands.
+layout(std430, binding = 6) readonly buffer Tangents { vec4 tangents[]; };
+layout(std430, binding = 7) readonly buffer Texcoords1 { vec2 texcoords1[]; };
+uniform int uVertexInputs;  // bit 0: tangents, bit 1: texcoords1, bit 2: the direct part (visibility)
+out vec4 vTangent;
+out vec2 vTexcoord1;
+// The ambient visibility for the specular occlusion: the direct part's constant coefficient
+// against an unoccluded vertex's, t⁰_0 / (π Y₀₀) (∫ max(n·ω, 0) Y₀₀ dω = π Y₀₀); 1 without it.
+out float vVisibility;
+#ifdef TWO_SIDED
+out float vVisibilityBack;
+#endif
 #endif
 @TRANSFER@
 #ifdef DIRECT
@@ -40,9 +60,22 @@ out vec3 vNormal;
   vTransferLightBack += vec3(directBounceBack[baseBounce], directBounceBack[baseBounce + 1u],
                              directBounceBack[baseBounce + 2u]) - d0b;
 #endif
-  vWorld = aPosition;
   vWorldPixel = aPosition;
+#endif
+#if defined(DIRECT) || defined(MATERIAL)
+  vWorld = aPosition;
   vNormal = aNormal;
+#endif
+#ifdef MATERIAL
+  vTangent = (uVertexInputs & 1) != 0 ? tangents[gl_VertexID] : vec4(0.0);
+  vTexcoord1 = (uVertexInputs & 2) != 0 ? texcoords1[gl_VertexID] : vec2(0.0);
+  const float kUnoccluded = 0.886226925452758;  // π Y₀₀
+  uint baseVisibility = uint(gl_VertexID) * uint(kCoeffsAll);
+  vVisibility = (uVertexInputs & 4) != 0 ? clamp(transferDirect[baseVisibility] / kUnoccluded, 0.0, 1.0) : 1.0;
+#ifdef TWO_SIDED
+  vVisibilityBack =
+      (uVertexInputs & 4) != 0 ? clamp(transferDirectBack[baseVisibility] / kUnoccluded, 0.0, 1.0) : 1.0;
+#endif
 #endif
 #include "albedo_pass.glsl"
   gl_Position = uViewProj * vec4(aPosition, 1.0);

@@ -1,4 +1,6 @@
-// Maths shared by the shaders.
+// Maths shared by the shaders (guarded: the material and direct-light files both include it).
+#ifndef PRT_COMMON_GLSL
+#define PRT_COMMON_GLSL
 const float kPi = 3.14159265358979;
 // atan(y, x) to about float's precision: GLSL's atan and acos are polynomial approximations
 // (Mesa's acos is off by up to ~1e-4 rad, a visible fraction of a texel in a large map).
@@ -16,3 +18,4 @@ float atan2Accurate(float y, float x) {
   a = x < 0.0 ? kPi - a : a;
   return y < 0.0 ? -a : a;
 }
+#endif

@@ -15,6 +15,12 @@ out vec3 vWorld;
 out vec3 vWorldPixel;  // vWorld for the footprint's derivatives (direct_shading.cpp); unread without direct lights
 out vec3 vNormal;
 #include "albedo_outputs.glsl"
+#ifdef MATERIAL
+layout(location = 4) in vec4 aTangent;    // world tangent at rest, handedness w
+layout(location = 5) in vec2 aTexcoord1;  // the material's second coordinate set
+out vec4 vTangent;
+out vec2 vTexcoord1;
+#endif
 #if PER_VERTEX_LOOKUP
 @PROBE_LOOKUP@
 out vec4 vRadiance[kTexels];
@@ -25,6 +31,10 @@ void main() {
   vWorldPixel = world.xyz;
   vNormal = normalize(uNormalMatrix * aNormal);  // unit world normals per vertex, interpolated
 #include "albedo_pass.glsl"
+#ifdef MATERIAL
+  vTangent = vec4(mat3(uModel) * aTangent.xyz, aTangent.w);  // a tangent moves as the surface does
+  vTexcoord1 = aTexcoord1;
+#endif
 #if PER_VERTEX_LOOKUP
   vec4 T[kTexels];
   incidentRadiance(vWorld, vNormal, T);

@@ -101,6 +101,16 @@ enum class Shading { Prt, Flat };
 /// triangles are small next to the probe spacing).
 enum class ProbeLookup { PerPixel, PerVertex };
 
+/// How surfaces are shaded (docs/render.md, "Materials"). Diffuse: every material Lambertian with
+/// its base colour as the albedo (what the transfer alone gives). Full: the glTF
+/// metallic-roughness material per pixel: the diffuse albedo baseColor·(1 − metallic), the
+/// metallic-roughness, normal, occlusion and emissive textures, the direct lights' GGX
+/// highlights and the environment's (Frame::environment) by the split sum.
+enum class MaterialShading { Diffuse, Full };
+
+/// At most this many environment maps are reflected (MaterialShading::Full).
+inline constexpr int kMaxReflectedMaps = 4;
+
 /// One frame to render.
 struct Frame {
   CameraView camera;
@@ -130,6 +140,12 @@ struct Frame {
   /// seen along each pixel's centre ray (RigBackground::radiance, LightRig::background). At
   /// most kMaxBackgroundMaps environment maps and kMaxBackgroundCaps suns and disks.
   const RigBackground* background = nullptr;
+  MaterialShading materials = MaterialShading::Diffuse;
+  /// The light glossy surfaces reflect besides the direct lights (MaterialShading::Full): the
+  /// rig's SH part (LightRig::shRadiance: the maps' residuals where suns were split off, the
+  /// uniform lights). Its caps (disks wider than the direct lights) are not reflected. Null: no
+  /// environment reflection. At most kMaxReflectedMaps maps; must stay alive during render().
+  const RigBackground* environment = nullptr;
   /// Multisample anti-aliasing: samples per pixel, 1 (off) or a power of two up to the GL's
   /// GL_MAX_SAMPLES (4 on llvmpipe). Each pixel is shaded once (at its centre, or at the
   /// centroid of its covered samples on an edge) and the written pixel is the mean of its
