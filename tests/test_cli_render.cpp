@@ -872,14 +872,15 @@ TEST(CliRealScene, DutchShipGoesThroughEveryCommand) {
 
 // A sun is a direct light: prt render lights it per pixel with its shadow map and says so. On the
 // open plane baked without bounces (t = t⁰) every covered pixel is ρ/π · E · sin(elevation)
-// exactly (docs/render.md, "Direct lights and their shadows"); --no-direct-lights puts it back
-// into SH and says that instead.
+// exactly (docs/render.md, "Direct lights and their shadows"; the diffuse material, as the full
+// one adds the plane's highlight); --no-direct-lights puts it back into SH and says that instead.
 TEST(CliRender, SunIsLitPerPixelAndNamedInTheSummary) {
   const TempDir tmp("sun");
   const fs::path& d = tmp.path();
   const std::string glb = bake(planeWithCamera(d), d, "plane_camera");
   const fs::path out = d / "out";
-  const Args common = {"render", glb, "--sun-elevation", "40", "--sun-irradiance", "2", "--size", "64x48"};
+  const Args common = {"render", glb,      "--sun-elevation", "40",          "--sun-irradiance",
+                       "2",      "--size", "64x48",           "--materials", "diffuse"};
   const RunResult r = prt(plus(common, {"-o", (out / "sun.exr").string()}));
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("direct lights (frame 0; per pixel, exactly, with PCSS shadow maps of 1024x1024"),
