@@ -90,8 +90,9 @@ TEST_F(CliMpi, RanksWriteTheBytesOfOneProcess) {
   const test::TempDir tmp;
   const fs::path dir = tmp.path();
   // Refinement that splits edges (one round on cornell_open, 12 510 -> 12 520 vertices): the
-  // ranks share its points and scores.
-  const Args refine = {"--refine-tolerance", "0.002", "--threads", "1"};
+  // ranks share its points and scores. The bounce operator: each rank makes the rows of its
+  // clusters, and rank 0 stores them all.
+  const Args refine = {"--refine-tolerance", "0.002", "--threads", "1", "--operator"};
   RunResult ref = test::runPrt(test::plus(bakeArgs(dir, "ref", "64"), refine));
   ASSERT_EQ(ref.status, 0) << ref.err;
   const std::string glb = test::fileBytes(dir / "ref.glb"), vdb = test::fileBytes(dir / "ref.vdb");

@@ -235,6 +235,18 @@ void buildOperator(OperatorSettings os, const BakeSettings& s, BakeReport& repor
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// Under MPI every rank builds its share of the bounce operator's rows (build.cpp sends them to
+// rank 0, whose writeOutputs builds the rest): the ranks other than the writer call this.
+void buildOperatorShare(const BakeJob& job, Stages& stages, BakeReport& report) {
+  const BakeSettings& s = report.settings;
+  storeTransfer(report.scene, std::move(stages.surface.perMesh), std::move(stages.surface.perMeshDirect));
+  report.scene.transferBands = s.bands;
+  OperatorSettings os = *job.bounceOperator;
+  os.samples = std::min(os.samples, s.samples);
+  os.threads = s.threads;
+  buildBounceOperator(report.scene, os, s.bounces, s.seed);
+}
+
 // The baked scene with its record, and the probe grid (written first, as the bake finishes it).
 void writeOutputs(const BakeJob& job, Stages& stages, BakeReport& report) {
   if (stages.grid) {
@@ -324,7 +336,10 @@ BakeReport runPipeline(const BakeJob& job) {
   report.settings = plan.settings;
   report.surface = stages.surface.stats;
   report.memory = guard.estimate();
-  if (writer) writeOutputs(job, stages, report);
+  if (writer)
+    writeOutputs(job, stages, report);
+  else if (mpi && job.bounceOperator && report.settings.shadowed)
+    buildOperatorShare(job, stages, report);
   // The outputs are in place: the checkpoint has served (every rank's, after the barrier).
   ranks().barrier();
   if (checkpoint) checkpoint->remove();

@@ -5,7 +5,9 @@
 #include <array>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <queue>
+#include <string>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -14,6 +16,7 @@
 #include "../surface_layout.h"
 #include "../vertex_rays.h"
 #include "prt/bake/bounce_operator.h"
+#include "prt/bake/ranks.h"
 #include "prt/error.h"
 #include "prt/light.h"
 #include "training.h"
@@ -307,6 +310,65 @@ void planeOf(const std::vector<std::vector<Entry>>& raw, const std::vector<float
   mergeEntries(gv);
 }
 
+// MPI ranks (prt/bake/ranks.h) that build one operator together: each makes the rows of the
+// chunks of kRankChunk clusters it owns, and rank 0 receives the others' rows, the same rows
+// one process makes (each is a function of its cluster alone).
+constexpr uint32_t kRankChunk = 64;
+
+struct MadeRows {
+  std::vector<std::vector<Entry>>&vertex, &cluster, &gradient;
+};
+
+template <class T>
+void append(std::string& out, const T& v) {
+  out.append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+void appendRow(std::string& out, const std::vector<Entry>& row) {
+  append(out, uint32_t(row.size()));
+  out.append(reinterpret_cast<const char*>(row.data()), row.size() * sizeof(Entry));
+}
+
+// Every rank's rows to rank 0, which fills its lists with the clusters it did not make.
+void shareRows(const BounceOperator& op, MadeRows made) {
+  Ranks& r = ranks();
+  std::string mine;
+  for (uint32_t c = 0; c < op.clusters; ++c) {
+    if (!r.owns(c / kRankChunk)) continue;
+    append(mine, c);
+    appendRow(mine, made.cluster[c]);
+    appendRow(mine, made.gradient[2 * size_t(c)]);
+    appendRow(mine, made.gradient[2 * size_t(c) + 1]);
+    for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) appendRow(mine, made.vertex[op.members[i]]);
+  }
+  const std::vector<std::string> all = r.gather(std::move(mine), false);
+  for (size_t from = 1; from < all.size(); ++from) {
+    const std::string& in = all[from];
+    size_t at = 0;
+    auto take = [&](auto& v) {
+      PRT_CHECK_LE(at + sizeof v, in.size());
+      std::memcpy(&v, in.data() + at, sizeof v);
+      at += sizeof v;
+    };
+    auto takeRow = [&](std::vector<Entry>& row) {
+      uint32_t n = 0;
+      take(n);
+      PRT_CHECK_LE(at + n * sizeof(Entry), in.size());
+      row.resize(n);
+      std::memcpy(row.data(), in.data() + at, n * sizeof(Entry));
+      at += n * sizeof(Entry);
+    };
+    while (at < in.size()) {
+      uint32_t c = 0;
+      take(c);
+      PRT_CHECK_LT(c, op.clusters);
+      takeRow(made.cluster[c]);
+      takeRow(made.gradient[2 * size_t(c)]);
+      takeRow(made.gradient[2 * size_t(c) + 1]);
+      for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) takeRow(made.vertex[op.members[i]]);
+    }
+  }
+}
+
 void storeRows(BounceOperator::Rows& rows, const std::vector<std::vector<Entry>>& made) {
   rows.start.assign(1, 0);
   rows.node.clear(), rows.weight.clear();
@@ -351,6 +413,7 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
   const size_t vertexLength = uncompressed ? SIZE_MAX : size_t(s.rowLength);
   const size_t clusterLength = uncompressed ? SIZE_MAX : size_t(s.clusterRowLength);
   std::vector<std::vector<Entry>> vertexRows(lay.vertices), clusterRows(op.clusters), gradients(2 * op.clusters);
+  const bool shared = ranks().exchanges() && ranks().size() > 1;
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, op.clusters, 4), [&](const tbb::blocked_range<uint32_t>& r) {
     RowMaker maker(op, tree, sky, training);
     std::vector<std::vector<Entry>> raw;
@@ -359,6 +422,7 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
     std::vector<glm::vec2> memberSt;
     std::vector<Entry> gu, gv;
     for (uint32_t c = r.begin(); c != r.end(); ++c) {
+      if (shared && !ranks().owns(c / kRankChunk)) continue;
       all.clear();
       const uint32_t b = op.memberStart[c], e = op.memberStart[c + 1];
       const float clusterArea = op.leafWeight[c];
@@ -391,6 +455,7 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
       }
     }
   });
+  if (shared) shareRows(op, {vertexRows, clusterRows, gradients});
   storeRows(op.vertexRows, vertexRows);
   storeRows(op.clusterRows, clusterRows);
   if (gradientLength > 0) storeGradients(op.clusterGradients, gradients);
