@@ -70,7 +70,7 @@ void printLighting(const RelightArgs& a, const Scene& scene, const LightRig& rig
   if (lighting.skyDetail())
     std::fprintf(stderr, "  sky detail    the light beyond %d bands over the same rays\n", scene.transferBands);
   const int bounces = scene.bakeRecord.value_or(BakeRecord{}).bounces;
-  if (light.vertexLight && (lights || lighting.skyDetail())) {
+  if (light.vertexLight && (lights || !light.local.empty() || lighting.skyDetail())) {
     if (lighting.usesOperator())
       std::fprintf(stderr, "  bounces       through the bake's bounce operator (%d bounces as baked) in %.3f s\n",
                    bounces, st.gatherSeconds);
@@ -82,6 +82,15 @@ void printLighting(const RelightArgs& a, const Scene& scene, const LightRig& rig
       std::fprintf(stderr, "  %s\n",
                    bounces > 0 ? "bounces       through the SH transfer (--bounce-samples 0)"
                                : "bounces       none (baked without bounces)");
+  }
+  if (!light.local.empty()) {
+    std::fprintf(stderr, "  lights inside the scene (exact, with shadows%s):\n",
+                 light.vertexLight && lighting.gathers() && bounces > 0 ? " and their bounces" : "");
+    for (const LocalLight& l : light.local) std::fprintf(stderr, "    %s\n", describeLocalLight(l).c_str());
+    if (!lights)
+      std::fprintf(stderr,
+                   "  shadow rays   %llu (1 per point or spot light, %d per area light, per vertex) in %.2f s\n",
+                   (unsigned long long)st.shadowRays, a.shadowSamples, st.shadowSeconds);
   }
   if (!lights && a.light.noDirect)
     std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
@@ -124,6 +133,9 @@ void addRelight(CLI::App& cmd, RelightArgs& a) {
   cmd.add_option("--threads", a.threads, "Threads for the shadow and bounce rays (0 = all cores)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  cmd.add_flag("--no-scene-lights", a.noSceneLights,
+               "Leave the scene's own lights (KHR_lights_punctual point, spot and directional lights) dark; by "
+               "default they light it, and no other light is needed (docs/lights.md, \"Lights inside the scene\")");
   cmd.add_flag("-q,--quiet", a.quiet, "No summary");
 }
 
@@ -135,7 +147,7 @@ int runRelight(const RelightArgs& a) {
   const bool anyTransfer =
       std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& m) { return !m.transfer.empty(); });
   if (!anyTransfer) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
-  const LightRig rig = buildStillRig(a.light);
+  const LightRig rig = buildStillRig(a.light, !a.noSceneLights && !scene.lights.empty());
   // The direct lights exactly at the vertices, with their bounces and the sky's detail
   // gathered over the bake's own rays (not with --no-direct-lights, nor for bakes without the
   // direct part).
@@ -143,6 +155,7 @@ int runRelight(const RelightArgs& a) {
   settings.directAtVertices = true;
   settings.shadowSamples = a.shadowSamples;
   settings.threads = a.threads;
+  settings.sceneLights = !a.noSceneLights;
   bake::FrameLighting lighting(scene, rig, settings);
   const bake::FrameLight light = lighting.at(a.light.frame);
   if (light.foldedLights && !a.quiet)

@@ -1,0 +1,48 @@
+// Lights inside the scene (prt/local_light.h) on a baked scene: which there are at a frame (the
+// file's own KHR_lights_punctual lights, moved by its animation, and a rig's), and their exact
+// shadowed irradiance at the baked vertices (docs/lights.md, "Lights inside the scene").
+#pragma once
+
+#include <vector>
+
+#include "prt/bake/direct_light.h"
+#include "prt/bake/ray_scene.h"
+#include "prt/light.h"
+#include "prt/light_rig.h"
+#include "prt/local_light.h"
+#include "prt/scene.h"
+
+namespace prt::bake {
+
+/// The frames per second that turn a rig's frame into the scene's animation time when the rig
+/// gives none (as `prt render`'s default).
+constexpr double kDefaultLightFps = 24.0;
+
+/// The scene's point and spot lights at `time` seconds (their nodes' animation applied), as
+/// LocalLights: intensity = colour × intensity (candela), labelled "FILE: light 'NAME'".
+std::vector<LocalLight> scenePunctualLightsAt(const Scene& scene, double time);
+
+/// The scene's directional lights at `time` as suns: delta DirectLights towards −(the node's −Z),
+/// irradiance colour × intensity (lux read as W/m², as every prt irradiance).
+std::vector<DirectLight> sceneSunsAt(const Scene& scene, double time);
+
+/// Throws prt::Error "RIG: lights[2].node: no node 'Lamp' in SCENE" for a rig light that names a
+/// node the scene lacks.
+void checkRigNodes(const Scene& scene, const LightRig& rig);
+
+/// The rig's lights inside the scene at `frame`, those on a node placed by the node's world
+/// transform at `time` (its rotation and translation; scale moves the position only).
+/// Precondition: checkRigNodes.
+std::vector<LocalLight> rigLocalLightsAt(const Scene& scene, const LightRig& rig, double frame, double time);
+
+/// Shadowed irradiance of `lights` at every vertex side with transfer (shadowedDirectIrradiance's
+/// layout): the unoccluded irradiance in closed form at the vertex (localIrradiance) times the
+/// visible share. A point or spot light: one shadow ray. An area light: `settings.samples` rays
+/// to points stratified over it (a sphere: directions stratified over the cap it subtends),
+/// the share their integrand-weighted mean visibility (a ratio estimator, exact wherever
+/// nothing occludes the light). Rays leave from the bake's lifted origins and stop at the light.
+/// Deterministic for any thread count.
+DirectIrradiance shadowedLocalIrradiance(const Scene& scene, const RayScene& rays,
+                                         const std::vector<LocalLight>& lights, const ShadowSettings& settings = {});
+
+}  // namespace prt::bake
