@@ -11,6 +11,7 @@
 #include <memory>
 
 #include "harness.h"
+#include "prt/animation.h"
 #include "prt/bake/bounce_operator.h"
 #include "prt/bake/frame_lighting.h"
 #include "prt/bake/local_lights.h"
@@ -295,6 +296,59 @@ TEST(BakeLocalLight, ClosedBoxLitByALampMatchesTheBounceSeries) {
   }
   const bake::DirectIrradiance direct = bake::shadowedLocalIrradiance(s, bake::RayScene(s), {rig.locals[0].at(0.0)});
   EXPECT_NEAR(meanIrradiance(s.meshes[0], direct.front[0]) / e0, 1.0, 0.005);
+}
+
+// The file's own lamp on a node that a glTF animation moves: each frame of prt relight's
+// lighting (frame / fps seconds into the animation) equals the static light at that frame's
+// position, bit for bit; with sceneLights off the lamp is dark and nothing is gathered for it.
+TEST(BakeLocalLight, AnimatedLampFramesMatchStaticLights) {
+  Scene s = bakedPlane();
+  s.path = "lamp.glb";
+  Node node;
+  node.name = "LampNode";
+  node.translation = {0.0, 1.0, 0.0};
+  s.nodes.push_back(node);
+  AnimationChannel ch;
+  ch.node = 0;
+  ch.path = AnimationPath::Translation;
+  ch.times = {0.0, 1.0};
+  ch.values = {glm::dvec4(-0.5, 1.0, 0.0, 0.0), glm::dvec4(0.5, 0.6, 0.2, 0.0)};
+  s.animations.push_back({"move", {ch}});
+  PunctualLight p;
+  p.name = "Lamp";
+  p.node = 0;
+  p.type = PunctualLight::Type::Point;
+  p.color = {1.0f, 0.5f, 0.25f};
+  p.intensity = 2.0f;
+  p.position = {0.0f, 1.0f, 0.0f};  // the rest pose, which the animation replaces
+  s.lights.push_back(p);
+  LightRig rig;
+  rig.fps = 10.0;
+  bake::FrameLightingSettings fs;
+  fs.directAtVertices = true;
+  fs.gatherSamples = 0;
+  fs.sceneLights = true;
+  bake::FrameLighting lighting(s, rig, fs);
+  const bake::RayScene rays(s);
+  for (double frame : {0.0, 5.0, 10.0, 20.0}) {
+    const bake::FrameLight light = lighting.at(frame);
+    const double t = std::min(frame / 10.0, 1.0);
+    const dvec3 at = glm::mix(dvec3(-0.5, 1.0, 0.0), dvec3(0.5, 0.6, 0.2), t);
+    ASSERT_EQ(light.local.size(), 1u);
+    EXPECT_NEAR(glm::length(light.local[0].position - at), 0.0, 1e-12) << "frame " << frame;
+    const bake::DirectIrradiance ref = bake::shadowedLocalIrradiance(s, rays, {light.local[0]});
+    ASSERT_NE(light.vertexLight, nullptr);
+    EXPECT_EQ(light.vertexLight->front[0], ref.front[0]) << "frame " << frame;
+    EXPECT_EQ(ref.front[0][0],
+              glm::vec3(glm::dvec3(1.0, 0.5, 0.25) * 2.0 *
+                        glm::dot(glm::normalize(at - dvec3(s.meshes[0].positions[0])), dvec3(0, 1, 0)) /
+                        glm::dot(at - dvec3(s.meshes[0].positions[0]), at - dvec3(s.meshes[0].positions[0]))));
+  }
+  fs.sceneLights = false;
+  bake::FrameLighting dark(s, rig, fs);
+  const bake::FrameLight off = dark.at(5.0);
+  EXPECT_TRUE(off.local.empty());
+  EXPECT_EQ(off.vertexLight, nullptr);
 }
 
 // Rig errors name the file, the light and the field.
