@@ -202,6 +202,53 @@ TEST(BakeLocalLight, AreaLightsUnoccludedAreExactAndDeterministic) {
   }
 }
 
+// An emissive quad (two triangles, emissiveFactor × strength) facing down over the plane lights
+// it as the rectangle light of the same place, size and radiance: the two triangles' closed
+// forms add up to the rectangle's, and the shadow rays stop short of the quad, so nothing
+// occludes it (float rounding: 1e-5 relative). Through prt relight's path (sceneLights) too.
+TEST(BakeLocalLight, EmissiveQuadMatchesTheRectangleLight) {
+  MeshInstance quad = test::makePlane({0.1f, 1.0f, -0.1f}, 0.6f, 1);
+  for (glm::vec3& n : quad.normals) n = -n;
+  for (size_t t = 0; t < quad.indices.size(); t += 3) std::swap(quad.indices[t + 1], quad.indices[t + 2]);
+  quad.name = "panel";
+  Scene s = test::makeScene({test::makePlane({0, 0, 0}, 2.0f, 8), quad}, 0.5f);
+  Material lamp = s.materials[0];
+  lamp.emissiveFactor = {1.0f, 0.5f, 0.25f};
+  lamp.emissiveStrength = 4.0f;
+  s.materials.push_back(lamp);
+  s.meshes[1].material = 1;
+  bake::BakeSettings bs;
+  bs.samples = 16;
+  bs.bounces = 0;
+  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
+  bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
+  s.transferBands = 3;
+  const std::vector<LocalLight> emitters = bake::emissiveLightsOf(s);
+  ASSERT_EQ(emitters.size(), 1u);
+  ASSERT_EQ(emitters[0].emitter->triangles.size(), 2u);
+  EXPECT_EQ(emitters[0].emitter->triangles[0].direction, dvec3(0, -1, 0));
+  EXPECT_NEAR(emitters[0].emitter->area, 0.36, 1e-6);
+  LocalLight rect;
+  rect.type = LocalLight::Type::Rectangle;
+  rect.position = {0.1, 1.0, -0.1};
+  rect.direction = {0, -1, 0};
+  rect.width = rect.height = 0.6;
+  rect.radiance = dvec3(4.0, 2.0, 1.0);
+  LightRig rig;
+  bake::FrameLightingSettings fs;
+  fs.directAtVertices = true;
+  fs.gatherSamples = 0;
+  fs.sceneLights = true;
+  bake::FrameLighting lighting(s, rig, fs);
+  const bake::FrameLight light = lighting.at(0.0);
+  ASSERT_NE(light.vertexLight, nullptr);
+  for (size_t v = 0; v < s.meshes[0].vertexCount(); ++v) {
+    const dvec3 e = localIrradiance(rect, dvec3(s.meshes[0].positions[v]), {0, 1, 0});
+    for (int c = 0; c < 3; ++c)
+      ASSERT_NEAR(light.vertexLight->front[0][v][c], e[c], 1e-5 * std::max(1.0, e[c])) << "vertex " << v;
+  }
+}
+
 // The inside of a closed box [-1, 1]³, faces subdivided n × n, normals inwards.
 MeshInstance insideOfABox(int n) {
   MeshInstance m;

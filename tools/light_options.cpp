@@ -278,6 +278,14 @@ std::string describeLocalLight(const LocalLight& l) {
     case LocalLight::Type::Rectangle:
       line += cat(", ", l.width, " x ", l.height, " m, facing ", v3(l.direction), ", radiance ", v3(l.radiance));
       break;
+    case LocalLight::Type::Triangle:
+      line += cat(", ", localLightArea(l), " m², facing ", v3(l.direction), ", radiance ", v3(l.radiance));
+      break;
+    case LocalLight::Type::Emitter:
+      std::snprintf(buf, sizeof buf, ", %zu triangles, %.4g m², power %s W", l.emitter->triangles.size(),
+                    l.emitter->area, v3(l.emitter->power).c_str());
+      line += buf;
+      break;
   }
   return line;
 }

@@ -6,6 +6,7 @@
 
 #include "prt/atomic_file.h"
 #include "prt/bake/frame_lighting.h"
+#include "prt/bake/local_lights.h"
 #include "prt/error.h"
 #include "prt/relight.h"
 #include "prt/scene.h"
@@ -141,13 +142,17 @@ void addRelight(CLI::App& cmd, RelightArgs& a) {
 
 int runRelight(const RelightArgs& a) {
   AtomicFile probe(a.output);
-  Scene scene = loadScene(a.baked);
+  // The emissive textures are read for the scene's emissive surfaces (they light it).
+  LoadOptions load;
+  load.shadingTextures = !a.noSceneLights;
+  Scene scene = loadScene(a.baked, load);
   printWarnings(scene, a.quiet);
   // A bake whose every instance is a receiver has bands (its record's) but nothing to relight.
   const bool anyTransfer =
       std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& m) { return !m.transfer.empty(); });
   if (!anyTransfer) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
-  const LightRig rig = buildStillRig(a.light, !a.noSceneLights && !scene.lights.empty());
+  const bool ownLights = !scene.lights.empty() || !bake::emissiveLightsOf(scene).empty();
+  const LightRig rig = buildStillRig(a.light, !a.noSceneLights && ownLights);
   // The direct lights exactly at the vertices, with their bounces and the sky's detail
   // gathered over the bake's own rays (not with --no-direct-lights, nor for bakes without the
   // direct part).

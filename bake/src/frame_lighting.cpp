@@ -85,7 +85,8 @@ struct FrameLighting::Impl {
   DirectIrradiance light;
   std::vector<DirectLight> lightFor;
   std::vector<LocalLight> localFor;
-  bool hasLocal = false;  // lights inside the scene (the same set in every frame)
+  bool hasLocal = false;                            // lights inside the scene (the same set in every frame)
+  std::optional<std::vector<LocalLight>> emissive;  // the scene's emissive triangles
   sh::ShRgb skyFor;
   FrameLightingStats stats;
 
@@ -253,6 +254,8 @@ FrameLight FrameLighting::at(double frame) {
   if (m.settings.sceneLights) {
     out.sceneSuns = addSceneSuns(out.rig, sceneSunsAt(m.scene, time), bands, m.settings.directLights, m.rig.window);
     out.local = scenePunctualLightsAt(m.scene, time);
+    if (!m.emissive) m.emissive = emissiveLightsOf(m.scene);  // static: computed once
+    out.local.insert(out.local.end(), m.emissive->begin(), m.emissive->end());
   }
   for (LocalLight& l : rigLocalLightsAt(m.scene, m.rig, frame, time)) out.local.push_back(std::move(l));
   if (m.settings.directAtVertices && !hasDirectTransfer(m.scene)) out.foldedLights = foldIntoSh(out.rig, bands);

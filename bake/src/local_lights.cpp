@@ -84,6 +84,60 @@ std::vector<DirectLight> sceneSunsAt(const Scene& scene, double time) {
   return out;
 }
 
+namespace {
+
+// The emissive texture's mean over triangle `tri` of `m`: 16 texels at stratified barycentric
+// points (a 4 × 4 grid of cells folded into the triangle). 1 without a decoded texture.
+glm::dvec3 emissiveTextureMean(const Scene& scene, const MeshInstance& m, const TextureSlot& slot, size_t tri) {
+  if (slot.texture < 0 || size_t(slot.texture) >= scene.textures.size()) return glm::dvec3(1.0);
+  const std::vector<glm::vec2>& uv = m.uvs(slot.uvSet);
+  if (uv.size() != m.vertexCount()) return glm::dvec3(1.0);
+  const uint32_t* ix = &m.indices[3 * tri];
+  glm::dvec3 sum(0.0);
+  constexpr int kCells = 4;
+  for (int j = 0; j < kCells; ++j)
+    for (int i = 0; i < kCells; ++i) {
+      double a = (i + 0.5) / kCells, b = (j + 0.5) / kCells;
+      if (a + b > 1.0) a = 1.0 - a, b = 1.0 - b;  // fold the square's upper half onto the triangle
+      const glm::vec2 at = float(1.0 - a - b) * uv[ix[0]] + float(a) * uv[ix[1]] + float(b) * uv[ix[2]];
+      sum += glm::dvec3(glm::vec3(scene.textures[size_t(slot.texture)].sample(at)));
+    }
+  return sum / double(kCells * kCells);
+}
+
+}  // namespace
+
+std::vector<LocalLight> emissiveLightsOf(const Scene& scene) {
+  std::vector<LocalLight> out;
+  for (const MeshInstance& m : scene.meshes) {
+    if (m.receiverOnly || m.material < 0 || size_t(m.material) >= scene.materials.size()) continue;
+    const Material& mat = scene.materials[size_t(m.material)];
+    const glm::dvec3 base = glm::dvec3(mat.emissiveFactor) * double(mat.emissiveStrength);
+    if (!(std::max({base.r, base.g, base.b}) > 0.0)) continue;
+    std::vector<LocalLight> tris;
+    for (size_t t = 0; 3 * t + 2 < m.indices.size(); ++t) {
+      LocalLight l;
+      l.type = LocalLight::Type::Triangle;
+      l.label = cat(scene.path, ": emissive '", m.name, "'");
+      for (int c = 0; c < 3; ++c) l.corners[size_t(c)] = glm::dvec3(m.positions[m.indices[3 * t + size_t(c)]]);
+      const glm::dvec3 n = glm::cross(l.corners[1] - l.corners[0], l.corners[2] - l.corners[0]);
+      if (!(glm::length(n) > 0.0)) continue;
+      l.direction = glm::normalize(n);
+      l.position = (l.corners[0] + l.corners[1] + l.corners[2]) / 3.0;
+      l.radiance = base * emissiveTextureMean(scene, m, mat.emissiveTexture, t);
+      if (!(std::max({l.radiance.r, l.radiance.g, l.radiance.b}) > 0.0)) continue;
+      tris.push_back(l);
+      if (mat.doubleSided) {
+        std::swap(l.corners[1], l.corners[2]);
+        l.direction = -l.direction;
+        tris.push_back(l);
+      }
+    }
+    if (!tris.empty()) out.push_back(makeEmitter(cat(scene.path, ": surface '", m.name, "'"), std::move(tris)));
+  }
+  return out;
+}
+
 void checkRigNodes(const Scene& scene, const LightRig& rig) {
   for (const RigLocalLight& l : rig.locals)
     if (!l.node.empty() && findNode(scene, l.node) < 0)
@@ -149,8 +203,22 @@ struct LightSampler {
       w = std::max(0.0, glm::dot(n, dir));
       return p;
     }
+    glm::dvec3 facing = l.direction;
     if (l.type == LocalLight::Type::Rectangle) {
       p = l.position + (u - 0.5) * l.width * t + (v - 0.5) * l.height * b;
+    } else if (l.type == LocalLight::Type::Triangle || l.type == LocalLight::Type::Emitter) {
+      const LocalLight* tri = &l;
+      if (l.type == LocalLight::Type::Emitter) {
+        // u picks a triangle by its share of the power, then is stretched back over [0, 1).
+        const std::vector<double>& cdf = l.emitter->cdf;
+        const size_t i = std::min(size_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()), cdf.size() - 1);
+        const double lo = i ? cdf[i - 1] : 0.0;
+        u = std::clamp((u - lo) / std::max(cdf[i] - lo, 1e-300), 0.0, 1.0);
+        tri = &l.emitter->triangles[i];
+        facing = tri->direction;
+      }
+      const double su = std::sqrt(u);  // uniform over the triangle: b0 = 1 − √u, b1 = v √u
+      p = (1.0 - su) * tri->corners[0] + su * (1.0 - v) * tri->corners[1] + su * v * tri->corners[2];
     } else {
       const glm::vec2 q = sampleConcentricDisk({float(u), float(v)});
       p = l.position + l.radius * (double(q.x) * t + double(q.y) * b);
@@ -159,7 +227,8 @@ struct LightSampler {
     const double r2 = glm::dot(toP, toP);
     if (!(r2 > 0.0)) return p;
     const glm::dvec3 dir = toP / std::sqrt(r2);
-    w = std::max(0.0, glm::dot(n, dir)) * std::max(0.0, -glm::dot(l.direction, dir)) / r2;
+    // For an emitter the pdf (∝ luminance × area share) cancels the radiance in the ratio.
+    w = std::max(0.0, glm::dot(n, dir)) * std::max(0.0, -glm::dot(facing, dir)) / r2;
     return p;
   }
 };

@@ -12,7 +12,8 @@ namespace prt {
 bool LocalLight::operator==(const LocalLight& o) const {
   return type == o.type && position == o.position && direction == o.direction && up == o.up &&
          intensity == o.intensity && radiance == o.radiance && range == o.range && innerCone == o.innerCone &&
-         outerCone == o.outerCone && radius == o.radius && width == o.width && height == o.height;
+         outerCone == o.outerCone && radius == o.radius && width == o.width && height == o.height &&
+         corners == o.corners && emitter == o.emitter;
 }
 
 const char* localLightTypeName(LocalLight::Type type) {
@@ -27,6 +28,10 @@ const char* localLightTypeName(LocalLight::Type type) {
       return "disk";
     case LocalLight::Type::Rectangle:
       return "rectangle";
+    case LocalLight::Type::Triangle:
+      return "triangle";
+    case LocalLight::Type::Emitter:
+      return "emissive";
   }
   return "?";
 }
@@ -66,8 +71,13 @@ void validate(const LocalLight& l) {
   } else {
     checkColor(l, l.radiance, "radiance");
   }
-  if (l.type == LocalLight::Type::Spot || l.type == LocalLight::Type::Disk || l.type == LocalLight::Type::Rectangle)
-    checkUnit(l, l.direction, "direction");
+  if (l.type == LocalLight::Type::Emitter) {
+    if (!l.emitter || l.emitter->triangles.empty()) fail(l, "triangles", "an emissive surface needs triangles");
+    for (const LocalLight& t : l.emitter->triangles) validate(t);
+    return;
+  }
+  if (l.type != LocalLight::Type::Point && l.type != LocalLight::Type::Sphere) checkUnit(l, l.direction, "direction");
+  if (l.type == LocalLight::Type::Triangle) checkSize(l, localLightArea(l), "area");
   if (l.type == LocalLight::Type::Spot) {
     if (!std::isfinite(l.innerCone) || l.innerCone < 0.0)
       fail(l, "innerConeAngle", cat("must be >= 0 (got ", l.innerCone, ")"));
@@ -107,6 +117,10 @@ double localLightArea(const LocalLight& l) {
       return kPi * l.radius * l.radius;
     case LocalLight::Type::Rectangle:
       return l.width * l.height;
+    case LocalLight::Type::Triangle:
+      return 0.5 * glm::length(glm::cross(l.corners[1] - l.corners[0], l.corners[2] - l.corners[0]));
+    case LocalLight::Type::Emitter:
+      return l.emitter ? l.emitter->area : 0.0;
     default:
       return 0.0;
   }
@@ -126,6 +140,7 @@ glm::dvec3 orthogonalTo(const glm::dvec3& d, const glm::dvec3& up) {
 }
 
 std::vector<glm::dvec3> localLightPolygon(const LocalLight& l) {
+  if (l.type == LocalLight::Type::Triangle) return {l.corners[0], l.corners[1], l.corners[2]};
   const glm::dvec3 b = orthogonalTo(l.direction, l.up), t = glm::cross(b, l.direction);
   if (l.type == LocalLight::Type::Rectangle) {
     const glm::dvec3 hw = 0.5 * l.width * t, hh = 0.5 * l.height * b;
@@ -187,12 +202,42 @@ glm::dvec3 localIrradiance(const LocalLight& l, const glm::dvec3& x, const glm::
       cap.radius = std::asin(sinA);
       return l.radiance * (kPi * sinA * sinA * directCosineFactor(cap, n));
     }
+    case LocalLight::Type::Emitter: {
+      glm::dvec3 sum(0.0);
+      for (const LocalLight& t : l.emitter->triangles) sum += localIrradiance(t, x, n);
+      return sum;
+    }
     case LocalLight::Type::Disk:
     case LocalLight::Type::Rectangle:
+    case LocalLight::Type::Triangle:
       if (glm::dot(l.direction, x - l.position) <= 0.0) return glm::dvec3(0.0);  // behind its emitting side
       return l.radiance * polygonCosineIntegral(localLightPolygon(l), x, n);
   }
   return glm::dvec3(0.0);
+}
+
+LocalLight makeEmitter(const std::string& label, std::vector<LocalLight> triangles) {
+  auto t = std::make_shared<LocalLight::Triangles>();
+  double total = 0.0;
+  glm::dvec3 centre(0.0);
+  for (const LocalLight& tri : triangles) {
+    const double a = localLightArea(tri);
+    const glm::dvec3& L = tri.radiance;
+    total += (0.2126 * L.r + 0.7152 * L.g + 0.0722 * L.b) * a;
+    t->cdf.push_back(total);
+    t->area += a;
+    t->power += kPi * a * L;
+    centre += a * tri.position;
+  }
+  for (double& c : t->cdf) c = total > 0.0 ? c / total : 1.0;
+  if (!t->cdf.empty()) t->cdf.back() = 1.0;
+  LocalLight l;
+  l.type = LocalLight::Type::Emitter;
+  l.label = label;
+  l.position = t->area > 0.0 ? centre / t->area : centre;
+  t->triangles = std::move(triangles);
+  l.emitter = std::move(t);
+  return l;
 }
 
 }  // namespace prt

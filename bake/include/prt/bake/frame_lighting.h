@@ -38,9 +38,10 @@ struct FrameLightingSettings {
   /// Shadow rays per direct light and vertex for the light at the vertices, or for the light
   /// whose bounces are gathered.
   int shadowSamples = 64;
-  /// True: the scene's own KHR_lights_punctual lights light it too (point and spot lights as
-  /// lights inside the scene, directional lights as suns; docs/lights.md, "Lights inside the
-  /// scene"). A rig's lights inside the scene light it either way.
+  /// True: the scene's own KHR_lights_punctual lights and emissive surfaces light it too (point
+  /// and spot lights and emissive triangles as lights inside the scene, directional lights as
+  /// suns; docs/lights.md, "Lights inside the scene"). A rig's lights inside the scene light it
+  /// either way.
   bool sceneLights = false;
   int threads = 0;  // 0 = all cores
 };

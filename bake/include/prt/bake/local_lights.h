@@ -26,6 +26,14 @@ std::vector<LocalLight> scenePunctualLightsAt(const Scene& scene, double time);
 /// irradiance colour × intensity (lux read as W/m², as every prt irradiance).
 std::vector<DirectLight> sceneSunsAt(const Scene& scene, double time);
 
+/// The scene's emissive surfaces, one Emitter light per non-receiver instance whose material
+/// emits, made of its triangles (emissiveFactor × KHR_materials_emissive_strength × the emissive
+/// texture's mean over the triangle, 16 stratified texels; the factor alone where the texture
+/// was not decoded: LoadOptions::shadingTextures), emitting along its winding's normal, and both
+/// ways for a double-sided material. Labelled "FILE: surface 'MESH'". Triangles of zero radiance
+/// are left out.
+std::vector<LocalLight> emissiveLightsOf(const Scene& scene);
+
 /// Throws prt::Error "RIG: lights[2].node: no node 'Lamp' in SCENE" for a rig light that names a
 /// node the scene lacks.
 void checkRigNodes(const Scene& scene, const LightRig& rig);

@@ -9,6 +9,8 @@
 // `direction` points to) or outwards (sphere).
 #pragma once
 
+#include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -19,12 +21,12 @@
 namespace prt {
 
 struct LocalLight {
-  enum class Type { Point, Spot, Sphere, Disk, Rectangle };
+  enum class Type { Point, Spot, Sphere, Disk, Rectangle, Triangle, Emitter };
   Type type = Type::Point;
   std::string label;  // where it came from, for messages and summaries: "scene.glb: light 0 'Lamp'"
   glm::dvec3 position{0.0};
   /// Unit. Spot: the axis of its cone (the way the light travels, the node's −Z). Disk,
-  /// rectangle: the normal of the emitting side.
+  /// rectangle, triangle: the normal of the emitting side.
   glm::dvec3 direction{0.0, -1.0, 0.0};
   /// Rectangle: unit, along its `height` side (made orthogonal to `direction`).
   glm::dvec3 up{0.0, 0.0, 1.0};
@@ -34,12 +36,23 @@ struct LocalLight {
   double innerCone = 0.0, outerCone = kPi / 4.0;  // spot: radians, 0 <= inner < outer <= π/2
   double radius = 0.0;                            // sphere, disk: metres
   double width = 0.0, height = 0.0;               // rectangle: metres (width across `up`)
+  /// Triangle (an emissive surface's): its corners; `position` is their centroid.
+  std::array<glm::dvec3, 3> corners{};
+  /// Emitter (an emissive surface): its triangles, each a Triangle light with its own radiance,
+  /// shared (the same surface in every frame is the same pointer); see makeEmitter.
+  struct Triangles {
+    std::vector<LocalLight> triangles;
+    std::vector<double> cdf;  // by luminance × area, cdf.back() == 1
+    double area = 0.0;
+    glm::dvec3 power{0.0};  // π L A summed: the watts it sends out
+  };
+  std::shared_ptr<const Triangles> emitter;
 
   bool punctual() const { return type == Type::Point || type == Type::Spot; }
   bool operator==(const LocalLight& o) const;
 };
 
-/// "point", "spot", "sphere", "disk", "rectangle".
+/// "point", "spot", "sphere", "disk", "rectangle", "triangle", "emissive".
 const char* localLightTypeName(LocalLight::Type type);
 
 /// Throws prt::Error "LABEL: FIELD: problem" unless every value is finite and in range: colours
@@ -55,7 +68,8 @@ double rangeWindow(double distance, double range);
 /// point light.
 double spotFalloff(const LocalLight& light, const glm::dvec3& fromLight);
 
-/// Surface area of an area light (sphere 4πR², disk πR², rectangle w·h); 0 for a point or spot.
+/// Surface area of an area light (sphere 4πR², disk πR², rectangle w·h, a triangle's); 0 for a
+/// point or spot.
 double localLightArea(const LocalLight& light);
 
 /// The radiance of an area light of `power` watts (RGB): Φ / (π A) for a one-sided disk or
@@ -63,9 +77,9 @@ double localLightArea(const LocalLight& light);
 /// Φ / (4π) (as Blender's point light; the spot's cone masks, it does not concentrate).
 glm::dvec3 localLightFromPower(const LocalLight& light, const glm::dvec3& power);
 
-/// Unoccluded irradiance at point x with unit normal n (RGB): exact for point, spot, sphere and
-/// rectangle; the disk is its area-matched kDiskPolygonSides-gon (docs/lights.md gives the
-/// error). 0 behind a disk or rectangle and inside a sphere.
+/// Unoccluded irradiance at point x with unit normal n (RGB): exact for point, spot, sphere,
+/// rectangle and triangle; the disk is its area-matched kDiskPolygonSides-gon (docs/lights.md gives the
+/// error). 0 behind a disk, rectangle or triangle and inside a sphere.
 glm::dvec3 localIrradiance(const LocalLight& light, const glm::dvec3& x, const glm::dvec3& n);
 constexpr int kDiskPolygonSides = 128;
 
@@ -73,8 +87,13 @@ constexpr int kDiskPolygonSides = 128;
 /// clipped by x's horizon first (Lambert's formula, ½ Σ_i Θ_i n·Γ_i).
 double polygonCosineIntegral(const std::vector<glm::dvec3>& polygon, const glm::dvec3& x, const glm::dvec3& n);
 
-/// The corners of a rectangle light (4) or of a disk's area-matched polygon, in order.
+/// The corners of a rectangle (4) or triangle light (3), or of a disk's area-matched polygon, in
+/// order.
 std::vector<glm::dvec3> localLightPolygon(const LocalLight& light);
+
+/// An emissive surface of `triangles` (Triangle lights of radiance > 0) as one light: its
+/// closed form is their sum, its samples are spread over them by luminance × area.
+LocalLight makeEmitter(const std::string& label, std::vector<LocalLight> triangles);
 
 /// A unit vector orthogonal to unit `d`: `up` made orthogonal, or any when `up` is parallel.
 glm::dvec3 orthogonalTo(const glm::dvec3& d, const glm::dvec3& up);
