@@ -249,6 +249,66 @@ TEST(BakeLocalLight, EmissiveQuadMatchesTheRectangleLight) {
   }
 }
 
+// A rectangle light's penumbra across a straight edge: a floor at y = 0 under a slab over x < 0
+// (1 <= y <= 1.05), a 1 × 0.6 m rectangle light facing down at y = 2 centred over the edge. The
+// shadowed irradiance at floor vertices across the penumbra against a 400 × 400 midpoint
+// quadrature over the rectangle with the slab's analytic occlusion. 256 stratified samples
+// estimate the visible share to a few 0.1% (measured: worst 0.37%, mean 0.05% of the
+// unoccluded value); 1.5% and 0.3% bound that, while weighting the samples by cos θ alone
+// (without cos θ' / r²) is off by 2.5% worst and 0.6% mean (measured).
+TEST(BakeLocalLight, RectanglePenumbraMatchesQuadrature) {
+  MeshInstance floor = test::makePlane({0, 0, 0}, 4.0f, 40);
+  Scene s = test::makeScene({floor, test::makeSlab({-3.0f, 1.0f, -3.0f}, {0.0f, 1.05f, 3.0f})}, 0.5f);
+  bake::BakeSettings bs;
+  bs.samples = 16;
+  bs.bounces = 0;
+  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
+  bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
+  s.transferBands = 3;
+  LocalLight rect;
+  rect.type = LocalLight::Type::Rectangle;
+  rect.position = {0.0, 2.0, 0.0};
+  rect.direction = {0, -1, 0};
+  rect.up = {0, 0, 1};
+  rect.width = 1.0;   // along x
+  rect.height = 0.6;  // along z
+  rect.radiance = dvec3(1.0);
+  bake::ShadowSettings ss;
+  ss.samples = 256;
+  const bake::DirectIrradiance d = bake::shadowedLocalIrradiance(s, bake::RayScene(s), {rect}, ss);
+  double worst = 0.0, meanError = 0.0;
+  int penumbra = 0, checked = 0;
+  for (size_t v = 0; v < s.meshes[0].vertexCount(); ++v) {
+    const dvec3 p(s.meshes[0].positions[v]);
+    if (std::fabs(p.z) > 0.5 || std::fabs(p.x) > 1.2) continue;
+    const int n = 400;
+    double ref = 0.0, open = 0.0;
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const dvec3 q(-0.5 + (i + 0.5) / n, 2.0, -0.3 + 0.6 * (j + 0.5) / n);
+        const dvec3 w = q - p;
+        const double r2 = glm::dot(w, w), c = w.y / std::sqrt(r2), g = c * c / r2;  // cos θ = cos θ'
+        open += g;
+        // The slab fills x < 0 for 1 <= y <= 1.05: the segment misses it iff it is at x >= 0 at
+        // both heights (x is linear in y along it).
+        const double xAt1 = p.x + w.x * (1.0 - p.y) / w.y, xAt105 = p.x + w.x * (1.05 - p.y) / w.y;
+        if (xAt1 >= 0.0 && xAt105 >= 0.0) ref += g;
+      }
+    const double cell = 0.6 / (double(n) * n);
+    ref *= cell;
+    open *= cell;
+    const double err = std::fabs(d.front[0][v].g - ref) / open;
+    worst = std::max(worst, err);
+    meanError += err;
+    ++checked;
+    penumbra += ref > 0.05 * open && ref < 0.95 * open;
+  }
+  meanError /= checked;
+  EXPECT_GT(penumbra, 10);
+  EXPECT_LT(worst, 0.015);
+  EXPECT_LT(meanError, 0.003);
+}
+
 // The inside of a closed box [-1, 1]³, faces subdivided n × n, normals inwards.
 MeshInstance insideOfABox(int n) {
   MeshInstance m;
