@@ -228,6 +228,12 @@ TEST(BakeLocalLight, EmissiveQuadMatchesTheRectangleLight) {
   ASSERT_EQ(emitters[0].emitter->triangles.size(), 2u);
   EXPECT_EQ(emitters[0].emitter->triangles[0].direction, dvec3(0, -1, 0));
   EXPECT_NEAR(emitters[0].emitter->area, 0.36, 1e-6);
+  // Its own vertices emit that radiance (what prt relight adds to theirs); the floor none.
+  const bake::VertexEmission own = bake::emissionAtVertices(s);
+  EXPECT_TRUE(own.front[0].empty());
+  ASSERT_EQ(own.front[1].size(), s.meshes[1].vertexCount());
+  EXPECT_EQ(own.front[1][0], glm::vec3(4.0f, 2.0f, 1.0f));
+  EXPECT_TRUE(own.back[1].empty());  // one-sided
   LocalLight rect;
   rect.type = LocalLight::Type::Rectangle;
   rect.position = {0.1, 1.0, -0.1};

@@ -57,6 +57,17 @@ Radiance relight(const Scene& scene, const bake::FrameLight& light) {
           relightVerticesSplit(scene, l.sh, l.directSh, light.vertexLight->back, true)};
 }
 
+// The emissive surfaces' own radiance added to theirs (sides the relight has).
+void addEmission(Radiance& r, const bake::VertexEmission& e) {
+  auto add = [](std::vector<std::vector<glm::vec3>>& to, const std::vector<std::vector<glm::vec3>>& from) {
+    for (size_t k = 0; k < to.size() && k < from.size(); ++k)
+      if (to[k].size() == from[k].size())
+        for (size_t v = 0; v < to[k].size(); ++v) to[k][v] += from[k][v];
+  };
+  add(r.front, e.front);
+  add(r.back, e.back);
+}
+
 // The summary's lines on the direct lights, the sky detail and the bounces.
 void printLighting(const RelightArgs& a, const Scene& scene, const LightRig& rig, const bake::FrameLight& light,
                    const bake::FrameLighting& lighting) {
@@ -168,7 +179,8 @@ int runRelight(const RelightArgs& a) {
                  "prt relight: warning: %s has no direct part (baked by an older prt): its %zu direct "
                  "light(s) are lit through SH, without exact shadows; bake again for them\n",
                  a.baked.c_str(), light.foldedLights);
-  const Radiance radiance = relight(scene, light);
+  Radiance radiance = relight(scene, light);
+  if (!a.noSceneLights) addEmission(radiance, bake::emissionAtVertices(scene));
   if (!a.csv.empty()) AtomicFile csvProbe(a.csv);
   writeLitScene(a.baked, scene, radiance.front, a.output, &radiance.back);
   if (!a.csv.empty()) writeCsv(a.csv, scene, radiance.front, radiance.back);

@@ -138,6 +138,29 @@ std::vector<LocalLight> emissiveLightsOf(const Scene& scene) {
   return out;
 }
 
+VertexEmission emissionAtVertices(const Scene& scene) {
+  VertexEmission out;
+  out.front.resize(scene.meshes.size());
+  out.back.resize(scene.meshes.size());
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    const MeshInstance& m = scene.meshes[k];
+    if (m.material < 0 || size_t(m.material) >= scene.materials.size()) continue;
+    const Material& mat = scene.materials[size_t(m.material)];
+    const glm::vec3 base = mat.emissiveFactor * mat.emissiveStrength;
+    if (!(std::max({base.r, base.g, base.b}) > 0.0f)) continue;
+    const TextureSlot& slot = mat.emissiveTexture;
+    const bool textured = slot.texture >= 0 && size_t(slot.texture) < scene.textures.size() &&
+                          m.uvs(slot.uvSet).size() == m.vertexCount();
+    std::vector<glm::vec3>& e = out.front[k];
+    e.resize(m.vertexCount(), base);
+    if (textured)
+      for (size_t v = 0; v < m.vertexCount(); ++v)
+        e[v] = base * glm::vec3(scene.textures[size_t(slot.texture)].sample(m.uvs(slot.uvSet)[v]));
+    if (mat.doubleSided) out.back[k] = e;
+  }
+  return out;
+}
+
 void checkRigNodes(const Scene& scene, const LightRig& rig) {
   for (const RigLocalLight& l : rig.locals)
     if (!l.node.empty() && findNode(scene, l.node) < 0)

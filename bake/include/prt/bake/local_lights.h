@@ -34,6 +34,14 @@ std::vector<DirectLight> sceneSunsAt(const Scene& scene, double time);
 /// are left out.
 std::vector<LocalLight> emissiveLightsOf(const Scene& scene);
 
+/// The radiance the scene's emissive surfaces emit at their own vertices (emissiveFactor ×
+/// strength × the emissive texture at the vertex), per instance: front sides, and back sides
+/// of double-sided emitters (`back`); empty vectors for instances that do not emit.
+struct VertexEmission {
+  std::vector<std::vector<glm::vec3>> front, back;
+};
+VertexEmission emissionAtVertices(const Scene& scene);
+
 /// Throws prt::Error "RIG: lights[2].node: no node 'Lamp' in SCENE" for a rig light that names a
 /// node the scene lacks.
 void checkRigNodes(const Scene& scene, const LightRig& rig);
