@@ -246,7 +246,16 @@ TEST_F(HostileInput, NonFiniteNumbersAreRefused) {
   doc["extensionsUsed"] = {"KHR_lights_punctual"};
   doc["extensions"]["KHR_lights_punctual"]["lights"] = {{{"type", "point"}, {"intensity", -1e300}}};
   doc["nodes"][0]["extensions"]["KHR_lights_punctual"]["light"] = 0;
-  expectSceneError(writeDoc("light.gltf", doc), {"light 0: a parameter is not finite"});
+  expectSceneError(writeDoc("light.gltf", doc), {"light 0 '", "intensity: not a finite number"});
+  // Out of KHR_lights_punctual's ranges: the light and the field named.
+  doc["extensions"]["KHR_lights_punctual"]["lights"] = {{{"type", "point"}, {"name", "Lamp"}, {"intensity", -2}}};
+  expectSceneError(writeDoc("light_negative.gltf", doc), {"light 0 'Lamp': intensity -2: must be >= 0"});
+  doc["extensions"]["KHR_lights_punctual"]["lights"] = {
+      {{"type", "spot"}, {"name", "Spot"}, {"spot", {{"innerConeAngle", 0.8}, {"outerConeAngle", 0.5}}}}};
+  expectSceneError(writeDoc("light_cone.gltf", doc),
+                   {"light 0 'Spot': spot.innerConeAngle 0.8: the inner cone must be inside the outer cone (0.5)"});
+  doc["extensions"]["KHR_lights_punctual"]["lights"] = {{{"type", "point"}, {"color", {1, -0.5, 1}}}};
+  expectSceneError(writeDoc("light_colour.gltf", doc), {"color -0.5: must be >= 0"});
   doc = triangleDoc();
   doc["nodes"][0]["scale"] = {1e300, 1, 1};
   expectSceneError(writeDoc("scale.gltf", doc), {"POSITION: vertex 1 is not finite after the node transform"});
@@ -457,7 +466,7 @@ TEST_F(HostileInput, RigCountsOfLightsAndKeysAreBounded) {
 
 TEST_F(HostileInput, RigBadEnumsAreNamedAndLongStringsCut) {
   expectRigError(rigJson(R"({"type": "Sun"})"),
-                 {"lights[0].type: 'Sun' is not a light type (environment, sun, disk or uniform)"});
+                 {"lights[0].type: 'Sun' is not a light type (environment, sun, disk, uniform, point, spot or area)"});
   expectRigError(rigJson(kUniform, R"(, "window": "HANN")"), {"window: 'HANN': expected none, hann or lanczos"});
   expectRigError(rigJson(kUniform, R"(, "window": 3)"), {"window: expected \"none\", \"hann\" or \"lanczos\""});
   expectRigError(

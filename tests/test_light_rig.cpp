@@ -369,7 +369,8 @@ TEST(RigErrors, UnknownKeysAndTypes) {
   expectRigError("{\"version\": 1, \"lihgts\": []}", "lihgts: unknown key (did you mean 'lights'?)");
   expectRigError("{\"version\": 1, \"lights\": [{\"type\": \"uniform\", \"radiance\": 1, \"zzzzzzzz\": 2}]}",
                  "lights[0].zzzzzzzz: unknown key (expected one of: type, name, radiance)");
-  expectRigError("{\"version\": 1, \"lights\": [{\"type\": \"spot\"}]}", "lights[0].type: 'spot' is not a light type");
+  expectRigError("{\"version\": 1, \"lights\": [{\"type\": \"spotlight\"}]}",
+                 "lights[0].type: 'spotlight' is not a light type");
   expectRigError("{\"version\": 1, \"lights\": [{\"radiance\": 1}]}", "lights[0].type: missing");
   expectRigError(
       "{\"version\": 1, \"lights\": [{\"type\": \"uniform\", \"radiance\": {\"keys\": [{\"frame\": 0, "

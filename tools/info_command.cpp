@@ -5,6 +5,8 @@
 #include <filesystem>
 
 #include "file_kind.h"
+#include "light_options.h"
+#include "prt/bake/local_lights.h"
 #include "prt/bake/memory_estimate.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/bake_record.h"
@@ -16,6 +18,27 @@
 namespace prt::tools {
 
 namespace {
+
+// The lights as they light the scene (docs/lights.md, "Lights inside the scene").
+void printLights(const Scene& scene) {
+  const std::vector<LocalLight> locals = bake::scenePunctualLightsAt(scene, 0.0);
+  for (size_t k = 0, j = 0; k < scene.lights.size(); ++k) {
+    const PunctualLight& p = scene.lights[k];
+    const char* moved = p.node >= 0 && isAnimated(scene, p.node) ? ", moved by an animation" : "";
+    if (p.type != PunctualLight::Type::Directional) {
+      std::printf("  light %zu     %s%s\n", k, describeLocalLight(locals[j++]).c_str(), moved);
+      continue;
+    }
+    const glm::vec3 e = p.color * p.intensity;
+    std::printf(
+        "  light %zu     directional '%s' (a sun) towards (%.4g, %.4g, %.4g), irradiance (%.4g, %.4g, %.4g)%s\n", k,
+        p.name.c_str(), -p.direction.x, -p.direction.y, -p.direction.z, e.r, e.g, e.b, moved);
+  }
+  // Emissive surfaces light the scene too (their textures are not read here: factor × strength).
+  for (const LocalLight& l : bake::emissiveLightsOf(scene))
+    std::printf("  emissive    %s, %zu triangles, %.4g m²\n", l.label.substr(l.label.rfind(": ") + 2).c_str(),
+                l.emitter->triangles.size(), l.emitter->area);
+}
 
 // A glTF scene: what it holds, what it costs in memory, and its bake record if it has one.
 void infoGlb(const std::string& path) {
@@ -42,6 +65,7 @@ void infoGlb(const std::string& path) {
     std::printf("  camera %zu    '%s', %s\n", k, c.name.c_str(),
                 c.perspective ? cat("perspective, yfov ", c.yfov, " rad").c_str() : "orthographic");
   }
+  printLights(scene);
   for (const Animation& an : scene.animations) {
     double end = 0.0;
     for (const AnimationChannel& ch : an.channels) end = std::max(end, ch.times.back());

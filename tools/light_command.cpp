@@ -63,11 +63,41 @@ int runLight(const LightArgs& a) {
                       {"map_power_share", fromMap ? split.mapShare[k] : 0.0}});
   }
   j["direct_lights"] = direct;
+  // The rig's lights inside the scene at the frame, in their own frame (a node's, if they name one).
+  nlohmann::json local = nlohmann::json::array();
+  for (const RigLocalLight& r : rig.locals) {
+    const LocalLight l = r.at(a.light.frame);
+    auto v3 = [](const glm::dvec3& v) { return nlohmann::json{v.x, v.y, v.z}; };
+    nlohmann::json e = {
+        {"type", localLightTypeName(l.type)}, {"label", l.label}, {"node", r.node}, {"position", v3(l.position)}};
+    if (l.punctual()) {
+      e["intensity_cd"] = v3(l.intensity);
+      e["range"] = l.range;
+    } else {
+      e["radiance"] = v3(l.radiance);
+    }
+    if (l.type != LocalLight::Type::Point && l.type != LocalLight::Type::Sphere) e["direction"] = v3(l.direction);
+    if (l.type == LocalLight::Type::Spot) {
+      e["inner_cone_deg"] = glm::degrees(l.innerCone);
+      e["outer_cone_deg"] = glm::degrees(l.outerCone);
+    }
+    if (l.type == LocalLight::Type::Sphere || l.type == LocalLight::Type::Disk) e["radius"] = l.radius;
+    if (l.type == LocalLight::Type::Rectangle) {
+      e["up"] = v3(l.up);
+      e["width"] = l.width;
+      e["height"] = l.height;
+    }
+    local.push_back(e);
+  }
+  j["local_lights"] = local;
   j["sh"] = shJson(split.sh);
   j["direct_sh"] = shJson(split.directSh);
   writeFileAtomic(a.output, j.dump(2) + "\n");
   for (const std::string& line : describeDirectLights(split, rig))
     std::fprintf(stderr, "prt light: direct light: %s\n", line.c_str());
+  for (const RigLocalLight& r : rig.locals)
+    std::fprintf(stderr, "prt light: light inside the scene: %s%s\n", describeLocalLight(r.at(a.light.frame)).c_str(),
+                 r.node.empty() ? "" : cat(" (in node '", r.node, "')").c_str());
   return 0;
 }
 

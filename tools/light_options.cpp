@@ -156,7 +156,7 @@ bake::FrameLightingSettings frameLightingSettings(const LightOptions& light, con
   return s;
 }
 
-LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame) {
+LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame, bool lightsInScene) {
   LightRig rig;
   if (!o.rig.empty()) {
     rig = loadLightRig(o.rig);
@@ -164,9 +164,15 @@ LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame) {
     const bool sunByAngles = !o.sunAzimuth.empty() || !o.sunElevation.empty();
     if (o.sunDir.empty() && !sunByAngles && !o.sunOptionGiven.empty())
       throw UsageError(cat(o.sunOptionGiven, " needs a sun: --sun-dir or --sun-elevation"));
-    if (o.env.empty() && o.sunDir.empty() && !sunByAngles)
+    if (o.env.empty() && o.sunDir.empty() && !sunByAngles) {
+      if (lightsInScene) {  // the scene's own lights alone
+        if (o.window) rig.window = *o.window;
+        return rig;
+      }
       throw UsageError(
-          "no lighting: give --rig RIG.json, or --env MAP and/or a sun (--sun-dir X,Y,Z or --sun-elevation DEG)");
+          "no lighting: give --rig RIG.json, or --env MAP and/or a sun (--sun-dir X,Y,Z or --sun-elevation DEG), "
+          "or a scene with lights of its own");
+    }
     if (!o.env.empty()) {
       RigLight env;
       env.type = RigLight::Type::Environment;
@@ -207,11 +213,11 @@ LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame) {
   return rig;
 }
 
-LightRig buildStillRig(const LightOptions& o) {
+LightRig buildStillRig(const LightOptions& o, bool lightsInScene) {
   // Not ->needs(--rig): --frame 0, the default, is allowed without a rig.
   if (o.rig.empty() && o.frame != 0.0)
     throw UsageError("--frame: needs --rig (the --env/--sun-* shortcuts do not change over frames here)");
-  return buildRig(o, 0, 0);
+  return buildRig(o, 0, 0, lightsInScene);
 }
 
 sh::ShRgb buildLight(const LightOptions& o, int bands) { return buildStillRig(o).evaluate(o.frame, bands); }
@@ -240,6 +246,48 @@ std::vector<std::string> describeDirectLights(const RigLighting& lighting, const
     out.push_back(line);
   }
   return out;
+}
+
+std::string describeLocalLight(const LocalLight& l) {
+  const size_t colon = l.label.rfind(": ");
+  std::string name = colon == std::string::npos ? l.label : l.label.substr(colon + 2);
+  char buf[400];
+  auto v3 = [](const glm::dvec3& v) {
+    char b[100];
+    std::snprintf(b, sizeof b, "(%.4g, %.4g, %.4g)", v.x, v.y, v.z);
+    return std::string(b);
+  };
+  std::string line = cat(localLightTypeName(l.type), " ", name, " at ", v3(l.position));
+  switch (l.type) {
+    case LocalLight::Type::Point:
+    case LocalLight::Type::Spot:
+      line += cat(", intensity ", v3(l.intensity), " cd");
+      if (l.range > 0.0) line += cat(", range ", l.range, " m");
+      if (l.type == LocalLight::Type::Spot) {
+        std::snprintf(buf, sizeof buf, ", towards %s, cone %.3g..%.3g°", v3(l.direction).c_str(),
+                      glm::degrees(l.innerCone), glm::degrees(l.outerCone));
+        line += buf;
+      }
+      break;
+    case LocalLight::Type::Sphere:
+    case LocalLight::Type::Disk:
+      line += cat(", radius ", l.radius, " m");
+      if (l.type == LocalLight::Type::Disk) line += cat(", facing ", v3(l.direction));
+      line += cat(", radiance ", v3(l.radiance));
+      break;
+    case LocalLight::Type::Rectangle:
+      line += cat(", ", l.width, " x ", l.height, " m, facing ", v3(l.direction), ", radiance ", v3(l.radiance));
+      break;
+    case LocalLight::Type::Triangle:
+      line += cat(", ", localLightArea(l), " m², facing ", v3(l.direction), ", radiance ", v3(l.radiance));
+      break;
+    case LocalLight::Type::Emitter:
+      std::snprintf(buf, sizeof buf, ", %zu triangles, %.4g m², power %s W", l.emitter->triangles.size(),
+                    l.emitter->area, v3(l.emitter->power).c_str());
+      line += buf;
+      break;
+  }
+  return line;
 }
 
 }  // namespace prt::tools

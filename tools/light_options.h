@@ -62,10 +62,12 @@ bake::FrameLightingSettings frameLightingSettings(const LightOptions& light, con
 /// The lighting as a validated rig. START:END ranges become keys at firstFrame and lastFrame.
 /// Throws UsageError on options that do not go together or do not parse, prt::Error (one line
 /// naming the option or file) on a bad rig, map or light.
-LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame);
+/// `lightsInScene`: the scene has lights of its own that will light it, so no option is needed
+/// (an empty rig then).
+LightRig buildRig(const LightOptions& o, int firstFrame, int lastFrame, bool lightsInScene = false);
 
 /// Stills (relight, light, probe): the rig to evaluate at o.frame. Refuses --frame without --rig.
-LightRig buildStillRig(const LightOptions& o);
+LightRig buildStillRig(const LightOptions& o, bool lightsInScene = false);
 
 /// Stills: the rig's SH at o.frame on `bands` bands.
 sh::ShRgb buildLight(const LightOptions& o, int bands);
@@ -80,5 +82,9 @@ RigLighting buildLighting(const LightOptions& o, int bands);
 /// irradiance (3, 2.9, 2.7)", and for a sun split off a map ", split off sky.hdr: 30.2% of its
 /// power".
 std::vector<std::string> describeDirectLights(const RigLighting& lighting, const LightRig& rig);
+
+/// One line for a light inside the scene: "point 'Lamp' at (0, 2.5, 0), intensity (80, 80, 80) cd,
+/// range 10 m" (the label's file left out).
+std::string describeLocalLight(const LocalLight& light);
 
 }  // namespace prt::tools

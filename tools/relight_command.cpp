@@ -6,6 +6,7 @@
 
 #include "prt/atomic_file.h"
 #include "prt/bake/frame_lighting.h"
+#include "prt/bake/local_lights.h"
 #include "prt/error.h"
 #include "prt/relight.h"
 #include "prt/scene.h"
@@ -56,6 +57,17 @@ Radiance relight(const Scene& scene, const bake::FrameLight& light) {
           relightVerticesSplit(scene, l.sh, l.directSh, light.vertexLight->back, true)};
 }
 
+// The emissive surfaces' own radiance added to theirs (sides the relight has).
+void addEmission(Radiance& r, const bake::VertexEmission& e) {
+  auto add = [](std::vector<std::vector<glm::vec3>>& to, const std::vector<std::vector<glm::vec3>>& from) {
+    for (size_t k = 0; k < to.size() && k < from.size(); ++k)
+      if (to[k].size() == from[k].size())
+        for (size_t v = 0; v < to[k].size(); ++v) to[k][v] += from[k][v];
+  };
+  add(r.front, e.front);
+  add(r.back, e.back);
+}
+
 // The summary's lines on the direct lights, the sky detail and the bounces.
 void printLighting(const RelightArgs& a, const Scene& scene, const LightRig& rig, const bake::FrameLight& light,
                    const bake::FrameLighting& lighting) {
@@ -70,7 +82,7 @@ void printLighting(const RelightArgs& a, const Scene& scene, const LightRig& rig
   if (lighting.skyDetail())
     std::fprintf(stderr, "  sky detail    the light beyond %d bands over the same rays\n", scene.transferBands);
   const int bounces = scene.bakeRecord.value_or(BakeRecord{}).bounces;
-  if (light.vertexLight && (lights || lighting.skyDetail())) {
+  if (light.vertexLight && (lights || !light.local.empty() || lighting.skyDetail())) {
     if (lighting.usesOperator())
       std::fprintf(stderr, "  bounces       through the bake's bounce operator (%d bounces as baked) in %.3f s\n",
                    bounces, st.gatherSeconds);
@@ -82,6 +94,15 @@ void printLighting(const RelightArgs& a, const Scene& scene, const LightRig& rig
       std::fprintf(stderr, "  %s\n",
                    bounces > 0 ? "bounces       through the SH transfer (--bounce-samples 0)"
                                : "bounces       none (baked without bounces)");
+  }
+  if (!light.local.empty()) {
+    std::fprintf(stderr, "  lights inside the scene (exact, with shadows%s):\n",
+                 light.vertexLight && lighting.gathers() && bounces > 0 ? " and their bounces" : "");
+    for (const LocalLight& l : light.local) std::fprintf(stderr, "    %s\n", describeLocalLight(l).c_str());
+    if (!lights)
+      std::fprintf(stderr,
+                   "  shadow rays   %llu (1 per point or spot light, %d per area light, per vertex) in %.2f s\n",
+                   (unsigned long long)st.shadowRays, a.shadowSamples, st.shadowSeconds);
   }
   if (!lights && a.light.noDirect)
     std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
@@ -128,18 +149,25 @@ void addRelight(CLI::App& cmd, RelightArgs& a) {
   cmd.add_option("--threads", a.threads, "Threads for the shadow and bounce rays (0 = all cores)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  cmd.add_flag("--no-scene-lights", a.noSceneLights,
+               "Leave the scene's own lights (KHR_lights_punctual point, spot and directional lights) dark; by "
+               "default they light it, and no other light is needed (docs/lights.md, \"Lights inside the scene\")");
   cmd.add_flag("-q,--quiet", a.quiet, "No summary");
 }
 
 int runRelight(const RelightArgs& a) {
   AtomicFile probe(a.output);
-  Scene scene = loadScene(a.baked);
+  // The emissive textures are read for the scene's emissive surfaces (they light it).
+  LoadOptions load;
+  load.shadingTextures = !a.noSceneLights;
+  Scene scene = loadScene(a.baked, load);
   printWarnings(scene, a.quiet);
   // A bake whose every instance is a receiver has bands (its record's) but nothing to relight.
   const bool anyTransfer =
       std::any_of(scene.meshes.begin(), scene.meshes.end(), [](const MeshInstance& m) { return !m.transfer.empty(); });
   if (!anyTransfer) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
-  const LightRig rig = buildStillRig(a.light);
+  const bool ownLights = !scene.lights.empty() || !bake::emissiveLightsOf(scene).empty();
+  const LightRig rig = buildStillRig(a.light, !a.noSceneLights && ownLights);
   // The direct lights exactly at the vertices, with their bounces and the sky's detail
   // gathered over the bake's own rays (not with --no-direct-lights, nor for bakes without the
   // direct part).
@@ -147,6 +175,7 @@ int runRelight(const RelightArgs& a) {
   settings.directAtVertices = true;
   settings.shadowSamples = a.shadowSamples;
   settings.threads = a.threads;
+  settings.sceneLights = !a.noSceneLights;
   bake::FrameLighting lighting(scene, rig, settings);
   const bake::FrameLight light = lighting.at(a.light.frame);
   if (light.foldedLights && !a.quiet)
@@ -154,7 +183,8 @@ int runRelight(const RelightArgs& a) {
                  "prt relight: warning: %s has no direct part (baked by an older prt): its %zu direct "
                  "light(s) are lit through SH, without exact shadows; bake again for them\n",
                  a.baked.c_str(), light.foldedLights);
-  const Radiance radiance = relight(scene, light);
+  Radiance radiance = relight(scene, light);
+  if (!a.noSceneLights) addEmission(radiance, bake::emissionAtVertices(scene));
   if (!a.csv.empty()) AtomicFile csvProbe(a.csv);
   writeLitScene(a.baked, scene, radiance.front, a.output, &radiance.back);
   if (!a.csv.empty()) writeCsv(a.csv, scene, radiance.front, radiance.back);

@@ -16,6 +16,7 @@ struct RelightArgs {
   int shadowSamples = 64;  // shadow rays per direct light and vertex
   GatherOptions gather;
   int threads = 0;
+  bool noSceneLights = false;  // --no-scene-lights: the file's own lights left dark
   bool quiet = false;
 };
 

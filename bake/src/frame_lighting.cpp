@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "prt/bake/bounce_operator.h"
+#include "prt/bake/local_lights.h"
 #include "prt/bake_record.h"
 #include "prt/relight.h"
 
@@ -33,6 +34,22 @@ size_t foldIntoSh(RigLighting& l, int bands) {
   l.directSh = sh::ShRgb(bands);
   l.direct.clear();
   return n;
+}
+
+// The scene's directional lights join the rig's direct lights (their SH windowed as the rig's),
+// or its SH light when direct lights are off.
+size_t addSceneSuns(RigLighting& l, const std::vector<DirectLight>& suns, int bands, bool direct, sh::Window window) {
+  for (const DirectLight& sun : suns) {
+    sh::ShRgb s = sun.project(bands);
+    sh::applyWindow(s, window);
+    if (direct) {
+      l.directSh += s;
+      l.direct.push_back(sun);
+    } else {
+      l.sh += s;
+    }
+  }
+  return direct ? suns.size() : 0;
 }
 
 }  // namespace
@@ -67,6 +84,9 @@ struct FrameLighting::Impl {
   // The last gather and what it was for.
   DirectIrradiance light;
   std::vector<DirectLight> lightFor;
+  std::vector<LocalLight> localFor;
+  bool hasLocal = false;                            // lights inside the scene (the same set in every frame)
+  std::optional<std::vector<LocalLight>> emissive;  // the scene's emissive triangles
   sh::ShRgb skyFor;
   FrameLightingStats stats;
 
@@ -76,14 +96,18 @@ struct FrameLighting::Impl {
   // Which gathers the frames need, from the first frame's lights: the bake's rays gather where
   // the bake kept the direct part, the sky detail unless it is off, and the direct lights'
   // bounces where there are lights and the bake has bounces. Traces the rays.
-  void decide(const RigLighting& first) {
+  // Lights inside the scene are traced at the vertices (for the renderer too), so they need
+  // the static scene's rays, and their bounces a gather, whichever way the suns go.
+  void decide(const RigLighting& first, bool local) {
     decided = true;
+    hasLocal = local;
     const auto t0 = std::chrono::steady_clock::now();
     const bool gatherable = settings.gatherSamples > 0 && settings.directLights && hasDirectTransfer(scene);
     sky = gatherable && settings.skyDetail;
-    const bool directBounces = gatherable && !first.direct.empty() && record.bounces > 0;
-    traceDirect = settings.directAtVertices ? !first.direct.empty() : directBounces;
-    if (traceDirect && (settings.directAtVertices || !useOperator())) rays.emplace(scene);
+    const bool sunBounces = gatherable && !first.direct.empty() && record.bounces > 0;
+    const bool directBounces = sunBounces || (gatherable && hasLocal && record.bounces > 0);
+    traceDirect = settings.directAtVertices ? !first.direct.empty() : sunBounces;
+    if ((traceDirect && (settings.directAtVertices || !useOperator())) || hasLocal) rays.emplace(scene);
     if ((sky || directBounces) && useOperator()) {
       through = std::make_unique<OperatorLighting>(scene, *scene.bounceOperator, !settings.directAtVertices,
                                                    settings.threads);
@@ -104,19 +128,21 @@ struct FrameLighting::Impl {
   bool gathering() const { return gather != nullptr || through != nullptr; }
 
   bool needsVertexLight(const RigLighting& l) const {
-    return settings.directAtVertices ? !l.direct.empty() || sky : gathering();
+    return settings.directAtVertices ? !l.direct.empty() || sky || hasLocal : gathering() || hasLocal;
   }
-  bool stale(const RigLighting& l) const {
-    return stats.updates == 0 || (sky && l.sh.c != skyFor.c) || !sameLights(l.direct, lightFor);
+  bool stale(const RigLighting& l, const std::vector<LocalLight>& local) const {
+    return stats.updates == 0 || (sky && l.sh.c != skyFor.c) || !sameLights(l.direct, lightFor) || local != localFor;
   }
 
   // E⁰, the direct lights' shadowed light (at the vertices, or only what they bounce: dark
   // when nothing of it bounces), plus the sky's detail Δ (added per vertex, and bounced), then
   // their bounces E_b; per pixel the renderer lights E⁰ itself.
-  void update(double frame, const RigLighting& l) {
-    if (through) return updateThroughOperator(frame, l);
+  void update(double frame, const RigLighting& l, const std::vector<LocalLight>& local) {
+    if (through) return updateThroughOperator(frame, l, local);
     const auto t0 = std::chrono::steady_clock::now();
     DirectIrradiance lit = tracedDirect(l);
+    const DirectIrradiance own = tracedLocal(local);
+    if (hasLocal) addIrradiance(lit, own);
     DirectIrradiance delta;
     if (sky) {
       delta = gather->skyDetail(rig.shRadiance(frame), l.sh);
@@ -130,17 +156,37 @@ struct FrameLighting::Impl {
         stats.gatherSeconds += bounced.seconds;
       }
       light = std::move(lit);
-    } else {
+    } else if (gather) {
       light = gather->bounce(lit);
       stats.gatherSeconds += light.seconds;
       if (sky) addIrradiance(light, delta);
+      if (hasLocal) addIrradiance(light, own);
+    } else {
+      light = own;  // lights inside the scene without a gather: their direct light alone
     }
+    done(l, local, t0);
+  }
+  void updateThroughOperator(double frame, const RigLighting& l, const std::vector<LocalLight>& local);
+
+  void done(const RigLighting& l, const std::vector<LocalLight>& local, std::chrono::steady_clock::time_point t0) {
     lightFor = l.direct;
+    localFor = local;
     skyFor = l.sh;
     stats.updateSeconds += secondsSince(t0);
     ++stats.updates;
   }
-  void updateThroughOperator(double frame, const RigLighting& l);
+
+  // The lights inside the scene's shadowed light at every vertex (nothing when there are none).
+  DirectIrradiance tracedLocal(const std::vector<LocalLight>& local) {
+    if (!hasLocal) return {};
+    ShadowSettings ss;
+    ss.samples = settings.shadowSamples;
+    ss.threads = settings.threads;
+    DirectIrradiance own = shadowedLocalIrradiance(scene, *rays, local, ss);
+    stats.shadowSeconds += own.seconds;
+    stats.shadowRays += own.rays;
+    return own;
+  }
 
   // The direct lights' shadowed light at every vertex (dark where they are not traced).
   DirectIrradiance tracedDirect(const RigLighting& l) {
@@ -158,31 +204,41 @@ struct FrameLighting::Impl {
 // Through the operator: at the vertices (a relit file) E⁰ traced exactly at every vertex, then
 // its bounces and the sky detail as products; for the renderer (which lights E⁰ per pixel)
 // only the products, E⁰ taken at the clusters' sample points.
-void FrameLighting::Impl::updateThroughOperator(double frame, const RigLighting& l) {
+// With lights inside the scene, their E⁰ at every vertex joins the suns' (traced at the vertices
+// then, for the renderer too) and goes in through lightFrom; the renderer then gets their E⁰ at
+// the vertices as well, the suns' staying per pixel.
+void FrameLighting::Impl::updateThroughOperator(double frame, const RigLighting& l,
+                                                const std::vector<LocalLight>& local) {
   const auto t0 = std::chrono::steady_clock::now();
   const RigBackground skyLight = sky ? rig.shRadiance(frame) : RigBackground{};
   const RigBackground* skyOrNull = sky ? &skyLight : nullptr;
   const std::vector<DirectLight> bouncing = record.bounces > 0 ? l.direct : std::vector<DirectLight>{};
   if (settings.directAtVertices) {
     DirectIrradiance lit = tracedDirect(l);
+    if (hasLocal) addIrradiance(lit, tracedLocal(local));
     const DirectIrradiance more = through->lightFrom(lit, &l.directSh, skyOrNull, l.sh);
     addIrradiance(lit, more);
     light = std::move(lit);
-  } else {
+  } else if (!hasLocal) {
     light = through->light(bouncing, &l.directSh, skyOrNull, l.sh);
+  } else {
+    DirectIrradiance lit = tracedDirect(l);
+    const DirectIrradiance own = tracedLocal(local);
+    addIrradiance(lit, own);
+    light = through->lightFrom(lit, &l.directSh, skyOrNull, l.sh);
+    addIrradiance(light, own);
   }
   const OperatorTimes& t = through->lastTimes();
   stats.shadowSeconds += t.shadows;
   stats.shadowRays += t.shadowRays;
   stats.gatherSeconds += t.sky + t.clusters + t.vertices;
-  lightFor = l.direct;
-  skyFor = l.sh;
-  stats.updateSeconds += secondsSince(t0);
-  ++stats.updates;
+  done(l, local, t0);
 }
 
 FrameLighting::FrameLighting(const Scene& scene, const LightRig& rig, const FrameLightingSettings& settings)
-    : impl_(std::make_unique<Impl>(scene, rig, settings)) {}
+    : impl_(std::make_unique<Impl>(scene, rig, settings)) {
+  checkRigNodes(scene, rig);
+}
 
 FrameLighting::~FrameLighting() = default;
 
@@ -193,11 +249,20 @@ FrameLight FrameLighting::at(double frame) {
   const int bands = m.scene.transferBands;
   FrameLight out;
   out.rig = rigLighting(m.rig, frame, bands, m.settings.directLights);
+  // The scene's animation time of this frame, for lights on nodes it moves.
+  const double time = frame / m.rig.fps.value_or(kDefaultLightFps);
+  if (m.settings.sceneLights) {
+    out.sceneSuns = addSceneSuns(out.rig, sceneSunsAt(m.scene, time), bands, m.settings.directLights, m.rig.window);
+    out.local = scenePunctualLightsAt(m.scene, time);
+    if (!m.emissive) m.emissive = emissiveLightsOf(m.scene);  // static: computed once
+    out.local.insert(out.local.end(), m.emissive->begin(), m.emissive->end());
+  }
+  for (LocalLight& l : rigLocalLightsAt(m.scene, m.rig, frame, time)) out.local.push_back(std::move(l));
   if (m.settings.directAtVertices && !hasDirectTransfer(m.scene)) out.foldedLights = foldIntoSh(out.rig, bands);
-  if (!m.decided) m.decide(out.rig);
+  if (!m.decided) m.decide(out.rig, !out.local.empty());
   if (m.needsVertexLight(out.rig)) {
-    out.updated = m.stale(out.rig);
-    if (out.updated) m.update(frame, out.rig);
+    out.updated = m.stale(out.rig, out.local);
+    if (out.updated) m.update(frame, out.rig, out.local);
     out.vertexLight = &m.light;
   }
   // The bounces gathered here do not also go through the transfer's (t − t⁰) · directSh.

@@ -87,7 +87,7 @@ glm::dvec3 RigLight::directionAt(double frame) const {
 
 namespace {
 
-enum class Range { Any, NonNegative, Elevation, SunRadius, DiskRadius, DiskIrradianceRadius };
+enum class Range { Any, NonNegative, Positive, OuterCone, Elevation, SunRadius, DiskRadius, DiskIrradianceRadius };
 
 struct Checker {
   std::string prefix;  // "rig.json: " or ""
@@ -129,6 +129,12 @@ struct Checker {
             break;
           case Range::NonNegative:
             if (x < 0) fail(where, cat("must be >= 0 (got ", x, ")"));
+            break;
+          case Range::Positive:
+            if (!(x > 0)) fail(where, cat("an area light needs a size > 0 (got ", x, ")"));
+            break;
+          case Range::OuterCone:
+            if (!(x > 0 && x <= 90)) fail(where, cat("the outer cone must be in (0, 90] degrees (got ", x, ")"));
             break;
           case Range::Elevation:
             if (x < -90 || x > 90) fail(where, cat("elevation must be in [-90, 90] degrees (got ", x, ")"));
@@ -187,9 +193,46 @@ struct Checker {
   }
 };
 
-std::string originOf(const RigLight& light, const Track& t, const char* field) {
+template <class Light>
+std::string originOf(const Light& light, const Track& t, const char* field) {
   if (!t.origin.empty()) return t.origin;
   return light.label.empty() ? std::string(field) : cat(light.label, ".", field);
+}
+
+// The frames where either of two tracks has a key: between them both are linear (or steps),
+// so an inequality between the two that holds at all of them holds at every frame.
+std::vector<double> keyFrames(const Track& a, const Track& b) {
+  std::vector<double> f;
+  for (const Track* t : {&a, &b})
+    for (const Track::Key& k : t->keys) f.push_back(k.frame);
+  return f;
+}
+
+void validateLocal(const Checker& check, RigLocalLight& l) {
+  auto origin = [&](const Track& t, const char* field) { return originOf(l, t, field); };
+  using T = LocalLight::Type;
+  const bool punctual = l.type == T::Point || l.type == T::Spot;
+  check.values(l.position, origin(l.position, "position"), Range::Any, 3);
+  const char* colorName = l.colorIsPower ? "power" : punctual ? "intensity" : "radiance";
+  check.values(l.color, origin(l.color, colorName), Range::NonNegative, 3);
+  if (l.type == T::Spot || l.type == T::Disk || l.type == T::Rectangle)
+    check.directions(l.direction, origin(l.direction, "direction"));
+  if (l.type == T::Rectangle) check.directions(l.up, origin(l.up, "up"));
+  if (punctual) check.values(l.range, origin(l.range, "range"), Range::NonNegative, 1);
+  if (l.type == T::Spot) {
+    check.values(l.innerCone, origin(l.innerCone, "inner_cone"), Range::NonNegative, 1);
+    check.values(l.outerCone, origin(l.outerCone, "outer_cone"), Range::OuterCone, 1);
+    for (double f : keyFrames(l.innerCone, l.outerCone))
+      if (!(l.innerCone.scalarAt(f) < l.outerCone.scalarAt(f)))
+        check.fail(origin(l.innerCone, "inner_cone"),
+                   cat("the inner cone (", l.innerCone.scalarAt(f), " degrees at frame ", f,
+                       ") must be inside the outer cone (", l.outerCone.scalarAt(f), ")"));
+  }
+  if (l.type == T::Sphere || l.type == T::Disk) check.values(l.radius, origin(l.radius, "radius"), Range::Positive, 1);
+  if (l.type == T::Rectangle) {
+    check.values(l.width, origin(l.width, "width"), Range::Positive, 1);
+    check.values(l.height, origin(l.height, "height"), Range::Positive, 1);
+  }
 }
 
 }  // namespace
@@ -270,9 +313,10 @@ void LightRig::provideMap(const std::string& file, ImageRgb image) {
 
 void LightRig::validate() {
   Checker check{source.empty() ? std::string() : source + ": "};
-  if (lights.empty()) check.fail("lights", "no lights");
-  if (lights.size() > RigLimits::kMaxLights)
-    check.fail("lights", cat(lights.size(), " lights (at most ", RigLimits::kMaxLights, ")"));
+  if (lights.empty() && locals.empty()) check.fail("lights", "no lights");
+  if (lights.size() + locals.size() > RigLimits::kMaxLights)
+    check.fail("lights", cat(lights.size() + locals.size(), " lights (at most ", RigLimits::kMaxLights, ")"));
+  for (RigLocalLight& l : locals) validateLocal(check, l);
   if (fps) checkFps(check, *fps);
   for (RigLight& light : lights) {
     auto origin = [&](const Track& t, const char* field) { return originOf(light, t, field); };
@@ -515,21 +559,50 @@ bool LightRig::animated() const {
     for (const Track* t :
          {&l.axis, &l.rotation, &l.intensity, &l.direction, &l.azimuth, &l.elevation, &l.radius, &l.color})
       if (t->animated()) return true;
+  for (const RigLocalLight& l : locals)
+    for (const Track* t : l.tracks())
+      if (t->animated()) return true;
   return false;
 }
 
 std::pair<double, double> LightRig::keyRange() const {
   bool any = false;
   double lo = 0.0, hi = 0.0;
+  auto widen = [&](const Track* t) {
+    if (!t->animated()) return;
+    lo = any ? std::min(lo, t->keys.front().frame) : t->keys.front().frame;
+    hi = any ? std::max(hi, t->keys.back().frame) : t->keys.back().frame;
+    any = true;
+  };
   for (const RigLight& l : lights)
     for (const Track* t :
          {&l.axis, &l.rotation, &l.intensity, &l.direction, &l.azimuth, &l.elevation, &l.radius, &l.color})
-      if (t->animated()) {
-        lo = any ? std::min(lo, t->keys.front().frame) : t->keys.front().frame;
-        hi = any ? std::max(hi, t->keys.back().frame) : t->keys.back().frame;
-        any = true;
-      }
+      widen(t);
+  for (const RigLocalLight& l : locals)
+    for (const Track* t : l.tracks()) widen(t);
   return {lo, hi};
+}
+
+LocalLight RigLocalLight::at(double frame) const {
+  LocalLight out;
+  out.type = type;
+  out.label = label;
+  out.position = position.at(frame);
+  out.direction = glm::normalize(direction.at(frame));
+  out.up = orthogonalTo(out.direction, glm::normalize(up.at(frame)));
+  out.range = range.scalarAt(frame);
+  out.innerCone = glm::radians(innerCone.scalarAt(frame));
+  out.outerCone = glm::radians(outerCone.scalarAt(frame));
+  out.radius = radius.scalarAt(frame);
+  out.width = width.scalarAt(frame);
+  out.height = height.scalarAt(frame);
+  const glm::dvec3 c = colorIsPower ? localLightFromPower(out, color.at(frame)) : color.at(frame);
+  (out.punctual() ? out.intensity : out.radiance) = c;
+  return out;
+}
+
+std::vector<const Track*> RigLocalLight::tracks() const {
+  return {&position, &direction, &up, &color, &range, &innerCone, &outerCone, &radius, &width, &height};
 }
 
 }  // namespace prt

@@ -49,7 +49,7 @@ std::string quoteList(const std::vector<std::string>& names) {
   return s;
 }
 
-enum class Shape { Scalar, Color, Direction };
+enum class Shape { Scalar, Color, Direction, Position };
 
 // A JSON value for a message: compact, and cut short so the message stays one readable line.
 std::string shortDump(const nlohmann::json& j) { return printable(j.dump()); }
@@ -148,7 +148,13 @@ class Reader {
     if (lights.empty()) fail("lights", "empty: a rig needs at least one light");
     if (lights.size() > RigLimits::kMaxLights)
       fail("lights", cat(lights.size(), " lights (at most ", RigLimits::kMaxLights, ")"));
-    for (size_t i = 0; i < lights.size(); ++i) rig.lights.push_back(readLight(rig, lights[i], cat("lights[", i, "]")));
+    for (size_t i = 0; i < lights.size(); ++i) {
+      const std::string path = cat("lights[", i, "]");
+      if (isLocal(lights[i]))
+        rig.locals.push_back(readLocal(lights[i], path));
+      else
+        rig.lights.push_back(readLight(rig, lights[i], path));
+    }
     // Values (ranges, directions) and map files are checked by validate(), which names the
     // paths stored in each track's origin.
     rig.validate();
@@ -184,7 +190,7 @@ class Reader {
   }
 
   glm::dvec3 value(const Json& j, const std::string& path, Shape shape) const {
-    if (j.is_number() && shape != Shape::Direction) return glm::dvec3(number(j, path));
+    if (j.is_number() && shape != Shape::Direction && shape != Shape::Position) return glm::dvec3(number(j, path));
     if (j.is_array() && j.size() == 3 && shape != Shape::Scalar && j[0].is_number())
       return {number(j[0], path + "[0]"), number(j[1], path + "[1]"), number(j[2], path + "[2]")};
     switch (shape) {
@@ -194,6 +200,8 @@ class Reader {
         fail(path, cat("expected a number or [R, G, B], got ", shortDump(j)));
       case Shape::Direction:
         fail(path, cat("expected a direction [X, Y, Z], got ", shortDump(j)));
+      case Shape::Position:
+        fail(path, cat("expected a position [X, Y, Z] (metres), got ", shortDump(j)));
     }
     return {};
   }
@@ -265,10 +273,81 @@ class Reader {
     return (p.is_relative() ? baseDir_ / p : p).lexically_normal().string();
   }
 
+  static bool isLocal(const Json& j) {
+    if (!j.is_object() || !j.contains("type") || !j["type"].is_string()) return false;
+    const std::string type = j["type"].get<std::string>();
+    return type == "point" || type == "spot" || type == "area";
+  }
+
+  // A light inside the scene: "point", "spot", or "area" with a "shape" (sphere, disk,
+  // rectangle). Values are checked by validate().
+  RigLocalLight readLocal(const Json& j, const std::string& path) {
+    using T = LocalLight::Type;
+    const std::string type = j["type"].get<std::string>();
+    RigLocalLight l;
+    l.label = path;
+    std::vector<std::string> allowed = {"type", "name", "node", "position", "power"};
+    if (type == "area") {
+      if (!j.contains("shape") || !j["shape"].is_string()) fail(path + ".shape", "missing (sphere, disk or rectangle)");
+      const std::string shape = j["shape"].get<std::string>();
+      if (shape == "sphere")
+        l.type = T::Sphere;
+      else if (shape == "disk")
+        l.type = T::Disk;
+      else if (shape == "rectangle")
+        l.type = T::Rectangle;
+      else
+        fail(path + ".shape", cat("'", printable(shape), "': expected sphere, disk or rectangle"));
+      allowed.insert(allowed.end(), {"shape", "radiance"});
+      if (l.type != T::Sphere) allowed.push_back("direction");
+      if (l.type == T::Rectangle)
+        allowed.insert(allowed.end(), {"up", "width", "height"});
+      else
+        allowed.push_back("radius");
+    } else {
+      l.type = type == "spot" ? T::Spot : T::Point;
+      allowed.insert(allowed.end(), {"intensity", "range"});
+      if (l.type == T::Spot) allowed.insert(allowed.end(), {"direction", "inner_cone", "outer_cone"});
+    }
+    keys(j, path, allowed);
+    if (j.contains("name") && !j["name"].is_string()) fail(path + ".name", "expected a string");
+    if (j.contains("node")) {
+      if (!j["node"].is_string() || j["node"].get<std::string>().empty())
+        fail(path + ".node", "expected the name of a node of the scene");
+      l.node = j["node"].get<std::string>();
+    } else if (!j.contains("position")) {
+      fail(path + ".position", "missing ([X, Y, Z] in metres, or a \"node\" that places the light)");
+    }
+    const char* colorKey = l.type == T::Point || l.type == T::Spot ? "intensity" : "radiance";
+    const bool color = j.contains(colorKey), power = j.contains("power");
+    if (color == power)
+      fail(path, color ? cat("give either \"", colorKey, "\" or \"power\", not both")
+                       : cat("missing \"", colorKey, "\" (or \"power\" in watts)"));
+    l.colorIsPower = power;
+    l.color = track(j[power ? "power" : colorKey], cat(path, ".", power ? "power" : colorKey), Shape::Color);
+    auto optional = [&](const char* key, Track& t, Shape shape) {
+      if (j.contains(key)) t = track(j[key], cat(path, ".", key), shape);
+    };
+    optional("position", l.position, Shape::Position);
+    optional("direction", l.direction, Shape::Direction);
+    optional("up", l.up, Shape::Direction);
+    optional("range", l.range, Shape::Scalar);
+    optional("inner_cone", l.innerCone, Shape::Scalar);
+    optional("outer_cone", l.outerCone, Shape::Scalar);
+    for (const char* key : {"radius", "width", "height"})
+      if (std::find(allowed.begin(), allowed.end(), key) != allowed.end() && !j.contains(key))
+        fail(cat(path, ".", key), "missing (metres)");
+    optional("radius", l.radius, Shape::Scalar);
+    optional("width", l.width, Shape::Scalar);
+    optional("height", l.height, Shape::Scalar);
+    return l;
+  }
+
   RigLight readLight(LightRig& rig, const Json& j, const std::string& path) {
     if (!j.is_object()) fail(path, "expected a light object {\"type\": ..., ...}");
-    if (!j.contains("type")) fail(path + ".type", "missing (environment, sun, disk or uniform)");
-    if (!j["type"].is_string()) fail(path + ".type", "expected a string (environment, sun, disk or uniform)");
+    if (!j.contains("type")) fail(path + ".type", "missing (environment, sun, disk, uniform, point, spot or area)");
+    if (!j["type"].is_string())
+      fail(path + ".type", "expected a string (environment, sun, disk, uniform, point, spot or area)");
     const std::string type = j["type"].get<std::string>();
     RigLight light;
     light.label = path;
@@ -325,7 +404,8 @@ class Reader {
       if (!j.contains("radiance")) fail(path + ".radiance", "missing (sky radiance, a number or [R, G, B])");
       light.color = track(j["radiance"], path + ".radiance", Shape::Color);
     } else {
-      fail(path + ".type", cat("'", printable(type), "' is not a light type (environment, sun, disk or uniform)"));
+      fail(path + ".type",
+           cat("'", printable(type), "' is not a light type (environment, sun, disk, uniform, point, spot or area)"));
     }
     if (j.contains("name") && !j["name"].is_string()) fail(path + ".name", "expected a string");
     return light;

@@ -220,6 +220,25 @@ Camera readCamera(const Gltf& g, const NodeVisit& v) {
   return c;
 }
 
+// KHR_lights_punctual's ranges: colour and intensity finite and >= 0, range >= 0 (0: none
+// given), 0 <= innerConeAngle < outerConeAngle <= π/2. `what` names the light.
+void checkLight(const Gltf& g, const PunctualLight& l, const std::string& what, bool spot) {
+  auto field = [&](const char* name, float x, bool ok, const char* range) {
+    if (!std::isfinite(x)) fail(g, cat(what, ": ", name, ": not a finite number"));
+    if (!ok) fail(g, cat(what, ": ", name, " ", x, ": ", range));
+  };
+  for (int c = 0; c < 3; ++c) field("color", l.color[c], l.color[c] >= 0.0f, "must be >= 0");
+  field("intensity", l.intensity, l.intensity >= 0.0f, "must be >= 0");
+  field("range", l.range, l.range >= 0.0f, "must be > 0 (or absent: infinite)");
+  if (!spot) return;
+  field("spot.innerConeAngle", l.innerConeAngle, l.innerConeAngle >= 0.0f, "must be >= 0");
+  field("spot.outerConeAngle", l.outerConeAngle, l.outerConeAngle > 0.0f && l.outerConeAngle <= 1.5707964f,
+        "must be in (0, π/2]");
+  if (!(l.innerConeAngle < l.outerConeAngle))
+    fail(g, cat(what, ": spot.innerConeAngle ", l.innerConeAngle, ": the inner cone must be inside the outer cone (",
+                l.outerConeAngle, ")"));
+}
+
 std::optional<PunctualLight> readLight(const Gltf& g, const NodeVisit& v, std::vector<std::string>& warnings) {
   const tinygltf::Node& n = g.model.nodes[size_t(v.node)];
   auto ext = n.extensions.find(kLights);
@@ -248,8 +267,7 @@ std::optional<PunctualLight> readLight(const Gltf& g, const NodeVisit& v, std::v
   l.direction = unitOr(glm::dmat3(v.world) * glm::dvec3(0, 0, -1), glm::vec3(0, 0, -1));
   l.innerConeAngle = static_cast<float>(src.spot.innerConeAngle);
   l.outerConeAngle = static_cast<float>(src.spot.outerConeAngle);
-  for (float x : {l.color.r, l.color.g, l.color.b, l.intensity, l.range, l.innerConeAngle, l.outerConeAngle})
-    if (!std::isfinite(x)) fail(g, cat("light ", index.GetNumberAsInt(), ": a parameter is not finite"));
+  checkLight(g, l, cat("light ", index.GetNumberAsInt(), " '", printable(l.name), "'"), src.type == "spot");
   return l;
 }
 

@@ -14,6 +14,7 @@
 #include "prt/bake/direct_light.h"
 #include "prt/bake/ray_scene.h"
 #include "prt/light_rig.h"
+#include "prt/local_light.h"
 #include "prt/scene.h"
 
 namespace prt::bake {
@@ -37,6 +38,11 @@ struct FrameLightingSettings {
   /// Shadow rays per direct light and vertex for the light at the vertices, or for the light
   /// whose bounces are gathered.
   int shadowSamples = 64;
+  /// True: the scene's own KHR_lights_punctual lights and emissive surfaces light it too (point
+  /// and spot lights and emissive triangles as lights inside the scene, directional lights as
+  /// suns; docs/lights.md, "Lights inside the scene"). A rig's lights inside the scene light it
+  /// either way.
+  bool sceneLights = false;
   int threads = 0;  // 0 = all cores
 };
 
@@ -50,6 +56,11 @@ struct FrameLight {
   /// null when nothing is. directAtVertices: E⁰ + Δ + E_b (the direct lights' shadowed light, the
   /// sky detail, their bounces); else E_b + Δ. Valid until the next at().
   const DirectIrradiance* vertexLight = nullptr;
+  /// The lights inside the scene at this frame (the scene's, then the rig's): their shadowed
+  /// light and its bounces are in vertexLight (at the vertices also for the renderer).
+  std::vector<LocalLight> local;
+  /// How many of rig.direct are the scene's directional lights (the last ones).
+  size_t sceneSuns = 0;
   size_t foldedLights = 0;
   bool updated = false;  // vertexLight was gathered for this frame (not reused)
   double seconds = 0.0;  // this frame's light: the rig, shadow rays and gather (not the trace)
@@ -69,6 +80,7 @@ struct FrameLightingStats {
 class FrameLighting {
  public:
   /// `scene` (baked) and `rig` (prepared for the scene's bands, or not) must outlive this.
+  /// Throws prt::Error for a rig light on a node the scene lacks (checkRigNodes).
   FrameLighting(const Scene& scene, const LightRig& rig, const FrameLightingSettings& settings);
   ~FrameLighting();
   FrameLighting(const FrameLighting&) = delete;

@@ -24,6 +24,7 @@
 
 #include "prt/image.h"
 #include "prt/light.h"
+#include "prt/local_light.h"
 #include "prt/sh.h"
 #include "prt/sun_extract.h"
 
@@ -110,6 +111,31 @@ struct RigLight {
   glm::dvec3 directionAt(double frame) const;
 };
 
+/// A light inside the scene in a rig (prt/local_light.h, docs/lights.md "Lights inside the
+/// scene"): every parameter a track. With `node`, position, direction and up are in that glTF
+/// node's frame and move with it (the scene is known only where the rig is used: the bake
+/// resolves the name and refuses one the scene lacks).
+struct RigLocalLight {
+  LocalLight::Type type = LocalLight::Type::Point;
+  std::string label;  // "rig.json: lights[3]"
+  std::string node;   // "" = world space
+  Track position = Track::constant(0.0);
+  Track direction = Track::constant(glm::dvec3(0.0, -1.0, 0.0));  // direction track
+  Track up = Track::constant(glm::dvec3(0.0, 0.0, 1.0));          // direction track (rectangle)
+  /// Point, spot: intensity (candela); area lights: radiance; or with `colorIsPower`, watts.
+  Track color = Track::constant(1.0);
+  bool colorIsPower = false;
+  Track range = Track::constant(0.0);                                         // metres, 0 = infinite
+  Track innerCone = Track::constant(0.0), outerCone = Track::constant(45.0);  // degrees
+  Track radius = Track::constant(0.0);                                        // sphere, disk: metres
+  Track width = Track::constant(0.0), height = Track::constant(0.0);          // rectangle: metres
+
+  /// The light at a frame, in its node's frame when `node` is set. Precondition: validated.
+  LocalLight at(double frame) const;
+  /// Every track, for animated() and keyRange().
+  std::vector<const Track*> tracks() const;
+};
+
 /// Unit direction of azimuth/elevation in degrees: (cos el · sin az, sin el, cos el · cos az).
 glm::dvec3 azimuthElevationDirection(double azimuthDegrees, double elevationDegrees);
 
@@ -164,6 +190,8 @@ struct MapSuns {
 class LightRig {
  public:
   std::vector<RigLight> lights;
+  /// Lights inside the scene (point, spot, area); they add nothing to the SH light.
+  std::vector<RigLocalLight> locals;
   sh::Window window = sh::Window::None;  // applied to the sum, after every light is added
   std::optional<double> fps;             // frames per second, for videos
   std::string source;                    // the rig file, or "" for a rig built in memory
