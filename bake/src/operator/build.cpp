@@ -61,6 +61,24 @@ void mergeEntries(std::vector<Entry>& e) {
   e.resize(out);
 }
 
+// out = Σ_i coef[i] · rows[i] over the first n rows, each sorted by leaf with each leaf once (as
+// mergeEntries leaves them): a k-way merge, sorted by leaf with each leaf once.
+void weightedSum(const std::vector<std::vector<Entry>>& rows, size_t n, const std::vector<double>& coef,
+                 std::vector<Entry>& out) {
+  out.clear();
+  std::vector<size_t> at(n, 0);
+  for (;;) {
+    uint32_t leaf = UINT32_MAX;
+    for (size_t i = 0; i < n; ++i)
+      if (at[i] < rows[i].size()) leaf = std::min(leaf, rows[i][at[i]].leaf);
+    if (leaf == UINT32_MAX) return;
+    double w = 0.0;
+    for (size_t i = 0; i < n; ++i)
+      if (at[i] < rows[i].size() && rows[i][at[i]].leaf == leaf) w += coef[i] * double(rows[i][at[i]++].w);
+    out.push_back({leaf, float(w)});
+  }
+}
+
 // A row over the tree from merged leaf entries, cut top-down: from the two roots, each time the
 // node whose entry would be wrongest under the training lights (training.h) is split into its
 // children, until the row is `maxLength` long or holds only leaves. A node's error is the mean
@@ -299,15 +317,13 @@ void planeOf(const std::vector<std::vector<Entry>>& raw, const std::vector<float
   const double det = (m00 + reg) * (m11 + reg) - m01 * m01;
   if (!(m00 + m11 > 1e-6) || !(det > 0.0)) return;
   const double i00 = (m11 + reg) / det, i01 = -m01 / det, i11 = (m00 + reg) / det;
+  std::vector<double> cu(share.size()), cv(share.size());
   for (size_t i = 0; i < share.size(); ++i) {
-    const double cu = share[i] * (i00 * st[i].x + i01 * st[i].y), cv = share[i] * (i01 * st[i].x + i11 * st[i].y);
-    for (const Entry& x : raw[i]) {
-      gu.push_back({x.leaf, float(x.w * cu)});
-      gv.push_back({x.leaf, float(x.w * cv)});
-    }
+    cu[i] = share[i] * (i00 * st[i].x + i01 * st[i].y);
+    cv[i] = share[i] * (i01 * st[i].x + i11 * st[i].y);
   }
-  mergeEntries(gu);
-  mergeEntries(gv);
+  weightedSum(raw, share.size(), cu, gu);
+  weightedSum(raw, share.size(), cv, gv);
 }
 
 // MPI ranks (prt/bake/ranks.h) that build one operator together: each makes the rows of the
@@ -433,10 +449,9 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
         trace.gather(v, raw[i - b]);
         // The cluster's gather: its members' area-weighted mean (the plain mean without area).
         const float share = clusterArea > 1e-30f ? area[v] / clusterArea : 1.0f / float(e - b);
-        for (const Entry& x : raw[i - b]) all.push_back({x.leaf, x.w * share});
         memberShare.push_back(share), memberSt.push_back(st[v]);
       }
-      mergeEntries(all);
+      weightedSum(raw, e - b, std::vector<double>(memberShare.begin(), memberShare.end()), all);
       clusterRows[c] = maker.make(all, tree.center[c], clusterLength);
       if (gradientLength > 0) {
         planeOf(raw, memberShare, memberSt, gu, gv);
