@@ -414,7 +414,8 @@ TEST(BakeLocalLight, ClosedBoxLitByALampMatchesTheBounceSeries) {
 // For the renderer (directAtVertices false), FrameLightingSettings::localPerPixel takes the lamp's
 // own shadowed light out of the vertex light and keeps its bounces: the two vertex lights differ
 // by the lamp's E⁰ at every vertex (float rounding: 1e-5 of the lamp's mean), and what is left
-// is the bounce series less its first term, (4πI / A)(ρ + ρ²) within 1.5% (the test above).
+// is the bounce series less its first term, (4πI / A)(ρ + ρ²) within 1.5% (the test above). A rig
+// without a map, uniform light or disk has no sky detail to gather.
 TEST(BakeLocalLight, PerPixelLampLeavesOnlyItsBouncesAtTheVertices) {
   const float rho = 0.8f;
   const int B = 2;
@@ -445,11 +446,11 @@ TEST(BakeLocalLight, PerPixelLampLeavesOnlyItsBouncesAtTheVertices) {
     bake::FrameLightingSettings fs;
     fs.gatherSamples = bs.samples;
     fs.useOperator = false;
-    fs.skyDetail = false;
     fs.localPerPixel = perPixel;
     bake::FrameLighting lighting(s, rig, fs);
     const bake::FrameLight l = lighting.at(0.0);
     ASSERT_NE(l.vertexLight, nullptr);
+    EXPECT_FALSE(lighting.skyDetail());  // no sky in the rig: nothing beyond the band limit to gather
     light[perPixel] = l.vertexLight->front[0];
   }
   const bake::DirectIrradiance direct = bake::shadowedLocalIrradiance(s, bake::RayScene(s), {rig.locals[0].at(0.0)});

@@ -103,7 +103,11 @@ struct FrameLighting::Impl {
     hasLocal = local;
     const auto t0 = std::chrono::steady_clock::now();
     const bool gatherable = settings.gatherSamples > 0 && settings.directLights && hasDirectTransfer(scene);
-    sky = gatherable && settings.skyDetail;
+    // The sky detail needs a sky: a map, a uniform light or a disk (one too wide to be a direct
+    // light goes through SH); suns alone, or lights inside the scene alone, have none.
+    const bool anySky = std::any_of(rig.lights.begin(), rig.lights.end(),
+                                    [](const RigLight& r) { return r.type != RigLight::Type::Sun; });
+    sky = gatherable && settings.skyDetail && anySky;
     const bool sunBounces = gatherable && !first.direct.empty() && record.bounces > 0;
     const bool directBounces = sunBounces || (gatherable && hasLocal && record.bounces > 0);
     traceDirect = settings.directAtVertices ? !first.direct.empty() : sunBounces;
