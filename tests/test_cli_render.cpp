@@ -905,5 +905,41 @@ TEST(CliRender, SunIsLitPerPixelAndNamedInTheSummary) {
   EXPECT_NE(sh.err.find("direct lights: none apart (--no-direct-lights"), std::string::npos) << sh.err;
 }
 
+// The bundled plane with a KHR_lights_punctual point light of `candela` 1 m above its centre.
+std::string planeWithLamp(const fs::path& dir, double candela) {
+  fs::copy_file(source("scenes/plane.bin"), dir / "plane.bin", fs::copy_options::overwrite_existing);
+  nlohmann::json j = nlohmann::json::parse(std::ifstream(source("scenes/plane.gltf")));
+  j["extensionsUsed"] = {"KHR_lights_punctual"};
+  j["extensions"]["KHR_lights_punctual"]["lights"] = {{{"name", "Lamp"}, {"type", "point"}, {"intensity", candela}}};
+  j["nodes"].push_back(
+      {{"name", "Lamp"}, {"translation", {0.0, 1.0, 0.0}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+  j["scenes"][0]["nodes"].push_back(int(j["nodes"].size()) - 1);
+  const fs::path out = dir / "plane_lamp.gltf";
+  std::ofstream(out) << j.dump();
+  return out.string();
+}
+
+// `prt render` lights a scene with its own point light by default, per pixel, and needs no other
+// light: the plane's centre under a lamp of 3 cd 1 m above it is ρ/π · I / h² (albedo 0.8: 0.764;
+// the mean of the 4 pixels around the image's centre, seen from 3 m above with a 10° field of
+// view, within 1%: their centres lie 6 mm from the plane's, where E falls by 0.01%; a lamp
+// at the wrong height or with a factor such as π or 4π is far off). The summary says where the
+// light is lit. --no-scene-lights leaves it dark, and then another light is needed.
+TEST(CliRender, TheScenesOwnLampLightsItPerPixel) {
+  const TempDir tmp("lamp");
+  const fs::path& d = tmp.path();
+  const std::string glb = bake(planeWithLamp(d, 3.0), d, "plane_lamp");
+  const fs::path out = d / "lamp.exr";
+  const RunResult r = prt({"render", glb, "--size", "64x48", "--orbit-elevation", "89", "--orbit-distance", "3",
+                           "--orbit-fov", "10", "--exr-compression", "none", "-o", out.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("lights inside the scene: 1 (1 per pixel with cube shadow maps"), std::string::npos) << r.err;
+  const ImageRgb img = loadHdrImage(out.string());
+  const float centre = 0.25f * (img.at(31, 23).g + img.at(32, 23).g + img.at(31, 24).g + img.at(32, 24).g);
+  EXPECT_NEAR(centre, 0.8 / 3.14159265358979 * 3.0, 0.01 * 0.764);
+  const RunResult dark = prt({"render", glb, "--size", "64x48", "--no-scene-lights", "-o", (d / "dark.exr").string()});
+  EXPECT_NE(dark.status, 0);
+}
+
 }  // namespace
 }  // namespace prt

@@ -411,6 +411,57 @@ TEST(BakeLocalLight, ClosedBoxLitByALampMatchesTheBounceSeries) {
   EXPECT_NEAR(meanIrradiance(s.meshes[0], direct.front[0]) / e0, 1.0, 0.005);
 }
 
+// For the renderer (directAtVertices false), FrameLightingSettings::localPerPixel takes the lamp's
+// own shadowed light out of the vertex light and keeps its bounces: the two vertex lights differ
+// by the lamp's E⁰ at every vertex (float rounding: 1e-5 of the lamp's mean), and what is left
+// is the bounce series less its first term, (4πI / A)(ρ + ρ²) within 1.5% (the test above). A rig
+// without a map, uniform light or disk has no sky detail to gather.
+TEST(BakeLocalLight, PerPixelLampLeavesOnlyItsBouncesAtTheVertices) {
+  const float rho = 0.8f;
+  const int B = 2;
+  Scene s = test::makeScene({insideOfABox(14)}, rho);
+  bake::BakeSettings bs;
+  bs.samples = 256;
+  bs.bounces = B;
+  bs.seed = 3;
+  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
+  bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
+  s.transferBands = 3;
+  BakeRecord record;
+  record.bands = 3;
+  record.samples = bs.samples;
+  record.bounces = B;
+  record.seed = bs.seed;
+  s.bakeRecord = record;
+  LightRig rig;
+  RigLocalLight lamp;
+  lamp.type = LocalLight::Type::Point;
+  lamp.label = "lamp";
+  lamp.position = Track::constant(glm::dvec3(0.1, -0.2, 0.05));
+  lamp.color = Track::constant(1.0);
+  rig.locals.push_back(lamp);
+  rig.validate();
+  std::vector<glm::vec3> light[2];
+  for (bool perPixel : {false, true}) {
+    bake::FrameLightingSettings fs;
+    fs.gatherSamples = bs.samples;
+    fs.useOperator = false;
+    fs.localPerPixel = perPixel;
+    bake::FrameLighting lighting(s, rig, fs);
+    const bake::FrameLight l = lighting.at(0.0);
+    ASSERT_NE(l.vertexLight, nullptr);
+    EXPECT_FALSE(lighting.skyDetail());  // no sky in the rig: nothing beyond the band limit to gather
+    light[perPixel] = l.vertexLight->front[0];
+  }
+  const bake::DirectIrradiance direct = bake::shadowedLocalIrradiance(s, bake::RayScene(s), {rig.locals[0].at(0.0)});
+  const double e0 = 4.0 * kPi / 24.0;
+  double worst = 0.0;
+  for (size_t v = 0; v < light[0].size(); ++v)
+    worst = std::max(worst, double(std::abs(light[0][v].g - light[1][v].g - direct.front[0][v].g)));
+  EXPECT_LT(worst, 1e-5 * e0);
+  EXPECT_NEAR(meanIrradiance(s.meshes[0], light[1]) / (e0 * (rho + rho * rho)), 1.0, 0.015);
+}
+
 // The file's own lamp on a node that a glTF animation moves: each frame of prt relight's
 // lighting (frame / fps seconds into the animation) equals the static light at that frame's
 // position, bit for bit; with sceneLights off the lamp is dark and nothing is gathered for it.

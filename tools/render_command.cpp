@@ -31,6 +31,7 @@
 #include "light_options.h"
 #include "prt/atomic_file.h"
 #include "prt/bake/frame_lighting.h"
+#include "prt/bake/local_lights.h"
 #include "prt/error.h"
 #include "prt/image.h"
 #include "prt/light_rig.h"
@@ -47,6 +48,9 @@ namespace {
 // Shadow rays per direct light and vertex for the light their gathered bounce starts from: the
 // bounce averages it over hundreds of hits, so its noise does not show (docs/render.md).
 constexpr int kBounceShadowSamples = 4;
+// Shadow rays per area light or emissive surface and vertex for the lights inside the scene
+// (prt relight's default --shadow-samples): an emissive surface's light is drawn from them.
+constexpr int kLocalShadowSamples = 64;
 
 constexpr double kDefaultFps = 24.0;
 // Frame numbers stay below INT_MAX so that f + 1, the rig's frames and %d never overflow.
@@ -355,14 +359,16 @@ RenderSize renderSize(const RenderArgs& a) {
 struct FrameLights {
   LightRig rig;
   FrameRange frames;
+  bool localPerPixel = false;  // point, spot and area lights inside the scene lit per pixel
 };
 
-FrameLights frameLights(const RenderArgs& a) {
+// `lightsInScene`: the scene's own lights light it, so no lighting option is needed.
+FrameLights frameLights(const RenderArgs& a, bool lightsInScene) {
   std::optional<LightRig> rig;
-  if (!a.light.rig.empty()) rig = buildRig(a.light, 0, 0);
+  if (!a.light.rig.empty()) rig = buildRig(a.light, 0, 0, lightsInScene);
   const FrameRange frames =
       a.frames || !rig || !rig->animated() ? a.frames.value_or(FrameRange{}) : rigFrames(*rig, a.light.rig);
-  if (!rig) rig = buildRig(a.light, int(frames.first), int(frames.last));
+  if (!rig) rig = buildRig(a.light, int(frames.first), int(frames.last), lightsInScene);
   if (a.background == Background::Sky) {
     size_t maps = 0, caps = 0;
     for (const RigLight& l : rig->lights) {
@@ -433,6 +439,7 @@ void checkDirectLights(const RenderArgs& a, const RigLighting& first) {
 // The costs of the frames, ms, summed over them (prepare: once).
 struct RenderTimes {
   double prepare = 0.0, light = 0.0, draw = 0.0, readback = 0.0;
+  std::vector<LocalLight> local;  // the first frame's lights inside the scene, for the summary
 };
 
 // The writer's job for frame f: its EXR, PNG, contact-sheet tile and video frame.
@@ -459,11 +466,17 @@ std::function<void()> writeJob(const RenderArgs& a, Outputs& out, int64_t f, std
 // the next frame's), the options' shadows, lookup and samples, the background if asked for.
 render::Frame renderFrame(const RenderArgs& a, const RenderSize& size, const render::CameraView& camera,
                           bake::FrameLight& light, double time, const RigBackground* background,
-                          const RigBackground* environment) {
+                          const RigBackground* environment, bool localPerPixel) {
   render::Frame frame;
   frame.camera = camera;
   const bake::DirectIrradiance* v = light.vertexLight;
   frame.setLight(std::move(light.rig), v ? &v->front : nullptr, v ? &v->back : nullptr);
+  if (localPerPixel)
+    for (const LocalLight& l : light.local)
+      if (bake::localLightPerPixel(l)) frame.local.push_back(l);
+  if (frame.local.size() > size_t(render::kMaxLocalLights))
+    throw Error(cat(a.baked, ": ", frame.local.size(), " point, spot and area lights inside the scene, at most ",
+                    render::kMaxLocalLights, " are lit per pixel"));
   frame.shadows.mapSize = a.shadowMapSize;
   frame.time = time;
   frame.probeLookup = a.probeLookup;
@@ -487,6 +500,7 @@ RenderTimes renderFrames(const RenderArgs& a, const FrameLights& lights, const R
   FrameWriter writer(2);
   for (int64_t f = lights.frames.first; f <= lights.frames.last; ++f) {
     bake::FrameLight light = lighting.at(double(f));
+    if (f == lights.frames.first) t.local = light.local;
     RigBackground background;
     if (a.background == Background::Sky) background = lights.rig.background(double(f));
     // The light glossy surfaces reflect besides the direct lights: the rig's SH part.
@@ -495,7 +509,7 @@ RenderTimes renderFrames(const RenderArgs& a, const FrameLights& lights, const R
     if (full) environment = lights.rig.shRadiance(double(f));
     const render::Frame frame =
         renderFrame(a, size, camera, light, double(f) / fps, a.background == Background::Sky ? &background : nullptr,
-                    full ? &environment : nullptr);
+                    full ? &environment : nullptr, lights.localPerPixel);
     auto image = std::make_shared<const ImageRgb>(
         a.supersample > 1 ? downsampleBox(renderer.render(frame), a.supersample) : renderer.render(frame));
     const std::vector<std::string> now = renderer.warnings();
@@ -537,9 +551,23 @@ void printFrames(const RenderArgs& a, const FrameLights& lights, const RenderSiz
                         : "");
 }
 
+// The summary's lines on the lights inside the scene (the first frame's).
+void printLocalLights(const std::vector<LocalLight>& local, const render::FrameStats& last) {
+  if (local.empty()) return;
+  const size_t pixel = last.localLights;
+  const std::string how =
+      pixel ? cat(pixel, " per pixel with cube shadow maps (", last.localShadowMaps, " faces of ", last.localMapSize,
+                  "x", last.localMapSize, ")", pixel < local.size() ? ", the rest at the baked vertices" : "")
+            : std::string("at the baked vertices");
+  std::fprintf(stderr, "  lights inside the scene: %zu (%s; their bounces at the baked vertices):\n", local.size(),
+               how.c_str());
+  for (const LocalLight& l : local) std::fprintf(stderr, "    %s\n", describeLocalLight(l).c_str());
+}
+
 // The summary's lines on the direct lights, their bounces and the sky detail.
 void printLighting(const RenderArgs& a, const FrameLights& lights, const RigLighting& first,
-                   const bake::FrameLighting& lighting, const render::FrameStats& last, int bands) {
+                   const bake::FrameLighting& lighting, const render::FrameStats& last, int bands,
+                   const std::vector<LocalLight>& local) {
   const bake::FrameLightingStats& st = lighting.stats();
   const double updates = std::max(st.updates, 1);
   if (!first.direct.empty()) {
@@ -576,6 +604,7 @@ void printLighting(const RenderArgs& a, const FrameLights& lights, const RigLigh
   } else if (a.light.noDirect) {
     std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
   }
+  printLocalLights(local, last);
   if (lighting.skyDetail() && lighting.usesOperator())
     std::fprintf(
         stderr,
@@ -614,6 +643,13 @@ void addMaterialOption(CLI::App& r, RenderArgs& a) {
       ->transform(choice<render::MaterialShading>(
           {{"full", render::MaterialShading::Full}, {"diffuse", render::MaterialShading::Diffuse}}))
       ->default_str("full");
+}
+
+void addSceneLightsOption(CLI::App& r, RenderArgs& a) {
+  r.add_flag("--no-scene-lights", a.noSceneLights,
+             "Leave the scene's own lights (KHR_lights_punctual point, spot and directional lights, emissive "
+             "surfaces) dark; by default they light it, and no other light is needed (docs/lights.md, \"Lights "
+             "inside the scene\")");
 }
 
 }  // namespace
@@ -693,20 +729,23 @@ void addRender(CLI::App& r, RenderArgs& a) {
   r.add_option("--sheet-tile", a.sheetTile, "Contact sheet: largest tile side in pixels")
       ->check(CLI::Range(1, std::numeric_limits<int>::max()).description(">= 1"))
       ->capture_default_str();
+  addSceneLightsOption(r, a);
   r.add_flag("-q,--quiet", a.quiet, "No per-frame lines, no summary");
 }
 
 int runRender(const RenderArgs& a) {
   const auto tStart = std::chrono::steady_clock::now();
   const RenderSize size = renderSize(a);
-  FrameLights lights = frameLights(a);
+  LoadOptions load;
+  // Normal, occlusion, emissive; the emissive textures also for the emissive surfaces as lights.
+  load.shadingTextures = a.materials == render::MaterialShading::Full || !a.noSceneLights;
+  Scene scene = loadScene(a.baked, load);
+  if (scene.transferBands == 0) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
+  const bool ownLights = !scene.lights.empty() || !bake::emissiveLightsOf(scene).empty();
+  FrameLights lights = frameLights(a, !a.noSceneLights && ownLights);
   Outputs out = checkOutputs(a, lights.frames);
   const double fps = a.fps ? *a.fps : lights.rig.fps.value_or(kDefaultFps);
 
-  LoadOptions load;
-  load.shadingTextures = a.materials == render::MaterialShading::Full;  // normal, occlusion, emissive
-  Scene scene = loadScene(a.baked, load);
-  if (scene.transferBands == 0) throw Error(cat(a.baked, ": holds no baked transfer (run prt bake first)"));
   const int bands = scene.transferBands;
   const ChosenCamera camera = chooseCamera(a, orbitCamera(a), scene, double(a.width) / a.height);
   ProbeGrid probes;
@@ -736,6 +775,12 @@ int runRender(const RenderArgs& a) {
   const double prepareMs = msSince(tPrepare);
   bake::FrameLightingSettings gather = frameLightingSettings(a.light, a.gather);
   gather.shadowSamples = kBounceShadowSamples;
+  gather.sceneLights = !a.noSceneLights;
+  // Point, spot and area lights per pixel where the baked instances are (the direct part of the
+  // transfer), their shadowed light at the vertices only for the bounces; emissive surfaces at
+  // the vertices, with as many shadow rays as prt relight's.
+  gather.localPerPixel = lights.localPerPixel = hasDirectTransfer(scene);
+  gather.localShadowSamples = kLocalShadowSamples;
   bake::FrameLighting lighting(scene, lights.rig, gather);
   RenderTimes times = renderFrames(a, lights, size, fps, camera.view, renderer, lighting, out);
   times.prepare = prepareMs;
@@ -745,7 +790,7 @@ int runRender(const RenderArgs& a) {
   if (out.sheet) out.sheet->write(a.contactSheet, float(a.exposure));
   if (a.quiet) return 0;
   printFrames(a, lights, size, out, times, context.description(), camera, renderer.lastFrame(), bands);
-  printLighting(a, lights, first, lighting, renderer.lastFrame(), bands);
+  printLighting(a, lights, first, lighting, renderer.lastFrame(), bands, times.local);
   printOutputs(a, out, lights.frames.count(), fps, msSince(tStart));
   return 0;
 }

@@ -47,6 +47,7 @@ struct RenderArgs {
   double orbitAzimuth = 0.0, orbitElevation = 20.0, orbitFov = 45.0, orbitDistance = 0.0;  // distance 0: fit
   std::vector<double> orbitTarget;  // empty: the centre of the scene bounds
   std::string orbitOption;          // the first --orbit-* option given: it selects the orbit camera
+  bool noSceneLights = false;       // --no-scene-lights: the file's own lights and emissive surfaces left dark
   bool quiet = false;
 };
 

@@ -103,7 +103,11 @@ struct FrameLighting::Impl {
     hasLocal = local;
     const auto t0 = std::chrono::steady_clock::now();
     const bool gatherable = settings.gatherSamples > 0 && settings.directLights && hasDirectTransfer(scene);
-    sky = gatherable && settings.skyDetail;
+    // The sky detail needs a sky: a map, a uniform light or a disk (one too wide to be a direct
+    // light goes through SH); suns alone, or lights inside the scene alone, have none.
+    const bool anySky = std::any_of(rig.lights.begin(), rig.lights.end(),
+                                    [](const RigLight& r) { return r.type != RigLight::Type::Sun; });
+    sky = gatherable && settings.skyDetail && anySky;
     const bool sunBounces = gatherable && !first.direct.empty() && record.bounces > 0;
     const bool directBounces = sunBounces || (gatherable && hasLocal && record.bounces > 0);
     traceDirect = settings.directAtVertices ? !first.direct.empty() : sunBounces;
@@ -141,8 +145,8 @@ struct FrameLighting::Impl {
     if (through) return updateThroughOperator(frame, l, local);
     const auto t0 = std::chrono::steady_clock::now();
     DirectIrradiance lit = tracedDirect(l);
-    const DirectIrradiance own = tracedLocal(local);
-    if (hasLocal) addIrradiance(lit, own);
+    const LocalE0 own = tracedLocal(local);
+    if (hasLocal) addIrradiance(lit, own.all);
     DirectIrradiance delta;
     if (sky) {
       delta = gather->skyDetail(rig.shRadiance(frame), l.sh);
@@ -160,9 +164,9 @@ struct FrameLighting::Impl {
       light = gather->bounce(lit);
       stats.gatherSeconds += light.seconds;
       if (sky) addIrradiance(light, delta);
-      if (hasLocal) addIrradiance(light, own);
+      if (hasLocal) addIrradiance(light, own.atVertices);
     } else {
-      light = own;  // lights inside the scene without a gather: their direct light alone
+      light = own.atVertices;  // lights inside the scene without a gather: their direct light alone
     }
     done(l, local, t0);
   }
@@ -176,13 +180,29 @@ struct FrameLighting::Impl {
     ++stats.updates;
   }
 
-  // The lights inside the scene's shadowed light at every vertex (nothing when there are none).
-  DirectIrradiance tracedLocal(const std::vector<LocalLight>& local) {
+  // The lights inside the scene's shadowed light at every vertex (nothing when there are none):
+  // `all` of it (what bounces) and what the vertices get (all of it, or with localPerPixel
+  // only that of the lights the renderer does not light per pixel).
+  struct LocalE0 {
+    DirectIrradiance all, atVertices;
+  };
+  LocalE0 tracedLocal(const std::vector<LocalLight>& local) {
     if (!hasLocal) return {};
+    if (!settings.localPerPixel) {
+      DirectIrradiance own = tracedLights(local);
+      return {own, own};
+    }
+    std::vector<LocalLight> pixel, vertex;
+    for (const LocalLight& l : local) (localLightPerPixel(l) ? pixel : vertex).push_back(l);
+    LocalE0 own{tracedLights(pixel), tracedLights(vertex)};
+    addIrradiance(own.all, own.atVertices);
+    return own;
+  }
+  DirectIrradiance tracedLights(const std::vector<LocalLight>& lights) {
     ShadowSettings ss;
-    ss.samples = settings.shadowSamples;
+    ss.samples = settings.localShadowSamples > 0 ? settings.localShadowSamples : settings.shadowSamples;
     ss.threads = settings.threads;
-    DirectIrradiance own = shadowedLocalIrradiance(scene, *rays, local, ss);
+    DirectIrradiance own = shadowedLocalIrradiance(scene, *rays, lights, ss);
     stats.shadowSeconds += own.seconds;
     stats.shadowRays += own.rays;
     return own;
@@ -215,7 +235,7 @@ void FrameLighting::Impl::updateThroughOperator(double frame, const RigLighting&
   const std::vector<DirectLight> bouncing = record.bounces > 0 ? l.direct : std::vector<DirectLight>{};
   if (settings.directAtVertices) {
     DirectIrradiance lit = tracedDirect(l);
-    if (hasLocal) addIrradiance(lit, tracedLocal(local));
+    if (hasLocal) addIrradiance(lit, tracedLocal(local).all);
     const DirectIrradiance more = through->lightFrom(lit, &l.directSh, skyOrNull, l.sh);
     addIrradiance(lit, more);
     light = std::move(lit);
@@ -223,10 +243,10 @@ void FrameLighting::Impl::updateThroughOperator(double frame, const RigLighting&
     light = through->light(bouncing, &l.directSh, skyOrNull, l.sh);
   } else {
     DirectIrradiance lit = tracedDirect(l);
-    const DirectIrradiance own = tracedLocal(local);
-    addIrradiance(lit, own);
+    const LocalE0 own = tracedLocal(local);
+    addIrradiance(lit, own.all);
     light = through->lightFrom(lit, &l.directSh, skyOrNull, l.sh);
-    addIrradiance(light, own);
+    addIrradiance(light, own.atVertices);
   }
   const OperatorTimes& t = through->lastTimes();
   stats.shadowSeconds += t.shadows;

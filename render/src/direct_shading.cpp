@@ -41,6 +41,7 @@
 // which llvmpipe then runs whole for every pixel (measured, docs/render.md "Cost").
 #include "direct_shading.h"
 
+#include "local_shading.h"
 #include "prt/error.h"
 #include "render_shaders.h"
 #include "shader_sources.h"
@@ -53,7 +54,13 @@ std::string directLightingGlsl() {
                                                {"SHADOW_UNIT", cat(kShadowMapUnit)},
                                                {"BLOCKER_SAMPLES", cat(kBlockerSamples)},
                                                {"FILTER_SAMPLES", cat(kFilterSamples)},
-                                               {"MAX_KERNEL", cat(kMaxKernelTexels)}});
+                                               {"MAX_KERNEL", cat(kMaxKernelTexels)},
+                                               {"MAX_LOCAL", cat(kMaxLocalLights)},
+                                               {"LOCAL_UNIT", cat(kLocalShadowUnit)},
+                                               {"DISK_SIDES", cat(kLocalDiskSides)},
+                                               {"LOCAL_BLOCKER_SAMPLES", cat(kLocalBlockerSamples)},
+                                               {"LOCAL_FILTER_SAMPLES", cat(kLocalFilterSamples)},
+                                               {"LOCAL_MAX_KERNEL", cat(kLocalMaxKernel)}});
 }
 
 }  // namespace prt::render

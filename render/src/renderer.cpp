@@ -188,7 +188,9 @@ ImageRgb Renderer::render(const Frame& frame) {
   r.ensureFramebuffer(plan.width, plan.height, frame.samples);
   r.stats.samples = r.target.actualSamples;
   r.stats.shadowMs = 0.0;
-  r.stats.shadowMaps = r.stats.cascades = r.stats.shadowMapSize = 0;
+  r.stats.shadowMaps = r.stats.cascades = r.stats.shadowMapSize = r.stats.localShadowMaps = 0;
+  r.stats.localLights = 0;
+  r.stats.localMapSize = 0;
   if (plan.bakedSplit || plan.receiverSplit) r.drawShadows(frame, plan);
   r.beginFrame(frame, plan);
   r.beginMaterialFrame(frame, plan);
@@ -217,10 +219,11 @@ FramePlan Renderer::Impl::planFrame(const Frame& frame) {
   plan.flat = frame.shading == Shading::Flat;
   plan.drawReceivers = grid != nullptr && !receivers.empty();
   const bool anyDirect = !plan.flat && !frame.direct.empty();
+  const bool anyLocal = !plan.flat && !frame.local.empty();  // lights inside the scene (local_shading.cpp)
   // A gathered irradiance (Frame::directBounce: the sky's detail) needs the split shader even
   // without direct lights.
-  plan.bakedSplit = (anyDirect || (!plan.flat && frame.directBounce)) && bakedDirect && !instances.empty();
-  plan.receiverSplit = anyDirect && plan.drawReceivers && grid->hasDirect();
+  plan.bakedSplit = (anyDirect || anyLocal || (!plan.flat && frame.directBounce)) && bakedDirect && !instances.empty();
+  plan.receiverSplit = (anyDirect || anyLocal) && plan.drawReceivers && grid->hasDirect();
   if (anyDirect && !instances.empty() && !bakedDirect && !warnedBakedDirect) {
     warnedBakedDirect = true;
     warnings.push_back(cat("the baked scene has no direct part of its transfer (baked by an older prt): its ",

@@ -25,6 +25,15 @@ namespace prt::render {
 
 struct ShadowPlan;
 
+/// The uniforms of local_lighting.glsl for one frame (local_shading.cpp).
+struct LocalFrameUniforms {
+  std::vector<glm::vec4> pos, dir, up, color, shape;
+  std::vector<glm::mat4> matrices;  // six per light
+  bool shadowed = false;
+  int mapSize = 0;
+  float farPlane = 1.0f;
+};
+
 inline double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -126,6 +135,7 @@ struct Renderer::Impl {
   std::array<Program, kVariants> cutoutDepthPrograms;  // by material variant, linked on first use
   bool bakedDirect = false;                            // every baked instance holds the direct part of its transfer
   ShadowMaps shadowMaps;
+  ShadowMaps localMaps;  // the lights inside the scene's cube faces, six layers per light
   bool warnedBakedDirect = false, warnedProbeDirect = false;
   const ProbeGrid* grid = nullptr;
   ProbeBuffers probes;
@@ -195,6 +205,11 @@ struct Renderer::Impl {
                       int mapSize);
   void castShadow(const Instance& in, const glm::mat4& model, const glm::mat4& viewProj, GLuint& current);
   void setDirectUniforms(const Frame& frame, const FramePlan& plan, const ShadowPlan& shadows, bool maps);
+
+  // The lights inside the scene per pixel (local_shading.cpp): their cube maps and uniforms.
+  void drawLocalShadows(const Frame& frame, const FramePlan& plan);
+  void ensureLocalMaps(int size, int layers);
+  void setLocalUniforms(const Frame& frame, const FramePlan& plan, const LocalFrameUniforms& u);
 
   // The glTF material (material_pass.cpp).
   void setFullMaterial(const Scene& scene, const MeshInstance& m, Instance& in, bool receiver);

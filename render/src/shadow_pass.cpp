@@ -317,6 +317,7 @@ void Renderer::Impl::drawShadows(const Frame& frame, const FramePlan& plan) {
     stats.shadowMapSize = settings.mapSize;
   }
   setDirectUniforms(frame, plan, shadows, maps);
+  drawLocalShadows(frame, plan);
   stats.shadowMs = msSince(t0);
 }
 

@@ -19,6 +19,15 @@ visible point directly, plus paths with up to K diffuse reflections before it. C
 "diffuse bounces" counts the reflections after the first (camera) hit, so 0 is direct light
 only: K maps to diffuse bounces = total bounces = K.
 
+Lights inside the scene: a glTF emissive material becomes the Lambertian diffuse plus an
+Emission shader of colour emissiveFactor and strength KHR_materials_emissive_strength (as
+Blender's importer reads them; Cycles' emission of strength S and colour C is a radiance C S, the
+units of a world of strength 1, which are prt's). A KHR_lights_punctual point light gets the
+power that makes Cycles' irradiance prt's I cos(theta) / r^2 for I candela: Cycles gives a
+point light of P "watts" a radiant intensity P / (4 pi) in these units (measured:
+docs/validation.md, "Lights inside the scene"), so P = 4 pi I, and radius 0 (Blender's importer
+leaves the default 0.25 m and writes P = 4 pi I / 683). Without `--env` the world is black.
+
 `--env-rotate DEG` turns the lighting as `prt render --env-rotate DEG` does: +DEG about glTF +Y,
 which is Blender +Z. The Mapping node (type POINT) rotates the lookup vector, L'(w) = L(R w),
 so it gets -DEG.
@@ -42,7 +51,8 @@ def parse_args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     p = argparse.ArgumentParser(prog="cycles_reference.py")
     p.add_argument("--scene", help="glTF scene (.gltf or .glb)")
-    p.add_argument("--env", help="equirectangular environment map (.hdr or .exr), linear radiance")
+    p.add_argument("--env", help="equirectangular environment map (.hdr or .exr), linear radiance "
+                                 "(default: a black world; the scene's own lights light it)")
     p.add_argument("--env-rotate", type=float, default=0.0,
                    help="degrees about glTF +Y, as prt render --env-rotate")
     p.add_argument("--bounces", type=int, default=2, help="prt bake --bounces K: diffuse bounces")
@@ -59,8 +69,8 @@ def parse_args():
                         "prt frame averaged down)")
     p.add_argument("-o", "--output", help="output multilayer EXR")
     a = p.parse_args(argv)
-    if not (a.scene and a.env and a.output):
-        p.error("--scene, --env and -o are required")
+    if not (a.scene and a.output):
+        p.error("--scene and -o are required")
     return a
 
 
@@ -108,8 +118,22 @@ def base_color(material):
     return tuple(material.diffuse_color)
 
 
+def emission(material):
+    """The glTF emissive radiance (emissiveFactor x emissive strength), as the importer put it on
+    the Principled BSDF; (0, 0, 0) when the material does not emit."""
+    if material.use_nodes:
+        for node in material.node_tree.nodes:
+            if node.type == "BSDF_PRINCIPLED":
+                if node.inputs["Emission"].is_linked:
+                    fail(f"material {material.name}: textured emission is not supported here")
+                strength = node.inputs["Emission Strength"].default_value
+                return tuple(c * strength for c in node.inputs["Emission"].default_value[:3])
+    return (0.0, 0.0, 0.0)
+
+
 def make_lambertian(material):
     rgba = base_color(material)
+    emitted = emission(material)
     material.use_nodes = True
     nodes = material.node_tree.nodes
     nodes.clear()
@@ -117,8 +141,54 @@ def make_lambertian(material):
     diffuse.inputs["Color"].default_value = rgba
     diffuse.inputs["Roughness"].default_value = 0.0
     out = nodes.new("ShaderNodeOutputMaterial")
-    material.node_tree.links.new(diffuse.outputs["BSDF"], out.inputs["Surface"])
+    links = material.node_tree.links
+    if max(emitted) > 0.0:
+        emit = nodes.new("ShaderNodeEmission")
+        emit.inputs["Color"].default_value = emitted + (1.0,)
+        emit.inputs["Strength"].default_value = 1.0
+        add = nodes.new("ShaderNodeAddShader")
+        links.new(diffuse.outputs["BSDF"], add.inputs[0])
+        links.new(emit.outputs["Emission"], add.inputs[1])
+        links.new(add.outputs["Shader"], out.inputs["Surface"])
+        material.cycles.sample_as_light = True
+        EMISSION[material.name] = emitted
+    else:
+        links.new(diffuse.outputs["BSDF"], out.inputs["Surface"])
     return rgba[:3]
+
+
+EMISSION = {}  # material name -> emitted radiance, for the materials that emit
+
+
+def setup_punctual_lights(scene, scene_path):
+    """Each imported point light gets P = 4 pi I watts for the glTF's I candela (per channel:
+    colour x intensity) and radius 0; returns {name: (I, colour)}. Spot lights are refused
+    (Blender's cone blend is not glTF's falloff)."""
+    lights = [o for o in scene.objects if o.type == "LIGHT" and o.data.type != "SUN"]
+    if not lights:
+        return {}
+    if not scene_path.lower().endswith(".gltf"):
+        fail(f"{scene_path}: point lights are read from a .gltf only")
+    with open(scene_path) as f:
+        gltf = json.load(f)
+    defs = gltf.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+    by_node = {}
+    for node in gltf.get("nodes", []):
+        index = node.get("extensions", {}).get("KHR_lights_punctual", {}).get("light")
+        if index is not None:
+            by_node[node.get("name")] = defs[index]
+    used = {}
+    for obj in lights:
+        d = by_node.get(obj.name)
+        if d is None or d.get("type") != "point" or obj.data.type != "POINT":
+            fail(f"light {obj.name}: only glTF point lights on named nodes are supported here")
+        intensity = float(d.get("intensity", 1.0))
+        colour = tuple(d.get("color", [1.0, 1.0, 1.0]))
+        obj.data.energy = 4.0 * math.pi * intensity
+        obj.data.color = colour
+        obj.data.shadow_soft_size = 0.0
+        used[obj.name] = {"candela": intensity, "color": colour, "watts": obj.data.energy}
+    return used
 
 
 def setup_materials():
@@ -131,6 +201,12 @@ def setup_materials():
 
 
 def setup_world(scene, env_path, rotate_deg):
+    if env_path is None:
+        world = bpy.data.worlds.new("prt_validation_black")
+        scene.world = world
+        world.use_nodes = True
+        world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+        return
     if not os.path.isfile(env_path):
         fail(f"{env_path}: no such file")
     world = bpy.data.worlds.new("prt_validation")
@@ -271,6 +347,7 @@ def render(a):
     scene.frame_set(0)  # frame 0 = t 0 s, prt render's frame 0; no animated node is left anyway
     colours = setup_materials()
     setup_world(scene, a.env, a.env_rotate)
+    lights = setup_punctual_lights(scene, a.scene)
     cam, yfov = setup_camera(scene, a.scene, a.camera)
     setup_cycles(scene, a, width, height)
     indices = index_objects(scene)
@@ -282,7 +359,8 @@ def render(a):
     os.replace(tmp, out)
     meta = {"scene": a.scene, "env": a.env, "env_rotate_deg": a.env_rotate, "bounces": a.bounces,
             "samples": a.samples, "seed": a.seed, "size": [width, height], "camera": cam.name,
-            "yfov": yfov, "removed": a.remove, "pixel_filter": a.pixel_filter, "object_index": indices, "albedo": colours}
+            "yfov": yfov, "removed": a.remove, "pixel_filter": a.pixel_filter, "object_index": indices, "albedo": colours,
+            "lights": lights, "emission": EMISSION}
     write_sidecar(out, meta)
     print(f"cycles_reference.py: wrote {a.output} ({width}x{height}, {a.samples} samples, "
           f"{a.bounces} diffuse bounces, objects {indices})")

@@ -15,7 +15,8 @@ The bake: `bpy.ops.object.bake(type='DIFFUSE', pass_filter={'DIRECT', 'INDIRECT'
 target='VERTEX_COLORS')` into a FLOAT_COLOR attribute on the POINT domain (a byte colour would
 clamp to [0, 1] and store sRGB). Diffuse direct + indirect are the light reflected by a white
 Lambertian surface, times Color (the albedo): the exitant radiance rho E / pi, prt relight's
-L_o (docs/validation.md checks it on a uniform sky, where prt is exact). The baked point is the
+L_o (docs/validation.md checks it on a uniform sky, where prt is exact). An emitting material's
+own emission (cycles_reference.py's EMISSION) is added to its vertices, as prt relight adds it. The baked point is the
 shading point, as a camera hit is in a render, so Cycles' diffuse bounces K are prt's
 `--bounces K`.
 
@@ -42,7 +43,7 @@ def parse_args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     p = argparse.ArgumentParser(prog="cycles_vertex_reference.py")
     p.add_argument("--scene", required=True)
-    p.add_argument("--env", required=True)
+    p.add_argument("--env", help="environment map (default: a black world, the scene's own lights)")
     p.add_argument("--env-rotate", type=float, default=0.0)
     p.add_argument("--bounces", type=int, default=8)
     p.add_argument("--samples", type=int, default=512, help="Cycles samples per vertex and seed")
@@ -51,6 +52,16 @@ def parse_args():
     p.add_argument("--threads", type=int, default=0)
     p.add_argument("-o", "--output", required=True)
     return p.parse_args(argv)
+
+
+def emitted_radiance(obj):
+    """What the object's material emits (the DIFFUSE bake leaves emission out; prt relight adds
+    an emitting vertex's own emission to its radiance). One material per object here."""
+    names = {slot.material.name for slot in obj.material_slots if slot.material is not None}
+    emitting = [cr.EMISSION[n] for n in names if n in cr.EMISSION]
+    if emitting and len(names) > 1:
+        cr.fail(f"{obj.name}: an emitting object with more than one material is not supported here")
+    return emitting[0] if emitting else (0.0, 0.0, 0.0)
 
 
 def main():
@@ -63,6 +74,7 @@ def main():
     scene.frame_set(0)
     colours = cr.setup_materials()
     cr.setup_world(scene, a.env, a.env_rotate)
+    lights = cr.setup_punctual_lights(scene, a.scene)
     a.seed = seeds[0]
     cr.setup_cycles(scene, a, 16, 16)
     meshes = sorted((o for o in scene.objects if o.type == "MESH"), key=lambda o: o.name)
@@ -88,7 +100,8 @@ def main():
         print(f"cycles_vertex_reference.py: seed {seed}: {time.time() - t0:.1f} s")
         for obj in meshes:
             data = obj.data.color_attributes["prt_bake"].data
-            values[(obj.name, seed)] = [tuple(d.color[:3]) for d in data]
+            emitted = emitted_radiance(obj)
+            values[(obj.name, seed)] = [tuple(c + e for c, e in zip(d.color[:3], emitted)) for d in data]
     out = os.path.abspath(a.output)
     os.makedirs(os.path.dirname(out), exist_ok=True)
     rows = 0
@@ -105,7 +118,8 @@ def main():
                 rows += 1
     os.replace(out + ".tmp", out)
     meta = {"scene": a.scene, "env": a.env, "env_rotate_deg": a.env_rotate, "bounces": a.bounces,
-            "samples": a.samples, "seeds": seeds, "albedo": colours, "vertices": rows}
+            "samples": a.samples, "seeds": seeds, "albedo": colours, "vertices": rows,
+            "lights": lights, "emission": cr.EMISSION}
     cr.write_sidecar(out, meta)
     print(f"cycles_vertex_reference.py: wrote {a.output} ({rows} vertices, {a.samples} samples x {len(seeds)} seeds, "
           f"{a.bounces} diffuse bounces)")

@@ -3,9 +3,13 @@
 # "Real maps, per vertex and per frame"; issue 12).
 #
 #   tools/validation/real_maps_validation.sh OUTDIR MAP [MAP...]
+#   tools/validation/real_maps_validation.sh OUTDIR --lamp
 #       OUTDIR: where everything is written (e.g. build/real_validation); MAP: equirectangular
 #       .hdr/.exr maps (e.g. Poly Haven's royal_esplanade_1k.hdr and venice_sunset_1k.hdr; nothing
 #       is copied into the repository). Relative paths are taken from the current folder.
+#       --lamp: instead of maps, the closed room lit only by its own point light and emissive
+#       ceiling panel (validation_room.py --lamp; docs/validation.md, "Lights inside the scene"),
+#       no environment, at 8 bounces and at 0 (direct light only: the units).
 #
 # The scene is the Cornell-style room of tools/validation/validation_room.py (2 x 2 x 2 m, a 0.8 m skylight,
 # the front side open, vertices 0.1 m apart), written into OUTDIR. For every map:
@@ -35,12 +39,14 @@
 set -euo pipefail
 
 if [ $# -lt 2 ]; then
-  echo "usage: tools/validation/real_maps_validation.sh OUTDIR MAP [MAP...]   (docs/validation.md)" >&2
+  echo "usage: tools/validation/real_maps_validation.sh OUTDIR MAP [MAP...] | OUTDIR --lamp   (docs/validation.md)" >&2
   exit 2
 fi
 OUT=$(realpath -m -- "$1")
 shift
+LAMP=0
 MAPS=()
+if [ "$1" = --lamp ]; then LAMP=1; shift; fi
 for m in "$@"; do MAPS+=("$(realpath -m -- "$m")"); done
 cd "$(dirname "$0")/../.."
 VSAMPLES=${VSAMPLES:-1024}
@@ -64,7 +70,14 @@ NO_SUN_OPTION=${NO_SUN_OPTION-$("$PRT" relight --help | grep -oE -- '--no-[a-z-]
 mkdir -p "$OUT"
 SCENE="$OUT/room.gltf"
 "$PY" tools/validation/validation_room.py "$OUT" >/dev/null
+if [ $LAMP = 1 ]; then
+  "$PY" tools/validation/validation_room.py "$OUT" --lamp >/dev/null
+  SCENE="$OUT/lamp_room.gltf"
+fi
 "$PY" tools/validation/cycles_compare.py lobes "$OUT/lobes_256.exr"
+
+# env_arg MAP: --env MAP, nothing for no map (the lamp room: a black world).
+env_arg() { [ -z "$1" ] || printf -- '--env %s' "$1"; }
 
 # matches FILE.json KEY=VALUE...: the Cycles result's settings are these.
 matches() {
@@ -82,9 +95,9 @@ PY
 # cycles_vertex NAME MAP SAMPLES [BOUNCES]: Cycles' per-vertex reference.
 cycles_vertex() {
   local csv="$OUT/cyc_v_$1.csv" k=${4:-$BOUNCES}
-  if matches "$csv" env="$2" samples="$3" bounces="$k"; then echo "reusing $csv"; return; fi
+  if matches "$csv" env="${2:-None}" scene="$SCENE" samples="$3" bounces="$k"; then echo "reusing $csv"; return; fi
   rm -f "$csv" "$csv.json"
-  "$BLENDER" -b --factory-startup --python tools/validation/cycles_vertex_reference.py -- --scene "$SCENE" --env "$2" \
+  "$BLENDER" -b --factory-startup --python tools/validation/cycles_vertex_reference.py -- --scene "$SCENE" $(env_arg "$2") \
     --bounces "$k" --samples "$3" --seeds 1,2 --threads "$THREADS" -o "$csv" | grep -E '^(cycles_|Error)' || true
   [ -f "$csv" ] || { echo "real_maps_validation.sh: Cycles bake $csv failed" >&2; exit 1; }
 }
@@ -92,9 +105,9 @@ cycles_vertex() {
 # cycles_frame NAME MAP: Cycles' frame of the room's camera.
 cycles_frame() {
   local exr="$OUT/cycles_$1.exr"
-  if matches "$exr" env="$2" samples="$FSAMPLES" bounces="$BOUNCES" size="[${SIZE/x/, }]" pixel_filter=box; then echo "reusing $exr"; return; fi
+  if matches "$exr" env="${2:-None}" scene="$SCENE" samples="$FSAMPLES" bounces="$BOUNCES" size="[${SIZE/x/, }]" pixel_filter=box; then echo "reusing $exr"; return; fi
   rm -f "$exr" "$exr.json"
-  "$BLENDER" -b --factory-startup --python tools/validation/cycles_reference.py -- --scene "$SCENE" --env "$2" \
+  "$BLENDER" -b --factory-startup --python tools/validation/cycles_reference.py -- --scene "$SCENE" $(env_arg "$2") \
     --bounces "$BOUNCES" --samples "$FSAMPLES" --size "$SIZE" --camera Camera --pixel-filter box --threads "$THREADS" -o "$exr" \
     | grep -E '^(cycles_|Error)' || true
   [ -f "$exr" ] || { echo "real_maps_validation.sh: Cycles render $exr failed" >&2; exit 1; }
@@ -104,6 +117,7 @@ cycles_frame() {
 bake() {
   local k=${2:-$BOUNCES} tag=""
   [ -z "${BAKE_ARGS:-}" ] || tag="_$(echo "$BAKE_ARGS" | tr -c 'a-z0-9' '_')"
+  [ $LAMP = 0 ] || tag="_lamp$tag"
   local glb="$OUT/prt_b$1_k${k}_s$BAKE_SAMPLES$tag.glb"
   # shellcheck disable=SC2086 # BAKE_ARGS is a list of options
   [ -f "$glb" ] || "$PRT" bake "$SCENE" -o "$glb" --bands "$1" --bounces "$k" --samples "$BAKE_SAMPLES" ${BAKE_ARGS:-} -q
@@ -116,17 +130,36 @@ case_() {
   local name=$1 spec=$2 bands=${2%%:*} k=${2#*:} map=$3 ref=$4; shift 4
   [ "$k" != "$spec" ] || k=$BOUNCES
   local glb; glb=$(bake "$bands" "$k")
-  "$PRT" relight "$glb" --env "$map" "$@" -o "$OUT/prt_$name.glb" --csv "$OUT/prt_$name.csv" -q
+  # shellcheck disable=SC2046 # env_arg is one option and its value, or nothing
+  "$PRT" relight "$glb" $(env_arg "$map") "$@" -o "$OUT/prt_$name.glb" --csv "$OUT/prt_$name.csv" -q
   "$PY" tools/validation/vertex_compare.py "$OUT/cyc_v_$ref.csv" "$OUT/prt_$name.csv" --name "$name: Cycles $ref vs prt $bands bands $*" \
     --json "$OUT/vertex_$name.json"
   if [ -f "$OUT/cycles_$ref.exr" ]; then
-    "$PRT" render "$glb" --env "$map" "$@" --size "$PRT_SIZE" --camera Camera --exr-compression none -q -o "$OUT/prt_$name.exr"
+    # shellcheck disable=SC2046
+    "$PRT" render "$glb" $(env_arg "$map") "$@" --size "$PRT_SIZE" --camera Camera --exr-compression none -q -o "$OUT/prt_$name.exr"
     "$PY" tools/validation/cycles_compare.py compare "$OUT/cycles_$ref.exr" "$OUT/prt_$name.exr" --min-pixels 30 \
       --name "frame $name: Cycles $ref vs prt $bands bands $*" || true
   fi
   echo
 }
 
+if [ $LAMP = 1 ]; then
+  cycles_vertex lamp "" "$VSAMPLES"
+  cycles_vertex lamp_k0 "" "$CSAMPLES" 0
+  cycles_frame lamp ""
+  echo "The closed room lit by its own point light and emissive panel, 3 bands."
+  case_ lamp_k0 3:0 "" lamp_k0
+  case_ lamp 3 "" lamp
+  # The same frame with every material Lambertian (Cycles' materials), no dielectric highlight.
+  "$PRT" render "$(bake 3)" --materials diffuse --size "$PRT_SIZE" --camera Camera --exr-compression none -q \
+    -o "$OUT/prt_lamp_diffuse.exr"
+  "$PY" tools/validation/cycles_compare.py compare "$OUT/cycles_lamp.exr" "$OUT/prt_lamp_diffuse.exr" --min-pixels 30 \
+    --name "frame lamp_diffuse: Cycles lamp vs prt 3 bands --materials diffuse" || true
+  "$PY" tools/validation/cycles_compare.py sheet "$OUT/validation_lamp.png" --exposure 0 \
+    "$OUT/cycles_lamp.exr,$OUT/prt_lamp.exr"
+  echo "real_maps_validation.sh: done (reports only)"
+  exit 0
+fi
 cycles_vertex white "$WHITE" "$CSAMPLES"
 cycles_vertex white_k0 "$WHITE" "$CSAMPLES" 0
 cycles_vertex lobes "$OUT/lobes_256.exr" "$CSAMPLES"

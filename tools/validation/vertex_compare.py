@@ -10,7 +10,9 @@ Matching: a Cycles vertex and a prt row match when their positions agree to 0.1 
 normals to 0.01 (the same glTF vertex; prt's refinement adds vertices that Cycles has not, and
 they are left out). Vertices where surfaces meet (a position that the Cycles scene holds with
 two different normals: room corners, box edges) are reported apart and left out of the main
-figures: there both renderers' results depend on how rays leave a point on two surfaces.
+figures: there both renderers' results depend on how rays leave a point on two surfaces. So
+are the vertices that two objects hold with the same normal (the rim of an emissive panel set
+into a ceiling: the position and normal do not tell which object's prt row is which).
 
 Metric: luminance Y = 0.2126 R + 0.7152 G + 0.0722 B of the exitant radiance; Cycles' value is
 the mean of its seeds. Per vertex the relative error e = (Y_prt - Y_cycles) / Y_cycles, over the
@@ -62,10 +64,11 @@ def main(argv):
             p = tuple(float(row[c]) for c in ("px", "py", "pz"))
             n = tuple(float(row[c]) for c in ("nx", "ny", "nz"))
             prt[key(p, n)] = lum(float(row["r"]), float(row["g"]), float(row["b"]))
-    normals_at = {}
+    normals_at, objects_at = {}, {}
     for row in cyc:
         p = tuple(round(float(row[c]) * 1e4) for c in ("px", "py", "pz"))
         normals_at.setdefault(p, set()).add(tuple(round(float(row[c]) * 1e2) for c in ("nx", "ny", "nz")))
+        objects_at.setdefault(p, set()).add(row["object"])
     verts, missing = [], 0
     for row in cyc:
         p = tuple(float(row[c]) for c in ("px", "py", "pz"))
@@ -75,7 +78,8 @@ def main(argv):
         if k not in prt:
             missing += 1
             continue
-        edge = len(normals_at[tuple(round(v * 1e4) for v in p)]) > 1
+        at = tuple(round(v * 1e4) for v in p)
+        edge = len(normals_at[at]) > 1 or len(objects_at[at]) > 1
         verts.append({"object": row["object"], "edge": edge, "cycles": sum(ys) / len(ys),
                       "se": abs(ys[0] - ys[1]) / 2 if len(ys) == 2 else float("nan"), "prt": k and prt[k]})
     inner = [v for v in verts if not v["edge"]]

@@ -147,8 +147,10 @@ float visibleShare(int k, vec3 x, vec3 n, bool facing, vec3 dxW, vec3 dyW) {
   return needFilter ? (nf > 0.0 ? lit / nf : 1.0) : nb == 0.0 ? 1.0 : 0.0;
 }
 
+#include "local_lighting.glsl"
+
 // Σ_k E_k · directCosineFactor_k(n) · visibleShare_k(x), a loop over the lights that tests at
-// its end, so that one light costs one pass.
+// its end, so that one light costs one pass; plus the lights inside the scene (localIrradiance).
 vec3 directIrradiance(vec3 x, vec3 n, vec3 dxW, vec3 dyW) {
   vec3 e = vec3(0.0);
   int k = 0;
@@ -159,5 +161,5 @@ vec3 directIrradiance(vec3 x, vec3 n, vec3 dxW, vec3 dyW) {
     e += k < uDirectCount ? uDirectIrradiance[k].rgb * (f * v) : vec3(0.0);
     k += uLoopStep;
   } while (k < uDirectCount);
-  return e;
+  return e + localIrradiance(x, n, n);
 }

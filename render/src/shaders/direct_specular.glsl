@@ -34,4 +34,5 @@ void directShading(vec3 x, vec3 ng, Surface s, vec3 v, vec3 dxW, vec3 dyW, out v
     spec += E * (f * norm) * specularBrdf(s, l, v, a);
     k += uLoopStep;
   } while (k < uDirectCount);
+  e += localIrradiance(x, s.n, ng);  // the lights inside the scene: diffuse only, no highlight
 }

@@ -43,8 +43,21 @@ struct FrameLightingSettings {
   /// suns; docs/lights.md, "Lights inside the scene"). A rig's lights inside the scene light it
   /// either way.
   bool sceneLights = false;
+  /// True: the renderer lights the lights inside the scene that it can (localLightPerPixel)
+  /// per pixel with their shadow maps, so their shadowed light is left out of
+  /// FrameLight::vertexLight and only their bounces are in it; emissive surfaces stay there.
+  bool localPerPixel = false;
+  /// Shadow rays per area light (or emissive surface) and vertex for the lights inside the
+  /// scene; 0: shadowSamples.
+  int localShadowSamples = 0;
   int threads = 0;  // 0 = all cores
 };
+
+/// Whether the renderer lights `light` per pixel (FrameLightingSettings::localPerPixel): point,
+/// spot, sphere, disk and rectangle lights; an emissive surface's triangles stay at the vertices.
+inline bool localLightPerPixel(const LocalLight& light) {
+  return light.type != LocalLight::Type::Triangle && light.type != LocalLight::Type::Emitter;
+}
 
 struct FrameLight {
   /// The rig at the frame on the scene's bands: `sh` lit through the transfer, `direct` apart.
@@ -56,8 +69,9 @@ struct FrameLight {
   /// null when nothing is. directAtVertices: E⁰ + Δ + E_b (the direct lights' shadowed light, the
   /// sky detail, their bounces); else E_b + Δ. Valid until the next at().
   const DirectIrradiance* vertexLight = nullptr;
-  /// The lights inside the scene at this frame (the scene's, then the rig's): their shadowed
-  /// light and its bounces are in vertexLight (at the vertices also for the renderer).
+  /// The lights inside the scene at this frame (the scene's, then the rig's): their bounces are
+  /// in vertexLight, and their shadowed light too unless the renderer lights them per pixel
+  /// (localPerPixel).
   std::vector<LocalLight> local;
   /// How many of rig.direct are the scene's directional lights (the last ones).
   size_t sceneSuns = 0;

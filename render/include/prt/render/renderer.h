@@ -16,6 +16,7 @@
 #include "prt/image.h"
 #include "prt/light.h"
 #include "prt/light_rig.h"
+#include "prt/local_light.h"
 #include "prt/probe_grid.h"
 #include "prt/render/gl_context.h"
 #include "prt/scene.h"
@@ -71,9 +72,12 @@ struct FrameStats {
   /// and on receivers; those not lit so went through the SH light (an older bake, a grid
   /// without its direct part).
   size_t directBaked = 0, directReceivers = 0;
-  int shadowMaps = 0;     // shadow-map layers drawn (lights × cascades)
-  int cascades = 0;       // per light
-  int shadowMapSize = 0;  // texels a side
+  int shadowMaps = 0;       // shadow-map layers drawn (lights × cascades)
+  int cascades = 0;         // per light
+  int shadowMapSize = 0;    // texels a side
+  size_t localLights = 0;   // lights inside the scene lit per pixel (Frame::local)
+  int localShadowMaps = 0;  // their cube faces drawn (six per light)
+  int localMapSize = 0;     // texels a side of each face
 };
 
 /// At most this many direct lights per frame (Frame::direct): each costs a shadow map per
@@ -81,6 +85,9 @@ struct FrameStats {
 inline constexpr int kMaxDirectLights = 8;
 /// At most this many shadow-map cascades per direct light.
 inline constexpr int kMaxCascades = 4;
+/// At most this many lights inside the scene per frame lit per pixel (Frame::local): each costs
+/// six shadow maps and a filter per pixel.
+inline constexpr int kMaxLocalLights = 8;
 
 /// How direct lights' shadows are made (docs/render.md).
 struct ShadowSettings {
@@ -130,6 +137,12 @@ struct Frame {
   /// Must stay alive during render().
   const std::vector<std::vector<glm::vec3>>* directBounce = nullptr;
   const std::vector<std::vector<glm::vec3>>* directBounceBack = nullptr;
+  /// Lights inside the scene lit per pixel with their shadows (point, spot, sphere, disk and
+  /// rectangle lights; other types are skipped: an emissive surface's light comes in
+  /// directBounce), each from a cube of shadow maps about its centre (docs/render.md, "Lights
+  /// inside the scene"). At most kMaxLocalLights. Only where the baked instances are lit per
+  /// pixel (a bake with the direct part of its transfer) and on receivers whose grid has it.
+  std::vector<LocalLight> local;
   ShadowSettings shadows;
   double time = 0.0;  // seconds: receivers are placed by the scene's animations at time
   int width = 0;      // 0: the context's size
