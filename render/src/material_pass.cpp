@@ -87,7 +87,8 @@ void Renderer::Impl::setFullMaterial(const Scene& scene, const MeshInstance& m, 
     f.slots[i] = slot.uvSet >= 1 ? 1 : 0;
     f.textures[size_t(i)] = sceneTexture(scene, slot.texture);
   }
-  if (f.slots != glm::ivec4(-1)) in.variant |= kVariantMaterialTextures;
+  if (f.slots != glm::ivec4(-1)) f.variantBits |= kVariantMaterialTextures;
+  if (f.slots.x < 0 && mat.roughnessFactor >= kRoughSpecularRoughness) f.variantBits |= kVariantRoughSpecular;
   if (f.slots[1] >= 0) {
     f.tangents = vertexBuffer(gl, m.tangents.data(), m.tangents.size() * sizeof(glm::vec4));
     f.vertexInputs |= 1;
@@ -140,7 +141,7 @@ void Renderer::Impl::bindReflections(const RigBackground* env) {
       it = reflections.emplace(m.image.get(), std::make_pair(m.image, prefilterEnvironment(*m.image))).first;
     all.push_back(&it->second.second);
   }
-  const int w = kPrefilterWidth, h = kPrefilterWidth / 2;
+  const int w = kPrefilterWidth, h = kPrefilterWidth;  // octahedral levels
   GlTexture tex = createTexture(gl, GL_TEXTURE_2D_ARRAY);
   gl.TextureStorage3D(tex, 1, GL_RGB32F, w, h, GLsizei(all.size() * kPrefilterLevels));
   gl.PixelStorei(GL_UNPACK_ALIGNMENT, 4);
@@ -150,7 +151,7 @@ void Renderer::Impl::bindReflections(const RigBackground* env) {
                            (*all[i])[k].pixels.data());
   gl.TextureParameteri(tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   gl.TextureParameteri(tex, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_S, GL_REPEAT);
+  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
   gl.TextureParameteri(tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   checkError("uploading the prefiltered environment maps");
   reflectionArray = std::move(tex);
@@ -204,9 +205,9 @@ void Renderer::Impl::beginMaterialFrame(const Frame& frame, const FramePlan& pla
     gl.ProgramUniform1f(p.id, p.envMaxLod, float(kPrefilterLevels - 1));
   };
   if (baked)
-    for (const Instance& in : instances) set(bakedProgram(in.variant | plan.bakedExtra));
+    for (const Instance& in : instances) set(bakedProgram(variantOf(in, plan.bakedExtra)));
   if (recv)
-    for (const Instance& in : receivers) set(receiverProgram(frame.probeLookup, in.variant | plan.receiverExtra));
+    for (const Instance& in : receivers) set(receiverProgram(frame.probeLookup, variantOf(in, plan.receiverExtra)));
   checkError("setting the material uniforms");
 }
 

@@ -255,7 +255,7 @@ FramePlan Renderer::Impl::planFrame(const Frame& frame) {
     }
   }
   if (material)
-    for (const Instance& in : instances) bakedProgram(in.variant | plan.bakedExtra);
+    for (const Instance& in : instances) bakedProgram(variantOf(in, plan.bakedExtra));
   return plan;
 }
 
@@ -279,7 +279,7 @@ void Renderer::Impl::updateBakedLight(const Frame& frame, const FramePlan& plan)
   if (plan.bakedSplit) {
     uploadBounce(gathered ? frame.directBounce : nullptr, gathered ? frame.directBounceBack : nullptr);
     for (const Instance& in : instances) {
-      const Program& p = bakedProgram(in.variant | plan.bakedExtra);
+      const Program& p = bakedProgram(variantOf(in, plan.bakedExtra));
       gl.ProgramUniform3fv(p.id, p.directSh, dl.size(), &dl.c[0].x);
     }
   }
@@ -301,7 +301,7 @@ void Renderer::Impl::updateReceiverLight(const Frame& frame, const FramePlan& pl
   if (!plan.receiverSplit) l += dl;
   const std::vector<glm::vec4> packedLight = packLight(g.bands, l);
   for (const Instance& in : receivers) {
-    const Program& p = receiverProgram(frame.probeLookup, in.variant | plan.receiverExtra);
+    const Program& p = receiverProgram(frame.probeLookup, variantOf(in, plan.receiverExtra));
     gl.ProgramUniform4fv(p.id, p.light, GLsizei(packedLight.size()), &packedLight[0].x);
   }
   if (g.probeCount() > 0) {
@@ -403,7 +403,7 @@ void Renderer::Impl::drawOpaqueList(const std::vector<Instance>& list, const std
     const Program& p = plan.flat ? flatProgram : variants[size_t(variant)];
     bool used = false;
     for (const Instance& in : list) {
-      if (!plan.flat && ((in.variant | extra) != variant || in.blend)) continue;
+      if (!plan.flat && (variantOf(in, extra) != variant || in.blend)) continue;
       if (!used) {
         gl.UseProgram(p.id);
         gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &plan.viewProj[0][0]);
@@ -462,8 +462,8 @@ void Renderer::Impl::drawBlended(const Frame& frame, const FramePlan& plan) {
   if (plan.drawReceivers) bindProbeTextures();
   for (const Layer& layer : layers) {
     const Instance& in = *layer.in;
-    const Program& p = layer.receiver ? receiverProgram(frame.probeLookup, in.variant | plan.receiverExtra)
-                                      : bakedProgram(in.variant | plan.bakedExtra);
+    const Program& p = layer.receiver ? receiverProgram(frame.probeLookup, variantOf(in, plan.receiverExtra))
+                                      : bakedProgram(variantOf(in, plan.bakedExtra));
     gl.UseProgram(p.id);
     gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &plan.viewProj[0][0]);
     const bool mirrored = layer.receiver ? placeReceiver(p, in, frame, false) : placeBaked(in, plan);
