@@ -9,8 +9,8 @@
 // chain at the level whose texel matches the sample's share of the lobe, lod = ½ log2(Ω_s/Ω_p) + 1,
 // Ω_s = 1/(N·pdf(l)), Ω_p the source texel's solid angle (Colbert and Křivánek, GPU Gems 3,
 // ch. 20, "filtered importance sampling"): few samples, no fireflies. Level 0 (the mirror) is the
-// map itself, resampled to the level's size. Every level has the same size, a layer of one
-// texture array; a lookup blends the two layers around roughness · (levels − 1).
+// map itself, resampled to the level's size. Every level has the same size, a slice of one 3D
+// texture; a lookup blends the two slices around roughness · (levels − 1).
 //
 // The levels are octahedral maps (Engelhardt and Dachsbacher 2008; Cigolle et al. 2014, "A
 // Survey of Efficient Representations for Independent Unit Vectors"), folded about +Y: the

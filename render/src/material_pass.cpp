@@ -124,11 +124,12 @@ void Renderer::Impl::bindMaterialBuffers(const Instance& in, bool direct) {
   }
 }
 
-// The environment's maps prefiltered by roughness (once per image) in one texture array: map i's
-// level k is layer i · levels + k. An array, not mip levels: llvmpipe samples a mipmapped
-// texture at a per-pixel lod several times slower than two bilinear lookups at lod 0; and one
-// array, not one sampler per map, so that the shader's loop over the maps indexes no samplers
-// (docs/render.md, "Cost of the materials"). Made again only when the frame's maps change.
+// The environment's maps prefiltered by roughness (once per image) in one 3D texture: map i's
+// level k is slice i · levels + k, so that one trilinear lookup blends two levels. Slices, not
+// mip levels: llvmpipe samples a mipmapped texture at a per-pixel lod several times slower than
+// lookups at lod 0; and one texture, not one sampler per map, so that the shader's loop over the
+// maps indexes no samplers (docs/render.md, "Cost of the materials"). Made again only when the
+// frame's maps change.
 void Renderer::Impl::bindReflections(const RigBackground* env) {
   std::vector<const ImageRgb*> key;
   if (env)
@@ -142,7 +143,7 @@ void Renderer::Impl::bindReflections(const RigBackground* env) {
     all.push_back(&it->second.second);
   }
   const int w = kPrefilterWidth, h = kPrefilterWidth;  // octahedral levels
-  GlTexture tex = createTexture(gl, GL_TEXTURE_2D_ARRAY);
+  GlTexture tex = createTexture(gl, GL_TEXTURE_3D);
   gl.TextureStorage3D(tex, 1, GL_RGB32F, w, h, GLsizei(all.size() * kPrefilterLevels));
   gl.PixelStorei(GL_UNPACK_ALIGNMENT, 4);
   for (size_t i = 0; i < all.size(); ++i)
@@ -153,6 +154,7 @@ void Renderer::Impl::bindReflections(const RigBackground* env) {
   gl.TextureParameteri(tex, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   gl.TextureParameteri(tex, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
   gl.TextureParameteri(tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
   checkError("uploading the prefiltered environment maps");
   reflectionArray = std::move(tex);
   reflectionKey = std::move(key);
