@@ -273,6 +273,35 @@ TEST(MaterialRender, RoughLobesReflectTheDiffuseLight) {
   }
 }
 
+// The lobe's hidden share reflects what hides the sky at its mean radiance: a white metal plane
+// (roughness 0.5) whose transfer says half its cosine-weighted sky is hidden (t⁰₀ = 0.5 π Y₀₀)
+// and the surroundings send 0.3 of an unoccluded plane's light (t₀ = 0.8 π Y₀₀), under a sky
+// and an environment of radiance 1: fill = (0.8 − 0.5) / (1 − 0.5) = 0.6, the pixel
+// (A + B)(so + (1 − so) 0.6) with so Lagarde's at ao = 0.5 (e/π = 0.8 in the fill would be 10%
+// more). 1.5%: the DFG table's interpolation, as in the white furnace.
+TEST(MaterialRender, HiddenLobeReflectsWhatHidesTheSky) {
+  GlContext ctx(GlBackend::OSMesa, 16, 16);
+  MeshInstance m = plane(2.0);
+  for (size_t v = 0; v < 4; ++v) {
+    m.transfer[v * 9] = glm::vec3(float(0.8 * kPi * kY00));
+    m.transferDirect[v * 9] = float(0.5 * kPi * kY00);
+  }
+  const Scene scene = sceneOf(m, metal(glm::vec3(1.0f), 0.5f));
+  Renderer r(ctx, scene);
+  RigBackground env;
+  env.uniform = glm::dvec3(1.0);
+  const double th = glm::radians(40.0), nv = std::cos(th), alpha = 0.25;
+  Frame f;
+  f.camera = orthoFrom({std::sin(th), nv, 0.0});
+  f.light = uniformSky(1.0);
+  f.materials = MaterialShading::Full;
+  f.environment = &env;
+  const glm::dvec2 ab = brdf::integrateDfg(nv, 0.5, 4096);
+  const double so = std::clamp(std::pow(nv + 0.5, std::exp2(-16.0 * alpha - 1.0)) - 1.0 + 0.5, 0.0, 1.0);
+  const double want = (ab.x + ab.y) * (so + (1.0 - so) * 0.6);
+  EXPECT_NEAR(centre(r.render(f)).x, want, 0.015 * want);
+}
+
 // A sun's highlight on a copper plane (roughness 0.3, no sky): every pixel against
 // E·(n·d)·f_spec(d, v) at its centre's ray (the formula, prt::brdf), the peak where that formula
 // peaks (near the mirror point of the sun), its value within 1% (float maths on both sides; the

@@ -284,8 +284,12 @@ void Renderer::Impl::updateBakedLight(const Frame& frame, const FramePlan& plan)
     }
   }
   const std::vector<glm::vec4> packed = flatLight(l, bands);
+  // The light whose direct part t⁰ · sky reaches a vertex unoccluded (MATERIAL programs: what
+  // is left of e is the light its surroundings send, baked_vertex.glsl's vFill).
+  const sh::ShRgb sky = plan.bakedSplit ? sh::resize(frame.light, bands) : l;
   for (const Program& p : programs) {
     if (!p.id) continue;
+    if (p.skySh >= 0) gl.ProgramUniform3fv(p.id, p.skySh, sky.size(), &sky.c[0].x);
     if (bands <= kMaxAttributeBands)
       gl.ProgramUniform4fv(p.id, p.light, GLsizei(packed.size()), &packed[0].x);
     else
