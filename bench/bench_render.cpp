@@ -5,7 +5,7 @@
 //
 //   prt_bench_render [--width 1920] [--height 1080] [--frames 12] [--gl osmesa|egl]
 //                    [--baked FILE.glb --probes FILE.vdb] [--samples 128] [--probe-dims 16]
-//                    [--frames-only 0|1] [--sun-only 0|1] [--json out.json]
+//                    [--frames-only 0|1] [--sun-only 0|1] [--materials-only 0|1] [--json out.json]
 //
 // Without --baked/--probes the bundled Cornell room (scenes/cornell_open.gltf) is baked in the
 // process (surface transfer with --samples directions and 1 bounce, a --probe-dims³ probe
@@ -23,7 +23,7 @@
 // The `sun` part (sunShadows) times the same frame with a sun lit per pixel with its shadow maps
 // against the frame with the sun through SH (docs/render.md, "Direct lights and their shadows");
 // --sun-only 1 stops after it and the material frames (full glTF material against the diffuse
-// frame, "materials" in the JSON).
+// frame, "materials" in the JSON); --materials-only 1 times the material frames alone.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -272,7 +272,9 @@ nlohmann::json sunShadows(render::Renderer& renderer, const Scene& scene, const 
 // target: full ≤ 1.5 × diffuse): the room with a glossy floor (roughness 0.35) and a copper short
 // box (metallic 1, roughness 0.4), the sky and a sun as in the sun frames (shadow maps), the
 // bundled map reflected (prefiltered once, before the timed frames). `full`:
-// MaterialShading::Full; `diffuse`: the same frame Lambertian; `flat`: the raster floor.
+// MaterialShading::Full; `diffuse`: the same frame Lambertian; `flat`: the raster floor;
+// `glossy`: the full frame with every other material at roughness 0.5 too (the walls and the tall
+// box reflect the map: the cost where no pixel is rough enough to skip the environment's lookups).
 nlohmann::json materialFrames(render::GlContext& context, Scene scene, const ProbeGrid& grid,
                               const render::CameraView& view, int frames) {
   Material glossy = scene.materials.at(0), copper = scene.materials.at(0);
@@ -290,12 +292,16 @@ nlohmann::json materialFrames(render::GlContext& context, Scene scene, const Pro
   }
   render::Renderer renderer(context, scene);
   renderer.setProbes(grid);
+  Scene glossyScene = scene;
+  for (size_t i = 0; i + 2 < glossyScene.materials.size(); ++i) glossyScene.materials[i].roughnessFactor = 0.5f;
+  render::Renderer glossyRenderer(context, glossyScene);
+  glossyRenderer.setProbes(grid);
   RigBackground environment;
   environment.maps.push_back(
       {std::make_shared<const ImageRgb>(loadHdrImage(PRT_SOURCE_DIR "/scenes/env/royal_esplanade_128.hdr")),
        glm::dmat3(1.0), glm::dvec3(1.0)});
   const double duration = animationDuration(scene);
-  Timing full, diffuse, flat;
+  Timing full, diffuse, flat, glossyFull;
   for (int i = -2; i < frames; ++i) {
     DirectLight sun;
     sun.direction = azimuthElevationDirection(30.0 + 10.0 * std::max(i, 0), 40.0);
@@ -312,16 +318,14 @@ nlohmann::json materialFrames(render::GlContext& context, Scene scene, const Pro
     render::Frame d = f, flatFrame = f;
     d.materials = render::MaterialShading::Diffuse;
     flatFrame.shading = render::Shading::Flat;
-    for (int k = 0; k < 3; ++k) {
-      const int kind = (k + std::max(i, 0)) % 3;
-      timedRender(renderer,
-                  kind == 0   ? f
-                  : kind == 1 ? d
-                              : flatFrame,
-                  i < 0       ? nullptr
-                  : kind == 0 ? &full
-                  : kind == 1 ? &diffuse
-                              : &flat);
+    for (int k = 0; k < 4; ++k) {
+      const int kind = (k + std::max(i, 0)) % 4;
+      Timing* timing[4] = {&full, &diffuse, &flat, &glossyFull};
+      timedRender(kind == 3 ? glossyRenderer : renderer,
+                  kind == 0 || kind == 3 ? f
+                  : kind == 1            ? d
+                                         : flatFrame,
+                  i < 0 ? nullptr : timing[kind]);
     }
   }
   return {{"full", full.json()},
@@ -329,6 +333,9 @@ nlohmann::json materialFrames(render::GlContext& context, Scene scene, const Pro
           {"flat", flat.json()},
           {"ratio_full_to_diffuse", medianRatio(full.total, diffuse.total)},
           {"cpu_ratio_full_to_diffuse", medianRatio(full.cpu, diffuse.cpu)},
+          {"glossy", glossyFull.json()},
+          {"ratio_glossy_to_diffuse", medianRatio(glossyFull.total, diffuse.total)},
+          {"cpu_ratio_glossy_to_diffuse", medianRatio(glossyFull.cpu, diffuse.cpu)},
           {"target_ratio", 1.5}};
 }
 
@@ -536,7 +543,7 @@ int main(int argc, char** argv) {
   prt::tuneHeap();  // as prt does (tools/main.cpp)
   std::string bakedPath, probesPath, jsonPath, gl = "osmesa";
   int width = 1920, height = 1080, frames = 12, samples = 128, probeDims = 16;
-  int framesOnly = 0, sunOnly = 0;
+  int framesOnly = 0, sunOnly = 0, materialsOnly = 0;
   CLI::App app{"Render benchmark: ms per frame of full relighting next to the flat raster floor, light-update costs",
                "prt_bench_render"};
   app.add_option("--width", width, "Frame width")->check(CLI::Range(1, 16384))->capture_default_str();
@@ -558,6 +565,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({0, 1}))
       ->capture_default_str();
   app.add_option("--sun-only", sunOnly, "1: only the main frames and the sun-shadow frames")
+      ->check(CLI::IsMember({0, 1}))
+      ->capture_default_str();
+  app.add_option("--materials-only", materialsOnly, "1: only the material frames (full glTF material, diffuse, flat)")
       ->check(CLI::IsMember({0, 1}))
       ->capture_default_str();
   app.add_option("--json", jsonPath, "Also write the results to this file");
@@ -601,6 +611,13 @@ int main(int argc, char** argv) {
     } else {
       render::OrbitCamera orbit;
       view = render::orbitView(scene, orbit, double(width) / height);
+    }
+    if (materialsOnly) {
+      const nlohmann::json j = {{"device", context.description()},
+                                {"materials", materialFrames(context, scene, grid, view, frames)}};
+      std::printf("%s\n", j.dump(2).c_str());
+      if (!jsonPath.empty()) std::ofstream(jsonPath) << j.dump(2) << "\n";
+      return 0;
     }
     // The baked instances alone: the same scene without a probe grid (receivers not drawn).
     render::Renderer bakedOnly(context, scene);

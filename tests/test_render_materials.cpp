@@ -171,7 +171,7 @@ TEST(MaterialRender, WhiteFurnaceDielectricAddsItsSpecularLobe) {
 // n·l-weighted mean of L over the GGX reflection lobe around r (n = v = r), by 100k GGX samples
 // of the analytic L (standard error < 0.1%). The filtered importance sampling reads the map's
 // box mips, exact for a linear function up to the equirectangular texels' curvature and the
-// bilinear lookups: 1% bounds it (measured below 0.3%, poles included).
+// bilinear lookups: 1% bounds it (measured below 0.35% on the octahedral levels, poles included).
 TEST(MaterialRender, PrefilteredMapIsTheLobeAverage) {
   ImageRgb map(128, 64);
   auto radiance = [](const glm::dvec3& d) { return 1.0 + 0.5 * d.y + 0.3 * d.x; };
@@ -246,6 +246,60 @@ TEST(MaterialRender, EnvironmentReflectionMatchesTheCpuLookup) {
     want *= ab.x + ab.y;
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], 0.015 * want[c]) << maps << " maps, channel " << c;
   }
+}
+
+// From roughness 0.9 (shader_variants.h, kRoughSpecularRoughness) a material's environment
+// specular is (A + B) · e/π, the diffuse light's mean radiance, not the prefiltered map: a white
+// metal plane under an SH sky of radiance 1 (e/π = 1) and an environment of radiance 3 reflects 1
+// at roughness 0.9 and 1, and 3 at roughness 0.85 (its specular occlusion is 1: nothing hides
+// the plane's sky). (A + B) from integrateDfg with 4096 samples; 1.5% bounds the table's
+// bilinear interpolation as in the white furnace.
+TEST(MaterialRender, RoughLobesReflectTheDiffuseLight) {
+  GlContext ctx(GlBackend::OSMesa, 16, 16);
+  RigBackground env;
+  env.uniform = glm::dvec3(3.0);
+  const double th = glm::radians(40.0);
+  for (double roughness : {0.85, 0.9, 1.0}) {
+    const Scene scene = sceneOf(plane(2.0), metal(glm::vec3(1.0f), float(roughness)));
+    Renderer r(ctx, scene);
+    Frame f;
+    f.camera = orthoFrom({std::sin(th), std::cos(th), 0.0});
+    f.light = uniformSky(1.0);
+    f.materials = MaterialShading::Full;
+    f.environment = &env;
+    const glm::dvec2 ab = brdf::integrateDfg(std::cos(th), roughness, 4096);
+    const double want = (ab.x + ab.y) * (roughness < 0.9 ? 3.0 : 1.0);
+    EXPECT_NEAR(centre(r.render(f)).x, want, 0.015 * want) << roughness;
+  }
+}
+
+// The lobe's hidden share reflects what hides the sky at its mean radiance: a white metal plane
+// (roughness 0.5) whose transfer says half its cosine-weighted sky is hidden (t⁰₀ = 0.5 π Y₀₀)
+// and the surroundings send 0.3 of an unoccluded plane's light (t₀ = 0.8 π Y₀₀), under a sky
+// and an environment of radiance 1: fill = (0.8 − 0.5) / (1 − 0.5) = 0.6, the pixel
+// (A + B)(so + (1 − so) 0.6) with so Lagarde's at ao = 0.5 (e/π = 0.8 in the fill would be 10%
+// more). 1.5%: the DFG table's interpolation, as in the white furnace.
+TEST(MaterialRender, HiddenLobeReflectsWhatHidesTheSky) {
+  GlContext ctx(GlBackend::OSMesa, 16, 16);
+  MeshInstance m = plane(2.0);
+  for (size_t v = 0; v < 4; ++v) {
+    m.transfer[v * 9] = glm::vec3(float(0.8 * kPi * kY00));
+    m.transferDirect[v * 9] = float(0.5 * kPi * kY00);
+  }
+  const Scene scene = sceneOf(m, metal(glm::vec3(1.0f), 0.5f));
+  Renderer r(ctx, scene);
+  RigBackground env;
+  env.uniform = glm::dvec3(1.0);
+  const double th = glm::radians(40.0), nv = std::cos(th), alpha = 0.25;
+  Frame f;
+  f.camera = orthoFrom({std::sin(th), nv, 0.0});
+  f.light = uniformSky(1.0);
+  f.materials = MaterialShading::Full;
+  f.environment = &env;
+  const glm::dvec2 ab = brdf::integrateDfg(nv, 0.5, 4096);
+  const double so = std::clamp(std::pow(nv + 0.5, std::exp2(-16.0 * alpha - 1.0)) - 1.0 + 0.5, 0.0, 1.0);
+  const double want = (ab.x + ab.y) * (so + (1.0 - so) * 0.6);
+  EXPECT_NEAR(centre(r.render(f)).x, want, 0.015 * want);
 }
 
 // A sun's highlight on a copper plane (roughness 0.3, no sky): every pixel against

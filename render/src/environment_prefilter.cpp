@@ -71,6 +71,31 @@ glm::dvec3 pixelDirection(int x, int y, int width, int height) {
   return equirectDirection((x + 0.5) / width, (y + 0.5) / height);
 }
 
+// Direction of texel (x, y)'s centre of a size × size octahedral image.
+glm::dvec3 octahedralTexelDirection(int x, int y, int size) {
+  return octahedralDirection(glm::dvec2((x + 0.5) / size, (y + 0.5) / size));
+}
+
+// The equirectangular box chain trilinear at fractional `lod` (level 0's resampling).
+glm::dvec3 sampleChain(const std::vector<ImageRgb>& chain, double lod, const glm::dvec3& d) {
+  lod = std::clamp(lod, 0.0, double(chain.size() - 1));
+  const int a = int(std::floor(lod)), b = std::min(a + 1, int(chain.size()) - 1);
+  const double f = lod - a;
+  const glm::dvec3 la = sampleEquirect(chain[size_t(a)], d);
+  return f > 0.0 ? (1.0 - f) * la + f * sampleEquirect(chain[size_t(b)], d) : la;
+}
+
+// An octahedral level bilinear at direction d, as GL_LINEAR with GL_CLAMP_TO_EDGE reads it.
+glm::dvec3 sampleOctahedral(const ImageRgb& level, const glm::dvec3& d) {
+  const glm::dvec2 uv = octahedralUv(d);
+  const double x = uv.x * level.width - 0.5, y = uv.y * level.height - 0.5;
+  const double x0 = std::floor(x), y0 = std::floor(y), fx = x - x0, fy = y - y0;
+  const int xa = std::clamp(int(x0), 0, level.width - 1), xb = std::clamp(int(x0) + 1, 0, level.width - 1);
+  const int ya = std::clamp(int(y0), 0, level.height - 1), yb = std::clamp(int(y0) + 1, 0, level.height - 1);
+  const auto at = [&](int i, int j) { return glm::dvec3(level.at(i, j)); };
+  return (1.0 - fy) * ((1.0 - fx) * at(xa, ya) + fx * at(xb, ya)) + fy * ((1.0 - fx) * at(xa, yb) + fx * at(xb, yb));
+}
+
 // Level k ≥ 1: the GGX lobe of roughness `roughness` around each pixel's direction (n = v = r).
 void filterLevel(const std::vector<ImageRgb>& chain, double roughness, int samples, ImageRgb& out) {
   const double alpha = roughness * roughness;
@@ -110,13 +135,32 @@ void filterLevel(const std::vector<ImageRgb>& chain, double roughness, int sampl
 
 }  // namespace
 
+glm::dvec2 octahedralUv(const glm::dvec3& d) {
+  glm::dvec2 p = glm::dvec2(d.x, d.z) / (std::abs(d.x) + std::abs(d.y) + std::abs(d.z));
+  if (d.y < 0.0) {  // the lower hemisphere folds out into the corners
+    const glm::dvec2 sign(p.x >= 0.0 ? 1.0 : -1.0, p.y >= 0.0 ? 1.0 : -1.0);
+    p = (1.0 - glm::abs(glm::dvec2(p.y, p.x))) * sign;
+  }
+  return 0.5 * p + 0.5;
+}
+
+glm::dvec3 octahedralDirection(const glm::dvec2& uv) {
+  glm::dvec2 p = 2.0 * uv - 1.0;
+  const double y = 1.0 - std::abs(p.x) - std::abs(p.y);
+  if (y < 0.0) {
+    const glm::dvec2 sign(p.x >= 0.0 ? 1.0 : -1.0, p.y >= 0.0 ? 1.0 : -1.0);
+    p = (1.0 - glm::abs(glm::dvec2(p.y, p.x))) * sign;
+  }
+  return glm::normalize(glm::dvec3(p.x, y, p.y));
+}
+
 glm::dvec3 samplePrefiltered(const std::vector<ImageRgb>& levels, double lod, const glm::dvec3& d) {
   PRT_CHECK(!levels.empty());
   lod = std::clamp(lod, 0.0, double(levels.size() - 1));
   const int a = int(std::floor(lod)), b = std::min(a + 1, int(levels.size()) - 1);
   const double f = lod - a;
-  const glm::dvec3 la = sampleEquirect(levels[size_t(a)], d);
-  return f > 0.0 ? (1.0 - f) * la + f * sampleEquirect(levels[size_t(b)], d) : la;
+  const glm::dvec3 la = sampleOctahedral(levels[size_t(a)], d);
+  return f > 0.0 ? (1.0 - f) * la + f * sampleOctahedral(levels[size_t(b)], d) : la;
 }
 
 std::vector<ImageRgb> prefilterEnvironment(const ImageRgb& map, int levels, int samples) {
@@ -126,26 +170,23 @@ std::vector<ImageRgb> prefilterEnvironment(const ImageRgb& map, int levels, int 
   const std::vector<ImageRgb> chain = boxChain(map);
   std::vector<ImageRgb> out;
   for (int k = 0; k < levels; ++k) {
-    ImageRgb level(w0, w0 / 2);
+    ImageRgb level(w0, w0);
     if (k == 0) {
-      // The mirror: the map averaged down to the level's texels.
-      const double lod = std::log2(double(map.width) / level.width);
+      // The mirror: the map averaged down to the level's texels (the equator runs 2√2·W₀
+      // octahedral texels around, against the map's width).
+      const double lod = std::max(0.0, std::log2(double(map.width) / (2.0 * std::sqrt(2.0) * w0)));
       for (int y = 0; y < level.height; ++y)
         for (int x = 0; x < level.width; ++x)
-          level.at(x, y) = glm::vec3(samplePrefiltered(chain, lod, pixelDirection(x, y, level.width, level.height)));
+          level.at(x, y) = glm::vec3(sampleChain(chain, lod, octahedralTexelDirection(x, y, w0)));
     } else {
-      // Rougher lobes are smoother: level k is filtered at W₀ / 2^(k−1) (no fewer than 64 texels
-      // across, 5.6° texels against the ≥ 40° lobe of roughness 0.6) and resampled bilinearly
-      // to the common size, which a third of the lookups cost.
+      // Rougher lobes are smoother: level k is filtered on an equirectangular grid of width
+      // W₀ / 2^(k−1) (no fewer than 64 texels across, 5.6° texels against the ≥ 40° lobe of
+      // roughness 0.6), a third of the lookups, and resampled bilinearly to the octahedral level.
       ImageRgb coarse(std::max(64, w0 >> (k - 1)), std::max(32, (w0 / 2) >> (k - 1)));
       filterLevel(chain, double(k) / (levels - 1), samples, coarse);
-      if (coarse.width == level.width) {
-        level = std::move(coarse);
-      } else {
-        for (int y = 0; y < level.height; ++y)
-          for (int x = 0; x < level.width; ++x)
-            level.at(x, y) = glm::vec3(sampleEquirect(coarse, pixelDirection(x, y, level.width, level.height)));
-      }
+      for (int y = 0; y < level.height; ++y)
+        for (int x = 0; x < level.width; ++x)
+          level.at(x, y) = glm::vec3(sampleEquirect(coarse, octahedralTexelDirection(x, y, w0)));
     }
     out.push_back(std::move(level));
   }

@@ -62,6 +62,7 @@ void findUniforms(const GlFunctions& gl, Program& p) {
   p.envScale = loc("uEnvScale");
   p.envUniform = loc("uEnvUniform");
   p.envMaxLod = loc("uEnvMaxLod");
+  p.skySh = loc("uSkySh");
   p.envOn = loc("uEnvOn");
 }
 

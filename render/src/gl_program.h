@@ -19,7 +19,7 @@ struct Program {
         loopStep = -1;
   // MATERIAL variants (material_pass.cpp)
   GLint material = -1, emissive = -1, specularColor = -1, diffuseScale = -1, slots = -1, vertexInputs = -1, eye = -1,
-        envWorldToMap = -1, envScale = -1, envUniform = -1, envMaxLod = -1, envOn = -1;
+        envWorldToMap = -1, envScale = -1, envUniform = -1, envMaxLod = -1, envOn = -1, skySh = -1;
 };
 
 /// Throws prt::Error naming `where` if the GL has an error pending.

@@ -87,7 +87,8 @@ void Renderer::Impl::setFullMaterial(const Scene& scene, const MeshInstance& m, 
     f.slots[i] = slot.uvSet >= 1 ? 1 : 0;
     f.textures[size_t(i)] = sceneTexture(scene, slot.texture);
   }
-  if (f.slots != glm::ivec4(-1)) in.variant |= kVariantMaterialTextures;
+  if (f.slots != glm::ivec4(-1)) f.variantBits |= kVariantMaterialTextures;
+  if (f.slots.x < 0 && mat.roughnessFactor >= kRoughSpecularRoughness) f.variantBits |= kVariantRoughSpecular;
   if (f.slots[1] >= 0) {
     f.tangents = vertexBuffer(gl, m.tangents.data(), m.tangents.size() * sizeof(glm::vec4));
     f.vertexInputs |= 1;
@@ -123,11 +124,12 @@ void Renderer::Impl::bindMaterialBuffers(const Instance& in, bool direct) {
   }
 }
 
-// The environment's maps prefiltered by roughness (once per image) in one texture array: map i's
-// level k is layer i · levels + k. An array, not mip levels: llvmpipe samples a mipmapped
-// texture at a per-pixel lod several times slower than two bilinear lookups at lod 0; and one
-// array, not one sampler per map, so that the shader's loop over the maps indexes no samplers
-// (docs/render.md, "Cost of the materials"). Made again only when the frame's maps change.
+// The environment's maps prefiltered by roughness (once per image) in one 3D texture: map i's
+// level k is slice i · levels + k, so that one trilinear lookup blends two levels. Slices, not
+// mip levels: llvmpipe samples a mipmapped texture at a per-pixel lod several times slower than
+// lookups at lod 0; and one texture, not one sampler per map, so that the shader's loop over the
+// maps indexes no samplers (docs/render.md, "Cost of the materials"). Made again only when the
+// frame's maps change.
 void Renderer::Impl::bindReflections(const RigBackground* env) {
   std::vector<const ImageRgb*> key;
   if (env)
@@ -140,8 +142,8 @@ void Renderer::Impl::bindReflections(const RigBackground* env) {
       it = reflections.emplace(m.image.get(), std::make_pair(m.image, prefilterEnvironment(*m.image))).first;
     all.push_back(&it->second.second);
   }
-  const int w = kPrefilterWidth, h = kPrefilterWidth / 2;
-  GlTexture tex = createTexture(gl, GL_TEXTURE_2D_ARRAY);
+  const int w = kPrefilterWidth, h = kPrefilterWidth;  // octahedral levels
+  GlTexture tex = createTexture(gl, GL_TEXTURE_3D);
   gl.TextureStorage3D(tex, 1, GL_RGB32F, w, h, GLsizei(all.size() * kPrefilterLevels));
   gl.PixelStorei(GL_UNPACK_ALIGNMENT, 4);
   for (size_t i = 0; i < all.size(); ++i)
@@ -150,8 +152,9 @@ void Renderer::Impl::bindReflections(const RigBackground* env) {
                            (*all[i])[k].pixels.data());
   gl.TextureParameteri(tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   gl.TextureParameteri(tex, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_S, GL_REPEAT);
+  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
   gl.TextureParameteri(tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  gl.TextureParameteri(tex, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
   checkError("uploading the prefiltered environment maps");
   reflectionArray = std::move(tex);
   reflectionKey = std::move(key);
@@ -204,9 +207,9 @@ void Renderer::Impl::beginMaterialFrame(const Frame& frame, const FramePlan& pla
     gl.ProgramUniform1f(p.id, p.envMaxLod, float(kPrefilterLevels - 1));
   };
   if (baked)
-    for (const Instance& in : instances) set(bakedProgram(in.variant | plan.bakedExtra));
+    for (const Instance& in : instances) set(bakedProgram(variantOf(in, plan.bakedExtra)));
   if (recv)
-    for (const Instance& in : receivers) set(receiverProgram(frame.probeLookup, in.variant | plan.receiverExtra));
+    for (const Instance& in : receivers) set(receiverProgram(frame.probeLookup, variantOf(in, plan.receiverExtra)));
   checkError("setting the material uniforms");
 }
 

@@ -258,7 +258,7 @@ FramePlan Renderer::Impl::planFrame(const Frame& frame) {
     }
   }
   if (material)
-    for (const Instance& in : instances) bakedProgram(in.variant | plan.bakedExtra);
+    for (const Instance& in : instances) bakedProgram(variantOf(in, plan.bakedExtra));
   return plan;
 }
 
@@ -282,13 +282,17 @@ void Renderer::Impl::updateBakedLight(const Frame& frame, const FramePlan& plan)
   if (plan.bakedSplit) {
     uploadBounce(gathered ? frame.directBounce : nullptr, gathered ? frame.directBounceBack : nullptr);
     for (const Instance& in : instances) {
-      const Program& p = bakedProgram(in.variant | plan.bakedExtra);
+      const Program& p = bakedProgram(variantOf(in, plan.bakedExtra));
       gl.ProgramUniform3fv(p.id, p.directSh, dl.size(), &dl.c[0].x);
     }
   }
   const std::vector<glm::vec4> packed = flatLight(l, bands);
+  // The light whose direct part t⁰ · sky reaches a vertex unoccluded (MATERIAL programs: what
+  // is left of e is the light its surroundings send, baked_vertex.glsl's vFill).
+  const sh::ShRgb sky = plan.bakedSplit ? sh::resize(frame.light, bands) : l;
   for (const Program& p : programs) {
     if (!p.id) continue;
+    if (p.skySh >= 0) gl.ProgramUniform3fv(p.id, p.skySh, sky.size(), &sky.c[0].x);
     if (bands <= kMaxAttributeBands)
       gl.ProgramUniform4fv(p.id, p.light, GLsizei(packed.size()), &packed[0].x);
     else
@@ -304,7 +308,7 @@ void Renderer::Impl::updateReceiverLight(const Frame& frame, const FramePlan& pl
   if (!plan.receiverSplit) l += dl;
   const std::vector<glm::vec4> packedLight = packLight(g.bands, l);
   for (const Instance& in : receivers) {
-    const Program& p = receiverProgram(frame.probeLookup, in.variant | plan.receiverExtra);
+    const Program& p = receiverProgram(frame.probeLookup, variantOf(in, plan.receiverExtra));
     gl.ProgramUniform4fv(p.id, p.light, GLsizei(packedLight.size()), &packedLight[0].x);
   }
   if (g.probeCount() > 0) {
@@ -406,7 +410,7 @@ void Renderer::Impl::drawOpaqueList(const std::vector<Instance>& list, const std
     const Program& p = plan.flat ? flatProgram : variants[size_t(variant)];
     bool used = false;
     for (const Instance& in : list) {
-      if (!plan.flat && ((in.variant | extra) != variant || in.blend)) continue;
+      if (!plan.flat && (variantOf(in, extra) != variant || in.blend)) continue;
       if (!used) {
         gl.UseProgram(p.id);
         gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &plan.viewProj[0][0]);
@@ -465,8 +469,8 @@ void Renderer::Impl::drawBlended(const Frame& frame, const FramePlan& plan) {
   if (plan.drawReceivers) bindProbeTextures();
   for (const Layer& layer : layers) {
     const Instance& in = *layer.in;
-    const Program& p = layer.receiver ? receiverProgram(frame.probeLookup, in.variant | plan.receiverExtra)
-                                      : bakedProgram(in.variant | plan.bakedExtra);
+    const Program& p = layer.receiver ? receiverProgram(frame.probeLookup, variantOf(in, plan.receiverExtra))
+                                      : bakedProgram(variantOf(in, plan.bakedExtra));
     gl.UseProgram(p.id);
     gl.ProgramUniformMatrix4fv(p.id, p.viewProj, 1, GL_FALSE, &plan.viewProj[0][0]);
     const bool mirrored = layer.receiver ? placeReceiver(p, in, frame, false) : placeBaked(in, plan);

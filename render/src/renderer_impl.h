@@ -60,6 +60,7 @@ struct FullMaterial {
   std::array<GLuint, 4> textures{};
   GlBuffer tangents, texcoords1;
   int vertexInputs = 0;  // bit 0 tangents, bit 1 texcoords1, bit 2 the direct part (baked)
+  int variantBits = 0;   // kVariantMaterialTextures | kVariantRoughSpecular: MATERIAL programs' only
 };
 
 struct Renderer::Impl {
@@ -90,6 +91,11 @@ struct Renderer::Impl {
     MeshInstance placement;  // receivers: node and rest world only (no vertices), for the motion
     FullMaterial full;       // MaterialShading::Full
   };
+  /// The program variant an instance is drawn with under a frame's bits `extra`: its own, and its
+  /// material's where the frame draws the full material (a diffuse frame links no such program).
+  static int variantOf(const Instance& in, int extra) {
+    return in.variant | extra | ((extra & kVariantFullMaterial) ? in.full.variantBits : 0);
+  }
   /// The probe grid's buffers, each read through a buffer texture: lattice index, static
   /// per-probe data, per-frame radiance.
   struct ProbeBuffers {

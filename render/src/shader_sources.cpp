@@ -47,6 +47,7 @@ std::string withMaterialDefines(const std::string& source, int variant) {
   if (variant & kVariantTransmission) defines += "#define HAS_TRANSMISSION_TEXTURE 1\n";
   if (variant & kVariantFullMaterial) defines += "#define MATERIAL 1\n";
   if (variant & kVariantMaterialTextures) defines += "#define MATERIAL_TEXTURES 1\n";
+  if (variant & kVariantRoughSpecular) defines += "#define ROUGH_SPECULAR 1\n";
   if (variant & (kVariantTexture | kVariantTransmission | kVariantFullMaterial)) defines += "#define HAS_TEXCOORD 1\n";
   return source.substr(0, eol) + defines + source.substr(eol);
 }

@@ -17,16 +17,22 @@ namespace prt::render {
 /// metallic-roughness material, material_pass.cpp), bit kVariantMaterialTextures (the material
 /// has a metallic-roughness, normal, occlusion or emissive texture: MATERIAL programs read the
 /// slots; without it they read none, as llvmpipe pays for a texture lookup behind a uniform
-/// branch not taken).
+/// branch not taken), bit kVariantRoughSpecular (a material without a metallic-roughness texture
+/// whose roughness is at least kRoughSpecularRoughness: its lobe reflects the diffuse light's
+/// surroundings, e/π, instead of the prefiltered environment; material_radiance.glsl).
 constexpr int kVariantTexture = 1, kVariantColor = 2, kVariantMask = 4, kVariantBlend = 8, kVariantTwoSided = 16,
               kVariantDirect = 32, kVariantTransmission = 64, kVariantFullMaterial = 128,
-              kVariantMaterialTextures = 256, kVariants = 512;
+              kVariantMaterialTextures = 256, kVariantRoughSpecular = 512, kVariants = 1024;
+/// The roughness from which a material's environment specular is its diffuse light's e/π (at
+/// roughness 1 the split sum's prefiltered lobe is the cosine lobe: docs/render.md, "Materials").
+constexpr float kRoughSpecularRoughness = 0.9f;
 /// The bits a shadow caster's material needs (the cutout depth programs).
 constexpr int kVariantMaterialBits =
     kVariantTexture | kVariantColor | kVariantMask | kVariantBlend | kVariantTransmission;
 
 /// `source` (starting with its #version line) with HAS_TEXTURE / HAS_COLOR / HAS_MASK /
-/// HAS_BLEND / TWO_SIDED / DIRECT / HAS_TRANSMISSION_TEXTURE / MATERIAL / MATERIAL_TEXTURES (and
+/// HAS_BLEND / TWO_SIDED / DIRECT / HAS_TRANSMISSION_TEXTURE / MATERIAL / MATERIAL_TEXTURES /
+/// ROUGH_SPECULAR (and
 /// HAS_TEXCOORD where a
 /// texture may be sampled) defined after that line as `variant` says.
 std::string withMaterialDefines(const std::string& source, int variant);

@@ -292,9 +292,9 @@ void Renderer::Impl::setDirectUniforms(const Frame& frame, const FramePlan& plan
     gl.ProgramUniform4fv(p.id, p.shadowParams, GLsizei(params.size()), &params[0].x);
   };
   if (plan.bakedExtra)
-    for (const Instance& in : instances) set(bakedProgram(in.variant | plan.bakedExtra));
+    for (const Instance& in : instances) set(bakedProgram(variantOf(in, plan.bakedExtra)));
   if (plan.receiverExtra)
-    for (const Instance& in : receivers) set(receiverProgram(frame.probeLookup, in.variant | plan.receiverExtra));
+    for (const Instance& in : receivers) set(receiverProgram(frame.probeLookup, variantOf(in, plan.receiverExtra)));
   checkError("setting the direct lights");
 }
 

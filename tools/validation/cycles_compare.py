@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""compare CYCLES.exr PRT.exr (PRT.exr the same size or a whole multiple: averaged down) [--tol T] [--min-pixels N] [--name S] | sheet OUT.png [--exposure STOPS] [--scale N] [--crop X0,Y0,X1,Y1] ROW... (ROW = a.exr,b.exr,...) | lobes OUT.exr"""
+"""compare CYCLES.exr PRT.exr (PRT.exr the same size or a whole multiple: averaged down) [--tol T] [--min-pixels N] [--name S] [--objects A,B] | sheet OUT.png [--exposure STOPS] [--scale N] [--crop X0,Y0,X1,Y1] ROW... (ROW = a.exr,b.exr,...) | lobes OUT.exr"""
 import json, math, struct, sys, zlib
 
 def read_exr(path):
@@ -97,10 +97,11 @@ def stats(pixels, c, p, floor):
 
 def compare(args):
     cyc_path, prt_path = args[0], args[1]
-    tol, min_px, name = 0.03, 60, prt_path
+    tol, min_px, name, objects = 0.03, 60, prt_path, []
     i = 2
     while i < len(args):
         if args[i] == "--tol": tol = float(args[i + 1]); i += 2
+        elif args[i] == "--objects": objects = args[i + 1].split(","); i += 2  # also the RMS over these objects' faces
         elif args[i] == "--min-pixels": min_px = int(args[i + 1]); i += 2
         elif args[i] == "--name": name = args[i + 1]; i += 2
         else: sys.exit(f"compare: unknown argument {args[i]}")
@@ -145,8 +146,10 @@ def compare(args):
               f"{fmt3([100 * r for r in s['rel']], '%+6.1f%%'):>24s} {100 * s['worst']:+6.1f}% {100 * s['se']:5.1f}%{flag}")
     # Luminance of the region means: RMS of the relative differences over faces and over tiles.
     lum = lambda m: 0.2126 * m[0] + 0.7152 * m[1] + 0.0722 * m[2]
-    for kind, keys in (("faces", [k for k in regions if k != "all" and not k.startswith("tile")]),
-                       ("tiles", [k for k in regions if k.startswith("tile")])):
+    faces = [k for k in regions if k != "all" and not k.startswith("tile")]
+    mine = [k for k in faces if any(k.startswith(o) and k[len(o)] in "+-" for o in objects)]
+    for kind, keys in (("faces", faces), ("tiles", [k for k in regions if k.startswith("tile")]),
+                       (f"the faces of {'+'.join(objects)}", mine if objects else [])):
         rel = []
         for key in keys:
             if len(regions[key]) >= min_px:
@@ -155,11 +158,18 @@ def compare(args):
         if rel:
             print(f"   RMS over {kind}: {100 * math.sqrt(sum(r * r for r in rel) / len(rel)):.1f}% ({len(rel)} regions, "
                   f"relative difference of the luminance of each region's mean; largest {100 * max(map(abs, rel)):.1f}%)")
-    yc = [lum([c[k][y][x] for k in range(3)]) for y, x in every]
-    yp = [lum([p[k][y][x] for k in range(3)]) for y, x in every]
-    mean_c = sum(yc) / len(yc)
-    print(f"   pixel relative RMS: {100 * math.sqrt(sum((a - b) ** 2 for a, b in zip(yp, yc)) / len(yc)) / mean_c:.1f}% "
-          f"(luminance, {len(yc)} pixels away from edges, over the mean; holds Cycles' per-pixel noise too)")
+    subsets = [("", every)]
+    if objects:
+        subsets.append((f" of {'+'.join(objects)}", [px for k in mine for px in regions[k]]))
+    for label, pixels in subsets:
+        if not pixels:
+            continue
+        yc = [lum([c[k][y][x] for k in range(3)]) for y, x in pixels]
+        yp = [lum([p[k][y][x] for k in range(3)]) for y, x in pixels]
+        mean_c = sum(yc) / len(yc)
+        print(f"   pixel relative RMS{label}: {100 * math.sqrt(sum((a - b) ** 2 for a, b in zip(yp, yc)) / len(yc)) / mean_c:.1f}% "
+              f"(luminance, {len(yc)} pixels away from edges, over the mean; holds Cycles' per-pixel noise too; "
+              f"mean prt/Cycles {sum(yp) / sum(yc):.3f})")
     verdict = "FAIL" if failed else "PASS"
     print(f"   {verdict}: largest regional difference {100 * worst:.1f}% (a region fails beyond {100 * tol:.1f}% "
           f"+ 2 noise; regions of >= {min_px} pixels; noise = standard error of the region's mean difference)")

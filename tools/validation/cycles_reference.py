@@ -11,7 +11,17 @@ The scene is imported with Blender's own glTF importer, so its axis conversion (
 (x, y, z) -> Blender (x, -z, y)), camera and node transforms are Blender's, not prt's: that is
 the point of an independent check. Every material becomes a Lambertian Diffuse BSDF
 (roughness 0: not Oren-Nayar, not the Principled BSDF, whose diffuse lobe is not Lambertian)
-with the glTF baseColorFactor; the world is the equirectangular map, sampled with "Closest"
+with the glTF baseColorFactor (`--materials lambert`, the default), or, with `--materials
+principled`, the importer's Principled BSDF as the glTF metallic-roughness model maps to it:
+base colour, metallic and roughness from the file, distribution GGX (single scattering, as the
+glTF BRDF), specular 0.5 (F0 = 0.04), no sheen, clearcoat, subsurface or specular tint, glossy
+bounces as many as diffuse ones and reflective caustics on (the full light transport, glossy
+interreflection included, which prt's bake leaves out). Blender 3.4's Principled diffuse is not
+Lambertian (Burley's, with its retro-reflection and grazing darkening), so `--materials gltf`
+builds the glTF BRDF as prt evaluates it (docs/render.md, "Materials") from Cycles' nodes: a
+Lambertian Diffuse BSDF of colour baseColor·(1 − metallic) added to a Principled BSDF with
+metallic 1, base colour F0 = mix(0.04, baseColor, metallic) and the material's roughness (GGX,
+the specular lobe alone, Fresnel from F0), same bounces and caustics. The world is the equirectangular map, sampled with "Closest"
 interpolation (prt projects each pixel as a constant, docs/lights.md), strength 1.
 
 Bounces: `prt bake --bounces K` stores t0 + ... + tK (prt-math.md): light that reached the
@@ -67,6 +77,13 @@ def parse_args():
                    help="Cycles' pixel filter: its default (Blackman-Harris, 1.5 pixels wide) or a box one "
                         "pixel wide (each pixel the mean radiance over its square, as a supersampled "
                         "prt frame averaged down)")
+    p.add_argument("--materials", choices=["lambert", "principled", "gltf"], default="lambert",
+                   help="every material a Lambertian Diffuse BSDF (default), the glTF metallic-roughness "
+                        "material as a Principled BSDF (GGX, specular 0.5), or as glTF's BRDF (a Lambertian "
+                        "diffuse plus a GGX specular lobe)")
+    p.add_argument("--no-caustics", action="store_true",
+                   help="with --materials principled or gltf: reflective caustics off (no glossy reflection after a "
+                        "diffuse bounce: the light transport of prt's bake, which bounces the diffuse albedo only)")
     p.add_argument("-o", "--output", help="output multilayer EXR")
     a = p.parse_args(argv)
     if not (a.scene and a.output):
@@ -191,12 +208,53 @@ def setup_punctual_lights(scene, scene_path):
     return used
 
 
-def setup_materials():
+def make_principled(material):
+    """The importer's Principled BSDF kept with glTF's metallic-roughness model only: returns
+    (base colour, metallic, roughness)."""
+    nodes = material.node_tree.nodes if material.use_nodes else []
+    bsdf = [n for n in nodes if n.type == "BSDF_PRINCIPLED"]
+    if len(bsdf) != 1:
+        fail(f"material {material.name}: expected one Principled BSDF from the glTF importer")
+    bsdf = bsdf[0]
+    for name in ("Base Color", "Metallic", "Roughness", "Normal", "Emission"):
+        if bsdf.inputs[name].is_linked:
+            fail(f"material {material.name}: textured {name} is not supported here")
+    bsdf.distribution = "GGX"
+    values = {"Specular": 0.5, "Specular Tint": 0.0, "Sheen": 0.0, "Clearcoat": 0.0, "Subsurface": 0.0,
+              "Anisotropic": 0.0, "Transmission": 0.0, "Emission Strength": 0.0}
+    for name, value in values.items():
+        bsdf.inputs[name].default_value = value
+    return (tuple(bsdf.inputs["Base Color"].default_value)[:3], bsdf.inputs["Metallic"].default_value,
+            bsdf.inputs["Roughness"].default_value)
+
+
+def make_gltf(material):
+    """glTF's BRDF as prt evaluates it: Lambertian baseColor·(1 − metallic)/π plus the GGX lobe
+    with F0 = mix(0.04, baseColor, metallic) (a metallic Principled BSDF: its specular lobe alone)."""
+    rgb, metallic, roughness = make_principled(material)
+    nodes = material.node_tree.nodes
+    links = material.node_tree.links
+    bsdf = [n for n in nodes if n.type == "BSDF_PRINCIPLED"][0]
+    out = [n for n in nodes if n.type == "OUTPUT_MATERIAL"][0]
+    bsdf.inputs["Base Color"].default_value = tuple(0.04 + (c - 0.04) * metallic for c in rgb) + (1.0,)
+    bsdf.inputs["Metallic"].default_value = 1.0
+    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = tuple(c * (1.0 - metallic) for c in rgb) + (1.0,)
+    diffuse.inputs["Roughness"].default_value = 0.0
+    add = nodes.new("ShaderNodeAddShader")
+    links.new(diffuse.outputs["BSDF"], add.inputs[0])
+    links.new(bsdf.outputs["BSDF"], add.inputs[1])
+    links.new(add.outputs["Shader"], out.inputs["Surface"])
+    return rgb, metallic, roughness
+
+
+def setup_materials(kind="lambert"):
     colours = {}
+    make = {"principled": make_principled, "gltf": make_gltf}.get(kind, make_lambertian)
     for obj in bpy.context.scene.objects:
         for slot in obj.material_slots if obj.type == "MESH" else []:
             if slot.material is not None and slot.material.name not in colours:
-                colours[slot.material.name] = make_lambertian(slot.material)
+                colours[slot.material.name] = make(slot.material)
     return colours
 
 
@@ -272,11 +330,12 @@ def setup_cycles(scene, a, width, height):
     c.use_animated_seed = False
     c.max_bounces = a.bounces
     c.diffuse_bounces = a.bounces
-    c.glossy_bounces = 0
+    principled = getattr(a, "materials", "lambert") != "lambert"
+    c.glossy_bounces = a.bounces if principled else 0
     c.transmission_bounces = 0
     c.volume_bounces = 0
     c.transparent_max_bounces = 0
-    c.caustics_reflective = False
+    c.caustics_reflective = principled and not a.no_caustics
     c.caustics_refractive = False
     c.sample_clamp_direct = 0.0
     c.sample_clamp_indirect = 0.0
@@ -345,7 +404,7 @@ def render(a):
     remove_nodes(a.remove)
     scene = bpy.context.scene
     scene.frame_set(0)  # frame 0 = t 0 s, prt render's frame 0; no animated node is left anyway
-    colours = setup_materials()
+    colours = setup_materials(a.materials)
     setup_world(scene, a.env, a.env_rotate)
     lights = setup_punctual_lights(scene, a.scene)
     cam, yfov = setup_camera(scene, a.scene, a.camera)
@@ -360,10 +419,11 @@ def render(a):
     meta = {"scene": a.scene, "env": a.env, "env_rotate_deg": a.env_rotate, "bounces": a.bounces,
             "samples": a.samples, "seed": a.seed, "size": [width, height], "camera": cam.name,
             "yfov": yfov, "removed": a.remove, "pixel_filter": a.pixel_filter, "object_index": indices, "albedo": colours,
+            "materials": a.materials, "caustics": a.materials != "lambert" and not a.no_caustics,
             "lights": lights, "emission": EMISSION}
     write_sidecar(out, meta)
     print(f"cycles_reference.py: wrote {a.output} ({width}x{height}, {a.samples} samples, "
-          f"{a.bounces} diffuse bounces, objects {indices})")
+          f"{a.bounces} bounces, {a.materials} materials, objects {indices})")
 
 
 def main():

@@ -2,10 +2,15 @@
 """Writes the bundled room with issue 42's materials (docs/render.md, "Materials"):
 
     python3 tools/validation/glossy_room.py OUTDIR      # writes OUTDIR/cornell_glossy.gltf (+ .bin)
+    python3 tools/validation/glossy_room.py --validation-room OUTDIR
+                                                        # writes OUTDIR/room_glossy.gltf (+ room.gltf, room.bin)
 
 scenes/cornell_open.gltf with its floor a glossy dielectric (roughness 0.35) and its short box
 copper (metallic 1, roughness 0.4, base colour (0.95, 0.64, 0.54)); the geometry is the bundled
-room's own buffer, copied next to it. Standard library only, deterministic.
+room's own buffer, copied next to it. With --validation-room the same two materials go on the
+room of tools/validation/validation_room.py (written into OUTDIR first), whose camera sees the
+whole floor and both boxes: the scene of docs/validation.md, "Glossy materials". Standard
+library only, deterministic.
 """
 
 import json
@@ -16,8 +21,15 @@ import sys
 SCENES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scenes")
 
 
-def main(outdir):
-    with open(os.path.join(SCENES, "cornell_open.gltf")) as f:
+def main(outdir, validation_room=False):
+    if validation_room:
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        import validation_room as vr
+        vr.room(outdir)
+        source, name = os.path.abspath(outdir), "room_glossy.gltf"
+    else:
+        source, name = SCENES, "cornell_glossy.gltf"
+    with open(os.path.join(source, "room.gltf" if validation_room else "cornell_open.gltf")) as f:
         g = json.load(f)
     floor = len(g["materials"])
     g["materials"].append({"name": "glossy_floor", "pbrMetallicRoughness": {
@@ -29,12 +41,15 @@ def main(outdir):
     meshes["ShortBox"]["primitives"][0]["material"] = floor + 1
     os.makedirs(outdir, exist_ok=True)
     for b in g["buffers"]:
-        shutil.copyfile(os.path.join(SCENES, b["uri"]), os.path.join(outdir, b["uri"]))
-    with open(os.path.join(outdir, "cornell_glossy.gltf"), "w") as f:
+        if not validation_room:
+            shutil.copyfile(os.path.join(source, b["uri"]), os.path.join(outdir, b["uri"]))
+    with open(os.path.join(outdir, name), "w") as f:
         json.dump(g, f, indent=1)
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 2:
-        sys.exit("usage: glossy_room.py OUTDIR")
-    main(sys.argv[1])
+    args = sys.argv[1:]
+    room_flag = args[:1] == ["--validation-room"]
+    if len(args) != 1 + room_flag:
+        sys.exit("usage: glossy_room.py [--validation-room] OUTDIR")
+    main(args[-1], room_flag)

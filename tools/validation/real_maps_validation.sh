@@ -2,7 +2,7 @@
 # prt against Blender Cycles under real HDR maps, per vertex and per frame (docs/validation.md,
 # "Real maps, per vertex and per frame"; issue 12).
 #
-#   tools/validation/real_maps_validation.sh OUTDIR MAP [MAP...]
+#   tools/validation/real_maps_validation.sh [--glossy] OUTDIR MAP [MAP...]
 #   tools/validation/real_maps_validation.sh OUTDIR --lamp
 #       OUTDIR: where everything is written (e.g. build/real_validation); MAP: equirectangular
 #       .hdr/.exr maps (e.g. Poly Haven's royal_esplanade_1k.hdr and venice_sunset_1k.hdr; nothing
@@ -31,15 +31,28 @@
 # Only reports: no exit status depends on the numbers. Cycles results in OUTDIR are reused when
 # their .json matches (delete them to redo).
 #
-# Environment: VSAMPLES (per seed, default 1024), CSAMPLES (per seed, controls, default 128),
+# --glossy (docs/validation.md, "Glossy materials"; issue 42): frames only, of the same room with
+# a glossy floor and a copper short box (tools/validation/glossy_room.py --validation-room): Cycles
+# with the Principled BSDF (`cycles_reference.py --materials principled`: GGX, specular 0.5,
+# glossy bounces and reflective caustics on; MATERIALS=gltf: glTF's BRDF, Lambertian diffuse plus
+# the GGX lobe, as prt evaluates it; CAUSTICS=0: no glossy reflection after a diffuse bounce, the
+# light transport of prt's bake, which bounces the diffuse albedo alone), prt baked at 3 bands
+# and 8 bounces and rendered with --materials full and --materials diffuse, compared over the
+# whole frame and over the floor's and the box's pixels apart (`cycles_compare.py --objects`).
+# Only reports: no exit status depends on the numbers. Cycles results in OUTDIR are reused when
+# their .json matches (delete them to redo).
+#
+# Environment: MATERIALS and CAUSTICS (--glossy, above), VSAMPLES (per seed, default 1024), CSAMPLES (per seed, controls, default 128),
 # FSAMPLES (default 1024), SIZE (default 160x90), SUPERSAMPLE (default 1: prt's defaults),
 # BAKE_SAMPLES (default 4096), BAKE_ARGS (more `prt bake` options, e.g. --operator: then each map is
 # also lit with --no-operator, the gather traced again, for comparison), BLENDER, PRT, THREADS, NO_SUN_OPTION (the prt option that turns
 # the map's sun extraction off; default: found in `prt relight --help`, else none).
 set -euo pipefail
 
+GLOSSY=0
+[ "${1:-}" != --glossy ] || { GLOSSY=1; shift; }
 if [ $# -lt 2 ]; then
-  echo "usage: tools/validation/real_maps_validation.sh OUTDIR MAP [MAP...] | OUTDIR --lamp   (docs/validation.md)" >&2
+  echo "usage: tools/validation/real_maps_validation.sh [--glossy] OUTDIR MAP [MAP...] | OUTDIR --lamp   (docs/validation.md)" >&2
   exit 2
 fi
 OUT=$(realpath -m -- "$1")
@@ -68,13 +81,26 @@ command -v "$BLENDER" >/dev/null || { echo "real_maps_validation.sh: $BLENDER no
 for m in "${MAPS[@]}"; do [ -f "$m" ] || { echo "real_maps_validation.sh: $m: no such map" >&2; exit 1; }; done
 NO_SUN_OPTION=${NO_SUN_OPTION-$("$PRT" relight --help | grep -oE -- '--no-[a-z-]*(sun|extract)[a-z-]*' | head -1 || true)}
 mkdir -p "$OUT"
-SCENE="$OUT/room.gltf"
-"$PY" tools/validation/validation_room.py "$OUT" >/dev/null
-if [ $LAMP = 1 ]; then
+CAUSTICS=${CAUSTICS:-1}
+MATERIALS=${MATERIALS:-principled}
+BAKE_PREFIX=""
+CYCLES_ARGS=()  # more cycles_reference.py options (--glossy: the materials)
+CYCLES_KEYS=()  # the .json keys they set
+if [ $GLOSSY -eq 1 ]; then
+  SCENE="$OUT/room_glossy.gltf"
+  BAKE_PREFIX=glossy_
+  "$PY" tools/validation/glossy_room.py --validation-room "$OUT" >/dev/null
+  CYCLES_ARGS=(--materials "$MATERIALS")
+  CYCLES_KEYS=(materials="$MATERIALS" caustics=$([ "$CAUSTICS" = 1 ] && echo True || echo False))
+  [ "$CAUSTICS" = 1 ] || CYCLES_ARGS+=(--no-caustics)
+elif [ $LAMP = 1 ]; then
   "$PY" tools/validation/validation_room.py "$OUT" --lamp >/dev/null
   SCENE="$OUT/lamp_room.gltf"
+else
+  SCENE="$OUT/room.gltf"
+  "$PY" tools/validation/validation_room.py "$OUT" >/dev/null
+  "$PY" tools/validation/cycles_compare.py lobes "$OUT/lobes_256.exr"
 fi
-"$PY" tools/validation/cycles_compare.py lobes "$OUT/lobes_256.exr"
 
 # env_arg MAP: --env MAP, nothing for no map (the lamp room: a black world).
 env_arg() { [ -z "$1" ] || printf -- '--env %s' "$1"; }
@@ -105,10 +131,12 @@ cycles_vertex() {
 # cycles_frame NAME MAP: Cycles' frame of the room's camera.
 cycles_frame() {
   local exr="$OUT/cycles_$1.exr"
-  if matches "$exr" env="${2:-None}" scene="$SCENE" samples="$FSAMPLES" bounces="$BOUNCES" size="[${SIZE/x/, }]" pixel_filter=box; then echo "reusing $exr"; return; fi
+  if matches "$exr" env="${2:-None}" scene="$SCENE" samples="$FSAMPLES" bounces="$BOUNCES" size="[${SIZE/x/, }]" \
+    pixel_filter=box ${CYCLES_KEYS[@]+"${CYCLES_KEYS[@]}"}; then echo "reusing $exr"; return; fi
   rm -f "$exr" "$exr.json"
   "$BLENDER" -b --factory-startup --python tools/validation/cycles_reference.py -- --scene "$SCENE" $(env_arg "$2") \
-    --bounces "$BOUNCES" --samples "$FSAMPLES" --size "$SIZE" --camera Camera --pixel-filter box --threads "$THREADS" -o "$exr" \
+    --bounces "$BOUNCES" --samples "$FSAMPLES" --size "$SIZE" --camera Camera --pixel-filter box --threads "$THREADS" \
+    ${CYCLES_ARGS[@]+"${CYCLES_ARGS[@]}"} -o "$exr" \
     | grep -E '^(cycles_|Error)' || true
   [ -f "$exr" ] || { echo "real_maps_validation.sh: Cycles render $exr failed" >&2; exit 1; }
 }
@@ -118,7 +146,7 @@ bake() {
   local k=${2:-$BOUNCES} tag=""
   [ -z "${BAKE_ARGS:-}" ] || tag="_$(echo "$BAKE_ARGS" | tr -c 'a-z0-9' '_')"
   [ $LAMP = 0 ] || tag="_lamp$tag"
-  local glb="$OUT/prt_b$1_k${k}_s$BAKE_SAMPLES$tag.glb"
+  local glb="$OUT/prt_${BAKE_PREFIX}b$1_k${k}_s$BAKE_SAMPLES$tag.glb"
   # shellcheck disable=SC2086 # BAKE_ARGS is a list of options
   [ -f "$glb" ] || "$PRT" bake "$SCENE" -o "$glb" --bands "$1" --bounces "$k" --samples "$BAKE_SAMPLES" ${BAKE_ARGS:-} -q
   echo "$glb"
@@ -142,6 +170,33 @@ case_() {
   fi
   echo
 }
+
+# glossy_case NAME BANDS MAP REF [prt render options]: prt's frame of the glossy room against Cycles'.
+glossy_case() {
+  local name=$1 bands=$2 map=$3 ref=$4; shift 4
+  local glb; glb=$(bake "$bands")
+  "$PRT" render "$glb" --env "$map" "$@" --size "$PRT_SIZE" --camera Camera --exr-compression none -q -o "$OUT/prt_$name.exr"
+  "$PY" tools/validation/cycles_compare.py compare "$OUT/cycles_$ref.exr" "$OUT/prt_$name.exr" --min-pixels 30 \
+    --objects Floor,ShortBox --name "frame $name: Cycles $ref vs prt $bands bands $*" || true
+  echo
+}
+
+if [ $GLOSSY -eq 1 ]; then
+  rows=()
+  for m in "${MAPS[@]}"; do
+    n=$(basename "$m"); n=${n%%_*}
+    [ "$MATERIALS" = principled ] || n=${n}_$MATERIALS
+    [ "$CAUSTICS" = 1 ] || n=${n}_nocaustics
+    cycles_frame "$n" "$m"
+    echo "Map $m, glossy room, 3 bands, $BOUNCES bounces, Cycles $MATERIALS, reflective caustics $([ "$CAUSTICS" = 1 ] && echo on || echo off)."
+    glossy_case "${n}_diffuse" 3 "$m" "$n" --materials diffuse
+    glossy_case "${n}_full" 3 "$m" "$n" --materials full
+    rows+=("$OUT/cycles_$n.exr,$OUT/prt_${n}_diffuse.exr,$OUT/prt_${n}_full.exr")
+  done
+  "$PY" tools/validation/cycles_compare.py sheet "$OUT/validation_glossy_${MATERIALS}_c$CAUSTICS.png" --exposure 1.0 "${rows[@]}"
+  echo "real_maps_validation.sh --glossy: done (reports only)"
+  exit 0
+fi
 
 if [ $LAMP = 1 ]; then
   cycles_vertex lamp "" "$VSAMPLES"

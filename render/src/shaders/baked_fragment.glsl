@@ -17,8 +17,10 @@ centroid in vec3 vNormal;
 #include "albedo_inputs.glsl"
 #ifdef MATERIAL
 centroid in float vVisibility;
+centroid in vec3 vFill;
 #ifdef TWO_SIDED
 centroid in float vVisibilityBack;
+centroid in vec3 vFillBack;
 #endif
 #include "material_inputs.glsl"
 @MATERIAL_SHADING@
@@ -44,10 +46,12 @@ void main() {
 #ifdef MATERIAL
 #ifdef TWO_SIDED
   float visibility = gl_FrontFacing ? vVisibility : vVisibilityBack;
+  vec3 fill = gl_FrontFacing ? vFill : vFillBack;
 #else
   float visibility = vVisibility;
+  vec3 fill = vFill;
 #endif
-  fragColor = vec4(materialRadiance(vWorld, vNormal, e, visibility, dxW, dyW), a);
+  fragColor = vec4(materialRadiance(vWorld, vNormal, e, visibility, fill, dxW, dyW), a);
   return;
 #endif
 #ifdef DIRECT

@@ -43,9 +43,37 @@ out vec2 vTexcoord1;
 // The ambient visibility for the specular occlusion: the direct part's constant coefficient
 // against an unoccluded vertex's, t⁰_0 / (π Y₀₀) (∫ max(n·ω, 0) Y₀₀ dω = π Y₀₀); 1 without it.
 out float vVisibility;
+// The mean radiance of what hides the sky from the vertex, which the hidden share of a glossy
+// lobe reflects: e without its direct part t⁰ · sky (what the surroundings send) over the hidden
+// share of the cosine, π (1 − visibility) (no less than 0.1 π: near an open sky the share is
+// small and so is its weight); e/π without the direct part.
+out vec3 vFill;
+uniform vec3 uSkySh[kCoeffsAll];  // the light whose direct part t⁰ · uSkySh is in e
 #ifdef TWO_SIDED
 out float vVisibilityBack;
+out vec3 vFillBack;
 #endif
+#endif
+#ifdef MATERIAL
+// vFill for light e, from the front (side 0) or the back (1) direct part.
+vec3 surroundingsRadiance(vec3 e, uint side) {
+  const float kUnoccluded = 0.886226925452758;  // π Y₀₀
+  if ((uVertexInputs & 4) == 0) return e * 0.31830988618379067;
+  uint base = uint(gl_VertexID) * uint(kCoeffsAll);
+  vec3 direct = vec3(0.0);
+  float t0 = 0.0;
+  for (int i = 0; i < kCoeffsAll; ++i) {
+#ifdef TWO_SIDED
+    float t = side == 0u ? transferDirect[base + uint(i)] : transferDirectBack[base + uint(i)];
+#else
+    float t = transferDirect[base + uint(i)];
+#endif
+    direct += t * uSkySh[i];
+    if (i == 0) t0 = t;
+  }
+  float hidden = max(1.0 - clamp(t0 / kUnoccluded, 0.0, 1.0), 0.1);
+  return max(e - direct, vec3(0.0)) / (3.14159265358979 * hidden);
+}
 #endif
 @TRANSFER@
 #ifdef DIRECT
@@ -68,6 +96,10 @@ out float vVisibilityBack;
 #endif
 #ifdef MATERIAL
   vTangent = (uVertexInputs & 1) != 0 ? tangents[gl_VertexID] : vec4(0.0);
+  vFill = surroundingsRadiance(vTransferLight, 0u);
+#ifdef TWO_SIDED
+  vFillBack = surroundingsRadiance(vTransferLightBack, 1u);
+#endif
   vTexcoord1 = (uVertexInputs & 2) != 0 ? texcoords1[gl_VertexID] : vec2(0.0);
   const float kUnoccluded = 0.886226925452758;  // π Y₀₀
   uint baseVisibility = uint(gl_VertexID) * uint(kCoeffsAll);

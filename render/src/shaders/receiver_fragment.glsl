@@ -50,7 +50,7 @@ void main() {
   vec3 e = irradiance(T, n);
 #endif
 #ifdef MATERIAL
-  fragColor = vec4(materialRadiance(vWorld, vNormal, e, 1.0, dxW, dyW), a);
+  fragColor = vec4(materialRadiance(vWorld, vNormal, e, 1.0, e * 0.31830988618379067, dxW, dyW), a);
   return;
 #endif
 #ifdef DIRECT
