@@ -108,9 +108,9 @@ void Renderer::Impl::setLocalUniforms(const Frame& frame, const FramePlan& plan,
       gl.ProgramUniformMatrix4fv(p.id, loc("uLocalMatrix"), GLsizei(u.matrices.size()), GL_FALSE, &u.matrices[0][0][0]);
   };
   if (plan.bakedExtra & kVariantDirect)
-    for (const Instance& in : instances) set(bakedProgram(in.variant | plan.bakedExtra));
+    for (const Instance& in : instances) set(bakedProgram(variantOf(in, plan.bakedExtra)));
   if (plan.receiverExtra & kVariantDirect)
-    for (const Instance& in : receivers) set(receiverProgram(frame.probeLookup, in.variant | plan.receiverExtra));
+    for (const Instance& in : receivers) set(receiverProgram(frame.probeLookup, variantOf(in, plan.receiverExtra)));
   checkError("setting the lights inside the scene");
 }
 
