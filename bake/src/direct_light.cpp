@@ -24,6 +24,7 @@
 #include "prt/math.h"
 #include "stage_runner.h"
 #include "vertex_rays.h"
+#include "vertex_sides.h"
 
 namespace prt::bake {
 
@@ -138,37 +139,14 @@ DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const RayScene& ra
   const auto t0 = std::chrono::steady_clock::now();
   const ThreadLimit threadLimit(settings.threads);
   if (nothingToTrace(scene, lights)) return dark(scene);
-  DirectIrradiance out;
-  out.front.resize(scene.meshes.size());
-  out.back.resize(scene.meshes.size());
   const float extent = rays.sceneExtent(), tnear = tnearFor(extent);
   std::vector<CapSampler> caps;
   for (const DirectLight& l : lights) caps.emplace_back(l);
-  std::atomic<uint64_t> traced{0};
-  size_t firstVertex = 0;  // global vertex numbering: instances in scene order, then back sides
-  for (int side = 0; side < 2; ++side)
-    for (size_t k = 0; k < scene.meshes.size(); ++k) {
-      const MeshInstance& m = scene.meshes[k];
-      if (m.transfer.empty() || (side == 1 && !m.hasBackTransfer())) continue;
-      std::vector<glm::vec3> pull(m.vertexCount(), glm::vec3(0.0f));
-      accumulatePull(m.positions, m.indices, pull.data());
-      std::vector<glm::vec3>& result = side == 0 ? out.front[k] : out.back[k];
-      result.assign(m.vertexCount(), glm::vec3(0.0f));
-      const size_t base = firstVertex;
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, m.vertexCount(), 64), [&](const tbb::blocked_range<size_t>& r) {
-        uint64_t count = 0;
-        for (size_t v = r.begin(); v < r.end(); ++v) {
-          const glm::vec3 n = side == 0 ? m.normals[v] : -m.normals[v];
-          const glm::vec3 origin = liftedOrigin(m.positions[v], n, pull[v], extent);
-          result[v] = glm::vec3(irradianceAt(rays, caps, lights, origin, n, base + v, settings, tnear, count));
-        }
-        traced += count;
+  return perVertexSide(
+      scene, extent, t0,
+      [&](const glm::vec3&, const glm::vec3& origin, const glm::vec3& n, size_t index, uint64_t& count) {
+        return irradianceAt(rays, caps, lights, origin, n, index, settings, tnear, count);
       });
-      firstVertex += m.vertexCount();
-    }
-  out.rays = traced;
-  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return out;
 }
 
 std::vector<glm::vec3> shadowedDirectIrradianceAt(const Scene& scene, const std::vector<glm::vec3>& points,
