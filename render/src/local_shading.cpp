@@ -66,27 +66,7 @@ std::array<glm::dmat4, 6> cubeFaces(const glm::dvec3& centre, double nearPlane, 
 }
 
 void Renderer::Impl::ensureLocalMaps(int size, int layers) {
-  if (localMaps.texture && size == localMaps.size && layers <= localMaps.layers) return;
-  GLint maxLayers = 0;
-  gl.GetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &maxLayers);
-  if (layers > maxLayers) throw Error(cat("render: ", layers, " cube faces exceed the GL's ", maxLayers, " layers"));
-  localMaps = ShadowMaps{};
-  GlTexture texture = createTexture(gl, GL_TEXTURE_2D_ARRAY);
-  gl.TextureStorage3D(texture, 1, GL_DEPTH_COMPONENT32F, size, size, layers);
-  gl.TextureParameteri(texture, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-  gl.TextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-  gl.TextureParameteri(texture, GL_TEXTURE_COMPARE_MODE, GL_NONE);
-  gl.TextureParameteri(texture, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-  gl.TextureParameteri(texture, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  GlFramebuffer framebuffer = createFramebuffer(gl);
-  gl.NamedFramebufferTextureLayer(framebuffer, GL_DEPTH_ATTACHMENT, texture, 0, 0);
-  gl.NamedFramebufferDrawBuffer(framebuffer, GL_NONE);
-  gl.NamedFramebufferReadBuffer(framebuffer, GL_NONE);
-  const GLenum status = gl.CheckNamedFramebufferStatus(framebuffer, GL_FRAMEBUFFER);
-  if (status != GL_FRAMEBUFFER_COMPLETE)
-    throw Error(cat("GL: local shadow-map framebuffer incomplete (", glErrorName(status), ")"));
-  checkError("creating the local shadow maps");
-  localMaps = ShadowMaps{std::move(texture), std::move(framebuffer), size, layers};
+  ensureDepthArray(localMaps, size, layers, "local shadow maps");
 }
 
 // The uniforms of local_lighting.glsl, per DIRECT program the frame uses.

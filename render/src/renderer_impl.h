@@ -201,6 +201,7 @@ struct Renderer::Impl {
   ImageRgb readBack(int width, int height);
 
   // Shadow maps and the direct lights' uniforms (shadow_pass.cpp).
+  void ensureDepthArray(ShadowMaps& maps, int size, int layers, const char* what);
   void ensureShadowMaps(int size, int layers);
   /// The shadow maps of the frame's direct lights (when Frame::shadows.enabled) and the direct
   /// uniforms of the DIRECT programs the frame uses.

@@ -166,15 +166,17 @@ ShadowPlan planShadows(const std::vector<DirectLight>& lights, const CameraView&
   return plan;
 }
 
-void Renderer::Impl::ensureShadowMaps(int size, int layers) {
-  if (shadowMaps.texture && size == shadowMaps.size && layers <= shadowMaps.layers) return;
+// A depth texture array of `layers` square maps of `size` texels and its framebuffer in `maps`,
+// made anew unless `maps` already holds that size and as many layers; `what` names them in errors.
+void Renderer::Impl::ensureDepthArray(ShadowMaps& maps, int size, int layers, const char* what) {
+  if (maps.texture && size == maps.size && layers <= maps.layers) return;
   GLint maxSize = 0, maxLayers = 0;
   gl.GetIntegerv(GL_MAX_TEXTURE_SIZE, &maxSize);
   gl.GetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &maxLayers);
   if (size > maxSize || layers > maxLayers)
-    throw Error(cat("render: ", layers, " shadow maps of ", size, "x", size, " exceed the GL's limits (", maxSize,
+    throw Error(cat("render: ", layers, " ", what, " of ", size, "x", size, " exceed the GL's limits (", maxSize,
                     " texels a side, ", maxLayers, " layers)"));
-  shadowMaps = ShadowMaps{};
+  maps = ShadowMaps{};
   GlTexture texture = createTexture(gl, GL_TEXTURE_2D_ARRAY);
   gl.TextureStorage3D(texture, 1, GL_DEPTH_COMPONENT32F, size, size, layers);
   gl.TextureParameteri(texture, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
@@ -188,9 +190,13 @@ void Renderer::Impl::ensureShadowMaps(int size, int layers) {
   gl.NamedFramebufferReadBuffer(framebuffer, GL_NONE);
   const GLenum status = gl.CheckNamedFramebufferStatus(framebuffer, GL_FRAMEBUFFER);
   if (status != GL_FRAMEBUFFER_COMPLETE)
-    throw Error(cat("GL: shadow-map framebuffer incomplete (", glErrorName(status), ")"));
-  checkError("creating the shadow maps");
-  shadowMaps = ShadowMaps{std::move(texture), std::move(framebuffer), size, layers};
+    throw Error(cat("GL: ", what, " framebuffer incomplete (", glErrorName(status), ")"));
+  checkError(what);
+  maps = ShadowMaps{std::move(texture), std::move(framebuffer), size, layers};
+}
+
+void Renderer::Impl::ensureShadowMaps(int size, int layers) {
+  ensureDepthArray(shadowMaps, size, layers, "shadow maps");
 }
 
 // The casters' box: the scene's bounds and, where they moved, the receivers' at the frame's
