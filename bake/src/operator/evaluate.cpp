@@ -63,10 +63,7 @@ struct OperatorLighting::Impl {
   Impl(const Scene& s, const BounceOperator& o, bool traceShadows, int t)
       : scene(s), op(o), lay(makeLayout(s)), threads(t), sky(skyNodeMask(o)), filtered(uint32_t(o.samples)) {
     PRT_CHECK_EQ(lay.vertices, size_t(op.vertexSides));
-    nodeWeight.assign(op.nodes(), 0.0f);
-    for (size_t n = 0; n < op.leaves(); ++n) nodeWeight[n] = op.leafWeight[n];
-    for (size_t i = 0; i < op.children.size() / 2; ++i)
-      nodeWeight[op.leaves() + i] = nodeWeight[op.children[2 * i]] + nodeWeight[op.children[2 * i + 1]];
+    nodeWeight = nodeWeights(op);
     area = op::sideAreas(s, lay);
     clusterOf.assign(op.vertexSides, 0);
     for (uint32_t c = 0; c < op.clusters; ++c)

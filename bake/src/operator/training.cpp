@@ -206,12 +206,10 @@ Training trainNodes(const Scene& scene, const BounceOperator& op, const SideTrai
   });
   std::copy(skyValues.begin(), skyValues.end(), t.value.begin() + ptrdiff_t(size_t(op.clusters) * K));
   // Inner nodes: the weighted means of their children (children come before parents).
-  std::vector<float> weight(op.nodes(), 0.0f);
-  for (size_t n = 0; n < op.leaves(); ++n) weight[n] = op.leafWeight[n];
+  const std::vector<float> weight = nodeWeights(op);
   for (size_t i = 0; i < op.children.size() / 2; ++i) {
     const size_t n = op.leaves() + i;
     const uint32_t a = op.children[2 * i], b = op.children[2 * i + 1];
-    weight[n] = weight[a] + weight[b];
     const float wa = weight[n] > 0.0f ? weight[a] / weight[n] : 0.5f;
     for (int k = 0; k < K; ++k)
       t.value[n * K + size_t(k)] =

@@ -217,6 +217,14 @@ std::vector<uint8_t> skyNodeMask(const BounceOperator& op) {
   return sky;
 }
 
+std::vector<float> nodeWeights(const BounceOperator& op) {
+  std::vector<float> w(op.nodes(), 0.0f);
+  for (size_t n = 0; n < op.leaves(); ++n) w[n] = op.leafWeight[n];
+  for (size_t i = 0; i < op.children.size() / 2; ++i)
+    w[op.leaves() + i] = w[op.children[2 * i]] + w[op.children[2 * i + 1]];
+  return w;
+}
+
 PackedOperator packOperator(const BounceOperator& op) {
   checkOperator(op, "bounce operator");
   Packer p;

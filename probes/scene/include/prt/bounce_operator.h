@@ -108,6 +108,9 @@ void checkOperator(const BounceOperator& op, const std::string& where);
 /// Per node, 1 if it is a sky leaf or has sky leaves below it (the sky tree), else 0.
 std::vector<uint8_t> skyNodeMask(const BounceOperator& op);
 
+/// Per node, the area (surface tree) or solid angle (sky tree) of the leaves below it.
+std::vector<float> nodeWeights(const BounceOperator& op);
+
 /// FNV-1a (64 bits) of `size` bytes: the checksum the header records.
 uint64_t fnv1a64(const uint8_t* bytes, size_t size);
 
