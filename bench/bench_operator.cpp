@@ -125,6 +125,9 @@ nlohmann::json run(const Scene& scene, int frames, int threads) {
           {"light_update_cpu_ms", median(cpu)},
           {"shadow_ms", 1e3 * st.shadowSeconds / updates},
           {"products_ms", 1e3 * st.gatherSeconds / updates},
+          {"sky_bins_ms", 1e3 * st.skySeconds / updates},
+          {"cluster_products_ms", 1e3 * st.clusterSeconds / updates},
+          {"vertex_products_ms", 1e3 * st.vertexSeconds / updates},
           {"sh_product_ms", median(sh)},
           {"sh_product_cpu_ms", median(shCpu)},
           {"update_over_sh_product", median(cpu) / std::max(median(shCpu), 1e-9)}};

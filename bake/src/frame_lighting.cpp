@@ -252,6 +252,7 @@ void FrameLighting::Impl::updateThroughOperator(double frame, const RigLighting&
   stats.shadowSeconds += t.shadows;
   stats.shadowRays += t.shadowRays;
   stats.gatherSeconds += t.sky + t.clusters + t.vertices;
+  stats.skySeconds += t.sky, stats.clusterSeconds += t.clusters, stats.vertexSeconds += t.vertices;
   done(l, local, t0);
 }
 
