@@ -182,25 +182,27 @@ struct FrameLighting::Impl {
 
   // The lights inside the scene's shadowed light at every vertex (nothing when there are none):
   // `all` of it (what bounces) and what the vertices get (all of it, or with localPerPixel
-  // only that of the lights the renderer does not light per pixel).
+  // only that of the lights the renderer does not light per pixel). The per-pixel lights' E⁰
+  // only bounces, so it takes the bounces' shadow rays (shadowSamples), as the suns' does.
   struct LocalE0 {
     DirectIrradiance all, atVertices;
   };
   LocalE0 tracedLocal(const std::vector<LocalLight>& local) {
     if (!hasLocal) return {};
+    const int atVertices = settings.localShadowSamples > 0 ? settings.localShadowSamples : settings.shadowSamples;
     if (!settings.localPerPixel) {
-      DirectIrradiance own = tracedLights(local);
+      DirectIrradiance own = tracedLights(local, atVertices);
       return {own, own};
     }
     std::vector<LocalLight> pixel, vertex;
     for (const LocalLight& l : local) (localLightPerPixel(l) ? pixel : vertex).push_back(l);
-    LocalE0 own{tracedLights(pixel), tracedLights(vertex)};
+    LocalE0 own{tracedLights(pixel, settings.shadowSamples), tracedLights(vertex, atVertices)};
     addIrradiance(own.all, own.atVertices);
     return own;
   }
-  DirectIrradiance tracedLights(const std::vector<LocalLight>& lights) {
+  DirectIrradiance tracedLights(const std::vector<LocalLight>& lights, int samples) {
     ShadowSettings ss;
-    ss.samples = settings.localShadowSamples > 0 ? settings.localShadowSamples : settings.shadowSamples;
+    ss.samples = samples;
     ss.threads = settings.threads;
     DirectIrradiance own = shadowedLocalIrradiance(scene, *rays, lights, ss);
     stats.shadowSeconds += own.seconds;
