@@ -24,6 +24,7 @@ from a probe grid baked with the map (prt bake --probes): prints a rig and a cam
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -86,6 +87,9 @@ def inside_camera(vdb_path):
 # it looks at, vertical field of view, exposure. Rigs and cameras from --place-lamps on a grid baked
 # at that spacing (then the rigs' intensities and the exposures set by eye).
 LAMP_SCENES = [
+    ("zdm2", "zdm2/zdm2.glb", (-17.28, -5.5, -16.49), (-3.28, -1.0, -6.49), 75, -4.0),
+    ("pandora", "pandora/pandora.glb", (-51.0, 30.4, -5.0), (-45.0, 32.4, -15.0), 60, -4.5),
+    ("cyanide", "cyanide/cyanide.gltf", (-38.0, 52.4, 88.0), (-28.0, 54.4, 84.0), 60, -3.5),
 ]
 
 
@@ -159,9 +163,22 @@ def place_lamps(vdb_path, reach=5):
         return all(tuple(int(round(x)) for x in np.array(a) + s * (np.array(b) - np.array(a))) in cells
                    for s in np.linspace(0.0, 1.0, 16))
 
-    eye = next(c for c in sorted(columns, key=lambda c: (-across(c, centre), c))
-               if sees(columns[c][0], (hall[0], mid, hall[2])))
-    camera = probes[columns[eye][0]][0]
+    def standing(c):  # a cell above the column's floor, with open space all around
+        i, j, k = columns[c][0]
+        j += 1
+        if j < mid - 2:  # not far below the centre: a view along the hall, not up into it
+            return None
+        if any((i + a, j, k + b) not in cells for a in (-1, 0, 1) for b in (-1, 0, 1)):
+            return None
+        return (i, j, k) if sees((i, j, k), (hall[0], mid, hall[2])) else None
+
+    eye = next((c for c in sorted(columns, key=lambda c: (-across(c, centre), c)) if standing(c)), centre)
+    camera = probes[standing(eye) or columns[eye][0]][0]
+    # Look and move the lamp a cell above the eye, where the centre's column has room.
+    level = (standing(eye) or columns[eye][0])[1] + 1
+    if (hall[0], level, hall[2]) in region and sees((standing(eye) or columns[eye][0]), (hall[0], level, hall[2])):
+        mid = level
+        target = probes[(hall[0], mid, hall[2])][0]
     # Lamps ahead of the camera: the spot at the far side, the globe away from all three.
     spot = max(sorted(columns), key=lambda c: across(c, eye))
     sphere = max(sorted(columns), key=lambda c: min(across(c, centre), across(c, spot), across(c, eye)))
@@ -190,13 +207,68 @@ def place_lamps(vdb_path, reach=5):
     return rig, camera, target
 
 
+def orbit_from(camera, target, fov):
+    """prt render's orbit options that put the camera at `camera` looking at `target`."""
+    d = np.array(camera) - np.array(target)
+    r = float(np.linalg.norm(d))
+    return ["--orbit-target", ",".join(f"{x:g}" for x in target), "--orbit-distance", f"{r:.4f}",
+            "--orbit-azimuth", f"{np.degrees(np.arctan2(d[0], d[2])):.3f}",
+            "--orbit-elevation", f"{np.degrees(np.arcsin(d[1] / r)):.3f}", "--orbit-fov", str(fov)]
+
+
+def number(pattern, text):
+    m = re.search(pattern, text)
+    return float(m.group(1)) if m else float("nan")
+
+
+def lamps(a):
+    """--lamps: bake each closed map with its bounce operator, render its rig's frames from inside."""
+    real, out = a.paths
+    os.makedirs(out, exist_ok=True)
+    first, last = (int(x) for x in (a.frames.split("-") + [a.frames])[:2])
+    tiles, rows = [], []
+    for name, rel, camera, target, fov, exposure in LAMP_SCENES:
+        base = os.path.join(out, "lamps_" + name)
+        rig = os.path.join(ROOT, "scenes", "rigs", f"lamps_{name}.json")
+        tiles += [f"{base}_{f}.png" for f in range(first, last + 1)]
+        if a.only is not None and name not in a.only:
+            continue
+        with open(base + ".txt", "w") as log:
+            if not (a.keep_bakes and os.path.exists(base + ".glb")):
+                t0 = time.time()
+                baked = run([PRT, "bake", os.path.join(real, rel), "-o", base + ".glb", "--samples", str(a.samples),
+                             "--operator"], log)
+                bake_s = time.time() - t0
+            else:
+                baked, bake_s = None, float("nan")
+            r = run([PRT, "render", base + ".glb", "--rig", rig, "--frames", f"{first}-{last}", "--size", a.size,
+                     "--msaa", "4", "--png", "--exposure", str(exposure), "-o", base + "_%d.exr"]
+                    + orbit_from(camera, target, fov), log)
+        text = r.stderr
+        rows.append((name, number(r"([\d.]+) k vertices", baked.stderr) if baked else float("nan"), bake_s,
+                     number(r"([\d.]+) ms per light update", text), number(r"shadow rays ([\d.]+),", text),
+                     number(r"products ([\d.]+)\)", text), number(r"([\d.]+) ms/frame draw", text)))
+    print("map        k vertices  bake s  light update ms (shadow rays, products)  draw ms/frame")
+    for name, kv, bake_s, light, shadow, products, draw in rows:
+        print(f"{name:10s} {kv:10.1f} {bake_s:7.1f}  {light:8.1f} ({shadow:.1f}, {products:.1f}){'':20s}{draw:8.1f}")
+    # A row per map, a column per frame; no labels (montage then needs no font). 64 levels a
+    # channel keep the sheet under 300 KB for the docs without visible banding.
+    args = ["montage"] + tiles
+    args += ["-tile", f"{last - first + 1}x", "-geometry", "+2+2", "-background", "#202020", "-depth", "8",
+             "-posterize", "64", os.path.join(out, "lamps_sheet.png")]
+    subprocess.run(args, check=True)
+    print(os.path.join(out, "lamps_sheet.png"))
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("paths", nargs="+", help="REAL_DIR HDRI OUT_DIR; with --lamps REAL_DIR OUT_DIR; with --place-lamps a .vdb")
     ap.add_argument("--samples", type=int, default=256)
     ap.add_argument("--only", nargs="*", default=None, help="bake only these (the sheet takes every NAME.png)")
     ap.add_argument("--lamps", action="store_true", help="the closed maps lit by their rigs of lamps")
-    ap.add_argument("--frames", default="0-3", help="--lamps: the frames rendered")
+    ap.add_argument("--frames", default="0-2", help="--lamps: the frames rendered, A-B")
+    ap.add_argument("--size", default="240x135", help="--lamps: the frames' size")
+    ap.add_argument("--keep-bakes", action="store_true", help="--lamps: reuse OUT_DIR/lamps_NAME.glb where it exists")
     ap.add_argument("--place-lamps", action="store_true", help="print a rig of lamps and a camera for a probe grid")
     a = ap.parse_args()
     if a.place_lamps:
