@@ -89,6 +89,12 @@ struct FrameLighting::Impl {
   std::optional<std::vector<LocalLight>> emissive;  // the scene's emissive triangles
   sh::ShRgb skyFor;
   FrameLightingStats stats;
+  // The per-pixel lights' E⁰ of the last update, each light's apart (pixelE0).
+  struct LightE0 {
+    LocalLight light;
+    DirectIrradiance e;
+  };
+  std::vector<LightE0> pixelLast;
 
   Impl(const Scene& s, const LightRig& r, const FrameLightingSettings& fs)
       : scene(s), rig(r), settings(fs), record(s.bakeRecord.value_or(BakeRecord{})) {}
@@ -196,9 +202,29 @@ struct FrameLighting::Impl {
     }
     std::vector<LocalLight> pixel, vertex;
     for (const LocalLight& l : local) (localLightPerPixel(l) ? pixel : vertex).push_back(l);
-    LocalE0 own{tracedLights(pixel, settings.shadowSamples), tracedLights(vertex, atVertices)};
+    LocalE0 own{pixelE0(pixel), tracedLights(vertex, atVertices)};
     addIrradiance(own.all, own.atVertices);
     return own;
+  }
+  // The per-pixel lights' E⁰ (which only bounces), each light traced alone and kept while it
+  // stays as it was: a frame that moves one lamp of several traces that lamp's rays alone.
+  DirectIrradiance pixelE0(const std::vector<LocalLight>& pixel) {
+    DirectIrradiance sum = tracedLights({}, settings.shadowSamples);  // dark: nothing traced
+    std::vector<LightE0> now;
+    std::vector<bool> taken(pixelLast.size(), false);
+    for (const LocalLight& l : pixel) {
+      size_t k = 0;
+      while (k < pixelLast.size() && (taken[k] || !(pixelLast[k].light == l))) ++k;
+      if (k < pixelLast.size()) {
+        taken[k] = true;
+        now.push_back(std::move(pixelLast[k]));
+      } else {
+        now.push_back({l, tracedLights({l}, settings.shadowSamples)});
+      }
+      addIrradiance(sum, now.back().e);
+    }
+    pixelLast = std::move(now);
+    return sum;
   }
   DirectIrradiance tracedLights(const std::vector<LocalLight>& lights, int samples) {
     ShadowSettings ss;
