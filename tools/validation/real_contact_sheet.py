@@ -3,7 +3,7 @@
 
     /usr/bin/python3 tools/validation/real_contact_sheet.py REAL_DIR HDRI OUT_DIR [--samples N]
     /usr/bin/python3 tools/validation/real_contact_sheet.py --lamps REAL_DIR OUT_DIR [--samples N] [--frames A-B]
-    /usr/bin/python3 tools/validation/real_contact_sheet.py --place-lamps BAKED.vdb
+    /usr/bin/python3 tools/validation/real_contact_sheet.py --place-lamps PROBES.vdb
 
 REAL_DIR holds the real scenes of SCENES below, each in its own folder (zdm2/zdm2.glb, ...;
 not in the repository, and tests never read it). Each scene goes through prt bake --probes,
@@ -83,9 +83,10 @@ def inside_camera(vdb_path):
     return [p[0] + o[0], p[1] + o[1], p[2] + o[2]]
 
 
-# The closed maps lit by lamps (--lamps): name, file, rig, probe spacing, camera position, the point
-# it looks at, vertical field of view, exposure. Rigs and cameras from --place-lamps on a grid baked
-# at that spacing (then the rigs' intensities and the exposures set by eye).
+# The closed maps lit by lamps (--lamps; their rigs scenes/rigs/lamps_NAME.json): name, file, camera
+# position, the point it looks at, vertical field of view (degrees), exposure (stops). Rigs and
+# cameras printed by --place-lamps for a probe grid baked at spacing 2 (docs/lights.md, "Lamps in
+# the real maps"), but zdm2's spot, moving lamp and camera placed by hand; exposures set by eye.
 LAMP_SCENES = [
     ("zdm2", "zdm2/zdm2.glb", (-17.28, -5.5, -16.49), (-3.28, -1.0, -6.49), 75, -4.5),
     ("pandora", "pandora/pandora.glb", (-51.0, 30.4, -5.0), (-45.0, 32.4, -15.0), 60, -5.0),
@@ -129,9 +130,12 @@ def place_lamps(vdb_path, reach=5):
     connected to it within `reach` cells across. Lamps hang halfway between the top probe of a column
     and the ceiling above it (the probe's mean depth along +Y): a point light over the hall's centre,
     a spot over the column farthest from it, a small sphere light over the column farthest from
-    both; a point light moves at mid-height along the longest straight run of probes through the
-    centre. The camera stands at the bottom of the farthest column that sees the centre along
-    probes, looking at the centre at mid-height. Intensities grow with the hall's size squared."""
+    both (and from the camera); a point light moves across the camera's view along the straight run
+    of probes through the centre. The camera stands a cell above the floor of the farthest column
+    with open space around it, at most two cells below the centre column's middle, that sees the
+    centre along probes; it looks at the centre a cell above its eye where there is room there
+    (else at the middle), the height the moving lamp runs at. Intensities grow with the hall's
+    size squared; the moving lamp is three times brighter."""
     probes, spacing = interior_probes(vdb_path)
     cells = set(probes)
 
@@ -173,10 +177,11 @@ def place_lamps(vdb_path, reach=5):
         return (i, j, k) if sees((i, j, k), (hall[0], mid, hall[2])) else None
 
     eye = next((c for c in sorted(columns, key=lambda c: (-across(c, centre), c)) if standing(c)), centre)
-    camera = probes[standing(eye) or columns[eye][0]][0]
+    foot = standing(eye) or columns[eye][0]
+    camera = probes[foot][0]
     # Look and move the lamp a cell above the eye, where the centre's column has room.
-    level = (standing(eye) or columns[eye][0])[1] + 1
-    if (hall[0], level, hall[2]) in region and sees((standing(eye) or columns[eye][0]), (hall[0], level, hall[2])):
+    level = foot[1] + 1
+    if (hall[0], level, hall[2]) in region and sees(foot, (hall[0], level, hall[2])):
         mid = level
         target = probes[(hall[0], mid, hall[2])][0]
     # Lamps ahead of the camera: the spot at the far side, the globe away from all three.
@@ -191,7 +196,6 @@ def place_lamps(vdb_path, reach=5):
             t[axis] += sign
         t[axis] -= 2 * sign  # one cell inside the last probe of the run
         ends.append(tuple(t) if tuple(t) in region else (hall[0], mid, hall[2]))
-    path = ends
     size = max(across(c, centre) for c in columns) * spacing
     scale = 3.0 * max(size, 1.0) ** 2  # about irradiance 3 at the hall's edge
     r = lambda v: [round(float(x), 2) for x in v]
@@ -201,8 +205,8 @@ def place_lamps(vdb_path, reach=5):
          "outer_cone": 50, "intensity": r(2 * scale * np.array([0.6, 0.8, 1.0]))},
         {"type": "area", "name": "globe", "shape": "sphere", "radius": 0.15, "position": r(lamp_at(sphere)),
          "power": r(4 * np.pi * scale * np.array([0.9, 1.0, 0.8]))},
-        {"type": "point", "name": "moving", "intensity": r(scale * np.array([1.0, 0.45, 0.15])),
-         "position": [{"frame": 0, "value": r(probes[path[0]][0])}, {"frame": 3, "value": r(probes[path[1]][0])}]},
+        {"type": "point", "name": "moving", "intensity": r(3 * scale * np.array([1.0, 0.4, 0.1])),
+         "position": [{"frame": 0, "value": r(probes[ends[0]][0])}, {"frame": 2, "value": r(probes[ends[1]][0])}]},
     ]}
     return rig, camera, target
 
