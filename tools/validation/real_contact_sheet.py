@@ -261,7 +261,8 @@ def lamps(a):
     sheet = os.path.join(out, "lamps_sheet.png")
     args += ["-tile", f"{last - first + 1}x", "-geometry", "+2+2", "-background", "#202020", "-depth", "8", sheet]
     subprocess.run(args, check=True)
-    subprocess.run(["convert", sheet, "-posterize", "64", sheet], check=True)
+    subprocess.run(["convert", sheet, "-posterize", "64", "-strip", "-define", "png:exclude-chunk=date,time", sheet],
+                   check=True)
     print(sheet)
 
 
