@@ -48,7 +48,8 @@ struct FrameLightingSettings {
   /// FrameLight::vertexLight and only their bounces are in it; emissive surfaces stay there.
   bool localPerPixel = false;
   /// Shadow rays per area light (or emissive surface) and vertex for the lights inside the
-  /// scene; 0: shadowSamples.
+  /// scene lit at the vertices; 0: shadowSamples. With localPerPixel, the lights the renderer
+  /// lights take shadowSamples (their E⁰ at the vertices only bounces).
   int localShadowSamples = 0;
   int threads = 0;  // 0 = all cores
 };
