@@ -74,7 +74,7 @@ struct OperatorLighting::Impl {
   std::vector<glm::vec3> points, normals;
   std::vector<uint32_t> rankStart, pointCluster, pointSide, pointCount;
   int directN2 = 0;
-  std::vector<float> meanDirect;  // per cluster, directN2 floats (meanDirectTransfer)
+  std::vector<float> memberShare, areaDirect, pointDirect;  // meanDirectTransfers
   std::vector<uint32_t> clusterOf;
   // Per cluster row: where its sky leaves begin and where its inner nodes begin (a row ascends
   // by node: surface leaves, sky leaves, inner nodes of either tree).
@@ -108,6 +108,7 @@ struct OperatorLighting::Impl {
     splitRows(op.clusterRows, rowSky, rowInner);
     splitRows(op.clusterGradients, gradientSkyAt, gradientInnerAt);
     if (traceShadows) samplePoints();
+    meanDirectTransfers();
   }
 
   template <class Rows>
@@ -139,10 +140,8 @@ struct OperatorLighting::Impl {
       }
       rankStart.push_back(uint32_t(points.size()));
     }
-    meanDirectTransfer();
   }
 
-  glm::vec3 shDirect(size_t v, const sh::ShRgb& l) const { return op::shDirect(scene, lay, v, l); }
   glm::vec3 shBounced(size_t v, const sh::ShRgb& l) const { return op::shBounced(scene, lay, v, l); }
 
   // Inner nodes of one tree (sky or surface) as the weighted means of their children.
@@ -278,27 +277,46 @@ struct OperatorLighting::Impl {
       times.shadowRays += count;
     }
     if (!directSh) return;
-    const size_t n2 = std::min(size_t(directN2), directSh->c.size());
-    tbb::parallel_for(size_t(0), size_t(op.clusters), [&](size_t c) {
-      const float* t0 = &meanDirect[c * size_t(directN2)];
-      glm::vec3 e(0.0f);
-      for (size_t i = 0; i < n2; ++i) e += t0[i] * glm::vec3(directSh->c[i]);
-      clusterE0[c] -= e;
-    });
+    tbb::parallel_for(size_t(0), size_t(op.clusters),
+                      [&](size_t c) { clusterE0[c] -= directAt(pointDirect, c, *directSh); });
   }
 
-  // Per cluster: the mean of its sample points' direct transfer t⁰ (directN2 coefficients), so
-  // that t⁰ · directSh at a cluster is one short product per light change.
-  void meanDirectTransfer() {
+  // Adds w · t⁰ of vertex side v to cluster c's entry of `mean` (directN2 floats a cluster).
+  void addDirect(std::vector<float>& mean, uint32_t c, uint32_t v, float w) const {
+    const MeshInstance& m = scene.meshes[lay.meshOfVertex[v]];
+    if (!m.hasDirectTransfer()) return;
+    const float* t0 = m.directTransferOf(lay.localVertex(v), scene.transferBands, lay.isBack(v));
+    for (int k = 0; k < directN2; ++k) mean[c * size_t(directN2) + size_t(k)] += w * t0[k];
+  }
+
+  // t⁰ · directSh at cluster c, of the mean transfer `mean`.
+  glm::vec3 directAt(const std::vector<float>& mean, size_t c, const sh::ShRgb& directSh) const {
+    const size_t n2 = std::min(size_t(directN2), directSh.c.size());
+    const float* t0 = &mean[c * size_t(directN2)];
+    glm::vec3 e(0.0f);
+    for (size_t i = 0; i < n2; ++i) e += t0[i] * glm::vec3(directSh.c[i]);
+    return e;
+  }
+
+  // Per member (op.members' order), its share of its cluster's light: its area over the
+  // cluster's (1 / members where they have no area); per cluster, the mean direct transfer t⁰
+  // by those shares (lightFrom's), and by its sample points (light's, with traced shadows).
+  void meanDirectTransfers() {
     directN2 = scene.transferBands * scene.transferBands;
-    meanDirect.assign(size_t(op.clusters) * size_t(directN2), 0.0f);
-    for (size_t i = 0; i < pointSide.size(); ++i) {
-      const uint32_t v = pointSide[i], c = pointCluster[i];
-      const MeshInstance& m = scene.meshes[lay.meshOfVertex[v]];
-      if (!m.hasDirectTransfer()) continue;
-      const float* t0 = m.directTransferOf(lay.localVertex(v), scene.transferBands, lay.isBack(v));
-      for (int k = 0; k < directN2; ++k) meanDirect[c * size_t(directN2) + size_t(k)] += t0[k] / float(pointCount[c]);
+    memberShare.resize(op.members.size());
+    areaDirect.assign(size_t(op.clusters) * size_t(directN2), 0.0f);
+    for (uint32_t c = 0; c < op.clusters; ++c) {
+      const uint32_t b = op.memberStart[c], e = op.memberStart[c + 1];
+      double weight = 0.0;
+      for (uint32_t i = b; i < e; ++i) weight += area[op.members[i]];
+      for (uint32_t i = b; i < e; ++i) {
+        memberShare[i] = weight > 0.0 ? float(area[op.members[i]] / weight) : 1.0f / float(e - b);
+        addDirect(areaDirect, c, op.members[i], memberShare[i]);
+      }
     }
+    pointDirect.assign(size_t(op.clusters) * size_t(directN2), 0.0f);
+    for (size_t i = 0; i < pointSide.size(); ++i)
+      addDirect(pointDirect, pointCluster[i], pointSide[i], 1.0f / float(pointCount[pointCluster[i]]));
   }
 
   DirectIrradiance finish(std::chrono::steady_clock::time_point t0, const sh::ShRgb* directSh) {
@@ -349,19 +367,13 @@ DirectIrradiance OperatorLighting::lightFrom(const DirectIrradiance& e0, const s
   // A cluster's light: its members' area-weighted mean (the plain mean where they have no area),
   // as its value stands for the light over its area.
   m.clusterE0.assign(m.op.clusters, glm::vec3(0.0f));
-  for (uint32_t c = 0; c < m.op.clusters; ++c) {
-    glm::dvec3 sum(0.0), plain(0.0);
-    double weight = 0.0;
-    const uint32_t b = m.op.memberStart[c], e = m.op.memberStart[c + 1];
-    for (uint32_t i = b; i < e; ++i) {
-      const uint32_t v = m.op.members[i];
-      const glm::vec3 rest = directSh ? side[v] - m.shDirect(v, *directSh) : side[v];
-      sum += double(m.area[v]) * glm::dvec3(rest);
-      plain += glm::dvec3(rest);
-      weight += m.area[v];
-    }
-    m.clusterE0[c] = glm::vec3(weight > 0.0 ? sum / weight : plain / double(e - b));
-  }
+  tbb::parallel_for(size_t(0), size_t(m.op.clusters), [&](size_t c) {
+    glm::dvec3 sum(0.0);
+    for (uint32_t i = m.op.memberStart[c]; i < m.op.memberStart[c + 1]; ++i)
+      sum += double(m.memberShare[i]) * glm::dvec3(side[m.op.members[i]]);
+    m.clusterE0[c] = glm::vec3(sum);
+    if (directSh) m.clusterE0[c] -= m.directAt(m.areaDirect, c, *directSh);
+  });
   return m.finish(t0, m.op.bounces > 0 ? directSh : nullptr);
 }
 
