@@ -26,7 +26,7 @@
 # Only reports: no exit status depends on the numbers. Cycles results are reused when their
 # .json matches, prt bakes when their file exists (delete them to redo).
 #
-# Environment: FSAMPLES (Cycles samples per seed, default 512), SIZE (default 240x135), ROTATE
+# Environment: FSAMPLES (Cycles samples per seed, default 256), SIZE (default 240x135), ROTATE
 # (default 30), ROUTES (space-separated LABEL=OPTIONS, options joined by commas; default
 # "default= no-refine=--no-refine"), BLENDER, PRT, THREADS.
 set -euo pipefail
@@ -38,7 +38,7 @@ OUT=$(realpath -m -- "$1")
 REAL=$(realpath -m -- "$2")
 shift 2
 cd "$(dirname "$0")/../.."
-FSAMPLES=${FSAMPLES:-512}
+FSAMPLES=${FSAMPLES:-256}
 SIZE=${SIZE:-240x135}
 ROTATE=${ROTATE:-30}
 ROUTES=${ROUTES:-"default= no-refine=--no-refine"}
