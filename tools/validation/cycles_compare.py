@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""compare CYCLES.exr PRT.exr (PRT.exr the same size or a whole multiple: averaged down) [--tol T] [--min-pixels N] [--name S] [--objects A,B] | sheet OUT.png [--exposure STOPS] [--scale N] [--crop X0,Y0,X1,Y1] ROW... (ROW = a.exr,b.exr,...) | lobes OUT.exr"""
+"""compare CYCLES.exr PRT.exr (PRT.exr the same size or a whole multiple: averaged down) [--tol T] [--min-pixels N] [--name S] [--objects A,B] | sheet OUT.png [--exposure STOPS] [--scale N] [--crop X0,Y0,X1,Y1] ROW... (ROW = a.exr,b.exr,...) | lobes OUT.exr [--degree N]"""
 import json, math, struct, sys, zlib
 
 def read_exr(path):
@@ -53,8 +53,10 @@ def rgb(path):
     chans, w, h = read_exr(path)
     return [channel(chans, c, path) for c in "RGB"], w, h
 
-def face_labels(chans, w, h, index_names, path):
-    """Per pixel 'Object+Y' (normal axis in glTF axes) or None where the pixel is mixed."""
+def face_labels(chans, w, h, index_names, path, curved=False):
+    """Per pixel 'Object+Y' (normal axis in glTF axes) or None where the pixel is mixed. Faces
+    whose normal is more than about 25 degrees off every axis are dropped, unless `curved`
+    (a real level's terrain, a hull): then every unmixed pixel is labelled by its dominant axis."""
     idx = channel(chans, "IndexOB.X", path)
     n = [channel(chans, "Normal." + c, path) for c in "XYZ"]
     labels = [[None] * w for _ in range(h)]
@@ -65,7 +67,8 @@ def face_labels(chans, w, h, index_names, path):
             length = math.sqrt(bx * bx + by * by + bz * bz)
             k = max(range(3), key=lambda i: abs(g[i]))
             obj = index_names.get(round(idx[y][x]))
-            if obj and length > 0.97 and abs(g[k]) > 0.9 * length and abs(idx[y][x] - round(idx[y][x])) < 1e-3:
+            axis_ok = curved or abs(g[k]) > 0.9 * length
+            if obj and length > 0.97 and axis_ok and abs(idx[y][x] - round(idx[y][x])) < 1e-3:
                 labels[y][x] = f"{obj}{'+' if g[k] > 0 else '-'}{'XYZ'[k]}"
     return labels
 
@@ -77,6 +80,56 @@ def erode(labels, w, h, r):
             if lab and all(labels[y + j][x + i] == lab for j in range(-r, r + 1) for i in range(-r, r + 1)):
                 keep[y][x] = lab
     return keep
+
+def drop_creases(labels, chans, w, h, r, path, cos_max=0.9):
+    """Labels kept only where every normal within r pixels is within acos(cos_max) (26 degrees)
+    of the pixel's own: with `curved` labels, the creases between faces of one axis."""
+    n = [channel(chans, "Normal." + c, path) for c in "XYZ"]
+    unit = lambda y, x: [n[k][y][x] for k in range(3)]
+    keep = [row[:] for row in labels]
+    for y in range(h):
+        for x in range(w):
+            if not labels[y][x]:
+                continue
+            a = unit(y, x)
+            for j in range(max(0, y - r), min(h, y + r + 1)):
+                if any(sum(u * v for u, v in zip(a, unit(j, i))) < cos_max for i in range(max(0, x - r), min(w, x + r + 1))):
+                    keep[y][x] = None
+                    break
+    return keep
+
+def quarter_stats(yc, yp):
+    """Cycles' darkest and brightest quarter of the pixels: the relative RMS of the difference
+    within each (over that quarter's Cycles mean), the median of prt / Cycles, and the ratio of
+    the quarter's means."""
+    order = sorted(range(len(yc)), key=lambda i: yc[i])
+    q = max(1, len(order) // 4)
+    out = {}
+    for name, idx in (("dark", order[:q]), ("bright", order[-q:])):
+        c = [yc[i] for i in idx]
+        p = [yp[i] for i in idx]
+        ratios = sorted(b / a for a, b in zip(c, p) if a > 0)
+        out[name] = {"pixels": q, "rms": math.sqrt(sum((b - a) ** 2 for a, b in zip(c, p)) / q) / (sum(c) / q),
+                     "median_ratio": ratios[len(ratios) // 2] if ratios else float("nan"),
+                     "mean_ratio": sum(p) / sum(c), "cycles_max": max(c)}
+    return out
+
+def diff_png(out, every, yc, yp, w, h, scale=2):
+    """Luminance ratio prt / Cycles per compared pixel, false colour: grey = equal, red = prt
+    brighter, blue = prt darker (full colour at a factor 2, log scale); dark grey = not compared."""
+    img = [[(40, 40, 40)] * w for _ in range(h)]
+    for (y, x), a, b in zip(every, yc, yp):
+        t = max(-1.0, min(1.0, math.log2(max(b, 1e-9) / max(a, 1e-9))))
+        g = int(200 * (1 - abs(t)))
+        img[y][x] = (200, g, g) if t > 0 else (g, g, 200)
+    rows = []
+    for y in range(h * scale):
+        rows.append(b"\0" + b"".join(bytes(img[y // scale][x // scale]) for x in range(w * scale)))
+    def chunk(t, d): return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w * scale, h * scale, 8, 2, 0, 0, 0)) \
+        + chunk(b"IDAT", zlib.compress(b"".join(rows), 9)) + chunk(b"IEND", b"")
+    open(out + ".tmp", "wb").write(png)
+    import os; os.replace(out + ".tmp", out)
 
 def stats(pixels, c, p, floor):
     """Means of both images over the pixels, relative differences, noise bound of the difference.
@@ -98,9 +151,14 @@ def stats(pixels, c, p, floor):
 def compare(args):
     cyc_path, prt_path = args[0], args[1]
     tol, min_px, name, objects = 0.03, 60, prt_path, []
+    second, curved, summary, diff = None, False, None, None
     i = 2
     while i < len(args):
         if args[i] == "--tol": tol = float(args[i + 1]); i += 2
+        elif args[i] == "--second": second = args[i + 1]; i += 2  # Cycles with another seed: averaged, and its noise
+        elif args[i] == "--curved": curved = True; i += 1  # faces at any angle; creases dropped by the normals
+        elif args[i] == "--summary": summary = args[i + 1]; i += 2  # the frame's numbers as JSON
+        elif args[i] == "--diff": diff = args[i + 1]; i += 2  # false-colour PNG of prt / Cycles
         elif args[i] == "--objects": objects = args[i + 1].split(","); i += 2  # also the RMS over these objects' faces
         elif args[i] == "--min-pixels": min_px = int(args[i + 1]); i += 2
         elif args[i] == "--name": name = args[i + 1]; i += 2
@@ -108,6 +166,14 @@ def compare(args):
     meta = json.load(open(cyc_path + ".json"))
     chans, w, h = read_exr(cyc_path)
     c = [channel(chans, "Combined." + k, cyc_path) for k in "RGB"]
+    c2 = None
+    if second:
+        chans2, w2, h2 = read_exr(second)
+        if (w2, h2) != (w, h):
+            sys.exit(f"{second}: {w2}x{h2}, but {cyc_path} is {w}x{h}")
+        c2 = [channel(chans2, "Combined." + k, second) for k in "RGB"]
+        c1 = c
+        c = [[[(u + v) / 2 for u, v in zip(r1, r2)] for r1, r2 in zip(a, b)] for a, b in zip(c1, c2)]
     p, pw, ph = rgb(prt_path)
     if (pw, ph) != (w, h):
         # A supersampled prt frame (an integer multiple of Cycles' size) is averaged down, N x N
@@ -118,7 +184,9 @@ def compare(args):
         p = average_down(p, w, h, n)
         print(f"   (prt's {pw}x{ph} frame averaged down {n}x{n} to {w}x{h})")
     index_names = {v: k for k, v in meta["object_index"].items()}
-    labels = erode(face_labels(chans, w, h, index_names, cyc_path), w, h, 2)
+    labels = erode(face_labels(chans, w, h, index_names, cyc_path, curved), w, h, 2)
+    if curved:
+        labels = drop_creases(labels, chans, w, h, 2, cyc_path)
     regions = {}
     for y in range(h):
         for x in range(w):
@@ -170,6 +238,30 @@ def compare(args):
         print(f"   pixel relative RMS{label}: {100 * math.sqrt(sum((a - b) ** 2 for a, b in zip(yp, yc)) / len(yc)) / mean_c:.1f}% "
               f"(luminance, {len(yc)} pixels away from edges, over the mean; holds Cycles' per-pixel noise too; "
               f"mean prt/Cycles {sum(yp) / sum(yc):.3f})")
+    yc = [lum([c[k][y][x] for k in range(3)]) for y, x in every]
+    yp = [lum([p[k][y][x] for k in range(3)]) for y, x in every]
+    res = {"name": name, "pixels": len(every), "frame_rms": math.sqrt(sum((a - b) ** 2 for a, b in zip(yp, yc)) / len(yc))
+           / (sum(yc) / len(yc)), "mean_ratio": sum(yp) / sum(yc)}
+    res.update(quarter_stats(yc, yp))
+    for q in ("dark", "bright"):
+        s = res[q]
+        print(f"   Cycles' {'darkest' if q == 'dark' else 'brightest'} quarter ({s['pixels']} pixels, Cycles luminance "
+              f"{'up to' if q == 'dark' else 'from'} {s['cycles_max'] if q == 'dark' else min(sorted(yc)[-s['pixels']:]):.4f}): "
+              f"relative RMS {100 * s['rms']:.1f}%, median prt/Cycles {s['median_ratio']:.3f}, means {s['mean_ratio']:.3f}")
+    if c2:
+        # Noise of the two seeds' mean: half their difference per pixel (the same pixels, luminance).
+        y1 = [lum([c1[k][y][x] for k in range(3)]) for y, x in every]
+        y2 = [lum([c2[k][y][x] for k in range(3)]) for y, x in every]
+        half = [(a - b) / 2 for a, b in zip(y1, y2)]
+        res["cycles_noise"] = math.sqrt(sum(d * d for d in half) / len(half)) / (sum(yc) / len(yc))
+        dark = sorted(range(len(yc)), key=lambda i: yc[i])[:res["dark"]["pixels"]]
+        res["cycles_noise_dark"] = math.sqrt(sum(half[i] ** 2 for i in dark) / len(dark)) / (sum(yc[i] for i in dark) / len(dark))
+        print(f"   Cycles' noise (the mean of two seeds, half their difference): pixel relative RMS "
+              f"{100 * res['cycles_noise']:.1f}%, in the darkest quarter {100 * res['cycles_noise_dark']:.1f}%")
+    if summary:
+        json.dump(res, open(summary, "w"), indent=1)
+    if diff:
+        diff_png(diff, every, yc, yp, w, h)
     verdict = "FAIL" if failed else "PASS"
     print(f"   {verdict}: largest regional difference {100 * worst:.1f}% (a region fails beyond {100 * tol:.1f}% "
           f"+ 2 noise; regions of >= {min_px} pixels; noise = standard error of the region's mean difference)")
@@ -237,11 +329,14 @@ LOBES = [  # (colour, axis): one lobe 0.1 + 2 ((1 + a.d) / 2)^4 per channel, 45 
 ]
 
 def lobes(args):
-    """A band-limited, positive, coloured sky: each channel a polynomial of degree 4 in the
-    direction d, so exactly bands 0..4 (5 bands); written as an uncompressed float EXR with
-    pixel centres placed as docs/lights.md says (glTF axes): theta = pi v, phi = 2 pi (u - 0.5),
+    """A band-limited, positive, coloured sky: each channel a polynomial of degree 4 (or
+    `--degree N`) in the direction d, so exactly bands 0..N (N + 1 bands: `--degree 2` is what
+    prt's default 3 bands hold exactly); written as an uncompressed float EXR with pixel centres
+    placed as docs/lights.md says (glTF axes): theta = pi v, phi = 2 pi (u - 0.5),
     d = (sin theta cos phi, cos theta, sin theta sin phi)."""
-    out, w, h = args[0], 256, 128
+    out, w, h, degree = args[0], 256, 128, 4
+    if args[1:3] and args[1] == "--degree":
+        degree = int(args[2])
     rows = []
     for j in range(h):
         theta = math.pi * (j + 0.5) / h
@@ -250,7 +345,7 @@ def lobes(args):
             phi = 2 * math.pi * ((i + 0.5) / w - 0.5)
             d = (math.sin(theta) * math.cos(phi), math.cos(theta), math.sin(theta) * math.sin(phi))
             for k, a in LOBES:
-                row[k][i] = 0.1 + 2.0 * ((1 + sum(x * y for x, y in zip(a, d))) / 2) ** 4
+                row[k][i] = 0.1 + 2.0 * ((1 + sum(x * y for x, y in zip(a, d))) / 2) ** degree
         rows.append(row)
     def attr(name, kind, value): return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(value)) + value
     chl = b"".join(c.encode() + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for c in "BGR") + b"\0"
