@@ -287,6 +287,37 @@ TEST(BounceOperator, DeterministicForAnyThreadCount) {
   EXPECT_TRUE(one.bytes == all.bytes);
 }
 
+// Built from the bake's own record of its first rays (SurfaceTransfer::gather), the operator
+// traces none of them again and is the traced one to the bit; so is it where the record lacks
+// some sides (another rank's chunks, a resumed bake's), which are traced.
+TEST(BounceOperator, KeptRaysGiveTheTracedOperator) {
+  Scene s = colouredRoom();
+  bake::BakeSettings bs;
+  bs.samples = 128;
+  bs.bounces = 2;
+  bs.seed = 9;
+  bs.keepGatherRays = 64;  // fewer than the samples: the records of the first 64 rays alone
+  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
+  bake::GatherRecords kept = std::move(t.gather);
+  bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
+  s.transferBands = 3;
+  ASSERT_EQ(kept.rays, 64u);
+  ASSERT_GT(kept.chunks.size(), 2u);
+  size_t records = 0;
+  for (const auto& c : kept.chunks) records += c.hits.size();
+  EXPECT_GT(records, 0u);
+  EXPECT_LT(records, t.stats.hitRecords);  // only the first 64 of 128 rays' records
+  bake::OperatorSettings os;
+  os.samples = 64;
+  const PackedOperator traced = packOperator(bake::buildBounceOperator(s, os, 2, 9));
+  EXPECT_TRUE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, &kept)).bytes == traced.bytes);
+  kept.chunks[1] = {};  // this chunk's sides are traced
+  EXPECT_TRUE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, &kept)).bytes == traced.bytes);
+  os.samples = 32;  // a record of other rays than the operator's is not used
+  EXPECT_TRUE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, &kept)).bytes ==
+              packOperator(bake::buildBounceOperator(s, os, 2, 9)).bytes);
+}
+
 // Packed and read back: the same operator; truncated, corrupt or of another version: refused,
 // naming the part.
 TEST(BounceOperator, PackedBytesAreCheckedWhenRead) {

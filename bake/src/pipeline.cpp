@@ -92,6 +92,8 @@ Plan planJob(const BakeJob& job, bool writer) {
     plan.probes = probeSettings(*job.probes, plan.settings);
     plan.settings.keepLowerOrder = true;
   }
+  // The operator's rays are the bake's first ones: kept from its direct pass, not traced again.
+  if (job.bounceOperator) plan.settings.keepGatherRays = std::min(job.bounceOperator->samples, plan.settings.samples);
   return plan;
 }
 
@@ -220,11 +222,11 @@ Stages runStages(const BakeJob& job, Plan& plan, BakeReport& report, MemoryGuard
 }
 
 // The bounce operator of the baked scene, from the bake's own rays (the first of each vertex's).
-void buildOperator(OperatorSettings os, const BakeSettings& s, BakeReport& report) {
+void buildOperator(OperatorSettings os, const BakeSettings& s, const GatherRecords& kept, BakeReport& report) {
   const auto t0 = std::chrono::steady_clock::now();
   os.samples = std::min(os.samples, s.samples);
   os.threads = s.threads;
-  auto op = std::make_shared<BounceOperator>(buildBounceOperator(report.scene, os, s.bounces, s.seed));
+  auto op = std::make_shared<BounceOperator>(buildBounceOperator(report.scene, os, s.bounces, s.seed, false, &kept));
   BakeReport::Operator& r = report.bounceOperator;
   r.built = true;
   r.bytes = packOperator(*op).bytes.size();
@@ -244,7 +246,7 @@ void buildOperatorShare(const BakeJob& job, Stages& stages, BakeReport& report) 
   OperatorSettings os = *job.bounceOperator;
   os.samples = std::min(os.samples, s.samples);
   os.threads = s.threads;
-  buildBounceOperator(report.scene, os, s.bounces, s.seed);
+  buildBounceOperator(report.scene, os, s.bounces, s.seed, false, &stages.surface.gather);
 }
 
 // The baked scene with its record, and the probe grid (written first, as the bake finishes it).
@@ -257,7 +259,8 @@ void writeOutputs(const BakeJob& job, Stages& stages, BakeReport& report) {
   const BakeSettings& s = report.settings;
   storeTransfer(scene, std::move(stages.surface.perMesh), std::move(stages.surface.perMeshDirect));
   scene.transferBands = s.bands;
-  if (job.bounceOperator && s.shadowed) buildOperator(*job.bounceOperator, s, report);
+  if (job.bounceOperator && s.shadowed) buildOperator(*job.bounceOperator, s, stages.surface.gather, report);
+  stages.surface.gather = {};
   const auto t0 = std::chrono::steady_clock::now();
   BakeRecord record = bakeRecord(s, std::filesystem::path(job.scenePath).filename().string(), kVersion);
   const RefineSettings& refine = report.refine;

@@ -23,6 +23,7 @@
 #include "prt/bake/surface_bake.h"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -138,6 +139,7 @@ struct SurfaceBake {
   HalfRows half;                    // prev as halves, during a bounce (half_rows.h)
   std::vector<TriCorners> corners;  // per triangle, during the bounces
   uint64_t hitCount = 0;
+  uint32_t gatherRays, gatherWords;  // BakeSettings::keepGatherRays, where hits are kept
 
   SurfaceBake(const Scene& sc, const BakeSettings& s, const Layout& l)
       : scene(sc),
@@ -150,7 +152,9 @@ struct SurfaceBake {
         bounces(keepHits ? s.bounces : 0),
         stageDone(uint32_t(2 + bounces)),
         chunkHits(keepHits ? (l.vertices + kChunk - 1) / kChunk : 0),
-        holds(chunkHits.size(), 0) {}
+        holds(chunkHits.size(), 0),
+        gatherRays(keepHits ? uint32_t(std::min(s.keepGatherRays, s.samples)) : 0),
+        gatherWords((gatherRays + 63) / 64) {}
 
   Chunk chunk(uint64_t c) const { return chunkOf(lay.vertices, kChunk, c); }
   StageSpec spec(uint32_t id, const std::string& label, const std::string& name) const {
@@ -185,8 +189,10 @@ struct DirectPass {
     // destination in, docs/bake.md "Page faults").
     constexpr size_t kScratchHits = size_t(1) << 20;  // 8 MiB; beyond, the buffer grows as needed
     thread_local std::vector<HitRecord> hits;
+    const uint32_t words = b.gatherWords;
     if (ch) {
       ch->begin.assign(1, 0);
+      ch->gatherBits.assign(words ? (c.end - c.begin) * 2 * words : 0, 0);
       hits.clear();
       hits.reserve(std::min(kScratchHits, (c.end - c.begin) * size_t(N)));
     }
@@ -206,15 +212,21 @@ struct DirectPass {
           else
             rays.occluded(batch, count);
         });
+        uint64_t* bits = words ? &ch->gatherBits[(v - c.begin) * 2 * words] : nullptr;
         for (uint32_t j = 0; j < count; ++j) {
           const Ray& ray = batch[j];
           const bool blocked = ch ? ray.hit() : ray.occludedHit();
+          const uint32_t r = first + j;
+          const bool gathered = bits && r < b.gatherRays;
           if (!blocked) {
             sh::evaluate(b.settings.bands, ray.dir, y);
             for (int i = 0; i < n2; ++i) acc[i] += y[i];
+            if (gathered) bits[r / 64] |= uint64_t(1) << (r % 64);
           } else if (ch) {
             const uint32_t tri = recordedTriangle(b.lay, ray);
-            if (tri != Layout::kNone) hits.push_back({tri, quantise(ray.u), quantise(ray.v)});
+            if (tri == Layout::kNone) continue;
+            hits.push_back({tri, quantise(ray.u), quantise(ray.v)});
+            if (gathered) bits[words + r / 64] |= uint64_t(1) << (r % 64);
           }
         }
       }
@@ -576,6 +588,7 @@ void validate(const BakeSettings& s) {
   if (s.bounces < 0 || s.bounces > kMaxBounces)
     throw Error(cat("bounces ", s.bounces, ": must be between 0 and ", kMaxBounces));
   if (s.threads < 0) throw Error(cat("threads ", s.threads, ": must be 0 (all cores) or more"));
+  if (s.keepGatherRays < 0) throw Error(cat("kept gather rays ", s.keepGatherRays, ": must be 0 (none) or more"));
 }
 
 // Checkpointing (checkpoint.h): the direct pass saves per chunk its transfer and hit records;
@@ -583,6 +596,35 @@ void validate(const BakeSettings& s) {
 // chunk its t^k; the finished surface stage saves the sum (and the lower-order sum) for a
 // probe bake that follows. Restored values are the very floats an uninterrupted bake holds at
 // that point, and every later sum runs in the same order, so the result has the same bits.
+// The first gatherRays rays of each vertex side, moved out of the chunks' hit records: each
+// chunk's records are cut, in place, to those of its sides' first rays (the records of a side
+// are in ray order, so they lead its own), and its vectors move into the result.
+GatherRecords keptGatherRays(SurfaceBake& b) {
+  GatherRecords g;
+  g.rays = b.gatherRays, g.words = b.gatherWords, g.chunk = kChunk;
+  g.chunks.resize(b.chunkHits.size());
+  for (size_t c = 0; c < b.chunkHits.size(); ++c) {
+    ChunkHits& ch = b.chunkHits[c];
+    if (!b.holds[c] || ch.gatherBits.empty()) continue;
+    const size_t sides = ch.begin.size() - 1;
+    uint32_t kept = 0;
+    for (size_t i = 0; i < sides; ++i) {
+      const uint64_t* recorded = &ch.gatherBits[i * 2 * g.words + g.words];
+      uint32_t n = 0;
+      for (uint32_t w = 0; w < g.words; ++w) n += uint32_t(std::popcount(recorded[w]));
+      if (kept != ch.begin[i]) std::copy_n(ch.hits.begin() + ch.begin[i], n, ch.hits.begin() + kept);
+      ch.begin[i] = kept;
+      kept += n;
+    }
+    ch.begin[sides] = kept;
+    ch.hits.resize(kept);
+    ch.hits.shrink_to_fit();
+    GatherRecords::Chunk& to = g.chunks[c];
+    to.bits = std::move(ch.gatherBits), to.begin = std::move(ch.begin), to.hits = std::move(ch.hits);
+  }
+  return g;
+}
+
 SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, const BakeControl& control) {
   validate(settings);
   const auto tStart = Clock::now();
@@ -624,6 +666,7 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
   // Free what the bounces needed before the per-instance copies below.
   std::vector<glm::vec3>().swap(b.prev);
   std::vector<glm::vec3>().swap(b.cur);
+  if (b.gatherWords) out.gather = keptGatherRays(b);
   std::vector<ChunkHits>().swap(b.chunkHits);
   b.half = HalfRows{};
   std::vector<TriCorners>().swap(b.corners);

@@ -16,6 +16,7 @@
 #include "prt/bake/albedo_lookup.h"
 #include "prt/bake/direct_light.h"
 #include "prt/bake/ray_scene.h"
+#include "prt/bake/surface_bake.h"
 #include "prt/bake/surface_layout.h"
 #include "prt/scene.h"
 #include "vertex_rays.h"
@@ -46,6 +47,9 @@ inline uint16_t quantise(float b) { return static_cast<uint16_t>(std::lround(std
 struct ChunkHits {
   std::vector<HitRecord> hits;
   std::vector<uint32_t> begin;
+  // With BakeSettings::keepGatherRays: per vertex of the chunk, its first rays' escape and
+  // record bits (GatherRecords::Chunk::bits); empty for a chunk restored from a checkpoint.
+  std::vector<uint64_t> gatherBits;
 };
 
 // The triangle a hit records, or kNone when the hit sends nothing: a front face is the real
@@ -78,6 +82,29 @@ void traceGatherRays(const RayScene& rays, const Layout& lay, const VertexSample
       }
       const uint32_t tri = recordedTriangle(lay, r);
       if (tri != Layout::kNone) hit(tri, quantise(r.u), quantise(r.v));
+    }
+  }
+}
+
+// The same calls, in the same order, from vertex side v's kept rays (GatherRecords, of the
+// same K rays): an escaped ray is made again for its direction, a recorded one read back, so
+// nothing is traced.
+template <class Escaped, class Hit>
+void replayGatherRays(const GatherRecords& kept, size_t v, const VertexSampler& sampler, Escaped&& escaped, Hit&& hit) {
+  const GatherRecords::Chunk& c = *kept.of(v);
+  const size_t i = v - (v / kept.chunk) * kept.chunk;
+  const uint64_t* escapedBits = &c.bits[i * 2 * kept.words];
+  const uint64_t* recordedBits = escapedBits + kept.words;
+  const HitRecord* next = c.hits.data() + c.begin[i];
+  Ray ray;
+  for (uint32_t j = 0; j < kept.rays; ++j) {
+    const uint64_t bit = uint64_t(1) << (j % 64);
+    if (escapedBits[j / 64] & bit) {
+      sampler.make(j, ray);
+      escaped(j, ray);
+    } else if (recordedBits[j / 64] & bit) {
+      hit(next->tri, next->b1, next->b2);
+      ++next;
     }
   }
 }

@@ -253,6 +253,7 @@ struct Trace {
   float tnear;
   uint64_t seed;
   uint32_t K;
+  const GatherRecords* kept;  // the bake's record of the same rays, or null
 
   // Vertex side v's gather: its K rays' shares of clusters (barycentric, at the hit's three
   // vertex sides) and of sky bins (bilinear), each ray 1/K. A ray that hits the back of a
@@ -261,20 +262,22 @@ struct Trace {
     out.clear();
     const VertexSampler sampler(origins[v], normalOf(scene, lay, v), seed, v, tnear);
     const float w = 1.0f / float(K);
-    traceGatherRays(
-        rays, lay, sampler, K,
-        [&](uint32_t, const Ray& r) {
-          splatSky(r.dir, op.skyWidth, op.skyHeight, [&](uint32_t bin, float share) {
-            out.push_back({tree.skyLeafOfBin[bin], w * share});
-          });
-        },
-        [&](uint32_t tri, uint16_t q1, uint16_t q2) {
-          const float b1 = q1 / 65535.0f, b2 = q2 / 65535.0f;
-          const uint32_t* tv = &lay.triVerts[3 * size_t(tri)];
-          out.push_back({tree.clusterOf[tv[0]], w * (1.0f - b1 - b2)});
-          out.push_back({tree.clusterOf[tv[1]], w * b1});
-          out.push_back({tree.clusterOf[tv[2]], w * b2});
-        });
+    auto escaped = [&](uint32_t, const Ray& r) {
+      splatSky(r.dir, op.skyWidth, op.skyHeight, [&](uint32_t bin, float share) {
+        out.push_back({tree.skyLeafOfBin[bin], w * share});
+      });
+    };
+    auto hit = [&](uint32_t tri, uint16_t q1, uint16_t q2) {
+      const float b1 = q1 / 65535.0f, b2 = q2 / 65535.0f;
+      const uint32_t* tv = &lay.triVerts[3 * size_t(tri)];
+      out.push_back({tree.clusterOf[tv[0]], w * (1.0f - b1 - b2)});
+      out.push_back({tree.clusterOf[tv[1]], w * b1});
+      out.push_back({tree.clusterOf[tv[2]], w * b2});
+    };
+    if (kept && kept->rays == K && kept->of(v))
+      replayGatherRays(*kept, v, sampler, escaped, hit);
+    else
+      traceGatherRays(rays, lay, sampler, K, escaped, hit);
     mergeEntries(out);
   }
 };
@@ -422,7 +425,7 @@ void storeRows(BounceOperator::Rows& rows, const std::vector<std::vector<Entry>>
 }  // namespace
 
 BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s, int bounces, uint64_t seed,
-                                   bool uncompressed) {
+                                   bool uncompressed, const GatherRecords* kept) {
   validate(s);
   const ThreadLimit threadLimit(s.threads);
   const Layout lay = makeLayout(scene);
@@ -439,7 +442,7 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
   const std::vector<op::SidePoint> sides = sidePoints(scene, lay);
   const Tree tree = op::buildTree(op, sides);
   const std::vector<uint8_t> sky = skyNodeMask(op);
-  const Trace trace{scene, lay, tree, op, rays, origins, tnearFor(rays.sceneExtent()), seed, uint32_t(s.samples)};
+  const Trace trace{scene, lay, tree, op, rays, origins, tnearFor(rays.sceneExtent()), seed, uint32_t(s.samples), kept};
   std::vector<float> area(sides.size());
   for (size_t v = 0; v < sides.size(); ++v) area[v] = sides[v].area;
   const op::Training training = op::trainNodes(scene, op, sideTraining, area);

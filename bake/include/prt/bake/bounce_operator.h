@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "prt/bake/direct_light.h"
+#include "prt/bake/surface_bake.h"
 #include "prt/bounce_operator.h"
 #include "prt/light_rig.h"
 #include "prt/scene.h"
@@ -36,9 +37,11 @@ void validate(const OperatorSettings& s);
 /// for `bounces` bounces, tracing `settings.samples` of the bake's rays (seed `seed`) from every
 /// vertex side. Deterministic for any thread count. `uncompressed` keeps every leaf a vertex
 /// row reaches (rows may then exceed rowLength, and the operator is for tests only: it cannot
-/// be stored).
+/// be stored). `kept`: the bake's own record of those rays (SurfaceTransfer::gather, of
+/// settings.samples rays), read instead of tracing them again where it has a side's: the same
+/// operator, to the bit.
 BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& settings, int bounces, uint64_t seed,
-                                   bool uncompressed = false);
+                                   bool uncompressed = false, const GatherRecords* kept = nullptr);
 
 /// What one light change costs, by part.
 struct OperatorTimes {

@@ -27,6 +27,10 @@ struct BakeSettings {
   int threads = 0;              // 0 = all cores
   bool progress = false;        // progress bar on stderr
   bool keepLowerOrder = false;  // also return the transfer summed to K−1 bounces (for probes)
+  /// Also return each vertex side's first keepGatherRays rays as traced (SurfaceTransfer::
+  /// gather, for the bounce operator, which then traces none of them again); 0: none. At most
+  /// samples; kept only with bounces (the hit records they come from).
+  int keepGatherRays = 0;
   /// Memory guard only (bakeSurface ignores it): vertices that refinement (refine.h) may still
   /// add to the scene before the bake, each with two triangles.
   uint64_t refineVertices = 0;
@@ -44,6 +48,27 @@ constexpr int kMaxBounces = 64;
 /// Throws prt::Error if a setting is out of range; the message names the field.
 void validate(const BakeSettings& s);
 
+/// Each vertex side's first `rays` gather rays as the bake's direct pass traced them (the rays
+/// traceGatherRays casts again): per ray whether it escaped and whether it left a hit record
+/// (a ray that did neither hit the back of a one-sided face), and those records in ray order,
+/// by chunks of `chunk` vertex sides. A chunk this process did not trace (another MPI rank's,
+/// or restored from a checkpoint) has no bits.
+struct GatherRecords {
+  struct Chunk {
+    std::vector<uint64_t> bits;   // per side: `words` escape bits, then `words` record bits
+    std::vector<uint32_t> begin;  // per side + 1: where its records begin in `hits`
+    std::vector<HitRecord> hits;
+  };
+  uint32_t rays = 0, words = 0;
+  size_t chunk = 0;
+  std::vector<Chunk> chunks;
+  /// Side v's bits (2 · words) and records, or null when they were not kept.
+  const Chunk* of(size_t v) const {
+    const size_t c = chunk ? v / chunk : 0;
+    return c < chunks.size() && !chunks[c].bits.empty() ? &chunks[c] : nullptr;
+  }
+};
+
 struct SurfaceTransfer {
   int bands = 0;
   /// Per Scene::meshes entry: vertexCount × bands² RGB (empty for receiver-only instances);
@@ -58,6 +83,8 @@ struct SurfaceTransfer {
   /// on the surfaces so that a receiver at a point is lit as a baked vertex there would be
   /// with K bounces (docs/probes.md). Filled when BakeSettings::keepLowerOrder is set.
   std::vector<std::vector<glm::vec3>> perMeshLowerOrder;
+  /// Filled when BakeSettings::keepGatherRays is set (and the bake has bounces).
+  GatherRecords gather;
   BakeStats stats;
 };
 
