@@ -319,9 +319,9 @@ TEST(BounceOperator, PackedBytesAreCheckedWhenRead) {
   std::vector<uint8_t> flipped = p.bytes;
   flipped[flipped.size() / 2] ^= 0x10;
   EXPECT_NE(refused(p.header, flipped).find("checksum"), std::string::npos);
-  std::string v3 = p.header;
-  v3.replace(v3.find("\"version\":2"), 11, "\"version\":3");
-  EXPECT_NE(refused(v3, p.bytes).find("version 3"), std::string::npos) << refused(v3, p.bytes);
+  std::string v4 = p.header;
+  v4.replace(v4.find("\"version\":3"), 11, "\"version\":4");
+  EXPECT_NE(refused(v4, p.bytes).find("version 4"), std::string::npos) << refused(v4, p.bytes);
   EXPECT_NE(refused("{", p.bytes).find("not JSON"), std::string::npos);
 }
 

@@ -220,17 +220,19 @@ Stages runStages(const BakeJob& job, Plan& plan, BakeReport& report, MemoryGuard
 }
 
 // The bounce operator of the baked scene, from the bake's own rays (the first of each vertex's).
-void buildOperator(OperatorSettings os, const BakeSettings& s, BakeReport& report) {
+// With the probe grid, the probes' rows too (made by this process alone under MPI).
+void buildOperator(OperatorSettings os, const BakeSettings& s, const ProbeGrid* grid, BakeReport& report) {
   const auto t0 = std::chrono::steady_clock::now();
   os.samples = std::min(os.samples, s.samples);
   os.threads = s.threads;
-  auto op = std::make_shared<BounceOperator>(buildBounceOperator(report.scene, os, s.bounces, s.seed));
+  auto op = std::make_shared<BounceOperator>(buildBounceOperator(report.scene, os, s.bounces, s.seed, false, grid));
   BakeReport::Operator& r = report.bounceOperator;
   r.built = true;
   r.bytes = packOperator(*op).bytes.size();
   r.clusters = op->clusters;
   r.vertexEntries = op->vertexRows.entries();
   r.clusterEntries = op->clusterRows.entries();
+  r.probeEntries = op->probeRows.rows.entries();
   report.scene.bounceOperator = std::move(op);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -257,7 +259,8 @@ void writeOutputs(const BakeJob& job, Stages& stages, BakeReport& report) {
   const BakeSettings& s = report.settings;
   storeTransfer(scene, std::move(stages.surface.perMesh), std::move(stages.surface.perMeshDirect));
   scene.transferBands = s.bands;
-  if (job.bounceOperator && s.shadowed) buildOperator(*job.bounceOperator, s, report);
+  if (job.bounceOperator && s.shadowed)
+    buildOperator(*job.bounceOperator, s, stages.grid ? &*stages.grid : nullptr, report);
   const auto t0 = std::chrono::steady_clock::now();
   BakeRecord record = bakeRecord(s, std::filesystem::path(job.scenePath).filename().string(), kVersion);
   const RefineSettings& refine = report.refine;

@@ -217,6 +217,8 @@ OperatorLighting::~OperatorLighting() = default;
 
 const OperatorTimes& OperatorLighting::lastTimes() const { return impl_->times; }
 
+const std::vector<glm::vec3>& OperatorLighting::nodeValues() const { return impl_->total; }
+
 DirectIrradiance OperatorLighting::light(const std::vector<DirectLight>& lights, const sh::ShRgb* directSh,
                                          const RigBackground* sky, const sh::ShRgb& sh) {
   Impl& m = *impl_;
