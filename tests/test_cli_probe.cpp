@@ -292,8 +292,8 @@ TEST_F(CliProbe, SceneTracesTheSunAtEachPoint) {
 // layer of them). On an open plane the SH alone is as close (0.7% the other way: its plane is lit
 // by the band-limited sun), so this checks the command's wiring; ProbeOperator.* in the unit
 // tests check the light itself, where SH cannot carry it.
-// The same .glb with a grid of another bake is refused in one line naming both files; an
-// operator without probe rows says so once.
+// The same .glb with a grid of another bake is refused in one line naming both files, by prt
+// probe and prt render; an operator without probe rows says so once.
 TEST_F(CliProbe, OperatorRowsBounceTheSunAtProbes) {
   for (const auto& [glb, vdb, dims] :
        {std::tuple<const char*, const char*, const char*>{"o.glb", "o.vdb", "6,6,6"}, {"o2.glb", "o2.vdb", "5,6,6"}})
@@ -356,6 +356,13 @@ TEST_F(CliProbe, OperatorRowsBounceTheSunAtProbes) {
   EXPECT_NE(bad.err.find(file("o2.vdb")), std::string::npos) << bad.err;
   EXPECT_NE(bad.err.find("probe rows"), std::string::npos) << bad.err;
   EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
+  // prt render refuses the same pair before it opens a GL context.
+  const RunResult render = prt({"render", file("o.glb"), "--probes", file("o2.vdb"), "--sun-elevation", "60",
+                                "--sun-azimuth", "20", "-o", file("o.exr")});
+  EXPECT_EQ(render.status, 1);
+  EXPECT_NE(render.err.find(cat(file("o.glb"), " (with ", file("o2.vdb"), "): probe rows:")), std::string::npos)
+      << render.err;
+  EXPECT_EQ(std::count(render.err.begin(), render.err.end(), '\n'), 1) << render.err;
   ASSERT_EQ(prt({"bake", sourceFile("scenes/plane.gltf"), "--samples", "256", "--bounces", "1", "--seed", "7",
                  "--operator", "-q", "-o", file("o3.glb")})
                 .status,

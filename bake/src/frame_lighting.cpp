@@ -284,6 +284,7 @@ FrameLight FrameLighting::at(double frame) {
     out.updated = m.stale(out.rig, out.local);
     if (out.updated) m.update(frame, out.rig, out.local);
     out.vertexLight = &m.light;
+    if (m.through) out.operatorValues = &m.through->nodeValues();
   }
   // The bounces gathered here do not also go through the transfer's (t − t⁰) · directSh.
   if (m.settings.directAtVertices && m.gathering()) out.rig.directSh = sh::ShRgb(bands);
