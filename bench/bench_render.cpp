@@ -5,7 +5,8 @@
 //
 //   prt_bench_render [--width 1920] [--height 1080] [--frames 12] [--gl osmesa|egl]
 //                    [--baked FILE.glb --probes FILE.vdb] [--samples 128] [--probe-dims 16]
-//                    [--frames-only 0|1] [--sun-only 0|1] [--materials-only 0|1] [--json out.json]
+//                    [--frames-only 0|1] [--sun-only 0|1] [--materials-only 0|1] [--lamp-only 0|1]
+//                    [--lamp X,Y,Z] [--lamp-radius 0.5] [--json out.json]
 //
 // Without --baked/--probes the bundled Cornell room (scenes/cornell_open.gltf) is baked in the
 // process (surface transfer with --samples directions and 1 bounce, a --probe-dims³ probe
@@ -24,6 +25,8 @@
 // against the frame with the sun through SH (docs/render.md, "Direct lights and their shadows");
 // --sun-only 1 stops after it and the material frames (full glTF material against the diffuse
 // frame, "materials" in the JSON); --materials-only 1 times the material frames alone.
+// The `lamp` part (lampLighting) times a moving point lamp's light update next to the SH product
+// alone; --lamp-only 1 times it alone (a large --baked scene: give --lamp inside it).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -51,6 +54,8 @@
 #include "prt/image.h"
 #include "prt/light.h"
 #include "prt/light_rig.h"
+#include "prt/local_light.h"
+#include "prt/math.h"
 #include "prt/probe_grid.h"
 #include "prt/relight.h"
 #include "prt/render/gl_context.h"
@@ -516,6 +521,71 @@ nlohmann::json frameLighting(render::Renderer& renderer, const Scene& scene, con
           {"frame", timing.json()}};
 }
 
+// A moving lamp's light update (docs/render.md, "Cost of a moving lamp"): a point light circling
+// `centre` at `radius` about +Y, a new place every frame, lit as `prt render` lights it: per
+// pixel with its cube shadow maps, and at the baked vertices its E⁰ (one shadow ray per vertex
+// side) sent on through the bake's bounce operator where it has one, else gathered over the
+// bake's rays (traced once, at the first frame: trace_s). Next to it, interleaved in the same
+// run, the SH product alone: relightVertices of a turning sky on the same vertices, what a light
+// change costs the distant lights. light_update_ms is FrameLighting's whole update (the rig,
+// the shadow rays, the products); the frame's draw includes the cube maps' pass (cube_shadow_ms).
+nlohmann::json lampLighting(render::Renderer& renderer, const Scene& scene, const render::CameraView& view, int frames,
+                            const glm::dvec3& centre, double radius) {
+  LightRig rig;
+  RigLocalLight lamp;
+  lamp.type = LocalLight::Type::Point;
+  lamp.label = "bench lamp";
+  lamp.color = Track::constant(glm::dvec3(2.0, 1.7, 1.3));
+  lamp.position.keys.clear();
+  for (int i = 0; i <= frames; ++i) {
+    const double a = 2.0 * kPi * i / frames;
+    lamp.position.keys.push_back({double(i), centre + radius * glm::dvec3(std::sin(a), 0.0, std::cos(a))});
+  }
+  rig.locals.push_back(lamp);
+  rig.fps = 24.0;
+  rig.validate();
+  rig.prepare(renderer.bands());
+  bake::FrameLightingSettings settings;
+  settings.shadowSamples = 4;        // prt render's (kBounceShadowSamples)
+  settings.localShadowSamples = 64;  // prt render's (kLocalShadowSamples)
+  settings.localPerPixel = true;
+  bake::FrameLighting lighting(scene, rig, settings);
+  Timing timing;
+  std::vector<double> updateMs, productMs, cubeMs;
+  for (int i = -1; i < frames; ++i) {
+    const auto t0 = Clock::now();
+    const auto radiance = relightVertices(scene, sky(30.0 * std::max(i, 0)));
+    if (i >= 0) productMs.push_back(msSince(t0));
+    bake::FrameLight light = lighting.at(std::max(i, 0) + 0.5);
+    render::Frame f;
+    f.camera = view;
+    const bake::DirectIrradiance* v = light.vertexLight;
+    for (const LocalLight& l : light.local) f.local.push_back(l);
+    f.setLight(std::move(light.rig), v ? &v->front : nullptr, v ? &v->back : nullptr);
+    timedRender(renderer, f, i >= 0 ? &timing : nullptr);
+    if (i >= 0) {
+      updateMs.push_back(1e3 * light.seconds);
+      cubeMs.push_back(renderer.lastFrame().shadowMs);
+    }
+  }
+  const bake::FrameLightingStats& st = lighting.stats();
+  const double updates = std::max(st.updates, 1);
+  return {{"vertices", bakedVertices(scene)},
+          {"through_operator", lighting.usesOperator()},
+          {"gather_samples", lighting.usesOperator() ? 0 : settings.gatherSamples},
+          {"trace_s", st.traceSeconds},
+          {"updates", st.updates},
+          {"shadow_rays_per_update", double(st.shadowRays) / updates},
+          {"light_update_ms", median(updateMs)},
+          {"shadow_ms", 1e3 * st.shadowSeconds / updates},
+          {"products_or_gather_ms", 1e3 * st.gatherSeconds / updates},
+          {"sh_product_ms", median(productMs)},
+          {"ratio_lamp_to_sh_product", medianRatio(updateMs, productMs)},
+          {"cube_shadow_ms", median(cubeMs)},
+          {"cube_faces", renderer.lastFrame().localShadowMaps},
+          {"frame", timing.json()}};
+}
+
 // The bounce operator of the in-process bake, as `prt bake --operator` builds it: its build time
 // and packed size next to the bake's own time.
 nlohmann::json addOperator(Scene& scene, const bake::BakeSettings& bs, double bakeSeconds) {
@@ -543,7 +613,9 @@ int main(int argc, char** argv) {
   prt::tuneHeap();  // as prt does (tools/main.cpp)
   std::string bakedPath, probesPath, jsonPath, gl = "osmesa";
   int width = 1920, height = 1080, frames = 12, samples = 128, probeDims = 16;
-  int framesOnly = 0, sunOnly = 0, materialsOnly = 0;
+  int framesOnly = 0, sunOnly = 0, materialsOnly = 0, lampOnly = 0;
+  std::vector<double> lampCentre;
+  double lampRadius = 0.5;
   CLI::App app{"Render benchmark: ms per frame of full relighting next to the flat raster floor, light-update costs",
                "prt_bench_render"};
   app.add_option("--width", width, "Frame width")->check(CLI::Range(1, 16384))->capture_default_str();
@@ -569,6 +641,17 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--materials-only", materialsOnly, "1: only the material frames (full glTF material, diffuse, flat)")
       ->check(CLI::IsMember({0, 1}))
+      ->capture_default_str();
+  app.add_option("--lamp-only", lampOnly, "1: only the moving lamp's light update next to the SH product alone")
+      ->check(CLI::IsMember({0, 1}))
+      ->capture_default_str();
+  app.add_option("--lamp", lampCentre,
+                 "Centre X,Y,Z of the moving lamp's circle (default: 0,1.45,0 in the bundled room, else the middle of "
+                 "the scene's bounds)")
+      ->expected(3)
+      ->delimiter(',');
+  app.add_option("--lamp-radius", lampRadius, "Radius of the moving lamp's circle about +Y")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--json", jsonPath, "Also write the results to this file");
   if (std::optional<int> status = bench::parseBenchOptions(app, "prt_bench_render", argc, argv)) return *status;
@@ -611,6 +694,19 @@ int main(int argc, char** argv) {
     } else {
       render::OrbitCamera orbit;
       view = render::orbitView(scene, orbit, double(width) / height);
+    }
+    glm::dvec3 centre(0.0, 1.45, 0.0);
+    if (lampCentre.size() == 3) {
+      centre = glm::dvec3(lampCentre[0], lampCentre[1], lampCentre[2]);
+    } else if (!bakedPath.empty()) {
+      centre = 0.5 * (glm::dvec3(scene.boundsMin) + glm::dvec3(scene.boundsMax));
+    }
+    if (lampOnly) {
+      const nlohmann::json j = {{"device", context.description()},
+                                {"lamp", lampLighting(renderer, scene, view, frames, centre, lampRadius)}};
+      std::printf("%s\n", j.dump(2).c_str());
+      if (!jsonPath.empty()) std::ofstream(jsonPath) << j.dump(2) << "\n";
+      return 0;
     }
     if (materialsOnly) {
       const nlohmann::json j = {{"device", context.description()},
@@ -689,6 +785,7 @@ int main(int argc, char** argv) {
     j["receiver_closeup"] = receiverCloseup(renderer, bakedOnly, scene, width, height, frames);
     if (!framesOnly) j.update(lightUpdates(context, scene, view));
     if (!framesOnly) j["frame_lighting"] = frameLighting(renderer, scene, view, frames, false);
+    if (!framesOnly) j["lamp"] = lampLighting(renderer, scene, view, frames, centre, lampRadius);
     if (!framesOnly && scene.bounceOperator) {
       j["frame_lighting_operator"] = frameLighting(renderer, scene, view, frames, true);
       if (!operatorBuild.is_null()) j["operator_build"] = operatorBuild;

@@ -941,5 +941,21 @@ TEST(CliRender, TheScenesOwnLampLightsItPerPixel) {
   EXPECT_NE(dark.status, 0);
 }
 
+// With lamps alone (no sun), the summary still says how their bounces are lit and what each
+// frame's update cost: the shadow rays and the gather.
+TEST(CliRender, TheSummaryGivesTheLampsBounceCost) {
+  const TempDir tmp("lampbounce");
+  const fs::path& d = tmp.path();
+  const std::string glb = (d / "plane_lamp.glb").string();
+  const RunResult b =
+      prt({"bake", planeWithLamp(d, 3.0), "-o", glb, "--samples", "16", "--bounces", "1", "--no-refine", "-q"});
+  ASSERT_EQ(b.status, 0) << b.err;
+  const RunResult r = prt({"render", glb, "--size", "32x24", "-o", (d / "lamp.exr").string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("their bounces on baked surfaces gathered with 256 rays per vertex"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("shadow rays"), std::string::npos) << r.err;
+}
+
 }  // namespace
 }  // namespace prt

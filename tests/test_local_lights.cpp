@@ -462,6 +462,99 @@ TEST(BakeLocalLight, PerPixelLampLeavesOnlyItsBouncesAtTheVertices) {
   EXPECT_NEAR(meanIrradiance(s.meshes[0], light[1]) / (e0 * (rho + rho * rho)), 1.0, 0.015);
 }
 
+// With localPerPixel the renderer lights an area light itself, so its E⁰ at the vertices only
+// bounces: it takes the bounces' shadow rays (shadowSamples), not the vertex lights' many
+// (localShadowSamples), which an emissive surface lit at the vertices keeps. The shadow rays of a
+// sphere light in the box: 4 per vertex side with localShadowSamples 4 or 64 alike when per pixel,
+// 64 when at the vertices (the counter-check).
+TEST(BakeLocalLight, PerPixelAreaLightBouncesWithTheBounceShadowRays) {
+  Scene s = test::makeScene({insideOfABox(6)}, 0.8f);
+  bake::BakeSettings bs;
+  bs.samples = 64;
+  bs.bounces = 1;
+  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
+  bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
+  s.transferBands = 3;
+  BakeRecord record;
+  record.bands = 3;
+  record.samples = bs.samples;
+  record.bounces = 1;
+  s.bakeRecord = record;
+  LightRig rig;
+  RigLocalLight globe;
+  globe.type = LocalLight::Type::Sphere;
+  globe.label = "globe";
+  globe.position = Track::constant(glm::dvec3(0.1, -0.2, 0.05));
+  globe.radius = Track::constant(0.1);
+  globe.color = Track::constant(1.0);
+  rig.locals.push_back(globe);
+  rig.validate();
+  auto rays = [&](bool perPixel, int localSamples) {
+    bake::FrameLightingSettings fs;
+    fs.gatherSamples = bs.samples;
+    fs.useOperator = false;
+    fs.localPerPixel = perPixel;
+    fs.shadowSamples = 4;
+    fs.localShadowSamples = localSamples;
+    bake::FrameLighting lighting(s, rig, fs);
+    lighting.at(0.0);
+    return lighting.stats().shadowRays;
+  };
+  const uint64_t few = rays(true, 4);
+  EXPECT_GT(few, 0u);
+  EXPECT_EQ(rays(true, 64), few);
+  EXPECT_EQ(rays(false, 64), 16 * few);
+}
+
+// For the renderer a frame that moves one lamp of two traces the moving lamp's shadow rays alone
+// (the still lamp's E⁰ is kept from the frame before), and its vertex light is the one a fresh
+// FrameLighting gives at that frame, bit for bit.
+TEST(BakeLocalLight, PerPixelStillLampIsNotTracedAgain) {
+  Scene s = test::makeScene({insideOfABox(6)}, 0.8f);
+  bake::BakeSettings bs;
+  bs.samples = 64;
+  bs.bounces = 1;
+  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
+  bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
+  s.transferBands = 3;
+  BakeRecord record;
+  record.bands = 3;
+  record.samples = bs.samples;
+  record.bounces = 1;
+  s.bakeRecord = record;
+  LightRig rig;
+  RigLocalLight still, moving;
+  still.type = moving.type = LocalLight::Type::Point;
+  still.label = "still";
+  moving.label = "moving";
+  still.position = Track::constant(glm::dvec3(0.1, 0.2, 0.05));
+  moving.position.keys = {{0.0, glm::dvec3(-0.3, -0.2, 0.0)}, {1.0, glm::dvec3(0.3, -0.2, 0.1)}};
+  still.color = moving.color = Track::constant(1.0);
+  rig.locals = {still, moving};
+  rig.validate();
+  bake::FrameLightingSettings fs;
+  fs.gatherSamples = bs.samples;
+  fs.useOperator = false;
+  fs.localPerPixel = true;
+  bake::FrameLighting lighting(s, rig, fs);
+  lighting.at(0.0);
+  const uint64_t first = lighting.stats().shadowRays;
+  const bake::FrameLight one = lighting.at(1.0);
+  const uint64_t second = lighting.stats().shadowRays - first;
+  LightRig alone;
+  alone.locals = {moving};
+  alone.validate();
+  bake::FrameLighting justMoving(s, alone, fs);
+  justMoving.at(1.0);
+  EXPECT_GT(second, 0u);
+  EXPECT_EQ(second, justMoving.stats().shadowRays);
+  bake::FrameLighting fresh(s, rig, fs);
+  const bake::FrameLight again = fresh.at(1.0);
+  ASSERT_NE(one.vertexLight, nullptr);
+  ASSERT_NE(again.vertexLight, nullptr);
+  EXPECT_EQ(one.vertexLight->front, again.vertexLight->front);
+}
+
 // The file's own lamp on a node that a glTF animation moves: each frame of prt relight's
 // lighting (frame / fps seconds into the animation) equals the static light at that frame's
 // position, bit for bit; with sceneLights off the lamp is dark and nothing is gathered for it.

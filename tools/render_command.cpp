@@ -603,6 +603,30 @@ void printLocalLights(const std::vector<LocalLight>& local, const render::FrameS
   for (const LocalLight& l : local) std::fprintf(stderr, "    %s\n", describeLocalLight(l).c_str());
 }
 
+// How the lights' bounces were lit, for the summary: through the operator or gathered, and the
+// cost of each frame that redid them (its shadow rays and its products or gather).
+std::string bounceText(const RenderArgs& a, const bake::FrameLighting& lighting, const render::FrameStats& last) {
+  const bake::FrameLightingStats& st = lighting.stats();
+  const double updates = std::max(st.updates, 1);
+  const char* receivers = last.directReceivers ? ", on receivers through the probes" : "";
+  char text[256];
+  if (lighting.usesOperator())
+    std::snprintf(text, sizeof text,
+                  "on baked surfaces through the bake's bounce operator, redone for %d of the frames (%.2f ms each: "
+                  "shadow rays %.2f, products %.2f)%s",
+                  st.updates, 1e3 * st.updateSeconds / updates, 1e3 * st.shadowSeconds / updates,
+                  1e3 * st.gatherSeconds / updates, receivers);
+  else if (lighting.gathers())
+    std::snprintf(text, sizeof text,
+                  "on baked surfaces gathered with %d rays per vertex (traced once in %.2f s), redone for %d of the "
+                  "frames (%.1f ms each: shadow rays %.1f, gather %.1f)%s",
+                  a.gather.bounceSamples, st.traceSeconds, st.updates, 1e3 * st.updateSeconds / updates,
+                  1e3 * st.shadowSeconds / updates, 1e3 * st.gatherSeconds / updates, receivers);
+  else
+    return "through the transfer";
+  return text;
+}
+
 // The summary's lines on the direct lights, their bounces and the sky detail.
 void printLighting(const RenderArgs& a, const FrameLights& lights, const RigLighting& first,
                    const bake::FrameLighting& lighting, const render::FrameStats& last, int bands,
@@ -610,31 +634,13 @@ void printLighting(const RenderArgs& a, const FrameLights& lights, const RigLigh
   const bake::FrameLightingStats& st = lighting.stats();
   const double updates = std::max(st.updates, 1);
   if (!first.direct.empty()) {
-    std::string bounceText = "through the transfer";
-    if (lighting.usesOperator()) {
-      char text[256];
-      std::snprintf(text, sizeof text,
-                    "on baked surfaces through the bake's bounce operator, redone for %d of the frames (%.2f ms each: "
-                    "shadow rays %.2f, products %.2f)%s",
-                    st.updates, 1e3 * st.updateSeconds / updates, 1e3 * st.shadowSeconds / updates,
-                    1e3 * st.gatherSeconds / updates, last.directReceivers ? ", on receivers through the probes" : "");
-      bounceText = text;
-    } else if (lighting.gathers()) {
-      char text[256];
-      std::snprintf(text, sizeof text,
-                    "on baked surfaces gathered with %d rays per vertex (traced once in %.2f s), redone for %d of the "
-                    "frames (%.1f ms each: shadow rays %.1f, gather %.1f)%s",
-                    a.gather.bounceSamples, st.traceSeconds, st.updates, 1e3 * st.updateSeconds / updates,
-                    1e3 * st.shadowSeconds / updates, 1e3 * st.gatherSeconds / updates,
-                    last.directReceivers ? ", on receivers through the probes" : "");
-      bounceText = text;
-    }
+    const std::string bounces = bounceText(a, lighting, last);
     const std::string how =
         last.directBaked || last.directReceivers
             ? cat("per pixel, exactly, with PCSS shadow maps of ", last.shadowMapSize, "x", last.shadowMapSize, ", ",
                   last.cascades, " cascade", last.cascades == 1 ? "" : "s", " per light, ",
                   last.directBaked ? "on baked surfaces" : "", last.directBaked && last.directReceivers ? " and " : "",
-                  last.directReceivers ? "on receivers" : "", "; their bounces ", bounceText)
+                  last.directReceivers ? "on receivers" : "", "; their bounces ", bounces)
             : std::string("through SH (no direct part in the bake)");
     std::fprintf(stderr, "  direct lights (frame %lld; %s):\n", static_cast<long long>(lights.frames.first),
                  how.c_str());
@@ -644,6 +650,8 @@ void printLighting(const RenderArgs& a, const FrameLights& lights, const RigLigh
     std::fprintf(stderr, "  direct lights: none apart (--no-direct-lights: every light through the SH transfer)\n");
   }
   printLocalLights(local, last);
+  if (first.direct.empty() && !local.empty() && lighting.gathers())
+    std::fprintf(stderr, "  their bounces %s\n", bounceText(a, lighting, last).c_str());
   if (lighting.skyDetail() && lighting.usesOperator())
     std::fprintf(
         stderr,

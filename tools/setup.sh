@@ -8,6 +8,7 @@
 #    the Khronos glTF Validator (npm, pinned) into node_modules/ for the tests;
 # 2. configures and builds Release with Ninja into build/;
 # 3. demo: bakes scenes/cornell_open.gltf (surface + probes), relights it and renders frames
+#    (a turning sky, then a lamp moving inside the room)
 #    into out/;
 #    test: checks the code's shape (tools/check_shape.sh: function and file lengths); runs
 #    ctest in build/; then builds the suite with AddressSanitizer +
@@ -143,6 +144,11 @@ case "$mode" in
       --env scenes/env/royal_esplanade_128.hdr --env-rotate 0:315 --frames 0-7 --fps 2 \
       --size 640x360 --gl osmesa --msaa 4 --png --exposure 1 --contact-sheet out/contact_sheet.png \
       -o out/frames/frame_%04d.exr
+    say "rendering the room at night, lit only by a lamp circling under its ceiling (8 frames)"
+    run mkdir -p out/lamp_frames
+    run build/tools/prt render out/cornell.baked.glb --rig scenes/rigs/lamp_cornell.json --frames 0-7 \
+      --size 640x360 --gl osmesa --msaa 4 --png --contact-sheet out/lamp_contact_sheet.png \
+      -o out/lamp_frames/frame_%04d.exr
     say "done. Outputs in $root/out:"
     printf '    %s\n' \
       "out/cornell.baked.glb  the scene with per-vertex SH transfer (input of prt relight)" \
@@ -150,7 +156,9 @@ case "$mode" in
       "out/cornell.csv        the same per-vertex radiance as a table" \
       "out/cornell.probes.vdb the probe grid (OpenVDB: vdb_print, pyopenvdb, Blender)" \
       "out/frames/            relit frames, linear EXR and tone-mapped PNG" \
-      "out/contact_sheet.png  all frames on one page"
+      "out/contact_sheet.png  all frames on one page" \
+      "out/lamp_frames/       the room lit by a moving lamp (scenes/rigs/lamp_cornell.json)" \
+      "out/lamp_contact_sheet.png  those frames on one page"
     ;;
   test)
     phases=${PRT_TEST_PHASES:-shape release asan fuzz}

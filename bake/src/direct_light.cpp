@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <span>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -164,8 +165,8 @@ namespace {
 // clusters' sample points), traced as streams across points instead of one stream call per ray:
 // the same directions, weights and results as irradianceAt with one sample.
 void oneRayEach(const RayScene& rays, const std::vector<CapSampler>& caps, const std::vector<DirectLight>& lights,
-                const std::vector<glm::vec3>& points, const std::vector<glm::vec3>& normals,
-                const ShadowSettings& settings, float extent, float tnear, std::vector<glm::vec3>& out) {
+                std::span<const glm::vec3> points, std::span<const glm::vec3> normals, const ShadowSettings& settings,
+                float extent, float tnear, std::vector<glm::vec3>& out) {
   tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size(), kStream), [&](const tbb::blocked_range<size_t>& r) {
     alignas(64) Ray batch[kStream];
     size_t who[kStream];
@@ -205,8 +206,8 @@ void oneRayEach(const RayScene& rays, const std::vector<CapSampler>& caps, const
 
 }  // namespace
 
-std::vector<glm::vec3> shadowedDirectIrradianceAt(const RayScene& rays, const std::vector<glm::vec3>& points,
-                                                  const std::vector<glm::vec3>& normals,
+std::vector<glm::vec3> shadowedDirectIrradianceAt(const RayScene& rays, std::span<const glm::vec3> points,
+                                                  std::span<const glm::vec3> normals,
                                                   const std::vector<DirectLight>& lights,
                                                   const ShadowSettings& settings) {
   validate(settings);

@@ -79,6 +79,7 @@ struct FrameLighting::Impl {
   bool traceDirect = false;  // the direct lights' shadow rays are traced
   std::unique_ptr<DirectBounce> gather;
   std::unique_ptr<OperatorLighting> through;  // the bake's operator, where it is used
+  std::vector<glm::vec3> nodeValues;          // its node values of the last light change
   std::optional<RayScene> rays;               // the static scene, for the direct lights' shadow rays
   double setupSeconds = 0.0;
   // The last gather and what it was for.
@@ -89,6 +90,12 @@ struct FrameLighting::Impl {
   std::optional<std::vector<LocalLight>> emissive;  // the scene's emissive triangles
   sh::ShRgb skyFor;
   FrameLightingStats stats;
+  // The per-pixel lights' E⁰ of the last update, each light's apart (pixelE0).
+  struct LightE0 {
+    LocalLight light;
+    DirectIrradiance e;
+  };
+  std::vector<LightE0> pixelLast;
 
   Impl(const Scene& s, const LightRig& r, const FrameLightingSettings& fs)
       : scene(s), rig(r), settings(fs), record(s.bakeRecord.value_or(BakeRecord{})) {}
@@ -182,25 +189,47 @@ struct FrameLighting::Impl {
 
   // The lights inside the scene's shadowed light at every vertex (nothing when there are none):
   // `all` of it (what bounces) and what the vertices get (all of it, or with localPerPixel
-  // only that of the lights the renderer does not light per pixel).
+  // only that of the lights the renderer does not light per pixel). The per-pixel lights' E⁰
+  // only bounces, so it takes the bounces' shadow rays (shadowSamples), as the suns' does.
   struct LocalE0 {
     DirectIrradiance all, atVertices;
   };
   LocalE0 tracedLocal(const std::vector<LocalLight>& local) {
     if (!hasLocal) return {};
+    const int atVertices = settings.localShadowSamples > 0 ? settings.localShadowSamples : settings.shadowSamples;
     if (!settings.localPerPixel) {
-      DirectIrradiance own = tracedLights(local);
+      DirectIrradiance own = tracedLights(local, atVertices);
       return {own, own};
     }
     std::vector<LocalLight> pixel, vertex;
     for (const LocalLight& l : local) (localLightPerPixel(l) ? pixel : vertex).push_back(l);
-    LocalE0 own{tracedLights(pixel), tracedLights(vertex)};
+    LocalE0 own{pixelE0(pixel), tracedLights(vertex, atVertices)};
     addIrradiance(own.all, own.atVertices);
     return own;
   }
-  DirectIrradiance tracedLights(const std::vector<LocalLight>& lights) {
+  // The per-pixel lights' E⁰ (which only bounces), each light traced alone and kept while it
+  // stays as it was: a frame that moves one lamp of several traces that lamp's rays alone.
+  DirectIrradiance pixelE0(const std::vector<LocalLight>& pixel) {
+    DirectIrradiance sum = tracedLights({}, settings.shadowSamples);  // dark: nothing traced
+    std::vector<LightE0> now;
+    std::vector<bool> taken(pixelLast.size(), false);
+    for (const LocalLight& l : pixel) {
+      size_t k = 0;
+      while (k < pixelLast.size() && (taken[k] || !(pixelLast[k].light == l))) ++k;
+      if (k < pixelLast.size()) {
+        taken[k] = true;
+        now.push_back(std::move(pixelLast[k]));
+      } else {
+        now.push_back({l, tracedLights({l}, settings.shadowSamples)});
+      }
+      addIrradiance(sum, now.back().e);
+    }
+    pixelLast = std::move(now);
+    return sum;
+  }
+  DirectIrradiance tracedLights(const std::vector<LocalLight>& lights, int samples) {
     ShadowSettings ss;
-    ss.samples = settings.localShadowSamples > 0 ? settings.localShadowSamples : settings.shadowSamples;
+    ss.samples = samples;
     ss.threads = settings.threads;
     DirectIrradiance own = shadowedLocalIrradiance(scene, *rays, lights, ss);
     stats.shadowSeconds += own.seconds;
@@ -252,6 +281,7 @@ void FrameLighting::Impl::updateThroughOperator(double frame, const RigLighting&
   stats.shadowSeconds += t.shadows;
   stats.shadowRays += t.shadowRays;
   stats.gatherSeconds += t.sky + t.clusters + t.vertices;
+  stats.skySeconds += t.sky, stats.clusterSeconds += t.clusters, stats.vertexSeconds += t.vertices;
   done(l, local, t0);
 }
 
@@ -284,7 +314,10 @@ FrameLight FrameLighting::at(double frame) {
     out.updated = m.stale(out.rig, out.local);
     if (out.updated) m.update(frame, out.rig, out.local);
     out.vertexLight = &m.light;
-    if (m.through) out.operatorValues = &m.through->nodeValues();
+    if (m.through) {
+      if (out.updated || m.nodeValues.empty()) m.nodeValues = m.through->nodeValues();
+      out.operatorValues = &m.nodeValues;
+    }
   }
   // The bounces gathered here do not also go through the transfer's (t − t⁰) · directSh.
   if (m.settings.directAtVertices && m.gathering()) out.rig.directSh = sh::ShRgb(bands);

@@ -265,11 +265,39 @@ void aim(Ray& ray, const glm::vec3& origin, const glm::dvec3& target, float tnea
 }
 
 // The shadowed irradiance of every light at vertex x (ray origin `origin`, unit normal n).
+// The visible share of an area light (or emissive surface) from `origin`: settings.samples rays
+// to points stratified over it, the integrand-weighted mean visibility. Its own stream of rays
+// (kStream of them, 20 KB to initialise) lives here, so that a vertex lit only by point and
+// spot lights, one ray each, does not pay for it.
+double areaShare(const RayScene& rays, const LightSampler& sampler, const glm::vec3& origin, const glm::dvec3& xd,
+                 const glm::dvec3& nd, uint64_t h, const ShadowSettings& settings, float tnear, uint64_t& count) {
+  alignas(64) Ray batch[kStream];
+  double weight[kStream];
+  const uint32_t s0 = uint32_t(h), s1 = uint32_t(h >> 32), N = uint32_t(settings.samples);
+  double seen = 0.0, total = 0.0;
+  for (uint32_t first = 0; first < N; first += kStream) {
+    const uint32_t c = std::min(kStream, N - first);
+    uint32_t used = 0;
+    for (uint32_t j = 0; j < c; ++j) {
+      double w = 0.0;
+      const glm::dvec3 p = sampler.point(sobol0(first + j, s0), sobol1(first + j, s1), xd, nd, w);
+      if (w <= 0.0) continue;
+      aim(batch[used], origin, p, tnear);
+      weight[used++] = w;
+    }
+    rays.occluded(batch, used, /*coherent=*/true);
+    count += used;
+    for (uint32_t j = 0; j < used; ++j) {
+      total += weight[j];
+      if (!batch[j].occludedHit()) seen += weight[j];
+    }
+  }
+  return total > 0.0 ? seen / total : 0.0;
+}
+
 glm::dvec3 localAt(const RayScene& rays, const std::vector<LocalLight>& lights,
                    const std::vector<LightSampler>& samplers, const glm::vec3& x, const glm::vec3& origin,
                    const glm::vec3& n, size_t index, const ShadowSettings& settings, float tnear, uint64_t& count) {
-  alignas(64) Ray batch[kStream];
-  double weight[kStream];
   glm::dvec3 e(0.0);
   const glm::dvec3 xd(x), nd(n);
   for (size_t li = 0; li < lights.size(); ++li) {
@@ -277,33 +305,16 @@ glm::dvec3 localAt(const RayScene& rays, const std::vector<LocalLight>& lights,
     const glm::dvec3 open = localIrradiance(l, xd, nd);
     if (!(open.r > 0.0 || open.g > 0.0 || open.b > 0.0)) continue;
     if (l.punctual()) {
-      aim(batch[0], origin, l.position, tnear);
-      rays.occluded(batch, 1);
+      alignas(64) Ray ray;
+      aim(ray, origin, l.position, tnear);
+      rays.occluded(&ray, 1);
       ++count;
-      if (!batch[0].occludedHit()) e += open;
+      if (!ray.occludedHit()) e += open;
       continue;
     }
     const uint64_t h = splitMix64(settings.seed ^ splitMix64((index * lights.size() + li) ^ 0x6C6F63616C6C74ull));
-    const uint32_t s0 = uint32_t(h), s1 = uint32_t(h >> 32), N = uint32_t(settings.samples);
-    double seen = 0.0, total = 0.0;
-    for (uint32_t first = 0; first < N; first += kStream) {
-      const uint32_t c = std::min(kStream, N - first);
-      uint32_t used = 0;
-      for (uint32_t j = 0; j < c; ++j) {
-        double w = 0.0;
-        const glm::dvec3 p = samplers[li].point(sobol0(first + j, s0), sobol1(first + j, s1), xd, nd, w);
-        if (w <= 0.0) continue;
-        aim(batch[used], origin, p, tnear);
-        weight[used++] = w;
-      }
-      rays.occluded(batch, used, /*coherent=*/true);
-      count += used;
-      for (uint32_t j = 0; j < used; ++j) {
-        total += weight[j];
-        if (!batch[j].occludedHit()) seen += weight[j];
-      }
-    }
-    if (total > 0.0) e += open * (seen / total);
+    const double share = areaShare(rays, samplers[li], origin, xd, nd, h, settings, tnear, count);
+    if (share > 0.0) e += open * share;
   }
   return e;
 }
@@ -314,6 +325,9 @@ DirectIrradiance shadowedLocalIrradiance(const Scene& scene, const RayScene& ray
                                          const std::vector<LocalLight>& lights, const ShadowSettings& settings) {
   validate(settings);
   for (const LocalLight& l : lights) validate(l);
+  // No light: every side dark, without walking them (the direct lights' overload does just that
+  // for an empty list, and builds no rays).
+  if (lights.empty()) return shadowedDirectIrradiance(scene, std::vector<DirectLight>{}, settings);
   const auto t0 = std::chrono::steady_clock::now();
   const ThreadLimit threadLimit(settings.threads);
   const float extent = rays.sceneExtent(), tnear = tnearFor(extent);

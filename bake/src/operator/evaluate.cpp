@@ -1,7 +1,11 @@
 // The bounce operator at a light change (prt/bake/bounce_operator.h): sky bins, the direct
 // light at the clusters, the bounces cluster to cluster, then one sparse row per vertex side.
+#include <algorithm>
 #include <chrono>
 #include <optional>
+#include <span>
+
+#include <immintrin.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -26,11 +30,32 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
 
 constexpr float kUnit = 1.0f / float(BounceOperator::kWeightOne);
 
-// Σ weight · value over row r.
-inline glm::vec3 product(const BounceOperator::Rows& rows, size_t r, const std::vector<glm::vec3>& value) {
-  glm::vec3 acc(0.0f);
-  for (uint32_t e = rows.start[r]; e < rows.start[r + 1]; ++e) acc += float(rows.weight[e]) * value[rows.node[e]];
-  return acc * kUnit;
+// A node's light as 4 floats (RGB and a zero), so that a row's product is one load and one
+// multiply-add an entry.
+using Light4 = __m128;
+using Lights4 = std::vector<Light4>;
+
+inline Light4 light4(const glm::vec3& c) { return _mm_setr_ps(c.r, c.g, c.b, 0.0f); }
+inline glm::vec3 rgb(Light4 v) {
+  alignas(16) float f[4];
+  _mm_store_ps(f, v);
+  return {f[0], f[1], f[2]};
+}
+
+// Σ weight · value over entries [b, e) of `rows`, in the rows' weight units (two sums in turn,
+// so that each multiply-add waits on the one before the last).
+template <class Rows>
+inline glm::vec3 range(const Rows& rows, uint32_t b, uint32_t e, const Lights4& value) {
+  Light4 a = _mm_setzero_ps(), c = _mm_setzero_ps();
+  const uint32_t* node = rows.node.data();
+  const auto* weight = rows.weight.data();
+  uint32_t i = b;
+  for (; i + 1 < e; i += 2) {
+    a = _mm_add_ps(a, _mm_mul_ps(_mm_set1_ps(float(weight[i])), value[node[i]]));
+    c = _mm_add_ps(c, _mm_mul_ps(_mm_set1_ps(float(weight[i + 1])), value[node[i + 1]]));
+  }
+  if (i < e) a = _mm_add_ps(a, _mm_mul_ps(_mm_set1_ps(float(weight[i])), value[node[i]]));
+  return rgb(_mm_add_ps(a, c));
 }
 
 }  // namespace
@@ -41,11 +66,19 @@ struct OperatorLighting::Impl {
   Layout lay;
   int threads;
   std::optional<RayScene> rays;
-  std::vector<uint8_t> sky;                // per node: in the sky tree
-  std::vector<float> nodeWeight;           // per node: area or solid angle below it
-  std::vector<glm::vec3> points, normals;  // the clusters' sample points, cluster by cluster
-  std::vector<uint32_t> pointStart;
+  std::vector<uint8_t> sky;       // per node: in the sky tree
+  std::vector<float> nodeWeight;  // per node: area or solid angle below it
+  // The clusters' sample points, rank by rank: the first point of every cluster, then the second
+  // of those that have two, ... (rankStart[r] .. rankStart[r + 1] are the points of rank r), so
+  // that the first n points of every cluster are one prefix.
+  std::vector<glm::vec3> points, normals;
+  std::vector<uint32_t> rankStart, pointCluster, pointSide, pointCount;
+  int directN2 = 0;
+  std::vector<float> memberShare, areaDirect, pointDirect;  // meanDirectTransfers
   std::vector<uint32_t> clusterOf;
+  // Per cluster row: where its sky leaves begin and where its inner nodes begin (a row ascends
+  // by node: surface leaves, sky leaves, inner nodes of either tree).
+  std::vector<uint32_t> rowSky, rowInner, gradientSkyAt, gradientInnerAt;
   std::vector<glm::vec3> clusterBounce, clusterSky;  // what a cluster gathers from surfaces, from the sky
   // Per vertex side: how much more of the bounced light and of the sky it gets than its
   // cluster's mean, by its own transfer (below).
@@ -57,7 +90,8 @@ struct OperatorLighting::Impl {
   std::vector<glm::vec3> gradientBounce, gradientSky;
 
   PrefilteredSky filtered;
-  std::vector<glm::vec3> skyValue, bounced, next, total, clusterE0;
+  Lights4 skyValue, bounced, next, total;  // per node
+  std::vector<glm::vec3> clusterE0;
   OperatorTimes times;
 
   Impl(const Scene& s, const BounceOperator& o, bool traceShadows, int t)
@@ -71,38 +105,62 @@ struct OperatorLighting::Impl {
     const op::TransferShares sh = op::transferShares(s, lay, o, area);
     bounceShare = sh.bounce, skyShare = sh.sky;
     if (!o.clusterGradients.start.empty()) st = op::clusterCoordinates(s, lay, o, area);
-    if (!traceShadows) return;
-    rays.emplace(s);
-    const std::vector<glm::vec3> origins = rayOrigins(s, lay, rays->sceneExtent());
-    pointStart.assign(1, 0);
-    for (uint32_t c = 0; c < op.clusters; ++c) {
-      const uint32_t b = op.memberStart[c], e = std::min(op.memberStart[c + 1], b + uint32_t(op.samplePoints));
-      for (uint32_t i = b; i < e; ++i) {
-        points.push_back(origins[op.members[i]]);
-        normals.push_back(normalOf(s, lay, op.members[i]));
-      }
-      pointStart.push_back(uint32_t(points.size()));
+    splitRows(op.clusterRows, rowSky, rowInner);
+    splitRows(op.clusterGradients, gradientSkyAt, gradientInnerAt);
+    if (traceShadows) samplePoints();
+    meanDirectTransfers();
+  }
+
+  template <class Rows>
+  void splitRows(const Rows& rows, std::vector<uint32_t>& skyAt, std::vector<uint32_t>& innerAt) const {
+    skyAt.resize(rows.rows()), innerAt.resize(rows.rows());
+    for (size_t r = 0; r < rows.rows(); ++r) {
+      const auto b = rows.node.begin() + rows.start[r], e = rows.node.begin() + rows.start[r + 1];
+      const auto sk = std::lower_bound(b, e, op.clusters);
+      skyAt[r] = uint32_t(sk - rows.node.begin());
+      innerAt[r] = uint32_t(std::lower_bound(sk, e, uint32_t(op.leaves())) - rows.node.begin());
     }
   }
 
-  glm::vec3 shDirect(size_t v, const sh::ShRgb& l) const { return op::shDirect(scene, lay, v, l); }
+  void samplePoints() {
+    rays.emplace(scene);
+    const std::vector<glm::vec3> origins = rayOrigins(scene, lay, rays->sceneExtent());
+    pointCount.resize(op.clusters);
+    for (uint32_t c = 0; c < op.clusters; ++c)
+      pointCount[c] = std::min(op.memberStart[c + 1] - op.memberStart[c], uint32_t(op.samplePoints));
+    rankStart.assign(1, 0);
+    for (uint32_t r = 0; r < uint32_t(op.samplePoints); ++r) {
+      for (uint32_t c = 0; c < op.clusters; ++c) {
+        if (pointCount[c] <= r) continue;
+        const uint32_t v = op.members[op.memberStart[c] + r];
+        points.push_back(origins[v]);
+        normals.push_back(normalOf(scene, lay, v));
+        pointCluster.push_back(c);
+        pointSide.push_back(v);
+      }
+      rankStart.push_back(uint32_t(points.size()));
+    }
+  }
+
   glm::vec3 shBounced(size_t v, const sh::ShRgb& l) const { return op::shBounced(scene, lay, v, l); }
 
   // Inner nodes of one tree (sky or surface) as the weighted means of their children.
-  void aggregate(std::vector<glm::vec3>& v, bool ofSky) const {
+  void aggregate(Lights4& v, bool ofSky) const {
     const size_t L = op.leaves();
     for (size_t i = 0; i < op.children.size() / 2; ++i) {
       const size_t n = L + i;
       if ((sky[n] != 0) != ofSky) continue;
       const uint32_t a = op.children[2 * i], b = op.children[2 * i + 1];
-      v[n] = (nodeWeight[a] * v[a] + nodeWeight[b] * v[b]) / nodeWeight[n];
+      v[n] = _mm_div_ps(
+          _mm_add_ps(_mm_mul_ps(_mm_set1_ps(nodeWeight[a]), v[a]), _mm_mul_ps(_mm_set1_ps(nodeWeight[b]), v[b])),
+          _mm_set1_ps(nodeWeight[n]));
     }
   }
 
   // π × (L − L̃) over each bin, L read from the prefiltered maps and L̃ the band-limited sky, at
   // 2 × 2 points of the bin: the sky detail as a radiance per bin, in irradiance units.
   void skyBins(const RigBackground* skyIn, const sh::ShRgb& shLight) {
-    skyValue.assign(op.nodes(), glm::vec3(0.0f));
+    skyValue.assign(op.nodes(), _mm_setzero_ps());
     if (!skyIn) return;
     const RigBackground f = filtered(*skyIn);
     const int bands = scene.transferBands > 0 ? scene.transferBands : shLight.bands;
@@ -120,62 +178,58 @@ struct OperatorLighting::Impl {
           for (int k = 0; k < n2; ++k) band += y[k] * glm::dvec3(shLight.c[size_t(k)]);
           sum += f.radiance(d) - band;
         }
-      skyValue[op.clusters + s] = glm::vec3(sum * (kPi / 4.0));
+      skyValue[op.clusters + s] = light4(glm::vec3(sum * (kPi / 4.0)));
     }
     aggregate(skyValue, true);
   }
 
-  // R⁰ = ρ (E⁰ + the sky detail at the cluster), then each bounce after the first through the
-  // cluster rows; `total` ends as Σ_k R^k on the surface tree and the sky detail on the sky's.
+  // What each cluster gathers from the sky detail (its row's sky leaves and inner nodes: the
+  // detail is 0 at surface nodes), R⁰ = ρ (E⁰ + that), then per bounce k the cluster rows'
+  // product P_k = G R^k over surface nodes (R^k is 0 at sky nodes, so a row's sky leaves are
+  // skipped) and R^{k+1} = ρ P_k. What a cluster gathers from the surfaces is Σ_k P_k = G Σ_k R^k,
+  // and `total` ends as Σ_k R^k on the surface tree (0 on the sky's: the detail is skyValue).
   void bounces() {
     const size_t C = op.clusters;
-    total.assign(op.nodes(), glm::vec3(0.0f));
-    if (op.bounces > 0) {
-      bounced.assign(op.nodes(), glm::vec3(0.0f));
+    const BounceOperator::Rows& rows = op.clusterRows;
+    clusterSky.assign(C, glm::vec3(0.0f));
+    clusterBounce.assign(C, glm::vec3(0.0f));
+    total.assign(op.nodes(), _mm_setzero_ps());
+    tbb::parallel_for(size_t(0), C,
+                      [&](size_t c) { clusterSky[c] = range(rows, rowSky[c], rows.start[c + 1], skyValue) * kUnit; });
+    if (op.bounces == 0) return;
+    bounced.assign(op.nodes(), _mm_setzero_ps());
+    next.assign(op.nodes(), _mm_setzero_ps());
+    for (size_t c = 0; c < C; ++c) bounced[c] = light4(op.albedo[c] * (clusterE0[c] + clusterSky[c]));
+    for (int k = 0; k < op.bounces; ++k) {
+      for (size_t c = 0; c < C; ++c) total[c] = _mm_add_ps(total[c], bounced[c]);
+      aggregate(bounced, false);
+      const bool last = k + 1 == op.bounces;
       tbb::parallel_for(size_t(0), C, [&](size_t c) {
-        bounced[c] = op.albedo[c] * (clusterE0[c] + product(op.clusterRows, c, skyValue));
+        const glm::vec3 p =
+            (range(rows, rows.start[c], rowSky[c], bounced) + range(rows, rowInner[c], rows.start[c + 1], bounced)) *
+            kUnit;
+        clusterBounce[c] += p;
+        if (!last) next[c] = light4(op.albedo[c] * p);
       });
-      for (size_t c = 0; c < C; ++c) total[c] = bounced[c];
-      for (int k = 1; k < op.bounces; ++k) {
-        aggregate(bounced, false);
-        next.assign(op.nodes(), glm::vec3(0.0f));
-        tbb::parallel_for(size_t(0), C,
-                          [&](size_t c) { next[c] = op.albedo[c] * product(op.clusterRows, c, bounced); });
-        std::swap(bounced, next);
-        for (size_t c = 0; c < C; ++c) total[c] += bounced[c];
-      }
-      aggregate(total, false);
+      // Inner surface nodes are aggregated again before they are read; sky nodes stay 0 in both.
+      std::swap(bounced, next);
     }
-    for (size_t n = 0; n < op.nodes(); ++n)
-      if (sky[n]) total[n] = skyValue[n];
+    aggregate(total, false);
   }
 
-  // What each cluster gathers, from the surfaces and from the sky apart, for the vertex sides
-  // without a row of their own.
-  void clusterLights() {
-    clusterBounce.assign(op.clusters, glm::vec3(0.0f));
-    clusterSky.assign(op.clusters, glm::vec3(0.0f));
-    tbb::parallel_for(size_t(0), size_t(op.clusters), [&](size_t c) {
-      glm::vec3 surface(0.0f), fromSky(0.0f);
-      for (uint32_t e = op.clusterRows.start[c]; e < op.clusterRows.start[c + 1]; ++e) {
-        const uint32_t n = op.clusterRows.node[e];
-        (sky[n] ? fromSky : surface) += float(op.clusterRows.weight[e]) * total[n];
-      }
-      clusterBounce[c] = surface * kUnit, clusterSky[c] = fromSky * kUnit;
-    });
+  // What each gradient row gathers from the surfaces (total) and from the sky (its detail).
+  void gradients() {
     const BounceOperator::SignedRows& g = op.clusterGradients;
     if (g.start.empty()) return;
     gradientBounce.assign(g.rows(), glm::vec3(0.0f));
     gradientSky.assign(g.rows(), glm::vec3(0.0f));
+    const float unit = 1.0f / float(BounceOperator::kGradientOne);
     tbb::parallel_for(size_t(0), g.rows(), [&](size_t r) {
-      glm::vec3 surface(0.0f), fromSky(0.0f);
-      for (uint32_t e = g.start[r]; e < g.start[r + 1]; ++e)
-        (sky[g.node[e]] ? fromSky : surface) += float(g.weight[e]) * total[g.node[e]];
-      gradientBounce[r] = surface / float(BounceOperator::kGradientOne);
-      gradientSky[r] = fromSky / float(BounceOperator::kGradientOne);
+      gradientBounce[r] =
+          (range(g, g.start[r], gradientSkyAt[r], total) + range(g, gradientInnerAt[r], g.start[r + 1], total)) * unit;
+      gradientSky[r] = range(g, gradientSkyAt[r], g.start[r + 1], skyValue) * unit;
     });
   }
-
   DirectIrradiance vertices(const sh::ShRgb* directSh) const {
     std::vector<glm::vec3> out(op.vertexSides);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, op.vertexSides, 1024), [&](const tbb::blocked_range<size_t>& r) {
@@ -183,7 +237,9 @@ struct OperatorLighting::Impl {
         const bool own = op.vertexRows.start[v + 1] > op.vertexRows.start[v];
         const uint32_t c = clusterOf[v];
         if (own) {
-          out[v] = product(op.vertexRows, v, total);
+          out[v] = (range(op.vertexRows, op.vertexRows.start[v], op.vertexRows.start[v + 1], total) +
+                    range(op.vertexRows, op.vertexRows.start[v], op.vertexRows.start[v + 1], skyValue)) *
+                   kUnit;
         } else if (st.empty()) {
           out[v] = bounceShare[v] * clusterBounce[c] + skyShare[v] * clusterSky[c];
         } else {
@@ -197,10 +253,76 @@ struct OperatorLighting::Impl {
     return perInstance(scene, lay, out);
   }
 
+  // E⁰ − t⁰ · directSh at each cluster: the mean over its sample points. A light gets the first
+  // n of each cluster's points, n in proportion to its share of the strongest light's irradiance
+  // (at least 1): a light of a tenth of the strongest's gets one ray per cluster, as its error
+  // under few points is a tenth as large in the bounced light.
+  void directAtClusters(const std::vector<DirectLight>& lights, const sh::ShRgb* directSh) {
+    float strongest = 0.0f;
+    for (const DirectLight& l : lights) strongest = std::max(strongest, float(luminance(l.irradiance)));
+    ShadowSettings ss;
+    ss.samples = 1;
+    ss.threads = threads;
+    const std::span<const glm::vec3> all(points), allNormals(normals);
+    for (const DirectLight& l : lights) {
+      const float share = strongest > 0.0f ? float(luminance(l.irradiance)) / strongest : 1.0f;
+      const int n = std::clamp(int(std::ceil(float(op.samplePoints) * share)), 1, op.samplePoints);
+      const size_t count = rankStart[size_t(n)];
+      const std::vector<glm::vec3> e =
+          shadowedDirectIrradianceAt(*rays, all.first(count), allNormals.first(count), {l}, ss);
+      for (size_t i = 0; i < count; ++i) {
+        const uint32_t c = pointCluster[i];
+        clusterE0[c] += e[i] / float(std::min(pointCount[c], uint32_t(n)));
+      }
+      times.shadowRays += count;
+    }
+    if (!directSh) return;
+    tbb::parallel_for(size_t(0), size_t(op.clusters),
+                      [&](size_t c) { clusterE0[c] -= directAt(pointDirect, c, *directSh); });
+  }
+
+  // Adds w · t⁰ of vertex side v to cluster c's entry of `mean` (directN2 floats a cluster).
+  void addDirect(std::vector<float>& mean, uint32_t c, uint32_t v, float w) const {
+    const MeshInstance& m = scene.meshes[lay.meshOfVertex[v]];
+    if (!m.hasDirectTransfer()) return;
+    const float* t0 = m.directTransferOf(lay.localVertex(v), scene.transferBands, lay.isBack(v));
+    for (int k = 0; k < directN2; ++k) mean[c * size_t(directN2) + size_t(k)] += w * t0[k];
+  }
+
+  // t⁰ · directSh at cluster c, of the mean transfer `mean`.
+  glm::vec3 directAt(const std::vector<float>& mean, size_t c, const sh::ShRgb& directSh) const {
+    const size_t n2 = std::min(size_t(directN2), directSh.c.size());
+    const float* t0 = &mean[c * size_t(directN2)];
+    glm::vec3 e(0.0f);
+    for (size_t i = 0; i < n2; ++i) e += t0[i] * glm::vec3(directSh.c[i]);
+    return e;
+  }
+
+  // Per member (op.members' order), its share of its cluster's light: its area over the
+  // cluster's (1 / members where they have no area); per cluster, the mean direct transfer t⁰
+  // by those shares (lightFrom's), and by its sample points (light's, with traced shadows).
+  void meanDirectTransfers() {
+    directN2 = scene.transferBands * scene.transferBands;
+    memberShare.resize(op.members.size());
+    areaDirect.assign(size_t(op.clusters) * size_t(directN2), 0.0f);
+    for (uint32_t c = 0; c < op.clusters; ++c) {
+      const uint32_t b = op.memberStart[c], e = op.memberStart[c + 1];
+      double weight = 0.0;
+      for (uint32_t i = b; i < e; ++i) weight += area[op.members[i]];
+      for (uint32_t i = b; i < e; ++i) {
+        memberShare[i] = weight > 0.0 ? float(area[op.members[i]] / weight) : 1.0f / float(e - b);
+        addDirect(areaDirect, c, op.members[i], memberShare[i]);
+      }
+    }
+    pointDirect.assign(size_t(op.clusters) * size_t(directN2), 0.0f);
+    for (size_t i = 0; i < pointSide.size(); ++i)
+      addDirect(pointDirect, pointCluster[i], pointSide[i], 1.0f / float(pointCount[pointCluster[i]]));
+  }
+
   DirectIrradiance finish(std::chrono::steady_clock::time_point t0, const sh::ShRgb* directSh) {
     auto t = std::chrono::steady_clock::now();
     bounces();
-    clusterLights();
+    gradients();
     times.clusters = secondsSince(t);
     t = std::chrono::steady_clock::now();
     DirectIrradiance d = vertices(directSh);
@@ -217,7 +339,15 @@ OperatorLighting::~OperatorLighting() = default;
 
 const OperatorTimes& OperatorLighting::lastTimes() const { return impl_->times; }
 
-const std::vector<glm::vec3>& OperatorLighting::nodeValues() const { return impl_->total; }
+std::vector<glm::vec3> OperatorLighting::nodeValues() const {
+  const Impl& m = *impl_;
+  std::vector<glm::vec3> v(m.op.nodes(), glm::vec3(0.0f));
+  for (size_t n = 0; n < v.size(); ++n) {
+    const Lights4& from = m.sky[n] ? m.skyValue : m.total;
+    if (n < from.size()) v[n] = rgb(from[n]);
+  }
+  return v;
+}
 
 DirectIrradiance OperatorLighting::light(const std::vector<DirectLight>& lights, const sh::ShRgb* directSh,
                                          const RigBackground* sky, const sh::ShRgb& sh) {
@@ -230,21 +360,7 @@ DirectIrradiance OperatorLighting::light(const std::vector<DirectLight>& lights,
   m.times.sky = secondsSince(t0);
   auto t = std::chrono::steady_clock::now();
   m.clusterE0.assign(m.op.clusters, glm::vec3(0.0f));
-  if (!lights.empty() && m.op.bounces > 0) {
-    ShadowSettings ss;
-    ss.samples = 1;
-    ss.threads = m.threads;
-    const std::vector<glm::vec3> e = shadowedDirectIrradianceAt(*m.rays, m.points, m.normals, lights, ss);
-    for (uint32_t c = 0; c < m.op.clusters; ++c) {
-      glm::vec3 sum(0.0f);
-      for (uint32_t i = m.pointStart[c]; i < m.pointStart[c + 1]; ++i) {
-        sum += e[i];
-        if (directSh) sum -= m.shDirect(m.op.members[m.op.memberStart[c] + (i - m.pointStart[c])], *directSh);
-      }
-      m.clusterE0[c] = sum / float(m.pointStart[c + 1] - m.pointStart[c]);
-    }
-    m.times.shadowRays = uint64_t(m.points.size()) * lights.size();
-  }
+  if (!lights.empty() && m.op.bounces > 0) m.directAtClusters(lights, directSh);
   m.times.shadows = secondsSince(t);
   return m.finish(t0, m.op.bounces > 0 && !lights.empty() ? directSh : nullptr);
 }
@@ -261,19 +377,13 @@ DirectIrradiance OperatorLighting::lightFrom(const DirectIrradiance& e0, const s
   // A cluster's light: its members' area-weighted mean (the plain mean where they have no area),
   // as its value stands for the light over its area.
   m.clusterE0.assign(m.op.clusters, glm::vec3(0.0f));
-  for (uint32_t c = 0; c < m.op.clusters; ++c) {
-    glm::dvec3 sum(0.0), plain(0.0);
-    double weight = 0.0;
-    const uint32_t b = m.op.memberStart[c], e = m.op.memberStart[c + 1];
-    for (uint32_t i = b; i < e; ++i) {
-      const uint32_t v = m.op.members[i];
-      const glm::vec3 rest = directSh ? side[v] - m.shDirect(v, *directSh) : side[v];
-      sum += double(m.area[v]) * glm::dvec3(rest);
-      plain += glm::dvec3(rest);
-      weight += m.area[v];
-    }
-    m.clusterE0[c] = glm::vec3(weight > 0.0 ? sum / weight : plain / double(e - b));
-  }
+  tbb::parallel_for(size_t(0), size_t(m.op.clusters), [&](size_t c) {
+    glm::dvec3 sum(0.0);
+    for (uint32_t i = m.op.memberStart[c]; i < m.op.memberStart[c + 1]; ++i)
+      sum += double(m.memberShare[i]) * glm::dvec3(side[m.op.members[i]]);
+    m.clusterE0[c] = glm::vec3(sum);
+    if (directSh) m.clusterE0[c] -= m.directAt(m.areaDirect, c, *directSh);
+  });
   return m.finish(t0, m.op.bounces > 0 ? directSh : nullptr);
 }
 

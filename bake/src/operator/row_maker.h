@@ -55,18 +55,24 @@ class RowMaker {
   std::vector<Entry> make(const std::vector<Entry>& leaves, const glm::vec3& x, size_t maxLength) {
     setRow(leaves);
     std::priority_queue<Item> heap;
-    for (uint32_t root : {op_.surfaceRoot, op_.skyRoot})
-      if (count(root) > 0) heap.push(item(descend(root), x));
+    for (uint32_t root : {op_.surfaceRoot, op_.skyRoot}) {
+      Span s = range(root);
+      if (s.hi == s.lo) continue;
+      const uint32_t n = descend(root, s);
+      heap.push(item(n, s, x));
+    }
     std::vector<Entry> done;
     while (!heap.empty()) {
       const Item top = heap.top();
       if (isLeaf(top.node) || heap.size() + done.size() + 1 > maxLength) break;
       heap.pop();
-      const uint32_t* ch = &op_.children[2 * (top.node - op_.leaves())];
-      for (int k = 0; k < 2; ++k)
-        if (count(ch[k]) > 0) heap.push(item(descend(ch[k]), x));
+      for (auto [child, span] : split(top.node, top.span)) {
+        if (span.hi == span.lo) continue;
+        const uint32_t n = descend(child, span);
+        heap.push(item(n, span, x));
+      }
     }
-    for (; !heap.empty(); heap.pop()) done.push_back({heap.top().node, float(weight(heap.top().node))});
+    for (; !heap.empty(); heap.pop()) done.push_back({heap.top().node, float(weight(heap.top().span))});
     std::sort(done.begin(), done.end(), [](const Entry& a, const Entry& b) { return a.leaf < b.leaf; });
     return done;
   }
@@ -83,9 +89,15 @@ class RowMaker {
   }
 
  private:
+  // The entries [lo, hi) of the row under a node (its leaves are one interval of leaf indices,
+  // and the row ascends by leaf).
+  struct Span {
+    uint32_t lo = 0, hi = 0;
+  };
   struct Item {
     float priority;
     uint32_t node;
+    Span span;
     bool operator<(const Item& o) const { return priority < o.priority || (priority == o.priority && node > o.node); }
   };
   void setRow(const std::vector<Entry>& leaves) {
@@ -100,42 +112,50 @@ class RowMaker {
     }
   }
   bool isLeaf(uint32_t n) const { return n < op_.leaves(); }
-  std::pair<size_t, size_t> range(uint32_t n) const {
-    auto lo =
-        std::lower_bound(e_->begin(), e_->end(), t_.leafLo[n], [](const Entry& a, uint32_t v) { return a.leaf < v; });
-    auto hi = std::lower_bound(lo, e_->end(), t_.leafHi[n], [](const Entry& a, uint32_t v) { return a.leaf < v; });
-    return {size_t(lo - e_->begin()), size_t(hi - e_->begin())};
+  // The first entry in [lo, hi) whose leaf is at least `leaf`.
+  uint32_t lowerBound(uint32_t lo, uint32_t hi, uint32_t leaf) const {
+    const auto b = e_->begin();
+    return uint32_t(std::lower_bound(b + lo, b + hi, leaf, [](const Entry& a, uint32_t v) { return a.leaf < v; }) - b);
   }
-  size_t count(uint32_t n) const {
-    const auto [a, b] = range(n);
-    return b - a;
+  Span range(uint32_t n) const {
+    const uint32_t lo = lowerBound(0, uint32_t(e_->size()), t_.leafLo[n]);
+    return {lo, lowerBound(lo, uint32_t(e_->size()), t_.leafHi[n])};
   }
-  double weight(uint32_t n) const {
-    const auto [a, b] = range(n);
-    return prefix_[b * (K + 1)] - prefix_[a * (K + 1)];
+  // The spans of n's two children from n's: the children split n's leaf interval in two, so
+  // one search within n's span finds where the upper child's entries begin.
+  std::array<std::pair<uint32_t, Span>, 2> split(uint32_t n, Span s) const {
+    const uint32_t* ch = &op_.children[2 * (n - op_.leaves())];
+    const int upper = t_.leafLo[ch[0]] < t_.leafLo[ch[1]] ? 1 : 0;
+    const uint32_t m = lowerBound(s.lo, s.hi, t_.leafLo[ch[upper]]);
+    std::array<std::pair<uint32_t, Span>, 2> out;
+    out[size_t(upper)] = {ch[upper], Span{m, s.hi}};
+    out[size_t(1 - upper)] = {ch[1 - upper], Span{s.lo, m}};
+    return out;
   }
-  uint32_t descend(uint32_t n) const {
+  double weight(Span s) const { return prefix_[s.hi * (K + 1)] - prefix_[s.lo * (K + 1)]; }
+  // Down a chain of nodes with one child in the row, to the first with two (or a leaf); `s`
+  // becomes that node's span (the same entries).
+  uint32_t descend(uint32_t n, Span& s) const {
     while (!isLeaf(n)) {
-      const uint32_t* ch = &op_.children[2 * (n - op_.leaves())];
-      const bool a = count(ch[0]) > 0, b = count(ch[1]) > 0;
+      const auto parts = split(n, s);
+      const bool a = parts[0].second.hi > parts[0].second.lo, b = parts[1].second.hi > parts[1].second.lo;
       if (a && b) break;
-      n = a ? ch[0] : ch[1];
+      n = a ? parts[0].first : parts[1].first;
     }
     return n;
   }
   // A node's error under the training lights; a geometric term a thousand times smaller
   // (mergeRisk: its angular size and normal spread, per unit of weight) orders the nodes that
   // no training light tells apart.
-  Item item(uint32_t n, const glm::vec3& x) const {
-    if (isLeaf(n)) return {-1.0f, n};
-    const auto [a, b] = range(n);
-    const double* p = &prefix_[a * (K + 1)];
-    const double* q = &prefix_[b * (K + 1)];
+  Item item(uint32_t n, Span s, const glm::vec3& x) const {
+    if (isLeaf(n)) return {-1.0f, n, s};
+    const double* p = &prefix_[s.lo * (K + 1)];
+    const double* q = &prefix_[s.hi * (K + 1)];
     const double w = q[0] - p[0];
     const float* v = tr_.of(n);
     double err = 0.0;
     for (int k = 0; k < K; ++k) err += std::fabs(q[k + 1] - p[k + 1] - w * double(v[k]));
-    return {float(err / K + 1e-3 * std::fabs(w) * double(mergeRisk(t_, n, sky_[n] != 0, x))), n};
+    return {float(err / K + 1e-3 * std::fabs(w) * double(mergeRisk(t_, n, sky_[n] != 0, x))), n, s};
   }
 
   const BounceOperator& op_;

@@ -15,8 +15,6 @@ namespace prt::bake::op {
 
 namespace {
 
-float luminance(const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
-
 // n directions spread evenly over the sphere (a Fibonacci lattice, y up), turned by `phase`.
 std::vector<glm::dvec3> spread(int n, double phase) {
   std::vector<glm::dvec3> d(static_cast<size_t>(n));

@@ -259,7 +259,6 @@ struct LightRig::Cache {
     if (it != splits.end()) return it->second;
     Split s;
     s.residual = get(file).image;
-    auto luminance = [](const glm::dvec3& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; };
     double mapLuminance = 0.0;  // of the whole map: what every sun's share is of
     for (int k = 0; k < LightRig::kMaxSunsPerMap; ++k) {
       SunExtraction e = extractSun(s.residual);

@@ -6,6 +6,7 @@
 
 #include "prt/error.h"
 #include "prt/light.h"
+#include "prt/math.h"
 
 namespace prt {
 
@@ -223,7 +224,7 @@ LocalLight makeEmitter(const std::string& label, std::vector<LocalLight> triangl
   for (const LocalLight& tri : triangles) {
     const double a = localLightArea(tri);
     const glm::dvec3& L = tri.radiance;
-    total += (0.2126 * L.r + 0.7152 * L.g + 0.0722 * L.b) * a;
+    total += luminance(glm::dvec3(L)) * a;
     t->cdf.push_back(total);
     t->area += a;
     t->power += kPi * a * L;

@@ -19,9 +19,7 @@ namespace prt {
 namespace {
 
 // Rec. 709 / sRGB primaries: the luminance that ranks pixels and weighs the direction.
-constexpr glm::dvec3 kLuminance(0.2126, 0.7152, 0.0722);
-
-double luminance(const glm::dvec3& c) { return glm::dot(kLuminance, c); }
+double luminance(const glm::dvec3& c) { return prt::luminance(c); }
 double luminance(const glm::vec3& c) { return luminance(glm::dvec3(c)); }
 
 double degrees(double radians) { return radians * 180.0 / kPi; }

@@ -107,7 +107,7 @@ class OperatorLighting {
   const OperatorTimes& lastTimes() const;
   /// Per node of the operator, after light() or lightFrom(): π × the radiance it stands for
   /// (surface nodes: ρ E summed over the bounces, Σ_k R^k; sky nodes: the sky detail).
-  const std::vector<glm::vec3>& nodeValues() const;
+  std::vector<glm::vec3> nodeValues() const;
 
  private:
   struct Impl;

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -59,8 +60,8 @@ std::vector<glm::vec3> shadowedDirectIrradianceAt(const Scene& scene, const std:
                                                   const std::vector<DirectLight>& lights,
                                                   const ShadowSettings& settings = {});
 /// The same traced against `rays` (built from the scene), for callers that query many times.
-std::vector<glm::vec3> shadowedDirectIrradianceAt(const RayScene& rays, const std::vector<glm::vec3>& points,
-                                                  const std::vector<glm::vec3>& normals,
+std::vector<glm::vec3> shadowedDirectIrradianceAt(const RayScene& rays, std::span<const glm::vec3> points,
+                                                  std::span<const glm::vec3> normals,
                                                   const std::vector<DirectLight>& lights,
                                                   const ShadowSettings& settings = {});
 

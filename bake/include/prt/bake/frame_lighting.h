@@ -48,7 +48,8 @@ struct FrameLightingSettings {
   /// FrameLight::vertexLight and only their bounces are in it; emissive surfaces stay there.
   bool localPerPixel = false;
   /// Shadow rays per area light (or emissive surface) and vertex for the lights inside the
-  /// scene; 0: shadowSamples.
+  /// scene lit at the vertices; 0: shadowSamples. With localPerPixel, the lights the renderer
+  /// lights take shadowSamples (their E⁰ at the vertices only bounces).
   int localShadowSamples = 0;
   int threads = 0;  // 0 = all cores
 };
@@ -90,6 +91,9 @@ struct FrameLightingStats {
   int updates = 0;                                                       // frames whose vertex light was gathered
   uint64_t shadowRays = 0;                                               // over all updates
   double updateSeconds = 0.0, shadowSeconds = 0.0, gatherSeconds = 0.0;  // over all updates
+  // Through the operator, gatherSeconds by part (OperatorTimes): the sky bins, the products at
+  // the clusters, the products at the vertex sides.
+  double skySeconds = 0.0, clusterSeconds = 0.0, vertexSeconds = 0.0;
 };
 
 /// The light of each frame of a rig on a baked scene. Which gathers it makes is decided at the
