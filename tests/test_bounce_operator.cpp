@@ -310,11 +310,13 @@ TEST(BounceOperator, KeptRaysGiveTheTracedOperator) {
   bake::OperatorSettings os;
   os.samples = 64;
   const PackedOperator traced = packOperator(bake::buildBounceOperator(s, os, 2, 9));
-  EXPECT_TRUE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, &kept)).bytes == traced.bytes);
+  EXPECT_TRUE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, nullptr, nullptr, &kept)).bytes ==
+              traced.bytes);
   kept.chunks[1] = {};  // this chunk's sides are traced
-  EXPECT_TRUE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, &kept)).bytes == traced.bytes);
+  EXPECT_TRUE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, nullptr, nullptr, &kept)).bytes ==
+              traced.bytes);
   os.samples = 32;  // a record of other rays than the operator's is not used
-  EXPECT_TRUE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, &kept)).bytes ==
+  EXPECT_TRUE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, nullptr, nullptr, &kept)).bytes ==
               packOperator(bake::buildBounceOperator(s, os, 2, 9)).bytes);
 }
 
@@ -350,9 +352,9 @@ TEST(BounceOperator, PackedBytesAreCheckedWhenRead) {
   std::vector<uint8_t> flipped = p.bytes;
   flipped[flipped.size() / 2] ^= 0x10;
   EXPECT_NE(refused(p.header, flipped).find("checksum"), std::string::npos);
-  std::string v3 = p.header;
-  v3.replace(v3.find("\"version\":2"), 11, "\"version\":3");
-  EXPECT_NE(refused(v3, p.bytes).find("version 3"), std::string::npos) << refused(v3, p.bytes);
+  std::string v4 = p.header;
+  v4.replace(v4.find("\"version\":3"), 11, "\"version\":4");
+  EXPECT_NE(refused(v4, p.bytes).find("version 4"), std::string::npos) << refused(v4, p.bytes);
   EXPECT_NE(refused("{", p.bytes).find("not JSON"), std::string::npos);
 }
 

@@ -1208,6 +1208,34 @@ TEST(RenderReceivers, EveryBandCountMatchesOracleOnARandomGrid) {
   }
 }
 
+// Frame::probeBounce (the bake's operator at the probes, docs/lights.md, "Probes through the
+// operator") is added to the relit probes before the receivers read them: the oracle with the
+// same values added matches, the oracle without them does not.
+TEST(RenderReceivers, ProbeBounceIsAddedToTheRelitProbes) {
+  const Scene s = randomGridBall();
+  const CameraView cam = lookAt({0.4, 0.5, 3.0}, {0.05, 0.0, 0.0}, 40.0);
+  GlContext ctx(GlBackend::OSMesa, kWidth, kHeight);
+  Renderer r(ctx, s);
+  const ProbeGrid g = randomGrid(3, 77);
+  r.setProbes(g);
+  const sh::ShRgb light = randomLight(3, 41);
+  std::vector<glm::vec3> bounce(g.probeCount() * 9);
+  for (size_t i = 0; i < bounce.size(); ++i)
+    bounce[i] = glm::vec3(0.3f + 0.1f * float(i % 9 == 0), 0.2f, 0.25f) * (i % 9 == 0 ? 1.0f : 0.2f);
+  Frame frame;
+  frame.camera = cam;
+  frame.light = light;
+  frame.probeBounce = &bounce;
+  const ImageRgb img = r.render(frame);
+  ProbeLighting with = probeLighting(g, light);
+  for (size_t i = 0; i < bounce.size(); ++i) with.relit[i] += bounce[i];
+  const Comparison c = compare(img, s, cam, light, &with);
+  EXPECT_GT(c.receiver, 500);
+  EXPECT_LT(c.maxReceiverError, kReceiverTolerance) << "mean " << c.meanReceiverError;
+  const ProbeLighting without = probeLighting(g, light);
+  EXPECT_GT(compare(img, s, cam, light, &without).maxReceiverError, 10 * kReceiverTolerance);
+}
+
 // Every material variant of the shaders (renderer: compiled with HAS_TEXTURE / HAS_COLOR as the
 // material has a base colour texture / the mesh COLOR_0) on receivers and baked instances in
 // one frame: plain, COLOR_0 only, texture only, both; each matches the oracle.

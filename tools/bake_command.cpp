@@ -348,6 +348,17 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                                         "lights' light at the clusters (one ray per light and point)")
                             ->check(CLI::Range(1, 64))
                             ->capture_default_str();
+  CLI::Option* probeRow =
+      bake.add_option("--operator-probe-row", o.probeRowLength,
+                      "With --probes: entries per probe's row of the bounce operator (the bounced light of the "
+                      "direct lights, the sky detail and the lights inside the scene at the probe), at most")
+          ->check(CLI::Range(1, BounceOperator::kMaxRowLength))
+          ->capture_default_str();
+  CLI::Option* probeRays = bake.add_option("--operator-probe-samples", o.probeSamples,
+                                           "With --probes: gather rays per probe that make its row (the probe "
+                                           "bake's first ones; at most --probe-samples)")
+                               ->check(CLI::Range(1, bake::kMaxSamples))
+                               ->capture_default_str();
   CLI::Option* on =
       bake.add_flag("--operator", a.withOperator,
                     "Store the bounce operator (docs/lights.md, \"The bounce operator\"): `prt render` "
@@ -355,7 +366,7 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                     "products instead of tracing the bake's rays again (milliseconds a light change, "
                     "at the accuracy docs/validation.md measures)");
   on->excludes(unshadowed);
-  for (CLI::Option* x : {rays, cluster, row, clusterRow, gradient, points}) {
+  for (CLI::Option* x : {rays, cluster, row, clusterRow, gradient, points, probeRow, probeRays}) {
     x->needs(on);
     x->excludes(unshadowed);
   }
@@ -456,10 +467,11 @@ int runBake(const BakeArgs& a) {
   if (report.bounceOperator.built) {
     const auto& o = report.bounceOperator;
     std::fprintf(stderr,
-                 "  bounce operator: %s clusters, %s vertex entries, %s cluster entries, %s in the file, built in "
-                 "%.2f s\n",
+                 "  bounce operator: %s clusters, %s vertex entries, %s cluster entries, %s probe entries, %s in the "
+                 "file, built in %.2f s\n",
                  formatCount(double(o.clusters)).c_str(), formatCount(double(o.vertexEntries)).c_str(),
-                 formatCount(double(o.clusterEntries)).c_str(), formatBytes(o.bytes).c_str(), o.seconds);
+                 formatCount(double(o.clusterEntries)).c_str(), formatCount(double(o.probeEntries)).c_str(),
+                 formatBytes(o.bytes).c_str(), o.seconds);
   }
   return 0;
 }

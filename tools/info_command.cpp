@@ -101,6 +101,10 @@ void infoGlb(const std::string& path) {
         op->version, op->clusters, op->clusterSize, op->clusterRows.entries(), op->clusterRowLength,
         op->clusterGradients.entries(), op->gradientRowLength, own, op->vertexSides, op->vertexRows.entries(),
         op->skyWidth, op->skyHeight, op->samples, op->bounces);
+    const BounceOperator::ProbeRows& p = op->probeRows;
+    if (p.present())
+      std::printf("  probe rows  %zu probes of a %d x %d x %d grid, %zu entries (up to %d a row), %d rays per probe\n",
+                  p.lattice.size(), p.dims.x, p.dims.y, p.dims.z, p.rows.entries(), p.rowLength, p.samples);
   } else if (baked > 0) {
     std::printf("  operator    none (prt render and prt relight trace the bake's rays again; bake with --operator)\n");
   }

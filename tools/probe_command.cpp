@@ -14,6 +14,7 @@
 #include "cli_checks.h"
 #include "csv_fields.h"
 #include "prt/atomic_file.h"
+#include "prt/bake/bounce_operator.h"
 #include "prt/bake/frame_lighting.h"
 #include "prt/error.h"
 #include "prt/probe_grid.h"
@@ -175,6 +176,31 @@ std::string probePointsCsv(const std::string& path, const ProbeQuery& q) {
   return out;
 }
 
+// The probes' bounced light through the bake's operator (docs/lights.md, "Probes through the
+// operator"), added to `relit`: with the direct lights split off (`split`), the part of their
+// light SH does not carry, and the sky detail, both after every bounce. Returns a note to print
+// when the operator has no rows for probes (the probes then get only what their SH carries).
+std::string bounceThroughOperator(const ProbeArgs& a, const LightRig& rig, const Scene& scene, const ProbeGrid& grid,
+                                  bool split, std::vector<glm::vec3>& relit) {
+  const BounceOperator* op = scene.bounceOperator.get();
+  if (!op) return {};
+  if (!op->probeRows.present())
+    return cat("prt probe: note: ", a.scene,
+               " has no probe rows in its bounce operator (baked without --probes, or by an older prt): the probes "
+               "get only the bounced light their SH carries");
+  bake::checkProbeRows(*op, grid, cat(a.scene, " (with ", a.file, ")"));
+  const RigLighting l = lightingAt(rig, a.light, a.light.frame, scene.transferBands);
+  // The sky detail needs a sky: a map, a uniform light or a disk; suns alone have none.
+  const bool anySky = std::any_of(rig.lights.begin(), rig.lights.end(),
+                                  [](const RigLight& r) { return r.type != RigLight::Type::Sun; });
+  const RigBackground sky = anySky ? rig.shRadiance(a.light.frame) : RigBackground{};
+  bake::OperatorLighting through(scene, *op, true, a.threads);
+  through.light(split ? l.direct : std::vector<DirectLight>{}, split ? &l.directSh : nullptr, anySky ? &sky : nullptr,
+                l.sh);
+  bake::addProbeBounce(*op, grid, through.nodeValues(), relit);
+  return {};
+}
+
 }  // namespace
 
 void addProbe(CLI::App& cmd, ProbeArgs& a) {
@@ -190,8 +216,9 @@ void addProbe(CLI::App& cmd, ProbeArgs& a) {
   addLightOptions(cmd, a.light);
   cmd.add_option("--scene", a.scene,
                  "The baked scene (.glb) of the grid: direct lights (suns, small disks) are then traced at each "
-                 "point with their shadows and added to the irradiance, the probes giving the sky and bounced light; "
-                 "without it they go through the probes' SH, band-limited");
+                 "point with their shadows and added to the irradiance, the probes giving the sky and bounced light "
+                 "(through the bake's bounce operator where it has rows for this grid); without it they go through "
+                 "the probes' SH, band-limited");
   cmd.add_option("--shadow-samples", a.shadowSamples, "With --scene: shadow rays per direct light and point")
       ->check(CLI::Range(1, 65536))
       ->capture_default_str();
@@ -219,6 +246,7 @@ int runProbe(const ProbeArgs& a) {
   // direct lights traced at the point. Without the scene, or a grid without M⁰, the direct
   // lights go through the probes' SH with the rest.
   const bool split = scene && !lighting.direct.empty() && grid.hasDirect();
+  const bool folded = !lighting.direct.empty() && !split;  // the direct lights are in the probes' SH
   // Said once the answer is out (an error stays the only line).
   const std::string note =
       !lighting.direct.empty() && !split
@@ -231,8 +259,9 @@ int runProbe(const ProbeArgs& a) {
   if (!split) lighting.direct.clear();
   // Not split: the rig's whole light (LightRig::evaluate), as before the split existed.
   const sh::ShRgb light = sh::resize(split ? lighting.sh : rig.evaluate(a.light.frame, grid.bands), grid.bands);
-  const std::vector<glm::vec3> relit =
+  std::vector<glm::vec3> relit =
       split ? relightProbes(grid, light, sh::resize(lighting.directSh, grid.bands)) : relightProbes(grid, light);
+  const std::string operatorNote = scene && !folded ? bounceThroughOperator(a, rig, *scene, grid, split, relit) : "";
   std::optional<bake::PointShadows> shadowRays;
   if (split) shadowRays.emplace(*scene);
   ProbeQuery q{grid, relit, light, split ? &*shadowRays : nullptr, split ? &lighting.direct : nullptr, {}};
@@ -243,6 +272,7 @@ int runProbe(const ProbeArgs& a) {
   else
     writeFileAtomic(a.output, probePointsCsv(a.points, q));
   if (!note.empty()) std::fprintf(stderr, "%s\n", note.c_str());
+  if (!operatorNote.empty()) std::fprintf(stderr, "%s\n", operatorNote.c_str());
   return 0;
 }
 

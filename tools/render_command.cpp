@@ -30,6 +30,7 @@
 #include "frame_outputs.h"
 #include "light_options.h"
 #include "prt/atomic_file.h"
+#include "prt/bake/bounce_operator.h"
 #include "prt/bake/frame_lighting.h"
 #include "prt/bake/local_lights.h"
 #include "prt/error.h"
@@ -492,9 +493,44 @@ render::Frame renderFrame(const RenderArgs& a, const RenderSize& size, const ren
 // Renders the frames; frame f is written on the writer's thread while frame f + 1 renders (two
 // frames queued at most). Warnings the renderer finds while rendering (direct lights an older
 // bake cannot split) are printed once each.
+// The receivers' share of the bake's operator: its probe rows for the grid, and their light of the
+// last light change (docs/lights.md, "Probes through the operator").
+struct ProbeBounce {
+  const BounceOperator* op = nullptr;  // null: the grid's receivers get the SH part alone
+  const ProbeGrid* grid = nullptr;
+  std::vector<glm::vec3> values;
+  // The frame's bounce at the probes, recomputed when the frame's light was.
+  const std::vector<glm::vec3>* at(const bake::FrameLight& light) {
+    if (!op || !light.operatorValues) return nullptr;
+    if (light.updated || values.empty()) {
+      values.assign(grid->probeCount() * size_t(grid->coeffs()), glm::vec3(0.0f));
+      bake::addProbeBounce(*op, *grid, *light.operatorValues, values);
+    }
+    return &values;
+  }
+};
+
+// The operator's probe rows where the baked scene has them for this grid (a grid of another bake
+// is refused); a warning where its operator has none.
+ProbeBounce probeBounce(const RenderArgs& a, const Scene& scene, const ProbeGrid& grid,
+                        std::vector<std::string>& warnings) {
+  ProbeBounce b;
+  if (a.probes.empty() || !scene.bounceOperator || a.gather.noOperator) return b;
+  if (!scene.bounceOperator->probeRows.present()) {
+    warnings.push_back(cat(a.baked,
+                           " has no probe rows in its bounce operator (baked without --probes, or by an older prt): "
+                           "the receivers get only the bounced light the probes' SH carries"));
+    return b;
+  }
+  bake::checkProbeRows(*scene.bounceOperator, grid, cat(a.baked, " (with ", a.probes, ")"));
+  b.op = scene.bounceOperator.get();
+  b.grid = &grid;
+  return b;
+}
+
 RenderTimes renderFrames(const RenderArgs& a, const FrameLights& lights, const RenderSize& size, double fps,
                          const render::CameraView& camera, render::Renderer& renderer, bake::FrameLighting& lighting,
-                         Outputs& out) {
+                         ProbeBounce& probeBounce, Outputs& out) {
   RenderTimes t;
   size_t warningsShown = renderer.warnings().size();
   FrameWriter writer(2);
@@ -507,9 +543,12 @@ RenderTimes renderFrames(const RenderArgs& a, const FrameLights& lights, const R
     RigBackground environment;
     const bool full = a.materials == render::MaterialShading::Full;
     if (full) environment = lights.rig.shRadiance(double(f));
-    const render::Frame frame =
+    render::Frame frame =
         renderFrame(a, size, camera, light, double(f) / fps, a.background == Background::Sky ? &background : nullptr,
                     full ? &environment : nullptr, lights.localPerPixel);
+    const auto tProbes = std::chrono::steady_clock::now();
+    frame.probeBounce = probeBounce.at(light);
+    const double probesMs = msSince(tProbes);
     auto image = std::make_shared<const ImageRgb>(
         a.supersample > 1 ? downsampleBox(renderer.render(frame), a.supersample) : renderer.render(frame));
     const std::vector<std::string> now = renderer.warnings();
@@ -518,7 +557,7 @@ RenderTimes renderFrames(const RenderArgs& a, const FrameLights& lights, const R
     // The light update: the rig's SH, the gathered vertex light when the lights changed, and,
     // with probes, relighting and uploading the grid.
     const render::FrameStats stats = renderer.lastFrame();
-    const double frameLightMs = light.seconds * 1e3 + stats.lightMs;
+    const double frameLightMs = light.seconds * 1e3 + probesMs + stats.lightMs;
     t.light += frameLightMs;
     t.draw += stats.drawMs;
     t.readback += stats.readbackMs;
@@ -762,6 +801,7 @@ int runRender(const RenderArgs& a) {
     probes = readProbeGrid(a.probes);
     for (const std::string& w : checkProbesMatch(probes, scene, a)) warnings.push_back(w);
   }
+  ProbeBounce bounceAtProbes = probeBounce(a, scene, probes, warnings);
   render::GlContext context(a.gl, int(size.width), int(size.height));
   if (a.msaa > context.maxSamples())
     throw Error(cat("--msaa ", a.msaa, ": ", context.renderer(), " allows at most ", context.maxSamples(), " samples"));
@@ -790,7 +830,7 @@ int runRender(const RenderArgs& a) {
   gather.localPerPixel = lights.localPerPixel = hasDirectTransfer(scene);
   gather.localShadowSamples = kLocalShadowSamples;
   bake::FrameLighting lighting(scene, lights.rig, gather);
-  RenderTimes times = renderFrames(a, lights, size, fps, camera.view, renderer, lighting, out);
+  RenderTimes times = renderFrames(a, lights, size, fps, camera.view, renderer, lighting, bounceAtProbes, out);
   times.prepare = prepareMs;
   auto tEnd = std::chrono::steady_clock::now();
   if (out.video) out.video->finish();

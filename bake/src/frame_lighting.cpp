@@ -79,6 +79,7 @@ struct FrameLighting::Impl {
   bool traceDirect = false;  // the direct lights' shadow rays are traced
   std::unique_ptr<DirectBounce> gather;
   std::unique_ptr<OperatorLighting> through;  // the bake's operator, where it is used
+  std::vector<glm::vec3> nodeValues;          // its node values of the last light change
   std::optional<RayScene> rays;               // the static scene, for the direct lights' shadow rays
   double setupSeconds = 0.0;
   // The last gather and what it was for.
@@ -313,6 +314,10 @@ FrameLight FrameLighting::at(double frame) {
     out.updated = m.stale(out.rig, out.local);
     if (out.updated) m.update(frame, out.rig, out.local);
     out.vertexLight = &m.light;
+    if (m.through) {
+      if (out.updated || m.nodeValues.empty()) m.nodeValues = m.through->nodeValues();
+      out.operatorValues = &m.nodeValues;
+    }
   }
   // The bounces gathered here do not also go through the transfer's (t − t⁰) · directSh.
   if (m.settings.directAtVertices && m.gathering()) out.rig.directSh = sh::ShRgb(bands);

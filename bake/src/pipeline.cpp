@@ -222,17 +222,21 @@ Stages runStages(const BakeJob& job, Plan& plan, BakeReport& report, MemoryGuard
 }
 
 // The bounce operator of the baked scene, from the bake's own rays (the first of each vertex's).
-void buildOperator(OperatorSettings os, const BakeSettings& s, const GatherRecords& kept, BakeReport& report) {
+// With the probe grid, the probes' rows too (made by this process alone under MPI).
+void buildOperator(OperatorSettings os, const BakeSettings& s, const ProbeGrid* grid, const GatherRecords& kept,
+                   BakeReport& report) {
   const auto t0 = std::chrono::steady_clock::now();
   os.samples = std::min(os.samples, s.samples);
   os.threads = s.threads;
-  auto op = std::make_shared<BounceOperator>(buildBounceOperator(report.scene, os, s.bounces, s.seed, false, &kept));
+  auto op = std::make_shared<BounceOperator>(
+      buildBounceOperator(report.scene, os, s.bounces, s.seed, false, grid, nullptr, &kept));
   BakeReport::Operator& r = report.bounceOperator;
   r.built = true;
   r.bytes = packOperator(*op).bytes.size();
   r.clusters = op->clusters;
   r.vertexEntries = op->vertexRows.entries();
   r.clusterEntries = op->clusterRows.entries();
+  r.probeEntries = op->probeRows.rows.entries();
   report.scene.bounceOperator = std::move(op);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -246,7 +250,7 @@ void buildOperatorShare(const BakeJob& job, Stages& stages, BakeReport& report) 
   OperatorSettings os = *job.bounceOperator;
   os.samples = std::min(os.samples, s.samples);
   os.threads = s.threads;
-  buildBounceOperator(report.scene, os, s.bounces, s.seed, false, &stages.surface.gather);
+  buildBounceOperator(report.scene, os, s.bounces, s.seed, false, nullptr, nullptr, &stages.surface.gather);
 }
 
 // The baked scene with its record, and the probe grid (written first, as the bake finishes it).
@@ -259,7 +263,8 @@ void writeOutputs(const BakeJob& job, Stages& stages, BakeReport& report) {
   const BakeSettings& s = report.settings;
   storeTransfer(scene, std::move(stages.surface.perMesh), std::move(stages.surface.perMeshDirect));
   scene.transferBands = s.bands;
-  if (job.bounceOperator && s.shadowed) buildOperator(*job.bounceOperator, s, stages.surface.gather, report);
+  if (job.bounceOperator && s.shadowed)
+    buildOperator(*job.bounceOperator, s, stages.grid ? &*stages.grid : nullptr, stages.surface.gather, report);
   stages.surface.gather = {};
   const auto t0 = std::chrono::steady_clock::now();
   BakeRecord record = bakeRecord(s, std::filesystem::path(job.scenePath).filename().string(), kVersion);

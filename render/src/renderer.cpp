@@ -312,7 +312,11 @@ void Renderer::Impl::updateReceiverLight(const Frame& frame, const FramePlan& pl
     gl.ProgramUniform4fv(p.id, p.light, GLsizei(packedLight.size()), &packedLight[0].x);
   }
   if (g.probeCount() > 0) {
-    const std::vector<glm::vec3> relit = plan.receiverSplit ? relightProbes(g, l, dl) : relightProbes(g, l);
+    std::vector<glm::vec3> relit = plan.receiverSplit ? relightProbes(g, l, dl) : relightProbes(g, l);
+    if (frame.probeBounce && (plan.receiverSplit || frame.direct.empty())) {
+      PRT_CHECK_EQ(frame.probeBounce->size(), relit.size());
+      for (size_t i = 0; i < relit.size(); ++i) relit[i] += (*frame.probeBounce)[i];
+    }
     packRadiance(g.bands, relit, radiance);
     gl.NamedBufferSubData(probes.radiance, 0, GLsizeiptr(radiance.size() * sizeof(glm::vec4)), radiance.data());
   }

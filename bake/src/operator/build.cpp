@@ -15,10 +15,12 @@
 #include "../stage_runner.h"
 #include "../surface_layout.h"
 #include "../vertex_rays.h"
+#include "probe_rows.h"
 #include "prt/bake/bounce_operator.h"
 #include "prt/bake/ranks.h"
 #include "prt/error.h"
 #include "prt/light.h"
+#include "row_maker.h"
 #include "training.h"
 #include "tree.h"
 
@@ -36,30 +38,17 @@ void validate(const OperatorSettings& s) {
   within("operator sky bins across", s.skyWidth, 1, 1024);
   within("operator sky bins down", s.skyHeight, 1, 1024);
   within("operator sample points", s.samplePoints, 1, 64);
+  within("operator probe samples", s.probeSamples, 1, 16777216);
+  within("operator probe row length", s.probeRowLength, 1, BounceOperator::kMaxRowLength);
   if (s.threads < 0) throw Error(cat("threads ", s.threads, ": must be 0 (all cores) or more"));
 }
 
 namespace {
 
+using op::Entry;
+using op::mergeEntries;
+using op::RowMaker;
 using op::Tree;
-
-struct Entry {
-  uint32_t leaf;
-  float w;
-};
-
-// Sorts entries by leaf and adds up those of one leaf.
-void mergeEntries(std::vector<Entry>& e) {
-  std::sort(e.begin(), e.end(), [](const Entry& a, const Entry& b) { return a.leaf < b.leaf; });
-  size_t out = 0;
-  for (size_t i = 0; i < e.size(); ++i) {
-    if (out > 0 && e[out - 1].leaf == e[i].leaf)
-      e[out - 1].w += e[i].w;
-    else
-      e[out++] = e[i];
-  }
-  e.resize(out);
-}
 
 // out = Σ_i coef[i] · rows[i] over the first n rows, each sorted by leaf with each leaf once (as
 // mergeEntries leaves them): a k-way merge, sorted by leaf with each leaf once.
@@ -78,133 +67,6 @@ void weightedSum(const std::vector<std::vector<Entry>>& rows, size_t n, const st
     out.push_back({leaf, float(w)});
   }
 }
-
-// A row over the tree from merged leaf entries, cut top-down: from the two roots, each time the
-// node whose entry would be wrongest under the training lights (training.h) is split into its
-// children, until the row is `maxLength` long or holds only leaves. A node's error is the mean
-// over the lights of |Σ its leaves' weight · value − its weight · its value|: what standing for
-// its leaves by their mean costs this row. (A row of signed weights, a gradient, is cut alike.)
-// Single-child chains are walked down for free. Weight is kept exactly: each entry holds its
-// node's whole share.
-class RowMaker {
- public:
-  static constexpr int K = op::Training::kLights;
-  RowMaker(const BounceOperator& o, const Tree& t, const std::vector<uint8_t>& sky, const op::Training& tr)
-      : op_(o), t_(t), sky_(sky), tr_(tr) {}
-
-  std::vector<Entry> make(const std::vector<Entry>& leaves, const glm::vec3& x, size_t maxLength) {
-    setRow(leaves);
-    std::priority_queue<Item> heap;
-    for (uint32_t root : {op_.surfaceRoot, op_.skyRoot}) {
-      Span s = range(root);
-      if (s.hi == s.lo) continue;
-      const uint32_t n = descend(root, s);
-      heap.push(item(n, s, x));
-    }
-    std::vector<Entry> done;
-    while (!heap.empty()) {
-      const Item top = heap.top();
-      if (isLeaf(top.node) || heap.size() + done.size() + 1 > maxLength) break;
-      heap.pop();
-      for (auto [child, span] : split(top.node, top.span)) {
-        if (span.hi == span.lo) continue;
-        const uint32_t n = descend(child, span);
-        heap.push(item(n, span, x));
-      }
-    }
-    for (; !heap.empty(); heap.pop()) done.push_back({heap.top().node, float(weight(heap.top().span))});
-    std::sort(done.begin(), done.end(), [](const Entry& a, const Entry& b) { return a.leaf < b.leaf; });
-    return done;
-  }
-
-  /// Under each training light, what `row` (over the tree) gathers from surfaces and from the
-  /// sky apart, each as K values.
-  void values(const std::vector<Entry>& row, std::array<double, K>& surface, std::array<double, K>& sky) const {
-    surface.fill(0.0), sky.fill(0.0);
-    for (const Entry& e : row) {
-      const float* v = tr_.of(e.leaf);
-      std::array<double, K>& to = sky_[e.leaf] ? sky : surface;
-      for (int k = 0; k < K; ++k) to[size_t(k)] += double(e.w) * v[k];
-    }
-  }
-
- private:
-  // The entries [lo, hi) of the row under a node (its leaves are one interval of leaf indices,
-  // and the row ascends by leaf).
-  struct Span {
-    uint32_t lo = 0, hi = 0;
-  };
-  struct Item {
-    float priority;
-    uint32_t node;
-    Span span;
-    bool operator<(const Item& o) const { return priority < o.priority || (priority == o.priority && node > o.node); }
-  };
-  void setRow(const std::vector<Entry>& leaves) {
-    e_ = &leaves;
-    prefix_.assign((leaves.size() + 1) * (K + 1), 0.0);
-    for (size_t i = 0; i < leaves.size(); ++i) {
-      const double* p = &prefix_[i * (K + 1)];
-      double* q = &prefix_[(i + 1) * (K + 1)];
-      const float* v = tr_.of(leaves[i].leaf);
-      q[0] = p[0] + double(leaves[i].w);
-      for (int k = 0; k < K; ++k) q[k + 1] = p[k + 1] + double(leaves[i].w) * v[k];
-    }
-  }
-  bool isLeaf(uint32_t n) const { return n < op_.leaves(); }
-  // The first entry in [lo, hi) whose leaf is at least `leaf`.
-  uint32_t lowerBound(uint32_t lo, uint32_t hi, uint32_t leaf) const {
-    const auto b = e_->begin();
-    return uint32_t(std::lower_bound(b + lo, b + hi, leaf, [](const Entry& a, uint32_t v) { return a.leaf < v; }) - b);
-  }
-  Span range(uint32_t n) const {
-    const uint32_t lo = lowerBound(0, uint32_t(e_->size()), t_.leafLo[n]);
-    return {lo, lowerBound(lo, uint32_t(e_->size()), t_.leafHi[n])};
-  }
-  // The spans of n's two children from n's: the children split n's leaf interval in two, so
-  // one search within n's span finds where the upper child's entries begin.
-  std::array<std::pair<uint32_t, Span>, 2> split(uint32_t n, Span s) const {
-    const uint32_t* ch = &op_.children[2 * (n - op_.leaves())];
-    const int upper = t_.leafLo[ch[0]] < t_.leafLo[ch[1]] ? 1 : 0;
-    const uint32_t m = lowerBound(s.lo, s.hi, t_.leafLo[ch[upper]]);
-    std::array<std::pair<uint32_t, Span>, 2> out;
-    out[size_t(upper)] = {ch[upper], Span{m, s.hi}};
-    out[size_t(1 - upper)] = {ch[1 - upper], Span{s.lo, m}};
-    return out;
-  }
-  double weight(Span s) const { return prefix_[s.hi * (K + 1)] - prefix_[s.lo * (K + 1)]; }
-  // Down a chain of nodes with one child in the row, to the first with two (or a leaf); `s`
-  // becomes that node's span (the same entries).
-  uint32_t descend(uint32_t n, Span& s) const {
-    while (!isLeaf(n)) {
-      const auto parts = split(n, s);
-      const bool a = parts[0].second.hi > parts[0].second.lo, b = parts[1].second.hi > parts[1].second.lo;
-      if (a && b) break;
-      n = a ? parts[0].first : parts[1].first;
-    }
-    return n;
-  }
-  // A node's error under the training lights; a geometric term a thousand times smaller
-  // (mergeRisk: its angular size and normal spread, per unit of weight) orders the nodes that
-  // no training light tells apart.
-  Item item(uint32_t n, Span s, const glm::vec3& x) const {
-    if (isLeaf(n)) return {-1.0f, n, s};
-    const double* p = &prefix_[s.lo * (K + 1)];
-    const double* q = &prefix_[s.hi * (K + 1)];
-    const double w = q[0] - p[0];
-    const float* v = tr_.of(n);
-    double err = 0.0;
-    for (int k = 0; k < K; ++k) err += std::fabs(q[k + 1] - p[k + 1] - w * double(v[k]));
-    return {float(err / K + 1e-3 * std::fabs(w) * double(op::mergeRisk(t_, n, sky_[n] != 0, x))), n, s};
-  }
-
-  const BounceOperator& op_;
-  const Tree& t_;
-  const std::vector<uint8_t>& sky_;
-  const op::Training& tr_;
-  const std::vector<Entry>* e_ = nullptr;
-  std::vector<double> prefix_;  // per row entry i: Σ_{j<i} w_j, then Σ_{j<i} w_j · value_k(j) for each light k
-};
 
 // Vertex sides as the clustering sees them: position, side normal, a third of the area of each
 // triangle around the vertex, diffuse albedo at the vertex.
@@ -228,21 +90,6 @@ std::vector<op::SidePoint> sidePoints(const Scene& scene, const Layout& lay) {
   return sides;
 }
 
-// The bilinear share of direction d among the four sky bins around it (wrapping across u).
-template <class Add>
-void splatSky(const glm::vec3& d, int W, int H, Add&& add) {
-  const glm::dvec2 uv = equirectUv(glm::dvec3(d));
-  const double x = uv.x * W - 0.5, y = std::clamp(uv.y * H - 0.5, 0.0, double(H - 1));
-  const int x0 = int(std::floor(x)), y0 = std::min(int(std::floor(y)), H - 1);
-  const float fx = float(x - x0), fy = float(y - y0);
-  const int y1 = std::min(y0 + 1, H - 1);
-  const int xa = ((x0 % W) + W) % W, xb = (xa + 1) % W;
-  add(uint32_t(y0 * W + xa), (1 - fx) * (1 - fy));
-  add(uint32_t(y0 * W + xb), fx * (1 - fy));
-  add(uint32_t(y1 * W + xa), (1 - fx) * fy);
-  add(uint32_t(y1 * W + xb), fx * fy);
-}
-
 struct Trace {
   const Scene& scene;
   const Layout& lay;
@@ -263,7 +110,7 @@ struct Trace {
     const VertexSampler sampler(origins[v], normalOf(scene, lay, v), seed, v, tnear);
     const float w = 1.0f / float(K);
     auto escaped = [&](uint32_t, const Ray& r) {
-      splatSky(r.dir, op.skyWidth, op.skyHeight, [&](uint32_t bin, float share) {
+      op::splatSky(r.dir, op.skyWidth, op.skyHeight, [&](uint32_t bin, float share) {
         out.push_back({tree.skyLeafOfBin[bin], w * share});
       });
     };
@@ -425,7 +272,8 @@ void storeRows(BounceOperator::Rows& rows, const std::vector<std::vector<Entry>>
 }  // namespace
 
 BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s, int bounces, uint64_t seed,
-                                   bool uncompressed, const GatherRecords* kept) {
+                                   bool uncompressed, const ProbeGrid* probes, ProbeShRows* probeSh,
+                                   const GatherRecords* kept) {
   validate(s);
   const ThreadLimit threadLimit(s.threads);
   const Layout lay = makeLayout(scene);
@@ -497,6 +345,9 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
   storeRows(op.vertexRows, vertexRows);
   storeRows(op.clusterRows, clusterRows);
   if (gradientLength > 0) storeGradients(op.clusterGradients, gradients);
+  if (probes && probes->probeCount() > 0)
+    op.probeRows = op::makeProbeRows({scene, lay, op, tree, sky, training, rays}, *probes, s.probeSamples,
+                                     s.probeRowLength, uncompressed, probeSh);
   return op;
 }
 

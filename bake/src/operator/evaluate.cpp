@@ -339,6 +339,16 @@ OperatorLighting::~OperatorLighting() = default;
 
 const OperatorTimes& OperatorLighting::lastTimes() const { return impl_->times; }
 
+std::vector<glm::vec3> OperatorLighting::nodeValues() const {
+  const Impl& m = *impl_;
+  std::vector<glm::vec3> v(m.op.nodes(), glm::vec3(0.0f));
+  for (size_t n = 0; n < v.size(); ++n) {
+    const Lights4& from = m.sky[n] ? m.skyValue : m.total;
+    if (n < from.size()) v[n] = rgb(from[n]);
+  }
+  return v;
+}
+
 DirectIrradiance OperatorLighting::light(const std::vector<DirectLight>& lights, const sh::ShRgb* directSh,
                                          const RigBackground* sky, const sh::ShRgb& sh) {
   Impl& m = *impl_;

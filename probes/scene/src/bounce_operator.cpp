@@ -178,7 +178,41 @@ void checkClusters(const BounceOperator& op, const std::string& where) {
           cat(where, ": members: vertex side ", m, m >= op.vertexSides ? " does not exist" : " is listed twice"));
 }
 
+void checkProbeRowArrays(const BounceOperator& op, const std::string& where) {
+  const BounceOperator::ProbeRows& p = op.probeRows;
+  const std::string at = cat(where, ": probe rows");
+  if (glm::any(glm::lessThan(p.dims, glm::ivec3(1))) ||
+      !(p.spacing.x > 0.0 && p.spacing.y > 0.0 && p.spacing.z > 0.0) ||
+      !std::isfinite(p.origin.x + p.origin.y + p.origin.z + p.spacing.x + p.spacing.y + p.spacing.z) ||
+      double(p.dims.x) * p.dims.y * p.dims.z > double(UINT32_MAX) || p.samples < 1 || p.bands < 1 || p.bands > 8)
+    throw Error(cat(at, ": lattice ", p.dims.x, " x ", p.dims.y, " x ", p.dims.z, ", ", p.samples, " samples, ",
+                    p.bands, " bands"));
+  checkRows(p.rows, p.lattice.size(), op.nodes(), at);
+  const uint64_t points = uint64_t(p.dims.x) * uint64_t(p.dims.y) * uint64_t(p.dims.z);
+  for (size_t i = 0; i < p.lattice.size(); ++i)
+    if (p.lattice[i] >= points || (i > 0 && p.lattice[i] <= p.lattice[i - 1]))
+      throw Error(cat(at, ": row ", i, " names lattice point ", p.lattice[i], " (out of range or out of order)"));
+  if (p.shape.size() != p.shapeStride() * p.rows.entries())
+    throw Error(cat(at, ": ", p.shape.size(), " SH values for ", p.rows.entries(), " entries of ", p.bands, " bands"));
+}
+
 }  // namespace
+
+void checkProbeRows(const BounceOperator& op, const glm::ivec3& dims, const glm::dvec3& origin,
+                    const glm::dvec3& spacing, uint64_t seed, const std::vector<uint32_t>& lattice,
+                    const std::string& where) {
+  const BounceOperator::ProbeRows& p = op.probeRows;
+  auto differ = [](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& scale) {
+    return glm::any(glm::greaterThan(glm::abs(a - b), 1e-5 * scale));
+  };
+  const std::string grid = "the probe grid was baked with other settings or from another bake";
+  if (p.dims != dims || differ(p.origin, origin, spacing) || differ(p.spacing, spacing, spacing) || p.seed != seed)
+    throw Error(cat(where, ": probe rows: made for a ", p.dims.x, " x ", p.dims.y, " x ", p.dims.z, " lattice (seed ",
+                    p.seed, "), the grid is ", dims.x, " x ", dims.y, " x ", dims.z, " (seed ", seed, "): ", grid));
+  if (p.lattice != lattice)
+    throw Error(cat(where, ": probe rows: made for ", p.lattice.size(), " probes, the grid has ", lattice.size(),
+                    " at other lattice points: ", grid));
+}
 
 uint64_t fnv1a64(const uint8_t* bytes, size_t size) {
   uint64_t h = 1469598103934665603ull;
@@ -207,6 +241,7 @@ void checkOperator(const BounceOperator& op, const std::string& where) {
   checkRows(op.clusterRows, op.clusters, op.nodes(), cat(where, ": cluster rows"));
   if (!op.clusterGradients.start.empty())
     checkRows(op.clusterGradients, 2 * size_t(op.clusters), op.nodes(), cat(where, ": cluster gradients"));
+  if (op.probeRows.present()) checkProbeRowArrays(op, where);
 }
 
 std::vector<uint8_t> skyNodeMask(const BounceOperator& op) {
@@ -249,6 +284,24 @@ PackedOperator packOperator(const BounceOperator& op) {
   p.put(lengths(g));
   nodeBytes["gradient"] = p.putRowNodes(g);
   p.put(g.weight);
+  const BounceOperator::ProbeRows& pr = op.probeRows;
+  Json probes;
+  if (pr.present()) {
+    p.put(pr.lattice);
+    p.put(lengths(pr.rows));
+    probes["node_bytes"] = p.putRowNodes(pr.rows);
+    p.put(pr.rows.weight);
+    p.put(pr.shape);
+    probes["bands"] = pr.bands;
+    probes["samples"] = pr.samples;
+    probes["row_length"] = pr.rowLength;
+    probes["dims"] = {pr.dims.x, pr.dims.y, pr.dims.z};
+    probes["origin"] = {pr.origin.x, pr.origin.y, pr.origin.z};
+    probes["spacing"] = {pr.spacing.x, pr.spacing.y, pr.spacing.z};
+    probes["seed"] = std::to_string(pr.seed);
+    probes["probes"] = pr.lattice.size();
+    probes["entries"] = pr.rows.entries();
+  }
   while (p.bytes.size() % 4 != 0) p.bytes.push_back(0);
   Json h;
   h["version"] = BounceOperator::kVersion;
@@ -269,6 +322,7 @@ PackedOperator packOperator(const BounceOperator& op) {
   h["vertex_entries"] = op.vertexRows.entries();
   h["cluster_entries"] = op.clusterRows.entries();
   h["gradient_entries"] = g.entries();
+  if (pr.present()) h["probe_rows"] = probes;
   h["byte_length"] = p.bytes.size();
   h["checksum"] = hex(fnv1a64(p.bytes.data(), p.bytes.size()));
   return {h.dump(), std::move(p.bytes)};
@@ -288,7 +342,7 @@ T field(const Json& h, const char* key, const std::string& where) {
 
 BounceOperator headerOf(const Json& h, const std::string& where) {
   const int version = field<int>(h, "version", where);
-  if (version != BounceOperator::kVersion && version != 1)
+  if (version < 1 || version > BounceOperator::kVersion)
     throw Error(cat(where, ": header: version ", version, "; this prt reads version ", BounceOperator::kVersion,
                     " (bake the scene again)"));
   BounceOperator op;
@@ -318,6 +372,40 @@ BounceOperator headerOf(const Json& h, const std::string& where) {
   if (op.skyWidth < 1 || op.skyHeight < 1 || op.skyWidth > 4096 || op.skyHeight > 4096)
     throw Error(cat(where, ": header: sky bins ", op.skyWidth, " x ", op.skyHeight));
   return op;
+}
+
+uint64_t seedOf(const std::string& text, const std::string& where) {
+  try {
+    size_t used = 0;
+    const uint64_t v = std::stoull(text, &used);
+    if (used == text.size()) return v;
+  } catch (const std::exception&) {}
+  throw Error(cat(where, ": header: seed \"", text, "\" is not a number"));
+}
+
+// The probe rows' header (`h`, the header's "probe_rows") and arrays.
+void takeProbeRows(BounceOperator& op, const Json& h, Unpacker& u, const std::string& where) {
+  const std::string at = cat(where, ": probe rows");
+  BounceOperator::ProbeRows& p = op.probeRows;
+  p.bands = field<int>(h, "bands", at);
+  if (p.bands < 1 || p.bands > 8) throw Error(cat(at, ": header: ", p.bands, " bands"));
+  p.samples = field<int>(h, "samples", at);
+  p.rowLength = field<int>(h, "row_length", at);
+  const auto dims = field<std::vector<int>>(h, "dims", at);
+  const auto origin = field<std::vector<double>>(h, "origin", at);
+  const auto spacing = field<std::vector<double>>(h, "spacing", at);
+  if (dims.size() != 3 || origin.size() != 3 || spacing.size() != 3)
+    throw Error(cat(at, ": header: dims, origin and spacing hold three values"));
+  p.dims = glm::ivec3(dims[0], dims[1], dims[2]);
+  p.origin = glm::dvec3(origin[0], origin[1], origin[2]);
+  p.spacing = glm::dvec3(spacing[0], spacing[1], spacing[2]);
+  p.seed = seedOf(field<std::string>(h, "seed", at), at);
+  const size_t probes = field<size_t>(h, "probes", at), entries = field<size_t>(h, "entries", at);
+  p.lattice = u.take<uint32_t>(probes, "probe row lattice points");
+  p.rows.start = startsFrom(u.take<uint8_t>(probes, "probe row lengths"));
+  p.rows.node = u.takeRowNodes(p.rows.start, field<size_t>(h, "node_bytes", at), "probe row nodes");
+  p.rows.weight = u.take<uint16_t>(entries, "probe row weights");
+  p.shape = u.take<int8_t>(p.shapeStride() * entries, "probe row SH");
 }
 
 }  // namespace
@@ -373,6 +461,7 @@ BounceOperator unpackOperator(const std::string& headerText, const uint8_t* byte
     op.clusterGradients.node = u.takeRowNodes(op.clusterGradients.start, bytesOf("gradient"), "cluster gradient nodes");
     op.clusterGradients.weight = u.take<int16_t>(gradientEntries, "cluster gradient weights");
   }
+  if (version >= 3 && h.contains("probe_rows")) takeProbeRows(op, field<Json>(h, "probe_rows", where), u, where);
   if ((u.used() + 3) / 4 * 4 != size)
     throw Error(cat(where, ": bytes: ", size, " bytes, the arrays fill ", u.used(), " (corrupt)"));
   checkOperator(op, where);

@@ -7,12 +7,14 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "prt/bake/direct_light.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/bounce_operator.h"
 #include "prt/light_rig.h"
+#include "prt/probe_grid.h"
 #include "prt/scene.h"
 #include "prt/sh.h"
 
@@ -26,6 +28,8 @@ struct OperatorSettings {
   int gradientRowLength = 24;  // entries of each of a cluster's two gradient rows, at most; 0: none
   int skyWidth = 32, skyHeight = 16;  // sky bins (equirectangular)
   int samplePoints = 4;               // shadow-ray points per cluster
+  int probeSamples = 256;             // gather rays per probe: the probe bake's first ones
+  int probeRowLength = 96;            // entries of a probe's row, at most
   int threads = 0;                    // 0 = all cores
 };
 
@@ -33,15 +37,44 @@ struct OperatorSettings {
 /// size 1..65536, row lengths 0..255 (a cluster's at least 1), sky bins 1..1024, sample points 1..64).
 void validate(const OperatorSettings& s);
 
+/// A probe grid's rows over an operator's nodes with every entry's SH projection in full
+/// (the stored rows keep a mean direction instead: BounceOperator::ProbeRows): what tests and
+/// measurements compare the stored rows with. Probe p (the grid's order) has the entries
+/// [start[p], start[p + 1]), entry e the node node[e] and n² sums sh[e · n² + j] =
+/// Σ_rays share · y_j(ω) / N over its rays (N rays per probe).
+struct ProbeShRows {
+  int bands = 0;
+  std::vector<uint32_t> start, node;
+  std::vector<float> sh;
+};
+
 /// Builds the operator of a baked scene (its meshes as the bake numbers them, refinement done)
 /// for `bounces` bounces, tracing `settings.samples` of the bake's rays (seed `seed`) from every
 /// vertex side. Deterministic for any thread count. `uncompressed` keeps every leaf a vertex
 /// row reaches (rows may then exceed rowLength, and the operator is for tests only: it cannot
 /// be stored). `kept`: the bake's own record of those rays (SurfaceTransfer::gather, of
 /// settings.samples rays), read instead of tracing them again where it has a side's: the same
-/// operator, to the bit.
+/// operator, to the bit. With `probes` (the grid the bake made of this scene) it makes the probes' rows
+/// too (BounceOperator::probeRows, from `settings.probeSamples` of each valid probe's own rays,
+/// cut to probeRowLength entries unless uncompressed), and `probeSh` (if given) receives the
+/// same rows with their SH in full.
 BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& settings, int bounces, uint64_t seed,
-                                   bool uncompressed = false, const GatherRecords* kept = nullptr);
+                                   bool uncompressed = false, const ProbeGrid* probes = nullptr,
+                                   ProbeShRows* probeSh = nullptr, const GatherRecords* kept = nullptr);
+
+/// Throws prt::Error "WHERE: probe rows: problem" unless op's probe rows belong to `grid`
+/// (its lattice, seed and active probes).
+void checkProbeRows(const BounceOperator& op, const ProbeGrid& grid, const std::string& where);
+
+/// Adds the operator's bounced light at every probe to `relit` (relightProbes' layout for
+/// `grid`): c_p += Σ over probe p's row of its SH share · value(node) / π, `values` the node
+/// values of the light change (OperatorLighting::nodeValues). Precondition: op's probe rows
+/// belong to grid (checkProbeRows).
+void addProbeBounce(const BounceOperator& op, const ProbeGrid& grid, const std::vector<glm::vec3>& values,
+                    std::vector<glm::vec3>& relit);
+/// The same from rows with their SH in full.
+void addProbeBounce(const ProbeShRows& rows, const ProbeGrid& grid, const std::vector<glm::vec3>& values,
+                    std::vector<glm::vec3>& relit);
 
 /// What one light change costs, by part.
 struct OperatorTimes {
@@ -75,6 +108,9 @@ class OperatorLighting {
                              const sh::ShRgb& sh);
 
   const OperatorTimes& lastTimes() const;
+  /// Per node of the operator, after light() or lightFrom(): π × the radiance it stands for
+  /// (surface nodes: ρ E summed over the bounces, Σ_k R^k; sky nodes: the sky detail).
+  std::vector<glm::vec3> nodeValues() const;
 
  private:
   struct Impl;

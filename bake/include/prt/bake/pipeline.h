@@ -90,6 +90,7 @@ struct BakeReport {
     uint64_t bytes = 0;  // packed
     uint32_t clusters = 0;
     uint64_t vertexEntries = 0, clusterEntries = 0;
+    uint64_t probeEntries = 0;  // of the probes' rows (0 without probes)
   } bounceOperator;
   MemoryEstimate memory;  // the last estimate the guard checked
   double writeSeconds = 0.0;

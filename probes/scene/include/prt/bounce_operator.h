@@ -25,7 +25,7 @@
 namespace prt {
 
 struct BounceOperator {
-  static constexpr int kVersion = 2;             // version 1 had no cluster gradients; it is still read
+  static constexpr int kVersion = 3;             // 1 had no cluster gradients, 2 no probe rows; both still read
   static constexpr int kMaxRowLength = 255;      // entries in one row (its length is stored in a byte)
   static constexpr uint32_t kWeightOne = 65535;  // a weight is stored as w · kWeightOne, rounded
   static constexpr int kGradientOne = 16384;     // a gradient weight g (|g| < 2) as g · kGradientOne
@@ -79,6 +79,31 @@ struct BounceOperator {
   /// that frame gathers row(c) + s · gradient(2c) + t · gradient(2c + 1). Empty in version 1.
   SignedRows clusterGradients;
 
+  /// The probes' rows (version 3; absent in older files and in bakes without probes): per probe
+  /// of one probe grid, the share w of its gather rays that lands on each node and the mean SH
+  /// of their directions ȳ_j, each coefficient j ≥ 1 stored as ȳ_j / b_l (b_l = √((2l + 1)/4π)
+  /// bounds |y_lm| on band l), ȳ_0 being y_0. A probe's incident-radiance SH gains, per channel,
+  ///   c_j += 4 Σ_{entries (n, w, ȳ)} w · ȳ_j · value(n),
+  /// value(n) the node's π × radiance (OperatorLighting's node values): docs/lights.md,
+  /// "Probes through the operator".
+  struct ProbeRows {
+    static constexpr int kShapeOne = 127;  // ȳ_j / b_l as that · kShapeOne, rounded
+    int bands = 0;
+    int samples = 0;    // gather rays per probe: the probe bake's first ones
+    int rowLength = 0;  // the longest row asked for
+    // The grid they belong to, as its .vdb records it: checked when both are read (checkProbeRows).
+    glm::ivec3 dims{0};
+    glm::dvec3 origin{0.0}, spacing{0.0};
+    uint64_t seed = 0;  // the probe bake's
+    /// Per row: its probe's lattice index x + dims.x · (y + dims.y · z), ascending.
+    std::vector<uint32_t> lattice;
+    Rows rows;                  // weights: the share of the probe's rays, w · kWeightOne
+    std::vector<int8_t> shape;  // bands² − 1 per entry: ȳ_j / b_l · kShapeOne, j = 1 … bands² − 1
+    bool present() const { return !rows.start.empty(); }
+    size_t shapeStride() const { return size_t(bands) * size_t(bands) - 1; }
+  };
+  ProbeRows probeRows;
+
   size_t skyBins() const { return size_t(skyWidth) * size_t(skyHeight); }
   size_t leaves() const { return clusters + skyBins(); }
   size_t nodes() const { return leaves() + children.size() / 2; }
@@ -110,6 +135,13 @@ std::vector<uint8_t> skyNodeMask(const BounceOperator& op);
 
 /// Per node, the area (surface tree) or solid angle (sky tree) of the leaves below it.
 std::vector<float> nodeWeights(const BounceOperator& op);
+
+/// Throws prt::Error "WHERE: probe rows: problem" unless op's probe rows (present) belong to the
+/// probe grid of lattice `dims`, `origin`, `spacing` and seed `seed` whose active probes have the
+/// lattice indices `lattice` (ascending).
+void checkProbeRows(const BounceOperator& op, const glm::ivec3& dims, const glm::dvec3& origin,
+                    const glm::dvec3& spacing, uint64_t seed, const std::vector<uint32_t>& lattice,
+                    const std::string& where);
 
 /// FNV-1a (64 bits) of `size` bytes: the checksum the header records.
 uint64_t fnv1a64(const uint8_t* bytes, size_t size);

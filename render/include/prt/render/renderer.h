@@ -143,6 +143,11 @@ struct Frame {
   /// inside the scene"). At most kMaxLocalLights. Only where the baked instances are lit per
   /// pixel (a bake with the direct part of its transfer) and on receivers whose grid has it.
   std::vector<LocalLight> local;
+  /// Added to the relit probes of the grid (setProbes; relightProbes' layout): the bounced light
+  /// the bake's operator brings each probe (prt::bake::addProbeBounce; docs/lights.md, "Probes
+  /// through the operator"). Only where the receivers split the direct lights off. Null: none.
+  /// Must stay alive during render().
+  const std::vector<glm::vec3>* probeBounce = nullptr;
   ShadowSettings shadows;
   double time = 0.0;  // seconds: receivers are placed by the scene's animations at time
   int width = 0;      // 0: the context's size
