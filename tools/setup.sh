@@ -13,7 +13,7 @@
 #    test: checks the code's shape (tools/check_shape.sh: function and file lengths); runs
 #    ctest in build/; then builds the suite with AddressSanitizer +
 #    UndefinedBehaviorSanitizer (clang) in build-asan/ and runs ctest there; then builds the
-#    libFuzzer targets in the same build-asan/ and runs each for PRT_FUZZ_SECONDS (default 20) on a
+#    libFuzzer targets in the same build-asan/ and runs each for PRT_FUZZ_SECONDS (default 10) on a
 #    temporary copy of its seed corpus. Exits non-zero if any phase fails.
 #    PRT_TEST_PHASES (default "shape release asan fuzz") picks phases.
 # Run as root, or as a user with sudo (used for apt-get only). Under sudo, the build and the
@@ -45,7 +45,7 @@ usage: bash tools/setup.sh demo|test
          with scenes/env/royal_esplanade_128.hdr into out/
   test   install dependencies, build, check function and file lengths (tools/check_shape.sh),
          run the test suite (ctest); then the same suite
-         built with ASan + UBSan (build-asan/), then each fuzz target for 20 s (also in build-asan/);
+         built with ASan + UBSan (build-asan/), then each fuzz target for 10 s (also in build-asan/);
          exit non-zero if any phase fails
 
 Installs Debian 12 packages with apt-get (as root, or through sudo) and the glTF Validator
@@ -162,7 +162,7 @@ case "$mode" in
     ;;
   test)
     phases=${PRT_TEST_PHASES:-shape release asan fuzz}
-    fuzz_seconds=${PRT_FUZZ_SECONDS:-20}
+    fuzz_seconds=${PRT_FUZZ_SECONDS:-10}
     status=0
     phase_times=()
     timed() {  # timed NAME COMMAND...: runs, records the seconds, keeps the first failure
