@@ -20,6 +20,7 @@
 #include "cli_expect.h"
 #include "gltf_file.h"
 #include "harness.h"
+#include "prt/brdf.h"
 #include "prt/error.h"
 #include "prt/image.h"
 #include "prt/light.h"
@@ -923,20 +924,37 @@ std::string planeWithLamp(const fs::path& dir, double candela) {
 // light: the plane's centre under a lamp of 3 cd 1 m above it is ρ/π · I / h² (albedo 0.8: 0.764;
 // the mean of the 4 pixels around the image's centre, seen from 3 m above with a 10° field of
 // view, within 1%: their centres lie 6 mm from the plane's, where E falls by 0.01%; a lamp
-// at the wrong height or with a factor such as π or 4π is far off). The summary says where the
-// light is lit. --no-scene-lights leaves it dark, and then another light is needed.
+// at the wrong height or with a factor such as π or 4π is far off), with --materials diffuse;
+// with the full material (the default) its highlight on the rough dielectric is added,
+// I / h² · f_spec(n, n) (prt::brdf's specular lobe: F0 0.04, roughness 1, 3.2·10⁻³ sr⁻¹; within
+// 5% of it, 6·10⁻⁴ of the pixel). The summary says where
+// the light is lit. --no-scene-lights leaves it dark, and then another light is needed.
 TEST(CliRender, TheScenesOwnLampLightsItPerPixel) {
   const TempDir tmp("lamp");
   const fs::path& d = tmp.path();
   const std::string glb = bake(planeWithLamp(d, 3.0), d, "plane_lamp");
   const fs::path out = d / "lamp.exr";
-  const RunResult r = prt({"render", glb, "--size", "64x48", "--orbit-elevation", "89", "--orbit-distance", "3",
-                           "--orbit-fov", "10", "--exr-compression", "none", "-o", out.string()});
-  ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_NE(r.err.find("lights inside the scene: 1 (1 per pixel with cube shadow maps"), std::string::npos) << r.err;
-  const ImageRgb img = loadHdrImage(out.string());
-  const float centre = 0.25f * (img.at(31, 23).g + img.at(32, 23).g + img.at(31, 24).g + img.at(32, 24).g);
-  EXPECT_NEAR(centre, 0.8 / 3.14159265358979 * 3.0, 0.01 * 0.764);
+  const std::vector<std::string> view = {"--size", "64x48", "--orbit-elevation", "89", "--orbit-distance", "3",
+                                         "--orbit-fov", "10", "--exr-compression", "none"};
+  auto centreOf = [&](const std::vector<std::string>& more) {
+    std::vector<std::string> args = {"render", glb, "-o", out.string()};
+    args.insert(args.end(), view.begin(), view.end());
+    args.insert(args.end(), more.begin(), more.end());
+    const RunResult r = prt(args);
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.err.find("lights inside the scene: 1 (1 per pixel with cube shadow maps"), std::string::npos) << r.err;
+    const ImageRgb img = loadHdrImage(out.string());
+    return 0.25f * (img.at(31, 23).g + img.at(32, 23).g + img.at(31, 24).g + img.at(32, 24).g);
+  };
+  const double diffuse = centreOf({"--materials", "diffuse"});
+  EXPECT_NEAR(diffuse, 0.8 / 3.14159265358979 * 3.0, 0.01 * 0.764);
+  brdf::MetallicRoughness plane;
+  plane.baseColor = glm::dvec3(0.8);
+  plane.metallic = 0.0;
+  plane.roughness = 1.0;
+  const glm::dvec3 up(0.0, 1.0, 0.0);
+  const double highlight = 3.0 * brdf::evaluate(plane, up, up, up).specular.y;  // 9.5e-3
+  EXPECT_NEAR(centreOf({}) - diffuse, highlight, 0.05 * highlight);
   const RunResult dark = prt({"render", glb, "--size", "64x48", "--no-scene-lights", "-o", (d / "dark.exr").string()});
   EXPECT_NE(dark.status, 0);
 }

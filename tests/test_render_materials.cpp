@@ -386,6 +386,60 @@ TEST(MaterialRender, SunHighlightOnAPlaneMatchesTheFormula) {
   EXPECT_EQ(got.pixels, again.pixels);
 }
 
+// A point lamp's highlight on the same copper plane (no sky, no sun, no shadows): every pixel
+// against I (n·l) / r² · f_spec(l, v), l towards the lamp from the pixel's centre ray's point
+// (the formula, prt::brdf), the peak on the formula's pixel, its value within 1%.
+TEST(MaterialRender, PointLampHighlightOnAPlaneMatchesTheFormula) {
+  GlContext ctx(GlBackend::OSMesa, kHw, kHh);
+  const glm::vec3 copper(0.95f, 0.64f, 0.54f);
+  const Scene scene = sceneOf(plane(2.0), metal(copper, 0.3f));
+  Renderer r(ctx, scene);
+  const glm::dvec3 lamp(0.2, 0.9, -0.7), intensity(1.5);
+  Frame f = sunFrame();
+  f.direct.clear();
+  LocalLight point;
+  point.type = LocalLight::Type::Point;
+  point.position = lamp;
+  point.intensity = intensity;
+  f.local = {point};
+  const ImageRgb got = r.render(f);
+  brdf::MetallicRoughness m;
+  m.baseColor = glm::dvec3(copper);
+  m.metallic = 1.0;
+  m.roughness = 0.3;
+  ImageRgb want(kHw, kHh);
+  const CameraView c = highlightCamera();
+  const double t = std::tan(c.yfov / 2.0), aspect = double(kHw) / kHh;
+  for (int y = 0; y < kHh; ++y)
+    for (int x = 0; x < kHw; ++x) {
+      const glm::dvec3 dirCam(((x + 0.5) / kHw * 2.0 - 1.0) * t * aspect, (1.0 - (y + 0.5) / kHh * 2.0) * t, -1.0);
+      const glm::dvec3 dir = glm::dmat3(c.cameraToWorld) * dirCam;
+      if (dir.y >= 0.0) continue;
+      const glm::dvec3 p = kEye - dir * (kEye.y / dir.y);
+      if (std::abs(p.x) > 2.0 || std::abs(p.z) > 2.0) continue;
+      const glm::dvec3 n(0, 1, 0), v = glm::normalize(kEye - p), d = lamp - p, l = glm::normalize(d);
+      const double irradiance = intensity.x * glm::dot(n, l) / glm::dot(d, d);
+      want.at(x, y) = glm::vec3(irradiance * brdf::evaluate(m, n, l, v).sum());
+    }
+  int gotPeak = 0, wantPeak = 0;
+  for (size_t i = 0; i < got.pixels.size(); ++i) {
+    if (got.pixels[i].x > got.pixels[size_t(gotPeak)].x) gotPeak = int(i);
+    if (want.pixels[i].x > want.pixels[size_t(wantPeak)].x) wantPeak = int(i);
+  }
+  const double peak = want.pixels[size_t(wantPeak)].x;
+  double maxError = 0.0;
+  for (size_t i = 0; i < got.pixels.size(); ++i)
+    maxError = std::max(maxError, double(glm::length(got.pixels[i] - want.pixels[i])) / peak);
+  std::printf("  lamp: peak at (%d, %d), formula's at (%d, %d): %.4f vs %.4f; max error %.2g of the peak\n",
+              gotPeak % kHw, gotPeak / kHw, wantPeak % kHw, wantPeak / kHw, got.pixels[size_t(gotPeak)].x, peak,
+              maxError);
+  EXPECT_GT(peak, 0.1);
+  EXPECT_LE(std::abs(gotPeak % kHw - wantPeak % kHw), 1);
+  EXPECT_LE(std::abs(gotPeak / kHw - wantPeak / kHw), 1);
+  EXPECT_NEAR(got.pixels[size_t(gotPeak)].x, peak, 0.01 * peak);
+  EXPECT_LT(maxError, 0.01);
+}
+
 // The same frame on EGL (surfaceless): both drive llvmpipe here, so the frames agree to float
 // rounding (1e-5 of the peak).
 TEST(MaterialRender, OsMesaEqualsEgl) {

@@ -3,7 +3,8 @@
 // times the shadow maps' visible share. A disk's highlight is taken at a representative point
 // (Karis 2013, "Area lights"): the direction of its cap closest to the reflected view ray, with
 // the lobe's energy renormalised by (α/α')², α' = min(1, α + tan r / 2), so that a wide light
-// does not add the energy of a whole lobe at each of its points.
+// does not add the energy of a whole lobe at each of its points. The lights inside the scene
+// likewise (below).
 void directShading(vec3 x, vec3 ng, Surface s, vec3 v, vec3 dxW, vec3 dyW, out vec3 e, out vec3 spec) {
   e = vec3(0.0);
   spec = vec3(0.0);
@@ -34,5 +35,29 @@ void directShading(vec3 x, vec3 ng, Surface s, vec3 v, vec3 dxW, vec3 dyW, out v
     spec += E * (f * norm) * specularBrdf(s, l, v, a);
     k += uLoopStep;
   } while (k < uDirectCount);
-  e += localIrradiance(x, s.n, ng);  // the lights inside the scene: diffuse only, no highlight
+  // The lights inside the scene: their irradiance at n and their GGX highlight. A point or spot
+  // light's from its centre, exactly; an area light's at a representative point as above: the
+  // point of the sphere of its radius about its centre (a sphere light's own; a disk's radius, a
+  // rectangle's half diagonal: an approximation that ignores their shape) closest to the
+  // reflected ray, the lobe renormalised by (α/α')², α' = min(1, α + tan r / 2), r the sphere's
+  // angular radius from x.
+  for (int j = 0; j < uLocalCount; ++j) {
+    vec3 E = localUnoccluded(j, x, s.n);
+    if (max(E.r, max(E.g, E.b)) <= 0.0) continue;
+    if (uLocalShadowed != 0) E *= localVisibleShare(j, x, ng);
+    e += E;
+    vec3 d = uLocalPos[j].xyz - x;
+    float dist = max(length(d), 1e-6);
+    vec3 l = d / dist;
+    float norm = 1.0, R = uLocalPos[j].w > 1.5 ? uLocalShape[j].z : 0.0;
+    if (R > 0.0 && dist > R) {
+      vec3 toRay = dot(d, r) * r - d;  // from the centre to the reflected ray's nearest point
+      float gap = length(toRay);
+      l = normalize(d + toRay * (gap > R ? R / gap : 1.0));
+      float sinR = R / dist, cosR = sqrt(max(1.0 - sinR * sinR, 0.0));
+      float a2 = min(1.0, a + 0.5 * sinR / max(cosR, 1e-6));
+      norm = (a / a2) * (a / a2);
+    }
+    spec += E * norm * specularBrdf(s, l, v, a);
+  }
 }
