@@ -934,8 +934,8 @@ TEST(CliRender, TheScenesOwnLampLightsItPerPixel) {
   const fs::path& d = tmp.path();
   const std::string glb = bake(planeWithLamp(d, 3.0), d, "plane_lamp");
   const fs::path out = d / "lamp.exr";
-  const std::vector<std::string> view = {"--size", "64x48", "--orbit-elevation", "89", "--orbit-distance", "3",
-                                         "--orbit-fov", "10", "--exr-compression", "none"};
+  const std::vector<std::string> view = {"--size",      "64x48", "--orbit-elevation", "89",  "--orbit-distance", "3",
+                                         "--orbit-fov", "10",    "--exr-compression", "none"};
   auto centreOf = [&](const std::vector<std::string>& more) {
     std::vector<std::string> args = {"render", glb, "-o", out.string()};
     args.insert(args.end(), view.begin(), view.end());

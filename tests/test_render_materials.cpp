@@ -335,7 +335,10 @@ Frame sunFrame() {
   return f;
 }
 
-ImageRgb highlightOracle(const brdf::MetallicRoughness& m) {
+// Per pixel of the highlight camera that sees the plane (|x|, |z| <= 2): f(p, v), p where its
+// centre's ray meets the plane and v the unit vector from p to the eye; 0 elsewhere.
+template <class F>
+ImageRgb overThePlane(F&& f) {
   ImageRgb out(kHw, kHh);
   const CameraView c = highlightCamera();
   const double t = std::tan(c.yfov / 2.0), aspect = double(kHw) / kHh;
@@ -346,10 +349,38 @@ ImageRgb highlightOracle(const brdf::MetallicRoughness& m) {
       if (dir.y >= 0.0) continue;
       const glm::dvec3 p = kEye - dir * (kEye.y / dir.y);
       if (std::abs(p.x) > 2.0 || std::abs(p.z) > 2.0) continue;
-      const glm::dvec3 n(0, 1, 0), v = glm::normalize(kEye - p);
-      out.at(x, y) = glm::vec3(2.0 * glm::dot(n, kSun) * brdf::evaluate(m, n, kSun, v).sum());
+      out.at(x, y) = glm::vec3(f(p, glm::normalize(kEye - p)));
     }
   return out;
+}
+
+ImageRgb highlightOracle(const brdf::MetallicRoughness& m) {
+  const glm::dvec3 n(0, 1, 0);
+  return overThePlane([&](const glm::dvec3&, const glm::dvec3& v) {
+    return 2.0 * glm::dot(n, kSun) * brdf::evaluate(m, n, kSun, v).sum();
+  });
+}
+
+// `got` against `want`: the peak on the same pixel (±1), its value within 1%, every pixel within
+// 1% of the peak.
+void expectHighlight(const ImageRgb& got, const ImageRgb& want, const char* what) {
+  int gotPeak = 0, wantPeak = 0;
+  for (size_t i = 0; i < got.pixels.size(); ++i) {
+    if (got.pixels[i].x > got.pixels[size_t(gotPeak)].x) gotPeak = int(i);
+    if (want.pixels[i].x > want.pixels[size_t(wantPeak)].x) wantPeak = int(i);
+  }
+  const double peak = want.pixels[size_t(wantPeak)].x;
+  double maxError = 0.0;
+  for (size_t i = 0; i < got.pixels.size(); ++i)
+    maxError = std::max(maxError, double(glm::length(got.pixels[i] - want.pixels[i])) / peak);
+  std::printf("  %s: peak at (%d, %d), formula's at (%d, %d): %.4f vs %.4f; max error %.2g of the peak\n", what,
+              gotPeak % kHw, gotPeak / kHw, wantPeak % kHw, wantPeak / kHw, got.pixels[size_t(gotPeak)].x, peak,
+              maxError);
+  EXPECT_GT(peak, 0.1);
+  EXPECT_LE(std::abs(gotPeak % kHw - wantPeak % kHw), 1);
+  EXPECT_LE(std::abs(gotPeak / kHw - wantPeak / kHw), 1);
+  EXPECT_NEAR(got.pixels[size_t(gotPeak)].x, peak, 0.01 * peak);
+  EXPECT_LT(maxError, 0.01);
 }
 
 TEST(MaterialRender, SunHighlightOnAPlaneMatchesTheFormula) {
@@ -362,22 +393,7 @@ TEST(MaterialRender, SunHighlightOnAPlaneMatchesTheFormula) {
   m.baseColor = glm::dvec3(copper);
   m.metallic = 1.0;
   m.roughness = 0.3;
-  const ImageRgb want = highlightOracle(m);
-  int gotPeak = 0, wantPeak = 0;
-  for (size_t i = 0; i < got.pixels.size(); ++i) {
-    if (got.pixels[i].x > got.pixels[size_t(gotPeak)].x) gotPeak = int(i);
-    if (want.pixels[i].x > want.pixels[size_t(wantPeak)].x) wantPeak = int(i);
-  }
-  const double peak = want.pixels[size_t(wantPeak)].x;
-  double maxError = 0.0;
-  for (size_t i = 0; i < got.pixels.size(); ++i)
-    maxError = std::max(maxError, double(glm::length(got.pixels[i] - want.pixels[i])) / peak);
-  std::printf("  peak at (%d, %d), formula's at (%d, %d): %.4f vs %.4f; max error %.2g of the peak\n", gotPeak % kHw,
-              gotPeak / kHw, wantPeak % kHw, wantPeak / kHw, got.pixels[size_t(gotPeak)].x, peak, maxError);
-  EXPECT_LE(std::abs(gotPeak % kHw - wantPeak % kHw), 1);
-  EXPECT_LE(std::abs(gotPeak / kHw - wantPeak / kHw), 1);
-  EXPECT_NEAR(got.pixels[size_t(gotPeak)].x, peak, 0.01 * peak);
-  EXPECT_LT(maxError, 0.01);
+  expectHighlight(got, highlightOracle(m), "sun");
   // The closed form's peak: the mirror point of the sun seen from the eye, P = eye + (y/d_y)(d_x, −d_y, d_z).
   const glm::dvec3 mirror = kEye + (kEye.y / kSun.y) * glm::dvec3(kSun.x, -kSun.y, kSun.z);
   std::printf("  mirror point (%.3f, %.3f, %.3f)\n", mirror.x, mirror.y, mirror.z);
@@ -407,37 +423,12 @@ TEST(MaterialRender, PointLampHighlightOnAPlaneMatchesTheFormula) {
   m.baseColor = glm::dvec3(copper);
   m.metallic = 1.0;
   m.roughness = 0.3;
-  ImageRgb want(kHw, kHh);
-  const CameraView c = highlightCamera();
-  const double t = std::tan(c.yfov / 2.0), aspect = double(kHw) / kHh;
-  for (int y = 0; y < kHh; ++y)
-    for (int x = 0; x < kHw; ++x) {
-      const glm::dvec3 dirCam(((x + 0.5) / kHw * 2.0 - 1.0) * t * aspect, (1.0 - (y + 0.5) / kHh * 2.0) * t, -1.0);
-      const glm::dvec3 dir = glm::dmat3(c.cameraToWorld) * dirCam;
-      if (dir.y >= 0.0) continue;
-      const glm::dvec3 p = kEye - dir * (kEye.y / dir.y);
-      if (std::abs(p.x) > 2.0 || std::abs(p.z) > 2.0) continue;
-      const glm::dvec3 n(0, 1, 0), v = glm::normalize(kEye - p), d = lamp - p, l = glm::normalize(d);
-      const double irradiance = intensity.x * glm::dot(n, l) / glm::dot(d, d);
-      want.at(x, y) = glm::vec3(irradiance * brdf::evaluate(m, n, l, v).sum());
-    }
-  int gotPeak = 0, wantPeak = 0;
-  for (size_t i = 0; i < got.pixels.size(); ++i) {
-    if (got.pixels[i].x > got.pixels[size_t(gotPeak)].x) gotPeak = int(i);
-    if (want.pixels[i].x > want.pixels[size_t(wantPeak)].x) wantPeak = int(i);
-  }
-  const double peak = want.pixels[size_t(wantPeak)].x;
-  double maxError = 0.0;
-  for (size_t i = 0; i < got.pixels.size(); ++i)
-    maxError = std::max(maxError, double(glm::length(got.pixels[i] - want.pixels[i])) / peak);
-  std::printf("  lamp: peak at (%d, %d), formula's at (%d, %d): %.4f vs %.4f; max error %.2g of the peak\n",
-              gotPeak % kHw, gotPeak / kHw, wantPeak % kHw, wantPeak / kHw, got.pixels[size_t(gotPeak)].x, peak,
-              maxError);
-  EXPECT_GT(peak, 0.1);
-  EXPECT_LE(std::abs(gotPeak % kHw - wantPeak % kHw), 1);
-  EXPECT_LE(std::abs(gotPeak / kHw - wantPeak / kHw), 1);
-  EXPECT_NEAR(got.pixels[size_t(gotPeak)].x, peak, 0.01 * peak);
-  EXPECT_LT(maxError, 0.01);
+  const glm::dvec3 n(0, 1, 0);
+  const ImageRgb want = overThePlane([&](const glm::dvec3& p, const glm::dvec3& v) {
+    const glm::dvec3 d = lamp - p, l = glm::normalize(d);
+    return intensity.x * glm::dot(n, l) / glm::dot(d, d) * brdf::evaluate(m, n, l, v).sum();
+  });
+  expectHighlight(got, want, "lamp");
 }
 
 // The same frame on EGL (surfaceless): both drive llvmpipe here, so the frames agree to float
