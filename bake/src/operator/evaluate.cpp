@@ -32,11 +32,14 @@ constexpr float kUnit = 1.0f / float(BounceOperator::kWeightOne);
 
 // A node's light as 4 floats (RGB and a zero), so that a row's product is one load and one
 // multiply-add an entry.
-using Light4 = __m128;
+struct Light4 {
+  __m128 v;
+};
 using Lights4 = std::vector<Light4>;
+const Light4 kDark{_mm_setzero_ps()};
 
-inline Light4 light4(const glm::vec3& c) { return _mm_setr_ps(c.r, c.g, c.b, 0.0f); }
-inline glm::vec3 rgb(Light4 v) {
+inline Light4 light4(const glm::vec3& c) { return {_mm_setr_ps(c.r, c.g, c.b, 0.0f)}; }
+inline glm::vec3 rgb(__m128 v) {
   alignas(16) float f[4];
   _mm_store_ps(f, v);
   return {f[0], f[1], f[2]};
@@ -46,15 +49,15 @@ inline glm::vec3 rgb(Light4 v) {
 // so that each multiply-add waits on the one before the last).
 template <class Rows>
 inline glm::vec3 range(const Rows& rows, uint32_t b, uint32_t e, const Lights4& value) {
-  Light4 a = _mm_setzero_ps(), c = _mm_setzero_ps();
+  __m128 a = _mm_setzero_ps(), c = _mm_setzero_ps();
   const uint32_t* node = rows.node.data();
   const auto* weight = rows.weight.data();
   uint32_t i = b;
   for (; i + 1 < e; i += 2) {
-    a = _mm_add_ps(a, _mm_mul_ps(_mm_set1_ps(float(weight[i])), value[node[i]]));
-    c = _mm_add_ps(c, _mm_mul_ps(_mm_set1_ps(float(weight[i + 1])), value[node[i + 1]]));
+    a = _mm_add_ps(a, _mm_mul_ps(_mm_set1_ps(float(weight[i])), value[node[i]].v));
+    c = _mm_add_ps(c, _mm_mul_ps(_mm_set1_ps(float(weight[i + 1])), value[node[i + 1]].v));
   }
-  if (i < e) a = _mm_add_ps(a, _mm_mul_ps(_mm_set1_ps(float(weight[i])), value[node[i]]));
+  if (i < e) a = _mm_add_ps(a, _mm_mul_ps(_mm_set1_ps(float(weight[i])), value[node[i]].v));
   return rgb(_mm_add_ps(a, c));
 }
 
@@ -151,8 +154,8 @@ struct OperatorLighting::Impl {
       const size_t n = L + i;
       if ((sky[n] != 0) != ofSky) continue;
       const uint32_t a = op.children[2 * i], b = op.children[2 * i + 1];
-      v[n] = _mm_div_ps(
-          _mm_add_ps(_mm_mul_ps(_mm_set1_ps(nodeWeight[a]), v[a]), _mm_mul_ps(_mm_set1_ps(nodeWeight[b]), v[b])),
+      v[n].v = _mm_div_ps(
+          _mm_add_ps(_mm_mul_ps(_mm_set1_ps(nodeWeight[a]), v[a].v), _mm_mul_ps(_mm_set1_ps(nodeWeight[b]), v[b].v)),
           _mm_set1_ps(nodeWeight[n]));
     }
   }
@@ -160,14 +163,14 @@ struct OperatorLighting::Impl {
   // π × (L − L̃) over each bin, L read from the prefiltered maps and L̃ the band-limited sky, at
   // 2 × 2 points of the bin: the sky detail as a radiance per bin, in irradiance units.
   void skyBins(const RigBackground* skyIn, const sh::ShRgb& shLight) {
-    skyValue.assign(op.nodes(), _mm_setzero_ps());
+    skyValue.assign(op.nodes(), kDark);
     if (!skyIn) return;
     const RigBackground f = filtered(*skyIn);
     const int bands = scene.transferBands > 0 ? scene.transferBands : shLight.bands;
     const int n2 = std::min(bands * bands, int(shLight.c.size()));
     const int W = op.skyWidth, H = op.skyHeight;
-    double y[sh::kMaxBands * sh::kMaxBands];
-    for (size_t s = 0; s < op.skyBins(); ++s) {
+    tbb::parallel_for(size_t(0), op.skyBins(), [&](size_t s) {
+      double y[sh::kMaxBands * sh::kMaxBands];
       const int x = int(op.skyBin[s]) % W, yy = int(op.skyBin[s]) / W;
       glm::dvec3 sum(0.0);
       for (int i = 0; i < 2; ++i)
@@ -179,7 +182,7 @@ struct OperatorLighting::Impl {
           sum += f.radiance(d) - band;
         }
       skyValue[op.clusters + s] = light4(glm::vec3(sum * (kPi / 4.0)));
-    }
+    });
     aggregate(skyValue, true);
   }
 
@@ -193,15 +196,15 @@ struct OperatorLighting::Impl {
     const BounceOperator::Rows& rows = op.clusterRows;
     clusterSky.assign(C, glm::vec3(0.0f));
     clusterBounce.assign(C, glm::vec3(0.0f));
-    total.assign(op.nodes(), _mm_setzero_ps());
+    total.assign(op.nodes(), kDark);
     tbb::parallel_for(size_t(0), C,
                       [&](size_t c) { clusterSky[c] = range(rows, rowSky[c], rows.start[c + 1], skyValue) * kUnit; });
     if (op.bounces == 0) return;
-    bounced.assign(op.nodes(), _mm_setzero_ps());
-    next.assign(op.nodes(), _mm_setzero_ps());
+    bounced.assign(op.nodes(), kDark);
+    next.assign(op.nodes(), kDark);
     for (size_t c = 0; c < C; ++c) bounced[c] = light4(op.albedo[c] * (clusterE0[c] + clusterSky[c]));
     for (int k = 0; k < op.bounces; ++k) {
-      for (size_t c = 0; c < C; ++c) total[c] = _mm_add_ps(total[c], bounced[c]);
+      for (size_t c = 0; c < C; ++c) total[c].v = _mm_add_ps(total[c].v, bounced[c].v);
       aggregate(bounced, false);
       const bool last = k + 1 == op.bounces;
       tbb::parallel_for(size_t(0), C, [&](size_t c) {
@@ -344,7 +347,7 @@ std::vector<glm::vec3> OperatorLighting::nodeValues() const {
   std::vector<glm::vec3> v(m.op.nodes(), glm::vec3(0.0f));
   for (size_t n = 0; n < v.size(); ++n) {
     const Lights4& from = m.sky[n] ? m.skyValue : m.total;
-    if (n < from.size()) v[n] = rgb(from[n]);
+    if (n < from.size()) v[n] = rgb(from[n].v);
   }
   return v;
 }
