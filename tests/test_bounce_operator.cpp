@@ -32,18 +32,6 @@ void bakeScene(Scene& s, int samples, int bounces, uint64_t seed) {
   s.transferBands = 3;
 }
 
-// The room of BakeDirectBounce's test: a cavity and a slab, double-sided, coloured.
-Scene colouredRoom(int rings = 12, int segments = 24) {
-  Scene s = test::makeScene(
-      {test::makeCavity(kPi / 2.5, rings, segments), test::makeSlab({-0.3f, -0.9f, -0.3f}, {0.3f, -0.7f, 0.3f}, 0.1f)},
-      0.7f);
-  for (Material& m : s.materials) {
-    m.doubleSided = true;
-    m.baseColorFactor = glm::vec4(0.8f, 0.6f, 0.4f, 1.0f);
-  }
-  return s;
-}
-
 // E⁰ = t⁰ · l per side, and the bake's bounced part (t − t⁰) · l.
 struct ShLit {
   bake::DirectIrradiance e0;
@@ -91,7 +79,7 @@ std::vector<glm::vec3> flat(const std::vector<std::vector<glm::vec3>>& front,
 // hundreds of entries that is ~1e-4 of the total. 1e-3 leaves room, while a wrong albedo, seed,
 // side or bounce count is off by percents (BakeDirectBounce's test measures the same).
 TEST(BounceOperator, UncompressedIsTheBakesBouncedTransfer) {
-  Scene s = colouredRoom();
+  Scene s = test::makeColouredRoom();
   bakeScene(s, 256, 3, 7);
   bake::OperatorSettings os;
   os.samples = 256;
@@ -144,7 +132,7 @@ Spread spread(const std::vector<glm::vec3>& a, const std::vector<glm::vec3>& r) 
 // loses weight or lands it on the wrong node. With rows of their own asked for, some vertex
 // sides (near the slab, where the walls meet it) keep one, and not many.
 TEST(BounceOperator, CompressedStaysNearTheUncompressed) {
-  Scene s = colouredRoom(24, 48);
+  Scene s = test::makeColouredRoom(24, 48);
   bakeScene(s, 256, 3, 7);
   const BounceOperator full = [&] {
     bake::OperatorSettings one;
@@ -275,7 +263,7 @@ TEST(BounceOperator, OpenCavityUnderASunMatchesItsClosedForm) {
 
 // The same operator from one thread and from all: the same bytes.
 TEST(BounceOperator, DeterministicForAnyThreadCount) {
-  Scene s = colouredRoom();
+  Scene s = test::makeColouredRoom();
   bakeScene(s, 64, 2, 9);
   bake::OperatorSettings os;
   os.samples = 64;
@@ -291,7 +279,7 @@ TEST(BounceOperator, DeterministicForAnyThreadCount) {
 // traces none of them again and is the traced one to the bit; so is it where the record lacks
 // some sides (another rank's chunks, a resumed bake's), which are traced.
 TEST(BounceOperator, KeptRaysGiveTheTracedOperator) {
-  Scene s = colouredRoom();
+  Scene s = test::makeColouredRoom();
   bake::BakeSettings bs;
   bs.samples = 128;
   bs.bounces = 2;
@@ -323,7 +311,7 @@ TEST(BounceOperator, KeptRaysGiveTheTracedOperator) {
 // Packed and read back: the same operator; truncated, corrupt or of another version: refused,
 // naming the part.
 TEST(BounceOperator, PackedBytesAreCheckedWhenRead) {
-  Scene s = colouredRoom();
+  Scene s = test::makeColouredRoom();
   bakeScene(s, 64, 2, 9);
   bake::OperatorSettings os;
   os.samples = 64;

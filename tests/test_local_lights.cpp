@@ -67,7 +67,9 @@ TEST(BakeLocalLight, PointOverAPlaneIsInverseSquareCosine) {
       for (int c = 0; c < 3; ++c)
         ASSERT_NEAR(d.front[0][v][c], I[c] * cosT / (r * r) * window, 1e-5 * I[c]) << "vertex " << v;
     }
-    if (range > 0.0) EXPECT_GT(windowed, 10);  // the window is exercised, to 0 beyond the range
+    if (range > 0.0) {
+      EXPECT_GT(windowed, 10);
+    }  // the window is exercised, to 0 beyond the range
   }
   const bake::DirectIrradiance below = bake::shadowedLocalIrradiance(s, rays, {pointLight({0.1, -0.5, 0}, I)});
   for (const glm::vec3& e : below.front[0]) ASSERT_EQ(e, glm::vec3(0.0f));
@@ -91,8 +93,12 @@ TEST(LightLocal, SpotFalloffMatchesTheReferenceCode) {
     float ref = std::clamp(cd * scale + offset, 0.0f, 1.0f);
     ref *= ref;
     EXPECT_NEAR(spotFalloff(spot, w), ref, 2e-6) << deg << " degrees";
-    if (deg <= 20.0) EXPECT_NEAR(spotFalloff(spot, w), 1.0, 1e-12);
-    if (deg >= 35.0) EXPECT_EQ(spotFalloff(spot, w), 0.0);
+    if (deg <= 20.0) {
+      EXPECT_NEAR(spotFalloff(spot, w), 1.0, 1e-12);
+    }
+    if (deg >= 35.0) {
+      EXPECT_EQ(spotFalloff(spot, w), 0.0);
+    }
     between += deg > 20.0 && deg < 35.0;
   }
   EXPECT_GT(between, 20);

@@ -37,17 +37,6 @@ std::vector<std::vector<glm::vec3>> bakeScene(Scene& s, int samples, int bounces
   return std::move(t.perMeshLowerOrder);
 }
 
-// The room of the operator's tests: a cavity and a slab, double-sided, coloured.
-Scene colouredRoom() {
-  Scene s = test::makeScene(
-      {test::makeCavity(kPi / 2.5, 12, 24), test::makeSlab({-0.3f, -0.9f, -0.3f}, {0.3f, -0.7f, 0.3f}, 0.1f)}, 0.7f);
-  for (Material& m : s.materials) {
-    m.doubleSided = true;
-    m.baseColorFactor = glm::vec4(0.8f, 0.6f, 0.4f, 1.0f);
-  }
-  return s;
-}
-
 ProbeGrid roomProbes(const Scene& s, const std::vector<std::vector<glm::vec3>>& lower, int samples, uint64_t seed) {
   bake::ProbeSettings ps;
   ps.dims = glm::ivec3(3, 3, 3);
@@ -80,7 +69,7 @@ double largest(const std::vector<glm::vec3>& v) {
 // the probe bake keeps the lit rows as halves (2⁻¹¹ relative, at random over ~100 hits), so 2e-3
 // of the largest coefficient, while a wrong ray stream, side or factor of π is off by percents.
 TEST(ProbeOperator, UncompressedRowsAreTheProbesBouncedTransfer) {
-  Scene s = colouredRoom();
+  Scene s = test::makeColouredRoom();
   const auto lower = bakeScene(s, 128, 2, 7);
   const ProbeGrid grid = roomProbes(s, lower, 256, 7);
   bake::OperatorSettings os;
@@ -188,7 +177,7 @@ TEST(ProbeOperator, OpenPlaneUnderASunMatchesItsClosedForm) {
 // leave room for other platforms' rounding, while rows of 32 entries are off by 23% and 33%
 // and a wrong SH scale by the whole value.
 TEST(ProbeOperator, StoredRowsStayNearTheUncompressed) {
-  Scene s = colouredRoom();
+  Scene s = test::makeColouredRoom();
   const auto lower = bakeScene(s, 128, 2, 11);
   const ProbeGrid grid = roomProbes(s, lower, 1024, 11);
   bake::OperatorSettings os;
@@ -236,7 +225,7 @@ TEST(ProbeOperator, StoredRowsStayNearTheUncompressed) {
 
 // The same rows from one thread and from all: the same bytes.
 TEST(ProbeOperator, DeterministicForAnyThreadCount) {
-  Scene s = colouredRoom();
+  Scene s = test::makeColouredRoom();
   const auto lower = bakeScene(s, 64, 2, 9);
   const ProbeGrid grid = roomProbes(s, lower, 256, 9);
   bake::OperatorSettings os;
@@ -253,7 +242,7 @@ TEST(ProbeOperator, DeterministicForAnyThreadCount) {
 // Packed and read back: the same rows. Rows of another grid (another lattice, seed or set of
 // probes) refused by checkProbeRows, naming the file; corrupt or truncated bytes by the reader.
 TEST(ProbeOperator, AMismatchedOrCorruptRowFileIsRefused) {
-  Scene s = colouredRoom();
+  Scene s = test::makeColouredRoom();
   const auto lower = bakeScene(s, 64, 2, 5);
   const ProbeGrid grid = roomProbes(s, lower, 256, 5);
   bake::OperatorSettings os;

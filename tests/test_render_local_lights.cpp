@@ -18,6 +18,7 @@
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
 #include "prt/scene.h"
+#include "test_scenes.h"
 
 namespace prt::render {
 namespace {
@@ -25,22 +26,7 @@ namespace {
 constexpr double kInvPi = 0.31830988618379067;
 constexpr int kW = 96, kH = 72;
 
-MeshInstance quad(const std::string& name, glm::vec3 p0, glm::vec3 du, glm::vec3 dv, int nu, int nv) {
-  MeshInstance m;
-  m.name = name;
-  const glm::vec3 n = glm::normalize(glm::cross(du, dv));
-  for (int j = 0; j <= nv; ++j)
-    for (int i = 0; i <= nu; ++i) {
-      m.positions.push_back(p0 + du * (float(i) / nu) + dv * (float(j) / nv));
-      m.normals.push_back(n);
-    }
-  for (int j = 0; j < nv; ++j)
-    for (int i = 0; i < nu; ++i) {
-      const uint32_t a = uint32_t(j * (nu + 1) + i), b = a + 1, c = a + uint32_t(nu) + 2, d = a + uint32_t(nu) + 1;
-      m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
-    }
-  return m;
-}
+using test::makeQuad;
 
 // A 4 m floor and a 0.8 m square slab 0.5 m above it (facing up), albedo 0.8, baked
 // with a transfer of zeros except its direct part (so that the renderer lights per pixel).
@@ -51,8 +37,8 @@ Scene floorAndSlab() {
   grey.baseColorFactor = glm::vec4(0.8f, 0.8f, 0.8f, 1.0f);
   grey.doubleSided = false;
   s.materials = {grey};
-  s.meshes.push_back(quad("floor", {-2.0f, 0.0f, 2.0f}, {4.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -4.0f}, 8, 8));
-  s.meshes.push_back(quad("slab", {-0.4f, 0.5f, 0.4f}, {0.8f, 0.0f, 0.0f}, {0.0f, 0.0f, -0.8f}, 1, 1));
+  s.meshes.push_back(makeQuad("floor", {-2.0f, 0.0f, 2.0f}, {4.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -4.0f}, 8, 8));
+  s.meshes.push_back(makeQuad("slab", {-0.4f, 0.5f, 0.4f}, {0.8f, 0.0f, 0.0f}, {0.0f, 0.0f, -0.8f}, 1, 1));
   for (MeshInstance& m : s.meshes) {
     m.material = 0;
     m.transfer.assign(m.vertexCount() * 9, glm::vec3(0.0f));

@@ -19,6 +19,7 @@
 #include "prt/render/gl_context.h"
 #include "prt/render/renderer.h"
 #include "prt/scene.h"
+#include "test_scenes.h"
 
 #include "shadow_pass.h"  // render/src: planShadows
 
@@ -36,24 +37,7 @@ CameraView lookAt(const glm::dvec3& eye, const glm::dvec3& target, double yfovDe
   return c;
 }
 
-// A rectangle p0 + s·du + t·dv (s, t in [0, 1]) in nu × nv quads, normal du × dv (counter-clockwise
-// seen from the normal's side).
-MeshInstance quad(const std::string& name, glm::vec3 p0, glm::vec3 du, glm::vec3 dv, int nu, int nv) {
-  MeshInstance m;
-  m.name = name;
-  const glm::vec3 n = glm::normalize(glm::cross(du, dv));
-  for (int j = 0; j <= nv; ++j)
-    for (int i = 0; i <= nu; ++i) {
-      m.positions.push_back(p0 + du * (float(i) / nu) + dv * (float(j) / nv));
-      m.normals.push_back(n);
-    }
-  for (int j = 0; j < nv; ++j)
-    for (int i = 0; i < nu; ++i) {
-      const uint32_t a = uint32_t(j * (nu + 1) + i), b = a + 1, c = a + uint32_t(nu) + 2, d = a + uint32_t(nu) + 1;
-      m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
-    }
-  return m;
-}
+using test::makeQuad;
 
 // An axis-aligned box as one instance of 6 faces (flat normals, outward).
 MeshInstance box(const std::string& name, glm::vec3 lo, glm::vec3 hi) {
@@ -61,7 +45,7 @@ MeshInstance box(const std::string& name, glm::vec3 lo, glm::vec3 hi) {
   m.name = name;
   const glm::vec3 s = hi - lo;
   auto add = [&](glm::vec3 p0, glm::vec3 du, glm::vec3 dv) {
-    const MeshInstance f = quad(name, p0, du, dv, 1, 1);
+    const MeshInstance f = makeQuad(name, p0, du, dv, 1, 1);
     const uint32_t base = uint32_t(m.positions.size());
     m.positions.insert(m.positions.end(), f.positions.begin(), f.positions.end());
     m.normals.insert(m.normals.end(), f.normals.begin(), f.normals.end());
@@ -323,11 +307,11 @@ Scene slabScene(int bands) {
   grey.baseColorFactor = glm::vec4(0.8f, 0.8f, 0.8f, 1.0f);
   warm.baseColorFactor = glm::vec4(0.9f, 0.6f, 0.4f, 1.0f);
   s.materials = {grey, warm};
-  MeshInstance floor = quad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -3.0f}, 6, 6);
+  MeshInstance floor = makeQuad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -3.0f}, 6, 6);
   floor.material = 0;
   MeshInstance slab = box("slab", {-0.4f, 0.7f, -0.3f}, {0.4f, 0.8f, 0.4f});
   slab.material = 1;
-  MeshInstance wall = quad("wall", {-1.5f, 0.0f, -1.2f}, {3.0f, 0.0f, 0.0f}, {0.0f, 1.4f, 0.0f}, 3, 2);
+  MeshInstance wall = makeQuad("wall", {-1.5f, 0.0f, -1.2f}, {3.0f, 0.0f, 0.0f}, {0.0f, 1.4f, 0.0f}, 3, 2);
   wall.material = 0;
   s.meshes = {floor, slab, wall};
   for (size_t k = 0; k < s.meshes.size(); ++k) fillTransfer(s.meshes[k], bands, uint32_t(11 + k));
@@ -398,7 +382,7 @@ TEST(RenderDirect, PlaneUnderSunIsRhoOverPiECosTheta) {
   m.baseColorFactor = glm::vec4(0.7f, 0.5f, 0.3f, 1.0f);
   m.doubleSided = true;
   s.materials.push_back(m);
-  MeshInstance plane = quad("plane", {-2.0f, 0.0f, 2.0f}, {4.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -4.0f}, 4, 4);
+  MeshInstance plane = makeQuad("plane", {-2.0f, 0.0f, 2.0f}, {4.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -4.0f}, 4, 4);
   plane.material = 0;
   fillTransfer(plane, 3, 5);
   plane.transferBack = plane.transfer;
@@ -565,8 +549,8 @@ TEST(RenderDirect, PixelsAcrossAHardShadowEdgeGetTheShareOfTheirSquare) {
 // light, the pixels whose square the contact line crosses among them.
 TEST(RenderDirect, NoLightLeaksAlongAContactLine) {
   // The floor ends at the wall, as in a room of single-sided walls: behind it the map is empty.
-  MeshInstance floor = quad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -1.5f}, 6, 3);
-  MeshInstance wall = quad("wall", {-1.5f, 0.0f, 0.0f}, {3.0f, 0.0f, 0.0f}, {0.0f, 1.2f, 0.0f}, 6, 2);  // faces +Z
+  MeshInstance floor = makeQuad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -1.5f}, 6, 3);
+  MeshInstance wall = makeQuad("wall", {-1.5f, 0.0f, 0.0f}, {3.0f, 0.0f, 0.0f}, {0.0f, 1.2f, 0.0f}, 6, 2);  // faces +Z
   fillTransfer(floor, 3, 31);
   fillTransfer(wall, 3, 32);
   const Scene s = greyScene("contact", {floor, wall});
@@ -602,7 +586,7 @@ TEST(RenderDirect, NoLightLeaksAlongAContactLine) {
 // place; the receiver's direct term (its frame minus the frame without the direct light, the SH
 // part being equal) agrees with the oracle's on the receiver, 0 in the wall's shadow.
 TEST(RenderDirect, ReceiverCastsAndReceivesSunShadows) {
-  MeshInstance floor = quad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -3.0f}, 6, 6);
+  MeshInstance floor = makeQuad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -3.0f}, 6, 6);
   MeshInstance wall = box("wall", {0.4f, 0.0f, -1.5f}, {0.5f, 1.5f, 0.0f});
   MeshInstance cube = box("cube", {-0.55f, 0.3f, -0.25f}, {-0.05f, 0.8f, 0.25f});
   fillTransfer(floor, 3, 1);
@@ -812,9 +796,9 @@ TEST(RenderDirect, MaskCutoutsCastTheShadowOfTheirSolidPart) {
   checker.width = checker.height = 2;
   checker.texels = {glm::vec4(1, 1, 1, 1), glm::vec4(1, 1, 1, 0), glm::vec4(1, 1, 1, 0), glm::vec4(1, 1, 1, 1)};
   s.textures.push_back(checker);
-  MeshInstance floor = quad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -3.0f}, 6, 6);
+  MeshInstance floor = makeQuad("floor", {-1.5f, 0.0f, 1.5f}, {3.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -3.0f}, 6, 6);
   floor.material = 0;
-  MeshInstance lid = quad("lid", {-0.6f, 0.8f, 0.6f}, {1.2f, 0.0f, 0.0f}, {0.0f, 0.0f, -1.2f}, 1, 1);
+  MeshInstance lid = makeQuad("lid", {-0.6f, 0.8f, 0.6f}, {1.2f, 0.0f, 0.0f}, {0.0f, 0.0f, -1.2f}, 1, 1);
   lid.material = 1;
   for (const glm::vec3& q : lid.positions) lid.texcoords.push_back({(q.x + 0.6f) / 0.6f, (q.z + 0.6f) / 0.6f});
   s.meshes = {floor, lid};
@@ -863,9 +847,9 @@ TEST(RenderDirect, BlendedLayerCastsThePartialShadowOfItsOpacity) {
   glass.baseColorFactor = glm::vec4(0.9f, 0.6f, 0.4f, 0.5f);
   glass.alphaMode = Material::AlphaMode::Blend;
   s.materials = {grey, glass};
-  MeshInstance floor = quad("floor", {-2.0f, 0.0f, 2.0f}, {4.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -4.0f}, 8, 8);
+  MeshInstance floor = makeQuad("floor", {-2.0f, 0.0f, 2.0f}, {4.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -4.0f}, 8, 8);
   floor.material = 0;
-  MeshInstance lid = quad("lid", {-0.6f, 0.8f, 0.6f}, {1.2f, 0.0f, 0.0f}, {0.0f, 0.0f, -1.2f}, 1, 1);
+  MeshInstance lid = makeQuad("lid", {-0.6f, 0.8f, 0.6f}, {1.2f, 0.0f, 0.0f}, {0.0f, 0.0f, -1.2f}, 1, 1);
   lid.material = 1;
   s.meshes = {floor, lid};
   for (size_t k = 0; k < s.meshes.size(); ++k) fillTransfer(s.meshes[k], 3, uint32_t(41 + k));

@@ -93,6 +93,7 @@ inline Scene makeScene(std::vector<MeshInstance> meshes, float rho) {
 
 // Builders added later (kept below the first block so merges stay clean).
 #include <algorithm>
+#include <string>
 #include <vector>
 
 namespace prt::test {
@@ -100,6 +101,25 @@ namespace prt::test {
 /// A solid axis-aligned box [lo, hi] (outward faces, so it is seen from outside as front faces
 /// and from inside as back faces), each face subdivided into squares of side about `cell`
 /// (0: one quad per face), so per-vertex transfer has vertices across the face.
+// A rectangle p0 + s·du + t·dv (s, t in [0, 1]) in nu × nv quads, normal du × dv (counter-clockwise
+// seen from the normal's side).
+inline MeshInstance makeQuad(const std::string& name, glm::vec3 p0, glm::vec3 du, glm::vec3 dv, int nu, int nv) {
+  MeshInstance m;
+  m.name = name;
+  const glm::vec3 n = glm::normalize(glm::cross(du, dv));
+  for (int j = 0; j <= nv; ++j)
+    for (int i = 0; i <= nu; ++i) {
+      m.positions.push_back(p0 + du * (float(i) / nu) + dv * (float(j) / nv));
+      m.normals.push_back(n);
+    }
+  for (int j = 0; j < nv; ++j)
+    for (int i = 0; i < nu; ++i) {
+      const uint32_t a = uint32_t(j * (nu + 1) + i), b = a + 1, c = a + uint32_t(nu) + 2, d = a + uint32_t(nu) + 1;
+      m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
+    }
+  return m;
+}
+
 inline MeshInstance makeSlab(const glm::vec3& lo, const glm::vec3& hi, float cell = 0.0f) {
   MeshInstance m;
   m.name = "slab";
@@ -154,6 +174,18 @@ inline std::vector<MeshInstance> makeTwoRooms(float wallX, float thickness, floa
   // The thin wall, up to the top of the dark room's ceiling.
   m.push_back(makeSlab({wallX, -t, -t}, {wallX + thickness, 3.0f + t, 3.0f + t}, cell));
   return m;
+}
+
+// The room of the bounce operator's tests: a cavity and a slab in it, double-sided, albedo
+// (0.8, 0.6, 0.4).
+inline Scene makeColouredRoom(int rings = 12, int segments = 24) {
+  Scene s = makeScene(
+      {makeCavity(kPi / 2.5, rings, segments), makeSlab({-0.3f, -0.9f, -0.3f}, {0.3f, -0.7f, 0.3f}, 0.1f)}, 0.7f);
+  for (Material& m : s.materials) {
+    m.doubleSided = true;
+    m.baseColorFactor = glm::vec4(0.8f, 0.6f, 0.4f, 1.0f);
+  }
+  return s;
 }
 
 }  // namespace prt::test

@@ -34,10 +34,6 @@ namespace {
 
 constexpr size_t kChunk = 64;  // vertices per task and per block of hit records
 
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 }  // namespace
 
 struct DirectBounce::Impl {

@@ -9,14 +9,11 @@
 #include "prt/bake/local_lights.h"
 #include "prt/bake_record.h"
 #include "prt/relight.h"
+#include "stage_runner.h"
 
 namespace prt::bake {
 
 namespace {
-
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 bool sameLights(const std::vector<DirectLight>& x, const std::vector<DirectLight>& y) {
   return x.size() == y.size() &&
@@ -314,7 +311,8 @@ FrameLight FrameLighting::at(double frame) {
     out.updated = m.stale(out.rig, out.local);
     if (out.updated) m.update(frame, out.rig, out.local);
     out.vertexLight = &m.light;
-    if (m.through) {
+    // Only the probes' rows read the node values: copied out for a bake that has them.
+    if (m.through && m.scene.bounceOperator->probeRows.present()) {
       if (out.updated || m.nodeValues.empty()) m.nodeValues = m.through->nodeValues();
       out.operatorValues = &m.nodeValues;
     }

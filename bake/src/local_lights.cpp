@@ -264,7 +264,6 @@ void aim(Ray& ray, const glm::vec3& origin, const glm::dvec3& target, float tnea
   ray.start(origin, len > 0.0f ? to / len : glm::vec3(0, 1, 0), tnear, std::max(tnear, len * (1.0f - kShortOfLight)));
 }
 
-// The shadowed irradiance of every light at vertex x (ray origin `origin`, unit normal n).
 // The visible share of an area light (or emissive surface) from `origin`: settings.samples rays
 // to points stratified over it, the integrand-weighted mean visibility. Its own stream of rays
 // (kStream of them, 20 KB to initialise) lives here, so that a vertex lit only by point and
@@ -295,6 +294,7 @@ double areaShare(const RayScene& rays, const LightSampler& sampler, const glm::v
   return total > 0.0 ? seen / total : 0.0;
 }
 
+// The shadowed irradiance of every light at vertex x (ray origin `origin`, unit normal n).
 glm::dvec3 localAt(const RayScene& rays, const std::vector<LocalLight>& lights,
                    const std::vector<LightSampler>& samplers, const glm::vec3& x, const glm::vec3& origin,
                    const glm::vec3& n, size_t index, const ShadowSettings& settings, float tnear, uint64_t& count) {

@@ -12,14 +12,6 @@
 
 namespace prt::bake {
 
-namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
-}  // namespace
-
 ThreadLimit::ThreadLimit(int threads) {
   if (threads > 0)
     control_ = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, size_t(threads));
@@ -208,7 +200,7 @@ void ChunkedStage::runAssigned(const ChunkFn& fn, std::atomic<uint64_t>& rays, P
 }
 
 StageStats ChunkedStage::run(const ChunkFn& fn) {
-  const auto t0 = Clock::now();
+  const auto t0 = std::chrono::steady_clock::now();
   // A shard goes past a stage only when the merged shards hold all of it; a stage it works on
   // (or worked on, before it was stopped) ends its run.
   const bool merged = std::find(done_.begin(), done_.end(), 0) == done_.end() && !(cp_ && cp_->ownChunks(spec_.id));
@@ -244,7 +236,7 @@ StageStats ChunkedStage::run(const ChunkFn& fn) {
 
 StageStats runChunkedStage(StageSpec spec, Checkpoint* cp, const ChunkedStage::RestoreFn& restore,
                            Checkpoint::StageIo io, const ChunkedStage::ChunkFn& fn) {
-  const auto t0 = Clock::now();
+  const auto t0 = std::chrono::steady_clock::now();
   ChunkedStage stage(std::move(spec), cp);
   stage.restore(restore);
   stage.begin(std::move(io));

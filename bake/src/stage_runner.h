@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -32,6 +33,11 @@ class Progress;
 }
 
 namespace prt::bake {
+
+/// Seconds of the steady clock since t0.
+inline double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
 /// Caps the TBB threads of all work done while it lives; 0 leaves every core to TBB.
 class ThreadLimit {

@@ -51,8 +51,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
 // Rays per Embree stream: enough to amortise the call, small enough to stay in cache.
 constexpr int kStream = 256;
 // Vertices per task: the unit of parallel work and of hit-record storage.
@@ -591,11 +589,6 @@ void validate(const BakeSettings& s) {
   if (s.keepGatherRays < 0) throw Error(cat("kept gather rays ", s.keepGatherRays, ": must be 0 (none) or more"));
 }
 
-// Checkpointing (checkpoint.h): the direct pass saves per chunk its transfer and hit records;
-// bounce k saves, once, the state it starts from (t^{k-1} and the running sum) and then per
-// chunk its t^k; the finished surface stage saves the sum (and the lower-order sum) for a
-// probe bake that follows. Restored values are the very floats an uninterrupted bake holds at
-// that point, and every later sum runs in the same order, so the result has the same bits.
 // The first gatherRays rays of each vertex side, moved out of the chunks' hit records: each
 // chunk's records are cut, in place, to those of its sides' first rays (the records of a side
 // are in ray order, so they lead its own), and its vectors move into the result.
@@ -625,6 +618,11 @@ GatherRecords keptGatherRays(SurfaceBake& b) {
   return g;
 }
 
+// Checkpointing (checkpoint.h): the direct pass saves per chunk its transfer and hit records;
+// bounce k saves, once, the state it starts from (t^{k-1} and the running sum) and then per
+// chunk its t^k; the finished surface stage saves the sum (and the lower-order sum) for a
+// probe bake that follows. Restored values are the very floats an uninterrupted bake holds at
+// that point, and every later sum runs in the same order, so the result has the same bits.
 SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, const BakeControl& control) {
   validate(settings);
   const auto tStart = Clock::now();

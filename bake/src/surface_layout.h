@@ -92,7 +92,7 @@ void traceGatherRays(const RayScene& rays, const Layout& lay, const VertexSample
 template <class Escaped, class Hit>
 void replayGatherRays(const GatherRecords& kept, size_t v, const VertexSampler& sampler, Escaped&& escaped, Hit&& hit) {
   const GatherRecords::Chunk& c = *kept.of(v);
-  const size_t i = v - (v / kept.chunk) * kept.chunk;
+  const size_t i = v % kept.chunk;
   const uint64_t* escapedBits = &c.bits[i * 2 * kept.words];
   const uint64_t* recordedBits = escapedBits + kept.words;
   const HitRecord* next = c.hits.data() + c.begin[i];

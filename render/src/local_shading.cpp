@@ -123,23 +123,7 @@ void Renderer::Impl::drawLocalShadows(const Frame& frame, const FramePlan& plan)
     std::vector<glm::dmat4> motions;
     glm::dvec3 lo, hi;
     shadowCasterBounds(frame, plan.drawReceivers, lo, hi, motions);
-    gl.BindFramebuffer(GL_FRAMEBUFFER, localMaps.framebuffer);
-    gl.Viewport(0, 0, u.mapSize, u.mapSize);
-    gl.ClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
-    gl.Enable(GL_DEPTH_TEST);
-    gl.DepthFunc(GL_LESS);
-    gl.Disable(GL_CULL_FACE);
-    const float one = 1.0f;
-    for (int layer = 0; layer < layers; ++layer) {
-      gl.NamedFramebufferTextureLayer(localMaps.framebuffer, GL_DEPTH_ATTACHMENT, localMaps.texture, 0, layer);
-      gl.ClearNamedFramebufferfv(localMaps.framebuffer, GL_DEPTH, 0, &one);
-      const glm::mat4 vp(u.matrices[size_t(layer)]), identity(1.0f);
-      GLuint current = 0;
-      for (const Instance& in : instances) castShadow(in, identity, vp, current);
-      if (plan.drawReceivers)
-        for (size_t k = 0; k < receivers.size(); ++k) castShadow(receivers[k], glm::mat4(motions[k]), vp, current);
-    }
-    gl.BindVertexArray(0);
+    drawDepthLayers(localMaps, u.mapSize, u.matrices, motions, plan.drawReceivers);
     gl.BindTextureUnit(kLocalShadowUnit, localMaps.texture);
     checkError("drawing the local shadow maps");
     stats.localShadowMaps = layers;

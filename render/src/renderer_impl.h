@@ -210,6 +210,8 @@ struct Renderer::Impl {
                           std::vector<glm::dmat4>& motions) const;
   void drawShadowMaps(const ShadowPlan& shadows, const std::vector<glm::dmat4>& motions, bool withReceivers,
                       int mapSize);
+  void drawDepthLayers(const ShadowMaps& maps, int mapSize, const std::vector<glm::mat4>& viewProj,
+                       const std::vector<glm::dmat4>& motions, bool withReceivers);
   void castShadow(const Instance& in, const glm::mat4& model, const glm::mat4& viewProj, GLuint& current);
   void setDirectUniforms(const Frame& frame, const FramePlan& plan, const ShadowPlan& shadows, bool maps);
 

@@ -236,29 +236,37 @@ void Renderer::Impl::castShadow(const Instance& in, const glm::mat4& model, cons
   gl.DrawElements(GL_TRIANGLES, in.indexCount, GL_UNSIGNED_INT, nullptr);
 }
 
-// Every layer of `shadows`: both faces of every caster (culling off: a double-sided sheet casts
-// from either side).
-void Renderer::Impl::drawShadowMaps(const ShadowPlan& shadows, const std::vector<glm::dmat4>& motions,
-                                    bool withReceivers, int mapSize) {
-  const int layers = int(shadows.layers.size());
-  ensureShadowMaps(mapSize, layers);
-  gl.BindFramebuffer(GL_FRAMEBUFFER, shadowMaps.framebuffer);
+// Every layer of `maps` (drawn from viewProj[layer]): both faces of every caster (culling off: a
+// double-sided sheet casts from either side), the receivers moved by `motions` where drawn.
+void Renderer::Impl::drawDepthLayers(const ShadowMaps& maps, int mapSize, const std::vector<glm::mat4>& viewProj,
+                                     const std::vector<glm::dmat4>& motions, bool withReceivers) {
+  gl.BindFramebuffer(GL_FRAMEBUFFER, maps.framebuffer);
   gl.Viewport(0, 0, mapSize, mapSize);
   gl.ClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
   gl.Enable(GL_DEPTH_TEST);
   gl.DepthFunc(GL_LESS);
   gl.Disable(GL_CULL_FACE);
   const float one = 1.0f;
-  for (int layer = 0; layer < layers; ++layer) {
-    gl.NamedFramebufferTextureLayer(shadowMaps.framebuffer, GL_DEPTH_ATTACHMENT, shadowMaps.texture, 0, layer);
-    gl.ClearNamedFramebufferfv(shadowMaps.framebuffer, GL_DEPTH, 0, &one);
-    const glm::mat4 vp(shadows.layers[size_t(layer)].viewProj()), identity(1.0f);
+  const glm::mat4 identity(1.0f);
+  for (size_t layer = 0; layer < viewProj.size(); ++layer) {
+    gl.NamedFramebufferTextureLayer(maps.framebuffer, GL_DEPTH_ATTACHMENT, maps.texture, 0, GLint(layer));
+    gl.ClearNamedFramebufferfv(maps.framebuffer, GL_DEPTH, 0, &one);
     GLuint current = 0;
-    for (const Instance& in : instances) castShadow(in, identity, vp, current);
+    for (const Instance& in : instances) castShadow(in, identity, viewProj[layer], current);
     if (withReceivers)
-      for (size_t k = 0; k < receivers.size(); ++k) castShadow(receivers[k], glm::mat4(motions[k]), vp, current);
+      for (size_t k = 0; k < receivers.size(); ++k)
+        castShadow(receivers[k], glm::mat4(motions[k]), viewProj[layer], current);
   }
   gl.BindVertexArray(0);
+}
+
+// Every layer of `shadows`, the direct lights' maps.
+void Renderer::Impl::drawShadowMaps(const ShadowPlan& shadows, const std::vector<glm::dmat4>& motions,
+                                    bool withReceivers, int mapSize) {
+  ensureShadowMaps(mapSize, int(shadows.layers.size()));
+  std::vector<glm::mat4> viewProj;
+  for (const auto& layer : shadows.layers) viewProj.emplace_back(layer.viewProj());
+  drawDepthLayers(shadowMaps, mapSize, viewProj, motions, withReceivers);
   gl.Finish();
   checkError("drawing the shadow maps");
 }

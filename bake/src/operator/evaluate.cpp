@@ -24,10 +24,6 @@ namespace prt::bake {
 
 namespace {
 
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 constexpr float kUnit = 1.0f / float(BounceOperator::kWeightOne);
 
 // A node's light as 4 floats (RGB and a zero), so that a row's product is one load and one

@@ -77,8 +77,9 @@ struct FrameLight {
   /// How many of rig.direct are the scene's directional lights (the last ones).
   size_t sceneSuns = 0;
   size_t foldedLights = 0;
-  /// Where the bounces go through the bake's operator: its node values of the last light
-  /// change (OperatorLighting::nodeValues), for the probes' rows (addProbeBounce); else null.
+  /// Where the bounces go through the bake's operator and it has probe rows: its node values of
+  /// the last light change (OperatorLighting::nodeValues), for those rows (addProbeBounce);
+  /// else null.
   /// Valid until the next at().
   const std::vector<glm::vec3>* operatorValues = nullptr;
   bool updated = false;  // vertexLight was gathered for this frame (not reused)
