@@ -44,14 +44,8 @@ namespace prt {
 namespace {
 
 using bench::Clock;
-
-double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
+using bench::median;
+using bench::msSince;
 
 // The bundled room as `prt bake --operator` bakes it with its defaults.
 Scene bakeRoom(int threads) {

@@ -45,6 +45,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench_cli.h"
+#include "cpu_clock.h"
 #include "prt/bake/bounce_operator.h"
 #include "prt/bake/frame_lighting.h"
 #include "prt/bake/probe_bake.h"
@@ -68,19 +69,11 @@ namespace {
 using namespace prt;
 using Clock = std::chrono::steady_clock;
 
+using bench::median;
+using bench::msSince;
+
 // CPU time of the whole process (all threads), ms.
-double processCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
-}
-
-double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : (v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]));
-}
+double processCpuMs() { return 1e3 * bench::processCpuSeconds(); }
 
 // Splits every triangle into 4 (midpoints shared through an edge map), interpolating normals and
 // transfer (its direct part too): the refined mesh a denser bake would give.

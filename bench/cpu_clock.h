@@ -19,6 +19,19 @@ namespace prt::bench {
 
 using Clock = std::chrono::steady_clock;
 
+/// Milliseconds of the steady clock since t0.
+inline double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+/// The median of v (the mean of the middle two for an even count; 0 when empty).
+inline double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
 /// CPU seconds used so far by every thread of this process.
 inline double processCpuSeconds() {
   timespec ts;

@@ -89,13 +89,6 @@ double ModeRate::best(Timing t) const {
   return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 double ModeRate::median(Timing t) const { return bench::median(raysPerSecond[int(t)]); }
 
 const ModeRate& Ceiling::bestMode(Timing t) const {

@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cpu_clock.h"           // median
 #include "prt/bake/ray_scene.h"  // bake::Ray: the rays as the bake generates them (plain data)
 #include "prt/scene.h"
 
@@ -20,9 +21,6 @@ namespace prt::bench {
 enum class RayKind { Occlusion, ClosestHit };
 
 const char* kindName(RayKind kind);
-
-/// The median of v (the mean of the middle two for an even count; 0 when empty).
-double median(std::vector<double> v);
 
 /// How a rate is timed: wall clock, or the process's CPU time (cpu_clock.h).
 enum class Timing { Wall, Cpu };
