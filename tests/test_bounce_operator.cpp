@@ -276,8 +276,9 @@ TEST(BounceOperator, DeterministicForAnyThreadCount) {
 }
 
 // Built from the bake's own record of its first rays (SurfaceTransfer::gather), the operator
-// traces none of them again and is the traced one to the bit; so is it where the record lacks
-// some sides (another rank's chunks, a resumed bake's), which are traced.
+// traces none of them again and is the traced one to the bit (and a record moved is read as it
+// is); so is it where the record lacks some sides (another rank's chunks, a resumed bake's),
+// which are traced.
 TEST(BounceOperator, KeptRaysGiveTheTracedOperator) {
   Scene s = test::makeColouredRoom();
   bake::BakeSettings bs;
@@ -300,6 +301,12 @@ TEST(BounceOperator, KeptRaysGiveTheTracedOperator) {
   const PackedOperator traced = packOperator(bake::buildBounceOperator(s, os, 2, 9));
   EXPECT_TRUE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, nullptr, nullptr, &kept)).bytes ==
               traced.bytes);
+  // The record is what is read: every kept hit moved to another barycentric point changes it.
+  bake::GatherRecords moved = kept;
+  for (auto& c : moved.chunks)
+    for (bake::HitRecord& h : c.hits) h.b1 = uint16_t(h.b1 / 2), h.b2 = uint16_t(h.b2 / 2);
+  EXPECT_FALSE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, nullptr, nullptr, &moved)).bytes ==
+               traced.bytes);
   kept.chunks[1] = {};  // this chunk's sides are traced
   EXPECT_TRUE(packOperator(bake::buildBounceOperator(s, os, 2, 9, false, nullptr, nullptr, &kept)).bytes ==
               traced.bytes);

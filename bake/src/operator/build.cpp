@@ -1,6 +1,7 @@
 // Building the bounce operator (prt/bake/bounce_operator.h): the clusters and trees (tree.cpp),
-// then every vertex side's gather rays, traced once, each row compressed as soon as it is made
-// so that no hit record outlives its vertex.
+// then every vertex side's gather rays, read from the bake's own record of them (or traced
+// where it has none), each row compressed as soon as it is made so that no gather outlives its
+// cluster.
 #include <algorithm>
 #include <array>
 #include <cmath>
