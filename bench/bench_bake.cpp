@@ -148,12 +148,12 @@ int main(int argc, char** argv) {
     std::vector<size_t> picked;
     for (size_t run = 0; run * 64 < V; run += every)
       for (size_t v = run * 64; v < std::min(V, run * 64 + 64); ++v) picked.push_back(v);
-    const std::vector<bake::Ray> sample = bake::surfaceBakeRays(scene, settings, ceiling.sceneExtent(), picked);
+    const bake::RayScene prtRays(scene);
+    const std::vector<bake::Ray> sample = bake::surfaceBakeRays(scene, settings, prtRays, picked);
     const size_t S = size_t(settings.samples);
 
     // prt's tracing alone: the same rays through RayScene, called as the direct pass calls it
     // (one vertex's rays in streams of 256), nothing done per ray. Rates by wall and CPU time.
-    const bake::RayScene prtRays(scene);
     auto prtTrace = [&](bench::RayKind kind) {
       std::vector<bake::Ray> batch = sample;
       const double cpu0 = bench::processCpuSeconds();

@@ -13,6 +13,7 @@
 #include "harness.h"
 #include "prt/bake/memory_estimate.h"
 #include "prt/bake/probe_bake.h"
+#include "prt/bake/ray_scene.h"
 #include "prt/bake/surface_bake.h"
 #include "prt/math.h"
 #include "prt/probe_grid.h"
@@ -165,8 +166,9 @@ TEST(BakeTwoSided, RealVerticesKeepTheirRaysAndDirectTransfer) {
   ASSERT_EQ(b.perMesh[1].size(), 2 * a.perMesh[1].size());
   EXPECT_TRUE(sameBits(a.perMesh[1], std::vector<glm::vec3>(b.perMesh[1].begin(), b.perMesh[1].begin() + VB * 9)));
   const size_t realVertices = one.scene.meshes[0].vertexCount() + VB;
-  const std::vector<bake::Ray> ra = bake::surfaceBakeRays(one.scene, bs, 4.0f, {0, realVertices - 1});
-  const std::vector<bake::Ray> rb = bake::surfaceBakeRays(two.scene, bs, 4.0f, {0, realVertices - 1, realVertices});
+  const bake::RayScene oneRays(one.scene), twoRays(two.scene);
+  const std::vector<bake::Ray> ra = bake::surfaceBakeRays(one.scene, bs, oneRays, {0, realVertices - 1});
+  const std::vector<bake::Ray> rb = bake::surfaceBakeRays(two.scene, bs, twoRays, {0, realVertices - 1, realVertices});
   for (size_t j = 0; j < ra.size(); ++j) EXPECT_EQ(0, std::memcmp(&ra[j].dir, &rb[j].dir, sizeof(glm::vec3)));
   for (size_t j = 2 * size_t(bs.samples); j < rb.size(); ++j) EXPECT_LT(rb[j].dir.y, 0.0f);  // B's first back side
 }

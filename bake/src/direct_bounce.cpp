@@ -68,7 +68,7 @@ DirectBounce::DirectBounce(const Scene& scene, const BounceSettings& settings)
   const RayScene rays(scene);
   const float extent = rays.sceneExtent();
   b.tnear = tnearFor(extent);
-  b.origins = rayOrigins(scene, lay, extent);
+  b.origins = rayOrigins(scene, lay, rays);
   const uint32_t K = uint32_t(settings.samples);
   const size_t words = (K + 63) / 64;
   tbb::parallel_for(size_t(0), b.chunks.size(), [&](size_t c) {

@@ -151,11 +151,11 @@ DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const RayScene& ra
   const auto t0 = std::chrono::steady_clock::now();
   const ThreadLimit threadLimit(settings.threads);
   if (nothingToTrace(scene, lights)) return dark(scene);
-  const float extent = rays.sceneExtent(), tnear = tnearFor(extent);
+  const float tnear = tnearFor(rays.sceneExtent());
   std::vector<CapSampler> caps;
   for (const DirectLight& l : lights) caps.emplace_back(l);
   return perVertexSide(
-      scene, extent, t0,
+      scene, rays, t0,
       [&](const glm::vec3&, const glm::vec3& origin, const glm::vec3& n, size_t index, uint64_t& count) {
         return irradianceAt(rays, caps, lights, origin, n, index, settings, tnear, count);
       });

@@ -330,11 +330,11 @@ DirectIrradiance shadowedLocalIrradiance(const Scene& scene, const RayScene& ray
   if (lights.empty()) return shadowedDirectIrradiance(scene, std::vector<DirectLight>{}, settings);
   const auto t0 = std::chrono::steady_clock::now();
   const ThreadLimit threadLimit(settings.threads);
-  const float extent = rays.sceneExtent(), tnear = tnearFor(extent);
+  const float tnear = tnearFor(rays.sceneExtent());
   std::vector<LightSampler> samplers;
   for (const LocalLight& l : lights) samplers.emplace_back(l);
   return perVertexSide(
-      scene, extent, t0,
+      scene, rays, t0,
       [&](const glm::vec3& position, const glm::vec3& origin, const glm::vec3& n, size_t index, uint64_t& count) {
         return localAt(rays, lights, samplers, position, origin, n, index, settings, tnear, count);
       });

@@ -34,6 +34,7 @@
 #include "prt/tangents.h"
 #include "refine_estimator.h"
 #include "stage_runner.h"
+#include "unbury.h"
 #include "vertex_rays.h"
 
 namespace prt::bake {
@@ -346,7 +347,9 @@ class Refiner {
     if (twoSided) {
       const uint32_t b = est_.add();
       est_.back[slot] = b;
-      todo_.push_back({p.position, -p.normal, p.pull});
+      Point back = p;
+      back.normal = -p.normal;
+      todo_.push_back(back);
       todoSlot_.push_back(b);
     }
     return slot;
@@ -366,10 +369,13 @@ class Refiner {
       w.source.resize(m.vertexCount());
       std::vector<glm::vec3> pull(m.vertexCount(), glm::vec3(0.0f));
       accumulatePull(m.positions, m.indices, pull.data());
+      const FanTargets fans(m.positions, m.indices);
       for (uint32_t v = 0; v < m.vertexCount(); ++v) {
         w.source[v].vertex[0] = v;
         w.posId.push_back(ids_.of(m.positions[v]));
-        w.vertexEstimate.push_back(addPoint(w.twoSided, {m.positions[v], m.normals[v], pull[v]}));
+        Point p{m.positions[v], m.normals[v], pull[v]};
+        for (const glm::vec3& c : fans.of(v)) p.addTarget(c);
+        w.vertexEstimate.push_back(addPoint(w.twoSided, p));
       }
       works_.push_back(std::move(w));
     }
@@ -466,17 +472,24 @@ class Refiner {
   static Point midpointOf(const Work& w, uint32_t a, uint32_t b) {
     const MeshInstance& m = *w.m;
     glm::vec3 mid = (m.positions[a] + m.positions[b]) * 0.5f, pull(0.0f);
+    Point p;
+    p.addTarget(m.positions[a]);
+    p.addTarget(m.positions[b]);
     const auto [first, last] = w.trianglesOf(posEdgeOf(w, a, b));
     for (const uint32_t* u = first; u != last; ++u) {
       const uint32_t* jx = &m.indices[3 * size_t(*u)];
       for (int c = 0; c < 3; ++c) {
         if (w.posId[jx[c]] == w.posId[a] || w.posId[jx[c]] == w.posId[b]) continue;
+        p.addTarget(m.positions[jx[c]]);
         const glm::vec3 d = m.positions[jx[c]] - mid;
         if (glm::length(d) > 0.0f) pull += glm::normalize(d);
       }
     }
     const Blend s = mergeBlends({{&w.source[a], 0.5f}, {&w.source[b], 0.5f}});
-    return {mid, blendNormal(w, s, m.normals[a]), pull};
+    p.position = mid;
+    p.normal = blendNormal(w, s, m.normals[a]);
+    p.pull = pull;
+    return p;
   }
 
   // The centroid of triangle t, when its longest edge may be split and it is not a repeat.
@@ -498,7 +511,9 @@ class Refiner {
       const float third = 1.0f / 3.0f;
       const Blend s = mergeBlends({{&w.source[ix[0]], third}, {&w.source[ix[1]], third}, {&w.source[ix[2]], third}});
       const glm::vec3 c = (m.positions[ix[0]] + m.positions[ix[1]] + m.positions[ix[2]]) / 3.0f;
-      it->second = addPoint(w.twoSided, {c, blendNormal(w, s, m.normals[ix[0]]), glm::vec3(0.0f)});
+      Point p{c, blendNormal(w, s, m.normals[ix[0]]), glm::vec3(0.0f)};
+      for (int j = 0; j < 3; ++j) p.addTarget(m.positions[ix[j]]);
+      it->second = addPoint(w.twoSided, p);
     }
     pending.push_back({wi, false, le, corners, it->second});
   }

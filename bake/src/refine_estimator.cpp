@@ -26,6 +26,7 @@
 #include <cmath>
 
 #include "prt/sh.h"
+#include "unbury.h"
 #include "vertex_rays.h"
 
 namespace prt::bake::refinement {
@@ -66,8 +67,10 @@ Estimator::Estimator(const RayScene& rays, int bands, uint32_t samples, uint64_t
 }
 
 void Estimator::trace(const Point& p, Estimates& out, uint32_t slot) const {
-  const VertexSampler sampler(liftedOrigin(p.position, p.normal, p.pull, extent_), p.normal, seed_, kRefineStream,
-                              tnear_);
+  const glm::vec3 origin =
+      unburiedOrigin(rays_, p.position, p.normal, liftedOrigin(p.position, p.normal, p.pull, extent_),
+                     {p.target.data(), size_t(p.targets)}, extent_);
+  const VertexSampler sampler(origin, p.normal, seed_, kRefineStream, tnear_);
   out.normal[slot] = p.normal;
   uint64_t* bits = &out.blocked[slot * out.words];
   alignas(64) Ray batch[kStream];

@@ -4,6 +4,7 @@
 // less its Monte Carlo noise, relative to the unoccluded transfer's norm.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -15,9 +16,16 @@
 
 namespace prt::bake::refinement {
 
-// Where a point's estimate is taken.
+// Where a point's estimate is taken: its position, normal and pull (liftedOrigin), and the
+// points of its own surface a buried point may move towards (unbury.h).
 struct Point {
+  static constexpr int kMaxTargets = 12;
   glm::vec3 position, normal, pull;
+  std::array<glm::vec3, kMaxTargets> target{};
+  int targets = 0;
+  void addTarget(const glm::vec3& t) {
+    if (targets < kMaxTargets) target[size_t(targets++)] = t;
+  }
 };
 
 // What the rays of each point found: its normal and, per direction, whether it was blocked.

@@ -486,7 +486,7 @@ void runDirectPass(SurfaceBake& b, ChunkedStage& stage, const BakeControl& contr
   float tnear = 0.0f;
   if (left > 0) {
     rays = control.rays ? &control.rays->get() : &own.emplace(b.scene);
-    origins = rayOrigins(b.scene, b.lay, rays->sceneExtent());
+    origins = rayOrigins(b.scene, b.lay, *rays);
     tnear = tnearFor(rays->sceneExtent());
     stats.stages.push_back({"bvh", secondsSince(tBuild), 0});
   }
@@ -677,10 +677,11 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
   return out;
 }
 
-std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& settings, float extent,
+std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& settings, const RayScene& rays,
                                  const std::vector<size_t>& vertices) {
   Layout lay = makeLayout(scene);
-  std::vector<glm::vec3> origins = rayOrigins(scene, lay, extent);
+  std::vector<glm::vec3> origins = rayOrigins(scene, lay, rays);
+  const float extent = rays.sceneExtent();
   std::vector<Ray> out(vertices.size() * size_t(settings.samples));
   tbb::parallel_for(size_t(0), vertices.size(), [&](size_t k) {
     const size_t v = vertices[k];

@@ -1,6 +1,10 @@
 #include "surface_layout.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "prt/error.h"
+#include "unbury.h"
 #include "vertex_rays.h"
 
 namespace prt::bake {
@@ -64,23 +68,25 @@ Layout makeLayout(const Scene& scene) {
   return lay;
 }
 
-std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float extent) {
-  std::vector<glm::vec3> pull(lay.frontVertices, glm::vec3(0.0f));  // a back side shares its vertex's pull
-  for (size_t k = 0; k < scene.meshes.size(); ++k) {
-    const MeshInstance& m = scene.meshes[k];
-    if (m.receiverOnly) continue;
-    accumulatePull(m.positions, m.indices, &pull[lay.vertexOffset[k]]);
-  }
+std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, const RayScene& rays) {
+  const float extent = rays.sceneExtent();
   std::vector<glm::vec3> origins(lay.vertices);
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     const MeshInstance& m = scene.meshes[k];
     if (m.receiverOnly) continue;
-    size_t v0 = lay.vertexOffset[k];
-    const size_t b0 = lay.backVertexOffset[k];
-    for (size_t i = 0; i < m.vertexCount(); ++i) {
-      origins[v0 + i] = liftedOrigin(m.positions[i], m.normals[i], pull[v0 + i], extent);
-      if (b0 != SIZE_MAX) origins[b0 + i] = liftedOrigin(m.positions[i], -m.normals[i], pull[v0 + i], extent);
-    }
+    std::vector<glm::vec3> pull(m.vertexCount(), glm::vec3(0.0f));  // a back side shares its vertex's pull
+    accumulatePull(m.positions, m.indices, pull.data());
+    const FanTargets fans(m.positions, m.indices);
+    const size_t v0 = lay.vertexOffset[k], b0 = lay.backVertexOffset[k];
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, m.vertexCount(), 256), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i < r.end(); ++i) {
+        const glm::vec3& p = m.positions[i];
+        const glm::vec3& n = m.normals[i];
+        origins[v0 + i] = unburiedOrigin(rays, p, n, liftedOrigin(p, n, pull[i], extent), fans.of(i), extent);
+        if (b0 != SIZE_MAX)
+          origins[b0 + i] = unburiedOrigin(rays, p, -n, liftedOrigin(p, -n, pull[i], extent), fans.of(i), extent);
+      }
+    });
   }
   return origins;
 }

@@ -24,9 +24,9 @@
 namespace prt::bake {
 
 // Where rays of each vertex start (vertex_rays.h: lifted along the normal, pulled towards
-// the centroids of the vertex's triangles). A virtual vertex (a back side) is lifted along −n
-// instead, with the same pull.
-std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, float extent);
+// the centroids of the vertex's triangles; a buried vertex moved out along its own triangles,
+// unbury.h). A virtual vertex (a back side) is lifted along −n instead, with the same pull.
+std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, const RayScene& rays);
 
 // The side's normal: a virtual vertex faces away from its vertex's normal.
 glm::vec3 normalOf(const Scene& scene, const Layout& lay, size_t v);

@@ -13,6 +13,7 @@
 
 #include "prt/bake/direct_light.h"
 #include "prt/scene.h"
+#include "unbury.h"
 #include "vertex_rays.h"
 
 namespace prt::bake {
@@ -20,10 +21,12 @@ namespace prt::bake {
 /// `at(position, origin, normal, index, rays)` at every vertex side of the instances with
 /// transfer (front sides of every instance in scene order, then the back sides of those with
 /// back-side transfer: `index` numbers them so): its ray origin lifted off the surface
-/// (liftedOrigin), its normal (−n on a back side); `at` returns the side's irradiance (double
+/// (liftedOrigin, moved out where it is buried: unbury.h), its normal (−n on a back side); `at` returns the side's irradiance (double
 /// RGB) and adds the rays it traced to `rays`. Fills `rays` and `seconds` (from `t0`).
 template <class At>
-DirectIrradiance perVertexSide(const Scene& scene, float extent, std::chrono::steady_clock::time_point t0, At&& at) {
+DirectIrradiance perVertexSide(const Scene& scene, const RayScene& rays, std::chrono::steady_clock::time_point t0,
+                               At&& at) {
+  const float extent = rays.sceneExtent();
   DirectIrradiance out;
   out.front.resize(scene.meshes.size());
   out.back.resize(scene.meshes.size());
@@ -35,6 +38,7 @@ DirectIrradiance perVertexSide(const Scene& scene, float extent, std::chrono::st
       if (m.transfer.empty() || (side == 1 && !m.hasBackTransfer())) continue;
       std::vector<glm::vec3> pull(m.vertexCount(), glm::vec3(0.0f));
       accumulatePull(m.positions, m.indices, pull.data());
+      const FanTargets fans(m.positions, m.indices);
       std::vector<glm::vec3>& result = side == 0 ? out.front[k] : out.back[k];
       result.assign(m.vertexCount(), glm::vec3(0.0f));
       const size_t base = firstVertex;
@@ -42,7 +46,8 @@ DirectIrradiance perVertexSide(const Scene& scene, float extent, std::chrono::st
         uint64_t count = 0;
         for (size_t v = r.begin(); v < r.end(); ++v) {
           const glm::vec3 n = side == 0 ? m.normals[v] : -m.normals[v];
-          const glm::vec3 origin = liftedOrigin(m.positions[v], n, pull[v], extent);
+          const glm::vec3 origin = unburiedOrigin(rays, m.positions[v], n,
+                                                  liftedOrigin(m.positions[v], n, pull[v], extent), fans.of(v), extent);
           result[v] = glm::vec3(at(m.positions[v], origin, n, base + v, count));
         }
         traced += count;

@@ -286,7 +286,7 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
   op.skyWidth = s.skyWidth, op.skyHeight = s.skyHeight, op.samplePoints = s.samplePoints;
   op.vertexSides = uint32_t(lay.vertices);
   const RayScene rays(scene);
-  const std::vector<glm::vec3> origins = rayOrigins(scene, lay, rays.sceneExtent());
+  const std::vector<glm::vec3> origins = rayOrigins(scene, lay, rays);
   const op::SideTraining sideTraining = op::trainSides(scene, lay, rays, origins);
   const std::vector<op::SidePoint> sides = sidePoints(scene, lay);
   const Tree tree = op::buildTree(op, sides);

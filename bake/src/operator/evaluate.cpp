@@ -123,7 +123,7 @@ struct OperatorLighting::Impl {
 
   void samplePoints() {
     rays.emplace(scene);
-    const std::vector<glm::vec3> origins = rayOrigins(scene, lay, rays->sceneExtent());
+    const std::vector<glm::vec3> origins = rayOrigins(scene, lay, *rays);
     pointCount.resize(op.clusters);
     for (uint32_t c = 0; c < op.clusters; ++c)
       pointCount[c] = std::min(op.memberStart[c + 1] - op.memberStart[c], uint32_t(op.samplePoints));

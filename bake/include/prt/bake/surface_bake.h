@@ -122,9 +122,9 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
 /// The direct-pass rays of the given baked vertices (global order: instances in scene order,
 /// receivers skipped, then the back sides of double-sided instances in scene order), exactly as bakeSurface casts them,
 /// `samples` per vertex in order. For
-/// benchmarks (the Embree ceiling on the same rays) and tests. `extent` is
-/// RayScene::sceneExtent() of the scene.
-std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& settings, float extent,
+/// benchmarks (the Embree ceiling on the same rays) and tests. `rays` is the scene's RayScene
+/// (its extent lifts the origins; it moves buried ones out, unbury.h).
+std::vector<Ray> surfaceBakeRays(const Scene& scene, const BakeSettings& settings, const RayScene& rays,
                                  const std::vector<size_t>& vertices);
 
 /// The record of a bake with these settings, as a baked file stores it (asset.extras.prt):
