@@ -200,6 +200,17 @@ TEST(BakeRefine, UnoccludedAndFineMeshesAreLeftAlone) {
   EXPECT_EQ(b.refined.verticesAfter, b.refined.verticesBefore);
 }
 
+TEST(BakeRefine, ScaleLeavesAFarGroundPlaneOut) {
+  // A 2 × 2 m floor of 32 × 32 cells (1089 vertices) and a 2 km ground plane of 4 vertices
+  // around it: the bounding box's diagonal is 2.8 km, the refinement's scale the floor's 2.8 m
+  // (its 1%–99% box), so edges of the floor are not "short" against the ground plane.
+  Scene s = test::makeScene({test::makePlane({0, 0, 0}, 2.0f, 32), test::makePlane({0, -1, 0}, 2000.0f, 1)}, 0.5f);
+  EXPECT_NEAR(bake::refineScale(s), 2.0 * std::sqrt(2.0), 1e-5);
+  s.meshes[1].receiverOnly = true;  // receivers are not refined, nor measured
+  s.meshes.erase(s.meshes.begin());
+  EXPECT_EQ(bake::refineScale(s), 0.0);
+}
+
 TEST(BakeRefine, BudgetIsRespected) {
   const test::TempDir dir("refine_budget");
   const std::string coarse = quadScene(dir, "coarse", 1, true);

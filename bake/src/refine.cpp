@@ -295,6 +295,28 @@ size_t blocksOf(size_t n) { return (n + kShareBlock - 1) / kShareBlock; }
 // The end of block b of n items.
 size_t blockEnd(uint64_t b, size_t n) { return std::min(n, (b + 1) * kShareBlock); }
 
+}  // namespace
+
+double refineScale(const Scene& scene) {
+  std::array<std::vector<float>, 3> axis;
+  for (const MeshInstance& m : scene.meshes)
+    if (!m.receiverOnly)
+      for (const glm::vec3& p : m.positions)
+        for (int a = 0; a < 3; ++a) axis[size_t(a)].push_back(p[a]);
+  if (axis[0].empty()) return 0.0;
+  const size_t n = axis[0].size(), lo = size_t(kScaleOutliers * double(n - 1)), hi = n - 1 - lo;
+  double d2 = 0.0;
+  for (std::vector<float>& v : axis) {
+    std::nth_element(v.begin(), v.begin() + ptrdiff_t(lo), v.end());
+    const double low = v[lo];
+    std::nth_element(v.begin(), v.begin() + ptrdiff_t(hi), v.end());
+    d2 += std::pow(double(v[hi]) - low, 2.0);
+  }
+  return std::sqrt(d2);
+}
+
+namespace {
+
 // One refinement: the baked instances being refined, every point estimated so far and the
 // points waiting for their rays. run() repeats candidates → estimates → scores → splits.
 class Refiner {
@@ -308,7 +330,7 @@ class Refiner {
         threadLimit_(bake.threads),
         rays_(scene),
         extent_(rays_.sceneExtent()),
-        minEdge2_(std::pow(2.0 * kMinEdgeShare * double(extent_), 2.0)),  // children >= kMinEdgeShare
+        minEdge2_(std::pow(2.0 * kMinEdgeShare * refineScale(scene), 2.0)),  // children >= kMinEdgeShare
         estimator_(rays_, bake.bands, uint32_t(std::min(refine.samples, bake.samples)), bake.seed, extent_),
         spread_(ranks()),
         shared_(spread_.exchanges()),
@@ -349,6 +371,7 @@ class Refiner {
       est_.back[slot] = b;
       Point back = p;
       back.normal = -p.normal;
+      back.targets = 0;  // a back side keeps its origin (unbury.h)
       todo_.push_back(back);
       todoSlot_.push_back(b);
     }

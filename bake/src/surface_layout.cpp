@@ -83,8 +83,7 @@ std::vector<glm::vec3> rayOrigins(const Scene& scene, const Layout& lay, const R
         const glm::vec3& p = m.positions[i];
         const glm::vec3& n = m.normals[i];
         origins[v0 + i] = unburiedOrigin(rays, p, n, liftedOrigin(p, n, pull[i], extent), fans.of(i), extent);
-        if (b0 != SIZE_MAX)
-          origins[b0 + i] = unburiedOrigin(rays, p, -n, liftedOrigin(p, -n, pull[i], extent), fans.of(i), extent);
+        if (b0 != SIZE_MAX) origins[b0 + i] = liftedOrigin(p, -n, pull[i], extent);  // back sides stay (unbury.h)
       }
     });
   }

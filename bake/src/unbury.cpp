@@ -79,9 +79,7 @@ glm::vec3 unburiedOrigin(const RayScene& rays, const glm::vec3& p, const glm::ve
     Ray ray;
     ray.start(origin, d / length, tnear, length);
     rays.intersect(&ray, 1);
-    // A crossing within two lifts of the target is the geometry that meets the surface there (a
-    // closed mesh's next face at its edge), not one that cuts it.
-    if (!ray.hit() || !ray.backface() || ray.tfar + 2.0f * lift >= length) continue;
+    if (!ray.hit() || !ray.backface() || ray.tfar + lift >= length) continue;
     candidates[count++] = {ray.tfar + lift, origin + ray.dir * (ray.tfar + lift)};
   }
   std::sort(candidates.begin(), candidates.begin() + ptrdiff_t(count),

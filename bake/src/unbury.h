@@ -16,11 +16,13 @@
 //      double-sided alike: geometry's winding says where its outside is).
 //   2. Then, towards each of its targets (the other corners of its triangles, then their
 //      centroids), a ray runs from the lifted origin parallel to the surface; one whose first hit
-//      is a back face more than two lifts short of the target crosses the burying surface, and
-//      the point one lift past it is a candidate.
+//      is a back face short of the target crosses the burying surface, and the point just past
+//      it (by the origin's lift) is a candidate.
 //   3. The nearest candidate that is not buried is the origin; with none, the origin stays.
 // A point under a table is buried by rule 1 but no ray along the floor crosses the table, so it
 // stays; a wall's foot under the terrain moves up its wall to just above the grass line.
+// Front sides only: the back side of a double-sided surface faces against its winding, so back
+// faces are what it sees inside any closed double-sided model, and it keeps its origin.
 #pragma once
 
 #include <cstddef>

@@ -21,7 +21,7 @@ namespace prt::bake {
 /// `at(position, origin, normal, index, rays)` at every vertex side of the instances with
 /// transfer (front sides of every instance in scene order, then the back sides of those with
 /// back-side transfer: `index` numbers them so): its ray origin lifted off the surface
-/// (liftedOrigin, moved out where it is buried: unbury.h), its normal (−n on a back side); `at` returns the side's irradiance (double
+/// (liftedOrigin; a front side moved out where it is buried: unbury.h), its normal (−n on a back side); `at` returns the side's irradiance (double
 /// RGB) and adds the rays it traced to `rays`. Fills `rays` and `seconds` (from `t0`).
 template <class At>
 DirectIrradiance perVertexSide(const Scene& scene, const RayScene& rays, std::chrono::steady_clock::time_point t0,
@@ -46,8 +46,9 @@ DirectIrradiance perVertexSide(const Scene& scene, const RayScene& rays, std::ch
         uint64_t count = 0;
         for (size_t v = r.begin(); v < r.end(); ++v) {
           const glm::vec3 n = side == 0 ? m.normals[v] : -m.normals[v];
-          const glm::vec3 origin = unburiedOrigin(rays, m.positions[v], n,
-                                                  liftedOrigin(m.positions[v], n, pull[v], extent), fans.of(v), extent);
+          const glm::vec3 lifted = liftedOrigin(m.positions[v], n, pull[v], extent);
+          const glm::vec3 origin =
+              side == 0 ? unburiedOrigin(rays, m.positions[v], n, lifted, fans.of(v), extent) : lifted;
           result[v] = glm::vec3(at(m.positions[v], origin, n, base + v, count));
         }
         traced += count;

@@ -30,9 +30,17 @@ struct RefineSettings {
 constexpr uint64_t kMinAutoBudget = 10000;
 uint64_t refineBudget(const RefineSettings& refine, const Scene& scene);
 
-/// Edges shorter than this share of the scene's extent (the bounding box diagonal) are not
-/// split: a contact line would otherwise take the whole budget at the floating-point limit.
+/// Edges shorter than twice this share of refineScale() are not split: a contact line would
+/// otherwise take the whole budget at the floating-point limit.
 constexpr double kMinEdgeShare = 1e-3;
+/// The share of the baked vertices that refineScale() leaves out at each end of each axis.
+constexpr double kScaleOutliers = 0.01;
+
+/// The size refinement measures edges against: the diagonal of the box that holds the baked
+/// vertices from the kScaleOutliers quantile to the 1 − kScaleOutliers one along each axis (a
+/// level's 2 km ground plane of a few vertices does not make its houses' walls "short"); 0
+/// without baked vertices.
+double refineScale(const Scene& scene);
 /// Rounds of splitting at most (each halves the edges it splits).
 constexpr int kMaxRefineRounds = 24;
 
