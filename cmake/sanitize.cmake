@@ -7,8 +7,10 @@
 # OpenEXR, Embree, TBB, Mesa) stay uninstrumented; only tinygltf and stb_image, which parse
 # untrusted bytes, are rebuilt from their headers with the same flags (PRT_INSTRUMENT_PARSERS).
 #
-# PRT_FUZZ builds the libFuzzer targets in tests/fuzz (clang only): every object gets
-# coverage instrumentation (-fsanitize=fuzzer-no-link), the fuzz executables link libFuzzer.
+# PRT_FUZZ builds the libFuzzer targets in tests/fuzz (clang only): the objects a fuzzer runs get
+# coverage instrumentation (PRT_FUZZ_COVERAGE, -fsanitize=fuzzer-no-link): the probes/
+# libraries (probes/CMakeLists.txt), the parsers below and the fuzz targets; the fuzz executables
+# link libFuzzer. bake/, render/, tools/ and the tests are linked into no fuzzer and go without.
 set(PRT_SANITIZE "" CACHE STRING "Sanitizers for every target, e.g. address,undefined (empty: none)")
 option(PRT_FUZZ "Build the libFuzzer targets in tests/fuzz (clang only)" OFF)
 
@@ -39,8 +41,9 @@ if(PRT_SANITIZE)
   endif()
 endif()
 
+set(PRT_FUZZ_COVERAGE "")
 if(PRT_FUZZ)
-  add_compile_options(-fsanitize=fuzzer-no-link)
+  set(PRT_FUZZ_COVERAGE -fsanitize=fuzzer-no-link)
 endif()
 
 if(PRT_SANITIZE OR PRT_FUZZ)
@@ -57,6 +60,7 @@ option(PRT_INSTRUMENT_PARSERS "Compile tinygltf and stb_image from their headers
 # TinyGLTF::TinyGLTF (its stb_image symbols take precedence over libstb.so's).
 function(prt_add_instrumented_parsers)
   add_library(prt_parsers STATIC ${PROJECT_SOURCE_DIR}/cmake/parsers.cpp)
+  target_compile_options(prt_parsers PRIVATE ${PRT_FUZZ_COVERAGE})
   target_link_libraries(prt_parsers PRIVATE PkgConfig::STB nlohmann_json::nlohmann_json)
   # Third-party code: compiled without the project's warnings.
   add_library(TinyGLTF::TinyGLTF INTERFACE IMPORTED)

@@ -178,8 +178,8 @@ case "$mode" in
     # Built without MPI (the MPI tests skip there): Open MPI under ASan is untested, and the
     # release phase runs the MPI tests.
     # One sanitizer build serves both phases: the tests and the fuzz targets, every object
-    # with ASan + UBSan and the fuzzer's coverage (which the tests do not notice), so CI
-    # compiles the library once with clang instead of twice.
+    # with ASan + UBSan and the loaders (probes/) with the fuzzer's coverage as well (which
+    # the tests do not notice), so CI compiles the library once with clang instead of twice.
     asan_configure() {
       run cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
         -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
