@@ -583,7 +583,7 @@ TEST_F(CliProbe, InfoNamesFileKindsAndDescribesScenes) {
         cat("file        ", formatBytes(fs::file_size(file("p.glb")))), std::string("once loaded by prt"),
         std::string("domain        (-1, -1, -1) .. (1, 1, 1)"), std::string("transfer    3 bands"),
         cat("bake        3 bands, 256 samples, 1 bounce, shadowed, seed 7, from plane.gltf, prt ", kVersion,
-            "; refined 1089 -> 1089 vertices (tolerance 0.05, budget 10000, 128 samples, residual 0)\n")})
+            "; refined 1089 -> 1089 vertices (tolerance 0.01, budget 10000, 128 samples, residual 0)\n")})
     EXPECT_NE(r.out.find(s), std::string::npos) << "missing '" << s << "' in:\n" << r.out;
   EXPECT_EQ(r.out.find("as VDB grids"), std::string::npos) << r.out;
   const RunResult json = prt({"info", file("light.json")});

@@ -119,7 +119,7 @@ TEST(CliRefine, RefinedGlbIsClosedWithEveryAttributeInterpolated) {
   const test::RunResult info = test::runPrt({"info", out});
   EXPECT_EQ(info.status, 0) << info.err;
   EXPECT_NE(
-      info.out.find(cat("; refined 8 -> ", back.bakeRecord->refinement.verticesAfter, " vertices (tolerance 0.05")),
+      info.out.find(cat("; refined 8 -> ", back.bakeRecord->refinement.verticesAfter, " vertices (tolerance 0.01")),
       std::string::npos)
       << info.out;
   const test::RunResult probe =

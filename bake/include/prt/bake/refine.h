@@ -18,7 +18,7 @@ namespace prt::bake {
 struct RefineSettings {
   /// Largest accepted interpolation error, relative to the norm of the unoccluded transfer
   /// (see refineScene); 0 = no refinement.
-  double tolerance = 0.05;
+  double tolerance = 0.01;
   /// At most this many vertices added, over all instances; 0 = kAutoBudget.
   uint64_t budget = 0;
   /// Directions per point of the refinement's estimate (at most the bake's samples).
