@@ -13,18 +13,18 @@
 
 #include "prt/bake/ray_scene.h"
 #include "prt/bake/sampling.h"
+#include "unbury.h"
 
 namespace prt::bake::refinement {
 
 // Where a point's estimate is taken: its position, normal and pull (liftedOrigin), and the
 // points of its own surface a buried point may move towards (unbury.h).
 struct Point {
-  static constexpr int kMaxTargets = 12;
   glm::vec3 position, normal, pull;
   std::array<glm::vec3, kMaxTargets> target{};
   int targets = 0;
   void addTarget(const glm::vec3& t) {
-    if (targets < kMaxTargets) target[size_t(targets++)] = t;
+    if (size_t(targets) < kMaxTargets) target[size_t(targets++)] = t;
   }
 };
 
