@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "baked_scene.h"
 #include "harness.h"
 #include "prt/bake/bounce_operator.h"
 #include "prt/bake/direct_light.h"
@@ -21,16 +22,8 @@
 namespace prt {
 namespace {
 
-// A baked scene: transfer stored as a bake would, 3 bands.
-void bakeScene(Scene& s, int samples, int bounces, uint64_t seed) {
-  bake::BakeSettings bs;
-  bs.samples = samples;
-  bs.bounces = bounces;
-  bs.seed = seed;
-  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
-  bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
-  s.transferBands = 3;
-}
+// A baked scene (test::bakeInPlace).
+void bakeScene(Scene& s, int samples, int bounces, uint64_t seed) { test::bakeInPlace(s, samples, bounces, seed); }
 
 // E⁰ = t⁰ · l per side, and the bake's bounced part (t − t⁰) · l.
 struct ShLit {

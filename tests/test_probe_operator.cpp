@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "baked_scene.h"
 #include "harness.h"
 #include "prt/bake/bounce_operator.h"
 #include "prt/bake/direct_light.h"
@@ -23,18 +24,9 @@
 namespace prt {
 namespace {
 
-// A baked scene (3 bands, transfer stored as a bake would) and its lower-order transfer.
+// A baked scene (test::bakeInPlace) and its lower-order transfer.
 std::vector<std::vector<glm::vec3>> bakeScene(Scene& s, int samples, int bounces, uint64_t seed) {
-  bake::BakeSettings bs;
-  bs.samples = samples;
-  bs.bounces = bounces;
-  bs.seed = seed;
-  bs.keepLowerOrder = true;
-  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
-  bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
-  s.transferBands = 3;
-  if (t.perMeshLowerOrder.empty()) t.perMeshLowerOrder.assign(s.meshes.size(), {});
-  return std::move(t.perMeshLowerOrder);
+  return test::bakeInPlace(s, samples, bounces, seed, /*lowerOrder=*/true);
 }
 
 ProbeGrid roomProbes(const Scene& s, const std::vector<std::vector<glm::vec3>>& lower, int samples, uint64_t seed) {

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "baked_scene.h"
 #include "prt/bake/direct_light.h"
 #include "prt/bake/refine.h"
 #include "prt/bake/surface_bake.h"
@@ -102,10 +103,7 @@ TEST(BakeUnbury, TheSunLightsTheMovedFootAsTheWall) {
   // horizon in front of the wall lights all four vertices alike, E cos 45°; from inside the
   // block the foot would be in shadow.
   Scene s = sunkWall();
-  bake::BakeSettings bs;
-  bs.samples = 16;
-  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
-  bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
+  test::bakeInPlace(s, 16, 2, 1);
   DirectLight sun;
   sun.direction = glm::normalize(glm::dvec3(0.0, 1.0, 1.0));
   sun.irradiance = glm::dvec3(2.0);
