@@ -67,7 +67,7 @@ int backFaceRays(const RayScene& rays, const glm::vec3& origin, const glm::vec3&
 
 glm::vec3 unburiedOrigin(const RayScene& rays, const glm::vec3& p, const glm::vec3& n, const glm::vec3& origin,
                          std::span<const glm::vec3> targets, float extent) {
-  const float tnear = tnearFor(extent), lift = 1e-4f * extent;
+  const float tnear = tnearFor(extent), lift = liftFor(extent);
   if (targets.empty() || backFaceRays(rays, origin, n, tnear) <= kBuriedRays) return origin;
   // Where each target's ray crosses a back face, nearest first.
   std::array<std::pair<float, glm::vec3>, kMaxTargets> candidates;

@@ -34,6 +34,9 @@ struct VertexSampler {
 };
 
 inline float tnearFor(float extent) { return 1e-6f * extent; }
+// How far a ray origin is lifted off its surface (liftedOrigin; unbury.h moves a buried one that
+// far past the surface that buries it).
+inline float liftFor(float extent) { return 1e-4f * extent; }
 
 // A vertex lies on its own triangles and, at a corner of a room, on the plane of the next wall
 // too: a ray leaving exactly there can slip through that wall and see the sky. The origin is
@@ -57,7 +60,7 @@ inline void accumulatePull(const std::vector<glm::vec3>& positions, const std::v
 inline glm::vec3 liftedOrigin(const glm::vec3& p, const glm::vec3& n, glm::vec3 pull, float extent) {
   const float len = glm::length(pull);
   if (len > 0.0f) pull /= len;
-  return p + 1e-4f * extent * (n + pull);
+  return p + liftFor(extent) * (n + pull);
 }
 
 }  // namespace prt::bake
