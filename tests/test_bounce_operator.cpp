@@ -340,10 +340,73 @@ TEST(BounceOperator, PackedBytesAreCheckedWhenRead) {
   std::vector<uint8_t> flipped = p.bytes;
   flipped[flipped.size() / 2] ^= 0x10;
   EXPECT_NE(refused(p.header, flipped).find("checksum"), std::string::npos);
-  std::string v4 = p.header;
-  v4.replace(v4.find("\"version\":3"), 11, "\"version\":4");
-  EXPECT_NE(refused(v4, p.bytes).find("version 4"), std::string::npos) << refused(v4, p.bytes);
+  std::string v5 = p.header;
+  v5.replace(v5.find("\"version\":4"), 11, "\"version\":5");
+  EXPECT_NE(refused(v5, p.bytes).find("version 5"), std::string::npos) << refused(v5, p.bytes);
   EXPECT_NE(refused("{", p.bytes).find("not JSON"), std::string::npos);
+}
+
+// Version 4's one-byte weights: every code a different weight, each weight stored as the nearest
+// code's (exact below 32, within 3% above, 1.9% from 256 up: the codes' values are rounded), and a row's sum kept when a bake puts its weights
+// on the codes.
+TEST(BounceOperator, WeightCodesKeepEachRowsSum) {
+  EXPECT_EQ(BounceOperator::weightOfCode(0), 0);
+  EXPECT_EQ(BounceOperator::weightOfCode(255), BounceOperator::kWeightOne);
+  for (int c = 0; c < 256; ++c) {
+    EXPECT_EQ(BounceOperator::codeOfWeight(BounceOperator::weightOfCode(uint8_t(c))), c);
+    if (c > 0) {
+      EXPECT_GT(BounceOperator::weightOfCode(uint8_t(c)), BounceOperator::weightOfCode(uint8_t(c - 1)));
+    }
+  }
+  double worst = 0.0, worstAbove = 0.0;  // over all weights, over those of 256 and more
+  for (uint32_t q = 0; q <= BounceOperator::kWeightOne; ++q) {
+    const int held = BounceOperator::weightOfCode(BounceOperator::codeOfWeight(uint16_t(q)));
+    if (q < 32) {
+      ASSERT_EQ(held, int(q));
+    }
+    const double e = q > 0 ? std::fabs(held - double(q)) / double(q) : 0.0;
+    worst = std::max(worst, e);
+    if (q >= 256) worstAbove = std::max(worstAbove, e);
+  }
+  std::printf("[ measured ] one-byte weights: largest relative error %.2f%%, %.2f%% from 256 up\n", 100 * worst,
+              100 * worstAbove);
+  EXPECT_LT(worst, 0.03);
+  EXPECT_LT(worstAbove, 0.019);
+  // A row of 96 weights spread over four decades: each held value is a code's, next to its
+  // weight, and the sum moves by under one unit.
+  std::vector<double> row;
+  double sum = 0.0;
+  for (int i = 0; i < 96; ++i) {
+    row.push_back(BounceOperator::kWeightOne * 0.2 * std::pow(10.0, -4.0 * i / 95.0));
+    sum += row.back();
+  }
+  const std::vector<uint16_t> held = BounceOperator::storedWeights(row);
+  double heldSum = 0.0;
+  for (size_t i = 0; i < row.size(); ++i) {
+    EXPECT_EQ(BounceOperator::weightOfCode(BounceOperator::codeOfWeight(held[i])), held[i]);
+    EXPECT_LT(std::fabs(held[i] - row[i]), 0.036 * row[i] + 1.0) << i;
+    heldSum += held[i];
+  }
+  EXPECT_LT(std::fabs(heldSum - sum), 1.0) << heldSum << " " << sum;
+}
+
+// A file of version 3 (two-byte weights; tests/data/corner_operator_v3.glb, a floor and a wall
+// baked with --operator --samples 64 --no-refine) still reads, and written again as version 4
+// every weight moves by at most one code's step.
+TEST(BounceOperator, AVersion3FileStillReads) {
+  const Scene s = loadScene(std::string(PRT_SOURCE_DIR) + "/tests/data/corner_operator_v3.glb");
+  ASSERT_NE(s.bounceOperator, nullptr);
+  const BounceOperator& v3 = *s.bounceOperator;
+  EXPECT_EQ(v3.version, 3);
+  EXPECT_GT(v3.clusterRows.entries(), 0u);
+  const PackedOperator p = packOperator(v3);
+  EXPECT_NE(p.header.find("\"version\":4"), std::string::npos);
+  const BounceOperator v4 = unpackOperator(p.header, p.bytes.data(), p.bytes.size(), "corner.glb");
+  ASSERT_EQ(v4.clusterRows.node, v3.clusterRows.node);
+  for (size_t e = 0; e < v3.clusterRows.entries(); ++e)
+    EXPECT_LE(std::abs(int(v4.clusterRows.weight[e]) - int(v3.clusterRows.weight[e])),
+              std::max(1, int(std::lround(0.018 * v3.clusterRows.weight[e]))))
+        << e;
 }
 
 }  // namespace

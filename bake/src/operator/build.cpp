@@ -256,15 +256,26 @@ void shareRows(const BounceOperator& op, MadeRows made) {
   }
 }
 
-void storeRows(BounceOperator::Rows& rows, const std::vector<std::vector<Entry>>& made) {
+// Rows as the operator holds them: weights w · kWeightOne, rounded, or, unless `exact` (an
+// uncompressed operator, never stored), on the one-byte codes' values with each row's sum kept
+// (BounceOperator::storedWeights).
+void storeRows(BounceOperator::Rows& rows, const std::vector<std::vector<Entry>>& made, bool exact) {
   rows.start.assign(1, 0);
   rows.node.clear(), rows.weight.clear();
+  std::vector<double> scaled;
   for (const std::vector<Entry>& row : made) {
-    for (const Entry& e : row) {
-      const long q = std::lround(double(e.w) * BounceOperator::kWeightOne);
-      if (q <= 0) continue;
-      rows.node.push_back(e.leaf);
-      rows.weight.push_back(uint16_t(std::min<long>(q, BounceOperator::kWeightOne)));
+    scaled.clear();
+    for (const Entry& e : row) scaled.push_back(double(e.w) * BounceOperator::kWeightOne);
+    std::vector<uint16_t> held(scaled.size());
+    if (exact)
+      for (size_t i = 0; i < scaled.size(); ++i)
+        held[i] = uint16_t(std::clamp<long>(std::lround(scaled[i]), 0, BounceOperator::kWeightOne));
+    else
+      held = BounceOperator::storedWeights(scaled);
+    for (size_t i = 0; i < row.size(); ++i) {
+      if (held[i] == 0) continue;
+      rows.node.push_back(row[i].leaf);
+      rows.weight.push_back(held[i]);
     }
     rows.start.push_back(uint32_t(rows.node.size()));
   }
@@ -343,8 +354,8 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
     }
   });
   if (shared) shareRows(op, {vertexRows, clusterRows, gradients});
-  storeRows(op.vertexRows, vertexRows);
-  storeRows(op.clusterRows, clusterRows);
+  storeRows(op.vertexRows, vertexRows, uncompressed);
+  storeRows(op.clusterRows, clusterRows, uncompressed);
   if (gradientLength > 0) storeGradients(op.clusterGradients, gradients);
   if (probes && probes->probeCount() > 0)
     op.probeRows = op::makeProbeRows({scene, lay, op, tree, sky, training, rays}, *probes, s.probeSamples,

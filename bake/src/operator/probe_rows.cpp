@@ -148,13 +148,22 @@ void keep(const ProbeGather& g, const Tree& tree, const std::vector<Entry>& cut,
   }
 }
 
-void store(BounceOperator::ProbeRows& rows, const MadeRow& r) {
+// A probe's row as the operator holds it: weights on the one-byte codes' values with the row's
+// sum kept unless `exact` (an uncompressed operator, never stored; build.cpp's storeRows).
+void store(BounceOperator::ProbeRows& rows, const MadeRow& r, bool exact) {
   const size_t n2 = size_t(rows.bands) * size_t(rows.bands);
+  std::vector<double> scaled(r.node.size());
+  for (size_t e = 0; e < r.node.size(); ++e) scaled[e] = r.w[e] * BounceOperator::kWeightOne;
+  std::vector<uint16_t> held(scaled.size());
+  if (exact)
+    for (size_t e = 0; e < scaled.size(); ++e)
+      held[e] = uint16_t(std::clamp<long>(std::lround(scaled[e]), 0, BounceOperator::kWeightOne));
+  else
+    held = BounceOperator::storedWeights(scaled);
   for (size_t e = 0; e < r.node.size(); ++e) {
-    const long q = std::lround(r.w[e] * BounceOperator::kWeightOne);
-    if (q <= 0) continue;
+    if (held[e] == 0) continue;
     rows.rows.node.push_back(r.node[e]);
-    rows.rows.weight.push_back(uint16_t(std::min<long>(q, BounceOperator::kWeightOne)));
+    rows.rows.weight.push_back(held[e]);
     for (int l = 1; l < rows.bands; ++l)
       for (int j = l * l; j < (l + 1) * (l + 1); ++j) {
         const double mean = double(r.sh[e * n2 + size_t(j)]) / r.w[e] / bandBound(l);
@@ -193,7 +202,7 @@ BounceOperator::ProbeRows makeProbeRows(const ProbeRowInputs& in, const ProbeGri
   rows.rows.start.assign(1, 0);
   for (uint32_t p : probesByLattice(grid)) {
     rows.lattice.push_back(latticeIndex(grid, grid.coord[p]));
-    store(rows, made[p]);
+    store(rows, made[p], uncompressed);
   }
   if (full) {
     full->bands = grid.bands;

@@ -2,9 +2,12 @@
 // "The bounce operator").
 #include "prt/bounce_operator.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <iomanip>
+#include <numeric>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -69,6 +72,14 @@ class Unpacker {
     if (count) std::memcpy(v.data(), p_ + at_, count * sizeof(T));
     at_ += count * sizeof(T);
     return v;
+  }
+  // Row weights: one-byte codes from version 4 on (BounceOperator::weightOfCode), else two bytes.
+  std::vector<uint16_t> takeWeights(size_t count, int version, const char* part) {
+    if (version < 4) return take<uint16_t>(count, part);
+    const std::vector<uint8_t> codes = take<uint8_t>(count, part);
+    std::vector<uint16_t> out(count);
+    for (size_t i = 0; i < count; ++i) out[i] = BounceOperator::weightOfCode(codes[i]);
+    return out;
   }
   // putRowNodes' bytes back, for rows of the given starts.
   std::vector<uint32_t> takeRowNodes(const std::vector<uint32_t>& start, size_t byteCount, const char* part) {
@@ -260,6 +271,61 @@ std::vector<float> nodeWeights(const BounceOperator& op) {
   return w;
 }
 
+namespace {
+
+// The 256 weights of the one-byte codes (BounceOperator::weightOfCode), ascending.
+const std::array<uint16_t, 256>& codeWeights() {
+  static const std::array<uint16_t, 256> table = [] {
+    std::array<uint16_t, 256> t{};
+    constexpr int kLinear = 32;  // codes below are their weight
+    for (int c = 0; c < 256; ++c) {
+      const double v = c < kLinear ? c
+                                   : kLinear * std::pow(double(BounceOperator::kWeightOne) / kLinear,
+                                                        double(c - kLinear) / double(255 - kLinear));
+      t[size_t(c)] = uint16_t(std::min<long>(std::lround(v), long(BounceOperator::kWeightOne)));
+    }
+    return t;
+  }();
+  return table;
+}
+
+std::vector<uint8_t> codesOf(const std::vector<uint16_t>& weights) {
+  std::vector<uint8_t> out(weights.size());
+  for (size_t i = 0; i < weights.size(); ++i) out[i] = BounceOperator::codeOfWeight(weights[i]);
+  return out;
+}
+
+}  // namespace
+
+uint16_t BounceOperator::weightOfCode(uint8_t code) { return codeWeights()[code]; }
+
+uint8_t BounceOperator::codeOfWeight(uint16_t q) {
+  const std::array<uint16_t, 256>& t = codeWeights();
+  const auto above = std::lower_bound(t.begin(), t.end(), q);
+  if (above == t.end()) return 255;
+  if (*above == q || above == t.begin()) return uint8_t(above - t.begin());
+  const auto below = above - 1;
+  return uint8_t((q - *below <= *above - q ? below : above) - t.begin());
+}
+
+std::vector<uint16_t> BounceOperator::storedWeights(const std::vector<double>& scaled) {
+  const std::array<uint16_t, 256>& t = codeWeights();
+  std::vector<size_t> order(scaled.size());
+  std::iota(order.begin(), order.end(), size_t(0));
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return scaled[a] > scaled[b]; });
+  std::vector<uint16_t> out(scaled.size(), 0);
+  double owed = 0.0;  // the exact sum so far less the held one
+  for (size_t i : order) {
+    const double x = std::clamp(scaled[i], 0.0, double(kWeightOne));
+    const auto above = std::lower_bound(t.begin(), t.end(), x);  // the first value ≥ x
+    const uint16_t hi = above == t.end() ? t.back() : *above;
+    const uint16_t lo = above == t.begin() ? hi : *(above - 1);
+    out[i] = std::fabs(owed + x - lo) < std::fabs(owed + x - hi) ? lo : hi;
+    owed += x - out[i];
+  }
+  return out;
+}
+
 PackedOperator packOperator(const BounceOperator& op) {
   checkOperator(op, "bounce operator");
   Packer p;
@@ -277,10 +343,10 @@ PackedOperator packOperator(const BounceOperator& op) {
   Json nodeBytes;
   p.put(lengths(op.vertexRows));
   nodeBytes["vertex"] = p.putRowNodes(op.vertexRows);
-  p.put(op.vertexRows.weight);
+  p.put(codesOf(op.vertexRows.weight));
   p.put(lengths(op.clusterRows));
   nodeBytes["cluster"] = p.putRowNodes(op.clusterRows);
-  p.put(op.clusterRows.weight);
+  p.put(codesOf(op.clusterRows.weight));
   p.put(lengths(g));
   nodeBytes["gradient"] = p.putRowNodes(g);
   p.put(g.weight);
@@ -290,7 +356,7 @@ PackedOperator packOperator(const BounceOperator& op) {
     p.put(pr.lattice);
     p.put(lengths(pr.rows));
     probes["node_bytes"] = p.putRowNodes(pr.rows);
-    p.put(pr.rows.weight);
+    p.put(codesOf(pr.rows.weight));
     p.put(pr.shape);
     probes["bands"] = pr.bands;
     probes["samples"] = pr.samples;
@@ -404,7 +470,7 @@ void takeProbeRows(BounceOperator& op, const Json& h, Unpacker& u, const std::st
   p.lattice = u.take<uint32_t>(probes, "probe row lattice points");
   p.rows.start = startsFrom(u.take<uint8_t>(probes, "probe row lengths"));
   p.rows.node = u.takeRowNodes(p.rows.start, field<size_t>(h, "node_bytes", at), "probe row nodes");
-  p.rows.weight = u.take<uint16_t>(entries, "probe row weights");
+  p.rows.weight = u.takeWeights(entries, op.version, "probe row weights");
   p.shape = u.take<int8_t>(p.shapeStride() * entries, "probe row SH");
 }
 
@@ -450,11 +516,11 @@ BounceOperator unpackOperator(const std::string& headerText, const uint8_t* byte
   op.vertexRows.start = startsFrom(u.take<uint8_t>(op.vertexSides, "vertex row lengths"));
   op.vertexRows.node = version == 1 ? u.takeNodes(vertexEntries, width, "vertex row nodes")
                                     : u.takeRowNodes(op.vertexRows.start, bytesOf("vertex"), "vertex row nodes");
-  op.vertexRows.weight = u.take<uint16_t>(vertexEntries, "vertex row weights");
+  op.vertexRows.weight = u.takeWeights(vertexEntries, version, "vertex row weights");
   op.clusterRows.start = startsFrom(u.take<uint8_t>(op.clusters, "cluster row lengths"));
   op.clusterRows.node = version == 1 ? u.takeNodes(clusterEntries, width, "cluster row nodes")
                                      : u.takeRowNodes(op.clusterRows.start, bytesOf("cluster"), "cluster row nodes");
-  op.clusterRows.weight = u.take<uint16_t>(clusterEntries, "cluster row weights");
+  op.clusterRows.weight = u.takeWeights(clusterEntries, version, "cluster row weights");
   if (version >= 2) {
     const size_t gradientEntries = field<size_t>(h, "gradient_entries", where);
     op.clusterGradients.start = startsFrom(u.take<uint8_t>(2 * size_t(op.clusters), "cluster gradient lengths"));

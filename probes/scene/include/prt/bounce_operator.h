@@ -25,10 +25,23 @@
 namespace prt {
 
 struct BounceOperator {
-  static constexpr int kVersion = 3;             // 1 had no cluster gradients, 2 no probe rows; both still read
+  static constexpr int kVersion = 4;  // 1 had no cluster gradients, 2 no probe rows, 3 two-byte weights; all still read
   static constexpr int kMaxRowLength = 255;      // entries in one row (its length is stored in a byte)
-  static constexpr uint32_t kWeightOne = 65535;  // a weight is stored as w · kWeightOne, rounded
+  static constexpr uint32_t kWeightOne = 65535;  // a weight is held as q = w · kWeightOne, rounded
   static constexpr int kGradientOne = 16384;     // a gradient weight g (|g| < 2) as g · kGradientOne
+
+  /// Version 4 stores a row weight q (vertex, cluster and probe rows) in one byte, its code:
+  /// codes 0 … 31 are q itself, codes 32 … 255 grow by 3.5% each from 32 to 65535, rounded (every
+  /// code a different q). A bake holds its rows' weights on these values (storedWeight), so what
+  /// it writes is what it built.
+  static uint16_t weightOfCode(uint8_t code);
+  /// The code whose weight is nearest q (the lower on a tie).
+  static uint8_t codeOfWeight(uint16_t q);
+  /// A row's weights put on the codes' values: `scaled` holds each entry's w · kWeightOne
+  /// (unrounded, in [0, kWeightOne]); each becomes the code value just below or just above it,
+  /// chosen from the largest entry down so that the row's sum stays what it was (to half the
+  /// step of its smallest entries: no light is gained or lost). Zeros are entries to drop.
+  static std::vector<uint16_t> storedWeights(const std::vector<double>& scaled);
 
   int version = kVersion;  // of the file it was read from
 
