@@ -3,10 +3,13 @@
 // forms (a closed box's bounce series, the open spherical cavity under a sun), determinism,
 // and its packed bytes refused when truncated, corrupt or of another version.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iomanip>
+#include <sstream>
 
 #include "baked_scene.h"
 #include "harness.h"
@@ -407,6 +410,66 @@ TEST(BounceOperator, AVersion3FileStillReads) {
     EXPECT_LE(std::abs(int(v4.clusterRows.weight[e]) - int(v3.clusterRows.weight[e])),
               std::max(1, int(std::lround(0.018 * v3.clusterRows.weight[e]))))
         << e;
+}
+
+// Version 4 writes each row's nodes as the walk down the two trees that finds them (one bit to go
+// down, else one for in the row or not): a row that is not a cut of the trees cannot be written,
+// and a walk that finds another count of nodes than its row's length is refused, naming the part.
+TEST(BounceOperator, RowsAreWrittenAsCutsOfTheTrees) {
+  Scene s = test::makeColouredRoom();
+  bakeScene(s, 64, 2, 9);
+  bake::OperatorSettings os;
+  os.samples = 64;
+  const BounceOperator op = bake::buildBounceOperator(s, os, 2, 9);
+  const PackedOperator p = packOperator(op);
+  const nlohmann::json h = nlohmann::json::parse(p.header);
+  const size_t cutBytes = h["row_node_bytes"]["cluster"].get<size_t>();
+  std::printf("[ measured ] cluster row nodes: %.2f bits an entry\n",
+              8.0 * double(cutBytes) / double(op.clusterRows.entries()));
+  EXPECT_LT(8 * cutBytes, 6 * op.clusterRows.entries());
+  // A row holding the surface root and a node below it.
+  BounceOperator notACut = op;
+  BounceOperator::Rows& rows = notACut.clusterRows;
+  const uint32_t below = op.children[2 * (op.surfaceRoot - op.leaves())];
+  const uint32_t n0 = rows.start[1] - rows.start[0];
+  rows.node.erase(rows.node.begin(), rows.node.begin() + n0);
+  rows.weight.erase(rows.weight.begin(), rows.weight.begin() + n0);
+  rows.node.insert(rows.node.begin(), {std::min(below, op.surfaceRoot), std::max(below, op.surfaceRoot)});
+  rows.weight.insert(rows.weight.begin(), {30000, 30000});
+  for (size_t r = 1; r < rows.start.size(); ++r) rows.start[r] = rows.start[r] - n0 + 2;
+  try {
+    (void)packOperator(notACut);
+    ADD_FAILURE() << "a row that is not a cut was written";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a cut"), std::string::npos) << e.what();
+  }
+  // The first bit of the cluster rows' walks flipped (the checksum made to match): the first
+  // row's walk then finds another count of nodes.
+  size_t at = 0;
+  auto skip = [&](size_t bytes) { at = (at + 3) / 4 * 4 + bytes; };
+  skip(4 * op.leaves());                              // leaf weights
+  skip(4 * op.children.size());                       // children
+  skip(12 * size_t(op.clusters));                     // albedo
+  skip(4 * (size_t(op.clusters) + 1));                // member starts
+  skip(4 * size_t(op.vertexSides));                   // members
+  skip(4 * op.skyBins());                             // sky bins
+  skip(op.vertexSides);                               // vertex row lengths
+  skip(h["row_node_bytes"]["vertex"].get<size_t>());  // vertex row nodes
+  skip(op.vertexRows.entries());                      // vertex row weights
+  skip(op.clusters);                                  // cluster row lengths
+  at = (at + 3) / 4 * 4;                              // the cluster rows' walks
+  std::vector<uint8_t> bytes = p.bytes;
+  bytes[at] ^= 1;
+  nlohmann::json bad = h;
+  std::ostringstream sum;
+  sum << std::hex << std::setw(16) << std::setfill('0') << fnv1a64(bytes.data(), bytes.size());
+  bad["checksum"] = sum.str();
+  try {
+    (void)unpackOperator(bad.dump(), bytes.data(), bytes.size(), "f.glb");
+    ADD_FAILURE() << "a flipped walk was read";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("f.glb: cluster row nodes: ", 0), 0u) << e.what();
+  }
 }
 
 }  // namespace

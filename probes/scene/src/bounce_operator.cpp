@@ -8,11 +8,13 @@
 #include <cstring>
 #include <iomanip>
 #include <numeric>
+#include <optional>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "prt/error.h"
+#include "row_cuts.h"
 
 namespace prt {
 
@@ -35,19 +37,11 @@ class Packer {
     std::vector<uint16_t> narrow(v.begin(), v.end());
     put(narrow);
   }
-  // The node indices of every row, each row ascending, as LEB128 varints: the first index, then
-  // each index less its predecessor, less 1. Returns the count of bytes.
+  // The node indices of every row as the walks of `trees` that find them (row_cuts.h).
+  // Returns the count of bytes.
   template <class Rows>
-  size_t putRowNodes(const Rows& r) {
-    std::vector<uint8_t> out;
-    for (size_t i = 0; i < r.rows(); ++i)
-      for (uint32_t e = r.start[i]; e < r.start[i + 1]; ++e) {
-        if (e > r.start[i] && r.node[e] <= r.node[e - 1])
-          throw Error(cat("bounce operator: row ", i, " is not in ascending node order"));
-        uint32_t x = e > r.start[i] ? r.node[e] - r.node[e - 1] - 1 : r.node[e];
-        for (; x >= 0x80; x >>= 7) out.push_back(uint8_t(x | 0x80));
-        out.push_back(uint8_t(x));
-      }
+  size_t putRowCuts(const Rows& r, const cuts::CutTrees& trees) {
+    const std::vector<uint8_t> out = trees.encode(r.start, r.node);
     put(out);
     return out.size();
   }
@@ -81,7 +75,17 @@ class Unpacker {
     for (size_t i = 0; i < count; ++i) out[i] = BounceOperator::weightOfCode(codes[i]);
     return out;
   }
-  // putRowNodes' bytes back, for rows of the given starts.
+  // putRowCuts' bytes back (version 4), for rows of the given starts.
+  std::vector<uint32_t> takeRowCuts(const std::vector<uint32_t>& start, size_t byteCount, const cuts::CutTrees& trees,
+                                    const char* part) {
+    return trees.decode(start, take<uint8_t>(byteCount, part), where_, part);
+  }
+  // Row nodes of the given starts: cuts (`trees`, version 4) or delta-coded varints (versions 2, 3).
+  std::vector<uint32_t> takeRowNodesOf(const std::vector<uint32_t>& start, size_t byteCount,
+                                       const cuts::CutTrees* trees, const char* part) {
+    return trees ? takeRowCuts(start, byteCount, *trees, part) : takeRowNodes(start, byteCount, part);
+  }
+  // Version 2 and 3's delta-coded varints back, for rows of the given starts.
   std::vector<uint32_t> takeRowNodes(const std::vector<uint32_t>& start, size_t byteCount, const char* part) {
     const std::vector<uint8_t> in = take<uint8_t>(byteCount, part);
     std::vector<uint32_t> node(start.back());
@@ -340,22 +344,23 @@ PackedOperator packOperator(const BounceOperator& op) {
   BounceOperator::SignedRows none;
   none.start.assign(2 * size_t(op.clusters) + 1, 0);
   const BounceOperator::SignedRows& g = op.clusterGradients.start.empty() ? none : op.clusterGradients;
+  const cuts::CutTrees trees(op);
   Json nodeBytes;
   p.put(lengths(op.vertexRows));
-  nodeBytes["vertex"] = p.putRowNodes(op.vertexRows);
+  nodeBytes["vertex"] = p.putRowCuts(op.vertexRows, trees);
   p.put(codesOf(op.vertexRows.weight));
   p.put(lengths(op.clusterRows));
-  nodeBytes["cluster"] = p.putRowNodes(op.clusterRows);
+  nodeBytes["cluster"] = p.putRowCuts(op.clusterRows, trees);
   p.put(codesOf(op.clusterRows.weight));
   p.put(lengths(g));
-  nodeBytes["gradient"] = p.putRowNodes(g);
+  nodeBytes["gradient"] = p.putRowCuts(g, trees);
   p.put(g.weight);
   const BounceOperator::ProbeRows& pr = op.probeRows;
   Json probes;
   if (pr.present()) {
     p.put(pr.lattice);
     p.put(lengths(pr.rows));
-    probes["node_bytes"] = p.putRowNodes(pr.rows);
+    probes["node_bytes"] = p.putRowCuts(pr.rows, trees);
     p.put(codesOf(pr.rows.weight));
     p.put(pr.shape);
     probes["bands"] = pr.bands;
@@ -450,7 +455,8 @@ uint64_t seedOf(const std::string& text, const std::string& where) {
 }
 
 // The probe rows' header (`h`, the header's "probe_rows") and arrays.
-void takeProbeRows(BounceOperator& op, const Json& h, Unpacker& u, const std::string& where) {
+void takeProbeRows(BounceOperator& op, const Json& h, Unpacker& u, const cuts::CutTrees* trees,
+                   const std::string& where) {
   const std::string at = cat(where, ": probe rows");
   BounceOperator::ProbeRows& p = op.probeRows;
   p.bands = field<int>(h, "bands", at);
@@ -469,7 +475,7 @@ void takeProbeRows(BounceOperator& op, const Json& h, Unpacker& u, const std::st
   const size_t probes = field<size_t>(h, "probes", at), entries = field<size_t>(h, "entries", at);
   p.lattice = u.take<uint32_t>(probes, "probe row lattice points");
   p.rows.start = startsFrom(u.take<uint8_t>(probes, "probe row lengths"));
-  p.rows.node = u.takeRowNodes(p.rows.start, field<size_t>(h, "node_bytes", at), "probe row nodes");
+  p.rows.node = u.takeRowNodesOf(p.rows.start, field<size_t>(h, "node_bytes", at), trees, "probe row nodes");
   p.rows.weight = u.takeWeights(entries, op.version, "probe row weights");
   p.shape = u.take<int8_t>(p.shapeStride() * entries, "probe row SH");
 }
@@ -513,21 +519,31 @@ BounceOperator unpackOperator(const std::string& headerText, const uint8_t* byte
   op.memberStart = u.take<uint32_t>(size_t(op.clusters) + 1, "member starts");
   op.members = u.take<uint32_t>(op.vertexSides, "members");
   op.skyBin = u.take<uint32_t>(op.skyBins(), "sky bins");
+  // Version 4's rows are walks of the trees: checked first, so that every walk ends.
+  std::optional<cuts::CutTrees> cutTrees;
+  if (version >= 4) {
+    checkTree(op, where);
+    cutTrees.emplace(op);
+  }
+  const cuts::CutTrees* trees = cutTrees ? &*cutTrees : nullptr;
   op.vertexRows.start = startsFrom(u.take<uint8_t>(op.vertexSides, "vertex row lengths"));
-  op.vertexRows.node = version == 1 ? u.takeNodes(vertexEntries, width, "vertex row nodes")
-                                    : u.takeRowNodes(op.vertexRows.start, bytesOf("vertex"), "vertex row nodes");
+  op.vertexRows.node = version == 1
+                           ? u.takeNodes(vertexEntries, width, "vertex row nodes")
+                           : u.takeRowNodesOf(op.vertexRows.start, bytesOf("vertex"), trees, "vertex row nodes");
   op.vertexRows.weight = u.takeWeights(vertexEntries, version, "vertex row weights");
   op.clusterRows.start = startsFrom(u.take<uint8_t>(op.clusters, "cluster row lengths"));
-  op.clusterRows.node = version == 1 ? u.takeNodes(clusterEntries, width, "cluster row nodes")
-                                     : u.takeRowNodes(op.clusterRows.start, bytesOf("cluster"), "cluster row nodes");
+  op.clusterRows.node = version == 1
+                            ? u.takeNodes(clusterEntries, width, "cluster row nodes")
+                            : u.takeRowNodesOf(op.clusterRows.start, bytesOf("cluster"), trees, "cluster row nodes");
   op.clusterRows.weight = u.takeWeights(clusterEntries, version, "cluster row weights");
   if (version >= 2) {
     const size_t gradientEntries = field<size_t>(h, "gradient_entries", where);
     op.clusterGradients.start = startsFrom(u.take<uint8_t>(2 * size_t(op.clusters), "cluster gradient lengths"));
-    op.clusterGradients.node = u.takeRowNodes(op.clusterGradients.start, bytesOf("gradient"), "cluster gradient nodes");
+    op.clusterGradients.node =
+        u.takeRowNodesOf(op.clusterGradients.start, bytesOf("gradient"), trees, "cluster gradient nodes");
     op.clusterGradients.weight = u.take<int16_t>(gradientEntries, "cluster gradient weights");
   }
-  if (version >= 3 && h.contains("probe_rows")) takeProbeRows(op, field<Json>(h, "probe_rows", where), u, where);
+  if (version >= 3 && h.contains("probe_rows")) takeProbeRows(op, field<Json>(h, "probe_rows", where), u, trees, where);
   if ((u.used() + 3) / 4 * 4 != size)
     throw Error(cat(where, ": bytes: ", size, " bytes, the arrays fill ", u.used(), " (corrupt)"));
   checkOperator(op, where);
