@@ -350,8 +350,8 @@ TEST(BounceOperator, PackedBytesAreCheckedWhenRead) {
 }
 
 // Version 4's one-byte weights: every code a different weight, each weight stored as the nearest
-// code's (exact below 32, within 3% above, 1.9% from 256 up: the codes' values are rounded), and a row's sum kept when a bake puts its weights
-// on the codes.
+// code's (exact below 32, within 3% above, 1.9% from 256 up: the codes' values are rounded), and
+// a row's sum kept when a bake puts its weights on the codes; the same for gradient weights.
 TEST(BounceOperator, WeightCodesKeepEachRowsSum) {
   EXPECT_EQ(BounceOperator::weightOfCode(0), 0);
   EXPECT_EQ(BounceOperator::weightOfCode(255), BounceOperator::kWeightOne);
@@ -391,6 +391,38 @@ TEST(BounceOperator, WeightCodesKeepEachRowsSum) {
     heldSum += held[i];
   }
   EXPECT_LT(std::fabs(heldSum - sum), 1.0) << heldSum << " " << sum;
+  // Gradient weights: signed, magnitudes exact below 16, within 6% above, 3.7% from 256 up
+  // (7.1% steps).
+  for (int c = -127; c <= 127; ++c)
+    EXPECT_EQ(BounceOperator::codeOfGradient(BounceOperator::gradientOfCode(int8_t(c))), c);
+  double worstGradient = 0.0, worstGradientAbove = 0.0;
+  for (int g = -32767; g <= 32767; ++g) {
+    const int back = BounceOperator::gradientOfCode(BounceOperator::codeOfGradient(int16_t(g)));
+    if (std::abs(g) < 16) {
+      ASSERT_EQ(back, g);
+    }
+    const double e = g != 0 ? std::fabs(back - double(g)) / std::fabs(double(g)) : 0.0;
+    worstGradient = std::max(worstGradient, e);
+    if (std::abs(g) >= 256) worstGradientAbove = std::max(worstGradientAbove, e);
+  }
+  std::printf("[ measured ] one-byte gradient weights: largest relative error %.2f%%, %.2f%% from 256 up\n",
+              100 * worstGradient, 100 * worstGradientAbove);
+  EXPECT_LT(worstGradient, 0.06);
+  EXPECT_LT(worstGradientAbove, 0.037);
+  std::vector<double> signedRow;
+  double signedSum = 0.0;
+  for (int i = 0; i < 48; ++i) {
+    signedRow.push_back((i % 3 == 0 ? -1.0 : 1.0) * 9000.0 * std::pow(10.0, -3.0 * i / 47.0));
+    signedSum += signedRow.back();
+  }
+  const std::vector<int16_t> gheld = BounceOperator::storedGradients(signedRow);
+  double gheldSum = 0.0;
+  for (size_t i = 0; i < signedRow.size(); ++i) {
+    EXPECT_EQ(BounceOperator::gradientOfCode(BounceOperator::codeOfGradient(gheld[i])), gheld[i]);
+    EXPECT_LT(std::fabs(gheld[i] - signedRow[i]), 0.072 * std::fabs(signedRow[i]) + 1.0) << i;
+    gheldSum += gheld[i];
+  }
+  EXPECT_LT(std::fabs(gheldSum - signedSum), 1.0) << gheldSum << " " << signedSum;
 }
 
 // A file of version 3 (two-byte weights; tests/data/corner_operator_v3.glb, a floor and a wall

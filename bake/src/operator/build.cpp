@@ -159,15 +159,25 @@ struct ClusterLight {
   }
 };
 
-void storeGradients(BounceOperator::SignedRows& rows, const std::vector<std::vector<Entry>>& made) {
+// Gradient rows as the operator holds them: weights g · kGradientOne, rounded, or, unless
+// `exact`, on the one-byte codes' values with each row's sum kept (storedGradients).
+void storeGradients(BounceOperator::SignedRows& rows, const std::vector<std::vector<Entry>>& made, bool exact) {
   rows.start.assign(1, 0);
   rows.node.clear(), rows.weight.clear();
+  std::vector<double> scaled;
   for (const std::vector<Entry>& row : made) {
-    for (const Entry& e : row) {
-      const long q = std::clamp<long>(std::lround(double(e.w) * BounceOperator::kGradientOne), -32767, 32767);
-      if (q == 0) continue;
-      rows.node.push_back(e.leaf);
-      rows.weight.push_back(int16_t(q));
+    scaled.clear();
+    for (const Entry& e : row) scaled.push_back(double(e.w) * BounceOperator::kGradientOne);
+    std::vector<int16_t> held(scaled.size());
+    if (exact)
+      for (size_t i = 0; i < scaled.size(); ++i)
+        held[i] = int16_t(std::clamp<long>(std::lround(scaled[i]), -32767, 32767));
+    else
+      held = BounceOperator::storedGradients(scaled);
+    for (size_t i = 0; i < row.size(); ++i) {
+      if (held[i] == 0) continue;
+      rows.node.push_back(row[i].leaf);
+      rows.weight.push_back(held[i]);
     }
     rows.start.push_back(uint32_t(rows.node.size()));
   }
@@ -356,7 +366,7 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
   if (shared) shareRows(op, {vertexRows, clusterRows, gradients});
   storeRows(op.vertexRows, vertexRows, uncompressed);
   storeRows(op.clusterRows, clusterRows, uncompressed);
-  if (gradientLength > 0) storeGradients(op.clusterGradients, gradients);
+  if (gradientLength > 0) storeGradients(op.clusterGradients, gradients, uncompressed);
   if (probes && probes->probeCount() > 0)
     op.probeRows = op::makeProbeRows({scene, lay, op, tree, sky, training, rays}, *probes, s.probeSamples,
                                      s.probeRowLength, uncompressed, probeSh);

@@ -75,6 +75,14 @@ class Unpacker {
     for (size_t i = 0; i < count; ++i) out[i] = BounceOperator::weightOfCode(codes[i]);
     return out;
   }
+  // Gradient weights: one signed byte each from version 4 on, else two.
+  std::vector<int16_t> takeGradients(size_t count, int version, const char* part) {
+    if (version < 4) return take<int16_t>(count, part);
+    const std::vector<int8_t> codes = take<int8_t>(count, part);
+    std::vector<int16_t> out(count);
+    for (size_t i = 0; i < count; ++i) out[i] = BounceOperator::gradientOfCode(codes[i]);
+    return out;
+  }
   // putRowCuts' bytes back (version 4), for rows of the given starts.
   std::vector<uint32_t> takeRowCuts(const std::vector<uint32_t>& start, size_t byteCount, const cuts::CutTrees& trees,
                                     const char* part) {
@@ -277,58 +285,19 @@ std::vector<float> nodeWeights(const BounceOperator& op) {
 
 namespace {
 
-// The 256 weights of the one-byte codes (BounceOperator::weightOfCode), ascending.
-const std::array<uint16_t, 256>& codeWeights() {
-  static const std::array<uint16_t, 256> table = [] {
-    std::array<uint16_t, 256> t{};
-    constexpr int kLinear = 32;  // codes below are their weight
-    for (int c = 0; c < 256; ++c) {
-      const double v = c < kLinear ? c
-                                   : kLinear * std::pow(double(BounceOperator::kWeightOne) / kLinear,
-                                                        double(c - kLinear) / double(255 - kLinear));
-      t[size_t(c)] = uint16_t(std::min<long>(std::lround(v), long(BounceOperator::kWeightOne)));
-    }
-    return t;
-  }();
-  return table;
-}
-
 std::vector<uint8_t> codesOf(const std::vector<uint16_t>& weights) {
   std::vector<uint8_t> out(weights.size());
   for (size_t i = 0; i < weights.size(); ++i) out[i] = BounceOperator::codeOfWeight(weights[i]);
   return out;
 }
 
-}  // namespace
-
-uint16_t BounceOperator::weightOfCode(uint8_t code) { return codeWeights()[code]; }
-
-uint8_t BounceOperator::codeOfWeight(uint16_t q) {
-  const std::array<uint16_t, 256>& t = codeWeights();
-  const auto above = std::lower_bound(t.begin(), t.end(), q);
-  if (above == t.end()) return 255;
-  if (*above == q || above == t.begin()) return uint8_t(above - t.begin());
-  const auto below = above - 1;
-  return uint8_t((q - *below <= *above - q ? below : above) - t.begin());
-}
-
-std::vector<uint16_t> BounceOperator::storedWeights(const std::vector<double>& scaled) {
-  const std::array<uint16_t, 256>& t = codeWeights();
-  std::vector<size_t> order(scaled.size());
-  std::iota(order.begin(), order.end(), size_t(0));
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return scaled[a] > scaled[b]; });
-  std::vector<uint16_t> out(scaled.size(), 0);
-  double owed = 0.0;  // the exact sum so far less the held one
-  for (size_t i : order) {
-    const double x = std::clamp(scaled[i], 0.0, double(kWeightOne));
-    const auto above = std::lower_bound(t.begin(), t.end(), x);  // the first value ≥ x
-    const uint16_t hi = above == t.end() ? t.back() : *above;
-    const uint16_t lo = above == t.begin() ? hi : *(above - 1);
-    out[i] = std::fabs(owed + x - lo) < std::fabs(owed + x - hi) ? lo : hi;
-    owed += x - out[i];
-  }
+std::vector<int8_t> codesOf(const std::vector<int16_t>& weights) {
+  std::vector<int8_t> out(weights.size());
+  for (size_t i = 0; i < weights.size(); ++i) out[i] = BounceOperator::codeOfGradient(weights[i]);
   return out;
 }
+
+}  // namespace
 
 PackedOperator packOperator(const BounceOperator& op) {
   checkOperator(op, "bounce operator");
@@ -354,7 +323,7 @@ PackedOperator packOperator(const BounceOperator& op) {
   p.put(codesOf(op.clusterRows.weight));
   p.put(lengths(g));
   nodeBytes["gradient"] = p.putRowCuts(g, trees);
-  p.put(g.weight);
+  p.put(codesOf(g.weight));
   const BounceOperator::ProbeRows& pr = op.probeRows;
   Json probes;
   if (pr.present()) {
@@ -541,7 +510,7 @@ BounceOperator unpackOperator(const std::string& headerText, const uint8_t* byte
     op.clusterGradients.start = startsFrom(u.take<uint8_t>(2 * size_t(op.clusters), "cluster gradient lengths"));
     op.clusterGradients.node =
         u.takeRowNodesOf(op.clusterGradients.start, bytesOf("gradient"), trees, "cluster gradient nodes");
-    op.clusterGradients.weight = u.take<int16_t>(gradientEntries, "cluster gradient weights");
+    op.clusterGradients.weight = u.takeGradients(gradientEntries, version, "cluster gradient weights");
   }
   if (version >= 3 && h.contains("probe_rows")) takeProbeRows(op, field<Json>(h, "probe_rows", where), u, trees, where);
   if ((u.used() + 3) / 4 * 4 != size)

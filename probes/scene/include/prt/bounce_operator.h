@@ -42,6 +42,15 @@ struct BounceOperator {
   /// chosen from the largest entry down so that the row's sum stays what it was (to half the
   /// step of its smallest entries: no light is gained or lost). Zeros are entries to drop.
   static std::vector<uint16_t> storedWeights(const std::vector<double>& scaled);
+  /// Version 4 stores a gradient weight g · kGradientOne in one signed byte: its sign and a
+  /// magnitude code 0 … 127, codes 0 … 15 the magnitude itself, codes 16 … 127 growing by 7.1%
+  /// each from 16 to 32767, rounded (−128 reads as −127).
+  static int16_t gradientOfCode(int8_t code);
+  /// The code whose gradient weight is nearest g (the lower magnitude on a tie).
+  static int8_t codeOfGradient(int16_t g);
+  /// A gradient row's weights (g · kGradientOne, unrounded, |·| ≤ 32767) on the codes' values,
+  /// as storedWeights puts a row's: the row's sum kept.
+  static std::vector<int16_t> storedGradients(const std::vector<double>& scaled);
 
   int version = kVersion;  // of the file it was read from
 

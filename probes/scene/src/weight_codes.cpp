@@ -1,0 +1,106 @@
+// The bounce operator's one-byte weights (prt/bounce_operator.h; docs/formats.md, "The bounce
+// operator"): row weights q = w · 65535 and gradient weights g · 16384, each a code of a table
+// that is exact for small values and grows geometrically above.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdlib>
+#include <numeric>
+
+#include "prt/bounce_operator.h"
+
+namespace prt {
+
+namespace {
+
+// N ascending values: 0 … linear − 1 themselves, then geometric from `linear` to `top`, rounded.
+template <size_t N>
+std::array<uint16_t, N> codeTable(int linear, double top) {
+  std::array<uint16_t, N> t{};
+  for (int c = 0; c < int(N); ++c) {
+    const double v = c < linear ? c : linear * std::pow(top / linear, double(c - linear) / double(int(N) - 1 - linear));
+    t[size_t(c)] = uint16_t(std::min(std::lround(v), std::lround(top)));
+  }
+  return t;
+}
+
+const std::array<uint16_t, 256>& rowTable() {
+  static const std::array<uint16_t, 256> t = codeTable<256>(32, BounceOperator::kWeightOne);
+  return t;
+}
+
+// Gradient magnitudes: codes 0 … 127 (the sign is the code's).
+const std::array<uint16_t, 128>& gradientTable() {
+  static const std::array<uint16_t, 128> t = codeTable<128>(16, 32767.0);
+  return t;
+}
+
+// The code of the table value nearest x (the lower on a tie).
+template <size_t N>
+int nearest(const std::array<uint16_t, N>& t, double x) {
+  const auto above = std::lower_bound(t.begin(), t.end(), x);
+  if (above == t.end()) return int(N) - 1;
+  if (above == t.begin()) return 0;
+  const auto below = above - 1;
+  return int((x - *below <= *above - x ? below : above) - t.begin());
+}
+
+// The table values just below and just above x ≥ 0 (equal where x is one, or beyond the ends).
+template <size_t N>
+std::pair<uint16_t, uint16_t> bracket(const std::array<uint16_t, N>& t, double x) {
+  const auto above = std::lower_bound(t.begin(), t.end(), x);
+  const uint16_t hi = above == t.end() ? t.back() : *above;
+  const uint16_t lo = above == t.begin() || above == t.end() ? hi : *(above - 1);
+  return {lo, hi};
+}
+
+// Each of `scaled` (signed where `table` holds magnitudes of signed values) on the value of the
+// table just below or just above its magnitude, from the largest magnitude down, so that the sum
+// stays what it was.
+template <size_t N, class T>
+std::vector<T> keepingTheSum(const std::vector<double>& scaled, const std::array<uint16_t, N>& table, double top) {
+  std::vector<size_t> order(scaled.size());
+  std::iota(order.begin(), order.end(), size_t(0));
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return std::fabs(scaled[a]) > std::fabs(scaled[b]); });
+  std::vector<T> out(scaled.size(), 0);
+  double owed = 0.0;  // the exact sum so far less the held one
+  for (size_t i : order) {
+    const double x = std::clamp(scaled[i], -top, top);
+    const double sign = x < 0.0 ? -1.0 : 1.0;
+    const auto [lo, hi] = bracket(table, std::fabs(x));
+    const double a = sign * lo, b = sign * hi;
+    const double v = std::fabs(owed + x - a) < std::fabs(owed + x - b) ? a : b;
+    out[i] = T(v);
+    owed += x - v;
+  }
+  return out;
+}
+
+}  // namespace
+
+uint16_t BounceOperator::weightOfCode(uint8_t code) { return rowTable()[code]; }
+
+uint8_t BounceOperator::codeOfWeight(uint16_t q) { return uint8_t(nearest(rowTable(), q)); }
+
+std::vector<uint16_t> BounceOperator::storedWeights(const std::vector<double>& scaled) {
+  std::vector<double> nonNegative(scaled.size());
+  for (size_t i = 0; i < scaled.size(); ++i) nonNegative[i] = std::max(scaled[i], 0.0);
+  return keepingTheSum<256, uint16_t>(nonNegative, rowTable(), kWeightOne);
+}
+
+int16_t BounceOperator::gradientOfCode(int8_t code) {
+  const int m = std::min(std::abs(int(code)), 127);
+  return int16_t(code < 0 ? -gradientTable()[size_t(m)] : gradientTable()[size_t(m)]);
+}
+
+int8_t BounceOperator::codeOfGradient(int16_t g) {
+  const int m = nearest(gradientTable(), std::fabs(double(g)));
+  return int8_t(g < 0 ? -m : m);
+}
+
+std::vector<int16_t> BounceOperator::storedGradients(const std::vector<double>& scaled) {
+  return keepingTheSum<128, int16_t>(scaled, gradientTable(), 32767.0);
+}
+
+}  // namespace prt
