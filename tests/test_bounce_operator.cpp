@@ -429,7 +429,7 @@ TEST(BounceOperator, WeightCodesKeepEachRowsSum) {
 // baked with --operator --samples 64 --no-refine) still reads, and written again as version 4
 // every weight moves by at most one code's step.
 TEST(BounceOperator, AVersion3FileStillReads) {
-  const Scene s = loadScene(std::string(PRT_SOURCE_DIR) + "/tests/data/corner_operator_v3.glb");
+  const Scene s = loadScene(test::sourcePath("tests/data/corner_operator_v3.glb"));
   ASSERT_NE(s.bounceOperator, nullptr);
   const BounceOperator& v3 = *s.bounceOperator;
   EXPECT_EQ(v3.version, 3);
