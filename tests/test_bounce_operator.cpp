@@ -185,7 +185,8 @@ TEST(BounceOperator, CompressedStaysNearTheUncompressed) {
 
 // Inside a closed box every ray hits a wall: with E⁰ = 1 on every inner side, each bounce
 // multiplies by ρ exactly, so E_b = Σ_{k=1..B} ρ^k at every inner side, whatever the clusters
-// and rows (weights sum to 1 per row, to the 16-bit rounding: 1e-4).
+// and rows (weights sum to 1 per row: a bake keeps each row's sum as it puts the weights on the
+// one-byte codes, to a unit of 1/65535).
 TEST(BounceOperator, ClosedBoxSumsTheBounceSeries) {
   const float rho = 0.6f;
   Scene s = test::makeScene({test::makeSlab({-1, -1, -1}, {1, 1, 1}, 0.25f)}, rho);
