@@ -312,14 +312,19 @@ TEST(BounceOperator, KeptRaysGiveTheTracedOperator) {
               packOperator(bake::buildBounceOperator(s, os, 2, 9)).bytes);
 }
 
-// Packed and read back: the same operator; truncated, corrupt or of another version: refused,
-// naming the part.
-TEST(BounceOperator, PackedBytesAreCheckedWhenRead) {
+// The coloured room's operator from 64 rays a side, 2 bounces.
+BounceOperator smallRoomOperator() {
   Scene s = test::makeColouredRoom();
   bakeScene(s, 64, 2, 9);
   bake::OperatorSettings os;
   os.samples = 64;
-  const BounceOperator op = bake::buildBounceOperator(s, os, 2, 9);
+  return bake::buildBounceOperator(s, os, 2, 9);
+}
+
+// Packed and read back: the same operator; truncated, corrupt or of another version: refused,
+// naming the part.
+TEST(BounceOperator, PackedBytesAreCheckedWhenRead) {
+  const BounceOperator op = smallRoomOperator();
   const PackedOperator p = packOperator(op);
   const BounceOperator back = unpackOperator(p.header, p.bytes.data(), p.bytes.size(), "f.glb");
   EXPECT_EQ(back.vertexRows.node, op.vertexRows.node);
@@ -449,11 +454,7 @@ TEST(BounceOperator, AVersion3FileStillReads) {
 // down, else one for in the row or not): a row that is not a cut of the trees cannot be written,
 // and a walk that finds another count of nodes than its row's length is refused, naming the part.
 TEST(BounceOperator, RowsAreWrittenAsCutsOfTheTrees) {
-  Scene s = test::makeColouredRoom();
-  bakeScene(s, 64, 2, 9);
-  bake::OperatorSettings os;
-  os.samples = 64;
-  const BounceOperator op = bake::buildBounceOperator(s, os, 2, 9);
+  const BounceOperator op = smallRoomOperator();
   const PackedOperator p = packOperator(op);
   const nlohmann::json h = nlohmann::json::parse(p.header);
   const size_t cutBytes = h["row_node_bytes"]["cluster"].get<size_t>();

@@ -159,30 +159,6 @@ struct ClusterLight {
   }
 };
 
-// Gradient rows as the operator holds them: weights g · kGradientOne, rounded, or, unless
-// `exact`, on the one-byte codes' values with each row's sum kept (storedGradients).
-void storeGradients(BounceOperator::SignedRows& rows, const std::vector<std::vector<Entry>>& made, bool exact) {
-  rows.start.assign(1, 0);
-  rows.node.clear(), rows.weight.clear();
-  std::vector<double> scaled;
-  for (const std::vector<Entry>& row : made) {
-    scaled.clear();
-    for (const Entry& e : row) scaled.push_back(double(e.w) * BounceOperator::kGradientOne);
-    std::vector<int16_t> held(scaled.size());
-    if (exact)
-      for (size_t i = 0; i < scaled.size(); ++i)
-        held[i] = int16_t(std::clamp<long>(std::lround(scaled[i]), -32767, 32767));
-    else
-      held = BounceOperator::storedGradients(scaled);
-    for (size_t i = 0; i < row.size(); ++i) {
-      if (held[i] == 0) continue;
-      rows.node.push_back(row[i].leaf);
-      rows.weight.push_back(held[i]);
-    }
-    rows.start.push_back(uint32_t(rows.node.size()));
-  }
-}
-
 // The least-squares plane through a cluster's member gathers (`raw`, with their area shares and
 // their places `st` in the cluster's frame, centred there): its two gradients, as leaf entries.
 void planeOf(const std::vector<std::vector<Entry>>& raw, const std::vector<float>& share,
@@ -266,29 +242,34 @@ void shareRows(const BounceOperator& op, MadeRows made) {
   }
 }
 
-// Rows as the operator holds them: weights w · kWeightOne, rounded, or, unless `exact` (an
-// uncompressed operator, never stored), on the one-byte codes' values with each row's sum kept
-// (BounceOperator::storedWeights).
-void storeRows(BounceOperator::Rows& rows, const std::vector<std::vector<Entry>>& made, bool exact) {
+// Rows as the operator holds them: weights w · one, on the one-byte codes' values with each
+// row's sum kept (`held`: BounceOperator::storedWeights or storedGradients), or rounded where
+// `exact` (an uncompressed operator, never stored). Entries held at 0 are dropped.
+template <class Rows, class Held>
+void storeRows(Rows& rows, const std::vector<std::vector<Entry>>& made, double one, bool exact, Held held) {
   rows.start.assign(1, 0);
   rows.node.clear(), rows.weight.clear();
   std::vector<double> scaled;
   for (const std::vector<Entry>& row : made) {
     scaled.clear();
-    for (const Entry& e : row) scaled.push_back(double(e.w) * BounceOperator::kWeightOne);
-    std::vector<uint16_t> held(scaled.size());
-    if (exact)
-      for (size_t i = 0; i < scaled.size(); ++i)
-        held[i] = uint16_t(std::clamp<long>(std::lround(scaled[i]), 0, BounceOperator::kWeightOne));
-    else
-      held = BounceOperator::storedWeights(scaled);
+    for (const Entry& e : row) scaled.push_back(double(e.w) * one);
+    const auto weights = held(scaled, exact);
     for (size_t i = 0; i < row.size(); ++i) {
-      if (held[i] == 0) continue;
+      if (weights[i] == 0) continue;
       rows.node.push_back(row[i].leaf);
-      rows.weight.push_back(held[i]);
+      rows.weight.push_back(weights[i]);
     }
     rows.start.push_back(uint32_t(rows.node.size()));
   }
+}
+
+// The made rows into `op`: vertex and cluster rows, and gradient rows where made.
+void storeAll(BounceOperator& op, MadeRows made, bool withGradients, bool exact) {
+  const double one = BounceOperator::kWeightOne;
+  storeRows(op.vertexRows, made.vertex, one, exact, BounceOperator::storedWeights);
+  storeRows(op.clusterRows, made.cluster, one, exact, BounceOperator::storedWeights);
+  if (withGradients)
+    storeRows(op.clusterGradients, made.gradient, BounceOperator::kGradientOne, exact, BounceOperator::storedGradients);
 }
 
 }  // namespace
@@ -364,9 +345,7 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
     }
   });
   if (shared) shareRows(op, {vertexRows, clusterRows, gradients});
-  storeRows(op.vertexRows, vertexRows, uncompressed);
-  storeRows(op.clusterRows, clusterRows, uncompressed);
-  if (gradientLength > 0) storeGradients(op.clusterGradients, gradients, uncompressed);
+  storeAll(op, {vertexRows, clusterRows, gradients}, gradientLength > 0, uncompressed);
   if (probes && probes->probeCount() > 0)
     op.probeRows = op::makeProbeRows({scene, lay, op, tree, sky, training, rays}, *probes, s.probeSamples,
                                      s.probeRowLength, uncompressed, probeSh);

@@ -154,12 +154,7 @@ void store(BounceOperator::ProbeRows& rows, const MadeRow& r, bool exact) {
   const size_t n2 = size_t(rows.bands) * size_t(rows.bands);
   std::vector<double> scaled(r.node.size());
   for (size_t e = 0; e < r.node.size(); ++e) scaled[e] = r.w[e] * BounceOperator::kWeightOne;
-  std::vector<uint16_t> held(scaled.size());
-  if (exact)
-    for (size_t e = 0; e < scaled.size(); ++e)
-      held[e] = uint16_t(std::clamp<long>(std::lround(scaled[e]), 0, BounceOperator::kWeightOne));
-  else
-    held = BounceOperator::storedWeights(scaled);
+  const std::vector<uint16_t> held = BounceOperator::storedWeights(scaled, exact);
   for (size_t e = 0; e < r.node.size(); ++e) {
     if (held[e] == 0) continue;
     rows.rows.node.push_back(r.node[e]);

@@ -67,21 +67,21 @@ class Unpacker {
     at_ += count * sizeof(T);
     return v;
   }
-  // Row weights: one-byte codes from version 4 on (BounceOperator::weightOfCode), else two bytes.
-  std::vector<uint16_t> takeWeights(size_t count, int version, const char* part) {
-    if (version < 4) return take<uint16_t>(count, part);
-    const std::vector<uint8_t> codes = take<uint8_t>(count, part);
-    std::vector<uint16_t> out(count);
-    for (size_t i = 0; i < count; ++i) out[i] = BounceOperator::weightOfCode(codes[i]);
+  // Weights of `Wide` (uint16 row weights, int16 gradient weights): from version 4 on, one byte
+  // each (`Code`) read through `decode`, else two bytes.
+  template <class Wide, class Code, class Decode>
+  std::vector<Wide> takeCoded(size_t count, int version, const char* part, Decode decode) {
+    if (version < 4) return take<Wide>(count, part);
+    const std::vector<Code> codes = take<Code>(count, part);
+    std::vector<Wide> out(count);
+    for (size_t i = 0; i < count; ++i) out[i] = decode(codes[i]);
     return out;
   }
-  // Gradient weights: one signed byte each from version 4 on, else two.
+  std::vector<uint16_t> takeWeights(size_t count, int version, const char* part) {
+    return takeCoded<uint16_t, uint8_t>(count, version, part, BounceOperator::weightOfCode);
+  }
   std::vector<int16_t> takeGradients(size_t count, int version, const char* part) {
-    if (version < 4) return take<int16_t>(count, part);
-    const std::vector<int8_t> codes = take<int8_t>(count, part);
-    std::vector<int16_t> out(count);
-    for (size_t i = 0; i < count; ++i) out[i] = BounceOperator::gradientOfCode(codes[i]);
-    return out;
+    return takeCoded<int16_t, int8_t>(count, version, part, BounceOperator::gradientOfCode);
   }
   // putRowCuts' bytes back (version 4), for rows of the given starts.
   std::vector<uint32_t> takeRowCuts(const std::vector<uint32_t>& start, size_t byteCount, const cuts::CutTrees& trees,

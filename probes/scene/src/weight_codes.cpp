@@ -58,7 +58,13 @@ std::pair<uint16_t, uint16_t> bracket(const std::array<uint16_t, N>& t, double x
 // table just below or just above its magnitude, from the largest magnitude down, so that the sum
 // stays what it was.
 template <size_t N, class T>
-std::vector<T> keepingTheSum(const std::vector<double>& scaled, const std::array<uint16_t, N>& table, double top) {
+std::vector<T> keepingTheSum(const std::vector<double>& scaled, const std::array<uint16_t, N>& table, double top,
+                             bool exact) {
+  if (exact) {
+    std::vector<T> out(scaled.size());
+    for (size_t i = 0; i < scaled.size(); ++i) out[i] = T(std::lround(std::clamp(scaled[i], -top, top)));
+    return out;
+  }
   std::vector<size_t> order(scaled.size());
   std::iota(order.begin(), order.end(), size_t(0));
   std::stable_sort(order.begin(), order.end(),
@@ -83,10 +89,10 @@ uint16_t BounceOperator::weightOfCode(uint8_t code) { return rowTable()[code]; }
 
 uint8_t BounceOperator::codeOfWeight(uint16_t q) { return uint8_t(nearest(rowTable(), q)); }
 
-std::vector<uint16_t> BounceOperator::storedWeights(const std::vector<double>& scaled) {
+std::vector<uint16_t> BounceOperator::storedWeights(const std::vector<double>& scaled, bool exact) {
   std::vector<double> nonNegative(scaled.size());
   for (size_t i = 0; i < scaled.size(); ++i) nonNegative[i] = std::max(scaled[i], 0.0);
-  return keepingTheSum<256, uint16_t>(nonNegative, rowTable(), kWeightOne);
+  return keepingTheSum<256, uint16_t>(nonNegative, rowTable(), kWeightOne, exact);
 }
 
 int16_t BounceOperator::gradientOfCode(int8_t code) {
@@ -99,8 +105,8 @@ int8_t BounceOperator::codeOfGradient(int16_t g) {
   return int8_t(g < 0 ? -m : m);
 }
 
-std::vector<int16_t> BounceOperator::storedGradients(const std::vector<double>& scaled) {
-  return keepingTheSum<128, int16_t>(scaled, gradientTable(), 32767.0);
+std::vector<int16_t> BounceOperator::storedGradients(const std::vector<double>& scaled, bool exact) {
+  return keepingTheSum<128, int16_t>(scaled, gradientTable(), 32767.0, exact);
 }
 
 }  // namespace prt

@@ -41,7 +41,9 @@ struct BounceOperator {
   /// (unrounded, in [0, kWeightOne]); each becomes the code value just below or just above it,
   /// chosen from the largest entry down so that the row's sum stays what it was (to half the
   /// step of its smallest entries: no light is gained or lost). Zeros are entries to drop.
-  static std::vector<uint16_t> storedWeights(const std::vector<double>& scaled);
+  /// `exact`: each rounded to the nearest integer instead (an uncompressed operator, which is
+  /// never stored).
+  static std::vector<uint16_t> storedWeights(const std::vector<double>& scaled, bool exact = false);
   /// Version 4 stores a gradient weight g · kGradientOne in one signed byte: its sign and a
   /// magnitude code 0 … 127, codes 0 … 15 the magnitude itself, codes 16 … 127 growing by 7.1%
   /// each from 16 to 32767, rounded (−128 reads as −127).
@@ -49,8 +51,8 @@ struct BounceOperator {
   /// The code whose gradient weight is nearest g (the lower magnitude on a tie).
   static int8_t codeOfGradient(int16_t g);
   /// A gradient row's weights (g · kGradientOne, unrounded, |·| ≤ 32767) on the codes' values,
-  /// as storedWeights puts a row's: the row's sum kept.
-  static std::vector<int16_t> storedGradients(const std::vector<double>& scaled);
+  /// as storedWeights puts a row's: the row's sum kept (`exact`: rounded instead).
+  static std::vector<int16_t> storedGradients(const std::vector<double>& scaled, bool exact = false);
 
   int version = kVersion;  // of the file it was read from
 
