@@ -57,6 +57,21 @@ inline glm::vec3 range(const Rows& rows, uint32_t b, uint32_t e, const Lights4& 
   return rgb(_mm_add_ps(a, c));
 }
 
+// The same over weights already in floats (`w`, a row's entries in the rows' order).
+inline glm::vec3 range(const std::vector<uint32_t>& nodes, const std::vector<float>& w, uint32_t b, uint32_t e,
+                       const Lights4& value) {
+  __m128 a = _mm_setzero_ps(), c = _mm_setzero_ps();
+  const uint32_t* node = nodes.data();
+  const float* weight = w.data();
+  uint32_t i = b;
+  for (; i + 1 < e; i += 2) {
+    a = _mm_add_ps(a, _mm_mul_ps(_mm_set1_ps(weight[i]), value[node[i]].v));
+    c = _mm_add_ps(c, _mm_mul_ps(_mm_set1_ps(weight[i + 1]), value[node[i + 1]].v));
+  }
+  if (i < e) a = _mm_add_ps(a, _mm_mul_ps(_mm_set1_ps(weight[i]), value[node[i]].v));
+  return rgb(_mm_add_ps(a, c));
+}
+
 }  // namespace
 
 struct OperatorLighting::Impl {
@@ -65,8 +80,10 @@ struct OperatorLighting::Impl {
   Layout lay;
   int threads;
   std::optional<RayScene> rays;
-  std::vector<uint8_t> sky;       // per node: in the sky tree
-  std::vector<float> nodeWeight;  // per node: area or solid angle below it
+  std::vector<uint8_t> sky;                // per node: in the sky tree
+  std::vector<float> nodeWeight;           // per node: area or solid angle below it
+  std::vector<float> childShare;           // per inner node i: its children's shares of its weight, 2i and 2i + 1
+  std::vector<float> clusterW, gradientW;  // the cluster and gradient rows' weights as floats, in their units
   // The clusters' sample points, rank by rank: the first point of every cluster, then the second
   // of those that have two, ... (rankStart[r] .. rankStart[r + 1] are the points of rank r), so
   // that the first n points of every cluster are one prefix.
@@ -105,6 +122,14 @@ struct OperatorLighting::Impl {
     bounceShare = sh.bounce, skyShare = sh.sky;
     if (!o.clusterGradients.start.empty()) st = op::clusterCoordinates(s, lay, o, area);
     splitRows(op.clusterRows, rowSky, rowInner);
+    clusterW.assign(op.clusterRows.weight.begin(), op.clusterRows.weight.end());
+    gradientW.assign(op.clusterGradients.weight.begin(), op.clusterGradients.weight.end());
+    childShare.resize(op.children.size());
+    for (size_t i = 0; i < op.children.size() / 2; ++i) {
+      const size_t n = op.leaves() + i;
+      childShare[2 * i] = nodeWeight[op.children[2 * i]] / nodeWeight[n];
+      childShare[2 * i + 1] = nodeWeight[op.children[2 * i + 1]] / nodeWeight[n];
+    }
     splitRows(op.clusterGradients, gradientSkyAt, gradientInnerAt);
     if (traceShadows) samplePoints();
     meanDirectTransfers();
@@ -150,9 +175,8 @@ struct OperatorLighting::Impl {
       const size_t n = L + i;
       if ((sky[n] != 0) != ofSky) continue;
       const uint32_t a = op.children[2 * i], b = op.children[2 * i + 1];
-      v[n].v = _mm_div_ps(
-          _mm_add_ps(_mm_mul_ps(_mm_set1_ps(nodeWeight[a]), v[a].v), _mm_mul_ps(_mm_set1_ps(nodeWeight[b]), v[b].v)),
-          _mm_set1_ps(nodeWeight[n]));
+      v[n].v = _mm_add_ps(_mm_mul_ps(_mm_set1_ps(childShare[2 * i]), v[a].v),
+                          _mm_mul_ps(_mm_set1_ps(childShare[2 * i + 1]), v[b].v));
     }
   }
 
@@ -193,8 +217,9 @@ struct OperatorLighting::Impl {
     clusterSky.assign(C, glm::vec3(0.0f));
     clusterBounce.assign(C, glm::vec3(0.0f));
     total.assign(op.nodes(), kDark);
-    tbb::parallel_for(size_t(0), C,
-                      [&](size_t c) { clusterSky[c] = range(rows, rowSky[c], rows.start[c + 1], skyValue) * kUnit; });
+    tbb::parallel_for(size_t(0), C, [&](size_t c) {
+      clusterSky[c] = range(rows.node, clusterW, rowSky[c], rows.start[c + 1], skyValue) * kUnit;
+    });
     if (op.bounces == 0) return;
     bounced.assign(op.nodes(), kDark);
     next.assign(op.nodes(), kDark);
@@ -204,9 +229,9 @@ struct OperatorLighting::Impl {
       aggregate(bounced, false);
       const bool last = k + 1 == op.bounces;
       tbb::parallel_for(size_t(0), C, [&](size_t c) {
-        const glm::vec3 p =
-            (range(rows, rows.start[c], rowSky[c], bounced) + range(rows, rowInner[c], rows.start[c + 1], bounced)) *
-            kUnit;
+        const glm::vec3 p = (range(rows.node, clusterW, rows.start[c], rowSky[c], bounced) +
+                             range(rows.node, clusterW, rowInner[c], rows.start[c + 1], bounced)) *
+                            kUnit;
         clusterBounce[c] += p;
         if (!last) next[c] = light4(op.albedo[c] * p);
       });
@@ -224,9 +249,10 @@ struct OperatorLighting::Impl {
     gradientSky.assign(g.rows(), glm::vec3(0.0f));
     const float unit = 1.0f / float(BounceOperator::kGradientOne);
     tbb::parallel_for(size_t(0), g.rows(), [&](size_t r) {
-      gradientBounce[r] =
-          (range(g, g.start[r], gradientSkyAt[r], total) + range(g, gradientInnerAt[r], g.start[r + 1], total)) * unit;
-      gradientSky[r] = range(g, gradientSkyAt[r], g.start[r + 1], skyValue) * unit;
+      gradientBounce[r] = (range(g.node, gradientW, g.start[r], gradientSkyAt[r], total) +
+                           range(g.node, gradientW, gradientInnerAt[r], g.start[r + 1], total)) *
+                          unit;
+      gradientSky[r] = range(g.node, gradientW, gradientSkyAt[r], g.start[r + 1], skyValue) * unit;
     });
   }
   DirectIrradiance vertices(const sh::ShRgb* directSh) const {
