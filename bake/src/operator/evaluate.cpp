@@ -84,6 +84,9 @@ struct OperatorLighting::Impl {
   std::vector<float> nodeWeight;           // per node: area or solid angle below it
   std::vector<float> childShare;           // per inner node i: its children's shares of its weight, 2i and 2i + 1
   std::vector<float> clusterW, gradientW;  // the cluster and gradient rows' weights as floats, in their units
+  int binBands = 0;                        // binPoints' bands (0: not yet made)
+  std::vector<glm::dvec3> binDir;
+  std::vector<double> binY;
   // The clusters' sample points, rank by rank: the first point of every cluster, then the second
   // of those that have two, ... (rankStart[r] .. rankStart[r + 1] are the points of rank r), so
   // that the first n points of every cluster are one prefix.
@@ -188,22 +191,38 @@ struct OperatorLighting::Impl {
     const RigBackground f = filtered(*skyIn);
     const int bands = scene.transferBands > 0 ? scene.transferBands : shLight.bands;
     const int n2 = std::min(bands * bands, int(shLight.c.size()));
-    const int W = op.skyWidth, H = op.skyHeight;
+    binPoints(bands);
     tbb::parallel_for(size_t(0), op.skyBins(), [&](size_t s) {
-      double y[sh::kMaxBands * sh::kMaxBands];
-      const int x = int(op.skyBin[s]) % W, yy = int(op.skyBin[s]) / W;
       glm::dvec3 sum(0.0);
-      for (int i = 0; i < 2; ++i)
-        for (int j = 0; j < 2; ++j) {
-          const glm::dvec3 d = equirectDirection((x + 0.25 + 0.5 * i) / W, (yy + 0.25 + 0.5 * j) / H);
-          sh::evaluate(bands, d, y);
-          glm::dvec3 band(0.0);
-          for (int k = 0; k < n2; ++k) band += y[k] * glm::dvec3(shLight.c[size_t(k)]);
-          sum += f.radiance(d) - band;
-        }
+      for (size_t p = 4 * s; p < 4 * s + 4; ++p) {
+        const double* y = &binY[p * size_t(bands * bands)];
+        glm::dvec3 band(0.0);
+        for (int k = 0; k < n2; ++k) band += y[k] * glm::dvec3(shLight.c[size_t(k)]);
+        sum += f.radiance(binDir[p]) - band;
+      }
       skyValue[op.clusters + s] = light4(glm::vec3(sum * (kPi / 4.0)));
     });
     aggregate(skyValue, true);
+  }
+
+  // The bins' 2 × 2 points (binDir: 4 a bin, in the bins' order) and their SH of `bands` bands
+  // (binY), computed at the first light change: they are the same at every one.
+  void binPoints(int bands) {
+    if (binBands == bands) return;
+    binBands = bands;
+    const int W = op.skyWidth, H = op.skyHeight;
+    const size_t n2 = size_t(bands * bands);
+    binDir.resize(4 * op.skyBins());
+    binY.resize(binDir.size() * n2);
+    for (size_t s = 0; s < op.skyBins(); ++s) {
+      const int x = int(op.skyBin[s]) % W, y = int(op.skyBin[s]) / W;
+      for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j) {
+          const size_t p = 4 * s + size_t(2 * i + j);
+          binDir[p] = equirectDirection((x + 0.25 + 0.5 * i) / W, (y + 0.25 + 0.5 * j) / H);
+          sh::evaluate(bands, binDir[p], &binY[p * n2]);
+        }
+    }
   }
 
   // What each cluster gathers from the sky detail (its row's sky leaves and inner nodes: the
