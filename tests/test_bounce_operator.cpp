@@ -183,6 +183,29 @@ TEST(BounceOperator, CompressedStaysNearTheUncompressed) {
   EXPECT_LT(with.p95, without.p95);
 }
 
+// `prt render`'s light change takes a cluster's direct light at its sample points, `prt relight`'s
+// as its members' exact mean. The points are spread from the cluster's centre out, so the later
+// ones stand at its rim; each counts for the share of the cluster nearest it, so that the points
+// estimate the members' mean without leaning to the rim: under a sun that throws the slab's shadow
+// into the cavity, the two agree in the mean over every vertex side.
+TEST(BounceOperator, SamplePointsStandForTheirShareOfTheCluster) {
+  Scene s = test::makeColouredRoom(24, 48);
+  bakeScene(s, 256, 2, 7);
+  const BounceOperator op = bake::buildBounceOperator(s, bake::OperatorSettings{}, 2, 7);
+  DirectLight sun;
+  sun.direction = glm::normalize(glm::dvec3(0.6, 0.8, 0.2));
+  sun.irradiance = glm::dvec3(3.0);
+  const bake::DirectIrradiance e0 = bake::shadowedDirectIrradiance(s, {sun});
+  bake::OperatorLighting points(s, op, true), exact(s, op, false);
+  const bake::DirectIrradiance a = points.light({sun}, nullptr, nullptr, sh::ShRgb(3));
+  const bake::DirectIrradiance b = exact.lightFrom(e0, nullptr, nullptr, sh::ShRgb(3));
+  const std::vector<glm::vec3> x = flat(a.front, a.back), y = flat(b.front, b.back);
+  double sx = 0.0, sy = 0.0;
+  for (size_t i = 0; i < x.size(); ++i) sx += luminance(x[i]), sy += luminance(y[i]);
+  std::printf("[ measured ] bounce from sample points against the members' exact mean: %+.2f%%\n", 100 * (sx / sy - 1));
+  EXPECT_NEAR(sx / sy, 1.0, 0.01);
+}
+
 // Inside a closed box every ray hits a wall: with E⁰ = 1 on every inner side, each bounce
 // multiplies by ρ exactly, so E_b = Σ_{k=1..B} ρ^k at every inner side, whatever the clusters
 // and rows (weights sum to 1 per row: a bake keeps each row's sum as it puts the weights on the

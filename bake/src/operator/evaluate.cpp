@@ -91,7 +91,8 @@ struct OperatorLighting::Impl {
   // of those that have two, ... (rankStart[r] .. rankStart[r + 1] are the points of rank r), so
   // that the first n points of every cluster are one prefix.
   std::vector<glm::vec3> points, normals;
-  std::vector<uint32_t> rankStart, pointCluster, pointSide, pointCount;
+  std::vector<uint32_t> rankStart, pointCluster, pointSide, pointCount, pointRank;
+  std::vector<float> pointShare;  // pointShares
   int directN2 = 0;
   std::vector<float> memberShare, areaDirect, pointDirect;  // meanDirectTransfers
   std::vector<uint32_t> clusterOf;
@@ -164,9 +165,44 @@ struct OperatorLighting::Impl {
         normals.push_back(normalOf(scene, lay, v));
         pointCluster.push_back(c);
         pointSide.push_back(v);
+        pointRank.push_back(r);
       }
       rankStart.push_back(uint32_t(points.size()));
     }
+    pointShares();
+  }
+
+  // Per cluster c, n of its points in use and point r < n: the share of the cluster's area
+  // nearest that point among the first n (pointShare[(c · P + n − 1) · P + r], P = samplePoints).
+  // The points are spread over the cluster from its centre out, so the later ones stand at its
+  // rim: each stands for the members nearest it, not for an equal part.
+  void pointShares() {
+    const size_t P = size_t(op.samplePoints);
+    pointShare.assign(size_t(op.clusters) * P * P, 0.0f);
+    tbb::parallel_for(size_t(0), size_t(op.clusters), [&](size_t c) {
+      const uint32_t b = op.memberStart[c], e = op.memberStart[c + 1];
+      auto position = [&](uint32_t v) { return scene.meshes[lay.meshOfVertex[v]].positions[lay.localVertex(v)]; };
+      for (size_t n = 1; n <= pointCount[c]; ++n) {
+        float* share = &pointShare[(c * P + n - 1) * P];
+        double total = 0.0;
+        for (uint32_t i = b; i < e; ++i) {
+          const uint32_t v = op.members[i];
+          const glm::vec3 x = position(v);
+          size_t nearest = 0;
+          for (size_t r = 1; r < n; ++r)
+            if (glm::length(position(op.members[b + r]) - x) < glm::length(position(op.members[b + nearest]) - x))
+              nearest = r;
+          const double a = area[v] > 0.0f ? double(area[v]) : 1.0;
+          share[nearest] += float(a);
+          total += a;
+        }
+        for (size_t r = 0; r < n; ++r) share[r] = float(share[r] / total);
+      }
+    });
+  }
+  float shareOf(uint32_t c, uint32_t used, uint32_t rank) const {
+    const size_t P = size_t(op.samplePoints);
+    return pointShare[(size_t(c) * P + used - 1) * P + rank];
   }
 
   glm::vec3 shBounced(size_t v, const sh::ShRgb& l) const { return op::shBounced(scene, lay, v, l); }
@@ -297,7 +333,8 @@ struct OperatorLighting::Impl {
     return perInstance(scene, lay, out);
   }
 
-  // E⁰ − t⁰ · directSh at each cluster: the mean over its sample points. A light gets the first
+  // E⁰ − t⁰ · directSh at each cluster: its sample points' values, each weighted by the share of
+  // the cluster nearest it (pointShares). A light gets the first
   // n of each cluster's points, n in proportion to its share of the strongest light's irradiance
   // (at least 1): a light of a tenth of the strongest's gets one ray per cluster, as its error
   // under few points is a tenth as large in the bounced light.
@@ -316,7 +353,7 @@ struct OperatorLighting::Impl {
           shadowedDirectIrradianceAt(*rays, all.first(count), allNormals.first(count), {l}, ss);
       for (size_t i = 0; i < count; ++i) {
         const uint32_t c = pointCluster[i];
-        clusterE0[c] += e[i] / float(std::min(pointCount[c], uint32_t(n)));
+        clusterE0[c] += e[i] * shareOf(c, std::min(pointCount[c], uint32_t(n)), pointRank[i]);
       }
       times.shadowRays += count;
     }
@@ -360,7 +397,8 @@ struct OperatorLighting::Impl {
     }
     pointDirect.assign(size_t(op.clusters) * size_t(directN2), 0.0f);
     for (size_t i = 0; i < pointSide.size(); ++i)
-      addDirect(pointDirect, pointCluster[i], pointSide[i], 1.0f / float(pointCount[pointCluster[i]]));
+      addDirect(pointDirect, pointCluster[i], pointSide[i],
+                shareOf(pointCluster[i], pointCount[pointCluster[i]], pointRank[i]));
   }
 
   DirectIrradiance finish(std::chrono::steady_clock::time_point t0, const sh::ShRgb* directSh) {
