@@ -41,23 +41,9 @@ inline glm::vec3 rgb(__m128 v) {
   return {f[0], f[1], f[2]};
 }
 
-// Σ weight · value over entries [b, e) of `rows`, in the rows' weight units (two sums in turn,
-// so that each multiply-add waits on the one before the last).
-template <class Rows>
-inline glm::vec3 range(const Rows& rows, uint32_t b, uint32_t e, const Lights4& value) {
-  __m128 a = _mm_setzero_ps(), c = _mm_setzero_ps();
-  const uint32_t* node = rows.node.data();
-  const auto* weight = rows.weight.data();
-  uint32_t i = b;
-  for (; i + 1 < e; i += 2) {
-    a = _mm_add_ps(a, _mm_mul_ps(_mm_set1_ps(float(weight[i])), value[node[i]].v));
-    c = _mm_add_ps(c, _mm_mul_ps(_mm_set1_ps(float(weight[i + 1])), value[node[i + 1]].v));
-  }
-  if (i < e) a = _mm_add_ps(a, _mm_mul_ps(_mm_set1_ps(float(weight[i])), value[node[i]].v));
-  return rgb(_mm_add_ps(a, c));
-}
-
-// The same over weights already in floats (`w`, a row's entries in the rows' order).
+// Σ w · value over entries [b, e) of rows whose nodes are `nodes` and weights `w` (held as
+// floats in the rows' weight units), two sums in turn, so that each multiply-add waits on the
+// one before the last.
 inline glm::vec3 range(const std::vector<uint32_t>& nodes, const std::vector<float>& w, uint32_t b, uint32_t e,
                        const Lights4& value) {
   __m128 a = _mm_setzero_ps(), c = _mm_setzero_ps();
@@ -80,11 +66,11 @@ struct OperatorLighting::Impl {
   Layout lay;
   int threads;
   std::optional<RayScene> rays;
-  std::vector<uint8_t> sky;                // per node: in the sky tree
-  std::vector<float> nodeWeight;           // per node: area or solid angle below it
-  std::vector<float> childShare;           // per inner node i: its children's shares of its weight, 2i and 2i + 1
-  std::vector<float> clusterW, gradientW;  // the cluster and gradient rows' weights as floats, in their units
-  int binBands = 0;                        // binPoints' bands (0: not yet made)
+  std::vector<uint8_t> sky;       // per node: in the sky tree
+  std::vector<float> nodeWeight;  // per node: area or solid angle below it
+  std::vector<float> childShare;  // per inner node i: its children's shares of its weight, 2i and 2i + 1
+  std::vector<float> vertexW, clusterW, gradientW;  // the rows' weights as floats, in their units
+  int binBands = 0;                                 // binPoints' bands (0: not yet made)
   std::vector<glm::dvec3> binDir;
   std::vector<double> binY;
   // The clusters' sample points, rank by rank: the first point of every cluster, then the second
@@ -126,6 +112,7 @@ struct OperatorLighting::Impl {
     bounceShare = sh.bounce, skyShare = sh.sky;
     if (!o.clusterGradients.start.empty()) st = op::clusterCoordinates(s, lay, o, area);
     splitRows(op.clusterRows, rowSky, rowInner);
+    vertexW.assign(op.vertexRows.weight.begin(), op.vertexRows.weight.end());
     clusterW.assign(op.clusterRows.weight.begin(), op.clusterRows.weight.end());
     gradientW.assign(op.clusterGradients.weight.begin(), op.clusterGradients.weight.end());
     childShare.resize(op.children.size());
@@ -317,8 +304,9 @@ struct OperatorLighting::Impl {
         const bool own = op.vertexRows.start[v + 1] > op.vertexRows.start[v];
         const uint32_t c = clusterOf[v];
         if (own) {
-          out[v] = (range(op.vertexRows, op.vertexRows.start[v], op.vertexRows.start[v + 1], total) +
-                    range(op.vertexRows, op.vertexRows.start[v], op.vertexRows.start[v + 1], skyValue)) *
+          const BounceOperator::Rows& rows = op.vertexRows;
+          out[v] = (range(rows.node, vertexW, rows.start[v], rows.start[v + 1], total) +
+                    range(rows.node, vertexW, rows.start[v], rows.start[v + 1], skyValue)) *
                    kUnit;
         } else if (st.empty()) {
           out[v] = bounceShare[v] * clusterBounce[c] + skyShare[v] * clusterSky[c];

@@ -3,11 +3,9 @@
 #include "prt/bounce_operator.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstring>
 #include <iomanip>
-#include <numeric>
 #include <optional>
 #include <sstream>
 
@@ -30,12 +28,6 @@ class Packer {
     align();
     const auto* p = reinterpret_cast<const uint8_t*>(v.data());
     bytes.insert(bytes.end(), p, p + v.size() * sizeof(T));
-  }
-  // Node indices at `width` bytes each (2 or 4).
-  void putNodes(const std::vector<uint32_t>& v, int width) {
-    if (width == 4) return put(v);
-    std::vector<uint16_t> narrow(v.begin(), v.end());
-    put(narrow);
   }
   // The node indices of every row as the walks of `trees` that find them (row_cuts.h).
   // Returns the count of bytes.
@@ -83,15 +75,12 @@ class Unpacker {
   std::vector<int16_t> takeGradients(size_t count, int version, const char* part) {
     return takeCoded<int16_t, int8_t>(count, version, part, BounceOperator::gradientOfCode);
   }
-  // putRowCuts' bytes back (version 4), for rows of the given starts.
-  std::vector<uint32_t> takeRowCuts(const std::vector<uint32_t>& start, size_t byteCount, const cuts::CutTrees& trees,
-                                    const char* part) {
-    return trees.decode(start, take<uint8_t>(byteCount, part), where_, part);
-  }
-  // Row nodes of the given starts: cuts (`trees`, version 4) or delta-coded varints (versions 2, 3).
+  // Row nodes of the given starts: putRowCuts' walks (`trees`, version 4) or delta-coded varints
+  // (versions 2, 3).
   std::vector<uint32_t> takeRowNodesOf(const std::vector<uint32_t>& start, size_t byteCount,
                                        const cuts::CutTrees* trees, const char* part) {
-    return trees ? takeRowCuts(start, byteCount, *trees, part) : takeRowNodes(start, byteCount, part);
+    if (trees) return trees->decode(start, take<uint8_t>(byteCount, part), where_, part);
+    return takeRowNodes(start, byteCount, part);
   }
   // Version 2 and 3's delta-coded varints back, for rows of the given starts.
   std::vector<uint32_t> takeRowNodes(const std::vector<uint32_t>& start, size_t byteCount, const char* part) {

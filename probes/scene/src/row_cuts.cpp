@@ -62,6 +62,9 @@ std::vector<uint8_t> CutTrees::encode(const std::vector<uint32_t>& start, const 
   for (size_t r = 0; r + 1 < start.size(); ++r) {
     if (start[r + 1] == start[r]) continue;  // an empty row: no walk
     for (uint32_t e = start[r]; e < start[r + 1]; ++e) {
+      // A reader lists a row's nodes ascending and pairs its weights with them in that order.
+      if (e > start[r] && node[e] <= node[e - 1])
+        throw Error(cat("bounce operator: row ", r, " is not in ascending node order"));
       state[node[e]] |= kIn;
       touched.push_back(node[e]);
       for (uint32_t p = parent_[node[e]]; p != kNone && !(state[p] & kBelow); p = parent_[p]) {

@@ -22,7 +22,7 @@ class CutTrees {
   explicit CutTrees(const BounceOperator& op);
 
   /// The bits of the rows [start[r], start[r + 1]) of `node` (each row ascending), one row after
-  /// another, low bits first. Throws prt::Error if a row is not a cut of the trees.
+  /// another, low bits first. Throws prt::Error if a row is not ascending or not a cut of the trees.
   std::vector<uint8_t> encode(const std::vector<uint32_t>& start, const std::vector<uint32_t>& node) const;
 
   /// The nodes of rows of the given starts from their bits, each row ascending. Throws

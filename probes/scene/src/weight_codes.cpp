@@ -56,10 +56,10 @@ std::pair<uint16_t, uint16_t> bracket(const std::array<uint16_t, N>& t, double x
 
 // Each of `scaled` (signed where `table` holds magnitudes of signed values) on the value of the
 // table just below or just above its magnitude, from the largest magnitude down, so that the sum
-// stays what it was.
+// stays what it was; `exact`: each rounded to the nearest integer instead (within ±top).
 template <size_t N, class T>
-std::vector<T> keepingTheSum(const std::vector<double>& scaled, const std::array<uint16_t, N>& table, double top,
-                             bool exact) {
+std::vector<T> heldValues(const std::vector<double>& scaled, const std::array<uint16_t, N>& table, double top,
+                          bool exact) {
   if (exact) {
     std::vector<T> out(scaled.size());
     for (size_t i = 0; i < scaled.size(); ++i) out[i] = T(std::lround(std::clamp(scaled[i], -top, top)));
@@ -92,7 +92,7 @@ uint8_t BounceOperator::codeOfWeight(uint16_t q) { return uint8_t(nearest(rowTab
 std::vector<uint16_t> BounceOperator::storedWeights(const std::vector<double>& scaled, bool exact) {
   std::vector<double> nonNegative(scaled.size());
   for (size_t i = 0; i < scaled.size(); ++i) nonNegative[i] = std::max(scaled[i], 0.0);
-  return keepingTheSum<256, uint16_t>(nonNegative, rowTable(), kWeightOne, exact);
+  return heldValues<256, uint16_t>(nonNegative, rowTable(), kWeightOne, exact);
 }
 
 int16_t BounceOperator::gradientOfCode(int8_t code) {
@@ -106,7 +106,7 @@ int8_t BounceOperator::codeOfGradient(int16_t g) {
 }
 
 std::vector<int16_t> BounceOperator::storedGradients(const std::vector<double>& scaled, bool exact) {
-  return keepingTheSum<128, int16_t>(scaled, gradientTable(), 32767.0, exact);
+  return heldValues<128, int16_t>(scaled, gradientTable(), 32767.0, exact);
 }
 
 }  // namespace prt
