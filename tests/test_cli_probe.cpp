@@ -61,15 +61,17 @@ std::vector<std::string> splitCsv(const std::string& line) {
 // probes over its default bounds: flat, so padded to y ∈ [−1, 1]; 6³ probes, spacing 1/3, the
 // lattice at the cell centres ±0.833. One bounce: the probes see the plane with its direct light
 // (K − 1 = 0 bounces), which is all the light it has, as the plane has nothing to bounce off.
+// Without the bounce operator: these tests check the probes' SH path (the operator's rows at
+// probes: OperatorRowsBounceTheSunAtProbes).
 class CliProbe : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     tmp_ = new test::TempDir("cli_probe");
     dir_ = tmp_->path();
-    bakeStatus_ =
-        prt({"bake", sourceFile("scenes/plane.gltf"), "--samples", "256", "--bounces", "1", "--seed", "7",
-             "--probe-dims", "6,6,6", "--probe-samples", "4096", "-q", "-o", file("p.glb"), "--probes", file("p.vdb")})
-            .status;
+    bakeStatus_ = prt({"bake", sourceFile("scenes/plane.gltf"), "--samples", "256", "--bounces", "1", "--seed", "7",
+                       "--probe-dims", "6,6,6", "--probe-samples", "4096", "--no-operator", "-q", "-o", file("p.glb"),
+                       "--probes", file("p.vdb")})
+                      .status;
     lightStatus_ = prt({"light", env(), "--bands", "3", "-o", file("light.json")}).status;
   }
   static void TearDownTestSuite() {

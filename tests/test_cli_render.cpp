@@ -439,13 +439,17 @@ TEST(CliRender, FarRigKeyframeNeedsExplicitFrames) {
 }
 
 // A probe grid must come from the same bake as the .glb: both store the bake's scene name and
-// seed (docs/formats.md). Another scene or seed: a warning; other bands: an error.
+// seed (docs/formats.md). Another scene or seed: a warning; other bands: an error. A .glb whose
+// bounce operator holds rows for its own probes (the default bake) refuses any other grid.
 TEST(CliRender, ProbesFromAnotherBakeWarnOrFail) {
   const TempDir tmp("probe_match");
   const fs::path& d = tmp.path();
-  const Args probeArgs = {"--probe-dims", "2,2,2", "--probe-samples", "16", "--probes"};
+  const Args probeArgs = {"--no-operator", "--probe-dims", "2,2,2", "--probe-samples", "16", "--probes"};
   const std::string plane = source("scenes/plane.gltf");
   const std::string glb = bake(plane, d, "plane", plus(probeArgs, {(d / "plane.vdb").string()}));
+  const std::string withRows =
+      bake(plane, d, "plane_rows",
+           {"--probe-dims", "2,2,2", "--probe-samples", "16", "--probes", (d / "plane_rows.vdb").string()});
   bake(plane, d, "reseeded", plus(plus({"--seed", "9"}, probeArgs), {(d / "reseeded.vdb").string()}));
   bake(source("scenes/cavity.gltf"), d, "cavity", plus(probeArgs, {(d / "cavity.vdb").string()}));
   bake(plane, d, "two_bands", plus(plus({"--bands", "2"}, probeArgs), {(d / "two_bands.vdb").string()}));
@@ -464,6 +468,12 @@ TEST(CliRender, ProbesFromAnotherBakeWarnOrFail) {
                                " was baked from 'cavity.gltf' (seed 1), ", glb, " from 'plane.gltf' (seed 1)")),
             std::string::npos)
       << other.err;
+  const RunResult refused = prt({"render", withRows, "--env", whiteSky(), "--size", "8x8", "-o",
+                                 (out / "refused.exr").string(), "--probes", (d / "cavity.vdb").string()});
+  EXPECT_EQ(refused.status, 1) << refused.err;
+  EXPECT_EQ(lines(refused.err), 1) << refused.err;
+  EXPECT_NE(refused.err.find("probe rows: made for a 2 x 2 x 2 lattice"), std::string::npos) << refused.err;
+  EXPECT_FALSE(fs::exists(out / "refused.exr"));
   const RunResult reseeded = render("reseeded.vdb");
   EXPECT_EQ(reseeded.status, 0) << reseeded.err;
   EXPECT_NE(reseeded.err.find("was baked from 'plane.gltf' (seed 9)"), std::string::npos) << reseeded.err;
@@ -960,19 +970,26 @@ TEST(CliRender, TheScenesOwnLampLightsItPerPixel) {
 }
 
 // With lamps alone (no sun), the summary still says how their bounces are lit and what each
-// frame's update cost: the shadow rays and the gather.
+// frame's update cost: through the bounce operator (the default bake) its shadow rays and
+// products, through the traced gather (a bake without the operator) the gather's rays.
 TEST(CliRender, TheSummaryGivesTheLampsBounceCost) {
   const TempDir tmp("lampbounce");
   const fs::path& d = tmp.path();
-  const std::string glb = (d / "plane_lamp.glb").string();
-  const RunResult b =
-      prt({"bake", planeWithLamp(d, 3.0), "-o", glb, "--samples", "16", "--bounces", "1", "--no-refine", "-q"});
-  ASSERT_EQ(b.status, 0) << b.err;
-  const RunResult r = prt({"render", glb, "--size", "32x24", "-o", (d / "lamp.exr").string()});
-  ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_NE(r.err.find("their bounces on baked surfaces gathered with 256 rays per vertex"), std::string::npos)
-      << r.err;
-  EXPECT_NE(r.err.find("shadow rays"), std::string::npos) << r.err;
+  const std::string scene = planeWithLamp(d, 3.0);
+  for (const bool withOperator : {true, false}) {
+    const std::string glb = (d / (withOperator ? "op.glb" : "traced.glb")).string();
+    Args bakeArgs = {"bake", scene, "-o", glb, "--samples", "16", "--bounces", "1", "--no-refine", "-q"};
+    if (!withOperator) bakeArgs.push_back("--no-operator");
+    const RunResult b = prt(bakeArgs);
+    ASSERT_EQ(b.status, 0) << b.err;
+    const RunResult r = prt({"render", glb, "--size", "32x24", "-o", (d / "lamp.exr").string()});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.err.find(withOperator ? "their bounces on baked surfaces through the bake's bounce operator"
+                                      : "their bounces on baked surfaces gathered with 256 rays per vertex"),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find(withOperator ? "shadow rays 0." : "shadow rays"), std::string::npos) << r.err;
+  }
 }
 
 }  // namespace

@@ -368,8 +368,11 @@ double meanIrradiance(const MeshInstance& m, const std::vector<glm::vec3>& e) {
 // (4πI / A) Σ_{k=0}^{B} ρ^k whatever the walls' shape. prt relight's path (FrameLighting,
 // lights at the vertices) through the traced gather and through the bounce operator. The
 // vertex-sampled mean of E⁰ is off by the tessellation (measured 0.25% low, held to 0.5%), the
-// bounces by the gather's noise averaged over 1350 vertices (the total measured 0.7% low on
-// both paths); 1.5% bounds both, while a missing or extra bounce is 20% off (ρ = 0.8).
+// bounces by the gather's noise averaged over 1350 vertices (the total measured 0.7% low
+// through the traced gather); 1.5% bounds it. The operator's rows (96 entries) stand for far
+// clusters by their nodes' area-weighted mean, where the lamp's light falls off with distance
+// and angle: measured 2.0% low with its default clusters of 4 (0.7% with clusters of 8, 0.3%
+// with rows of 255), held to 3%. A missing or extra bounce is 20% off (ρ = 0.8).
 TEST(BakeLocalLight, ClosedBoxLitByALampMatchesTheBounceSeries) {
   const float rho = 0.8f;
   const int B = 2;
@@ -411,7 +414,7 @@ TEST(BakeLocalLight, ClosedBoxLitByALampMatchesTheBounceSeries) {
     ASSERT_EQ(light.local.size(), 1u);
     EXPECT_EQ(lighting.usesOperator(), op);
     const double mean = meanIrradiance(s.meshes[0], light.vertexLight->front[0]);
-    EXPECT_NEAR(mean / series, 1.0, 0.015) << (op ? "through the operator" : "through the traced gather");
+    EXPECT_NEAR(mean / series, 1.0, op ? 0.03 : 0.015) << (op ? "through the operator" : "through the traced gather");
   }
   const bake::DirectIrradiance direct = bake::shadowedLocalIrradiance(s, bake::RayScene(s), {rig.locals[0].at(0.0)});
   EXPECT_NEAR(meanIrradiance(s.meshes[0], direct.front[0]) / e0, 1.0, 0.005);

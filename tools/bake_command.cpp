@@ -106,7 +106,7 @@ bake::BakeJob bakeJob(const BakeArgs& a) {
   job.refine = a.refine;
   if (a.noRefine) job.refine.tolerance = 0.0;
   if (!a.probes.empty()) job.probes = probeSettings(a);
-  if (a.withOperator) job.bounceOperator = a.bounceOperator;
+  if (!a.noOperator && !a.unshadowed) job.bounceOperator = a.bounceOperator;
   job.outputs = {a.output, a.probes, a.probeHalf};
   job.checkpoint.path = a.checkpoint;
   job.checkpoint.intervalSeconds = a.checkpointInterval;
@@ -323,8 +323,10 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                           ->check(CLI::Range(1, bake::kMaxSamples))
                           ->capture_default_str();
   CLI::Option* cluster = bake.add_option("--operator-cluster", o.clusterSize,
-                                         "Vertex sides per surface cluster of the bounce operator, at most")
-                             ->check(CLI::Range(1, 65536))
+                                         cat("Vertex sides per surface cluster of the bounce operator, at most (0: ",
+                                             bake::kSmallClusterSize, " in scenes of up to ", bake::kSmallScenesSides,
+                                             " vertex sides, else ", bake::kLargeClusterSize, ")"))
+                             ->check(CLI::Range(0, 65536))
                              ->capture_default_str();
   CLI::Option* row =
       bake.add_option("--operator-row", o.rowLength,
@@ -359,15 +361,15 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
                                            "bake's first ones; at most --probe-samples)")
                                ->check(CLI::Range(1, bake::kMaxSamples))
                                ->capture_default_str();
-  CLI::Option* on =
-      bake.add_flag("--operator", a.withOperator,
-                    "Store the bounce operator (docs/lights.md, \"The bounce operator\"): `prt render` "
-                    "and `prt relight` then light the direct lights' bounces and the sky detail by sparse "
-                    "products instead of tracing the bake's rays again (milliseconds a light change, "
-                    "at the accuracy docs/validation.md measures)");
-  on->excludes(unshadowed);
+  CLI::Option* off =
+      bake.add_flag("--no-operator", a.noOperator,
+                    "Leave out the bounce operator (docs/lights.md, \"The bounce operator\"), which `prt render` "
+                    "and `prt relight` use to light the direct lights' bounces and the sky detail by sparse "
+                    "products: without it they trace the bake's rays again (seconds a light change)");
+  bake.add_flag("--operator", a.withOperator, "Deprecated, no effect: the bounce operator is stored by default")
+      ->excludes(off);
   for (CLI::Option* x : {rays, cluster, row, clusterRow, gradient, points, probeRow, probeRays}) {
-    x->needs(on);
+    x->excludes(off);
     x->excludes(unshadowed);
   }
 }

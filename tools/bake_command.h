@@ -29,7 +29,8 @@ struct BakeArgs {
   bake::BakeSettings settings;
   bake::RefineSettings refine;
   bool noRefine = false;
-  bool withOperator = false;  // a bounce operator in the output (--operator)
+  bool noOperator = false;    // no bounce operator in the output (--no-operator)
+  bool withOperator = false;  // --operator: deprecated, the operator is the default
   bake::OperatorSettings bounceOperator;
   bool unshadowed = false;
   bool quiet = false;

@@ -2,9 +2,10 @@
 // baked instances, the back sides of double-sided ones counted as vertices too, n2 = bands²,
 // N samples, B = V·n2·12 one transfer buffer, D = B/3 its colourless direct part):
 //
-//   surface  scene + layout + BVH + hit records + 3B (t^{k-1}, t^k, running sum) + D
+//   surface  scene + layout + BVH + hit records + 2B (t^{k-1} overwritten by t^k, running sum) + D
 //            + the bounces' gather tables (t^{k-1} as halves, 3·n2 padded to 64-byte lines
-//            a vertex, and 16 bytes of corners per triangle)
+//            a vertex, and 16 bytes of corners per triangle) + the bounce operator's kept rays'
+//            escape and record bits (2 bits a kept ray)
 //            (+ B for the lower-order sum when probes follow; the BVH then stays for them, so
 //            the per-instance copies of the sums after the last bounce count it too)
 //   probes   scene + 2B (transfer and lower-order sum) + the lower-order sum as halves (the lit
@@ -202,8 +203,10 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   // With the bounces' gather tables too: the previous bounce as halves, 3·n2 padded to whole
   // 64-byte lines a vertex, and one 16-byte corner entry per triangle (surface_bake.cpp).
   const uint64_t gatherTables = vertices * ((3 * n2 + 31) / 32 * 64) + (triangles + backTriangles) * 16;
+  const uint64_t keptRays = uint64_t(std::clamp(s.keepGatherRays, 0, s.samples));
+  const uint64_t keptBits = vertices * 2 * ((keptRays + 63) / 64) * 8;
   e.hits = bounces ? uint64_t(std::ceil(e.frontHitShare * double(vertices) * s.samples)) * kHitBytes +
-                         vertices * kHitOffsetBytes + gatherTables
+                         vertices * kHitOffsetBytes + gatherTables + keptBits
                    : 0;
   const uint64_t layout = shadowed ? vertices * kLayoutPerVertex + (triangles + backTriangles) * kLayoutPerTriangle : 0;
   const uint64_t lower = probes ? e.transfer : 0;
@@ -211,7 +214,7 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   // Surface stage: during the last bounce (or the direct pass and its copy without bounces),
   // then the per-instance copies of the sums.
   // With probes to follow, the BVH stays for them (SharedRayScene) through the copies too.
-  e.surfacePeak = e.scene + std::max(layout + e.bvh + e.hits + 3 * e.transfer + direct + lower,
+  e.surfacePeak = e.scene + std::max(layout + e.bvh + e.hits + 2 * e.transfer + direct + lower,
                                      2 * (e.transfer + direct + lower) + (probes ? e.bvh : 0));
   const uint64_t lowerHalves = vertices * ((3 * n2 + 31) / 32 * 64);  // probe_bake.cpp: the lit hits' rows
   if (probes)

@@ -241,12 +241,21 @@ void buildOperator(OperatorSettings os, const BakeSettings& s, const ProbeGrid* 
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// The bounce operator is built when it is asked for and the scene has baked surfaces (a scene of
+// receivers only has none to cluster).
+bool buildsOperator(const BakeJob& job, const BakeReport& report) {
+  if (!job.bounceOperator || !report.settings.shadowed) return false;
+  return std::any_of(report.scene.meshes.begin(), report.scene.meshes.end(),
+                     [](const MeshInstance& m) { return !m.transfer.empty(); });
+}
+
 // Under MPI every rank builds its share of the bounce operator's rows (build.cpp sends them to
 // rank 0, whose writeOutputs builds the rest): the ranks other than the writer call this.
 void buildOperatorShare(const BakeJob& job, Stages& stages, BakeReport& report) {
   const BakeSettings& s = report.settings;
   storeTransfer(report.scene, std::move(stages.surface.perMesh), std::move(stages.surface.perMeshDirect));
   report.scene.transferBands = s.bands;
+  if (!buildsOperator(job, report)) return;
   OperatorSettings os = *job.bounceOperator;
   os.samples = std::min(os.samples, s.samples);
   os.threads = s.threads;
@@ -263,7 +272,7 @@ void writeOutputs(const BakeJob& job, Stages& stages, BakeReport& report) {
   const BakeSettings& s = report.settings;
   storeTransfer(scene, std::move(stages.surface.perMesh), std::move(stages.surface.perMeshDirect));
   scene.transferBands = s.bands;
-  if (job.bounceOperator && s.shadowed)
+  if (buildsOperator(job, report))
     buildOperator(*job.bounceOperator, s, stages.grid ? &*stages.grid : nullptr, stages.surface.gather, report);
   stages.surface.gather = {};
   const auto t0 = std::chrono::steady_clock::now();

@@ -133,8 +133,11 @@ struct SurfaceBake {
   std::vector<uint8_t> holds;
   // t⁰, colourless: values floats (the direct part the files keep apart from the total).
   std::vector<float> direct;
-  std::vector<glm::vec3> total, lowerOrder, prev, cur;
-  HalfRows half;                    // prev as halves, during a bounce (half_rows.h)
+  std::vector<glm::vec3> total, lowerOrder;
+  // t^{k−1} as bounce k starts, then t^k: the gather reads t^{k−1} only as `half` and writes
+  // each vertex's t^k over its t^{k−1}, so one buffer holds both orders.
+  std::vector<glm::vec3> order;
+  HalfRows half;                    // t^{k−1} as halves, during bounce k (half_rows.h)
   std::vector<TriCorners> corners;  // per triangle, during the bounces
   uint64_t hitCount = 0;
   uint32_t gatherRays, gatherWords;  // BakeSettings::keepGatherRays, where hits are kept
@@ -315,7 +318,7 @@ void gatherChunkPortable(SurfaceBake& b, const AlbedoLookup& albedo, const Chunk
         acc[i] += s * r.rho[i % 3];
       }
     }
-    float* out = &b.cur[v * size_t(b.n2)].x;
+    float* out = &b.order[v * size_t(b.n2)].x;
     for (int i = 0; i < lanes; ++i) out[i] = acc[i] * w;
   }
 }
@@ -354,7 +357,7 @@ __attribute__((target("avx2,f16c"))) void gatherChunkF16c(SurfaceBake& b, const 
       }
     }
     for (int k = 0; k < K; ++k) _mm256_store_ps(sum + 8 * k, acc[k]);
-    float* out = &b.cur[v * size_t(b.n2)].x;
+    float* out = &b.order[v * size_t(b.n2)].x;
     for (int i = 0; i < lanes; ++i) out[i] = sum[i] * w;
   }
 }
@@ -465,9 +468,9 @@ uint32_t restoreSurface(SurfaceBake& b, Checkpoint* cp, ChunkedStage& direct) {
                         [&b](const Chunk& c, ByteReader& r) { readDirectChunk(b, c, r); });
     direct.share();
     cp->restoreState(resumeStage, [&](ByteReader& r) {
-      readTransfer(b, r, b.prev);
+      readTransfer(b, r, b.order);
       readTransfer(b, r, b.total);
-      if (b.prev.size() != b.values || b.total.size() != b.values) r.fail("transfer size");
+      if (b.order.size() != b.values || b.total.size() != b.values) r.fail("transfer size");
     });
   }
   b.countHits();
@@ -510,34 +513,47 @@ void runDirectPass(SurfaceBake& b, ChunkedStage& stage, const BakeControl& contr
   b.countHits();
   b.total.resize(b.values);
   for (size_t i = 0; i < b.values; ++i) b.total[i] = glm::vec3(b.direct[i]);
-  b.prev = b.total;
+  b.order = b.total;
 }
 
-// The bounces from `resumeStage` on: t^k = W t^{k−1}, summed into the total.
+// Writes rows 0 .. count−1 of `half` back as floats, as putArray writes count · n2 RGB triples.
+void writeHalfRows(ByteWriter& w, const HalfRows& half, size_t count, int n2) {
+  w.put(uint64_t(count * size_t(n2)));
+  constexpr size_t kRows = 1024;
+  std::vector<glm::vec3> rows(kRows * size_t(n2));
+  for (size_t first = 0; first < count; first += kRows) {
+    const size_t n = std::min(kRows, count - first);
+    for (size_t v = 0; v < n; ++v)
+      for (int i = 0; i < 3 * n2; ++i) (&rows[v * size_t(n2)].x)[i] = floatFromHalf(half.row(first + v)[i]);
+    w.write(rows.data(), n * size_t(n2) * sizeof(glm::vec3));
+  }
+}
+
+// The bounces from `resumeStage` on: t^k = W t^{k−1}, summed into the total. Bounce k's state
+// (for a resume) is t^{k−1} as its halves hold it, since the gather overwrites the floats and
+// reads nothing else of them: a resume from it gathers the same bits.
 void runBounces(SurfaceBake& b, uint32_t resumeStage, Checkpoint* cp, BakeStats& stats) {
   AlbedoLookup albedo(b.scene);
-  b.cur.resize(b.values);
   b.corners = triCorners(b.lay);
   const int n2 = b.n2;
   for (int k = int(resumeStage) - 1; k <= b.bounces; ++k) {
-    b.half.assign(b.prev, b.lay.vertices, n2);
+    b.half.assign(b.order, b.lay.vertices, n2);
     StageSpec spec = b.spec(uint32_t(1 + k), cat("bounce ", k), cat("bounce ", k));
     spec.computes = &b.holds;  // where the hit records are
     Checkpoint::StageIo io;
-    io.writeState = [&b](ByteWriter& w) {
-      w.putArray(b.prev.data(), b.prev.size());
+    io.writeState = [&b, n2](ByteWriter& w) {
+      writeHalfRows(w, b.half, b.lay.vertices, n2);
       w.putArray(b.total.data(), b.total.size());
     };
     io.writeChunk = [&b, n2](uint64_t c, ByteWriter& w) {
       const Chunk ch = b.chunk(c);
-      w.putArray(&b.cur[ch.begin * n2], (ch.end - ch.begin) * n2);
+      w.putArray(&b.order[ch.begin * n2], (ch.end - ch.begin) * n2);
     };
-    auto restore = [&](const Chunk& c, ByteReader& r) { r.getArray(&b.cur[c.begin * n2], (c.end - c.begin) * n2); };
+    auto restore = [&](const Chunk& c, ByteReader& r) { r.getArray(&b.order[c.begin * n2], (c.end - c.begin) * n2); };
     stats.stages.push_back(
         runChunkedStage(spec, cp, restore, std::move(io), [&](const Chunk& c) { return gatherChunk(b, albedo, c); }));
     if (k == b.bounces && b.settings.keepLowerOrder) b.lowerOrder = b.total;
-    for (size_t i = 0; i < b.total.size(); ++i) b.total[i] += b.cur[i];
-    std::swap(b.prev, b.cur);
+    for (size_t i = 0; i < b.total.size(); ++i) b.total[i] += b.order[i];
   }
 }
 
@@ -662,8 +678,7 @@ SurfaceTransfer bakeSurface(const Scene& scene, const BakeSettings& settings, co
   out.stats.hitRecords = ranks().sum(b.hitCount);  // each rank holds its own chunks' records
   if (resumeStage < b.stageDone) runBounces(b, resumeStage, cp, out.stats);
   // Free what the bounces needed before the per-instance copies below.
-  std::vector<glm::vec3>().swap(b.prev);
-  std::vector<glm::vec3>().swap(b.cur);
+  std::vector<glm::vec3>().swap(b.order);
   if (b.gatherWords) out.gather = keptGatherRays(b);
   std::vector<ChunkHits>().swap(b.chunkHits);
   b.half = HalfRows{};

@@ -32,7 +32,7 @@ void validate(const OperatorSettings& s) {
     if (v < lo || v > hi) throw Error(cat(what, " ", v, ": must be between ", lo, " and ", hi));
   };
   within("operator samples", s.samples, 1, 16777216);
-  within("operator cluster size", s.clusterSize, 1, 65536);
+  within("operator cluster size", s.clusterSize, 0, 65536);
   within("operator row length", s.rowLength, 0, BounceOperator::kMaxRowLength);
   within("operator cluster row length", s.clusterRowLength, 1, BounceOperator::kMaxRowLength);
   within("operator gradient row length", s.gradientRowLength, 0, BounceOperator::kMaxRowLength);
@@ -42,6 +42,11 @@ void validate(const OperatorSettings& s) {
   within("operator probe samples", s.probeSamples, 1, 16777216);
   within("operator probe row length", s.probeRowLength, 1, BounceOperator::kMaxRowLength);
   if (s.threads < 0) throw Error(cat("threads ", s.threads, ": must be 0 (all cores) or more"));
+}
+
+int clusterSizeFor(int clusterSize, uint64_t vertexSides) {
+  if (clusterSize > 0) return clusterSize;
+  return vertexSides <= kSmallScenesSides ? kSmallClusterSize : kLargeClusterSize;
 }
 
 namespace {
@@ -283,7 +288,8 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
   if (lay.vertices == 0) throw Error("bounce operator: the scene has no baked vertices");
   BounceOperator op;
   op.samples = s.samples, op.bounces = bounces, op.seed = seed;
-  op.clusterSize = s.clusterSize, op.rowLength = s.rowLength, op.clusterRowLength = s.clusterRowLength;
+  op.clusterSize = clusterSizeFor(s.clusterSize, lay.vertices), op.rowLength = s.rowLength,
+  op.clusterRowLength = s.clusterRowLength;
   op.gradientRowLength = s.gradientRowLength;
   op.skyWidth = s.skyWidth, op.skyHeight = s.skyHeight, op.samplePoints = s.samplePoints;
   op.vertexSides = uint32_t(lay.vertices);

@@ -20,21 +20,34 @@
 
 namespace prt::bake {
 
+/// The cluster size a bake picks when none is given (OperatorSettings::clusterSize 0): clusters
+/// of kSmallClusterSize vertex sides in a scene of at most kSmallScenesSides, else of
+/// kLargeClusterSize. A light change costs about the clusters' count (their shadow rays and
+/// rows), and the rows' nodes cost more bits as the tree deepens: a small scene affords the finer
+/// clusters, which a room's contact shadows and corners need (docs/lights.md, "The bounce
+/// operator"), and a large level keeps its light change and its file within bounds.
+constexpr int kSmallClusterSize = 4, kLargeClusterSize = 8;
+constexpr uint64_t kSmallScenesSides = 262144;
+
+/// The cluster size a bake builds with: `clusterSize` where given (not 0), else the rule above
+/// for a scene of `vertexSides`.
+int clusterSizeFor(int clusterSize, uint64_t vertexSides);
+
 struct OperatorSettings {
   int samples = 256;           // gather rays per vertex side: the bake's first ones
-  int clusterSize = 8;         // vertex sides per cluster, at most
+  int clusterSize = 0;         // vertex sides per cluster, at most; 0: clusterSizeFor's rule
   int rowLength = 0;           // entries of a vertex side's own row (kept where its view is not its cluster's); 0: none
   int clusterRowLength = 96;   // entries of a cluster's row, at most
   int gradientRowLength = 24;  // entries of each of a cluster's two gradient rows, at most; 0: none
   int skyWidth = 32, skyHeight = 16;  // sky bins (equirectangular)
-  int samplePoints = 4;               // shadow-ray points per cluster
+  int samplePoints = 2;               // shadow-ray points per cluster
   int probeSamples = 256;             // gather rays per probe: the probe bake's first ones
   int probeRowLength = 96;            // entries of a probe's row, at most
   int threads = 0;                    // 0 = all cores
 };
 
 /// Throws prt::Error unless every field is within its limits (samples 1..16777216, cluster
-/// size 1..65536, row lengths 0..255 (a cluster's at least 1), sky bins 1..1024, sample points 1..64).
+/// size 0..65536 (0: clusterSizeFor's rule), row lengths 0..255 (a cluster's at least 1), sky bins 1..1024, sample points 1..64).
 void validate(const OperatorSettings& s);
 
 /// A probe grid's rows over an operator's nodes with every entry's SH projection in full
