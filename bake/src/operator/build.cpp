@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <queue>
 #include <string>
 
@@ -195,15 +196,17 @@ constexpr uint32_t kRankChunk = 64;
 
 struct MadeRows {
   std::vector<std::vector<Entry>>&vertex, &cluster, &gradient;
+  std::vector<std::vector<op::Split>>& clusterSplits;
 };
 
 template <class T>
 void append(std::string& out, const T& v) {
   out.append(reinterpret_cast<const char*>(&v), sizeof v);
 }
-void appendRow(std::string& out, const std::vector<Entry>& row) {
+template <class T>
+void appendRow(std::string& out, const std::vector<T>& row) {
   append(out, uint32_t(row.size()));
-  out.append(reinterpret_cast<const char*>(row.data()), row.size() * sizeof(Entry));
+  out.append(reinterpret_cast<const char*>(row.data()), row.size() * sizeof(T));
 }
 
 // Every rank's rows to rank 0, which fills its lists with the clusters it did not make.
@@ -214,6 +217,7 @@ void shareRows(const BounceOperator& op, MadeRows made) {
     if (!r.owns(c / kRankChunk)) continue;
     append(mine, c);
     appendRow(mine, made.cluster[c]);
+    appendRow(mine, made.clusterSplits[c]);
     appendRow(mine, made.gradient[2 * size_t(c)]);
     appendRow(mine, made.gradient[2 * size_t(c) + 1]);
     for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) appendRow(mine, made.vertex[op.members[i]]);
@@ -227,24 +231,63 @@ void shareRows(const BounceOperator& op, MadeRows made) {
       std::memcpy(&v, in.data() + at, sizeof v);
       at += sizeof v;
     };
-    auto takeRow = [&](std::vector<Entry>& row) {
+    auto takeRow = [&]<class T>(std::vector<T>& row) {
       uint32_t n = 0;
       take(n);
-      PRT_CHECK_LE(at + n * sizeof(Entry), in.size());
+      PRT_CHECK_LE(at + n * sizeof(T), in.size());
       row.resize(n);
-      std::memcpy(row.data(), in.data() + at, n * sizeof(Entry));
-      at += n * sizeof(Entry);
+      std::memcpy(row.data(), in.data() + at, n * sizeof(T));
+      at += n * sizeof(T);
     };
     while (at < in.size()) {
       uint32_t c = 0;
       take(c);
       PRT_CHECK_LT(c, op.clusters);
       takeRow(made.cluster[c]);
+      takeRow(made.clusterSplits[c]);
       takeRow(made.gradient[2 * size_t(c)]);
       takeRow(made.gradient[2 * size_t(c) + 1]);
       for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) takeRow(made.vertex[op.members[i]]);
     }
   }
+}
+
+// The cluster rows within `budget` entries in all. Each row was cut to kMaxRowLength entries,
+// its splits recorded; a row's splits are taken in their order, each at the least error of its
+// row's splits up to it, and of all rows' the ones of the largest such errors are kept while the
+// rows fit the budget; the rest are undone (cutBack). So entries go to the rows whose cuts would
+// otherwise merge the most light, and a row that reaches few leaves leaves its share to others.
+void fitRowBudget(const Tree& t, std::vector<std::vector<Entry>>& rows,
+                  const std::vector<std::vector<op::Split>>& splits, size_t budget) {
+  size_t total = 0;
+  for (const std::vector<Entry>& r : rows) total += r.size();
+  if (total <= budget) return;
+  struct Step {
+    float priority;
+    uint32_t row, index;
+  };
+  std::vector<Step> steps;
+  total = 0;
+  for (uint32_t r = 0; r < rows.size(); ++r) {
+    const std::vector<op::Split>& sp = splits[r];
+    total += sp.empty() ? rows[r].size() : sp[0].before;
+    float least = std::numeric_limits<float>::infinity();
+    for (uint32_t i = 0; i < sp.size(); ++i) steps.push_back({least = std::min(least, sp[i].priority), r, i});
+  }
+  std::sort(steps.begin(), steps.end(), [](const Step& a, const Step& b) {
+    return a.priority > b.priority ||
+           (a.priority == b.priority && (a.row < b.row || (a.row == b.row && a.index < b.index)));
+  });
+  std::vector<uint32_t> keep(rows.size(), 0);
+  for (const Step& st : steps) {
+    const std::vector<op::Split>& sp = splits[st.row];
+    const size_t after = st.index + 1 < sp.size() ? sp[st.index + 1].before : rows[st.row].size();
+    const size_t grows = after - sp[st.index].before;
+    if (total + grows > budget) break;
+    total += grows;
+    keep[st.row] = st.index + 1;
+  }
+  tbb::parallel_for(size_t(0), rows.size(), [&](size_t r) { op::cutBack(t, splits[r], keep[r], rows[r]); });
 }
 
 // Rows as the operator holds them: weights w · one, on the one-byte codes' values with each
@@ -307,8 +350,11 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
   const std::vector<glm::vec2> st = op::clusterCoordinates(scene, lay, op, area);
   const size_t gradientLength = uncompressed ? SIZE_MAX : size_t(s.gradientRowLength);
   const size_t vertexLength = uncompressed ? SIZE_MAX : size_t(s.rowLength);
-  const size_t clusterLength = uncompressed ? SIZE_MAX : size_t(s.clusterRowLength);
+  // Cluster rows are cut to the longest a row may be, then to s.clusterRowLength entries a row
+  // on average (fitRowBudget).
+  const size_t clusterLength = uncompressed ? SIZE_MAX : size_t(BounceOperator::kMaxRowLength);
   std::vector<std::vector<Entry>> vertexRows(lay.vertices), clusterRows(op.clusters), gradients(2 * op.clusters);
+  std::vector<std::vector<op::Split>> clusterSplits(uncompressed ? 0 : op.clusters);
   const bool shared = ranks().exchanges() && ranks().size() > 1;
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, op.clusters, 4), [&](const tbb::blocked_range<uint32_t>& r) {
     RowMaker maker(op, tree, sky, training);
@@ -332,7 +378,7 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
         memberShare.push_back(share), memberSt.push_back(st[v]);
       }
       weightedSum(raw, e - b, std::vector<double>(memberShare.begin(), memberShare.end()), all);
-      clusterRows[c] = maker.make(all, tree.center[c], clusterLength);
+      clusterRows[c] = maker.make(all, tree.center[c], clusterLength, uncompressed ? nullptr : &clusterSplits[c]);
       if (gradientLength > 0) {
         planeOf(raw, memberShare, memberSt, gu, gv);
         gradients[2 * c] = maker.make(gu, tree.center[c], gradientLength);
@@ -350,8 +396,10 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
       }
     }
   });
-  if (shared) shareRows(op, {vertexRows, clusterRows, gradients});
-  storeAll(op, {vertexRows, clusterRows, gradients}, gradientLength > 0, uncompressed);
+  if (shared) shareRows(op, {vertexRows, clusterRows, gradients, clusterSplits});
+  if (!uncompressed) fitRowBudget(tree, clusterRows, clusterSplits, size_t(s.clusterRowLength) * op.clusters);
+  std::vector<std::vector<op::Split>>().swap(clusterSplits);
+  storeAll(op, {vertexRows, clusterRows, gradients, clusterSplits}, gradientLength > 0, uncompressed);
   if (probes && probes->probeCount() > 0)
     op.probeRows = op::makeProbeRows({scene, lay, op, tree, sky, training, rays}, *probes, s.probeSamples,
                                      s.probeRowLength, uncompressed, probeSh);

@@ -26,6 +26,14 @@ struct Entry {
   float w;
 };
 
+// One step of a row's cut (RowMaker::make): the node split into its children, its error then
+// (the priority it was split at), and the row's length before it.
+struct Split {
+  uint32_t node;
+  float priority;
+  uint32_t before;
+};
+
 // Sorts entries by leaf and adds up those of one leaf.
 inline void mergeEntries(std::vector<Entry>& e) {
   std::sort(e.begin(), e.end(), [](const Entry& a, const Entry& b) { return a.leaf < b.leaf; });
@@ -52,7 +60,11 @@ class RowMaker {
   RowMaker(const BounceOperator& o, const Tree& t, const std::vector<uint8_t>& sky, const Training& tr)
       : op_(o), t_(t), sky_(sky), tr_(tr) {}
 
-  std::vector<Entry> make(const std::vector<Entry>& leaves, const glm::vec3& x, size_t maxLength) {
+  /// `splits` (if given) receives the nodes split, in order: undoing the last of them
+  /// (cutBack) gives the row this would make with a shorter maxLength.
+  std::vector<Entry> make(const std::vector<Entry>& leaves, const glm::vec3& x, size_t maxLength,
+                          std::vector<Split>* splits = nullptr) {
+    if (splits) splits->clear();
     setRow(leaves);
     std::priority_queue<Item> heap;
     for (uint32_t root : {op_.surfaceRoot, op_.skyRoot}) {
@@ -66,6 +78,7 @@ class RowMaker {
       const Item top = heap.top();
       if (isLeaf(top.node) || heap.size() + done.size() + 1 > maxLength) break;
       heap.pop();
+      if (splits) splits->push_back({top.node, top.priority, uint32_t(heap.size() + 1)});
       for (auto [child, span] : split(top.node, top.span)) {
         if (span.hi == span.lo) continue;
         const uint32_t n = descend(child, span);
@@ -165,6 +178,26 @@ class RowMaker {
   const std::vector<Entry>* e_ = nullptr;
   std::vector<double> prefix_;  // per row entry i: Σ_{j<i} w_j, then Σ_{j<i} w_j · value_k(j) for each light k
 };
+
+// Undoes the splits [keep, end) of `row` (made with them, RowMaker::make): from the last back,
+// every entry below a split node merges into that node's entry, which holds their whole weight
+// (the row's sum is kept). The row stays sorted by node.
+inline void cutBack(const Tree& t, const std::vector<Split>& splits, size_t keep, std::vector<Entry>& row) {
+  for (size_t s = splits.size(); s-- > keep;) {
+    const uint32_t n = splits[s].node, lo = t.leafLo[n], hi = t.leafHi[n];
+    double w = 0.0;
+    size_t out = 0;
+    for (const Entry& e : row) {
+      if (t.leafLo[e.leaf] >= lo && t.leafHi[e.leaf] <= hi)
+        w += double(e.w);
+      else
+        row[out++] = e;
+    }
+    row.resize(out);
+    row.push_back({n, float(w)});
+  }
+  std::sort(row.begin(), row.end(), [](const Entry& a, const Entry& b) { return a.leaf < b.leaf; });
+}
 
 // The bilinear share of direction d among the four sky bins around it (wrapping across u).
 template <class Add>
