@@ -336,7 +336,8 @@ void addOperatorOptions(CLI::App& bake, BakeArgs& a, CLI::Option* unshadowed) {
           ->capture_default_str();
   CLI::Option* clusterRow = bake.add_option("--operator-cluster-row", o.clusterRowLength,
                                             "Entries per cluster's row of the bounce operator (what its vertex sides "
-                                            "gather, and the bounces after the first), at most")
+                                            "gather, and the bounces after the first), on average over its rows (each "
+                                            "at most 255; the longer ones where a shorter cut would merge more light)")
                                 ->check(CLI::Range(1, BounceOperator::kMaxRowLength))
                                 ->capture_default_str();
   CLI::Option* gradient =

@@ -95,7 +95,7 @@ void infoGlb(const std::string& path) {
     size_t own = 0;
     for (size_t v = 0; v < op->vertexRows.rows(); ++v) own += op->vertexRows.start[v + 1] > op->vertexRows.start[v];
     std::printf(
-        "  operator    version %d: %u clusters of up to %d vertex sides, %zu cluster entries (up to %d a row), %zu "
+        "  operator    version %d: %u clusters of up to %d vertex sides, %zu cluster entries (%d a row asked for), %zu "
         "gradient entries (up to %d a row), %zu of %u vertex sides with rows of their own (%zu entries), %d x %d "
         "sky bins, %d rays per vertex side, %d bounces\n",
         op->version, op->clusters, op->clusterSize, op->clusterRows.entries(), op->clusterRowLength,

@@ -189,6 +189,92 @@ void planeOf(const std::vector<std::vector<Entry>>& raw, const std::vector<float
   weightedSum(raw, share.size(), cv, gv);
 }
 
+// A cluster's gather: each member's (raw), their area shares of the cluster and places in its
+// frame, and the cluster's own, their area-weighted mean (the plain mean without area).
+struct ClusterGather {
+  std::vector<std::vector<Entry>> raw;
+  std::vector<Entry> all;
+  std::vector<float> share;
+  std::vector<glm::vec2> st;
+  void make(const Trace& trace, const std::vector<float>& area, const std::vector<glm::vec2>& where, uint32_t c) {
+    const BounceOperator& op = trace.op;
+    const uint32_t b = op.memberStart[c], e = op.memberStart[c + 1];
+    const float clusterArea = op.leafWeight[c];
+    raw.resize(std::max<size_t>(raw.size(), e - b));
+    share.clear(), st.clear();
+    for (uint32_t i = b; i < e; ++i) {
+      const uint32_t v = op.members[i];
+      trace.gather(v, raw[i - b]);
+      share.push_back(clusterArea > 1e-30f ? area[v] / clusterArea : 1.0f / float(e - b));
+      st.push_back(where[v]);
+    }
+    weightedSum(raw, e - b, std::vector<double>(share.begin(), share.end()), all);
+  }
+};
+
+// How the cluster rows are cut (RowMaker::make): at most `length` entries, splitting while the
+// wrongest entry's error is at least `above`.
+struct RowCut {
+  size_t length;
+  float above;
+};
+
+struct RowCutInputs {
+  const Trace& trace;
+  const BounceOperator& op;
+  const Tree& tree;
+  const std::vector<uint8_t>& sky;
+  const op::Training& training;
+  const std::vector<float>& area;
+  const std::vector<glm::vec2>& st;
+};
+
+// The cut that holds the cluster rows to `perRow` entries a row on average, each at most
+// kMaxRowLength: the entries go to the rows whose cuts would otherwise merge the most light, and
+// a row that reaches few leaves leaves its share to others. Found on a sample of the clusters
+// (every k-th, at least kSampled of them, or all), each row cut to kMaxRowLength with its splits
+// recorded: a row's splits are taken in order, each at the least error of its row's splits up
+// to it, and the splits of the largest such errors are kept while the sampled rows fit perRow
+// entries each; the last one kept sets `above`. The same on every MPI rank.
+RowCut rowCut(const RowCutInputs& in, size_t perRow) {
+  constexpr uint32_t kSampled = 4096;
+  const uint32_t C = in.op.clusters, stride = std::max<uint32_t>(1, C / kSampled), n = (C + stride - 1) / stride;
+  struct Step {
+    float priority;
+    uint32_t row, grows;
+  };
+  std::vector<std::vector<Step>> steps(n);
+  std::vector<uint32_t> base(n, 0);
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 4), [&](const tbb::blocked_range<uint32_t>& r) {
+    RowMaker maker(in.op, in.tree, in.sky, in.training);
+    ClusterGather g;
+    std::vector<op::Split> splits;
+    for (uint32_t k = r.begin(); k != r.end(); ++k) {
+      const uint32_t c = k * stride;
+      g.make(in.trace, in.area, in.st, c);
+      const std::vector<Entry> row = maker.make(g.all, in.tree.center[c], BounceOperator::kMaxRowLength, &splits);
+      base[k] = splits.empty() ? uint32_t(row.size()) : splits[0].before;
+      float least = std::numeric_limits<float>::infinity();
+      for (size_t i = 0; i < splits.size(); ++i) {
+        const size_t after = i + 1 < splits.size() ? splits[i + 1].before : row.size();
+        steps[k].push_back({least = std::min(least, splits[i].priority), k, uint32_t(after - splits[i].before)});
+      }
+    }
+  });
+  std::vector<Step> all;
+  size_t total = 0;
+  for (uint32_t k = 0; k < n; ++k) total += base[k], all.insert(all.end(), steps[k].begin(), steps[k].end());
+  // Stable: a row's own steps stay in their order among equal errors.
+  std::stable_sort(all.begin(), all.end(), [](const Step& a, const Step& b) { return a.priority > b.priority; });
+  float above = std::numeric_limits<float>::infinity();
+  for (const Step& st : all) {
+    if (total + st.grows > perRow * size_t(n)) return {BounceOperator::kMaxRowLength, above};
+    total += st.grows;
+    above = st.priority;
+  }
+  return {BounceOperator::kMaxRowLength, 0.0f};
+}
+
 // MPI ranks (prt/bake/ranks.h) that build one operator together: each makes the rows of the
 // chunks of kRankChunk clusters it owns, and rank 0 receives the others' rows, the same rows
 // one process makes (each is a function of its cluster alone).
@@ -196,17 +282,15 @@ constexpr uint32_t kRankChunk = 64;
 
 struct MadeRows {
   std::vector<std::vector<Entry>>&vertex, &cluster, &gradient;
-  std::vector<std::vector<op::Split>>& clusterSplits;
 };
 
 template <class T>
 void append(std::string& out, const T& v) {
   out.append(reinterpret_cast<const char*>(&v), sizeof v);
 }
-template <class T>
-void appendRow(std::string& out, const std::vector<T>& row) {
+void appendRow(std::string& out, const std::vector<Entry>& row) {
   append(out, uint32_t(row.size()));
-  out.append(reinterpret_cast<const char*>(row.data()), row.size() * sizeof(T));
+  out.append(reinterpret_cast<const char*>(row.data()), row.size() * sizeof(Entry));
 }
 
 // Every rank's rows to rank 0, which fills its lists with the clusters it did not make.
@@ -217,7 +301,6 @@ void shareRows(const BounceOperator& op, MadeRows made) {
     if (!r.owns(c / kRankChunk)) continue;
     append(mine, c);
     appendRow(mine, made.cluster[c]);
-    appendRow(mine, made.clusterSplits[c]);
     appendRow(mine, made.gradient[2 * size_t(c)]);
     appendRow(mine, made.gradient[2 * size_t(c) + 1]);
     for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) appendRow(mine, made.vertex[op.members[i]]);
@@ -231,63 +314,24 @@ void shareRows(const BounceOperator& op, MadeRows made) {
       std::memcpy(&v, in.data() + at, sizeof v);
       at += sizeof v;
     };
-    auto takeRow = [&]<class T>(std::vector<T>& row) {
+    auto takeRow = [&](std::vector<Entry>& row) {
       uint32_t n = 0;
       take(n);
-      PRT_CHECK_LE(at + n * sizeof(T), in.size());
+      PRT_CHECK_LE(at + n * sizeof(Entry), in.size());
       row.resize(n);
-      std::memcpy(row.data(), in.data() + at, n * sizeof(T));
-      at += n * sizeof(T);
+      std::memcpy(row.data(), in.data() + at, n * sizeof(Entry));
+      at += n * sizeof(Entry);
     };
     while (at < in.size()) {
       uint32_t c = 0;
       take(c);
       PRT_CHECK_LT(c, op.clusters);
       takeRow(made.cluster[c]);
-      takeRow(made.clusterSplits[c]);
       takeRow(made.gradient[2 * size_t(c)]);
       takeRow(made.gradient[2 * size_t(c) + 1]);
       for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) takeRow(made.vertex[op.members[i]]);
     }
   }
-}
-
-// The cluster rows within `budget` entries in all. Each row was cut to kMaxRowLength entries,
-// its splits recorded; a row's splits are taken in their order, each at the least error of its
-// row's splits up to it, and of all rows' the ones of the largest such errors are kept while the
-// rows fit the budget; the rest are undone (cutBack). So entries go to the rows whose cuts would
-// otherwise merge the most light, and a row that reaches few leaves leaves its share to others.
-void fitRowBudget(const Tree& t, std::vector<std::vector<Entry>>& rows,
-                  const std::vector<std::vector<op::Split>>& splits, size_t budget) {
-  size_t total = 0;
-  for (const std::vector<Entry>& r : rows) total += r.size();
-  if (total <= budget) return;
-  struct Step {
-    float priority;
-    uint32_t row, index;
-  };
-  std::vector<Step> steps;
-  total = 0;
-  for (uint32_t r = 0; r < rows.size(); ++r) {
-    const std::vector<op::Split>& sp = splits[r];
-    total += sp.empty() ? rows[r].size() : sp[0].before;
-    float least = std::numeric_limits<float>::infinity();
-    for (uint32_t i = 0; i < sp.size(); ++i) steps.push_back({least = std::min(least, sp[i].priority), r, i});
-  }
-  std::sort(steps.begin(), steps.end(), [](const Step& a, const Step& b) {
-    return a.priority > b.priority ||
-           (a.priority == b.priority && (a.row < b.row || (a.row == b.row && a.index < b.index)));
-  });
-  std::vector<uint32_t> keep(rows.size(), 0);
-  for (const Step& st : steps) {
-    const std::vector<op::Split>& sp = splits[st.row];
-    const size_t after = st.index + 1 < sp.size() ? sp[st.index + 1].before : rows[st.row].size();
-    const size_t grows = after - sp[st.index].before;
-    if (total + grows > budget) break;
-    total += grows;
-    keep[st.row] = st.index + 1;
-  }
-  tbb::parallel_for(size_t(0), rows.size(), [&](size_t r) { op::cutBack(t, splits[r], keep[r], rows[r]); });
 }
 
 // Rows as the operator holds them: weights w · one, on the one-byte codes' values with each
@@ -350,37 +394,20 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
   const std::vector<glm::vec2> st = op::clusterCoordinates(scene, lay, op, area);
   const size_t gradientLength = uncompressed ? SIZE_MAX : size_t(s.gradientRowLength);
   const size_t vertexLength = uncompressed ? SIZE_MAX : size_t(s.rowLength);
-  // Cluster rows are cut to the longest a row may be, then to s.clusterRowLength entries a row
-  // on average (fitRowBudget).
-  const size_t clusterLength = uncompressed ? SIZE_MAX : size_t(BounceOperator::kMaxRowLength);
+  const RowCut cut = uncompressed ? RowCut{SIZE_MAX, 0.0f}
+                                  : rowCut({trace, op, tree, sky, training, area, st}, size_t(s.clusterRowLength));
   std::vector<std::vector<Entry>> vertexRows(lay.vertices), clusterRows(op.clusters), gradients(2 * op.clusters);
-  std::vector<std::vector<op::Split>> clusterSplits(uncompressed ? 0 : op.clusters);
   const bool shared = ranks().exchanges() && ranks().size() > 1;
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, op.clusters, 4), [&](const tbb::blocked_range<uint32_t>& r) {
     RowMaker maker(op, tree, sky, training);
-    std::vector<std::vector<Entry>> raw;
-    std::vector<Entry> all;
-    std::vector<float> memberShare;
-    std::vector<glm::vec2> memberSt;
+    ClusterGather g;
     std::vector<Entry> gu, gv;
     for (uint32_t c = r.begin(); c != r.end(); ++c) {
       if (shared && !ranks().owns(c / kRankChunk)) continue;
-      all.clear();
-      const uint32_t b = op.memberStart[c], e = op.memberStart[c + 1];
-      const float clusterArea = op.leafWeight[c];
-      raw.resize(std::max<size_t>(raw.size(), e - b));
-      memberShare.clear(), memberSt.clear();
-      for (uint32_t i = b; i < e; ++i) {
-        const uint32_t v = op.members[i];
-        trace.gather(v, raw[i - b]);
-        // The cluster's gather: its members' area-weighted mean (the plain mean without area).
-        const float share = clusterArea > 1e-30f ? area[v] / clusterArea : 1.0f / float(e - b);
-        memberShare.push_back(share), memberSt.push_back(st[v]);
-      }
-      weightedSum(raw, e - b, std::vector<double>(memberShare.begin(), memberShare.end()), all);
-      clusterRows[c] = maker.make(all, tree.center[c], clusterLength, uncompressed ? nullptr : &clusterSplits[c]);
+      g.make(trace, area, st, c);
+      clusterRows[c] = maker.make(g.all, tree.center[c], cut.length, nullptr, cut.above);
       if (gradientLength > 0) {
-        planeOf(raw, memberShare, memberSt, gu, gv);
+        planeOf(g.raw, g.share, g.st, gu, gv);
         gradients[2 * c] = maker.make(gu, tree.center[c], gradientLength);
         gradients[2 * c + 1] = maker.make(gv, tree.center[c], gradientLength);
       }
@@ -388,18 +415,16 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
       // A member whose own gather the cluster's light misses under the training lights (near
       // another surface, at a corner) keeps a row of its own.
       const ClusterLight light(maker, clusterRows[c], gradients[2 * c], gradients[2 * c + 1]);
-      for (uint32_t i = b; i < e; ++i) {
+      for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) {
         const uint32_t v = op.members[i];
-        if (uncompressed || light.error(maker, raw[i - b], shares.bounce[v], shares.sky[v], st[v]) >
+        if (uncompressed || light.error(maker, g.raw[i - op.memberStart[c]], shares.bounce[v], shares.sky[v], st[v]) >
                                 kOwnRowError * sideTraining.scale[v])
-          vertexRows[v] = maker.make(raw[i - b], sides[v].position, vertexLength);
+          vertexRows[v] = maker.make(g.raw[i - op.memberStart[c]], sides[v].position, vertexLength);
       }
     }
   });
-  if (shared) shareRows(op, {vertexRows, clusterRows, gradients, clusterSplits});
-  if (!uncompressed) fitRowBudget(tree, clusterRows, clusterSplits, size_t(s.clusterRowLength) * op.clusters);
-  std::vector<std::vector<op::Split>>().swap(clusterSplits);
-  storeAll(op, {vertexRows, clusterRows, gradients, clusterSplits}, gradientLength > 0, uncompressed);
+  if (shared) shareRows(op, {vertexRows, clusterRows, gradients});
+  storeAll(op, {vertexRows, clusterRows, gradients}, gradientLength > 0, uncompressed);
   if (probes && probes->probeCount() > 0)
     op.probeRows = op::makeProbeRows({scene, lay, op, tree, sky, training, rays}, *probes, s.probeSamples,
                                      s.probeRowLength, uncompressed, probeSh);

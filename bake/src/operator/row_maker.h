@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <queue>
 #include <utility>
 #include <vector>
@@ -60,10 +61,10 @@ class RowMaker {
   RowMaker(const BounceOperator& o, const Tree& t, const std::vector<uint8_t>& sky, const Training& tr)
       : op_(o), t_(t), sky_(sky), tr_(tr) {}
 
-  /// `splits` (if given) receives the nodes split, in order: undoing the last of them
-  /// (cutBack) gives the row this would make with a shorter maxLength.
+  /// `splits` (if given) receives the nodes split, in order. Splitting also stops at the first
+  /// entry whose error is below `above`.
   std::vector<Entry> make(const std::vector<Entry>& leaves, const glm::vec3& x, size_t maxLength,
-                          std::vector<Split>* splits = nullptr) {
+                          std::vector<Split>* splits = nullptr, float above = -std::numeric_limits<float>::infinity()) {
     if (splits) splits->clear();
     setRow(leaves);
     std::priority_queue<Item> heap;
@@ -76,7 +77,7 @@ class RowMaker {
     std::vector<Entry> done;
     while (!heap.empty()) {
       const Item top = heap.top();
-      if (isLeaf(top.node) || heap.size() + done.size() + 1 > maxLength) break;
+      if (isLeaf(top.node) || top.priority < above || heap.size() + done.size() + 1 > maxLength) break;
       heap.pop();
       if (splits) splits->push_back({top.node, top.priority, uint32_t(heap.size() + 1)});
       for (auto [child, span] : split(top.node, top.span)) {
@@ -178,26 +179,6 @@ class RowMaker {
   const std::vector<Entry>* e_ = nullptr;
   std::vector<double> prefix_;  // per row entry i: Σ_{j<i} w_j, then Σ_{j<i} w_j · value_k(j) for each light k
 };
-
-// Undoes the splits [keep, end) of `row` (made with them, RowMaker::make): from the last back,
-// every entry below a split node merges into that node's entry, which holds their whole weight
-// (the row's sum is kept). The row stays sorted by node.
-inline void cutBack(const Tree& t, const std::vector<Split>& splits, size_t keep, std::vector<Entry>& row) {
-  for (size_t s = splits.size(); s-- > keep;) {
-    const uint32_t n = splits[s].node, lo = t.leafLo[n], hi = t.leafHi[n];
-    double w = 0.0;
-    size_t out = 0;
-    for (const Entry& e : row) {
-      if (t.leafLo[e.leaf] >= lo && t.leafHi[e.leaf] <= hi)
-        w += double(e.w);
-      else
-        row[out++] = e;
-    }
-    row.resize(out);
-    row.push_back({n, float(w)});
-  }
-  std::sort(row.begin(), row.end(), [](const Entry& a, const Entry& b) { return a.leaf < b.leaf; });
-}
 
 // The bilinear share of direction d among the four sky bins around it (wrapping across u).
 template <class Add>

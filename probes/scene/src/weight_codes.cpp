@@ -54,9 +54,43 @@ std::pair<uint16_t, uint16_t> bracket(const std::array<uint16_t, N>& t, double x
   return {lo, hi};
 }
 
+// Which of a row's entries take their second value (b instead of a) so that the row's sum is
+// nearest `target` (an integer, the exact sum less Σ a): subset sums over the differences b − a,
+// reachable sums marked entry by entry, each with the entry that first reached it (which, taken
+// back, leads to a sum reached before that entry). Returns false (and changes nothing) when the
+// sums span more than kMaxSpan.
+constexpr int64_t kMaxSpan = 1 << 16;
+bool nearestSubset(const std::vector<int64_t>& diff, int64_t target, std::vector<bool>& useB) {
+  int64_t lo = 0, hi = 0;
+  for (int64_t d : diff) (d < 0 ? lo : hi) += d;
+  if (hi - lo > kMaxSpan) return false;
+  std::vector<int32_t> from(size_t(hi - lo + 1), -2);  // -2: not reached; -1: the empty set
+  from[size_t(-lo)] = -1;
+  for (size_t i = 0; i < diff.size(); ++i) {
+    const int64_t d = diff[i];
+    if (d == 0) continue;
+    // Sums reached before entry i, each once: walk away from the shift.
+    for (int64_t s = d > 0 ? hi : lo; d > 0 ? s >= lo + d : s <= hi + d; s += d > 0 ? -1 : 1)
+      if (from[size_t(s - lo)] == -2 && from[size_t(s - d - lo)] != -2) from[size_t(s - lo)] = int32_t(i);
+  }
+  int64_t best = 0;
+  for (int64_t s = lo; s <= hi; ++s)
+    if (from[size_t(s - lo)] != -2 && std::llabs(s - target) < std::llabs(best - target)) best = s;
+  useB.assign(diff.size(), false);
+  for (int64_t s = best; from[size_t(s - lo)] >= 0;) {
+    const int32_t i = from[size_t(s - lo)];
+    useB[size_t(i)] = true;
+    s -= diff[size_t(i)];
+  }
+  return true;
+}
+
 // Each of `scaled` (signed where `table` holds magnitudes of signed values) on the value of the
-// table just below or just above its magnitude, from the largest magnitude down, so that the sum
-// stays what it was; `exact`: each rounded to the nearest integer instead (within ±top).
+// table just below or just above its magnitude, so that the sum stays what it was: from the
+// largest magnitude down, each the one that keeps the running sum nearest; where that leaves
+// the sum off by more than a unit (a short row of coarse entries: the smallest entry's half step
+// bounds it, and the larger ones' choices may already have gone past), the choices whose sum is
+// nearest (nearestSubset). `exact`: each rounded to the nearest integer instead (within ±top).
 template <size_t N, class T>
 std::vector<T> heldValues(const std::vector<double>& scaled, const std::array<uint16_t, N>& table, double top,
                           bool exact) {
@@ -70,15 +104,26 @@ std::vector<T> heldValues(const std::vector<double>& scaled, const std::array<ui
   std::stable_sort(order.begin(), order.end(),
                    [&](size_t a, size_t b) { return std::fabs(scaled[a]) > std::fabs(scaled[b]); });
   std::vector<T> out(scaled.size(), 0);
-  double owed = 0.0;  // the exact sum so far less the held one
+  std::vector<int64_t> a(scaled.size()), diff(scaled.size());
+  double owed = 0.0, exactSum = 0.0;  // the exact sum so far less the held one; the exact sum
   for (size_t i : order) {
     const double x = std::clamp(scaled[i], -top, top);
     const double sign = x < 0.0 ? -1.0 : 1.0;
     const auto [lo, hi] = bracket(table, std::fabs(x));
-    const double a = sign * lo, b = sign * hi;
-    const double v = std::fabs(owed + x - a) < std::fabs(owed + x - b) ? a : b;
+    a[i] = int64_t(sign * lo), diff[i] = int64_t(sign * hi) - a[i];
+    const double v = std::fabs(owed + x - double(a[i])) < std::fabs(owed + x - double(a[i] + diff[i]))
+                         ? double(a[i])
+                         : double(a[i] + diff[i]);
     out[i] = T(v);
     owed += x - v;
+    exactSum += x;
+  }
+  std::vector<bool> useB;
+  if (std::fabs(owed) > 1.0) {
+    int64_t base = 0;
+    for (int64_t v : a) base += v;
+    if (nearestSubset(diff, std::llround(exactSum) - base, useB))
+      for (size_t i = 0; i < out.size(); ++i) out[i] = T(a[i] + (useB[i] ? diff[i] : 0));
   }
   return out;
 }

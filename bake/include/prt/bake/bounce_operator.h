@@ -37,7 +37,7 @@ struct OperatorSettings {
   int samples = 256;           // gather rays per vertex side: the bake's first ones
   int clusterSize = 0;         // vertex sides per cluster, at most; 0: clusterSizeFor's rule
   int rowLength = 0;           // entries of a vertex side's own row (kept where its view is not its cluster's); 0: none
-  int clusterRowLength = 96;   // entries of a cluster's row, at most
+  int clusterRowLength = 96;   // entries of a cluster's row on average (each at most 255)
   int gradientRowLength = 24;  // entries of each of a cluster's two gradient rows, at most; 0: none
   int skyWidth = 32, skyHeight = 16;  // sky bins (equirectangular)
   int samplePoints = 2;               // shadow-ray points per cluster
