@@ -5,10 +5,12 @@
 //
 //   prt_bench_operator [--baked FILE.glb] [--frames 8] [--threads 2] [--json out.json]
 //
-// FILE.glb: a scene baked with `prt bake --operator`. Without it, the bundled room
-// (scenes/cornell_open.gltf) is baked in the process with `prt bake --operator`'s defaults
-// (1024 samples, 2 bounces, 3 bands) but without refinement, which takes a few seconds and is
-// not timed.
+// FILE.glb: a scene baked by `prt bake` (which stores the operator unless --no-operator). Without
+// it, the bundled room (scenes/cornell_open.gltf) is baked in the process with `prt bake`'s
+// defaults (1024 samples, 2 bounces, 3 bands) but without refinement, which takes a few seconds:
+// the JSON's `bake` gives the surface bake's and the operator's build times (wall, the same
+// threads) and the operator's packed bytes next to the transfer's (RGB and direct part, as
+// floats). With FILE.glb it gives the operator's packed bytes and the file's size.
 // The light: scenes/env/royal_esplanade_128.hdr, turned 0° → 315° over the frames, its suns split
 // off as `prt render --env` splits them (each frame moves them, so each frame is a light
 // change). Each frame is one bake::FrameLighting::at, as in `prt render`: the rig, the shadow
@@ -19,6 +21,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <optional>
 #include <string>
@@ -47,20 +50,37 @@ using bench::Clock;
 using bench::median;
 using bench::msSince;
 
-// The bundled room as `prt bake --operator` bakes it with its defaults.
-Scene bakeRoom(int threads) {
+// The bundled room as `prt bake` bakes it with its defaults (no refinement), and what its
+// bake and its operator cost.
+Scene bakeRoom(int threads, nlohmann::json& cost) {
   Scene scene = loadScene(PRT_SOURCE_DIR "/scenes/cornell_open.gltf");
   bake::BakeSettings bs;
   bs.threads = threads;
   bs.keepLowerOrder = false;
-  bake::SurfaceTransfer t = bake::bakeSurface(scene, bs);
-  scene.transferBands = t.bands;
-  bake::storeTransfer(scene, t.perMesh, t.perMeshDirect);
-  scene.bakeRecord = bake::bakeRecord(bs, "cornell_open.gltf", "bench");
   bake::OperatorSettings os;
   os.samples = std::min(os.samples, bs.samples);
   os.threads = threads;
-  scene.bounceOperator = std::make_shared<BounceOperator>(bake::buildBounceOperator(scene, os, bs.bounces, bs.seed));
+  bs.keepGatherRays = os.samples;  // as the pipeline keeps them for the operator
+  const auto t0 = Clock::now();
+  bake::SurfaceTransfer t = bake::bakeSurface(scene, bs);
+  const double surfaceMs = msSince(t0);
+  scene.transferBands = t.bands;
+  size_t transferBytes = 0;
+  for (const auto& m : t.perMesh) transferBytes += m.size() * sizeof(glm::vec3);
+  for (const auto& m : t.perMeshDirect) transferBytes += m.size() * sizeof(float);
+  bake::storeTransfer(scene, t.perMesh, t.perMeshDirect);
+  scene.bakeRecord = bake::bakeRecord(bs, "cornell_open.gltf", "bench");
+  const auto t1 = Clock::now();
+  scene.bounceOperator = std::make_shared<BounceOperator>(
+      bake::buildBounceOperator(scene, os, bs.bounces, bs.seed, false, nullptr, nullptr, &t.gather));
+  const double operatorMs = msSince(t1);
+  const size_t operatorBytes = packOperator(*scene.bounceOperator).bytes.size();
+  cost = {{"surface_bake_ms", surfaceMs},
+          {"operator_build_ms", operatorMs},
+          {"operator_over_surface_bake", operatorMs / std::max(surfaceMs, 1e-9)},
+          {"operator_bytes", operatorBytes},
+          {"transfer_bytes", transferBytes},
+          {"operator_over_transfer", double(operatorBytes) / double(std::max<size_t>(transferBytes, 1))}};
   return scene;
 }
 
@@ -137,16 +157,22 @@ int main(int argc, char** argv) {
   int frames = 8, threads = 2;
   CLI::App app{"Bounce operator benchmark: the light update of prt render next to the SH product alone",
                "prt_bench_operator"};
-  app.add_option("--baked", bakedPath, "Scene baked with prt bake --operator (default: the bundled room, baked here)");
+  app.add_option("--baked", bakedPath,
+                 "Scene baked by prt bake with its operator (default: the bundled room, baked here)");
   app.add_option("--frames", frames, "Timed light changes")->check(CLI::Range(1, 10000))->capture_default_str();
   app.add_option("--threads", threads, "Threads (0: all cores)")->check(CLI::Range(0, 1024))->capture_default_str();
   app.add_option("--json", jsonPath, "Also write the results to this file");
   if (std::optional<int> status = bench::parseBenchOptions(app, "prt_bench_operator", argc, argv)) return *status;
   try {
-    Scene scene = bakedPath.empty() ? bakeRoom(threads) : loadScene(bakedPath);
+    nlohmann::json cost;
+    Scene scene = bakedPath.empty() ? bakeRoom(threads, cost) : loadScene(bakedPath);
     if (!scene.bounceOperator)
-      throw Error(bakedPath + ": no bounce operator in this file (bake it with prt bake --operator)");
+      throw Error(bakedPath + ": no bounce operator in this file (baked with prt bake --no-operator?)");
+    if (!bakedPath.empty())
+      cost = {{"operator_bytes", packOperator(*scene.bounceOperator).bytes.size()},
+              {"file_bytes", std::filesystem::file_size(bakedPath)}};
     nlohmann::json j = run(scene, frames, threads);
+    j["bake"] = cost;
     j["scene"] = bakedPath.empty() ? std::string("scenes/cornell_open.gltf (baked here)") : bakedPath;
     const std::string text = j.dump(2);
     std::printf("%s\n", text.c_str());
