@@ -2,11 +2,13 @@
 #include "training.h"
 
 #include <cmath>
+#include <limits>
 
 #include <tbb/parallel_for.h>
 
 #include "../surface_layout.h"
 #include "prt/bake/direct_light.h"
+#include "prt/bake/local_lights.h"
 #include "prt/light.h"
 #include "prt/math.h"
 #include "prt/sh.h"
@@ -121,16 +123,17 @@ std::vector<glm::vec2> clusterCoordinates(const Scene& scene, const Layout& lay,
 
 namespace {
 
-// Per sky bin and training disk: π (L − L̃) at 2 × 2 points of the bin.
+// Per sky bin and training light: π (L − L̃) at 2 × 2 points of the bin for a sun's disk (0 for
+// a lamp).
 void skyResidual(const Scene& scene, const BounceOperator& op, std::vector<float>& out) {
   constexpr int K = kTrainingLights;
   const int bands = scene.transferBands > 0 ? scene.transferBands : 1;
-  const std::vector<glm::dvec3> disks = spread(K, 1.0);
+  const std::vector<glm::dvec3> disks = spread(kTrainingSuns, 1.0);
   const double piL = kDiskIrradiance / (std::sin(kDiskRadius) * std::sin(kDiskRadius));
   const double cosR = std::cos(kDiskRadius);
   const int W = op.skyWidth, H = op.skyHeight;
   out.assign(op.skyBins() * K, 0.0f);
-  for (int k = 0; k < K; ++k) {
+  for (int k = 0; k < kTrainingSuns; ++k) {
     const sh::ShRgb band = projectDiskRadiance(bands, disks[size_t(k)], kDiskRadius, glm::dvec3(piL));
     for (size_t s = 0; s < op.skyBins(); ++s) {
       const int x = int(op.skyBin[s]) % W, y = int(op.skyBin[s]) / W;
@@ -145,6 +148,43 @@ void skyResidual(const Scene& scene, const BounceOperator& op, std::vector<float
   }
 }
 
+// The training lamps: point lights in front of surfaces spread over the scene, where a level's
+// lamps hang. From the vertex side nearest the scene's centre, then each time the side farthest
+// from those chosen, each lamp stands off its side along the side's normal, half way to what
+// the normal meets (at most a tenth of the scene's extent), so that it lights the room the side
+// faces. Sides whose normal meets something within a thousandth of the extent are passed over.
+std::vector<LocalLight> trainingLamps(const Layout& lay, const RayScene& rays, const std::vector<glm::vec3>& origins,
+                                      const std::vector<glm::vec3>& normals) {
+  const size_t V = lay.vertices;
+  const float extent = rays.sceneExtent(), tnear = tnearFor(extent);
+  glm::dvec3 centre(0.0);
+  for (size_t v = 0; v < V; ++v) centre += glm::dvec3(origins[v]) / double(V);
+  size_t pick = 0;
+  for (size_t v = 1; v < V; ++v)
+    if (glm::length(glm::dvec3(origins[v]) - centre) < glm::length(glm::dvec3(origins[pick]) - centre)) pick = v;
+  std::vector<float> nearest(V, std::numeric_limits<float>::infinity());
+  std::vector<LocalLight> lamps;
+  for (size_t tries = 0; lamps.size() < size_t(kTrainingLamps) && tries < 4 * size_t(kTrainingLamps); ++tries) {
+    if (tries > 0) {
+      for (size_t v = 0; v < V; ++v)
+        if (nearest[v] > nearest[pick]) pick = v;  // the farthest from those chosen
+    }
+    for (size_t v = 0; v < V; ++v) nearest[v] = std::min(nearest[v], glm::length(origins[v] - origins[pick]));
+    Ray r;
+    r.start(origins[pick], normals[pick], tnear, std::numeric_limits<float>::infinity());
+    rays.intersect(&r, 1);
+    const float free = r.hit() ? r.tfar : std::numeric_limits<float>::infinity();
+    if (!(free > 1e-3f * extent)) continue;
+    LocalLight lamp;
+    lamp.type = LocalLight::Type::Point;
+    lamp.label = "training lamp";
+    lamp.position = glm::dvec3(origins[pick] + normals[pick] * std::min(0.5f * free, 0.1f * extent));
+    lamp.intensity = glm::dvec3(1.0);
+    lamps.push_back(lamp);
+  }
+  return lamps;
+}
+
 }  // namespace
 
 SideTraining trainSides(const Scene& scene, const Layout& lay, const RayScene& rays,
@@ -157,10 +197,11 @@ SideTraining trainSides(const Scene& scene, const Layout& lay, const RayScene& r
   for (size_t v = 0; v < V; ++v) normals[v] = normalOf(scene, lay, v);
   t.residual.assign(V * K, 0.0f);
   t.scale.assign(V, 0.0f);
-  const std::vector<glm::dvec3> suns = spread(K, 0.0);
+  const std::vector<glm::dvec3> suns = spread(kTrainingSuns, 0.0);
   ShadowSettings ss;
   ss.samples = 1;
-  for (int k = 0; k < K; ++k) {
+  std::vector<double> sunLight(V, 0.0);  // Σ over the suns of E⁰ (luminance)
+  for (int k = 0; k < kTrainingSuns; ++k) {
     DirectLight sun;
     sun.direction = suns[size_t(k)];
     sun.irradiance = glm::dvec3(1.0);
@@ -168,8 +209,24 @@ SideTraining trainSides(const Scene& scene, const Layout& lay, const RayScene& r
     const sh::ShRgb l = sun.project(bands);
     tbb::parallel_for(size_t(0), V, [&](size_t v) {
       const float direct = luminance(e0[v]);
+      sunLight[v] += direct;
       t.residual[v * K + size_t(k)] = direct - luminance(shDirect(scene, lay, v, l));
       t.scale[v] += (direct + std::max(0.0f, luminance(shBounced(scene, lay, v, l)))) / float(K);
+    });
+  }
+  // Each lamp scaled so that its vertex sides' mean irradiance is the mean a training sun gives.
+  const std::vector<LocalLight> lamps = trainingLamps(lay, rays, origins, normals);
+  double sunMean = 0.0;
+  for (size_t v = 0; v < V; ++v) sunMean += sunLight[v] / (double(V) * kTrainingSuns);
+  for (size_t k = 0; k < lamps.size(); ++k) {
+    const std::vector<glm::vec3> e0 = sideValues(scene, lay, shadowedLocalIrradiance(scene, rays, {lamps[k]}, ss));
+    double mean = 0.0;
+    for (size_t v = 0; v < V; ++v) mean += double(luminance(e0[v])) / double(V);
+    const float scale = mean > 0.0 ? float(sunMean / mean) : 0.0f;
+    tbb::parallel_for(size_t(0), V, [&](size_t v) {
+      const float e = scale * luminance(e0[v]);
+      t.residual[v * K + size_t(kTrainingSuns) + k] = e;
+      t.scale[v] += e / float(K);
     });
   }
   const sh::ShRgb ambient = projectUniform(bands, glm::dvec3(kAmbientIrradiance / kPi));

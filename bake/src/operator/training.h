@@ -40,13 +40,16 @@ TransferShares transferShares(const Scene& scene, const Layout& lay, const Bounc
 std::vector<glm::vec2> clusterCoordinates(const Scene& scene, const Layout& lay, const BounceOperator& op,
                                           const std::vector<float>& area);
 
-/// The training lights: kLights suns of unit irradiance from directions spread over the sphere,
-/// each with a bright disk in the sky. What goes through the operator is what the SH transfer
-/// does not carry (docs/lights.md, "The bounce operator"), so a node's value is that residual:
-/// on a surface node the radiosity ρ (E⁰ − t⁰ · sun's SH), E⁰ the sun's shadowed light (one
-/// shadow ray per vertex side); on a sky node the disk's π (L − L̃), L̃ its band-limited
-/// part. Inner nodes hold the weighted mean of their leaves, as at a light change.
-constexpr int kTrainingLights = 24;
+/// The training lights: kTrainingSuns suns of unit irradiance from directions spread over the
+/// sphere, each with a bright disk in the sky, and kTrainingLamps point lights inside the scene
+/// (trainSides). What goes through the operator is what the SH transfer does not carry
+/// (docs/lights.md, "The bounce operator"), so a node's value is that residual: on a surface node
+/// the radiosity ρ (E⁰ − t⁰ · sun's SH), E⁰ the sun's shadowed light (one shadow ray per vertex
+/// side), or a lamp's ρ E⁰ (a lamp has no SH part); on a sky node the disk's π (L − L̃), L̃ its
+/// band-limited part (0 for a lamp). Inner nodes hold the weighted mean of their leaves, as at a
+/// light change.
+constexpr int kTrainingSuns = 24, kTrainingLamps = 8;
+constexpr int kTrainingLights = kTrainingSuns + kTrainingLamps;
 
 /// Per vertex side, under the training suns.
 struct SideTraining {
