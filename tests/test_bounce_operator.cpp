@@ -122,9 +122,9 @@ Spread spread(const std::vector<glm::vec3>& a, const std::vector<glm::vec3>& r) 
 // sharp lit patch, the hard case. The stored one bounces the sun's SH through the bake's own
 // transfer and only the rest through the operator (a control variate), as `prt relight` does.
 // What it gives up is where within a cluster and within a merged node the light lands. Measured
-// over the lit sides: median 2.6%, p95 27% of the mean bounce; the tail is the slab's underside,
+// over the lit sides: median 2.5%, p95 27% of the mean bounce; the tail is the slab's underside,
 // 0.1 above the floor in the shadow it casts, where the bounce changes across a few vertices.
-// Without the control variate: median 4.4%, p95 39%. The bounds (4%, 33%) hold the measured
+// Without the control variate: median 4.5%, p95 38%. The bounds (4%, 33%) hold the measured
 // accuracy and catch a lost control variate, a row that loses weight or lands it on the wrong
 // node. With rows of their own asked for, some vertex sides (near the slab, where the walls meet
 // it) keep one, and not many.
@@ -188,7 +188,7 @@ TEST(BounceOperator, CompressedStaysNearTheUncompressed) {
 // 255 (fitRowBudget). A row's cut back keeps its weight, so every cluster row of the stored
 // operator gathers what the same cluster's row cut to 255 entries does (its weights' sum, to the
 // codes' rounding: a row of a few coarse entries, each on the code just below or above it, may
-// have no choice within a unit of its sum; measured 0.35% at worst, 0.004% in the mean); the rows
+// have no choice within a unit of its sum; measured 0.28% at worst, 0.003% in the mean); the rows
 // whose cuts would merge the most light are longer than the average, and the others shorter.
 TEST(BounceOperator, ClusterRowsShareOneBudget) {
   Scene s = test::makeColouredRoom(24, 48);
@@ -250,11 +250,14 @@ TEST(BounceOperator, SamplePointsStandForTheirShareOfTheCluster) {
 }
 
 // Inside a closed box every ray hits a wall: with E⁰ = 1 on every inner side, each bounce
-// multiplies by ρ exactly, so E_b = Σ_{k=1..B} ρ^k at every inner side, whatever the clusters
-// and rows: weights sum to 1 per row (a bake keeps each row's sum as it puts the weights on the
-// one-byte codes, to a unit of 1/65535 where the codes allow it), and a gradient row's to 0.
-// Measured 7·10⁻⁵ of the sum with and without the gradient rows; a lost factor (ρ, a bounce: ρ⁵
-// is 6% of the sum) is far outside the bound.
+// multiplies by ρ exactly, so E_b = Σ_{k=1..B} ρ^k at every inner side. Through the cluster rows
+// that holds whatever the clusters and rows: weights sum to 1 per row (a bake keeps each row's
+// sum as it puts the weights on the one-byte codes, to a unit of 1/65535 where the codes allow
+// it); measured 2·10⁻⁵ of the sum. A gradient row's weights sum to 0, but its 24 entries merge
+// far leaves into coarse nodes, and a node that holds one wall's inner side and the opposite
+// wall's outer side (the same facing, here lit and dark) has their mean, so a side's gradient
+// terms no longer cancel exactly: measured 0.34% of the sum. A lost factor (ρ, a bounce: ρ⁵ is
+// 6% of the sum) is far outside either bound.
 TEST(BounceOperator, ClosedBoxSumsTheBounceSeries) {
   const float rho = 0.6f;
   Scene s = test::makeScene({test::makeSlab({-1, -1, -1}, {1, 1, 1}, 0.25f)}, rho);
@@ -278,7 +281,7 @@ TEST(BounceOperator, ClosedBoxSumsTheBounceSeries) {
     for (const glm::vec3& v : got.back[0]) worst = std::max(worst, std::fabs(double(v.g) - expect));
     std::printf("[ measured ] closed box, gradient rows of %d: expected %.6f, worst deviation %.2g\n", gradient, expect,
                 worst);
-    EXPECT_LT(worst, 1e-3 * expect);
+    EXPECT_LT(worst, (gradient == 0 ? 1e-3 : 5e-3) * expect);
     // The outer sides see only the sky: nothing bounces onto them.
     for (const glm::vec3& v : got.front[0]) EXPECT_EQ(v.g, 0.0f);
   }

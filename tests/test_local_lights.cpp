@@ -371,7 +371,7 @@ double meanIrradiance(const MeshInstance& m, const std::vector<glm::vec3>& e) {
 // bounces by the gather's noise averaged over 1350 vertices (the total measured 0.7% low
 // through the traced gather); 1.5% bounds it. The operator's rows (96 entries) stand for far
 // clusters by their nodes' area-weighted mean, where the lamp's light falls off with distance
-// and angle: measured 1.9% low with its default clusters of 4 (0.7% with clusters of 8, 0.3%
+// and angle: measured 1.8% low with its default clusters of 4 (0.7% with clusters of 8, 0.3%
 // with rows of 255), held to 3%. A missing or extra bounce is 20% off (ρ = 0.8).
 TEST(BakeLocalLight, ClosedBoxLitByALampMatchesTheBounceSeries) {
   const float rho = 0.8f;

@@ -35,6 +35,8 @@ constexpr double kDiskRadius = 10.0 * kPi / 180.0;
 constexpr double kDiskIrradiance = 0.25;
 // The dim uniform sky under which a receiver's light is judged: irradiance 0.25 unoccluded.
 constexpr double kAmbientIrradiance = 0.25;
+// A training lamp's mean irradiance over the vertex sides.
+constexpr double kLampMeanIrradiance = 0.25;
 
 }  // namespace
 
@@ -200,7 +202,6 @@ SideTraining trainSides(const Scene& scene, const Layout& lay, const RayScene& r
   const std::vector<glm::dvec3> suns = spread(kTrainingSuns, 0.0);
   ShadowSettings ss;
   ss.samples = 1;
-  std::vector<double> sunLight(V, 0.0);  // Σ over the suns of E⁰ (luminance)
   for (int k = 0; k < kTrainingSuns; ++k) {
     DirectLight sun;
     sun.direction = suns[size_t(k)];
@@ -209,22 +210,20 @@ SideTraining trainSides(const Scene& scene, const Layout& lay, const RayScene& r
     const sh::ShRgb l = sun.project(bands);
     tbb::parallel_for(size_t(0), V, [&](size_t v) {
       const float direct = luminance(e0[v]);
-      sunLight[v] += direct;
       t.residual[v * K + size_t(k)] = direct - luminance(shDirect(scene, lay, v, l));
       t.scale[v] += (direct + std::max(0.0f, luminance(shBounced(scene, lay, v, l)))) / float(K);
     });
   }
-  // Each lamp scaled so that its vertex sides' mean irradiance is the mean a training sun gives.
+  // Each lamp scaled so that its vertex sides' mean irradiance is a quarter (a training sun's
+  // unit irradiance over sides facing every way; in a closed level no sun lights anything).
   const std::vector<LocalLight> lamps = trainingLamps(lay, rays, origins, normals);
-  double sunMean = 0.0;
-  for (size_t v = 0; v < V; ++v) sunMean += sunLight[v] / (double(V) * kTrainingSuns);
   for (size_t k = 0; k < lamps.size(); ++k) {
     const std::vector<glm::vec3> e0 = sideValues(scene, lay, shadowedLocalIrradiance(scene, rays, {lamps[k]}, ss));
     double mean = 0.0;
     for (size_t v = 0; v < V; ++v) mean += double(luminance(e0[v])) / double(V);
-    const float scale = mean > 0.0 ? float(sunMean / mean) : 0.0f;
+    const float scale = mean > 0.0 ? float(kLampMeanIrradiance / mean) : 0.0f;
     tbb::parallel_for(size_t(0), V, [&](size_t v) {
-      const float e = scale * luminance(e0[v]);
+      const float e = std::min(scale * luminance(e0[v]), float(4.0 * kLampMeanIrradiance));
       t.residual[v * K + size_t(kTrainingSuns) + k] = e;
       t.scale[v] += e / float(K);
     });

@@ -48,7 +48,7 @@ std::vector<glm::vec2> clusterCoordinates(const Scene& scene, const Layout& lay,
 /// side), or a lamp's ρ E⁰ (a lamp has no SH part); on a sky node the disk's π (L − L̃), L̃ its
 /// band-limited part (0 for a lamp). Inner nodes hold the weighted mean of their leaves, as at a
 /// light change.
-constexpr int kTrainingSuns = 24, kTrainingLamps = 8;
+constexpr int kTrainingSuns = 24, kTrainingLamps = 16;
 constexpr int kTrainingLights = kTrainingSuns + kTrainingLamps;
 
 /// Per vertex side, under the training suns.
