@@ -4,11 +4,11 @@
 #include <cmath>
 #include <limits>
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "../surface_layout.h"
 #include "prt/bake/direct_light.h"
-#include "prt/bake/local_lights.h"
 #include "prt/light.h"
 #include "prt/math.h"
 #include "prt/sh.h"
@@ -150,13 +150,13 @@ void skyResidual(const Scene& scene, const BounceOperator& op, std::vector<float
   }
 }
 
-// The training lamps: point lights in front of surfaces spread over the scene, where a level's
+// The training lamps' positions: point lights in front of surfaces spread over the scene, where a level's
 // lamps hang. From the vertex side nearest the scene's centre, then each time the side farthest
 // from those chosen, each lamp stands off its side along the side's normal, half way to what
 // the normal meets (at most a tenth of the scene's extent), so that it lights the room the side
 // faces. Sides whose normal meets something within a thousandth of the extent are passed over.
-std::vector<LocalLight> trainingLamps(const Layout& lay, const RayScene& rays, const std::vector<glm::vec3>& origins,
-                                      const std::vector<glm::vec3>& normals) {
+std::vector<glm::vec3> trainingLamps(const Layout& lay, const RayScene& rays, const std::vector<glm::vec3>& origins,
+                                     const std::vector<glm::vec3>& normals) {
   const size_t V = lay.vertices;
   const float extent = rays.sceneExtent(), tnear = tnearFor(extent);
   glm::dvec3 centre(0.0);
@@ -165,7 +165,7 @@ std::vector<LocalLight> trainingLamps(const Layout& lay, const RayScene& rays, c
   for (size_t v = 1; v < V; ++v)
     if (glm::length(glm::dvec3(origins[v]) - centre) < glm::length(glm::dvec3(origins[pick]) - centre)) pick = v;
   std::vector<float> nearest(V, std::numeric_limits<float>::infinity());
-  std::vector<LocalLight> lamps;
+  std::vector<glm::vec3> lamps;
   for (size_t tries = 0; lamps.size() < size_t(kTrainingLamps) && tries < 4 * size_t(kTrainingLamps); ++tries) {
     if (tries > 0) {
       for (size_t v = 0; v < V; ++v)
@@ -177,14 +177,45 @@ std::vector<LocalLight> trainingLamps(const Layout& lay, const RayScene& rays, c
     rays.intersect(&r, 1);
     const float free = r.hit() ? r.tfar : std::numeric_limits<float>::infinity();
     if (!(free > 1e-3f * extent)) continue;
-    LocalLight lamp;
-    lamp.type = LocalLight::Type::Point;
-    lamp.label = "training lamp";
-    lamp.position = glm::dvec3(origins[pick] + normals[pick] * std::min(0.5f * free, 0.1f * extent));
-    lamp.intensity = glm::dvec3(1.0);
-    lamps.push_back(lamp);
+    lamps.push_back(origins[pick] + normals[pick] * std::min(0.5f * free, 0.1f * extent));
   }
   return lamps;
+}
+
+// Per vertex side and lamp (side-major): a lamp of unit intensity's irradiance cos θ / d² at
+// the side, 0 where something stands between them: one shadow ray per side and lamp, in streams.
+std::vector<float> lampIrradiance(const RayScene& rays, const std::vector<glm::vec3>& lamps,
+                                  const std::vector<glm::vec3>& origins, const std::vector<glm::vec3>& normals) {
+  constexpr size_t kStream = 256;
+  const size_t L = lamps.size();
+  std::vector<float> out(origins.size() * L, 0.0f);
+  const float tnear = tnearFor(rays.sceneExtent());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, origins.size(), kStream), [&](const tbb::blocked_range<size_t>& r) {
+    alignas(64) Ray batch[kStream];
+    size_t who[kStream];
+    float value[kStream];
+    for (size_t k = 0; k < L; ++k) {
+      const glm::vec3 at = lamps[k];
+      size_t used = 0;
+      auto flush = [&] {
+        rays.occluded(batch, used);
+        for (size_t q = 0; q < used; ++q)
+          if (!batch[q].occludedHit()) out[who[q] * L + k] = value[q];
+        used = 0;
+      };
+      for (size_t v = r.begin(); v < r.end(); ++v) {
+        const glm::vec3 d = at - origins[v];
+        const float d2 = glm::dot(d, d), cosine = glm::dot(normals[v], d);
+        if (!(d2 > 0.0f) || cosine <= 0.0f) continue;
+        const float dist = std::sqrt(d2);
+        batch[used].start(origins[v], d / dist, tnear, dist * (1.0f - 1e-4f));
+        who[used] = v, value[used] = cosine / (d2 * dist);
+        if (++used == kStream) flush();
+      }
+      flush();
+    }
+  });
+  return out;
 }
 
 }  // namespace
@@ -216,14 +247,14 @@ SideTraining trainSides(const Scene& scene, const Layout& lay, const RayScene& r
   }
   // Each lamp scaled so that its vertex sides' mean irradiance is a quarter (a training sun's
   // unit irradiance over sides facing every way; in a closed level no sun lights anything).
-  const std::vector<LocalLight> lamps = trainingLamps(lay, rays, origins, normals);
+  const std::vector<glm::vec3> lamps = trainingLamps(lay, rays, origins, normals);
+  const std::vector<float> lit = lampIrradiance(rays, lamps, origins, normals);
   for (size_t k = 0; k < lamps.size(); ++k) {
-    const std::vector<glm::vec3> e0 = sideValues(scene, lay, shadowedLocalIrradiance(scene, rays, {lamps[k]}, ss));
     double mean = 0.0;
-    for (size_t v = 0; v < V; ++v) mean += double(luminance(e0[v])) / double(V);
+    for (size_t v = 0; v < V; ++v) mean += double(lit[v * lamps.size() + k]) / double(V);
     const float scale = mean > 0.0 ? float(kLampMeanIrradiance / mean) : 0.0f;
     tbb::parallel_for(size_t(0), V, [&](size_t v) {
-      const float e = std::min(scale * luminance(e0[v]), float(4.0 * kLampMeanIrradiance));
+      const float e = std::min(scale * lit[v * lamps.size() + k], float(4.0 * kLampMeanIrradiance));
       t.residual[v * K + size_t(kTrainingSuns) + k] = e;
       t.scale[v] += e / float(K);
     });
