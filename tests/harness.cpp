@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cerrno>
@@ -212,6 +213,20 @@ std::string base64(std::string_view in) {
     out += i + 2 < in.size() ? digits[n & 63] : '=';
   }
   return out;
+}
+
+std::string planeWithLamp(const std::filesystem::path& dir, double candela) {
+  namespace fs = std::filesystem;
+  fs::copy_file(sourcePath("scenes/plane.bin"), dir / "plane.bin", fs::copy_options::overwrite_existing);
+  nlohmann::json j = nlohmann::json::parse(std::ifstream(sourcePath("scenes/plane.gltf")));
+  j["extensionsUsed"] = {"KHR_lights_punctual"};
+  j["extensions"]["KHR_lights_punctual"]["lights"] = {{{"name", "Lamp"}, {"type", "point"}, {"intensity", candela}}};
+  j["nodes"].push_back(
+      {{"name", "Lamp"}, {"translation", {0.0, 1.0, 0.0}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+  j["scenes"][0]["nodes"].push_back(int(j["nodes"].size()) - 1);
+  const fs::path out = dir / "plane_lamp.gltf";
+  std::ofstream(out) << j.dump();
+  return out.string();
 }
 
 }  // namespace prt::test

@@ -109,6 +109,11 @@ class TempDir {
   std::filesystem::path path_;
 };
 
+/// scenes/plane.gltf (2 m × 2 m at y = 0 facing +Y, albedo 0.8) with a KHR_lights_punctual point
+/// light 'Lamp' of `candela` 1 m above its centre, written into `dir` (with its buffer) as
+/// plane_lamp.gltf; returns its path.
+std::string planeWithLamp(const std::filesystem::path& dir, double candela);
+
 /// The whole content of a file as bytes ("" when it cannot be read).
 std::string fileBytes(const std::filesystem::path& path);
 

@@ -917,18 +917,6 @@ TEST(CliRender, SunIsLitPerPixelAndNamedInTheSummary) {
 }
 
 // The bundled plane with a KHR_lights_punctual point light of `candela` 1 m above its centre.
-std::string planeWithLamp(const fs::path& dir, double candela) {
-  fs::copy_file(source("scenes/plane.bin"), dir / "plane.bin", fs::copy_options::overwrite_existing);
-  nlohmann::json j = nlohmann::json::parse(std::ifstream(source("scenes/plane.gltf")));
-  j["extensionsUsed"] = {"KHR_lights_punctual"};
-  j["extensions"]["KHR_lights_punctual"]["lights"] = {{{"name", "Lamp"}, {"type", "point"}, {"intensity", candela}}};
-  j["nodes"].push_back(
-      {{"name", "Lamp"}, {"translation", {0.0, 1.0, 0.0}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
-  j["scenes"][0]["nodes"].push_back(int(j["nodes"].size()) - 1);
-  const fs::path out = dir / "plane_lamp.gltf";
-  std::ofstream(out) << j.dump();
-  return out.string();
-}
 
 // `prt render` lights a scene with its own point light by default, per pixel, and needs no other
 // light: the plane's centre under a lamp of 3 cd 1 m above it is ρ/π · I / h² (albedo 0.8: 0.764;
@@ -942,7 +930,7 @@ std::string planeWithLamp(const fs::path& dir, double candela) {
 TEST(CliRender, TheScenesOwnLampLightsItPerPixel) {
   const TempDir tmp("lamp");
   const fs::path& d = tmp.path();
-  const std::string glb = bake(planeWithLamp(d, 3.0), d, "plane_lamp");
+  const std::string glb = bake(test::planeWithLamp(d, 3.0), d, "plane_lamp");
   const fs::path out = d / "lamp.exr";
   const std::vector<std::string> view = {"--size",      "64x48", "--orbit-elevation", "89",  "--orbit-distance", "3",
                                          "--orbit-fov", "10",    "--exr-compression", "none"};
@@ -975,7 +963,7 @@ TEST(CliRender, TheScenesOwnLampLightsItPerPixel) {
 TEST(CliRender, TheSummaryGivesTheLampsBounceCost) {
   const TempDir tmp("lampbounce");
   const fs::path& d = tmp.path();
-  const std::string scene = planeWithLamp(d, 3.0);
+  const std::string scene = test::planeWithLamp(d, 3.0);
   for (const bool withOperator : {true, false}) {
     const std::string glb = (d / (withOperator ? "op.glb" : "traced.glb")).string();
     Args bakeArgs = {"bake", scene, "-o", glb, "--samples", "16", "--bounces", "1", "--no-refine", "-q"};

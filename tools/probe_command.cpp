@@ -16,6 +16,7 @@
 #include "prt/atomic_file.h"
 #include "prt/bake/bounce_operator.h"
 #include "prt/bake/frame_lighting.h"
+#include "prt/bake/local_lights.h"
 #include "prt/error.h"
 #include "prt/probe_grid.h"
 #include "prt/relight.h"
@@ -37,15 +38,24 @@ struct ProbeQuery {
   const sh::ShRgb& light;
   const bake::PointShadows* shadowRays = nullptr;  // the baked scene, built once per command
   const std::vector<DirectLight>* direct = nullptr;
+  const std::vector<LocalLight>* local = nullptr;  // the lights inside the scene
   bake::ShadowSettings shadows;
   sh::ShRgb radiance(const glm::vec3& x, const glm::vec3* n, ProbeCover& cover) const {
     return receiverRadiance(grid, relit, light, x, n, &cover);
   }
-  bool traced() const { return shadowRays && direct && !direct->empty(); }
-  /// Σ_k E_k c_k(n) s_k(x) at each point (zero without traced direct lights).
+  bool tracedSuns() const { return shadowRays && direct && !direct->empty(); }
+  bool tracedLocal() const { return shadowRays && local && !local->empty(); }
+  bool traced() const { return tracedSuns() || tracedLocal(); }
+  /// Σ_k E_k c_k(n) s_k(x) at each point, the direct lights' and the lights inside the scene's
+  /// (zero without traced lights).
   std::vector<glm::vec3> directIrradiance(const std::vector<glm::vec3>& x, const std::vector<glm::vec3>& n) const {
-    if (!traced()) return std::vector<glm::vec3>(x.size(), glm::vec3(0.0f));
-    return shadowRays->irradiance(x, n, *direct, shadows);
+    std::vector<glm::vec3> e(x.size(), glm::vec3(0.0f));
+    if (tracedSuns()) e = shadowRays->irradiance(x, n, *direct, shadows);
+    if (tracedLocal()) {
+      const std::vector<glm::vec3> l = shadowRays->irradiance(x, n, *local, shadows);
+      for (size_t i = 0; i < e.size(); ++i) e[i] += l[i];
+    }
+    return e;
   }
 };
 
@@ -80,7 +90,19 @@ void probeAt(const ProbeArgs& a, const ProbeQuery& q) {
   j["probes"] = probes;
   // The unoccluded light's share of radiance_sh: 1 outside, 0 within the domain (docs/probes.md).
   j["light_share"] = w.count == 0 ? 1.0f : w.fade;
-  if (q.traced()) {  // each direct light's visible share for a surface facing it
+  if (q.tracedLocal()) {  // each light inside the scene, and its light for the normal given
+    nlohmann::json lights = nlohmann::json::array();
+    for (const LocalLight& l : *q.local) {
+      nlohmann::json one = {{"label", l.label}};
+      if (np) {
+        const glm::vec3 e = q.shadowRays->irradiance({x}, {n}, std::vector<LocalLight>{l}, q.shadows)[0];
+        one["irradiance"] = {e.r, e.g, e.b};
+      }
+      lights.push_back(one);
+    }
+    j["scene_lights"] = lights;
+  }
+  if (q.tracedSuns()) {  // each direct light's visible share for a surface facing it
     nlohmann::json lights = nlohmann::json::array();
     for (const DirectLight& l : *q.direct) {
       const glm::vec3 d(l.direction);
@@ -176,29 +198,21 @@ std::string probePointsCsv(const std::string& path, const ProbeQuery& q) {
   return out;
 }
 
-// The probes' bounced light through the bake's operator (docs/lights.md, "Probes through the
-// operator"), added to `relit`: with the direct lights split off (`split`), the part of their
-// light SH does not carry, and the sky detail, both after every bounce. Returns a note to print
-// when the operator has no rows for probes (the probes then get only what their SH carries).
-std::string bounceThroughOperator(const ProbeArgs& a, const LightRig& rig, const Scene& scene, const ProbeGrid& grid,
-                                  bool split, std::vector<glm::vec3>& relit) {
+// How a query with the baked scene lights it (bake::FrameLighting, as `prt render` does): the
+// rig's lights with the scene's own (its directional lights as suns, its lamps and emissive
+// surfaces as lights inside the scene), and the bounces of the lights SH does not carry and the
+// sky detail through the bake's operator where it has rows for this grid (docs/lights.md,
+// "Probes through the operator"); without such rows nothing is gathered.
+bake::FrameLightingSettings probeLighting(const ProbeArgs& a, const Scene& scene, const ProbeGrid& grid) {
+  bake::FrameLightingSettings s = frameLightingSettings(a.light, GatherOptions{});
+  s.sceneLights = !a.noSceneLights;
+  s.threads = a.threads;
+  s.shadowSamples = a.shadowSamples;
   const BounceOperator* op = scene.bounceOperator.get();
-  if (!op) return {};
-  if (!op->probeRows.present())
-    return cat("prt probe: note: ", a.scene,
-               " has no probe rows in its bounce operator (baked without --probes, or by an older prt): the probes "
-               "get only the bounced light their SH carries");
-  bake::checkProbeRows(*op, grid, cat(a.scene, " (with ", a.file, ")"));
-  const RigLighting l = lightingAt(rig, a.light, a.light.frame, scene.transferBands);
-  // The sky detail needs a sky: a map, a uniform light or a disk; suns alone have none.
-  const bool anySky = std::any_of(rig.lights.begin(), rig.lights.end(),
-                                  [](const RigLight& r) { return r.type != RigLight::Type::Sun; });
-  const RigBackground sky = anySky ? rig.shRadiance(a.light.frame) : RigBackground{};
-  bake::OperatorLighting through(scene, *op, true, a.threads);
-  through.light(split ? l.direct : std::vector<DirectLight>{}, split ? &l.directSh : nullptr, anySky ? &sky : nullptr,
-                l.sh);
-  bake::addProbeBounce(*op, grid, through.nodeValues(), relit);
-  return {};
+  const bool rows = op && op->probeRows.present() && grid.hasDirect();
+  if (rows) bake::checkProbeRows(*op, grid, cat(a.scene, " (with ", a.file, ")"));
+  if (!rows) s.gatherSamples = 0;
+  return s;
 }
 
 }  // namespace
@@ -214,11 +228,17 @@ void addProbe(CLI::App& cmd, ProbeArgs& a) {
   CLI::Option* points = cmd.add_option("--points", a.points, "CSV of points with header x,y,z,nx,ny,nz");
   CLI::Option* output = cmd.add_option("-o,--output", a.output, "Output CSV for --points (adds E_r,E_g,E_b)");
   addLightOptions(cmd, a.light);
-  cmd.add_option("--scene", a.scene,
-                 "The baked scene (.glb) of the grid: direct lights (suns, small disks) are then traced at each "
-                 "point with their shadows and added to the irradiance, the probes giving the sky and bounced light "
-                 "(through the bake's bounce operator where it has rows for this grid); without it they go through "
-                 "the probes' SH, band-limited");
+  CLI::Option* sceneFile =
+      cmd.add_option("--scene", a.scene,
+                     "The baked scene (.glb) of the grid: direct lights (suns, small disks) and the scene's own lights "
+                     "(lamps, emissive surfaces) are then traced at each point with their shadows and added to the "
+                     "irradiance, the probes giving the sky and bounced light (through the bake's bounce operator "
+                     "where it has rows for this grid); without it the direct lights go through the probes' SH, "
+                     "band-limited");
+  cmd.add_flag("--no-scene-lights", a.noSceneLights,
+               "With --scene: leave out the scene's own point, spot and directional lights and emissive surfaces, "
+               "which light it by default (traced at each point, their bounces through the bake's operator)")
+      ->needs(sceneFile);
   cmd.add_option("--shadow-samples", a.shadowSamples, "With --scene: shadow rays per direct light and point")
       ->check(CLI::Range(1, 65536))
       ->capture_default_str();
@@ -238,10 +258,22 @@ int runProbe(const ProbeArgs& a) {
   std::optional<AtomicFile> outFile;
   if (!a.output.empty()) outFile.emplace(a.output);
   const ProbeGrid grid = readProbeGrid(a.file);
-  const LightRig rig = buildStillRig(a.light);
-  RigLighting lighting = lightingAt(rig, a.light, a.light.frame, grid.bands);
   std::optional<Scene> scene;
-  if (!a.scene.empty()) scene = loadScene(a.scene);
+  if (!a.scene.empty()) {
+    LoadOptions load;
+    load.shadingTextures = !a.noSceneLights;  // the emissive surfaces' textures: they light it
+    scene = loadScene(a.scene, load);
+  }
+  const bool ownLights =
+      scene && !a.noSceneLights && (!scene->lights.empty() || !bake::emissiveLightsOf(*scene).empty());
+  const LightRig rig = buildStillRig(a.light, ownLights);
+  std::optional<bake::FrameLighting> sceneLighting;
+  bake::FrameLight frame;
+  if (scene) {
+    sceneLighting.emplace(*scene, rig, probeLighting(a, *scene, grid));
+    frame = sceneLighting->at(a.light.frame);
+  }
+  RigLighting lighting = scene ? frame.rig : lightingAt(rig, a.light, a.light.frame, grid.bands);
   // The split (docs/lights.md, "Probes"): the probes' M·(sh + directSh) − M⁰·directSh, and the
   // direct lights traced at the point. Without the scene, or a grid without M⁰, the direct
   // lights go through the probes' SH with the rest.
@@ -261,10 +293,17 @@ int runProbe(const ProbeArgs& a) {
   const sh::ShRgb light = sh::resize(split ? lighting.sh : rig.evaluate(a.light.frame, grid.bands), grid.bands);
   std::vector<glm::vec3> relit =
       split ? relightProbes(grid, light, sh::resize(lighting.directSh, grid.bands)) : relightProbes(grid, light);
-  const std::string operatorNote = scene && !folded ? bounceThroughOperator(a, rig, *scene, grid, split, relit) : "";
+  std::string operatorNote;
+  if (scene && !folded && frame.operatorValues)
+    bake::addProbeBounce(*scene->bounceOperator, grid, *frame.operatorValues, relit);
+  else if (scene && !folded && scene->bounceOperator && !scene->bounceOperator->probeRows.present())
+    operatorNote = cat("prt probe: note: ", a.scene,
+                       " has no probe rows in its bounce operator (baked without --probes, or by an older prt): the "
+                       "probes get only the bounced light their SH carries");
   std::optional<bake::PointShadows> shadowRays;
-  if (split) shadowRays.emplace(*scene);
-  ProbeQuery q{grid, relit, light, split ? &*shadowRays : nullptr, split ? &lighting.direct : nullptr, {}};
+  if (split || !frame.local.empty()) shadowRays.emplace(*scene);
+  ProbeQuery q{grid,         relit, light, shadowRays ? &*shadowRays : nullptr, split ? &lighting.direct : nullptr,
+               &frame.local, {}};
   q.shadows.samples = a.shadowSamples;
   q.shadows.threads = a.threads;
   if (!a.at.empty())

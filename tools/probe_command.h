@@ -14,8 +14,9 @@ struct ProbeArgs {
   std::string file, points, output;
   std::vector<double> at, normal;
   LightOptions light;
-  std::string scene;       // the baked scene: direct lights traced with their shadows
-  int shadowSamples = 64;  // shadow rays per direct light and point
+  std::string scene;           // the baked scene: direct lights traced with their shadows
+  int shadowSamples = 64;      // shadow rays per direct light and point
+  bool noSceneLights = false;  // --no-scene-lights: the scene's own lights left out
   int threads = 0;
 };
 

@@ -66,6 +66,13 @@ std::vector<glm::vec3> PointShadows::irradiance(const std::vector<glm::vec3>& po
   return shadowedDirectIrradianceAt(rays_, points, normals, lights, settings);
 }
 
+std::vector<glm::vec3> PointShadows::irradiance(const std::vector<glm::vec3>& points,
+                                                const std::vector<glm::vec3>& normals,
+                                                const std::vector<LocalLight>& lights,
+                                                const ShadowSettings& settings) const {
+  return shadowedLocalIrradianceAt(rays_, points, normals, lights, settings);
+}
+
 struct FrameLighting::Impl {
   const Scene& scene;
   const LightRig& rig;

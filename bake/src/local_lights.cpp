@@ -340,4 +340,25 @@ DirectIrradiance shadowedLocalIrradiance(const Scene& scene, const RayScene& ray
       });
 }
 
+std::vector<glm::vec3> shadowedLocalIrradianceAt(const RayScene& rays, const std::vector<glm::vec3>& points,
+                                                 const std::vector<glm::vec3>& normals,
+                                                 const std::vector<LocalLight>& lights,
+                                                 const ShadowSettings& settings) {
+  validate(settings);
+  for (const LocalLight& l : lights) validate(l);
+  PRT_CHECK_EQ(points.size(), normals.size());
+  std::vector<glm::vec3> out(points.size(), glm::vec3(0.0f));
+  if (lights.empty()) return out;
+  const ThreadLimit threadLimit(settings.threads);
+  const float extent = rays.sceneExtent(), tnear = tnearFor(extent);
+  std::vector<LightSampler> samplers;
+  for (const LocalLight& l : lights) samplers.emplace_back(l);
+  tbb::parallel_for(size_t(0), points.size(), [&](size_t i) {
+    uint64_t count = 0;
+    const glm::vec3 origin = points[i] + 1e-4f * extent * normals[i];
+    out[i] = glm::vec3(localAt(rays, lights, samplers, points[i], origin, normals[i], i, settings, tnear, count));
+  });
+  return out;
+}
+
 }  // namespace prt::bake

@@ -129,13 +129,17 @@ class FrameLighting {
 /// (LightRig::evaluateLighting), or with `directLights` false everything in `sh`.
 RigLighting rigLighting(const LightRig& rig, double frame, int bands, bool directLights);
 
-/// Direct lights' shadowed irradiance at arbitrary points of a baked scene whose rays are built
-/// once (shadowedDirectIrradianceAt), for a command that asks many times.
+/// Direct lights' and lights inside the scene's shadowed irradiance at arbitrary points of a baked
+/// scene whose rays are built once (shadowedDirectIrradianceAt, shadowedLocalIrradianceAt), for
+/// a command that asks many times.
 class PointShadows {
  public:
   explicit PointShadows(const Scene& scene) : rays_(scene) {}
   std::vector<glm::vec3> irradiance(const std::vector<glm::vec3>& points, const std::vector<glm::vec3>& normals,
                                     const std::vector<DirectLight>& lights, const ShadowSettings& settings) const;
+  /// The same for lights inside the scene (shadowedLocalIrradianceAt).
+  std::vector<glm::vec3> irradiance(const std::vector<glm::vec3>& points, const std::vector<glm::vec3>& normals,
+                                    const std::vector<LocalLight>& lights, const ShadowSettings& settings) const;
 
  private:
   RayScene rays_;

@@ -61,4 +61,12 @@ std::vector<LocalLight> rigLocalLightsAt(const Scene& scene, const LightRig& rig
 DirectIrradiance shadowedLocalIrradiance(const Scene& scene, const RayScene& rays,
                                          const std::vector<LocalLight>& lights, const ShadowSettings& settings = {});
 
+/// The same at arbitrary points with their unit normals (`prt probe --scene`): rays leave from
+/// each point lifted along its normal by 10⁻⁴ of the scene's extent, as the direct lights'
+/// (shadowedDirectIrradianceAt). Deterministic for any thread count.
+std::vector<glm::vec3> shadowedLocalIrradianceAt(const RayScene& rays, const std::vector<glm::vec3>& points,
+                                                 const std::vector<glm::vec3>& normals,
+                                                 const std::vector<LocalLight>& lights,
+                                                 const ShadowSettings& settings = {});
+
 }  // namespace prt::bake
