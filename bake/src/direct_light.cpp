@@ -146,7 +146,8 @@ DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const std::vector<
 }
 
 DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const RayScene& rays,
-                                          const std::vector<DirectLight>& lights, const ShadowSettings& settings) {
+                                          const std::vector<DirectLight>& lights, const ShadowSettings& settings,
+                                          const std::vector<glm::vec3>* origins) {
   validate(settings);
   const auto t0 = std::chrono::steady_clock::now();
   const ThreadLimit threadLimit(settings.threads);
@@ -158,7 +159,8 @@ DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const RayScene& ra
       scene, rays, t0,
       [&](const glm::vec3&, const glm::vec3& origin, const glm::vec3& n, size_t index, uint64_t& count) {
         return irradianceAt(rays, caps, lights, origin, n, index, settings, tnear, count);
-      });
+      },
+      origins);
 }
 
 std::vector<glm::vec3> shadowedDirectIrradianceAt(const Scene& scene, const std::vector<glm::vec3>& points,

@@ -10,6 +10,7 @@
 #include "prt/bake_record.h"
 #include "prt/relight.h"
 #include "stage_runner.h"
+#include "surface_layout.h"
 
 namespace prt::bake {
 
@@ -85,6 +86,7 @@ struct FrameLighting::Impl {
   std::unique_ptr<OperatorLighting> through;  // the bake's operator, where it is used
   std::vector<glm::vec3> nodeValues;          // its node values of the last light change
   std::optional<RayScene> rays;               // the static scene, for the direct lights' shadow rays
+  std::vector<glm::vec3> origins;             // the vertex sides' ray origins, made with the first rays
   double setupSeconds = 0.0;
   // The last gather and what it was for.
   DirectIrradiance light;
@@ -231,11 +233,17 @@ struct FrameLighting::Impl {
     pixelLast = std::move(now);
     return sum;
   }
+  // The vertex sides' ray origins, made once: finding the buried sides traces rays around each.
+  const std::vector<glm::vec3>& sideOrigins() {
+    if (origins.empty()) origins = rayOrigins(scene, makeLayout(scene), *rays);
+    return origins;
+  }
+
   DirectIrradiance tracedLights(const std::vector<LocalLight>& lights, int samples) {
     ShadowSettings ss;
     ss.samples = samples;
     ss.threads = settings.threads;
-    DirectIrradiance own = shadowedLocalIrradiance(scene, *rays, lights, ss);
+    DirectIrradiance own = shadowedLocalIrradiance(scene, *rays, lights, ss, &sideOrigins());
     stats.shadowSeconds += own.seconds;
     stats.shadowRays += own.rays;
     return own;
@@ -246,8 +254,8 @@ struct FrameLighting::Impl {
     ShadowSettings ss;
     ss.samples = settings.shadowSamples;
     ss.threads = settings.threads;
-    DirectIrradiance lit =
-        traceDirect ? shadowedDirectIrradiance(scene, *rays, l.direct, ss) : shadowedDirectIrradiance(scene, {}, ss);
+    DirectIrradiance lit = traceDirect ? shadowedDirectIrradiance(scene, *rays, l.direct, ss, &sideOrigins())
+                                       : shadowedDirectIrradiance(scene, {}, ss);
     stats.shadowSeconds += lit.seconds;
     stats.shadowRays += lit.rays;
     return lit;

@@ -322,7 +322,8 @@ glm::dvec3 localAt(const RayScene& rays, const std::vector<LocalLight>& lights,
 }  // namespace
 
 DirectIrradiance shadowedLocalIrradiance(const Scene& scene, const RayScene& rays,
-                                         const std::vector<LocalLight>& lights, const ShadowSettings& settings) {
+                                         const std::vector<LocalLight>& lights, const ShadowSettings& settings,
+                                         const std::vector<glm::vec3>* origins) {
   validate(settings);
   for (const LocalLight& l : lights) validate(l);
   // No light: every side dark, without walking them (the direct lights' overload does just that
@@ -337,7 +338,8 @@ DirectIrradiance shadowedLocalIrradiance(const Scene& scene, const RayScene& ray
       scene, rays, t0,
       [&](const glm::vec3& position, const glm::vec3& origin, const glm::vec3& n, size_t index, uint64_t& count) {
         return localAt(rays, lights, samplers, position, origin, n, index, settings, tnear, count);
-      });
+      },
+      origins);
 }
 
 std::vector<glm::vec3> shadowedLocalIrradianceAt(const RayScene& rays, const std::vector<glm::vec3>& points,

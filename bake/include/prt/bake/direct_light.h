@@ -48,9 +48,12 @@ void addIrradiance(DirectIrradiance& a, const DirectIrradiance& b);
 /// Deterministic for any thread count.
 DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const std::vector<DirectLight>& lights,
                                           const ShadowSettings& settings = {});
-/// The same traced against `rays` (built from `scene`), for callers that light many frames.
+/// The same traced against `rays` (built from `scene`), for callers that light many frames;
+/// `origins` (if given) the vertex sides' ray origins, which such a caller keeps (every baked
+/// instance's vertices in scene order, then the back sides: the bake's numbering).
 DirectIrradiance shadowedDirectIrradiance(const Scene& scene, const RayScene& rays,
-                                          const std::vector<DirectLight>& lights, const ShadowSettings& settings = {});
+                                          const std::vector<DirectLight>& lights, const ShadowSettings& settings = {},
+                                          const std::vector<glm::vec3>* origins = nullptr);
 
 /// The same at arbitrary points `points` with unit normals `normals` (a probe query, `prt
 /// probe --scene`): rays leave each point lifted by 10⁻⁴ of the scene's extent along its

@@ -58,8 +58,10 @@ std::vector<LocalLight> rigLocalLightsAt(const Scene& scene, const LightRig& rig
 /// the share their integrand-weighted mean visibility (a ratio estimator, exact wherever
 /// nothing occludes the light). Rays leave from the bake's lifted origins and stop at the light.
 /// Deterministic for any thread count.
+/// `origins` (if given): the vertex sides' ray origins, as shadowedDirectIrradiance takes them.
 DirectIrradiance shadowedLocalIrradiance(const Scene& scene, const RayScene& rays,
-                                         const std::vector<LocalLight>& lights, const ShadowSettings& settings = {});
+                                         const std::vector<LocalLight>& lights, const ShadowSettings& settings = {},
+                                         const std::vector<glm::vec3>* origins = nullptr);
 
 /// The same at arbitrary points with their unit normals (`prt probe --scene`): rays leave from
 /// each point lifted along its normal by 10⁻⁴ of the scene's extent, as the direct lights'
