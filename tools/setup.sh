@@ -146,7 +146,8 @@ case "$mode" in
       -o out/frames/frame_%04d.exr
     say "rendering the room at night, lit only by a lamp circling under its ceiling (8 frames)"
     run mkdir -p out/lamp_frames
-    run build/tools/prt render out/cornell.baked.glb --rig scenes/rigs/lamp_cornell.json --frames 0-7 \
+    run build/tools/prt render out/cornell.baked.glb --probes out/cornell.probes.vdb \
+      --rig scenes/rigs/lamp_cornell.json --frames 0-7 \
       --size 640x360 --gl osmesa --msaa 4 --png --contact-sheet out/lamp_contact_sheet.png \
       -o out/lamp_frames/frame_%04d.exr
     say "done. Outputs in $root/out:"
