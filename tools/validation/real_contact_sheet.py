@@ -16,7 +16,7 @@ OUT_DIR/NAME.txt (the commands' summaries) and OUT_DIR/sheet.png (ImageMagick's 
 
 --lamps: the closed maps of LAMP_SCENES lit from inside by their rigs of lamps
 (scenes/rigs/lamps_NAME.json: point, spot and area lights, one point light moving), no sky: each
-is baked with --operator (the lamps' bounces go through the bounce operator), rendered frame by
+is baked with prt bake's defaults (the lamps' bounces go through its bounce operator), rendered frame by
 frame from the camera inside of LAMP_SCENES, and the frames of all maps joined in
 OUT_DIR/lamps_sheet.png, a row per map. --place-lamps: how those rigs and cameras were found,
 from a probe grid baked with the map (prt bake --probes): prints a rig and a camera (below).
@@ -240,8 +240,8 @@ def lamps(a):
         with open(base + ".txt", "w") as log:
             if not (a.keep_bakes and os.path.exists(base + ".glb")):
                 t0 = time.time()
-                baked = run([PRT, "bake", os.path.join(real, rel), "-o", base + ".glb", "--samples", str(a.samples),
-                             "--operator"], log)
+                baked = run([PRT, "bake", os.path.join(real, rel), "-o", base + ".glb", "--samples", str(a.samples)],
+                            log)
                 bake_s = time.time() - t0
             else:
                 baked, bake_s = None, float("nan")

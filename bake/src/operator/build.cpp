@@ -12,6 +12,7 @@
 #include <string>
 
 #include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
 #include "../stage_runner.h"
@@ -235,17 +236,26 @@ struct RowCutInputs {
 // (every k-th, at least kSampled of them, or all), each row cut to kMaxRowLength with its splits
 // recorded: a row's splits are taken in order, each at the least error of its row's splits up
 // to it, and the splits of the largest such errors are kept while the sampled rows fit perRow
-// entries each; the last one kept sets `above`. The same on every MPI rank.
+// entries each. The errors are binned by their float's top 14 bits (monotone for errors ≥ 0:
+// 32 bins an octave), so the sample costs a small fixed table, not a list of its splits; `above`
+// is the lower edge of the lowest bin kept whole. The same on every MPI rank.
 RowCut rowCut(const RowCutInputs& in, size_t perRow) {
   constexpr uint32_t kSampled = 4096;
-  const uint32_t C = in.op.clusters, stride = std::max<uint32_t>(1, C / kSampled), n = (C + stride - 1) / stride;
-  struct Step {
-    float priority;
-    uint32_t row, grows;
+  constexpr int kShift = 18;
+  constexpr size_t kBins = size_t(1) << (32 - kShift);
+  auto binOf = [](float error) {
+    uint32_t u = 0;
+    std::memcpy(&u, &error, sizeof u);
+    return u >> kShift;
   };
-  std::vector<std::vector<Step>> steps(n);
-  std::vector<uint32_t> base(n, 0);
+  const uint32_t C = in.op.clusters, stride = std::max<uint32_t>(1, C / kSampled), n = (C + stride - 1) / stride;
+  struct Tally {
+    std::vector<uint32_t> grows = std::vector<uint32_t>(kBins, 0);  // per bin: the entries its splits add
+    uint64_t base = 0;                                              // the rows' lengths before any split
+  };
+  tbb::combinable<Tally> tallies;
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 4), [&](const tbb::blocked_range<uint32_t>& r) {
+    Tally& t = tallies.local();
     RowMaker maker(in.op, in.tree, in.sky, in.training);
     ClusterGather g;
     std::vector<op::Split> splits;
@@ -253,24 +263,31 @@ RowCut rowCut(const RowCutInputs& in, size_t perRow) {
       const uint32_t c = k * stride;
       g.make(in.trace, in.area, in.st, c);
       const std::vector<Entry> row = maker.make(g.all, in.tree.center[c], BounceOperator::kMaxRowLength, &splits);
-      base[k] = splits.empty() ? uint32_t(row.size()) : splits[0].before;
+      t.base += splits.empty() ? row.size() : splits[0].before;
       float least = std::numeric_limits<float>::infinity();
       for (size_t i = 0; i < splits.size(); ++i) {
         const size_t after = i + 1 < splits.size() ? splits[i + 1].before : row.size();
-        steps[k].push_back({least = std::min(least, splits[i].priority), k, uint32_t(after - splits[i].before)});
+        least = std::min(least, std::max(splits[i].priority, 0.0f));
+        t.grows[binOf(least)] += uint32_t(after - splits[i].before);
       }
     }
   });
-  std::vector<Step> all;
-  size_t total = 0;
-  for (uint32_t k = 0; k < n; ++k) total += base[k], all.insert(all.end(), steps[k].begin(), steps[k].end());
-  // Stable: a row's own steps stay in their order among equal errors.
-  std::stable_sort(all.begin(), all.end(), [](const Step& a, const Step& b) { return a.priority > b.priority; });
-  float above = std::numeric_limits<float>::infinity();
-  for (const Step& st : all) {
-    if (total + st.grows > perRow * size_t(n)) return {BounceOperator::kMaxRowLength, above};
-    total += st.grows;
-    above = st.priority;
+  Tally all;
+  tallies.combine_each([&](const Tally& t) {
+    all.base += t.base;
+    for (size_t b = 0; b < kBins; ++b) all.grows[b] += t.grows[b];
+  });
+  uint64_t total = all.base;
+  for (size_t b = kBins; b-- > 0;) {
+    if (total + all.grows[b] > perRow * uint64_t(n)) {
+      // Keep the bins above b: errors from b + 1's lower edge up (no bin above: no split).
+      if (b + 1 == kBins) return {BounceOperator::kMaxRowLength, std::numeric_limits<float>::infinity()};
+      const uint32_t edge = uint32_t(b + 1) << kShift;
+      float above = 0.0f;
+      std::memcpy(&above, &edge, sizeof above);
+      return {BounceOperator::kMaxRowLength, above};
+    }
+    total += all.grows[b];
   }
   return {BounceOperator::kMaxRowLength, 0.0f};
 }
