@@ -233,9 +233,14 @@ struct FrameLighting::Impl {
     pixelLast = std::move(now);
     return sum;
   }
-  // The vertex sides' ray origins, made once: finding the buried sides traces rays around each.
+  // The vertex sides' ray origins, made once: finding the buried sides traces rays around each
+  // (a start-up cost, as the gather's trace: not a frame's).
   const std::vector<glm::vec3>& sideOrigins() {
-    if (origins.empty()) origins = rayOrigins(scene, makeLayout(scene), *rays);
+    if (origins.empty()) {
+      const auto t0 = std::chrono::steady_clock::now();
+      origins = rayOrigins(scene, makeLayout(scene), *rays);
+      setupSeconds += secondsSince(t0);
+    }
     return origins;
   }
 
