@@ -19,7 +19,8 @@
 //                        the written file read back whole for its content UUID
 //   write    scene + B (transfer in the scene) [+ B lower-order sum] + the glTF writer: copies
 //            of the input's buffers (reloaded, packed, serialised) and of the transfer (staging,
-//            packed, serialised), as measured
+//            packed, serialised), as measured; with the bounce operator, its kept rays, its rows
+//            and the writer's copies of its packed bytes
 //
 // Hit records: 8 bytes per front-face hit, bounded by share·V·N; the share comes from a pilot
 // (surface_bake.cpp) or is 1. Embree's bytes per triangle were measured on this machine
@@ -96,6 +97,12 @@ constexpr uint64_t kVdbWriteBytes = uint64_t(8) << 20;
 // position edge) and candidate lists: about 1.5 KiB per vertex, counted from the node and
 // vector sizes of libstdc++ and rounded up (zdm2, 116 k refined vertices: 243 MiB peak in all).
 constexpr uint64_t kRefinedVertexBytes = 96, kRefinePointsPerVertex = 6, kRefineBytesPerVertex = 1536;
+// The bounce operator (BakeSettings::keepGatherRays > 0), built after the bakes, then packed and
+// copied by the glTF writer: per vertex side its cluster and gradient rows, tree, members and
+// training (measured 88 bytes on the bundled room, 82 on pandora; 128 counted), per probe row
+// entry a node, a weight and n2 − 1 shape bytes held (and n2 + 2 bytes packed, bits of the walk
+// included), and the writer's copies of the packed bytes (4.6 measured with a 32³ grid's rows).
+constexpr uint64_t kOperatorBytesPerSide = 128, kWriteOperatorCopies = 5;
 // On top of the sum: allocator rounding, the hit records' scratch of each thread (surface_bake.cpp, at
 // most 8 MiB a thread) and its bounces' colour lookups (VaryingColours, 128 KiB).
 constexpr double kSlack = 1.10;
@@ -136,8 +143,11 @@ uint64_t vdbTreeBytes(uint64_t valueBytes, uint64_t entryBytes, uint64_t lower, 
 // and active (the bound); with one, its baked points as valid and the points next to them as
 // active, in the blocks they fill. Sets `lattice` to the bytes of the lattice's own results
 // (slots and transfer).
+// Also sets `latticePoints`, the points counted as valid (each gets a bounce operator row), and
+// `gridOut`, the bytes of the assembled grid (which the operator's probe rows read after the
+// probe stage).
 uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t triangles, const ProbePlacement* placed,
-                        uint64_t& lattice) {
+                        uint64_t& lattice, uint64_t& latticePoints, uint64_t& gridOut) {
   ProbeGrid grid;
   glm::dvec3 lo, hi;
   probeBounds(p, scene, lo, hi);
@@ -149,6 +159,7 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   };
   if (placed) PRT_CHECK_EQ(placed->points, points);  // measured for these settings
   const uint64_t valid = placed ? placed->baked : points, active = placed ? placed->activeBound : points;
+  latticePoints = valid;  // the probes that get operator rows
   const uint64_t lower = placed ? placed->lowerBlocks : blocks(128), leaves = placed ? placed->leafBlocks : blocks(8);
   const uint64_t pn2 = uint64_t(p.bands) * p.bands;
   const uint64_t matrix = pn2 * pn2 * 12 + pn2 * (pn2 + 1) / 2 * 4;  // M and M⁰'s triangle
@@ -162,6 +173,7 @@ uint64_t probeStagePeak(const Scene& scene, const ProbeSettings& p, uint64_t tri
   // each allocated once at its size, with a list of the active points (8 bytes each, up to
   // twice that while the list grows).
   const uint64_t gridBytes = active * (matrix + kProbeAttributeBytes) + points * kProbeIndexBytes;
+  gridOut = gridBytes;
   const uint64_t assemble = lattice + gridBytes + active * 16 + points * kProbeTracedBytes;
   const uint64_t trees = (pn2 * pn2 + kVdbVec3Grids) * vdbTreeBytes(12, 16, lower, leaves) +
                          (kVdbFloatGrids + pn2 * (pn2 + 1) / 2) * vdbTreeBytes(4, 8, lower, leaves);
@@ -217,11 +229,20 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   e.surfacePeak = e.scene + std::max(layout + e.bvh + e.hits + 2 * e.transfer + direct + lower,
                                      2 * (e.transfer + direct + lower) + (probes ? e.bvh : 0));
   const uint64_t lowerHalves = vertices * ((3 * n2 + 31) / 32 * 64);  // probe_bake.cpp: the lit hits' rows
+  uint64_t latticePoints = 0, gridBytes = 0;
   if (probes)
     e.probePeak = e.scene + 2 * e.transfer + direct + lowerHalves +
-                  probeStagePeak(scene, *probes, triangles, placement, e.probes);
+                  probeStagePeak(scene, *probes, triangles, placement, e.probes, latticePoints, gridBytes);
   e.writePeak = e.scene + e.transfer + direct + lower + kWriteInputCopies * gltfInputBytes(scene) +
                 kWriteTransferCopies * (e.transfer + direct);
+  if (bounces && keptRays > 0) {
+    const uint64_t probeEntries = latticePoints * uint64_t(std::max(s.operatorProbeRowLength, 0));
+    const uint64_t held = vertices * kOperatorBytesPerSide + probeEntries * (n2 + 6);
+    const uint64_t packed = vertices * kOperatorBytesPerSide + probeEntries * (n2 + 2);
+    const uint64_t kept = uint64_t(std::ceil(e.frontHitShare * double(vertices) * double(keptRays))) * kHitBytes +
+                          keptBits + vertices * kHitOffsetBytes;
+    e.writePeak += gridBytes + kept + held + kWriteOperatorCopies * packed;
+  }
   if (s.refineVertices > 0 && shadowed)
     e.refinePeak = e.scene + original * kLayoutPerVertex + (triangles - 2 * s.refineVertices) * kBvhBytesPerTriangle +
                    vertices * (kRefineBytesPerVertex + kRefinePointsPerVertex * ((uint64_t(s.samples) + 63) / 64 * 8));

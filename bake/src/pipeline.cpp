@@ -94,6 +94,7 @@ Plan planJob(const BakeJob& job, bool writer) {
   }
   // The operator's rays are the bake's first ones: kept from its direct pass, not traced again.
   if (job.bounceOperator) plan.settings.keepGatherRays = std::min(job.bounceOperator->samples, plan.settings.samples);
+  if (job.bounceOperator && job.probes) plan.settings.operatorProbeRowLength = job.bounceOperator->probeRowLength;
   return plan;
 }
 
@@ -109,7 +110,9 @@ class MemoryGuard {
       : names_(job.memoryNames), scene_(scene), s_(s), ps_(ps), limit_(memoryLimit(job.maxMemory)) {
     estimate_ = estimateBakeMemory(scene, s, ps, 0.0);
     const MemoryEstimate& e = estimate_;
-    const bool probesLargest = e.probePeak >= std::max({e.surfacePeak, e.writePeak, e.refinePeak});
+    // The probe stage, or the write with the bounce operator's probe rows, as the largest phase.
+    const bool probesLargest = e.probePeak >= std::max({e.surfacePeak, e.writePeak, e.refinePeak}) ||
+                               (s.operatorProbeRowLength > 0 && e.writePeak >= std::max(e.surfacePeak, e.refinePeak));
     if (limit_ && ps && e.total > limit_->bytes && probesLargest) {
       placement_ = placeProbes(scene, *ps);
       estimate_ = estimateBakeMemory(scene, s, ps, 0.0, &*placement_);

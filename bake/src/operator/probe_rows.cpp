@@ -149,24 +149,40 @@ void keep(const ProbeGather& g, const Tree& tree, const std::vector<Entry>& cut,
 }
 
 // A probe's row as the operator holds it: weights on the one-byte codes' values with the row's
-// sum kept unless `exact` (an uncompressed operator, never stored; build.cpp's storeRows).
-void store(BounceOperator::ProbeRows& rows, const MadeRow& r, bool exact) {
-  const size_t n2 = size_t(rows.bands) * size_t(rows.bands);
+// sum kept unless `exact` (an uncompressed operator, never stored; build.cpp's storeRows), and
+// each entry's mean SH as bytes.
+struct HeldRow {
+  std::vector<uint32_t> node;
+  std::vector<uint16_t> weight;
+  std::vector<int8_t> shape;
+};
+HeldRow held(const MadeRow& r, int bands, bool exact) {
+  const size_t n2 = size_t(bands) * size_t(bands);
   std::vector<double> scaled(r.node.size());
   for (size_t e = 0; e < r.node.size(); ++e) scaled[e] = r.w[e] * BounceOperator::kWeightOne;
-  const std::vector<uint16_t> held = BounceOperator::storedWeights(scaled, exact);
+  const std::vector<uint16_t> weights = BounceOperator::storedWeights(scaled, exact);
+  HeldRow out;
   for (size_t e = 0; e < r.node.size(); ++e) {
-    if (held[e] == 0) continue;
-    rows.rows.node.push_back(r.node[e]);
-    rows.rows.weight.push_back(held[e]);
-    for (int l = 1; l < rows.bands; ++l)
+    if (weights[e] == 0) continue;
+    out.node.push_back(r.node[e]);
+    out.weight.push_back(weights[e]);
+    for (int l = 1; l < bands; ++l)
       for (int j = l * l; j < (l + 1) * (l + 1); ++j) {
         const double mean = double(r.sh[e * n2 + size_t(j)]) / r.w[e] / bandBound(l);
         const long v = std::lround(mean * BounceOperator::ProbeRows::kShapeOne);
-        rows.shape.push_back(int8_t(std::clamp<long>(v, -127, 127)));
+        out.shape.push_back(int8_t(std::clamp<long>(v, -127, 127)));
       }
   }
+  return out;
+}
+
+// Appends a held row to the operator's rows, and frees it.
+void append(BounceOperator::ProbeRows& rows, HeldRow& r) {
+  rows.rows.node.insert(rows.rows.node.end(), r.node.begin(), r.node.end());
+  rows.rows.weight.insert(rows.rows.weight.end(), r.weight.begin(), r.weight.end());
+  rows.shape.insert(rows.shape.end(), r.shape.begin(), r.shape.end());
   rows.rows.start.push_back(uint32_t(rows.rows.node.size()));
+  r = HeldRow{};
 }
 
 }  // namespace
@@ -179,25 +195,32 @@ BounceOperator::ProbeRows makeProbeRows(const ProbeRowInputs& in, const ProbeGri
   rows.rowLength = rowLength;
   rows.dims = grid.dims, rows.origin = grid.origin, rows.spacing = grid.spacing, rows.seed = grid.info.seed;
   const int n2 = grid.coeffs();
-  std::vector<MadeRow> made(grid.probeCount());
+  // Each probe's row is held as it will be stored as soon as it is made (its SH as floats only
+  // where `full` asks for them): a grid of 30k probes would hold 140 MB of float rows otherwise.
+  std::vector<MadeRow> made(full ? grid.probeCount() : 0);
+  std::vector<HeldRow> kept(grid.probeCount());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, grid.probeCount(), 4), [&](const tbb::blocked_range<size_t>& r) {
     RowMaker maker(in.op, in.tree, in.sky, in.training);
     ProbeGather g{in, probe::ProbeKernels::active(), grid.info.seed, uint32_t(rows.samples), n2};
+    MadeRow one;
     for (size_t p = r.begin(); p != r.end(); ++p) {
       if (!(grid.validity[p] > 0.0f)) continue;
       const glm::vec3 x(grid.position(p));
       g.trace(x, 2 * uint64_t(latticeIndex(grid, grid.coord[p])) + 1);
       g.sumLeaves(grid.bands);
+      MadeRow& m = full ? made[p] : one;
+      m = MadeRow{};
       if (uncompressed)
-        keep(g, in.tree, g.leaves, made[p]);
+        keep(g, in.tree, g.leaves, m);
       else
-        keep(g, in.tree, maker.make(g.leaves, x, size_t(rowLength)), made[p]);
+        keep(g, in.tree, maker.make(g.leaves, x, size_t(rowLength)), m);
+      kept[p] = held(m, grid.bands, uncompressed);
     }
   });
   rows.rows.start.assign(1, 0);
   for (uint32_t p : probesByLattice(grid)) {
     rows.lattice.push_back(latticeIndex(grid, grid.coord[p]));
-    store(rows, made[p], uncompressed);
+    append(rows, kept[p]);
   }
   if (full) {
     full->bands = grid.bands;

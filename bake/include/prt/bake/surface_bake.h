@@ -34,6 +34,9 @@ struct BakeSettings {
   /// Memory guard only (bakeSurface ignores it): vertices that refinement (refine.h) may still
   /// add to the scene before the bake, each with two triangles.
   uint64_t refineVertices = 0;
+  /// Memory guard only: the bounce operator's probe row length, where it makes probe rows (0:
+  /// none).
+  int operatorProbeRowLength = 0;
 };
 
 /// Throws prt::Error unless 1 <= bands <= sh::kMaxBands ("bands 9: must be between 1 and 8").
