@@ -185,8 +185,9 @@ TEST(BounceOperator, CompressedStaysNearTheUncompressed) {
 }
 
 // The cluster rows share one budget: `clusterRowLength` entries a row on average, each row up to
-// 255 (fitRowBudget). A row's cut back keeps its weight, so every cluster row of the stored
-// operator gathers what the same cluster's row cut to 255 entries does (its weights' sum, to the
+// 255 (rowCut: one error threshold for every row, found on a sample of the clusters, here all of
+// them). A row cut shorter keeps its weight (each entry holds its node's whole share), so every
+// cluster row of the stored operator gathers what the same cluster's row cut to 255 entries does (its weights' sum, to the
 // codes' rounding: a row of a few coarse entries, each on the code just below or above it, may
 // have no choice within a unit of its sum; measured 0.28% at worst, 0.003% in the mean); the rows
 // whose cuts would merge the most light are longer than the average, and the others shorter.
