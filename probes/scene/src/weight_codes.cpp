@@ -58,12 +58,12 @@ std::pair<uint16_t, uint16_t> bracket(const std::array<uint16_t, N>& t, double x
 // nearest `target` (an integer, the exact sum less Σ a): subset sums over the differences b − a,
 // reachable sums marked entry by entry, each with the entry that first reached it (which, taken
 // back, leads to a sum reached before that entry). Returns false (and changes nothing) when the
-// sums span more than kMaxSpan.
-constexpr int64_t kMaxSpan = 1 << 16;
+// sums span more than kMaxSpan, or the search would take more than kMaxWork steps.
+constexpr int64_t kMaxSpan = 1 << 16, kMaxWork = int64_t(1) << 22;
 bool nearestSubset(const std::vector<int64_t>& diff, int64_t target, std::vector<bool>& useB) {
   int64_t lo = 0, hi = 0;
   for (int64_t d : diff) (d < 0 ? lo : hi) += d;
-  if (hi - lo > kMaxSpan) return false;
+  if (hi - lo > kMaxSpan || (hi - lo) * int64_t(diff.size()) > kMaxWork) return false;
   std::vector<int32_t> from(size_t(hi - lo + 1), -2);  // -2: not reached; -1: the empty set
   from[size_t(-lo)] = -1;
   for (size_t i = 0; i < diff.size(); ++i) {
