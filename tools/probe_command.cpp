@@ -208,6 +208,7 @@ bake::FrameLightingSettings probeLighting(const ProbeArgs& a, const Scene& scene
   s.sceneLights = !a.noSceneLights;
   s.threads = a.threads;
   s.shadowSamples = a.shadowSamples;
+  s.vertexLight = false;  // the query traces the lights at its points
   const BounceOperator* op = scene.bounceOperator.get();
   const bool rows = op && op->probeRows.present() && grid.hasDirect();
   if (rows) bake::checkProbeRows(*op, grid, cat(a.scene, " (with ", a.file, ")"));

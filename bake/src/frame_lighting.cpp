@@ -124,7 +124,9 @@ struct FrameLighting::Impl {
     const bool sunBounces = gatherable && !first.direct.empty() && record.bounces > 0;
     const bool directBounces = sunBounces || (gatherable && hasLocal && record.bounces > 0);
     traceDirect = settings.directAtVertices ? !first.direct.empty() : sunBounces;
-    if ((traceDirect && (settings.directAtVertices || !useOperator())) || hasLocal) rays.emplace(scene);
+    if ((traceDirect && (settings.directAtVertices || !useOperator())) ||
+        (hasLocal && (settings.vertexLight || directBounces)))
+      rays.emplace(scene);
     if ((sky || directBounces) && useOperator()) {
       through = std::make_unique<OperatorLighting>(scene, *scene.bounceOperator, !settings.directAtVertices,
                                                    settings.threads);
@@ -145,6 +147,7 @@ struct FrameLighting::Impl {
   bool gathering() const { return gather != nullptr || through != nullptr; }
 
   bool needsVertexLight(const RigLighting& l) const {
+    if (!settings.vertexLight) return gathering();
     return settings.directAtVertices ? !l.direct.empty() || sky || hasLocal : gathering() || hasLocal;
   }
   bool stale(const RigLighting& l, const std::vector<LocalLight>& local) const {

@@ -215,11 +215,14 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
   // With the bounces' gather tables too: the previous bounce as halves, 3·n2 padded to whole
   // 64-byte lines a vertex, and one 16-byte corner entry per triangle (surface_bake.cpp).
   const uint64_t gatherTables = vertices * ((3 * n2 + 31) / 32 * 64) + (triangles + backTriangles) * 16;
+  // Hit records of `rays` rays a vertex, with their CSR offsets.
+  auto records = [&](uint64_t rays) {
+    return uint64_t(std::ceil(e.frontHitShare * double(vertices) * double(rays))) * kHitBytes +
+           vertices * kHitOffsetBytes;
+  };
   const uint64_t keptRays = uint64_t(std::clamp(s.keepGatherRays, 0, s.samples));
   const uint64_t keptBits = vertices * 2 * ((keptRays + 63) / 64) * 8;
-  e.hits = bounces ? uint64_t(std::ceil(e.frontHitShare * double(vertices) * s.samples)) * kHitBytes +
-                         vertices * kHitOffsetBytes + gatherTables + keptBits
-                   : 0;
+  e.hits = bounces ? records(uint64_t(s.samples)) + gatherTables + keptBits : 0;
   const uint64_t layout = shadowed ? vertices * kLayoutPerVertex + (triangles + backTriangles) * kLayoutPerTriangle : 0;
   const uint64_t lower = probes ? e.transfer : 0;
   const uint64_t direct = e.transfer / 3;  // the direct part, kept to the end of the bake
@@ -239,9 +242,7 @@ MemoryEstimate estimateBakeMemory(const Scene& scene, const BakeSettings& s, con
     const uint64_t probeEntries = latticePoints * uint64_t(std::max(s.operatorProbeRowLength, 0));
     const uint64_t held = vertices * kOperatorBytesPerSide + probeEntries * (n2 + 6);
     const uint64_t packed = vertices * kOperatorBytesPerSide + probeEntries * (n2 + 2);
-    const uint64_t kept = uint64_t(std::ceil(e.frontHitShare * double(vertices) * double(keptRays))) * kHitBytes +
-                          keptBits + vertices * kHitOffsetBytes;
-    e.writePeak += gridBytes + kept + held + kWriteOperatorCopies * packed;
+    e.writePeak += gridBytes + records(keptRays) + keptBits + held + kWriteOperatorCopies * packed;
   }
   if (s.refineVertices > 0 && shadowed)
     e.refinePeak = e.scene + original * kLayoutPerVertex + (triangles - 2 * s.refineVertices) * kBvhBytesPerTriangle +

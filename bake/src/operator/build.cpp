@@ -432,11 +432,12 @@ BounceOperator buildBounceOperator(const Scene& scene, const OperatorSettings& s
       // A member whose own gather the cluster's light misses under the training lights (near
       // another surface, at a corner) keeps a row of its own.
       const ClusterLight light(maker, clusterRows[c], gradients[2 * c], gradients[2 * c + 1]);
-      for (uint32_t i = op.memberStart[c]; i < op.memberStart[c + 1]; ++i) {
+      const uint32_t b = op.memberStart[c];
+      for (uint32_t i = b; i < op.memberStart[c + 1]; ++i) {
         const uint32_t v = op.members[i];
-        if (uncompressed || light.error(maker, g.raw[i - op.memberStart[c]], shares.bounce[v], shares.sky[v], st[v]) >
+        if (uncompressed || light.error(maker, g.raw[i - b], shares.bounce[v], shares.sky[v], st[v]) >
                                 kOwnRowError * sideTraining.scale[v])
-          vertexRows[v] = maker.make(g.raw[i - op.memberStart[c]], sides[v].position, vertexLength);
+          vertexRows[v] = maker.make(g.raw[i - b], sides[v].position, vertexLength);
       }
     }
   });

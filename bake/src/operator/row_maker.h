@@ -27,10 +27,9 @@ struct Entry {
   float w;
 };
 
-// One step of a row's cut (RowMaker::make): the node split into its children, its error then
-// (the priority it was split at), and the row's length before it.
+// One step of a row's cut (RowMaker::make): the error of the node split into its children (the
+// priority it was split at), and the row's length before it.
 struct Split {
-  uint32_t node;
   float priority;
   uint32_t before;
 };
@@ -61,7 +60,7 @@ class RowMaker {
   RowMaker(const BounceOperator& o, const Tree& t, const std::vector<uint8_t>& sky, const Training& tr)
       : op_(o), t_(t), sky_(sky), tr_(tr) {}
 
-  /// `splits` (if given) receives the nodes split, in order. Splitting also stops at the first
+  /// `splits` (if given) receives the splits, in order. Splitting also stops at the first
   /// entry whose error is below `above`.
   std::vector<Entry> make(const std::vector<Entry>& leaves, const glm::vec3& x, size_t maxLength,
                           std::vector<Split>* splits = nullptr, float above = -std::numeric_limits<float>::infinity()) {
@@ -79,7 +78,7 @@ class RowMaker {
       const Item top = heap.top();
       if (isLeaf(top.node) || top.priority < above || heap.size() + done.size() + 1 > maxLength) break;
       heap.pop();
-      if (splits) splits->push_back({top.node, top.priority, uint32_t(heap.size() + 1)});
+      if (splits) splits->push_back({top.priority, uint32_t(heap.size() + 1)});
       for (auto [child, span] : split(top.node, top.span)) {
         if (span.hi == span.lo) continue;
         const uint32_t n = descend(child, span);

@@ -51,6 +51,10 @@ struct FrameLightingSettings {
   /// scene lit at the vertices; 0: shadowSamples. With localPerPixel, the lights the renderer
   /// lights take shadowSamples (their E⁰ at the vertices only bounces).
   int localShadowSamples = 0;
+  /// False: the caller reads the frame's lights and, where the bounces are gathered, their
+  /// operator values (`prt probe`), never FrameLight::vertexLight: nothing is lit at the
+  /// vertices unless the bounces need it.
+  bool vertexLight = true;
   int threads = 0;  // 0 = all cores
 };
 
