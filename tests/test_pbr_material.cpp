@@ -12,7 +12,10 @@
 #include "harness.h"
 #include "png_file.h"
 #include "prt/brdf.h"
+#include "prt/math.h"
+#include "prt/relight.h"
 #include "prt/scene.h"
+#include "prt/sh.h"
 
 namespace prt {
 namespace {
@@ -254,7 +257,7 @@ TEST(ScenePbrMaterial, UndecodableTextureLeavesTheFactorWithAWarning) {
             std::string::npos)
       << s.warnings[0];
   EXPECT_EQ(s.materials[0].metallicRoughnessTexture.texture, -1);
-  EXPECT_EQ(albedoAtVertex(s, s.meshes[0], 0), glm::vec3(0.5f));
+  EXPECT_EQ(diffuseAlbedoAtVertex(s, s.meshes[0], 0), glm::vec3(0.5f));
 }
 
 // ---- The bake's diffuse albedo (docs/bake.md, "Materials")
@@ -269,13 +272,20 @@ Scene quadWith(const test::TempDir& dir, Json material, const std::vector<uint8_
   return loadScene(f.write("albedo", dir.path()));
 }
 
-TEST(BakeAlbedo, IsBaseColourTimesOneMinusMetallicTimesTheDielectricsShare) {
+// The diffuse albedo (diffuseAlbedoAtVertex, what `prt relight` takes) is baseColor ×
+// (1 − metallic) × the dielectric's share; the bounce albedo (albedoAtVertex) adds the metal's
+// lobe, metallic × (baseColor · Ā + B̄) at the material's roughness.
+TEST(BakeAlbedo, IsTheDiffuseAlbedoPlusTheMetalsLobe) {
   test::TempDir dir;
   const Json base = {{"baseColorFactor", {0.8, 0.4, 0.2, 1.0}}};
   const glm::vec3 colour(0.8f, 0.4f, 0.2f);
   auto albedo = [&](Json material, const std::vector<uint8_t>& texel = {}) {
     const Scene s = quadWith(dir, std::move(material), texel);
     EXPECT_EQ(albedoAt(s, s.meshes[0], 0, 0.25f, 0.25f), albedoAtVertex(s, s.meshes[0], 0));  // uniform
+    return diffuseAlbedoAtVertex(s, s.meshes[0], 0);
+  };
+  auto bounced = [&](Json material, const std::vector<uint8_t>& texel = {}) {
+    const Scene s = quadWith(dir, std::move(material), texel);
     return albedoAtVertex(s, s.meshes[0], 0);
   };
   auto pbr = [&](double metallic) {
@@ -288,6 +298,32 @@ TEST(BakeAlbedo, IsBaseColourTimesOneMinusMetallicTimesTheDielectricsShare) {
   EXPECT_EQ(albedo(pbr(0.25)), colour * 0.75f);
   EXPECT_EQ(albedo(pbr(1.0)), glm::vec3(0.0f));
   EXPECT_EQ(albedo({{"pbrMetallicRoughness", base}}), glm::vec3(0.0f));  // metallicFactor absent: 1
+  EXPECT_EQ(bounced(pbr(0.0)), colour);
+  auto lobe = [&](double roughness) {
+    const glm::dvec2 ab = brdf::cosineAveragedDfg(roughness);
+    return glm::dvec3(colour) * ab.x + ab.y;
+  };
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(bounced(pbr(0.25))[c], 0.75 * colour[c] + 0.25 * lobe(1.0)[c], 1e-6);
+    Json copper = pbr(1.0);
+    copper["pbrMetallicRoughness"]["roughnessFactor"] = 0.4;
+    EXPECT_NEAR(bounced(copper)[c], lobe(0.4)[c], 1e-6);
+    // Texture G scales roughness and B metallic: G = 102 (0.4) under factor 1, B = 51 (0.2).
+    EXPECT_NEAR(bounced(pbr(1.0), {0, 102, 51, 255})[c], 0.8 * colour[c] + 0.2 * lobe(0.4)[c], 1e-5);
+  }
+  EXPECT_GT(lobe(0.4).x, 0.5);  // a metal sends back much of what it receives
+  // prt relight writes ρ E/π with the diffuse albedo: a metal bounces its lobe but relights black,
+  // a quarter-metal to 0.75 of the dielectric.
+  auto relit = [&](Json material) {
+    Scene s = quadWith(dir, std::move(material));
+    s.transferBands = 1;
+    for (MeshInstance& m : s.meshes) m.transfer.assign(m.vertexCount(), glm::vec3(1.0f));
+    sh::ShRgb light(1);
+    light.c[0] = glm::vec3(float(kPi));
+    return relightVertices(s, light)[0][0];
+  };
+  EXPECT_EQ(relit(pbr(1.0)), glm::vec3(0.0f));
+  EXPECT_NEAR(relit(pbr(0.25)).y, 0.75f * colour.y, 1e-6f);
   // The texture's B channel scales the factor: B = 51 (0.2) under factor 0.5 is metallic 0.1.
   EXPECT_NEAR(albedo(pbr(0.5), {0, 255, 51, 255}).x, 0.8f * (1.0f - 0.5f * 0.2f), 1e-6f);
   // Specular-glossiness and unlit materials, and no material: the base colour as before.

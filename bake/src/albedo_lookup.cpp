@@ -298,7 +298,7 @@ AlbedoLookup::AlbedoLookup(const Scene& s) : scene(s) {
         }
       }
     }
-    if (metallicTexture) b.flags = 0;
+    if (metallicTexture || bouncesSpecular(s, m)) b.flags = 0;  // looked up one by one
     if (!m.colors.empty()) {
       b.flags |= kColoured;
       b.colors = m.colors.data();

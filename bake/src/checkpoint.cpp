@@ -63,9 +63,10 @@ void addSceneFingerprint(Fingerprint& fp, const Scene& scene) {
     const bool dielectric = m.metallicFactor == 0.0f && m.metallicRoughnessTexture.texture < 0 && m.ior == 1.5f &&
                             m.specularFactor == 1.0f && m.specularColorFactor == glm::vec3(1.0f);
     if (!dielectric && !m.specularGlossiness) {
-      const float f[6] = {m.metallicFactor,        m.ior,
+      const float f[7] = {m.metallicFactor,        m.ior,
                           m.specularFactor,        m.specularColorFactor.x,
-                          m.specularColorFactor.y, m.specularColorFactor.z};
+                          m.specularColorFactor.y, m.specularColorFactor.z,
+                          m.roughnessFactor};  // a metal's bounced lobe depends on it
       const int32_t w[2] = {m.metallicRoughnessTexture.texture, m.metallicRoughnessTexture.uvSet};
       materials.add(f, sizeof f);
       materials.add(w, sizeof w);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "prt/brdf.h"
 #include "prt/error.h"
@@ -53,6 +54,26 @@ DfgTable computeDfgTable(int size, int samples) {
       t.ab[size_t(row) * size_t(size) + size_t(column)] =
           integrateDfg(DfgTable::coordinate(column, size), DfgTable::coordinate(row, size), samples);
   return t;
+}
+
+glm::dvec2 cosineAveragedDfg(double roughness) {
+  constexpr int kRoughness = 65, kCosines = 64, kSamples = 512;
+  static const std::vector<glm::dvec2> table = [] {
+    std::vector<glm::dvec2> t(kRoughness);
+    for (int r = 0; r < kRoughness; ++r) {
+      glm::dvec2 sum(0.0);
+      for (int c = 0; c < kCosines; ++c) {
+        const double mu = (c + 0.5) / kCosines;
+        sum += integrateDfg(mu, double(r) / (kRoughness - 1), kSamples) * mu;
+      }
+      t[size_t(r)] = 2.0 * sum / double(kCosines);
+    }
+    return t;
+  }();
+  const double x = std::isfinite(roughness) ? std::clamp(roughness, 0.0, 1.0) * (kRoughness - 1) : kRoughness - 1;
+  const int i = std::min(int(x), kRoughness - 2);
+  const double f = x - i;
+  return table[size_t(i)] * (1.0 - f) + table[size_t(i) + 1] * f;
 }
 
 glm::dvec2 DfgTable::lookup(double nDotV, double roughness) const {

@@ -88,46 +88,79 @@ bool readsMetallicTexture(const Scene& scene, const MeshInstance& mesh) {
          !mesh.uvs(m.metallicRoughnessTexture.uvSet).empty();
 }
 
-glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v) {
-  PRT_CHECK_LT(size_t(v), mesh.vertexCount());
-  glm::vec3 albedo(1.0f);
+namespace {
+
+// The albedo at a point, given how to read a texture coordinate set and COLOR_0 there.
+// `bounce` adds the metal's specular lobe as the bake bounces it (docs/bake.md, "Materials"):
+// metallic × (baseColor · Ā + B̄), (Ā, B̄) = brdf::cosineAveragedDfg(roughness). The diffuse
+// part is computed in the order it always was, so materials without metal keep their bits.
+template <class Uv, class Colour>
+glm::vec3 albedoWith(const Scene& scene, const MeshInstance& mesh, bool bounce, Uv&& uv, Colour&& colour) {
+  glm::vec3 albedo(1.0f), base(1.0f);
+  float metallic = 0.0f, roughness = 1.0f;
   if (mesh.material >= 0) {
     const Material& mat = scene.materials[size_t(mesh.material)];
     albedo = glm::vec3(mat.baseColorFactor) * diffuseScale(scene, mesh);
-    if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty())
-      albedo *= glm::vec3(scene.textures[size_t(mat.baseColorTexture)].sample(mesh.texcoords[v]));
-    if (readsMetallicTexture(scene, mesh)) {
+    base = glm::vec3(mat.baseColorFactor);
+    if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty()) {
+      const glm::vec3 texel(sampleTexture(scene.textures[size_t(mat.baseColorTexture)], uv(mesh.texcoords)));
+      albedo *= texel;
+      base *= texel;
+    }
+    if (!mat.specularGlossiness && !mat.unlit) {
+      metallic = mat.metallicFactor;
+      roughness = mat.roughnessFactor;
+    }
+    if (readsMetallicTexture(scene, mesh)) {  // metallic = factor × B, roughness = factor × G
       const TextureSlot& mr = mat.metallicRoughnessTexture;
-      albedo *= 1.0f - mat.metallicFactor * scene.textures[size_t(mr.texture)].sample(mesh.uvs(mr.uvSet)[v]).b;
+      const glm::vec4 texel = sampleTexture(scene.textures[size_t(mr.texture)], uv(mesh.uvs(mr.uvSet)));
+      albedo *= 1.0f - mat.metallicFactor * texel.b;
+      metallic *= texel.b;
+      roughness *= texel.g;
     }
   }
-  if (!mesh.colors.empty()) albedo *= glm::vec3(mesh.colors[v]);
+  if (!mesh.colors.empty()) {
+    const glm::vec3 c(colour());
+    albedo *= c;
+    base *= c;
+  }
+  if (bounce && metallic > 0.0f) {
+    const glm::vec2 ab(brdf::cosineAveragedDfg(roughness));
+    albedo += metallic * (base * ab.x + ab.y);
+  }
   return albedo;
+}
+
+glm::vec3 atVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v, bool bounce) {
+  PRT_CHECK_LT(size_t(v), mesh.vertexCount());
+  return albedoWith(
+      scene, mesh, bounce, [&](const std::vector<glm::vec2>& t) { return t[v]; }, [&] { return mesh.colors[v]; });
+}
+
+}  // namespace
+
+glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v) {
+  return atVertex(scene, mesh, v, true);
+}
+
+glm::vec3 diffuseAlbedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v) {
+  return atVertex(scene, mesh, v, false);
 }
 
 glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2) {
   PRT_CHECK_LT(size_t(tri), mesh.triangleCount());
   const uint32_t* i = &mesh.indices[3 * size_t(tri)];
-  float b0 = 1.0f - b1 - b2;
-  glm::vec3 albedo(1.0f);
-  if (mesh.material >= 0) {
-    const Material& mat = scene.materials[size_t(mesh.material)];
-    albedo = glm::vec3(mat.baseColorFactor) * diffuseScale(scene, mesh);
-    if (mat.baseColorTexture >= 0 && !mesh.texcoords.empty()) {
-      // Interpolate the coordinates, not the texels: the texture varies inside the triangle.
-      glm::vec2 uv = b0 * mesh.texcoords[i[0]] + b1 * mesh.texcoords[i[1]] + b2 * mesh.texcoords[i[2]];
-      albedo *= glm::vec3(sampleTexture(scene.textures[size_t(mat.baseColorTexture)], uv));
-    }
-    if (readsMetallicTexture(scene, mesh)) {  // metallic = factor × B, sampled as the base colour is
-      const TextureSlot& mr = mat.metallicRoughnessTexture;
-      const std::vector<glm::vec2>& t = mesh.uvs(mr.uvSet);
-      const glm::vec2 uv = b0 * t[i[0]] + b1 * t[i[1]] + b2 * t[i[2]];
-      albedo *= 1.0f - mat.metallicFactor * sampleTexture(scene.textures[size_t(mr.texture)], uv).b;
-    }
-  }
-  if (!mesh.colors.empty())
-    albedo *= glm::vec3(b0 * mesh.colors[i[0]] + b1 * mesh.colors[i[1]] + b2 * mesh.colors[i[2]]);
-  return albedo;
+  const float b0 = 1.0f - b1 - b2;
+  // Interpolate the coordinates, not the texels: the texture varies inside the triangle.
+  return albedoWith(
+      scene, mesh, true, [&](const std::vector<glm::vec2>& t) { return b0 * t[i[0]] + b1 * t[i[1]] + b2 * t[i[2]]; },
+      [&] { return b0 * mesh.colors[i[0]] + b1 * mesh.colors[i[1]] + b2 * mesh.colors[i[2]]; });
+}
+
+bool bouncesSpecular(const Scene& scene, const MeshInstance& mesh) {
+  if (mesh.material < 0) return false;
+  const Material& m = scene.materials[size_t(mesh.material)];
+  return !m.specularGlossiness && !m.unlit && m.metallicFactor > 0.0f;
 }
 
 float alphaAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2) {

@@ -34,7 +34,7 @@ std::vector<std::vector<glm::vec3>> relightSide(const Scene& scene, const sh::Sh
         for (int i = 0; i < n2; ++i) e -= t0[i] * d.c[size_t(i)];
         e += (*directIrradiance)[k][v];
       }
-      out[k][v] = albedoAtVertex(scene, m, uint32_t(v)) * e * float(1.0 / kPi);
+      out[k][v] = diffuseAlbedoAtVertex(scene, m, uint32_t(v)) * e * float(1.0 / kPi);
     }
   }
   return out;

@@ -132,5 +132,12 @@ struct DfgTable {
 glm::dvec2 integrateDfg(double nDotV, double roughness, int samples);
 /// The whole table, size × size entries of `samples` each.
 DfgTable computeDfgTable(int size, int samples);
+/// (Ā, B̄) = 2 ∫₀¹ (A, B)(μ) μ dμ: the split-sum terms averaged over cosine-weighted views,
+/// so that a lobe of Schlick F0 sends back F0 · Ā + f90 · B̄ of the light that a uniform
+/// radiance brings it (its hemispherical-hemispherical albedo; the bake bounces a metal's
+/// specular lobe as a diffuse reflector of that albedo, docs/bake.md, "Materials"). Tabulated
+/// once (65 roughness nodes × 64 midpoint μ nodes × 512 samples, each by integrateDfg) and
+/// interpolated linearly in perceptual roughness, clamped to [0, 1].
+glm::dvec2 cosineAveragedDfg(double roughness);
 
 }  // namespace prt::brdf

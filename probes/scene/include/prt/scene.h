@@ -285,15 +285,24 @@ Scene loadSceneFromMemory(const std::string& name, const std::string& bytes, con
 std::vector<std::string> describeReceivers(const Scene& scene,
                                            const std::string& receiverOption = "LoadOptions::receiverNodes");
 
-/// The diffuse albedo the bake uses (docs/bake.md, "Materials"): base colour (linear RGB,
-/// baseColorFactor × texture × COLOR_0) × (1 − metallic) × the dielectric's specular share,
-/// metallic = metallicFactor × the metallic-roughness texture's B channel (linear), sampled
-/// at its own coordinates as the base colour is at its own. The base colour alone for KHR_materials_pbrSpecularGlossiness, unlit
-/// materials and instances without a material. At vertex v.
+/// The albedo the bake's bounces use (docs/bake.md, "Materials"): the diffuse albedo, base
+/// colour (linear RGB, baseColorFactor × texture × COLOR_0) × (1 − metallic) × the dielectric's
+/// specular share, plus the metal's specular lobe re-emitted diffusely, metallic × (baseColor ·
+/// Ā + B̄) with (Ā, B̄) = brdf::cosineAveragedDfg(roughness). metallic = metallicFactor × the
+/// metallic-roughness texture's B channel, roughness = roughnessFactor × its G (linear), sampled
+/// at its own coordinates as the base colour is at its own. The base colour alone for
+/// KHR_materials_pbrSpecularGlossiness, unlit materials and instances without a material. At
+/// vertex v.
 glm::vec3 albedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v);
 /// The same at a point of triangle `tri` with barycentrics (b1, b2) of its 2nd and 3rd
 /// vertices (Embree's u, v).
 glm::vec3 albedoAt(const Scene& scene, const MeshInstance& mesh, uint32_t tri, float b1, float b2);
+/// The diffuse albedo alone (albedoAtVertex without the metal's specular lobe): what a
+/// view-independent radiance ρ E/π (`prt relight`) takes.
+glm::vec3 diffuseAlbedoAtVertex(const Scene& scene, const MeshInstance& mesh, uint32_t v);
+/// Whether the albedo on `mesh` has a specular part (a metallic-roughness material with
+/// metallicFactor > 0): its albedo is then not baseColor × diffuseScale alone.
+bool bouncesSpecular(const Scene& scene, const MeshInstance& mesh);
 /// The constant part of the diffuse albedo on `mesh`: (1 − metallicFactor) × dielectricScale,
 /// or dielectricScale alone where albedoAt reads the metallic-roughness texture (whose B
 /// channel then scales metallicFactor point by point); 1 for the cases albedoAt leaves as base
