@@ -4,6 +4,7 @@
     /usr/bin/python3 tools/validation/real_contact_sheet.py REAL_DIR HDRI OUT_DIR [--samples N]
     /usr/bin/python3 tools/validation/real_contact_sheet.py --lamps REAL_DIR OUT_DIR [--samples N] [--frames A-B]
     /usr/bin/python3 tools/validation/real_contact_sheet.py --place-lamps PROBES.vdb
+    /usr/bin/python3 tools/validation/real_contact_sheet.py REAL_DIR HDRI OUT_DIR --materials [--only NAME...]
 
 REAL_DIR holds the real scenes of SCENES below, each in its own folder (zdm2/zdm2.glb, ...;
 not in the repository, and tests never read it). Each scene goes through prt bake --probes,
@@ -18,7 +19,9 @@ OUT_DIR/NAME.txt (the commands' summaries) and OUT_DIR/sheet.png (ImageMagick's 
 (scenes/rigs/lamps_NAME.json: point, spot and area lights, one point light moving), no sky: each
 is baked with prt bake's defaults (the lamps' bounces go through its bounce operator), rendered frame by
 frame from the camera inside of LAMP_SCENES, and the frames of all maps joined in
-OUT_DIR/lamps_sheet.png, a row per map. --place-lamps: how those rigs and cameras were found,
+OUT_DIR/lamps_sheet.png, a row per map. --materials: each scene also rendered with --materials
+diffuse (NAME_diffuse.png) beside the full material (NAME.png, the default), the pairs joined in
+OUT_DIR/materials_sheet.png, a row per scene (--only picks them). --place-lamps: how those rigs and cameras were found,
 from a probe grid baked with the map (prt bake --probes): prints a rig and a camera (below).
 """
 import argparse
@@ -46,6 +49,15 @@ SCENES = [
     ("engine_draco", "engine_draco/2CylinderEngine.gltf", False, 0.0, 0.0),
     ("dutch_ship", "dutch_ship/dutch_ship_medium_1k.gltf", False, 1.0, 0.0),
 ]
+
+# --materials: closer views where the materials show (the town's from the real-level validation's
+# camera at a house's corner, tools/validation/real_level_validation.sh, moved back).
+MATERIAL_VIEWS = {
+    "truck_town": ["--orbit-target", "16,10,-5", "--orbit-distance", "12", "--orbit-azimuth", "30",
+                   "--orbit-elevation", "15", "--orbit-fov", "60"],
+    "dutch_ship": ["--orbit-target", "1.5,3,0", "--orbit-distance", "20", "--orbit-azimuth", "55",
+                   "--orbit-elevation", "12", "--orbit-fov", "50"],
+}
 
 
 def run(args, log):
@@ -275,6 +287,7 @@ def main():
     ap.add_argument("--frames", default="0-2", help="--lamps: the frames rendered, A-B")
     ap.add_argument("--size", default="240x135", help="--lamps: the frames' size")
     ap.add_argument("--keep-bakes", action="store_true", help="--lamps: reuse OUT_DIR/lamps_NAME.glb where it exists")
+    ap.add_argument("--materials", action="store_true", help="also render --materials diffuse; pairs in materials_sheet.png")
     ap.add_argument("--place-lamps", action="store_true", help="print a rig of lamps and a camera for a probe grid")
     a = ap.parse_args()
     if a.place_lamps:
@@ -302,21 +315,31 @@ def main():
             run([PRT, "relight", base + ".glb", "--env", a.hdri, "-o", base + "_lit.glb"], log)
             render = [PRT, "render", base + ".glb", "--env", a.hdri, "--background", "sky", "--probes", base + ".vdb",
                       "--size", "480x270", "--msaa", "4", "--png", "--exposure", str(exposure), "-o", base + ".exr"]
-            if closed:
+            if a.materials and name in MATERIAL_VIEWS:
+                render += MATERIAL_VIEWS[name]
+            elif closed:
                 c = inside_camera(base + ".vdb")
                 render += ["--orbit-target", ",".join(f"{x:.3f}" for x in c), "--orbit-distance", "0.01",
                            "--orbit-elevation", "-10", "--orbit-fov", "80"]
             else:
                 render += ["--orbit-elevation", "25", "--orbit-azimuth", "35"]
             run(render, log)
+            if a.materials:
+                diffuse = [x if x != base + ".exr" else base + "_diffuse.exr" for x in render]
+                run(diffuse + ["--materials", "diffuse"], log)
             run([PRT, "info", base + ".glb", base + ".vdb"], log)
     args = ["montage"]
     for png, name in tiles:
-        args += ["-label", name, png]
-    args += ["-tile", "4x", "-geometry", "+4+4", "-background", "#202020", "-fill", "white",
-             os.path.join(a.out, "sheet.png")]
+        if a.materials and (a.only is None or name in a.only):
+            args += ["-label", name + ": --materials full", png, "-label", name + ": --materials diffuse",
+                     png.replace(".png", "_diffuse.png")]
+        elif not a.materials:
+            args += ["-label", name, png]
+    sheet = os.path.join(a.out, "materials_sheet.png" if a.materials else "sheet.png")
+    args += ["-tile", "2x" if a.materials else "4x", "-geometry", "+4+4", "-background", "#202020", "-fill", "white",
+             sheet]
     subprocess.run(args, check=True)
-    print(os.path.join(a.out, "sheet.png"))
+    print(sheet)
 
 
 if __name__ == "__main__":
