@@ -420,6 +420,44 @@ TEST(BakeLocalLight, ClosedBoxLitByALampMatchesTheBounceSeries) {
   EXPECT_NEAR(meanIrradiance(s.meshes[0], direct.front[0]) / e0, 1.0, 0.005);
 }
 
+// FrameLighting keeps the vertex sides' ray origins across frames; a baked file may hold an
+// instance without transfer (prt render skips it) before the baked ones. A slab over a floor,
+// the slab unbaked: the lamp's light at the floor's vertices through FrameLighting is the same
+// as a direct call that finds the origins itself (the same rays from the same origins: 1e-6).
+TEST(BakeLocalLight, FrameLightingOriginsSkipAnUnbakedInstance) {
+  MeshInstance floor = test::makePlane({0, 0, 0}, 4.0f, 16);
+  Scene s = test::makeScene({test::makeSlab({-2.0f, 1.0f, -2.0f}, {0.0f, 1.05f, 2.0f}), floor}, 0.5f);
+  bake::BakeSettings bs;
+  bs.samples = 16;
+  bs.bounces = 0;
+  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
+  bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
+  s.transferBands = 3;
+  s.meshes[0].transfer.clear();  // the slab: not baked, not a receiver
+  s.meshes[0].transferDirect.clear();
+  LightRig rig;
+  RigLocalLight lamp;
+  lamp.type = LocalLight::Type::Point;
+  lamp.label = "lamp";
+  lamp.position = Track::constant(glm::dvec3(0.3, 2.0, 0.1));
+  lamp.color = Track::constant(1.0);
+  rig.locals.push_back(lamp);
+  rig.validate();
+  bake::FrameLightingSettings fs;
+  fs.directAtVertices = true;
+  fs.gatherSamples = 0;
+  fs.skyDetail = false;
+  bake::FrameLighting lighting(s, rig, fs);
+  const bake::FrameLight light = lighting.at(0.0);
+  ASSERT_NE(light.vertexLight, nullptr);
+  const bake::DirectIrradiance direct = bake::shadowedLocalIrradiance(s, bake::RayScene(s), {rig.locals[0].at(0.0)});
+  ASSERT_EQ(direct.front[1].size(), s.meshes[1].vertexCount());
+  ASSERT_EQ(light.vertexLight->front[1].size(), s.meshes[1].vertexCount());
+  for (size_t v = 0; v < s.meshes[1].vertexCount(); ++v)
+    for (int c = 0; c < 3; ++c)
+      ASSERT_NEAR(light.vertexLight->front[1][v][c], direct.front[1][v][c], 1e-6) << "vertex " << v;
+}
+
 // For the renderer (directAtVertices false), FrameLightingSettings::localPerPixel takes the lamp's
 // own shadowed light out of the vertex light and keeps its bounces: the two vertex lights differ
 // by the lamp's E⁰ at every vertex (float rounding: 1e-5 of the lamp's mean), and what is left
