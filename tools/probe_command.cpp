@@ -302,7 +302,12 @@ int runProbe(const ProbeArgs& a) {
                        " has no probe rows in its bounce operator (baked without --probes, or by an older prt): the "
                        "probes get only the bounced light their SH carries");
   std::optional<bake::PointShadows> shadowRays;
-  if (split || !frame.local.empty()) shadowRays.emplace(*scene);
+  if (split || !frame.local.empty()) {
+    if (const bake::RayScene* built = sceneLighting->rays())
+      shadowRays.emplace(*built);  // the frame's own shadow rays' scene
+    else
+      shadowRays.emplace(*scene);
+  }
   ProbeQuery q{grid,         relit, light, shadowRays ? &*shadowRays : nullptr, split ? &lighting.direct : nullptr,
                &frame.local, {}};
   q.shadows.samples = a.shadowSamples;

@@ -350,5 +350,6 @@ bool FrameLighting::gathers() const { return impl_->gathering(); }
 bool FrameLighting::usesOperator() const { return impl_->through != nullptr; }
 bool FrameLighting::skyDetail() const { return impl_->sky; }
 const FrameLightingStats& FrameLighting::stats() const { return impl_->stats; }
+const RayScene* FrameLighting::rays() const { return impl_->rays ? &*impl_->rays : nullptr; }
 
 }  // namespace prt::bake

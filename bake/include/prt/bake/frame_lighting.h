@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -123,6 +124,9 @@ class FrameLighting {
   /// Whether that goes through the bake's bounce operator (else through rays traced again).
   bool usesOperator() const;
   const FrameLightingStats& stats() const;
+  /// The static scene's rays where at() built them (for its shadow rays), else null: a caller
+  /// that traces more at the same scene shares them (PointShadows).
+  const RayScene* rays() const;
 
  private:
   struct Impl;
@@ -138,7 +142,11 @@ RigLighting rigLighting(const LightRig& rig, double frame, int bands, bool direc
 /// a command that asks many times.
 class PointShadows {
  public:
-  explicit PointShadows(const Scene& scene) : rays_(scene) {}
+  explicit PointShadows(const Scene& scene) : own_(std::in_place, scene), rays_(*own_) {}
+  /// Tracing `rays` (built from the scene, e.g. FrameLighting::rays()), which must outlive this.
+  explicit PointShadows(const RayScene& rays) : rays_(rays) {}
+  PointShadows(const PointShadows&) = delete;
+  PointShadows& operator=(const PointShadows&) = delete;
   std::vector<glm::vec3> irradiance(const std::vector<glm::vec3>& points, const std::vector<glm::vec3>& normals,
                                     const std::vector<DirectLight>& lights, const ShadowSettings& settings) const;
   /// The same for lights inside the scene (shadowedLocalIrradianceAt).
@@ -146,7 +154,8 @@ class PointShadows {
                                     const std::vector<LocalLight>& lights, const ShadowSettings& settings) const;
 
  private:
-  RayScene rays_;
+  std::optional<RayScene> own_;
+  const RayScene& rays_;
 };
 
 }  // namespace prt::bake
