@@ -423,7 +423,9 @@ TEST(BakeLocalLight, ClosedBoxLitByALampMatchesTheBounceSeries) {
 // FrameLighting keeps the vertex sides' ray origins across frames; a baked file may hold an
 // instance without transfer (prt render skips it) before the baked ones. A slab over a floor,
 // the slab unbaked: the lamp's light at the floor's vertices through FrameLighting is the same
-// as a direct call that finds the origins itself (the same rays from the same origins: 1e-6).
+// as a direct call that finds the origins itself (the same rays from the same origins: 1e-6),
+// I cos θ / r² where the slab's shadow (x < −0.33) is far (x > 0; 1e-4 for the origins' lift),
+// and 0 deep in it (x < −1).
 TEST(BakeLocalLight, FrameLightingOriginsSkipAnUnbakedInstance) {
   MeshInstance floor = test::makePlane({0, 0, 0}, 4.0f, 16);
   Scene s = test::makeScene({test::makeSlab({-2.0f, 1.0f, -2.0f}, {0.0f, 1.05f, 2.0f}), floor}, 0.5f);
@@ -453,9 +455,23 @@ TEST(BakeLocalLight, FrameLightingOriginsSkipAnUnbakedInstance) {
   const bake::DirectIrradiance direct = bake::shadowedLocalIrradiance(s, bake::RayScene(s), {rig.locals[0].at(0.0)});
   ASSERT_EQ(direct.front[1].size(), s.meshes[1].vertexCount());
   ASSERT_EQ(light.vertexLight->front[1].size(), s.meshes[1].vertexCount());
-  for (size_t v = 0; v < s.meshes[1].vertexCount(); ++v)
+  int lit = 0, dark = 0;
+  for (size_t v = 0; v < s.meshes[1].vertexCount(); ++v) {
     for (int c = 0; c < 3; ++c)
       ASSERT_NEAR(light.vertexLight->front[1][v][c], direct.front[1][v][c], 1e-6) << "vertex " << v;
+    const dvec3 p(s.meshes[1].positions[v]), toLamp = dvec3(0.3, 2.0, 0.1) - p;
+    const double r2 = glm::dot(toLamp, toLamp), e = toLamp.y / std::sqrt(r2) / r2;
+    if (p.x > 0.0) {
+      ASSERT_NEAR(light.vertexLight->front[1][v].g, e, 1e-4 * e) << "vertex " << v;
+      ++lit;
+    }
+    if (p.x < -1.0) {
+      ASSERT_EQ(light.vertexLight->front[1][v].g, 0.0f) << "vertex " << v;
+      ++dark;
+    }
+  }
+  EXPECT_GT(lit, 20);
+  EXPECT_GT(dark, 20);
 }
 
 // For the renderer (directAtVertices false), FrameLightingSettings::localPerPixel takes the lamp's
