@@ -110,9 +110,9 @@ TEST_F(CliMpi, RanksWriteTheBytesOfOneProcess) {
 
 // Two ranks with `common`, rank 1 interrupted after its first chunk of bounce 1 (checkpoint
 // stage 2; a rank gathers the chunks whose direct pass it computed, taken as they came: about
-// half of the 196, far fewer when its core is busy with something else, so not a count that
-// holds only for a static split) with `rank1Extra` added to its arguments: it saves and stops
-// the job, and rank 0 dies with what it had not saved.
+// half of the 196, far fewer when its core is busy with something else, none when rank 0 took
+// them all, and then it stops at bounce 1's end) with `rank1Extra` added to its arguments: it
+// saves and stops the job, and rank 0 dies with what it had not saved.
 RunResult stopRank1InBounce1(const Args& common, const Args& rank1Extra) {
   Args a = {"--oversubscribe", "--allow-run-as-root", "-n", "1", test::prtExe()};
   a.insert(a.end(), common.begin(), common.end());

@@ -297,6 +297,13 @@ void Checkpoint::complete(uint64_t chunk) {
   m.saveLocked();
 }
 
+void Checkpoint::chunksTaken() {
+  const Impl& m = *impl_;
+  if (m.haveStage && m.opt.interruptInStage != 0 && m.opt.interruptInStage == m.current &&
+      m.opt.interruptAfterChunks > 0 && m.completedInStage.load() < m.opt.interruptAfterChunks)
+    requestInterrupt(SIGINT);
+}
+
 void Checkpoint::endStage() {
   Impl& m = *impl_;
   std::lock_guard lock(m.pendingMutex);

@@ -213,6 +213,7 @@ StageStats ChunkedStage::run(const ChunkFn& fn) {
       runAssigned(fn, rays, progress);
     progress.finish();
   }
+  if (cp_) cp_->chunksTaken();
   stopIfInterrupted(cp_);
   Ranks& r = ranks();
   if (r.size() > 1) {

@@ -66,7 +66,8 @@ struct CheckpointOptions {
   /// Continue the checkpoint at `path` (it must exist and match); otherwise there must be none.
   bool resume = false;
   /// Tests: request an interrupt (SIGINT) once this many chunks have finished in this run, or,
-  /// with interruptInStage, in that stage (its id) of this run.
+  /// with interruptInStage, in that stage (its id) of this run, or at that stage's end where
+  /// this run finished fewer there (a rank that a shared counter gave fewer chunks).
   uint64_t interruptAfterChunks = 0;
   uint32_t interruptInStage = 0;
   /// With resume: a missing file is a fresh checkpoint (a rank that never saved, ranks.h).
@@ -125,6 +126,9 @@ class Checkpoint {
   void save();
   /// If an interrupt was requested: saves, then throws prt::Interrupted.
   void stopIfInterrupted();
+  /// The current stage's chunks are all taken: requests the interrupt of interruptInStage if
+  /// this run finished fewer chunks there than interruptAfterChunks.
+  void chunksTaken();
   /// Forgets every stage's writers and the records not yet saved: call when the function
   /// that owns the stages' buffers returns or unwinds (they would dangle).
   void releaseStages();
