@@ -21,7 +21,10 @@ Lambertian (Burley's, with its retro-reflection and grazing darkening), so `--ma
 builds the glTF BRDF as prt evaluates it (docs/render.md, "Materials") from Cycles' nodes: a
 Lambertian Diffuse BSDF of colour baseColor·(1 − metallic) added to a Principled BSDF with
 metallic 1, base colour F0 = mix(0.04, baseColor, metallic) and the material's roughness (GGX,
-the specular lobe alone, Fresnel from F0), same bounces and caustics. The world is the equirectangular map, sampled with "Closest"
+the specular lobe alone, Fresnel from F0), same bounces and caustics. `--materials gltf-bake`
+keeps that BRDF for camera rays and gives every later bounce a Lambertian of the bounce albedo
+prt's bake uses (docs/bake.md, "Materials"): prt's light transport, seen through the exact BRDF
+(docs/validation.md, "Glossy materials"). The world is the equirectangular map, sampled with "Closest"
 interpolation (prt projects each pixel as a constant, docs/lights.md), strength 1.
 
 Bounces: `prt bake --bounces K` stores t0 + ... + tK (prt-math.md): light that reached the
@@ -77,10 +80,11 @@ def parse_args():
                    help="Cycles' pixel filter: its default (Blackman-Harris, 1.5 pixels wide) or a box one "
                         "pixel wide (each pixel the mean radiance over its square, as a supersampled "
                         "prt frame averaged down)")
-    p.add_argument("--materials", choices=["lambert", "principled", "gltf"], default="lambert",
+    p.add_argument("--materials", choices=["lambert", "principled", "gltf", "gltf-bake"], default="lambert",
                    help="every material a Lambertian Diffuse BSDF (default), the glTF metallic-roughness "
                         "material as a Principled BSDF (GGX, specular 0.5), or as glTF's BRDF (a Lambertian "
-                        "diffuse plus a GGX specular lobe)")
+                        "diffuse plus a GGX specular lobe), or glTF's BRDF for camera rays and a Lambertian of "
+                        "prt's bounce albedo for every other ray (gltf-bake: prt's light transport)")
     p.add_argument("--no-caustics", action="store_true",
                    help="with --materials principled or gltf: reflective caustics off (no glossy reflection after a "
                         "diffuse bounce: the light transport of prt's bake, which bounces the diffuse albedo only)")
@@ -248,9 +252,64 @@ def make_gltf(material):
     return rgb, metallic, roughness
 
 
+def lobe_albedo(roughness):
+    """(A, B) of the GGX lobe averaged over cosine-weighted views, 2 ∫ (A, B)(μ) μ dμ: a lobe of
+    Schlick Fresnel from F0 reflects F0·A + B of a uniform radiance (prt's brdf::cosineAveragedDfg,
+    docs/bake.md, "Materials"). Its own quadrature, from the glTF specification's GGX D and
+    height-correlated Smith V: 32 Gauss-Legendre views, 128 x 128 stratified half vectors each."""
+    import numpy as np
+    alpha = max(roughness * roughness, 1e-4)
+    a2 = alpha * alpha
+    nodes, weights = np.polynomial.legendre.leggauss(32)
+    mus, ws = 0.5 * (nodes + 1.0), 0.5 * weights
+    n = 128
+    u1, u2 = np.meshgrid((np.arange(n) + 0.5) / n, (np.arange(n) + 0.5) / n)
+    u1, u2 = u1.ravel(), u2.ravel()
+    cos_h = np.sqrt((1.0 - u1) / (1.0 + (a2 - 1.0) * u1))  # GGX's D(h)(n·h) sampled
+    sin_h = np.sqrt(1.0 - cos_h * cos_h)
+    h = np.stack([sin_h * np.cos(2 * np.pi * u2), sin_h * np.sin(2 * np.pi * u2), cos_h], axis=1)
+    total = np.zeros(2)
+    for mu, w in zip(mus, ws):
+        v = np.array([np.sqrt(1.0 - mu * mu), 0.0, mu])
+        vh = h @ v
+        l = 2.0 * vh[:, None] * h - v
+        nl = l[:, 2]
+        ok = (nl > 0.0) & (vh > 0.0)
+        nl, vh_, nh = nl[ok], vh[ok], h[ok, 2]
+        vis = 0.5 / (nl * np.sqrt(mu * mu * (1.0 - a2) + a2) + mu * np.sqrt(nl * nl * (1.0 - a2) + a2))
+        g = 4.0 * vis * nl * vh_ / nh  # f / F · cos / pdf
+        fc = (1.0 - vh_) ** 5
+        total += 2.0 * mu * w * np.array([np.sum(g * (1.0 - fc)), np.sum(g * fc)]) / (n * n)
+    return total
+
+
+def make_gltf_bake(material):
+    """glTF's BRDF (make_gltf) where a camera ray lands, and everywhere else a Lambertian of the
+    bounce albedo prt's bake gives the material: the base colour for a dielectric, baseColor·(1 −
+    metallic) + metallic·(baseColor·A + B) (lobe_albedo) for a metal. That is prt's light
+    transport (its bake re-emits every bounce diffusely) seen through the exact BRDF."""
+    rgb, metallic, roughness = make_gltf(material)
+    a, b = lobe_albedo(roughness) if metallic > 0.0 else (0.0, 0.0)
+    bounce = tuple(c * (1.0 - metallic) + metallic * (c * a + b) for c in rgb)
+    nodes = material.node_tree.nodes
+    links = material.node_tree.links
+    out = [n for n in nodes if n.type == "OUTPUT_MATERIAL"][0]
+    full = out.inputs["Surface"].links[0].from_socket
+    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = bounce + (1.0,)
+    diffuse.inputs["Roughness"].default_value = 0.0
+    path = nodes.new("ShaderNodeLightPath")
+    mix = nodes.new("ShaderNodeMixShader")
+    links.new(path.outputs["Is Camera Ray"], mix.inputs["Fac"])
+    links.new(diffuse.outputs["BSDF"], mix.inputs[1])
+    links.new(full, mix.inputs[2])
+    links.new(mix.outputs["Shader"], out.inputs["Surface"])
+    return {"base": rgb, "metallic": metallic, "roughness": roughness, "bounce": bounce}
+
+
 def setup_materials(kind="lambert"):
     colours = {}
-    make = {"principled": make_principled, "gltf": make_gltf}.get(kind, make_lambertian)
+    make = {"principled": make_principled, "gltf": make_gltf, "gltf-bake": make_gltf_bake}.get(kind, make_lambertian)
     for obj in bpy.context.scene.objects:
         for slot in obj.material_slots if obj.type == "MESH" else []:
             if slot.material is not None and slot.material.name not in colours:

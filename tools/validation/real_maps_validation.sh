@@ -35,8 +35,9 @@
 # a glossy floor and a copper short box (tools/validation/glossy_room.py --validation-room): Cycles
 # with the Principled BSDF (`cycles_reference.py --materials principled`: GGX, specular 0.5,
 # glossy bounces and reflective caustics on; MATERIALS=gltf: glTF's BRDF, Lambertian diffuse plus
-# the GGX lobe, as prt evaluates it; CAUSTICS=0: no glossy reflection after a diffuse bounce, the
-# light transport of prt's bake, which bounces the diffuse albedo alone), prt baked at 3 bands
+# the GGX lobe, as prt evaluates it; MATERIALS=gltf-bake: that BRDF where the camera looks and a
+# Lambertian of prt's bounce albedo on every later bounce, prt's light transport; CAUSTICS=0: no
+# glossy reflection after a diffuse bounce), prt baked at 3 bands
 # and 8 bounces and rendered with --materials full and --materials diffuse, compared over the
 # whole frame and over the floor's and the box's pixels apart (`cycles_compare.py --objects`).
 # Only reports: no exit status depends on the numbers. Cycles results in OUTDIR are reused when
