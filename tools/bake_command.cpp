@@ -67,8 +67,8 @@ class SignalScope {
 
 // PRT_TEST_INTERRUPT_AFTER=N: interrupt after N chunks of this run; =S:N after N chunks of
 // the stage whose checkpoint id is S, or at its end on a rank that finished fewer there (under
-// MPI a rank's chunks per stage vary, ranks.h). The
-// test suite interrupts bakes at chosen points with it, as a user's Ctrl-C would.
+// MPI a rank's chunks per stage vary, ranks.h). The test suite interrupts bakes at chosen
+// points with it, as a user's Ctrl-C would.
 void testInterruptAfter(bake::JobCheckpoint& c) {
   const char* v = std::getenv("PRT_TEST_INTERRUPT_AFTER");
   if (!v) return;
