@@ -433,6 +433,82 @@ TEST(MaterialRender, PointLampHighlightOnAPlaneMatchesTheFormula) {
 
 // The same frame on EGL (surfaceless): both drive llvmpipe here, so the frames agree to float
 // rounding (1e-5 of the peak).
+// Screen-space reflections (Frame::screenReflections): a smooth white metal floor in front of a
+// low grey wall, under a uniform sky of radiance 1 that lights both unoccluded. Without the pass the
+// floor reflects the sky: its pixels hold the lobe's weight W. With it, the floor's pixels whose
+// mirror direction meets the wall reflect the wall, W · L_wall: their ratio to the frame without
+// the pass is the wall's radiance read from the same frame, within 5% (the lobe's footprint
+// blurs over the wall's own pixels, which are uniform but for its rough lobe). Pixels whose
+// mirror direction passes over the wall keep the sky, and so does every pixel with the pass and
+// the wall's reflection off (--msaa), to float rounding. OSMesa and EGL agree.
+TEST(MaterialRender, ScreenReflectionsShowTheWallTheMirrorDirectionMeets) {
+  MeshInstance wall = plane(0.5, glm::vec3(0, 0, 1));
+  wall.name = "wall";
+  wall.material = 1;
+  // The square turned upright into the plane z = −1, y ∈ [0, 1].
+  for (glm::vec3& p : wall.positions) p = glm::vec3(p.x, p.z + 0.5f, -1.0f);
+  wall.indices = {0, 2, 3, 0, 1, 2};  // counter-clockwise seen from +z
+  Scene scene = sceneOf(plane(2.0), metal(glm::vec3(1.0f), 0.05f));
+  Material grey;
+  grey.name = "grey";
+  grey.baseColorFactor = glm::vec4(0.3f, 0.3f, 0.3f, 1.0f);
+  grey.metallicFactor = 0.0f;
+  scene.materials.push_back(grey);
+  scene.meshes.push_back(wall);
+  scene.boundsMax.y = 1.0f;
+  RigBackground sky;
+  sky.uniform = glm::dvec3(1.0);
+  Frame f;
+  f.camera.cameraToWorld = glm::inverse(glm::lookAt(glm::dvec3(0, 1.2, 3.0), glm::dvec3(0, 0.6, -1.0), {0, 1, 0}));
+  f.camera.yfov = glm::radians(50.0);
+  f.camera.znear = 0.05;
+  f.light = uniformSky(1.0);
+  f.materials = MaterialShading::Full;
+  f.environment = &sky;
+  ImageRgb frames[3];
+  for (int i = 0; i < 3; ++i) {
+    GlContextOptions o;
+    o.eglPlatform = EglPlatform::Surfaceless;
+    GlContext ctx(i == 2 ? GlBackend::Egl : GlBackend::OSMesa, 96, 96, o);
+    Renderer r(ctx, scene);
+    f.screenReflections = i > 0;
+    frames[i] = r.render(f);
+  }
+  const ImageRgb &off = frames[0], &on = frames[1];
+  // The wall's radiance at its centre, and the floor's pixels along the image's middle column.
+  const int x = 48;
+  const double wallRadiance = on.at(x, 48).x;
+  EXPECT_GT(wallRadiance, 0.25);
+  int reflected = 0, sky_ = 0;
+  for (int y = 0; y < 96; ++y) {
+    const double a = off.at(x, y).x, b = on.at(x, y).x;
+    EXPECT_NEAR(on.at(x, y).x, frames[2].at(x, y).x, 1e-5) << y;
+    if (a <= 0.0) continue;
+    // The pixel's world point: on the floor when its ray from the camera goes down to y = 0.
+    const glm::dvec3 eye(0, 1.2, 3.0);
+    const glm::dvec4 ndc(0.0, 1.0 - 2.0 * (y + 0.5) / 96.0, 0.5, 1.0);
+    const glm::dmat4 proj = glm::perspective(f.camera.yfov, 1.0, 0.05, 100.0);
+    glm::dvec4 p = glm::inverse(proj * glm::inverse(f.camera.cameraToWorld)) * ndc;
+    const glm::dvec3 dir = glm::normalize(glm::dvec3(p) / p.w - eye);
+    if (dir.y >= 0.0) continue;
+    const glm::dvec3 hit = eye + dir * (-eye.y / dir.y);
+    if (hit.z < -0.95 || hit.z > 1.9) continue;  // on the floor, in front of the wall
+    // Its mirror direction's height where it reaches the wall's plane z = −1.
+    const glm::dvec3 r(dir.x, -dir.y, dir.z);
+    const double yWall = hit.y + r.y * ((-1.0 - hit.z) / r.z);
+    if (yWall > 0.1 && yWall < 0.85) {
+      ++reflected;
+      EXPECT_NEAR(b / a, wallRadiance, 0.05 * wallRadiance) << "row " << y << ", mirror meets the wall at " << yWall;
+    } else if (yWall > 1.15) {
+      ++sky_;
+      EXPECT_NEAR(b, a, 1e-5 * a) << "row " << y << ": the mirror direction passes over the wall";
+    }
+  }
+  std::printf("  wall %.4f; %d floor pixels reflect it, %d the sky\n", wallRadiance, reflected, sky_);
+  EXPECT_GT(reflected, 5);
+  EXPECT_GT(sky_, 1);
+}
+
 TEST(MaterialRender, OsMesaEqualsEgl) {
   const glm::vec3 copper(0.95f, 0.64f, 0.54f);
   const Scene scene = sceneOf(plane(2.0), metal(copper, 0.3f));

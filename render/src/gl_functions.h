@@ -65,6 +65,10 @@ namespace prt::render {
   X(PFNGLNAMEDFRAMEBUFFERRENDERBUFFERPROC, NamedFramebufferRenderbuffer)               \
   X(PFNGLNAMEDFRAMEBUFFERREADBUFFERPROC, NamedFramebufferReadBuffer)                   \
   X(PFNGLNAMEDFRAMEBUFFERDRAWBUFFERPROC, NamedFramebufferDrawBuffer)                   \
+  X(PFNGLNAMEDFRAMEBUFFERDRAWBUFFERSPROC, NamedFramebufferDrawBuffers)                 \
+  X(PFNGLNAMEDFRAMEBUFFERTEXTUREPROC, NamedFramebufferTexture)                         \
+  X(PFNGLGENERATETEXTUREMIPMAPPROC, GenerateTextureMipmap)                             \
+  X(PFNGLBLENDFUNCSEPARATEPROC, BlendFuncSeparate)                                     \
   X(PFNGLCHECKNAMEDFRAMEBUFFERSTATUSPROC, CheckNamedFramebufferStatus)                 \
   X(PFNGLCLEARNAMEDFRAMEBUFFERFVPROC, ClearNamedFramebufferfv)                         \
   X(PFNGLCREATERENDERBUFFERSPROC, CreateRenderbuffers)                                 \

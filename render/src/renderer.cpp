@@ -99,8 +99,10 @@ const Program& Renderer::Impl::receiverProgram(ProbeLookup lookup, int variant) 
 
 // ---- The framebuffer -----------------------------------------------------------------------
 
-void Renderer::Impl::ensureFramebuffer(int width, int height, int samples) {
-  if (target.framebuffer && width == target.width && height == target.height && samples == target.samples) return;
+void Renderer::Impl::ensureFramebuffer(int width, int height, int samples, bool reflections) {
+  if (target.framebuffer && width == target.width && height == target.height && samples == target.samples &&
+      reflections == target.reflections)
+    return;
   GLint maxSize = 0, maxSamples = 0;
   gl.GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &maxSize);
   gl.GetIntegerv(GL_MAX_SAMPLES, &maxSamples);
@@ -113,7 +115,12 @@ void Renderer::Impl::ensureFramebuffer(int width, int height, int samples) {
   Target t;
   t.framebuffer = createFramebuffer(gl);
   t.color = attachRenderbuffer(gl, t.framebuffer, GL_COLOR_ATTACHMENT0, GL_RGBA32F, width, height, samples);
-  t.depth = attachRenderbuffer(gl, t.framebuffer, GL_DEPTH_ATTACHMENT, GL_DEPTH_COMPONENT32F, width, height, samples);
+  t.width = width;
+  t.height = height;
+  if (reflections && samples == 1)
+    attachReflectionTargets(t);
+  else
+    t.depth = attachRenderbuffer(gl, t.framebuffer, GL_DEPTH_ATTACHMENT, GL_DEPTH_COMPONENT32F, width, height, samples);
   checkComplete(gl, t.framebuffer, samples);
   if (samples > 1) {
     t.resolveFramebuffer = createFramebuffer(gl);
@@ -125,8 +132,6 @@ void Renderer::Impl::ensureFramebuffer(int width, int height, int samples) {
   gl.GetNamedRenderbufferParameteriv(t.color, GL_RENDERBUFFER_SAMPLES, &actual);
   t.actualSamples = std::max(actual, 1);
   checkError("creating the framebuffer");
-  t.width = width;
-  t.height = height;
   t.samples = samples;
   target = std::move(t);
 }
@@ -185,7 +190,7 @@ ImageRgb Renderer::render(const Frame& frame) {
   r.updateLight(frame, plan);
 
   const auto t1 = std::chrono::steady_clock::now();
-  r.ensureFramebuffer(plan.width, plan.height, frame.samples);
+  r.ensureFramebuffer(plan.width, plan.height, frame.samples, plan.reflections);
   r.stats.samples = r.target.actualSamples;
   r.stats.shadowMs = 0.0;
   r.stats.shadowMaps = r.stats.cascades = r.stats.shadowMapSize = r.stats.localShadowMaps = 0;
@@ -194,11 +199,14 @@ ImageRgb Renderer::render(const Frame& frame) {
   if (plan.bakedSplit || plan.receiverSplit) r.drawShadows(frame, plan);
   r.beginFrame(frame, plan);
   r.beginMaterialFrame(frame, plan);
+  if (plan.reflections) r.drawHiddenLobes(true);
   r.drawOpaque(frame, plan);
   // After the baked instances, so that the depth test rejects hidden receiver pixels before
   // their (costly) probe lookup runs.
   if (plan.drawReceivers) r.drawReceivers(frame, plan);
+  if (plan.reflections) r.drawHiddenLobes(false);
   if (!plan.flat && frame.background) r.drawBackground(*frame.background, frame.camera, plan.width, plan.height);
+  if (plan.reflections) r.drawReflections(frame, plan);
   if (!plan.flat) r.drawBlended(frame, plan);
   r.gl.BindVertexArray(0);
   r.gl.Finish();
@@ -243,6 +251,7 @@ FramePlan Renderer::Impl::planFrame(const Frame& frame) {
   const int material = !plan.flat && frame.materials == MaterialShading::Full ? kVariantFullMaterial : 0;
   plan.bakedExtra = (plan.bakedSplit ? kVariantDirect : 0) | material;
   plan.receiverExtra = (plan.receiverSplit ? kVariantDirect : 0) | (plan.drawReceivers ? material : 0);
+  plan.reflections = material && frame.screenReflections && frame.samples == 1;
   // The MATERIAL programs compile the reflected maps' count in: linked again when it changes
   // (a rig's maps stay the same across its frames), before the light update, which sets the
   // light on the linked programs.

@@ -46,6 +46,7 @@ struct FramePlan {
   // Direct lights per pixel (kVariantDirect) on the baked instances and on the receivers.
   bool bakedSplit = false, receiverSplit = false;
   int bakedExtra = 0, receiverExtra = 0;  // kVariantDirect where split, else 0
+  bool reflections = false;               // the screen-space reflection pass (reflection_pass.cpp)
   glm::mat4 viewProj{1.0f};
 };
 
@@ -115,6 +116,18 @@ struct Renderer::Impl {
     GlFramebuffer framebuffer, resolveFramebuffer;
     GlRenderbuffer color, depth, resolveColor;
     int width = 0, height = 0, samples = 0, actualSamples = 1;
+    // With reflections (reflection_pass.cpp): the depth as a texture instead of `depth`, the
+    // hidden lobes' three outputs (attachments 1–3), the frame's copy with its mip levels, the
+    // framebuffer that copies it and the one the pass draws into (`color` alone).
+    bool reflections = false;
+    GlTexture depthTexture, radianceCopy;
+    std::array<GlTexture, 3> hidden;
+    GlFramebuffer copyFramebuffer, reflectionFramebuffer;
+  };
+  /// The screen-space reflection pass's program and uniforms.
+  struct Reflection {
+    GlProgram id;
+    GLint viewProj = -1, invViewProj = -1, viewport = -1, maxDistance = -1, pixelsPerUnit = -1, steps = -1;
   };
   /// The background's program and uniforms, an empty vertex array for the full-screen
   /// triangle, and the environment maps uploaded so far, by image (kept alive while uploaded).
@@ -147,6 +160,7 @@ struct Renderer::Impl {
   ProbeBuffers probes;
   Background background;
   Target target;
+  Reflection reflection;
   std::vector<glm::vec4> readback;
   std::vector<glm::vec4> radiance;  // per-frame upload: c_p as RGBA (see uploadProbes)
   FrameStats stats;
@@ -185,7 +199,7 @@ struct Renderer::Impl {
   void updateLight(const Frame& frame, const FramePlan& plan);
   void updateBakedLight(const Frame& frame, const FramePlan& plan);
   void updateReceiverLight(const Frame& frame, const FramePlan& plan);
-  void ensureFramebuffer(int width, int height, int samples);
+  void ensureFramebuffer(int width, int height, int samples, bool reflections);
   void beginFrame(const Frame& frame, FramePlan& plan);
   /// The material's uniforms and textures of `in` for `p`.
   void setMaterialUniforms(const Program& p, const Instance& in);
@@ -233,6 +247,12 @@ struct Renderer::Impl {
   GLuint environmentTexture(const std::shared_ptr<const ImageRgb>& image);
   void linkBackground();
   void drawBackground(const RigBackground& b, const CameraView& camera, int width, int height);
+
+  // Screen-space reflections (reflection_pass.cpp).
+  void attachReflectionTargets(Target& t);
+  /// Draws to the hidden lobes' outputs too (zeroed) while `on`, to the colour alone after.
+  void drawHiddenLobes(bool on);
+  void drawReflections(const Frame& frame, const FramePlan& plan);
 };
 
 }  // namespace prt::render

@@ -98,6 +98,7 @@ std::string flatVertexShader() { return std::string(shaders::kFlatVertex); }
 std::string flatFragmentShader() { return std::string(shaders::kFlatFragment); }
 std::string depthFragmentShader() { return std::string(shaders::kDepthFragment); }
 std::string backgroundVertexShader() { return std::string(shaders::kBackgroundVertex); }
+std::string reflectionFragmentShader() { return std::string(shaders::kReflectionFragment); }
 
 std::string backgroundFragmentShader() {
   return fillShader(shaders::kBackgroundFragment,

@@ -73,5 +73,7 @@ std::string depthFragmentShader();
 /// The background's full-screen triangle and its lookup of RigBackground::radiance.
 std::string backgroundVertexShader();
 std::string backgroundFragmentShader();
+/// The screen-space reflection pass, drawn with the background's triangle.
+std::string reflectionFragmentShader();
 
 }  // namespace prt::render

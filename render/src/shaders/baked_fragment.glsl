@@ -29,8 +29,9 @@ centroid in vec3 vFillBack;
 #endif
 #include "material_radiance.glsl"
 #endif
-out vec4 fragColor;
+#include "hidden_lobe_outputs.glsl"
 void main() {
+  writeHiddenLobe(vec3(0.0), vec3(0.0), vec3(0.0, 0.0, 1.0), 1.0);
 #ifdef DIRECT
   vec3 dxW, dyW;
   pixelFootprint(dxW, dyW);
@@ -52,6 +53,7 @@ void main() {
   vec3 fill = vFill;
 #endif
   fragColor = vec4(materialRadiance(vWorld, vNormal, e, visibility, fill, dxW, dyW), a);
+  writeHiddenLobe(gLobeWeight, gLobeDrawn, gMirror, gRoughness);
   return;
 #endif
 #ifdef DIRECT

@@ -11,6 +11,11 @@
 // specular is (F0·A + B) · occlusion · e/π, no lookup: at roughness 1 the split sum's prefiltered
 // lobe (n = v = r, weighted by n·l) is the cosine lobe around r, whose mean radiance is E(r)/π;
 // e is that mean around n, with the bake's occlusion and interreflection in it.
+// The lobe's weight (F0·A + B)·occlusion, the light it reflects as drawn (environment and fill),
+// the mirror direction and the roughness, for hidden_lobe_outputs.glsl (zero weight under
+// ROUGH_SPECULAR: no lookup to replace).
+vec3 gLobeWeight = vec3(0.0), gLobeDrawn = vec3(0.0), gMirror = vec3(0.0, 0.0, 1.0);
+float gRoughness = 1.0;
 vec3 materialRadiance(vec3 x, vec3 normal, vec3 e, float visibility, vec3 fill, vec3 dxW, vec3 dyW) {
   float side = gl_FrontFacing ? 1.0 : -1.0;  // a double-sided material's back: the normal turned
   vec3 ng = side * normalize(normal);
@@ -32,7 +37,11 @@ vec3 materialRadiance(vec3 x, vec3 normal, vec3 e, float visibility, vec3 fill, 
   // The lobe's visible share reflects the environment; the rest the surroundings that hide it,
   // taken at their mean radiance, `fill` (the walls of a room).
   float so = specularOcclusion(nv, visibility * s.occlusion, a);
-  spec += splitSumWeight(s, nv) * (so * reflectedEnvironment(s, v) + (1.0 - so) * s.occlusion * fill);
+  gLobeDrawn = splitSumWeight(s, nv) * (so * reflectedEnvironment(s, v) + (1.0 - so) * s.occlusion * fill);
+  spec += gLobeDrawn;
+  gLobeWeight = splitSumWeight(s, nv) * s.occlusion;
+  gMirror = reflect(-v, s.n);
+  gRoughness = s.roughness;
 #endif
   return s.diffuse * diffuseE * 0.31830988618379067 + spec + s.emission;
 }

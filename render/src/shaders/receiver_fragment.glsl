@@ -27,8 +27,9 @@ centroid in vec4 vRadiance[kTexels];
 #endif
 #include "material_radiance.glsl"
 #endif
-out vec4 fragColor;
+#include "hidden_lobe_outputs.glsl"
 void main() {
+  writeHiddenLobe(vec3(0.0), vec3(0.0), vec3(0.0, 0.0, 1.0), 1.0);
 #ifdef DIRECT
   vec3 dxW, dyW;
   pixelFootprint(dxW, dyW);
@@ -51,6 +52,7 @@ void main() {
 #endif
 #ifdef MATERIAL
   fragColor = vec4(materialRadiance(vWorld, vNormal, e, 1.0, e * 0.31830988618379067, dxW, dyW), a);
+  writeHiddenLobe(gLobeWeight, gLobeDrawn, gMirror, gRoughness);
   return;
 #endif
 #ifdef DIRECT

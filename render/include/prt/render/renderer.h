@@ -169,6 +169,11 @@ struct Frame {
   /// centroid of its covered samples on an edge) and the written pixel is the mean of its
   /// samples: pixels that one surface covers entirely are unchanged.
   int samples = 1;
+  /// Screen-space reflections (MaterialShading::Full, samples 1; docs/render.md, "Materials"):
+  /// where the room hides part of a glossy lobe, that share reflects the surface the mirror
+  /// direction meets on the screen, found through the depth buffer, instead of the surroundings'
+  /// mean radiance; where it meets none there, the mean stays.
+  bool screenReflections = false;
 
   /// Takes a rig's light of the frame: `light`, `directLight` and `direct` from `rig` (moved),
   /// and the gathered vertex light (`directBounce`, `directBounceBack`; null for none).
