@@ -1,10 +1,11 @@
 // The screen-space reflection pass (Frame::screenReflections; docs/render.md, "Materials"). The
-// opaque MATERIAL pixels write, besides their radiance, what their lobe's hidden share weighed,
-// reflected and where it points (hidden_lobe_outputs.glsl, attachments 1–3); after the opaque
-// instances and the background the frame is copied into a mipmapped texture, and a full-screen
-// triangle marches each such pixel's mirror direction through the depth buffer and adds
-// W · (L_hit − fill) where it meets a surface (shaders/reflection_fragment.glsl). Blended
-// instances are drawn after it, neither reflected nor reflecting.
+// opaque pixels write, besides their radiance, what their lobe weighs, what it reflected, where
+// it points, and their radiance as the bake's transport re-emits it (hidden_lobe_outputs.glsl,
+// attachments 1–4); after the opaque instances and the background the last is copied into a
+// mipmapped texture, and a full-screen triangle marches each glossy pixel's mirror direction
+// through the depth buffer and, where it meets a surface, puts W · L_hit in place of what the
+// lobe reflected (shaders/reflection_fragment.glsl). Blended instances are drawn after it,
+// neither reflected nor reflecting.
 #include <algorithm>
 #include <cmath>
 
@@ -62,10 +63,11 @@ void Renderer::Impl::drawHiddenLobes(bool on) {
     gl.NamedFramebufferDrawBuffer(fb, GL_COLOR_ATTACHMENT0);
     return;
   }
-  const GLenum buffers[4] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2, GL_COLOR_ATTACHMENT3};
-  gl.NamedFramebufferDrawBuffers(fb, 4, buffers);
+  const GLenum buffers[5] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2, GL_COLOR_ATTACHMENT3,
+                             GL_COLOR_ATTACHMENT4};
+  gl.NamedFramebufferDrawBuffers(fb, 5, buffers);
   const float zero[4] = {0, 0, 0, 0};
-  for (GLint i = 1; i < 4; ++i) gl.ClearNamedFramebufferfv(fb, GL_COLOR, i, zero);
+  for (GLint i = 1; i < 5; ++i) gl.ClearNamedFramebufferfv(fb, GL_COLOR, i, zero);
 }
 
 void Renderer::Impl::drawReflections(const Frame& frame, const FramePlan& plan) {
@@ -83,8 +85,11 @@ void Renderer::Impl::drawReflections(const Frame& frame, const FramePlan& plan) 
   if (!background.emptyVao) background.emptyVao = createVertexArray(gl);
   const Target& t = target;
   const int w = plan.width, h = plan.height;
-  // The frame so far, and its mip levels: the lobe's footprint at a hit picks its level.
+  // The opaque surfaces' bounced radiance, and its mip levels: the lobe's footprint at a hit
+  // picks its level.
+  gl.NamedFramebufferReadBuffer(t.framebuffer, GL_COLOR_ATTACHMENT4);
   gl.BlitNamedFramebuffer(t.framebuffer, t.copyFramebuffer, 0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+  gl.NamedFramebufferReadBuffer(t.framebuffer, GL_COLOR_ATTACHMENT0);
   gl.GenerateTextureMipmap(t.radianceCopy);
 
   const GLuint id = reflection.id;
@@ -99,7 +104,7 @@ void Renderer::Impl::drawReflections(const Frame& frame, const FramePlan& plan) 
   gl.ProgramUniform1f(id, reflection.pixelsPerUnit, float(0.5 * h * proj[1][1]));
   gl.ProgramUniform1i(id, reflection.steps, kReflectionSteps);
   gl.BindTextureUnit(0, t.depthTexture);
-  for (GLuint i = 0; i < 3; ++i) gl.BindTextureUnit(1 + i, t.hidden[i]);
+  for (GLuint i = 0; i < 3; ++i) gl.BindTextureUnit(1 + i, t.hidden[i]);  // the fourth is copied
   gl.BindTextureUnit(4, t.radianceCopy);
 
   gl.BindFramebuffer(GL_FRAMEBUFFER, t.reflectionFramebuffer);

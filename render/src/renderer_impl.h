@@ -117,11 +117,12 @@ struct Renderer::Impl {
     GlRenderbuffer color, depth, resolveColor;
     int width = 0, height = 0, samples = 0, actualSamples = 1;
     // With reflections (reflection_pass.cpp): the depth as a texture instead of `depth`, the
-    // hidden lobes' three outputs (attachments 1–3), the frame's copy with its mip levels, the
-    // framebuffer that copies it and the one the pass draws into (`color` alone).
+    // lobes' four outputs (attachments 1–4, hidden_lobe_outputs.glsl), the copy of the bounced
+    // radiance (attachment 4) with its mip levels, the framebuffer that copies it and the one
+    // the pass draws into (`color` alone).
     bool reflections = false;
     GlTexture depthTexture, radianceCopy;
-    std::array<GlTexture, 3> hidden;
+    std::array<GlTexture, 4> hidden;
     GlFramebuffer copyFramebuffer, reflectionFramebuffer;
   };
   /// The screen-space reflection pass's program and uniforms.

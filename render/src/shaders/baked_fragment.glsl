@@ -31,7 +31,6 @@ centroid in vec3 vFillBack;
 #endif
 #include "hidden_lobe_outputs.glsl"
 void main() {
-  writeHiddenLobe(vec3(0.0), vec3(0.0), vec3(0.0, 0.0, 1.0), 1.0);
 #ifdef DIRECT
   vec3 dxW, dyW;
   pixelFootprint(dxW, dyW);
@@ -53,7 +52,7 @@ void main() {
   vec3 fill = vFill;
 #endif
   fragColor = vec4(materialRadiance(vWorld, vNormal, e, visibility, fill, dxW, dyW), a);
-  writeHiddenLobe(gLobeWeight, gLobeDrawn, gMirror, gRoughness);
+  writeHiddenLobe(gLobeWeight, gLobeDrawn, gMirror, gRoughness, gBounced);
   return;
 #endif
 #ifdef DIRECT
@@ -64,4 +63,5 @@ void main() {
   e += directIrradiance(vWorld, n, dxW, dyW);
 #endif
   fragColor = vec4(albedo() * e * 0.31830988618379067, a);
+  writeHiddenLobe(vec3(0.0), vec3(0.0), vec3(0.0, 0.0, 1.0), 1.0, fragColor.rgb);
 }

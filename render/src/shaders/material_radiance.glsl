@@ -14,7 +14,9 @@
 // The lobe's weight (F0·A + B)·occlusion, the light it reflects as drawn (environment and fill),
 // the mirror direction and the roughness, for hidden_lobe_outputs.glsl (zero weight under
 // ROUGH_SPECULAR: no lookup to replace).
-vec3 gLobeWeight = vec3(0.0), gLobeDrawn = vec3(0.0), gMirror = vec3(0.0, 0.0, 1.0);
+// gBounced: the pixel's radiance as the bake's light transport re-emits it, diffusely with the
+// bounce albedo (the diffuse albedo plus a metal's lobe), what a reflection of it shows.
+vec3 gLobeWeight = vec3(0.0), gLobeDrawn = vec3(0.0), gMirror = vec3(0.0, 0.0, 1.0), gBounced = vec3(0.0);
 float gRoughness = 1.0;
 vec3 materialRadiance(vec3 x, vec3 normal, vec3 e, float visibility, vec3 fill, vec3 dxW, vec3 dyW) {
   float side = gl_FrontFacing ? 1.0 : -1.0;  // a double-sided material's back: the normal turned
@@ -43,5 +45,6 @@ vec3 materialRadiance(vec3 x, vec3 normal, vec3 e, float visibility, vec3 fill, 
   gMirror = reflect(-v, s.n);
   gRoughness = s.roughness;
 #endif
+  gBounced = (s.diffuse + metalLobeWeight(s, nv)) * diffuseE * 0.31830988618379067 + s.emission;
   return s.diffuse * diffuseE * 0.31830988618379067 + spec + s.emission;
 }

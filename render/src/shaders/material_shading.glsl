@@ -100,6 +100,13 @@ float specularOcclusion(float nv, float ao, float a) {
 }
 
 // The split sum's second factor, F0·A + B per lobe, mixed as specularFresnel [5, 6].
+// The metal's share of the lobe's weight, metallic · (baseColor · A + B) at n·v: what the bake
+// bounces of a metal (docs/bake.md, "Materials"), at this view rather than averaged over views.
+vec3 metalLobeWeight(Surface s, float nv) {
+  const float n = float(@DFG_SIZE@);
+  vec2 ab = texture(uDfg, (vec2(nv, s.roughness) * (n - 1.0) + 0.5) / n).rg;
+  return s.metallic * (s.baseColor * ab.x + ab.y);
+}
 vec3 splitSumWeight(Surface s, float nv) {
   const float n = float(@DFG_SIZE@);  // entries at x = i / (n − 1), texel centres (i + ½) / n
   vec2 ab = texture(uDfg, (vec2(nv, s.roughness) * (n - 1.0) + 0.5) / n).rg;

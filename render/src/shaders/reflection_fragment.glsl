@@ -2,8 +2,9 @@
 // pixel (hidden_lobe_outputs.glsl: lobe weight W > 0) reflected S = W·(so · environment +
 // (1 − so) · fill), its specular occlusion so splitting the lobe between the map and the
 // surroundings' mean radiance. Here a march along the mirror direction r through the depth
-// buffer looks for the surface r meets; where it finds one on the screen, the frame's radiance
-// there, averaged over the lobe's footprint (a mip level of the frame), is what the lobe
+// buffer looks for the surface r meets; where it finds one on the screen, that surface's radiance
+// as the bake's transport re-emits it (diffusely, with the bounce albedo: location 4 of
+// hidden_lobe_outputs.glsl), averaged over the lobe's footprint (a mip level), is what the lobe
 // reflects: the pass adds (W · L_hit − S) · fade (additive blending), fade going to 0 within 5%
 // of the screen's border. Where r leaves the screen or meets nothing the pixel keeps S.
 #version 450 core
@@ -11,7 +12,7 @@ layout(binding = 0) uniform sampler2D uDepth;
 layout(binding = 1) uniform sampler2D uWeight;  // rgb: W; a: roughness
 layout(binding = 2) uniform sampler2D uDrawn;  // rgb: S
 layout(binding = 3) uniform sampler2D uMirror;
-layout(binding = 4) uniform sampler2D uRadiance;  // the frame's opaque pixels, mipmapped
+layout(binding = 4) uniform sampler2D uBounced;  // rgb: the surfaces' bounced radiance; a: 1 on them; mipmapped
 uniform mat4 uViewProj;
 uniform mat4 uInvViewProj;
 uniform vec2 uViewport;
@@ -88,8 +89,10 @@ void main() {
   // The lobe's footprint at the hit: a cone of half-angle atan(2α) around r (α = roughness²).
   float alpha = w.a * w.a;
   float wHit = max((uViewProj * vec4(xs, 1.0)).w, 1e-6);
-  float radius = min(2.0 * alpha, 1.0) * distance(x, xs) * uPixelsPerUnit / wHit;
-  vec3 L = textureLod(uRadiance, sh, log2(max(radius, 1.0))).rgb;
+  float radius = min(5.0 * alpha, 1.0) * distance(x, xs) * uPixelsPerUnit / wHit;
+  vec4 bounced = textureLod(uBounced, sh, log2(max(radius, 1.0)));
+  if (bounced.a <= 0.0) discard;
+  vec3 L = bounced.rgb / bounced.a;  // the mean over the footprint's surfaces, not the empty pixels
   vec2 edge = min(sh, 1.0 - sh);
   float fade = smoothstep(0.0, 0.05, edge.x) * smoothstep(0.0, 0.05, edge.y);
   vec3 drawn = texelFetch(uDrawn, pix, 0).rgb;
