@@ -272,7 +272,8 @@ nlohmann::json sunShadows(render::Renderer& renderer, const Scene& scene, const 
 // bundled map reflected (prefiltered once, before the timed frames). `full`:
 // MaterialShading::Full; `diffuse`: the same frame Lambertian; `flat`: the raster floor;
 // `glossy`: the full frame with every other material at roughness 0.5 too (the walls and the tall
-// box reflect the map: the cost where no pixel is rough enough to skip the environment's lookups).
+// box reflect the map: the cost where no pixel is rough enough to skip the environment's lookups);
+// `reflections` and `glossy_reflections`: those two with Frame::screenReflections.
 nlohmann::json materialFrames(render::GlContext& context, Scene scene, const ProbeGrid& grid,
                               const render::CameraView& view, int frames) {
   Material glossy = scene.materials.at(0), copper = scene.materials.at(0);
@@ -299,7 +300,7 @@ nlohmann::json materialFrames(render::GlContext& context, Scene scene, const Pro
       {std::make_shared<const ImageRgb>(loadHdrImage(PRT_SOURCE_DIR "/scenes/env/royal_esplanade_128.hdr")),
        glm::dmat3(1.0), glm::dvec3(1.0)});
   const double duration = animationDuration(scene);
-  Timing full, diffuse, flat, glossyFull;
+  Timing full, diffuse, flat, glossyFull, reflections, glossyReflections;
   for (int i = -2; i < frames; ++i) {
     DirectLight sun;
     sun.direction = azimuthElevationDirection(30.0 + 10.0 * std::max(i, 0), 40.0);
@@ -313,17 +314,15 @@ nlohmann::json materialFrames(render::GlContext& context, Scene scene, const Pro
     f.direct = {sun};
     f.materials = render::MaterialShading::Full;
     f.environment = &environment;
-    render::Frame d = f, flatFrame = f;
+    render::Frame d = f, flatFrame = f, ssr = f;
     d.materials = render::MaterialShading::Diffuse;
     flatFrame.shading = render::Shading::Flat;
-    for (int k = 0; k < 4; ++k) {
-      const int kind = (k + std::max(i, 0)) % 4;
-      Timing* timing[4] = {&full, &diffuse, &flat, &glossyFull};
-      timedRender(kind == 3 ? glossyRenderer : renderer,
-                  kind == 0 || kind == 3 ? f
-                  : kind == 1            ? d
-                                         : flatFrame,
-                  i < 0 ? nullptr : timing[kind]);
+    ssr.screenReflections = true;
+    for (int k = 0; k < 6; ++k) {
+      const int kind = (k + std::max(i, 0)) % 6;
+      Timing* timing[6] = {&full, &diffuse, &flat, &glossyFull, &reflections, &glossyReflections};
+      const render::Frame* frame[6] = {&f, &d, &flatFrame, &f, &ssr, &ssr};
+      timedRender(kind == 3 || kind == 5 ? glossyRenderer : renderer, *frame[kind], i < 0 ? nullptr : timing[kind]);
     }
   }
   return {{"full", full.json()},
@@ -334,6 +333,12 @@ nlohmann::json materialFrames(render::GlContext& context, Scene scene, const Pro
           {"glossy", glossyFull.json()},
           {"ratio_glossy_to_diffuse", medianRatio(glossyFull.total, diffuse.total)},
           {"cpu_ratio_glossy_to_diffuse", medianRatio(glossyFull.cpu, diffuse.cpu)},
+          {"reflections", reflections.json()},
+          {"ratio_reflections_to_diffuse", medianRatio(reflections.total, diffuse.total)},
+          {"cpu_ratio_reflections_to_diffuse", medianRatio(reflections.cpu, diffuse.cpu)},
+          {"glossy_reflections", glossyReflections.json()},
+          {"ratio_glossy_reflections_to_diffuse", medianRatio(glossyReflections.total, diffuse.total)},
+          {"cpu_ratio_glossy_reflections_to_diffuse", medianRatio(glossyReflections.cpu, diffuse.cpu)},
           {"target_ratio", 1.5}};
 }
 

@@ -484,7 +484,7 @@ render::Frame renderFrame(const RenderArgs& a, const RenderSize& size, const ren
   frame.samples = a.msaa;
   frame.background = background;
   frame.materials = a.materials;
-  frame.screenReflections = a.screenReflections;
+  frame.screenReflections = !a.noScreenReflections;
   frame.environment = environment;
   frame.width = int(size.width);
   frame.height = int(size.height);
@@ -691,10 +691,10 @@ void addMaterialOption(CLI::App& r, RenderArgs& a) {
       ->transform(choice<render::MaterialShading>(
           {{"full", render::MaterialShading::Full}, {"diffuse", render::MaterialShading::Diffuse}}))
       ->default_str("full");
-  r.add_flag("--screen-reflections", a.screenReflections,
-             "With --materials full and without --msaa: a glossy surface reflects the surface its mirror direction "
-             "meets on the screen, found through the depth buffer, instead of the environment and the surroundings' "
-             "mean radiance (docs/render.md, \"Materials\")");
+  r.add_flag("--no-screen-reflections", a.noScreenReflections,
+             "With --materials full: glossy surfaces reflect the environment and the surroundings' mean radiance "
+             "only; by default (without --msaa) they reflect the surface their mirror direction meets on the screen, "
+             "found through the depth buffer, where there is one (docs/render.md, \"Materials\")");
 }
 
 void addSceneLightsOption(CLI::App& r, RenderArgs& a) {

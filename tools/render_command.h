@@ -41,7 +41,7 @@ struct RenderArgs {
   int supersample = 1;       // rendered supersample x supersample pixels per output pixel, averaged down
   int shadowMapSize = 1024;  // texels a side of each direct light's shadow map (and cascade)
   render::MaterialShading materials = render::MaterialShading::Full;  // the glTF material, or diffuse only
-  bool screenReflections = false;  // Frame::screenReflections
+  bool noScreenReflections = false;  // Frame::screenReflections off
   GatherOptions gather;  // the bake's rays gathering the direct lights' bounces and the sky detail
   std::string mp4, contactSheet;
   int sheetColumns = 0, sheetTile = 192;

@@ -100,8 +100,9 @@ const Program& Renderer::Impl::receiverProgram(ProbeLookup lookup, int variant) 
 // ---- The framebuffer -----------------------------------------------------------------------
 
 void Renderer::Impl::ensureFramebuffer(int width, int height, int samples, bool reflections) {
+  // A target with the reflections' attachments serves frames without them too.
   if (target.framebuffer && width == target.width && height == target.height && samples == target.samples &&
-      reflections == target.reflections)
+      (target.reflections || !reflections))
     return;
   GLint maxSize = 0, maxSamples = 0;
   gl.GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &maxSize);

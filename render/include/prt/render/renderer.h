@@ -173,7 +173,7 @@ struct Frame {
   /// where the room hides part of a glossy lobe, that share reflects the surface the mirror
   /// direction meets on the screen, found through the depth buffer, instead of the surroundings'
   /// mean radiance; where it meets none there, the mean stays.
-  bool screenReflections = false;
+  bool screenReflections = true;
 
   /// Takes a rig's light of the frame: `light`, `directLight` and `direct` from `rig` (moved),
   /// and the gathered vertex light (`directBounce`, `directBounceBack`; null for none).
