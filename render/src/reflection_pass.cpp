@@ -79,6 +79,7 @@ void Renderer::Impl::drawReflections(const Frame& frame, const FramePlan& plan) 
     reflection.invViewProj = loc("uInvViewProj");
     reflection.viewport = loc("uViewport");
     reflection.maxDistance = loc("uMaxDistance");
+    reflection.perspective = loc("uPerspective");
     reflection.pixelsPerUnit = loc("uPixelsPerUnit");
     reflection.steps = loc("uSteps");
   }
@@ -101,6 +102,7 @@ void Renderer::Impl::drawReflections(const Frame& frame, const FramePlan& plan) 
   gl.ProgramUniformMatrix4fv(id, reflection.invViewProj, 1, GL_FALSE, &inverse[0][0]);
   gl.ProgramUniform2fv(id, reflection.viewport, 1, &viewport.x);
   gl.ProgramUniform1f(id, reflection.maxDistance, float(std::max(diagonal, 1e-3)));
+  gl.ProgramUniform1f(id, reflection.perspective, frame.camera.perspective ? 1.0f : 0.0f);
   gl.ProgramUniform1f(id, reflection.pixelsPerUnit, float(0.5 * h * proj[1][1]));
   gl.ProgramUniform1i(id, reflection.steps, kReflectionSteps);
   gl.BindTextureUnit(0, t.depthTexture);

@@ -128,7 +128,8 @@ struct Renderer::Impl {
   /// The screen-space reflection pass's program and uniforms.
   struct Reflection {
     GlProgram id;
-    GLint viewProj = -1, invViewProj = -1, viewport = -1, maxDistance = -1, pixelsPerUnit = -1, steps = -1;
+    GLint viewProj = -1, invViewProj = -1, viewport = -1, maxDistance = -1, perspective = -1, pixelsPerUnit = -1,
+          steps = -1;
   };
   /// The background's program and uniforms, an empty vertex array for the full-screen
   /// triangle, and the environment maps uploaded so far, by image (kept alive while uploaded).

@@ -17,6 +17,7 @@ uniform mat4 uViewProj;
 uniform mat4 uInvViewProj;
 uniform vec2 uViewport;
 uniform float uMaxDistance;    // world units the march covers at most: the scene's diagonal
+uniform float uPerspective;    // 1: perspective (w_clip = view depth), 0: orthographic
 uniform float uPixelsPerUnit;  // pixels per world unit at w_clip = 1 (viewport height / 2 · P[1][1])
 uniform int uSteps;            // samples along the segment on the screen, at most
 out vec4 fragColor;
@@ -35,7 +36,10 @@ void main() {
   vec3 x = worldAt(uv0, d0);
   vec3 r = normalize(texelFetch(uMirror, pix, 0).xyz);
   vec4 h0 = uViewProj * vec4(x, 1.0);
-  vec4 h1 = uViewProj * vec4(x + r * uMaxDistance, 1.0);
+  // Under perspective, up to 4 times the point's view depth: farther, what r meets is rarely on
+  // the screen, and the march's steps would grow with the scene (a town's 2 km ground).
+  float reach = uPerspective > 0.5 ? min(uMaxDistance, 4.0 * h0.w) : uMaxDistance;
+  vec4 h1 = uViewProj * vec4(x + r * reach, 1.0);
   // Keep the segment in front of the camera: w_clip = view depth under perspective.
   float wMin = 0.01 * h0.w;
   if (h1.w < wMin) h1 = mix(h0, h1, (h0.w - wMin) / (h0.w - h1.w));
@@ -80,12 +84,13 @@ void main() {
   vec2 sh = s0 + ds * t;
   float sceneDepth = textureLod(uDepth, sh, 0.0).r;
   if (sceneDepth <= 0.0) discard;  // the background (cleared far depth)
-  // A surface in front of the ray by more than the march's own step is something the ray
-  // passed behind, not what it met.
+  // After the bisection the ray is within a 64th of a step of a surface it crossed; a surface
+  // farther from it than 3% of the way (or that 64th) is one the ray passed behind at its
+  // silhouette, not one it met.
   vec3 xs = worldAt(sh, sceneDepth), xr = worldAt(sh, mix(p0.z, p1.z, t));
   float along = distance(x, xr);
   float stepWorld = along * dt / max(t, 1e-6);
-  if (distance(xs, xr) > max(2.0 * stepWorld, 0.02 * along)) discard;
+  if (distance(xs, xr) > max(stepWorld / 32.0, 0.03 * along)) discard;
   // The lobe's footprint at the hit: a cone of half-angle atan(2α) around r (α = roughness²).
   float alpha = w.a * w.a;
   float wHit = max((uViewProj * vec4(xs, 1.0)).w, 1e-6);
