@@ -91,6 +91,13 @@ void main() {
   float along = distance(x, xr);
   float stepWorld = along * dt / max(t, 1e-6);
   if (distance(xs, xr) > max(stepWorld / 32.0, 0.03 * along)) discard;
+  // The surface there must face the ray: its normal from the depth of the next pixels, turned
+  // towards the camera; a ray reaching it from behind (one that slipped behind a ridge) is no hit.
+  vec2 px = 1.0 / uViewport;
+  vec2 sa = sh + vec2(px.x, 0.0), sb = sh + vec2(0.0, px.y);
+  vec3 nh = cross(worldAt(sa, textureLod(uDepth, sa, 0.0).r) - xs, worldAt(sb, textureLod(uDepth, sb, 0.0).r) - xs);
+  if (dot(nh, worldAt(sh, 1.0) - xs) < 0.0) nh = -nh;
+  if (dot(nh, r) >= 0.0) discard;
   // The lobe's footprint at the hit: a cone of half-angle atan(2α) around r (α = roughness²).
   float alpha = w.a * w.a;
   float wHit = max((uViewProj * vec4(xs, 1.0)).w, 1e-6);
