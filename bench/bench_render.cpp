@@ -273,7 +273,8 @@ nlohmann::json sunShadows(render::Renderer& renderer, const Scene& scene, const 
 // MaterialShading::Full; `diffuse`: the same frame Lambertian; `flat`: the raster floor;
 // `glossy`: the full frame with every other material at roughness 0.5 too (the walls and the tall
 // box reflect the map: the cost where no pixel is rough enough to skip the environment's lookups);
-// `reflections` and `glossy_reflections`: those two with Frame::screenReflections.
+// `reflections` and `glossy_reflections`: those two with Frame::screenReflections (prt render's
+// default), which `full` and `glossy` leave out.
 nlohmann::json materialFrames(render::GlContext& context, Scene scene, const ProbeGrid& grid,
                               const render::CameraView& view, int frames) {
   Material glossy = scene.materials.at(0), copper = scene.materials.at(0);
@@ -314,6 +315,7 @@ nlohmann::json materialFrames(render::GlContext& context, Scene scene, const Pro
     f.direct = {sun};
     f.materials = render::MaterialShading::Full;
     f.environment = &environment;
+    f.screenReflections = false;
     render::Frame d = f, flatFrame = f, ssr = f;
     d.materials = render::MaterialShading::Diffuse;
     flatFrame.shading = render::Shading::Flat;

@@ -21,7 +21,7 @@ namespace {
 
 // Samples along the mirror direction's segment on the screen, at most: one a pixel on short
 // segments, and the bisection finds the crossing between two samples on long ones.
-constexpr int kReflectionSteps = 48;
+constexpr int kReflectionSteps = 32;
 
 GlTexture targetTexture(const GlFunctions& gl, GLenum format, int width, int height, int levels) {
   GlTexture t = createTexture(gl, GL_TEXTURE_2D);
