@@ -313,8 +313,10 @@ def main():
                 bake += ["--probe-spacing", str(spacing)]
             run(bake, log)
             run([PRT, "relight", base + ".glb", "--env", a.hdri, "-o", base + "_lit.glb"], log)
+            # --materials: supersampled, not multisampled, so that the screen-space reflections run
+            aa = ["--supersample", "2"] if a.materials else ["--msaa", "4"]
             render = [PRT, "render", base + ".glb", "--env", a.hdri, "--background", "sky", "--probes", base + ".vdb",
-                      "--size", "480x270", "--msaa", "4", "--png", "--exposure", str(exposure), "-o", base + ".exr"]
+                      "--size", "480x270", *aa, "--png", "--exposure", str(exposure), "-o", base + ".exr"]
             if a.materials and name in MATERIAL_VIEWS:
                 render += MATERIAL_VIEWS[name]
             elif closed:

@@ -85,13 +85,12 @@ void main() {
   float sceneDepth = textureLod(uDepth, sh, 0.0).r;
   if (sceneDepth <= 0.0) discard;  // the background (cleared far depth)
   // After the bisection the ray is within a 64th of a step of a surface it crossed; a surface
-  // farther from it than 3% of the way, that 64th or two pixels' width there is one the ray
-  // passed behind at its silhouette, not one it met.
+  // farther from it than 3% of the way (or that 64th) is one the ray passed behind at its
+  // silhouette, not one it met.
   vec3 xs = worldAt(sh, sceneDepth), xr = worldAt(sh, mix(p0.z, p1.z, t));
   float along = distance(x, xr);
   float stepWorld = along * dt / max(t, 1e-6);
-  float wHit = max((uViewProj * vec4(xs, 1.0)).w, 1e-6);
-  if (distance(xs, xr) > max(max(stepWorld / 32.0, 0.03 * along), 2.0 * wHit / uPixelsPerUnit)) discard;
+  if (distance(xs, xr) > max(stepWorld / 32.0, 0.03 * along)) discard;
   // The surface there must face the ray: its normal from the depth of the next pixels, turned
   // towards the camera; a ray reaching it from behind (one that slipped behind a ridge) is no hit.
   vec2 px = 1.0 / uViewport;
@@ -99,8 +98,10 @@ void main() {
   vec3 nh = cross(worldAt(sa, textureLod(uDepth, sa, 0.0).r) - xs, worldAt(sb, textureLod(uDepth, sb, 0.0).r) - xs);
   if (dot(nh, worldAt(sh, 1.0) - xs) < 0.0) nh = -nh;
   if (dot(nh, r) >= 0.0) discard;
-  // The lobe's footprint at the hit: a cone of half-angle atan(2α) around r (α = roughness²).
+  // The lobe's footprint at the hit, d away: a box 5α·d wide (α = roughness²). Half of GGX's
+  // reflected rays lie within 2α of r, and a box 5α wide holds the disc of radius 2α's share.
   float alpha = w.a * w.a;
+  float wHit = max((uViewProj * vec4(xs, 1.0)).w, 1e-6);
   float radius = min(5.0 * alpha, 1.0) * distance(x, xs) * uPixelsPerUnit / wHit;
   vec4 bounced = textureLod(uBounced, sh, log2(max(radius, 1.0)));
   if (bounced.a <= 0.0) discard;
