@@ -10,6 +10,7 @@
 #include <cstring>
 #include <memory>
 
+#include "baked_scene.h"
 #include "harness.h"
 #include "prt/animation.h"
 #include "prt/bake/bounce_operator.h"
@@ -429,12 +430,7 @@ TEST(BakeLocalLight, ClosedBoxLitByALampMatchesTheBounceSeries) {
 TEST(BakeLocalLight, FrameLightingOriginsSkipAnUnbakedInstance) {
   MeshInstance floor = test::makePlane({0, 0, 0}, 4.0f, 16);
   Scene s = test::makeScene({test::makeSlab({-2.0f, 1.0f, -2.0f}, {0.0f, 1.05f, 2.0f}), floor}, 0.5f);
-  bake::BakeSettings bs;
-  bs.samples = 16;
-  bs.bounces = 0;
-  bake::SurfaceTransfer t = bake::bakeSurface(s, bs);
-  bake::storeTransfer(s, std::move(t.perMesh), std::move(t.perMeshDirect));
-  s.transferBands = 3;
+  test::bakeInPlace(s, 16, 0, 1);
   s.meshes[0].transfer.clear();  // the slab: not baked, not a receiver
   s.meshes[0].transferDirect.clear();
   LightRig rig;

@@ -1,6 +1,6 @@
 // The screen-space reflection pass (Frame::screenReflections; docs/render.md, "Materials"). The
 // opaque pixels write, besides their radiance, what their lobe weighs, what it reflected, where
-// it points, and their radiance as the bake's transport re-emits it (hidden_lobe_outputs.glsl,
+// it points, and their radiance as the bake's transport re-emits it (reflection_inputs.glsl,
 // attachments 1–4); after the opaque instances and the background the last is copied into a
 // mipmapped texture, and a full-screen triangle marches each glossy pixel's mirror direction
 // through the depth buffer and, where it meets a surface, puts W · L_hit in place of what the
@@ -40,9 +40,9 @@ void Renderer::Impl::attachReflectionTargets(Target& t) {
   t.reflections = true;
   t.depthTexture = targetTexture(gl, GL_DEPTH_COMPONENT32F, w, h, 1);
   gl.NamedFramebufferTexture(t.framebuffer, GL_DEPTH_ATTACHMENT, t.depthTexture, 0);
-  for (size_t i = 0; i < t.hidden.size(); ++i) {
-    t.hidden[i] = targetTexture(gl, GL_RGBA16F, w, h, 1);
-    gl.NamedFramebufferTexture(t.framebuffer, GLenum(GL_COLOR_ATTACHMENT1 + i), t.hidden[i], 0);
+  for (size_t i = 0; i < t.reflectionInputs.size(); ++i) {
+    t.reflectionInputs[i] = targetTexture(gl, GL_RGBA16F, w, h, 1);
+    gl.NamedFramebufferTexture(t.framebuffer, GLenum(GL_COLOR_ATTACHMENT1 + i), t.reflectionInputs[i], 0);
   }
   const int levels = 1 + int(std::floor(std::log2(double(std::max(w, h)))));
   t.radianceCopy = targetTexture(gl, GL_RGBA16F, w, h, levels);
@@ -57,7 +57,7 @@ void Renderer::Impl::attachReflectionTargets(Target& t) {
   }
 }
 
-void Renderer::Impl::drawHiddenLobes(bool on) {
+void Renderer::Impl::drawReflectionInputs(bool on) {
   const GLuint fb = target.framebuffer;
   if (!on) {
     gl.NamedFramebufferDrawBuffer(fb, GL_COLOR_ATTACHMENT0);
@@ -106,7 +106,7 @@ void Renderer::Impl::drawReflections(const Frame& frame, const FramePlan& plan) 
   gl.ProgramUniform1f(id, reflection.pixelsPerUnit, float(0.5 * h * proj[1][1]));
   gl.ProgramUniform1i(id, reflection.steps, kReflectionSteps);
   gl.BindTextureUnit(0, t.depthTexture);
-  for (GLuint i = 0; i < 3; ++i) gl.BindTextureUnit(1 + i, t.hidden[i]);  // the fourth is copied
+  for (GLuint i = 0; i < 3; ++i) gl.BindTextureUnit(1 + i, t.reflectionInputs[i]);  // the fourth is copied
   gl.BindTextureUnit(4, t.radianceCopy);
 
   gl.BindFramebuffer(GL_FRAMEBUFFER, t.reflectionFramebuffer);

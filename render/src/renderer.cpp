@@ -200,12 +200,12 @@ ImageRgb Renderer::render(const Frame& frame) {
   if (plan.bakedSplit || plan.receiverSplit) r.drawShadows(frame, plan);
   r.beginFrame(frame, plan);
   r.beginMaterialFrame(frame, plan);
-  if (plan.reflections) r.drawHiddenLobes(true);
+  if (plan.reflections) r.drawReflectionInputs(true);
   r.drawOpaque(frame, plan);
   // After the baked instances, so that the depth test rejects hidden receiver pixels before
   // their (costly) probe lookup runs.
   if (plan.drawReceivers) r.drawReceivers(frame, plan);
-  if (plan.reflections) r.drawHiddenLobes(false);
+  if (plan.reflections) r.drawReflectionInputs(false);
   if (!plan.flat && frame.background) r.drawBackground(*frame.background, frame.camera, plan.width, plan.height);
   if (plan.reflections) r.drawReflections(frame, plan);
   if (!plan.flat) r.drawBlended(frame, plan);

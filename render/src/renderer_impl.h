@@ -117,12 +117,12 @@ struct Renderer::Impl {
     GlRenderbuffer color, depth, resolveColor;
     int width = 0, height = 0, samples = 0, actualSamples = 1;
     // With reflections (reflection_pass.cpp): the depth as a texture instead of `depth`, the
-    // lobes' four outputs (attachments 1–4, hidden_lobe_outputs.glsl), the copy of the bounced
+    // lobes' four outputs (attachments 1–4, reflection_inputs.glsl), the copy of the bounced
     // radiance (attachment 4) with its mip levels, the framebuffer that copies it and the one
     // the pass draws into (`color` alone).
     bool reflections = false;
     GlTexture depthTexture, radianceCopy;
-    std::array<GlTexture, 4> hidden;
+    std::array<GlTexture, 4> reflectionInputs;
     GlFramebuffer copyFramebuffer, reflectionFramebuffer;
   };
   /// The screen-space reflection pass's program and uniforms.
@@ -252,8 +252,9 @@ struct Renderer::Impl {
 
   // Screen-space reflections (reflection_pass.cpp).
   void attachReflectionTargets(Target& t);
-  /// Draws to the hidden lobes' outputs too (zeroed) while `on`, to the colour alone after.
-  void drawHiddenLobes(bool on);
+  /// Draws to the reflection pass's inputs too (reflection_inputs.glsl, zeroed) while `on`, to the
+  /// colour alone after.
+  void drawReflectionInputs(bool on);
   void drawReflections(const Frame& frame, const FramePlan& plan);
 };
 

@@ -29,7 +29,7 @@ centroid in vec3 vFillBack;
 #endif
 #include "material_radiance.glsl"
 #endif
-#include "hidden_lobe_outputs.glsl"
+#include "reflection_inputs.glsl"
 void main() {
 #ifdef DIRECT
   vec3 dxW, dyW;
@@ -52,7 +52,7 @@ void main() {
   vec3 fill = vFill;
 #endif
   fragColor = vec4(materialRadiance(vWorld, vNormal, e, visibility, fill, dxW, dyW), a);
-  writeHiddenLobe(gLobeWeight, gLobeDrawn, gMirror, gRoughness, gBounced);
+  writeReflectionInputs(gLobeWeight, gLobeDrawn, gMirror, gRoughness, gBounced);
   return;
 #endif
 #ifdef DIRECT
@@ -63,5 +63,5 @@ void main() {
   e += directIrradiance(vWorld, n, dxW, dyW);
 #endif
   fragColor = vec4(albedo() * e * 0.31830988618379067, a);
-  writeHiddenLobe(vec3(0.0), vec3(0.0), vec3(0.0, 0.0, 1.0), 1.0, fragColor.rgb);
+  writeReflectionInputs(vec3(0.0), vec3(0.0), vec3(0.0, 0.0, 1.0), 1.0, fragColor.rgb);
 }

@@ -12,7 +12,7 @@
 // lobe (n = v = r, weighted by n·l) is the cosine lobe around r, whose mean radiance is E(r)/π;
 // e is that mean around n, with the bake's occlusion and interreflection in it.
 // The lobe's weight (F0·A + B)·occlusion, the light it reflects as drawn (environment and fill),
-// the mirror direction and the roughness, for hidden_lobe_outputs.glsl (zero weight under
+// the mirror direction and the roughness, for reflection_inputs.glsl (zero weight under
 // ROUGH_SPECULAR: no lookup to replace).
 // gBounced: the pixel's radiance as the bake's light transport re-emits it, diffusely with the
 // bounce albedo (the diffuse albedo plus a metal's lobe), what a reflection of it shows.
@@ -32,19 +32,21 @@ vec3 materialRadiance(vec3 x, vec3 normal, vec3 e, float visibility, vec3 fill, 
   spec += sd;
 #endif
   float nv = max(dot(s.n, v), 1e-4);
+  vec2 ab = dfgAt(s, nv);
+  vec3 lobe = splitSumWeight(s, ab);
 #ifdef ROUGH_SPECULAR
-  spec += splitSumWeight(s, nv) * (e * s.occlusion * 0.31830988618379067);
+  spec += lobe * (e * s.occlusion * 0.31830988618379067);
 #else
   float a = s.roughness * s.roughness;
   // The lobe's visible share reflects the environment; the rest the surroundings that hide it,
   // taken at their mean radiance, `fill` (the walls of a room).
   float so = specularOcclusion(nv, visibility * s.occlusion, a);
-  gLobeDrawn = splitSumWeight(s, nv) * (so * reflectedEnvironment(s, v) + (1.0 - so) * s.occlusion * fill);
+  gLobeDrawn = lobe * (so * reflectedEnvironment(s, v) + (1.0 - so) * s.occlusion * fill);
   spec += gLobeDrawn;
-  gLobeWeight = splitSumWeight(s, nv) * s.occlusion;
+  gLobeWeight = lobe * s.occlusion;
   gMirror = reflect(-v, s.n);
   gRoughness = s.roughness;
 #endif
-  gBounced = (s.diffuse + metalLobeWeight(s, nv)) * diffuseE * 0.31830988618379067 + s.emission;
+  gBounced = (s.diffuse + metalLobeWeight(s, ab)) * diffuseE * 0.31830988618379067 + s.emission;
   return s.diffuse * diffuseE * 0.31830988618379067 + spec + s.emission;
 }

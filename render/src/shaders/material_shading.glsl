@@ -99,20 +99,18 @@ float specularOcclusion(float nv, float ao, float a) {
   return clamp(pow(nv + ao, exp2(-16.0 * a - 1.0)) - 1.0 + ao, 0.0, 1.0);
 }
 
-// The split sum's second factor, F0·A + B per lobe, mixed as specularFresnel [5, 6].
-// The metal's share of the lobe's weight, metallic · (baseColor · A + B) at n·v: what the bake
-// bounces of a metal (docs/bake.md, "Materials"), at this view rather than averaged over views.
-vec3 metalLobeWeight(Surface s, float nv) {
-  const float n = float(@DFG_SIZE@);
-  vec2 ab = texture(uDfg, (vec2(nv, s.roughness) * (n - 1.0) + 0.5) / n).rg;
-  return s.metallic * (s.baseColor * ab.x + ab.y);
-}
-vec3 splitSumWeight(Surface s, float nv) {
+// The DFG table's (A, B) at n·v and the surface's roughness.
+vec2 dfgAt(Surface s, float nv) {
   const float n = float(@DFG_SIZE@);  // entries at x = i / (n − 1), texel centres (i + ½) / n
-  vec2 ab = texture(uDfg, (vec2(nv, s.roughness) * (n - 1.0) + 0.5) / n).rg;
+  return texture(uDfg, (vec2(nv, s.roughness) * (n - 1.0) + 0.5) / n).rg;
+}
+// The metal's share of the lobe's weight, metallic · (baseColor · A + B): what the bake bounces
+// of a metal (docs/bake.md, "Materials"), at this view rather than averaged over views.
+vec3 metalLobeWeight(Surface s, vec2 ab) { return s.metallic * (s.baseColor * ab.x + ab.y); }
+// The split sum's second factor, F0·A + B per lobe, mixed as specularFresnel [5, 6].
+vec3 splitSumWeight(Surface s, vec2 ab) {
   vec3 fd = uSpecularColor.rgb * ab.x + ab.y;
-  vec3 fm = s.baseColor * ab.x + ab.y;
-  return (1.0 - s.metallic) * uSpecularColor.w * fd + s.metallic * fm;
+  return (1.0 - s.metallic) * uSpecularColor.w * fd + metalLobeWeight(s, ab);
 }
 
 // The environment's prefiltered radiance along the reflected view ray (0 without one).

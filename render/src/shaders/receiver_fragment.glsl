@@ -27,7 +27,7 @@ centroid in vec4 vRadiance[kTexels];
 #endif
 #include "material_radiance.glsl"
 #endif
-#include "hidden_lobe_outputs.glsl"
+#include "reflection_inputs.glsl"
 void main() {
 #ifdef DIRECT
   vec3 dxW, dyW;
@@ -51,12 +51,12 @@ void main() {
 #endif
 #ifdef MATERIAL
   fragColor = vec4(materialRadiance(vWorld, vNormal, e, 1.0, e * 0.31830988618379067, dxW, dyW), a);
-  writeHiddenLobe(gLobeWeight, gLobeDrawn, gMirror, gRoughness, gBounced);
+  writeReflectionInputs(gLobeWeight, gLobeDrawn, gMirror, gRoughness, gBounced);
   return;
 #endif
 #ifdef DIRECT
   e += directIrradiance(vWorld, n, dxW, dyW);
 #endif
   fragColor = vec4(albedo() * e * 0.31830988618379067, a);
-  writeHiddenLobe(vec3(0.0), vec3(0.0), vec3(0.0, 0.0, 1.0), 1.0, fragColor.rgb);
+  writeReflectionInputs(vec3(0.0), vec3(0.0), vec3(0.0, 0.0, 1.0), 1.0, fragColor.rgb);
 }

@@ -1,10 +1,10 @@
 // Screen-space reflections (reflection_pass.cpp; docs/render.md, "Materials"). A glossy MATERIAL
-// pixel (hidden_lobe_outputs.glsl: lobe weight W > 0) reflected S = W·(so · environment +
+// pixel (reflection_inputs.glsl: lobe weight W > 0) reflected S = W·(so · environment +
 // (1 − so) · fill), its specular occlusion so splitting the lobe between the map and the
 // surroundings' mean radiance. Here a march along the mirror direction r through the depth
 // buffer looks for the surface r meets; where it finds one on the screen, that surface's radiance
 // as the bake's transport re-emits it (diffusely, with the bounce albedo: location 4 of
-// hidden_lobe_outputs.glsl), averaged over the lobe's footprint (a mip level), is what the lobe
+// reflection_inputs.glsl), averaged over the lobe's footprint (a mip level), is what the lobe
 // reflects: the pass adds (W · L_hit − S) · fade (additive blending), fade going to 0 within 5%
 // of the screen's border. Where r leaves the screen or meets nothing the pixel keeps S.
 #version 450 core
